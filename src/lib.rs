@@ -1,0 +1,19 @@
+//! scatterbake: precomputed light-scattering tables for renderers.
+//!
+//! Architecture (one module per concept):
+//! - [`table`]: the `.sbt` table file format (writer, reader, verifier, lookup API);
+//! - [`optics`]: primitives shared by every stage (Fresnel, water index, colour, quadrature,
+//!   interpolation);
+//! - [`stage`]: the stage/job interface; [`stages`]: the registry of stages;
+//! - [`manifest`], [`pipeline`], [`catalog`]: manifests → tasks → tables (I/O, rayon, resume);
+//! - [`export`]: CSV/JSON/EXR exporters; [`cli`]: the command-line interface.
+
+pub mod catalog;
+pub mod cli;
+pub mod export;
+pub mod manifest;
+pub mod optics;
+pub mod pipeline;
+pub mod stage;
+pub mod stages;
+pub mod table;

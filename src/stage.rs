@@ -1,0 +1,87 @@
+//! The interface between the pipeline and a computation stage.
+//!
+//! A stage turns a manifest entry's `[table.params]` into a [`Job`]: a list of independent
+//! tasks (each a pure computation returning a chunk of f32 values) and an `assemble` step that
+//! turns the chunks, in task order, into a [`TableContent`]. The pipeline owns I/O, parallelism,
+//! resume (per-task checkpoints keyed by stage, algorithm version and task parameters) and
+//! progress; stages own the physics and must stay free of I/O.
+
+use crate::table::TableContent;
+use serde::de::DeserializeOwned;
+
+/// Documentation of one manifest parameter (for `scatterbake stages`).
+#[derive(Debug, Clone, Copy)]
+pub struct ParamDoc {
+    pub name: &'static str,
+    /// Type as written in TOML, e.g. `float`, `list of float`, `string`.
+    pub kind: &'static str,
+    /// Default, or `required`.
+    pub default: &'static str,
+    pub description: &'static str,
+}
+
+/// Why a manifest entry's parameters are unusable.
+#[derive(Debug, thiserror::Error)]
+pub enum PlanError {
+    /// Unknown key, wrong type, missing key (carries the TOML span).
+    #[error("{0}")]
+    Deserialize(#[from] toml::de::Error),
+    /// A value that parses but is out of range or inconsistent; `key` is the dotted key path
+    /// inside `params` (e.g. `radius_um` or `distribution.sigma`).
+    #[error("parameter `{key}`: {message}")]
+    Invalid { key: String, message: String },
+}
+
+impl PlanError {
+    /// Shorthand for [`PlanError::Invalid`].
+    pub fn invalid(key: &str, message: impl Into<String>) -> Self {
+        PlanError::Invalid {
+            key: key.to_string(),
+            message: message.into(),
+        }
+    }
+}
+
+/// Deserialise a stage's parameter struct from the manifest value (use
+/// `#[serde(deny_unknown_fields)]` on the struct so unknown keys are errors).
+pub fn parse_params<T: DeserializeOwned>(
+    params: toml::de::ValueDeserializer<'_>,
+) -> Result<T, PlanError> {
+    Ok(T::deserialize(params)?)
+}
+
+/// One independent unit of work.
+#[derive(Debug, Clone)]
+pub struct TaskSpec {
+    /// Human label for progress and errors, e.g. `λ=550 nm r=100 µm`.
+    pub label: String,
+    /// Canonical parameters of this task (part of its content key, with the job's parameters).
+    pub params: serde_json::Value,
+}
+
+/// A planned computation for one output table.
+pub trait Job: Send + Sync {
+    /// Fully resolved parameters (defaults filled in), recorded in the table's provenance and
+    /// hashed into the content key.
+    fn parameters(&self) -> serde_json::Value;
+    /// The independent tasks, in a deterministic order.
+    fn tasks(&self) -> Vec<TaskSpec>;
+    /// Run task `index` (pure; may use rayon internally). Returns its chunk of values.
+    fn run_task(&self, index: usize) -> anyhow::Result<Vec<f32>>;
+    /// Assemble the chunks (in task order) into the table.
+    fn assemble(&self, chunks: Vec<Vec<f32>>) -> anyhow::Result<TableContent>;
+}
+
+/// A computation stage, registered in [`crate::stages::registry`].
+pub trait Stage: Send + Sync {
+    /// Stage name used in manifests (`stage = "..."`).
+    fn name(&self) -> &'static str;
+    /// Algorithm version: bump when results change, so that stale tables are rebuilt.
+    fn algorithm_version(&self) -> u32;
+    /// One-line summary.
+    fn summary(&self) -> &'static str;
+    /// Parameters accepted in `[table.params]`.
+    fn parameters(&self) -> &'static [ParamDoc];
+    /// Validate parameters and plan the job.
+    fn plan(&self, params: toml::de::ValueDeserializer<'_>) -> Result<Box<dyn Job>, PlanError>;
+}

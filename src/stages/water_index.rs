@@ -1,0 +1,162 @@
+//! `water-index` stage: the refractive index of liquid water over wavelength × temperature,
+//! from the IAPWS R9-97 formulation (see [`crate::optics::water`]). Small and exact; it also
+//! serves as the reference table for the index used by the scattering stages.
+
+use crate::optics::water::{water_density_kell_kg_m3, WaterIndexModel};
+use crate::stage::{parse_params, Job, ParamDoc, PlanError, Stage, TaskSpec};
+use crate::table::{Axis, Channel, Schema, TableContent};
+use serde::{Deserialize, Serialize};
+
+/// The stage.
+pub struct WaterIndexStage;
+
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Params {
+    /// Wavelength range in nm: [start, stop, step].
+    wavelength_nm: [f64; 3],
+    /// Temperatures in °C.
+    temperature_c: Vec<f64>,
+}
+
+const PARAMS: &[ParamDoc] = &[
+    ParamDoc {
+        name: "wavelength_nm",
+        kind: "[start, stop, step] float, nm",
+        default: "required",
+        description: "wavelength grid, within 200–1100 nm (IAPWS R9-97 domain)",
+    },
+    ParamDoc {
+        name: "temperature_c",
+        kind: "list of float, °C",
+        default: "required",
+        description: "temperatures, strictly increasing, within 0–100 °C (liquid water at 1 atm)",
+    },
+];
+
+impl Stage for WaterIndexStage {
+    fn name(&self) -> &'static str {
+        "water-index"
+    }
+    fn algorithm_version(&self) -> u32 {
+        1
+    }
+    fn summary(&self) -> &'static str {
+        "refractive index of liquid water (IAPWS R9-97) over wavelength × temperature"
+    }
+    fn parameters(&self) -> &'static [ParamDoc] {
+        PARAMS
+    }
+    fn plan(&self, params: toml::de::ValueDeserializer<'_>) -> Result<Box<dyn Job>, PlanError> {
+        let p: Params = parse_params(params)?;
+        let [start, stop, step] = p.wavelength_nm;
+        if !(step > 0.0) || !(stop >= start) {
+            return Err(PlanError::invalid(
+                "wavelength_nm",
+                "needs [start, stop, step] with step > 0 and stop >= start",
+            ));
+        }
+        if start < 200.0 || stop > 1100.0 {
+            return Err(PlanError::invalid(
+                "wavelength_nm",
+                format!("range {start}–{stop} nm leaves the IAPWS R9-97 domain 200–1100 nm"),
+            ));
+        }
+        let count = ((stop - start) / step + 1e-9).floor() as usize + 1;
+        if count > 1_000_000 {
+            return Err(PlanError::invalid("wavelength_nm", "more than 1e6 samples"));
+        }
+        if p.temperature_c.is_empty() {
+            return Err(PlanError::invalid("temperature_c", "must not be empty"));
+        }
+        if p.temperature_c.windows(2).any(|w| w[1] <= w[0]) {
+            return Err(PlanError::invalid("temperature_c", "must be strictly increasing"));
+        }
+        if let Some(t) = p.temperature_c.iter().find(|t| !(0.0..=100.0).contains(*t)) {
+            return Err(PlanError::invalid(
+                "temperature_c",
+                format!("{t} °C is outside 0–100 °C"),
+            ));
+        }
+        Ok(Box::new(WaterIndexJob { p, count }))
+    }
+}
+
+struct WaterIndexJob {
+    p: Params,
+    count: usize,
+}
+
+impl WaterIndexJob {
+    fn wavelengths(&self) -> Vec<f64> {
+        (0..self.count)
+            .map(|i| self.p.wavelength_nm[0] + self.p.wavelength_nm[2] * i as f64)
+            .collect()
+    }
+}
+
+impl Job for WaterIndexJob {
+    fn parameters(&self) -> serde_json::Value {
+        serde_json::to_value(&self.p).expect("params serialise")
+    }
+    fn tasks(&self) -> Vec<TaskSpec> {
+        self.p
+            .temperature_c
+            .iter()
+            .map(|t| TaskSpec {
+                label: format!("T={t} °C"),
+                params: serde_json::json!({ "temperature_c": t }),
+            })
+            .collect()
+    }
+    fn run_task(&self, index: usize) -> anyhow::Result<Vec<f32>> {
+        let model = WaterIndexModel::Iapws1997 {
+            temperature_c: self.p.temperature_c[index],
+        };
+        self.wavelengths()
+            .iter()
+            .map(|&l| Ok(model.index(l)? as f32))
+            .collect()
+    }
+    fn assemble(&self, chunks: Vec<Vec<f32>>) -> anyhow::Result<TableContent> {
+        // chunks are per temperature; the table is temperature × wavelength.
+        let data: Vec<f32> = chunks.into_iter().flatten().collect();
+        let mut attributes = serde_json::Map::new();
+        attributes.insert("model".into(), "iapws1997 (IAPWS R9-97), liquid water at 1 atm".into());
+        attributes.insert(
+            "density".into(),
+            "Kell (1975) polynomial of temperature".into(),
+        );
+        attributes.insert(
+            "density_kg_m3".into(),
+            self.p
+                .temperature_c
+                .iter()
+                .map(|&t| water_density_kell_kg_m3(t))
+                .collect::<Vec<_>>()
+                .into(),
+        );
+        attributes.insert("outside_medium_index".into(), 1.0.into());
+        Ok(TableContent {
+            schema: Schema::new("water-index", 1),
+            description: "real refractive index of liquid water relative to vacuum".into(),
+            axes: vec![
+                Axis::values("temperature", "degC", self.p.temperature_c.clone()),
+                Axis::uniform(
+                    "wavelength",
+                    "nm",
+                    self.p.wavelength_nm[0],
+                    self.p.wavelength_nm[2],
+                    self.count,
+                ),
+            ],
+            channels: vec![Channel::new(
+                "n",
+                "1",
+                "real refractive index of water (vacuum wavelength axis)",
+            )],
+            attributes,
+            data,
+        })
+    }
+}
