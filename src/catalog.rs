@@ -1,1 +1,105 @@
-//! catalog
+//! The catalog `tables/index.json`: every built table with its schema, size, checksum and
+//! origin. Rebuilt from the directory contents (so shards and concurrent builds converge) under
+//! an exclusive lock on `<dir>/.lock`, and written atomically.
+
+use crate::table::format::write_atomic;
+use crate::table::{FORMAT_MAJOR, FORMAT_MINOR, read_header_only};
+use anyhow::{Context, Result};
+use serde::{Deserialize, Serialize};
+use sha2::{Digest, Sha256};
+use std::path::Path;
+
+/// One catalog entry.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CatalogEntry {
+    /// Table name (file stem).
+    pub name: String,
+    /// File name relative to the catalog.
+    pub file: String,
+    /// Schema, e.g. `mie-phase/1`.
+    pub schema: String,
+    /// Table format version of the file, `major.minor`.
+    pub format_version: String,
+    pub description: String,
+    /// File size in bytes.
+    pub size_bytes: u64,
+    /// SHA-256 of the whole file.
+    pub sha256: String,
+    /// Manifest that produced it.
+    pub manifest: Option<String>,
+    /// Stage and algorithm version.
+    pub stage: Option<String>,
+    /// Content key (parameters digest).
+    pub parameters_digest: String,
+    pub created_utc: String,
+}
+
+/// The catalog file.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Catalog {
+    pub format: String,
+    pub tables: Vec<CatalogEntry>,
+    /// Files ending in `.sbt` that failed verification (name and reason).
+    pub invalid: Vec<(String, String)>,
+}
+
+/// Rebuild `<dir>/index.json` from the `.sbt` files in `dir`. Returns the catalog.
+pub fn rebuild(dir: &Path) -> Result<Catalog> {
+    std::fs::create_dir_all(dir)?;
+    let lock_path = dir.join(".lock");
+    let lock = std::fs::OpenOptions::new()
+        .create(true)
+        .truncate(false)
+        .write(true)
+        .open(&lock_path)
+        .with_context(|| format!("opening lock file {}", lock_path.display()))?;
+    lock.lock()
+        .with_context(|| format!("locking {}", lock_path.display()))?;
+    let mut files: Vec<_> = std::fs::read_dir(dir)?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|e| e == "sbt") && p.is_file())
+        .collect();
+    files.sort();
+    let mut tables = Vec::new();
+    let mut invalid = Vec::new();
+    for p in files {
+        let file = p.file_name().expect("file").to_string_lossy().into_owned();
+        let bytes = match std::fs::read(&p) {
+            Ok(b) => b,
+            Err(e) => {
+                invalid.push((file, e.to_string()));
+                continue;
+            }
+        };
+        if let Err(e) = crate::table::Table::from_bytes(&bytes, &p) {
+            invalid.push((file, e.to_string()));
+            continue;
+        }
+        let h = read_header_only(&p)?;
+        let major = u16::from_le_bytes([bytes[8], bytes[9]]);
+        let minor = u16::from_le_bytes([bytes[10], bytes[11]]);
+        tables.push(CatalogEntry {
+            name: file.trim_end_matches(".sbt").to_string(),
+            file,
+            schema: h.schema.to_string(),
+            format_version: format!("{major}.{minor}"),
+            description: h.description.clone(),
+            size_bytes: bytes.len() as u64,
+            sha256: hex::encode(Sha256::digest(&bytes)),
+            manifest: h.provenance.manifest.clone(),
+            stage: h.provenance.stage.clone(),
+            parameters_digest: h.provenance.parameters_digest.clone(),
+            created_utc: h.provenance.created_utc.clone(),
+        });
+    }
+    let catalog = Catalog {
+        format: format!("scatterbake-catalog/1 (tables in format {FORMAT_MAJOR}.{FORMAT_MINOR})"),
+        tables,
+        invalid,
+    };
+    let mut json = serde_json::to_vec_pretty(&catalog)?;
+    json.push(b'\n');
+    write_atomic(&dir.join("index.json"), &json)?;
+    drop(lock);
+    Ok(catalog)
+}

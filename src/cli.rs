@@ -1,5 +1,275 @@
-//! Command-line interface.
+//! Command-line interface (`scatterbake …`). Every failure prints `error: …` naming the
+//! problem and where, and exits non-zero; nothing panics on bad input.
+
+use crate::pipeline::{BuildOptions, Shard, build};
+use crate::table::{AxisPoints, Table};
+use anyhow::{Context, Result, bail};
+use clap::{Parser, Subcommand};
+use std::path::PathBuf;
+
+#[derive(Parser, Debug)]
+#[command(
+    name = "scatterbake",
+    version,
+    about = "Bakes light-scattering tables (Mie, ray-traced raindrops, hair, fur) for renderers"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Build tables from manifests (default: every manifests/*.toml into tables/).
+    Build {
+        /// Manifest files; default: every *.toml directly in manifests/.
+        manifests: Vec<PathBuf>,
+        /// Output directory.
+        #[arg(long, default_value = "tables")]
+        out: PathBuf,
+        /// Worker threads (default: all cores).
+        #[arg(long)]
+        jobs: Option<usize>,
+        /// Compute only shard I of N (I/N, 0-based); default from SLURM_ARRAY_TASK_ID/COUNT or
+        /// JOB_COMPLETION_INDEX + SCATTERBAKE_SHARD_COUNT.
+        #[arg(long)]
+        shard: Option<String>,
+        /// Recompute even if up-to-date tables or checkpoints exist.
+        #[arg(long)]
+        force: bool,
+        /// No progress bar.
+        #[arg(long, short)]
+        quiet: bool,
+    },
+    /// Show a table's header, axes, channels, provenance and sizes.
+    Inspect {
+        file: PathBuf,
+        /// Print the raw JSON header.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Verify tables (checksums, sizes, structure); non-zero exit if any is bad.
+    Verify {
+        #[arg(required = true)]
+        files: Vec<PathBuf>,
+    },
+    /// Export a table to CSV, JSON or EXR.
+    Export {
+        file: PathBuf,
+        #[arg(long, value_enum)]
+        format: crate::export::GenericFormat,
+        #[arg(long)]
+        out: PathBuf,
+    },
+    /// List stages with their parameters and defaults.
+    Stages,
+    /// Rebuild DIR/index.json from the tables in DIR (after sharded builds).
+    Catalog {
+        #[arg(default_value = "tables")]
+        dir: PathBuf,
+    },
+}
+
 /// Entry point; returns the process exit code.
 pub fn main() -> i32 {
-    0
+    let cli = match Cli::try_parse() {
+        Ok(c) => c,
+        Err(e) => {
+            let _ = e.print();
+            return if e.use_stderr() { 2 } else { 0 };
+        }
+    };
+    match run(cli.command) {
+        Ok(code) => code,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            1
+        }
+    }
+}
+
+fn run(cmd: Command) -> Result<i32> {
+    match cmd {
+        Command::Build {
+            manifests,
+            out,
+            jobs,
+            shard,
+            force,
+            quiet,
+        } => {
+            let manifests = if manifests.is_empty() {
+                crate::manifest::default_manifests(std::path::Path::new("manifests")).context(
+                    "listing manifests/ (run from the repository root or name manifests)",
+                )?
+            } else {
+                manifests
+            };
+            if manifests.is_empty() {
+                bail!("no manifests to build");
+            }
+            if jobs == Some(0) {
+                bail!("--jobs must be at least 1");
+            }
+            let shard = match shard {
+                Some(s) => Some(Shard::parse(&s)?),
+                None => Shard::from_env()?,
+            };
+            let t0 = std::time::Instant::now();
+            let report = build(&BuildOptions {
+                manifests,
+                out_dir: out.clone(),
+                jobs,
+                shard,
+                force,
+                quiet,
+            })?;
+            println!(
+                "built {} table(s), {} up to date, {} pending other shards; tasks: {} computed, {} reused from checkpoints; {:.1} s; catalog {}",
+                report.tables_written.len(),
+                report.tables_up_to_date.len(),
+                report.tables_pending.len(),
+                report.tasks_computed,
+                report.tasks_reused,
+                t0.elapsed().as_secs_f64(),
+                out.join("index.json").display()
+            );
+            Ok(0)
+        }
+        Command::Inspect { file, json } => {
+            let t = Table::open(&file)?;
+            if json {
+                println!("{}", serde_json::to_string_pretty(&t.header)?);
+            } else {
+                print_summary(&file, &t)?;
+            }
+            Ok(0)
+        }
+        Command::Verify { files } => {
+            let mut bad = 0;
+            for f in &files {
+                match Table::open(f) {
+                    Ok(t) => println!(
+                        "ok   {} ({}, {} values)",
+                        f.display(),
+                        t.header.schema,
+                        t.data.len()
+                    ),
+                    Err(e) => {
+                        bad += 1;
+                        eprintln!("BAD  {e}");
+                    }
+                }
+            }
+            if bad > 0 {
+                eprintln!(
+                    "error: {bad} of {} file(s) failed verification",
+                    files.len()
+                );
+                Ok(1)
+            } else {
+                Ok(0)
+            }
+        }
+        Command::Export { file, format, out } => {
+            let t = Table::open(&file)?;
+            crate::export::export(&t, format, &out)?;
+            println!("wrote {}", out.display());
+            Ok(0)
+        }
+        Command::Stages => {
+            for s in crate::stages::registry() {
+                println!(
+                    "{} (algorithm v{}): {}",
+                    s.name(),
+                    s.algorithm_version(),
+                    s.summary()
+                );
+                for p in s.parameters() {
+                    println!("    {:<24} {:<28} default: {}", p.name, p.kind, p.default);
+                    println!("    {:<24} {}", "", p.description);
+                }
+                println!();
+            }
+            Ok(0)
+        }
+        Command::Catalog { dir } => {
+            let c = crate::catalog::rebuild(&dir)?;
+            println!(
+                "{}: {} table(s), {} invalid",
+                dir.join("index.json").display(),
+                c.tables.len(),
+                c.invalid.len()
+            );
+            for (f, why) in &c.invalid {
+                eprintln!("invalid: {f}: {why}");
+            }
+            Ok(if c.invalid.is_empty() { 0 } else { 1 })
+        }
+    }
+}
+
+fn print_summary(file: &std::path::Path, t: &Table) -> Result<()> {
+    let h = &t.header;
+    let size = std::fs::metadata(file)?.len();
+    println!("file:        {}", file.display());
+    println!("schema:      {}", h.schema);
+    println!("description: {}", h.description);
+    println!(
+        "layout:      {} {} shape {:?} ({})",
+        h.layout.order,
+        h.layout.dtype,
+        h.layout.shape,
+        h.layout.axis_order.join(" × ")
+    );
+    println!(
+        "size:        {} bytes on disk, payload {} → {} bytes zstd ({:.1}×)",
+        size,
+        h.payload.uncompressed_bytes,
+        h.payload.compressed_bytes,
+        h.payload.uncompressed_bytes as f64 / h.payload.compressed_bytes.max(1) as f64
+    );
+    println!("axes:");
+    for a in &h.axes {
+        let desc = match &a.points {
+            AxisPoints::Uniform { start, step, count } => {
+                format!("uniform {start} + k·{step}, k < {count}")
+            }
+            AxisPoints::Values(v) if v.len() <= 8 => format!("{v:?}"),
+            AxisPoints::Values(v) => format!("{} values {} … {}", v.len(), v[0], v[v.len() - 1]),
+        };
+        println!("  {:<20} [{}] {}", a.name, a.unit, desc);
+    }
+    println!("channels:");
+    for c in &h.channels {
+        println!("  {:<20} [{}] {}", c.name, c.unit, c.meaning);
+    }
+    println!("attributes:");
+    for (k, v) in &h.attributes {
+        let s = v.to_string();
+        let s = if s.len() > 100 {
+            format!("{}…", &s[..s.floor_char_boundary(100)])
+        } else {
+            s
+        };
+        println!("  {k}: {s}");
+    }
+    let p = &h.provenance;
+    println!("provenance:");
+    println!(
+        "  tool:        {} {} (commit {})",
+        p.tool,
+        p.tool_version,
+        p.git_commit.as_deref().unwrap_or("unknown")
+    );
+    println!(
+        "  manifest:    {} entry {}",
+        p.manifest.as_deref().unwrap_or("-"),
+        p.entry.as_deref().unwrap_or("-")
+    );
+    println!("  stage:       {}", p.stage.as_deref().unwrap_or("-"));
+    println!("  parameters:  {}", p.parameters);
+    println!("  digest:      {}", p.parameters_digest);
+    println!("  created:     {}", p.created_utc);
+    Ok(())
 }

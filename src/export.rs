@@ -1,1 +1,150 @@
-//! export
+//! Generic exporters for any table: CSV, JSON and OpenEXR.
+//!
+//! - **CSV**: a header line `axis1 [unit],…,channel1 [unit],…`, then one row per grid point in
+//!   storage order (row-major, last axis fastest). Values printed with full f32 precision.
+//! - **JSON**: `{"header": <the table header>, "rows": [{"<axis>": x, …, "<channel>": v, …}, …]}`,
+//!   one row per grid point in storage order.
+//! - **EXR**: one scanline image, f32 channels named after the table channels. The LAST table
+//!   axis runs along x (width = its length); the other axes are flattened row-major along y
+//!   (height = product of their lengths). So a 1-D table is a `n×1` strip, a 2-D table
+//!   `(axis0, axis1)` is an image with `y = i0`, `x = i1`, and a 3-D table `(a0, a1, a2)` is a
+//!   vertical atlas of `|a0|` slices, each `|a1|` rows tall: pixel `(x, y) = (i2, i0·|a1| + i1)`.
+//!   Lookup for a continuous coordinate `c` on a uniform axis `start + k·step`:
+//!   `k = (c − start)/step`, texel centre `k + 0.5` in pixel units (clamp to edge). The full table
+//!   header (JSON) is stored in the EXR attribute `scatterbake_header` so the file stays
+//!   self-describing.
+
+use crate::table::Table;
+use crate::table::format::write_atomic;
+use anyhow::{Context, Result, bail};
+use std::fmt::Write as _;
+use std::path::Path;
+
+/// Export formats handled here.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum GenericFormat {
+    Csv,
+    Json,
+    Exr,
+}
+
+fn grid_points(table: &Table) -> impl Iterator<Item = Vec<usize>> + '_ {
+    let shape = table.grid_shape();
+    let total: usize = shape.iter().product();
+    (0..total).map(move |mut flat| {
+        let mut idx = vec![0; shape.len()];
+        for d in (0..shape.len()).rev() {
+            idx[d] = flat % shape[d];
+            flat /= shape[d];
+        }
+        idx
+    })
+}
+
+/// CSV text of a table.
+pub fn to_csv(table: &Table) -> String {
+    let h = &table.header;
+    let mut out = String::new();
+    let cols: Vec<String> = h
+        .axes
+        .iter()
+        .map(|a| format!("{} [{}]", a.name, a.unit))
+        .chain(
+            h.channels
+                .iter()
+                .map(|c| format!("{} [{}]", c.name, c.unit)),
+        )
+        .collect();
+    out.push_str(&cols.join(","));
+    out.push('\n');
+    let nc = h.channels.len();
+    for (flat, idx) in grid_points(table).enumerate() {
+        let mut row = Vec::with_capacity(idx.len() + nc);
+        for (a, &i) in h.axes.iter().zip(&idx) {
+            row.push(format!("{}", a.coord(i)));
+        }
+        for c in 0..nc {
+            row.push(format!("{:e}", table.data[flat * nc + c]));
+        }
+        let _ = writeln!(out, "{}", row.join(","));
+    }
+    out
+}
+
+/// JSON value of a table (header + rows).
+pub fn to_json(table: &Table) -> serde_json::Value {
+    let h = &table.header;
+    let nc = h.channels.len();
+    let rows: Vec<serde_json::Value> = grid_points(table)
+        .enumerate()
+        .map(|(flat, idx)| {
+            let mut m = serde_json::Map::new();
+            for (a, &i) in h.axes.iter().zip(&idx) {
+                m.insert(a.name.clone(), a.coord(i).into());
+            }
+            for (c, ch) in h.channels.iter().enumerate() {
+                let v = f64::from(table.data[flat * nc + c]);
+                m.insert(
+                    ch.name.clone(),
+                    if v.is_finite() {
+                        v.into()
+                    } else {
+                        serde_json::Value::Null
+                    },
+                );
+            }
+            serde_json::Value::Object(m)
+        })
+        .collect();
+    serde_json::json!({ "header": h, "rows": rows })
+}
+
+/// EXR bytes of a table (layout in the module docs).
+pub fn to_exr(table: &Table) -> Result<Vec<u8>> {
+    use exr::prelude::*;
+    let h = &table.header;
+    let shape = table.grid_shape();
+    let width = *shape.last().expect("at least one axis");
+    let height: usize = shape[..shape.len() - 1].iter().product::<usize>().max(1);
+    if width > i32::MAX as usize / 2 || height > i32::MAX as usize / 2 {
+        bail!("table too large for an EXR image ({width}×{height})");
+    }
+    let nc = h.channels.len();
+    let mut list = smallvec::SmallVec::<[AnyChannel<FlatSamples>; 4]>::new();
+    for (c, ch) in h.channels.iter().enumerate() {
+        let samples: Vec<f32> = (0..width * height)
+            .map(|p| table.data[p * nc + c])
+            .collect();
+        let name = Text::new_or_none(&ch.name)
+            .with_context(|| format!("channel name `{}` is not valid in EXR", ch.name))?;
+        list.push(AnyChannel::new(name, FlatSamples::F32(samples)));
+    }
+    let header_json = serde_json::to_string(h)?;
+    let mut layer = Layer::new(
+        (width, height),
+        LayerAttributes::named("scatterbake"),
+        Encoding::SMALL_LOSSLESS,
+        AnyChannels::sort(list),
+    );
+    layer.attributes.other.insert(
+        Text::new_or_panic("scatterbake_header"),
+        AttributeValue::Text(Text::new_or_none(&header_json).context("header not EXR text")?),
+    );
+    let image = Image::from_layer(layer);
+    let mut buf = std::io::Cursor::new(Vec::new());
+    image
+        .write()
+        .to_buffered(&mut buf)
+        .map_err(|e| anyhow::anyhow!("EXR encoding failed: {e}"))?;
+    Ok(buf.into_inner())
+}
+
+/// Export `table` to `out` in `format`, atomically.
+pub fn export(table: &Table, format: GenericFormat, out: &Path) -> Result<()> {
+    let bytes = match format {
+        GenericFormat::Csv => to_csv(table).into_bytes(),
+        GenericFormat::Json => serde_json::to_vec_pretty(&to_json(table))?,
+        GenericFormat::Exr => to_exr(table)?,
+    };
+    write_atomic(out, &bytes).with_context(|| format!("writing {}", out.display()))
+}

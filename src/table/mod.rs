@@ -4,10 +4,12 @@
 //! innermost), described by a JSON header and stored as a zstd-compressed payload with SHA-256
 //! checksums of the header and of the payload (compressed and uncompressed).
 
-mod format;
+pub mod format;
 mod sample;
 
-pub use format::{read_header_only, write_table_atomic, TableError, FORMAT_MAJOR, FORMAT_MINOR, MAGIC};
+pub use format::{
+    FORMAT_MAJOR, FORMAT_MINOR, MAGIC, TableError, read_header_only, write_table_atomic,
+};
 
 use serde::{Deserialize, Serialize};
 
