@@ -1,0 +1,336 @@
+//! End-to-end tests of the `scatterbake` binary: errors, verify, exports, interrupted builds,
+//! concurrent builds.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+fn bin() -> Command {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_scatterbake"));
+    c.env("SOURCE_DATE_EPOCH", "1700000000");
+    c.env_remove("SLURM_ARRAY_TASK_ID");
+    c.env_remove("JOB_COMPLETION_INDEX");
+    c
+}
+
+fn run(args: &[&str], cwd: &Path) -> Output {
+    bin()
+        .args(args)
+        .current_dir(cwd)
+        .output()
+        .expect("run scatterbake")
+}
+
+fn text(o: &Output) -> String {
+    format!(
+        "{}{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    )
+}
+
+fn assert_clean_failure(o: &Output, must_contain: &[&str]) {
+    let t = text(o);
+    assert!(!o.status.success(), "expected failure: {t}");
+    assert!(!t.contains("panicked"), "must not panic: {t}");
+    for m in must_contain {
+        assert!(t.contains(m), "output should mention `{m}`: {t}");
+    }
+}
+
+/// A manifest of `n` small water-index tasks (one per temperature).
+fn manifest(dir: &Path, name: &str, n: usize) -> PathBuf {
+    let temps: Vec<String> = (0..n).map(|i| format!("{}.0", i * 90 / n.max(1))).collect();
+    let p = dir.join(format!("{name}.toml"));
+    std::fs::write(
+        &p,
+        format!(
+            "[[table]]\nname = \"{name}\"\nstage = \"water-index\"\n[table.params]\nwavelength_nm = [300.0, 1000.0, 0.5]\ntemperature_c = [{}]\n",
+            temps.join(", ")
+        ),
+    )
+    .unwrap();
+    p
+}
+
+#[test]
+fn build_verify_inspect_export() {
+    let d = tempfile::tempdir().unwrap();
+    let m = manifest(d.path(), "w", 4);
+    let o = run(
+        &["build", m.to_str().unwrap(), "--out", "tables", "-q"],
+        d.path(),
+    );
+    assert!(o.status.success(), "{}", text(&o));
+    let table = d.path().join("tables/w.sbt");
+    let o = run(&["verify", table.to_str().unwrap()], d.path());
+    assert!(o.status.success(), "{}", text(&o));
+    let o = run(&["inspect", table.to_str().unwrap()], d.path());
+    assert!(text(&o).contains("water-index/1"));
+    let cat: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(d.path().join("tables/index.json")).unwrap())
+            .unwrap();
+    assert_eq!(cat["tables"][0]["name"], "w");
+    assert_eq!(cat["tables"][0]["schema"], "water-index/1");
+    for (fmt, file) in [("csv", "w.csv"), ("json", "w.json"), ("exr", "w.exr")] {
+        let o = run(
+            &[
+                "export",
+                table.to_str().unwrap(),
+                "--format",
+                fmt,
+                "--out",
+                file,
+            ],
+            d.path(),
+        );
+        assert!(o.status.success(), "{}", text(&o));
+    }
+    let csv = std::fs::read_to_string(d.path().join("w.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 1 + 4 * 1401);
+    assert!(csv.starts_with("temperature [degC],wavelength [nm],n [1]"));
+    let exr = exr::prelude::read_all_flat_layers_from_file(d.path().join("w.exr")).unwrap();
+    let layer = &exr.layer_data[0];
+    assert_eq!(layer.size.width(), 1401);
+    assert_eq!(layer.size.height(), 4);
+    // Second run: everything up to date.
+    let o = run(
+        &["build", m.to_str().unwrap(), "--out", "tables", "-q"],
+        d.path(),
+    );
+    assert!(
+        text(&o).contains("0 table(s), 1 up to date"),
+        "{}",
+        text(&o)
+    );
+}
+
+#[test]
+fn bad_inputs_fail_cleanly() {
+    let d = tempfile::tempdir().unwrap();
+    // Not a table.
+    std::fs::write(d.path().join("junk.sbt"), b"hello world, not a table").unwrap();
+    let o = run(&["verify", "junk.sbt"], d.path());
+    assert_clean_failure(&o, &["junk.sbt", "not a scatterbake table"]);
+    // Truncated table.
+    let m = manifest(d.path(), "w", 2);
+    assert!(
+        run(
+            &["build", m.to_str().unwrap(), "--out", "t", "-q"],
+            d.path()
+        )
+        .status
+        .success()
+    );
+    let good = std::fs::read(d.path().join("t/w.sbt")).unwrap();
+    std::fs::write(d.path().join("cut.sbt"), &good[..good.len() / 2]).unwrap();
+    let o = run(&["inspect", "cut.sbt"], d.path());
+    assert_clean_failure(&o, &["cut.sbt", "truncated"]);
+    let o = run(&["verify", "t/w.sbt", "cut.sbt"], d.path());
+    assert_clean_failure(&o, &["1 of 2"]);
+    // Missing file.
+    assert_clean_failure(&run(&["inspect", "nope.sbt"], d.path()), &["nope.sbt"]);
+    // Malformed manifests: syntax, unknown key, wrong type, out of range.
+    let cases = [
+        ("[[table]\nname=1", "syntax"),
+        (
+            "[[table]]\nname = \"a\"\nstage = \"water-index\"\n[table.params]\nwavelength_nm = [400.0, 500.0, 1.0]\ntemperature_c = [20.0]\ncolour = 2\n",
+            "bad.toml:7",
+        ),
+        (
+            "[[table]]\nname = \"a\"\nstage = \"water-index\"\n[table.params]\nwavelength_nm = \"blue\"\ntemperature_c = [20.0]\n",
+            "bad.toml:5",
+        ),
+        (
+            "[[table]]\nname = \"a\"\nstage = \"water-index\"\n[table.params]\nwavelength_nm = [400.0, 500.0, 1.0]\ntemperature_c = [-40.0]\n",
+            "bad.toml:6",
+        ),
+    ];
+    for (src, expect) in cases {
+        std::fs::write(d.path().join("bad.toml"), src).unwrap();
+        let o = run(&["build", "bad.toml", "--out", "t2", "-q"], d.path());
+        assert_clean_failure(&o, &[expect]);
+    }
+    assert!(!d.path().join("t2/a.sbt").exists());
+    // Bad CLI arguments.
+    assert_clean_failure(
+        &run(&["build", m.to_str().unwrap(), "--shard", "3/2"], d.path()),
+        &["shard"],
+    );
+    assert_clean_failure(
+        &run(
+            &["export", "t/w.sbt", "--format", "png", "--out", "x"],
+            d.path(),
+        ),
+        &["png"],
+    );
+}
+
+fn chunk_count(out: &Path) -> usize {
+    std::fs::read_dir(out.join(".work/w"))
+        .map(|r| {
+            r.filter(|e| {
+                e.as_ref()
+                    .unwrap()
+                    .path()
+                    .extension()
+                    .is_some_and(|x| x == "chunk")
+            })
+            .count()
+        })
+        .unwrap_or(0)
+}
+
+#[test]
+fn killed_build_resumes_to_identical_tables_without_recomputing() {
+    let d = tempfile::tempdir().unwrap();
+    let n = 24;
+    let m = manifest(d.path(), "w", n);
+    // Reference: an uninterrupted build.
+    let o = run(
+        &["build", m.to_str().unwrap(), "--out", "ref", "-q"],
+        d.path(),
+    );
+    assert!(o.status.success(), "{}", text(&o));
+    // Interrupted build: slow tasks, killed once some checkpoints exist.
+    let mut child = bin()
+        .args([
+            "build",
+            m.to_str().unwrap(),
+            "--out",
+            "int",
+            "-q",
+            "--jobs",
+            "2",
+        ])
+        .current_dir(d.path())
+        .env("SCATTERBAKE_TEST_TASK_DELAY_MS", "150")
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let out = d.path().join("int");
+    let t0 = Instant::now();
+    while chunk_count(&out) < 6 && t0.elapsed() < Duration::from_secs(60) {
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    child.kill().unwrap();
+    child.wait().unwrap();
+    let done = chunk_count(&out);
+    assert!(
+        done >= 6 && done < n,
+        "killed with {done} of {n} tasks done"
+    );
+    assert!(
+        !out.join("w.sbt").exists(),
+        "no table before all tasks finish"
+    );
+    // Resume.
+    let o = run(
+        &["build", m.to_str().unwrap(), "--out", "int", "-q"],
+        d.path(),
+    );
+    assert!(o.status.success(), "{}", text(&o));
+    let t = text(&o);
+    assert!(
+        t.contains(&format!("{} computed, {} reused", n - done, done)),
+        "resume must reuse the {done} finished tasks: {t}"
+    );
+    assert_eq!(
+        std::fs::read(out.join("w.sbt")).unwrap(),
+        std::fs::read(d.path().join("ref/w.sbt")).unwrap(),
+        "resumed table must be byte-identical"
+    );
+    assert!(!out.join(".work").exists(), "checkpoints cleaned up");
+}
+
+#[test]
+fn concurrent_builds_leave_valid_tables() {
+    let d = tempfile::tempdir().unwrap();
+    let m1 = manifest(d.path(), "w", 12);
+    let m2 = manifest(d.path(), "v", 12);
+    let spawn = || {
+        bin()
+            .args([
+                "build",
+                m1.to_str().unwrap(),
+                m2.to_str().unwrap(),
+                "--out",
+                "shared",
+                "-q",
+                "--jobs",
+                "2",
+            ])
+            .current_dir(d.path())
+            .env("SCATTERBAKE_TEST_TASK_DELAY_MS", "20")
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap()
+    };
+    let a = spawn();
+    let b = spawn();
+    let (a, b) = (a.wait_with_output().unwrap(), b.wait_with_output().unwrap());
+    assert!(a.status.success(), "{}", text(&a));
+    assert!(b.status.success(), "{}", text(&b));
+    let o = run(&["verify", "shared/w.sbt", "shared/v.sbt"], d.path());
+    assert!(o.status.success(), "{}", text(&o));
+    let cat: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(d.path().join("shared/index.json")).unwrap())
+            .unwrap();
+    assert_eq!(cat["tables"].as_array().unwrap().len(), 2, "{cat}");
+    assert_eq!(cat["invalid"].as_array().unwrap().len(), 0);
+}
+
+#[test]
+fn sharded_build_assembles_and_matches_unsharded() {
+    let d = tempfile::tempdir().unwrap();
+    let m = manifest(d.path(), "w", 10);
+    assert!(
+        run(
+            &["build", m.to_str().unwrap(), "--out", "ref", "-q"],
+            d.path()
+        )
+        .status
+        .success()
+    );
+    let o = run(
+        &[
+            "build",
+            m.to_str().unwrap(),
+            "--out",
+            "sh",
+            "-q",
+            "--shard",
+            "0/3",
+        ],
+        d.path(),
+    );
+    assert!(text(&o).contains("1 pending"), "{}", text(&o));
+    let o = bin()
+        .args(["build", m.to_str().unwrap(), "--out", "sh", "-q"])
+        .env("SLURM_ARRAY_TASK_ID", "1")
+        .env("SLURM_ARRAY_TASK_COUNT", "3")
+        .current_dir(d.path())
+        .output()
+        .unwrap();
+    assert!(text(&o).contains("1 pending"), "{}", text(&o));
+    let o = bin()
+        .args(["build", m.to_str().unwrap(), "--out", "sh", "-q"])
+        .env("JOB_COMPLETION_INDEX", "2")
+        .env("SCATTERBAKE_SHARD_COUNT", "3")
+        .current_dir(d.path())
+        .output()
+        .unwrap();
+    assert!(text(&o).contains("built 1 table"), "{}", text(&o));
+    assert_eq!(
+        std::fs::read(d.path().join("sh/w.sbt")).unwrap(),
+        std::fs::read(d.path().join("ref/w.sbt")).unwrap()
+    );
+    let o = run(&["catalog", "sh"], d.path());
+    assert!(
+        o.status.success() && text(&o).contains("1 table(s)"),
+        "{}",
+        text(&o)
+    );
+}
