@@ -56,6 +56,8 @@ pub struct PhaseCurves {
     pub i_par: Vec<Vec<f64>>,
     /// Coordinates of the selected entry, `(axis name, value)` per entry axis.
     pub entry: Vec<(String, f64)>,
+    /// Step of the angle grid when it is uniform (to 1e-9 relative).
+    pub uniform_step: Option<f64>,
 }
 
 impl PhaseTable {
@@ -176,6 +178,14 @@ impl PhaseTable {
             i_perp: vec![],
             i_par: vec![],
             entry: entry.clone(),
+            uniform_step: {
+                let n = angles_deg.len();
+                let step = (angles_deg[n - 1] - angles_deg[0]) / (n - 1) as f64;
+                angles_deg
+                    .windows(2)
+                    .all(|w| (w[1] - w[0] - step).abs() <= 1e-9 * step)
+                    .then_some(step)
+            },
         };
         for &wl in &wavelengths_nm {
             let (mut p, mut s, mut q) = (vec![], vec![], vec![]);
@@ -208,14 +218,11 @@ impl PhaseCurves {
     /// Phase function of wavelength index `k` at `angle_deg`, linear in angle (the table's
     /// lookup formula), clamped to [0, 180].
     pub fn phase_at(&self, k: usize, angle_deg: f64) -> f64 {
-        let a = &self.angles_deg;
-        let n = a.len();
-        let step = (a[n - 1] - a[0]) / (n - 1) as f64;
         // Fast path for uniform grids (the contract's preferred layout); same formula.
-        if n > 2 && (a[1] - a[0] - step).abs() < 1e-9 * step && (a[n - 1] - a[n - 2] - step).abs() < 1e-9 * step {
-            return crate::optics::interp::interp1_uniform(&self.phase[k], a[0], step, angle_deg);
+        if let Some(step) = self.uniform_step {
+            return crate::optics::interp::interp1_uniform(&self.phase[k], self.angles_deg[0], step, angle_deg);
         }
-        crate::optics::interp::interp1(a, &self.phase[k], angle_deg)
+        crate::optics::interp::interp1(&self.angles_deg, &self.phase[k], angle_deg)
     }
 }
 
