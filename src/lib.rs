@@ -10,6 +10,7 @@
 
 pub mod catalog;
 pub mod cli;
+pub mod consumers;
 pub mod export;
 pub mod manifest;
 pub mod optics;
@@ -17,4 +18,3 @@ pub mod pipeline;
 pub mod stage;
 pub mod stages;
 pub mod table;
-pub mod consumers;

@@ -23,7 +23,11 @@ fn lib_dir() -> PathBuf {
         .env("CARGO_TARGET_DIR", target_dir)
         .output()
         .expect("cargo runs");
-    assert!(out.status.success(), "building the cdylib failed: {}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "building the cdylib failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     profile_dir
 }
 
@@ -66,13 +70,23 @@ fn c_reader_is_bit_exact_and_verifies() {
         .arg(&exe)
         .output()
         .expect("a C compiler `cc` is installed");
-    assert!(cc.status.success(), "cc failed: {}", String::from_utf8_lossy(&cc.stderr));
+    assert!(
+        cc.status.success(),
+        "cc failed: {}",
+        String::from_utf8_lossy(&cc.stderr)
+    );
     for p in common::tables(dir.path()) {
         let t = Table::open(&p).unwrap();
         let coords: Vec<f64> = t
             .axes()
             .iter()
-            .map(|a| if a.len() > 1 { 0.37 * a.coord(0) + 0.63 * a.coord(1) } else { a.coord(0) })
+            .map(|a| {
+                if a.len() > 1 {
+                    0.37 * a.coord(0) + 0.63 * a.coord(1)
+                } else {
+                    a.coord(0)
+                }
+            })
             .collect();
         let dump = dir.path().join("dump.bin");
         let out = Command::new(&exe)
@@ -82,8 +96,18 @@ fn c_reader_is_bit_exact_and_verifies() {
             .args(coords.iter().map(|c| format!("{c:e}")))
             .output()
             .unwrap();
-        assert!(out.status.success(), "{}: {}", p.display(), String::from_utf8_lossy(&out.stderr));
-        assert_eq!(std::fs::read(&dump).unwrap(), common::raw_bytes(&t), "{}: payload differs", p.display());
+        assert!(
+            out.status.success(),
+            "{}: {}",
+            p.display(),
+            String::from_utf8_lossy(&out.stderr)
+        );
+        assert_eq!(
+            std::fs::read(&dump).unwrap(),
+            common::raw_bytes(&t),
+            "{}: payload differs",
+            p.display()
+        );
         let text = String::from_utf8_lossy(&out.stdout);
         let axes: Vec<&str> = text.lines().filter(|l| l.starts_with("axis ")).collect();
         assert_eq!(axes.len(), t.axes().len());
@@ -92,15 +116,42 @@ fn c_reader_is_bit_exact_and_verifies() {
             assert_eq!(f[1], a.name);
             assert_eq!(f[3].parse::<usize>().unwrap(), a.len());
             assert_eq!(parse_hex_float(f[4]).to_bits(), a.coord(0).to_bits());
-            assert_eq!(parse_hex_float(f[5]).to_bits(), a.coord(a.len() - 1).to_bits());
+            assert_eq!(
+                parse_hex_float(f[5]).to_bits(),
+                a.coord(a.len() - 1).to_bits()
+            );
         }
         // The coordinates went through decimal text: sample Rust at the parsed-back values.
-        let parsed: Vec<f64> = coords.iter().map(|c| format!("{c:e}").parse().unwrap()).collect();
+        let parsed: Vec<f64> = coords
+            .iter()
+            .map(|c| format!("{c:e}").parse().unwrap())
+            .collect();
         let want = t.sample(&parsed).unwrap();
-        let got: Vec<f64> = text.lines().filter(|l| l.starts_with("sample ")).map(|l| l.split_whitespace().nth(2).unwrap()).map(|s| if s.contains("nan") { f64::NAN } else if s.contains("inf") { if s.starts_with('-') { f64::NEG_INFINITY } else { f64::INFINITY } } else { parse_hex_float(s) }).collect();
+        let got: Vec<f64> = text
+            .lines()
+            .filter(|l| l.starts_with("sample "))
+            .map(|l| l.split_whitespace().nth(2).unwrap())
+            .map(|s| {
+                if s.contains("nan") {
+                    f64::NAN
+                } else if s.contains("inf") {
+                    if s.starts_with('-') {
+                        f64::NEG_INFINITY
+                    } else {
+                        f64::INFINITY
+                    }
+                } else {
+                    parse_hex_float(s)
+                }
+            })
+            .collect();
         assert_eq!(got.len(), want.len());
         for (w, g) in want.iter().zip(&got) {
-            assert!(w.to_bits() == g.to_bits() || (w.is_nan() && g.is_nan()), "{}: sample {w} vs {g}", p.display());
+            assert!(
+                w.to_bits() == g.to_bits() || (w.is_nan() && g.is_nan()),
+                "{}: sample {w} vs {g}",
+                p.display()
+            );
         }
     }
     let good = dir.path().join("hg.sbt");
@@ -108,7 +159,11 @@ fn c_reader_is_bit_exact_and_verifies() {
     common::corrupt_copy(&good, &bad, 10);
     let out = Command::new(&exe).arg(&bad).output().unwrap();
     assert_eq!(out.status.code(), Some(3));
-    assert!(String::from_utf8_lossy(&out.stderr).contains("checksum"), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        String::from_utf8_lossy(&out.stderr).contains("checksum"),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     common::newer_major_copy(&good, &bad);
     let out = Command::new(&exe).arg(&bad).output().unwrap();
     assert_eq!(out.status.code(), Some(3));

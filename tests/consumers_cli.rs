@@ -48,7 +48,16 @@ fn mieplot_export_then_validate_is_exact() {
     let t = hg_table(dir.path());
     let out = dir.path().join("ref.txt");
     let (ts, os) = (t.to_str().unwrap(), out.to_str().unwrap());
-    mieplot::run_mieplot(&parse(&[ts, "--entry", "radius=500", "--wavelength-nm", "550", "--out", os])).unwrap();
+    mieplot::run_mieplot(&parse(&[
+        ts,
+        "--entry",
+        "radius=500",
+        "--wavelength-nm",
+        "550",
+        "--out",
+        os,
+    ]))
+    .unwrap();
     let r = mieplot::read_mieplot_file(&out).unwrap();
     assert_eq!(r.angle_deg.len(), 1801);
     assert_eq!(r.wavelength_nm, Some(550.0));
@@ -56,8 +65,28 @@ fn mieplot_export_then_validate_is_exact() {
     let rep = mieplot::compare(&pt, &["radius=500".parse().unwrap()], 550.0, &r, false).unwrap();
     assert_eq!(rep.max_rel_error, [0.0; 3], "{rep:?}");
     // validate with zero tolerance passes for the right entry and fails for another.
-    mieplot::run_validate(&parse(&[ts, "--reference", os, "--entry", "radius=500", "--tolerance", "0"])).unwrap();
-    assert!(mieplot::run_validate(&parse(&[ts, "--reference", os, "--entry", "radius=100", "--tolerance", "1e-3"])).is_err());
+    mieplot::run_validate(&parse(&[
+        ts,
+        "--reference",
+        os,
+        "--entry",
+        "radius=500",
+        "--tolerance",
+        "0",
+    ]))
+    .unwrap();
+    assert!(
+        mieplot::run_validate(&parse(&[
+            ts,
+            "--reference",
+            os,
+            "--entry",
+            "radius=100",
+            "--tolerance",
+            "1e-3"
+        ]))
+        .is_err()
+    );
 }
 
 #[test]
@@ -67,7 +96,18 @@ fn legendre_export_reconstructs_to_reported_error() {
     let out = dir.path().join("leg.txt");
     let (ts, os) = (t.to_str().unwrap(), out.to_str().unwrap());
     // g = 0.6 + 0.05 + 0.1 = 0.75 at 550 nm, radius 500.
-    legendre::run_legendre(&parse(&[ts, "--entry", "radius=500", "--order", "40", "--wavelength-nm", "550", "--out", os])).unwrap();
+    legendre::run_legendre(&parse(&[
+        ts,
+        "--entry",
+        "radius=500",
+        "--order",
+        "40",
+        "--wavelength-nm",
+        "550",
+        "--out",
+        os,
+    ]))
+    .unwrap();
     let text = std::fs::read_to_string(&out).unwrap();
     let reported: f64 = text
         .lines()
@@ -95,8 +135,14 @@ fn legendre_export_reconstructs_to_reported_error() {
         let exact = synthetic::henyey_greenstein(0.75, mu) as f32 as f64;
         worst = worst.max((legendre::reconstruct(&chi, mu) - exact).abs() / exact);
     }
-    assert!((worst - reported).abs() < 1e-3 * reported + 1e-6, "worst {worst}, reported {reported}");
-    assert!(reported > 1e-4, "order 40 of HG(0.75) must leave a visible truncation error");
+    assert!(
+        (worst - reported).abs() < 1e-3 * reported + 1e-6,
+        "worst {worst}, reported {reported}"
+    );
+    assert!(
+        reported > 1e-4,
+        "order 40 of HG(0.75) must leave a visible truncation error"
+    );
 }
 
 #[test]
@@ -137,14 +183,29 @@ fn plots_and_render_write_images_that_show_the_data() {
     let ts = t.to_str().unwrap();
     for ext in ["png", "svg"] {
         let out = dir.path().join(format!("phase.{ext}"));
-        plot::run_plot(&parse(&[ts, "--kind", "phase", "--polarised", "--width", "640", "--height", "400", "--out", out.to_str().unwrap()])).unwrap();
+        plot::run_plot(&parse(&[
+            ts,
+            "--kind",
+            "phase",
+            "--polarised",
+            "--width",
+            "640",
+            "--height",
+            "400",
+            "--out",
+            out.to_str().unwrap(),
+        ]))
+        .unwrap();
         assert!(std::fs::metadata(&out).unwrap().len() > 1000);
     }
     let (w, h, px) = decode_png(&dir.path().join("phase.png"));
     assert_eq!((w, h), (640, 400));
     // The 650 nm curve is drawn in its own (red) colour.
     let red = plot::wavelength_colour(650.0);
-    assert!(px.chunks(3).any(|p| p == [red.0, red.1, red.2]), "no pixel in the 650 nm colour");
+    assert!(
+        px.chunks(3).any(|p| p == [red.0, red.1, red.2]),
+        "no pixel in the 650 nm colour"
+    );
     let svg = std::fs::read_to_string(dir.path().join("phase.svg")).unwrap();
     assert!(svg.contains("scattering angle"));
     // Auto previews: phase, strip and Lee (the table has a radius axis).
@@ -158,7 +219,11 @@ fn plots_and_render_write_images_that_show_the_data() {
     // the brightest thing in the picture.
     let peak = dir.path().join("peak.sbt");
     let wl: Vec<f64> = (0..33).map(|i| 380.0 + 10.0 * i as f64).collect();
-    write_table_atomic(&mut synthetic::peak_table(&wl, |_| 138.0, 0.3, 1e-4, 1801), &peak).unwrap();
+    write_table_atomic(
+        &mut synthetic::peak_table(&wl, |_| 138.0, 0.3, 1e-4, 1801),
+        &peak,
+    )
+    .unwrap();
     let out = dir.path().join("sky.png");
     render::run_render_rainbow(&parse(&[
         "--table",

@@ -42,13 +42,19 @@ fn write_err(err: *mut c_char, err_len: usize, msg: &str) {
 /// # Safety
 /// `path` must be a NUL-terminated string; `err` NULL or `err_len` writable bytes.
 #[unsafe(no_mangle)]
-pub unsafe extern "C" fn sbt_open(path: *const c_char, err: *mut c_char, err_len: usize) -> *mut SbtTable {
+pub unsafe extern "C" fn sbt_open(
+    path: *const c_char,
+    err: *mut c_char,
+    err_len: usize,
+) -> *mut SbtTable {
     if path.is_null() {
         write_err(err, err_len, "path is NULL");
         return std::ptr::null_mut();
     }
     // SAFETY: NUL-terminated per the contract.
-    let p = unsafe { CStr::from_ptr(path) }.to_string_lossy().into_owned();
+    let p = unsafe { CStr::from_ptr(path) }
+        .to_string_lossy()
+        .into_owned();
     match Table::open(&p) {
         Ok(table) => {
             let header_json = cstring(&serde_json::to_string(&table.header).unwrap_or_default());
@@ -134,7 +140,9 @@ pub unsafe extern "C" fn sbt_axis_unit(t: *const SbtTable, a: usize) -> *const c
 /// `t` must be NULL or a live handle.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn sbt_axis_len(t: *const SbtTable, a: usize) -> usize {
-    get(t).and_then(|t| t.axis_coords.get(a)).map_or(0, |c| c.len())
+    get(t)
+        .and_then(|t| t.axis_coords.get(a))
+        .map_or(0, |c| c.len())
 }
 
 /// Pointer to the `sbt_axis_len(t, a)` coordinates of axis `a` (doubles).
@@ -143,7 +151,9 @@ pub unsafe extern "C" fn sbt_axis_len(t: *const SbtTable, a: usize) -> usize {
 /// `t` must be NULL or a live handle.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn sbt_axis_coords(t: *const SbtTable, a: usize) -> *const f64 {
-    get(t).and_then(|t| t.axis_coords.get(a)).map_or(std::ptr::null(), |c| c.as_ptr())
+    get(t)
+        .and_then(|t| t.axis_coords.get(a))
+        .map_or(std::ptr::null(), |c| c.as_ptr())
 }
 
 /// Number of channels.
@@ -198,7 +208,13 @@ pub unsafe extern "C" fn sbt_data_len(t: *const SbtTable) -> usize {
 /// # Safety
 /// `t` NULL or live; `coords` `n_coords` readable doubles; `out` `n_out` writable doubles.
 #[unsafe(no_mangle)]
-pub unsafe extern "C" fn sbt_sample(t: *const SbtTable, coords: *const f64, n_coords: usize, out: *mut f64, n_out: usize) -> i32 {
+pub unsafe extern "C" fn sbt_sample(
+    t: *const SbtTable,
+    coords: *const f64,
+    n_coords: usize,
+    out: *mut f64,
+    n_out: usize,
+) -> i32 {
     let Some(t) = get(t) else { return -1 };
     if coords.is_null() || out.is_null() || n_out < t.channel_names.len() {
         return -1;

@@ -144,15 +144,28 @@ pub fn run_legendre(args: &LegendreArgs) -> anyhow::Result<()> {
     let mut s = String::new();
     let _ = writeln!(s, "# scatterbake legendre export");
     let _ = writeln!(s, "# table: {}", args.table.display());
-    let _ = writeln!(s, "# entry: {}", super::phase::describe_entry(&pt.table, &c.entry));
-    let _ = writeln!(s, "# convention: chi_l = 2 pi int_-1^1 p(mu) P_l(mu) dmu (chi_0 = 1, chi_1 = g); p_L(mu) = sum_l (2l+1)/(4 pi) chi_l P_l(mu)");
+    let _ = writeln!(
+        s,
+        "# entry: {}",
+        super::phase::describe_entry(&pt.table, &c.entry)
+    );
+    let _ = writeln!(
+        s,
+        "# convention: chi_l = 2 pi int_-1^1 p(mu) P_l(mu) dmu (chi_0 = 1, chi_1 = g); p_L(mu) = sum_l (2l+1)/(4 pi) chi_l P_l(mu)"
+    );
     let mut cols = Vec::new();
     for &k in &ks {
         let chi = moments(&c.angles_deg, &c.phase[k], args.order);
         let e = truncation_error(&c.angles_deg, &c.phase[k], &chi);
         let line = format!(
             "wavelength_nm {}: order {}, max_rel_error {:.3e} (at {} deg), l1_error {:.3e}, chi_0 {:.6}, g {:.6}",
-            c.wavelengths_nm[k], args.order, e.max_rel_error, e.max_rel_error_at_deg, e.l1_error, chi[0], chi.get(1).copied().unwrap_or(0.0)
+            c.wavelengths_nm[k],
+            args.order,
+            e.max_rel_error,
+            e.max_rel_error_at_deg,
+            e.l1_error,
+            chi[0],
+            chi.get(1).copied().unwrap_or(0.0)
         );
         eprintln!("{line}");
         let _ = writeln!(s, "# truncation: {line}");
@@ -161,7 +174,10 @@ pub fn run_legendre(args: &LegendreArgs) -> anyhow::Result<()> {
     let _ = writeln!(
         s,
         "# l\t{}",
-        ks.iter().map(|&k| format!("chi_l({} nm)", c.wavelengths_nm[k])).collect::<Vec<_>>().join("\t")
+        ks.iter()
+            .map(|&k| format!("chi_l({} nm)", c.wavelengths_nm[k]))
+            .collect::<Vec<_>>()
+            .join("\t")
     );
     for l in 0..=args.order {
         let _ = write!(s, "{l}");
@@ -185,7 +201,10 @@ mod tests {
     fn hg_grid(g: f64, n: usize) -> (Vec<f64>, Vec<f64>) {
         let step = 180.0 / (n - 1) as f64;
         let a: Vec<f64> = (0..n).map(|j| j as f64 * step).collect();
-        let p = a.iter().map(|t: &f64| henyey_greenstein(g, t.to_radians().cos())).collect();
+        let p = a
+            .iter()
+            .map(|t: &f64| henyey_greenstein(g, t.to_radians().cos()))
+            .collect();
         (a, p)
     }
 
@@ -209,10 +228,15 @@ mod tests {
         let e32 = truncation_error(&a, &p, &moments(&a, &p, 32));
         // The error of the truncated HG series is known analytically: p − p_L =
         // Σ_{l>L} (2l+1)/(4π) g^l P_l(μ); at μ = −1 (where p is smallest) P_l = (−1)^l.
-        let tail: f64 = (9..400).map(|l| (2 * l + 1) as f64 / (4.0 * PI) * 0.5f64.powi(l) * (-1f64).powi(l)).sum();
+        let tail: f64 = (9..400)
+            .map(|l| (2 * l + 1) as f64 / (4.0 * PI) * 0.5f64.powi(l) * (-1f64).powi(l))
+            .sum();
         let expected_rel = tail.abs() / henyey_greenstein(0.5, -1.0);
         assert_eq!(e8.max_rel_error_at_deg, 180.0, "{e8:?}");
-        assert!((e8.max_rel_error - expected_rel).abs() < 1e-4, "{e8:?} vs analytic {expected_rel}");
+        assert!(
+            (e8.max_rel_error - expected_rel).abs() < 1e-4,
+            "{e8:?} vs analytic {expected_rel}"
+        );
         assert!(e32.max_rel_error < 1e-5, "{e32:?}");
         assert!(e8.l1_error > e32.l1_error * 100.0);
     }

@@ -8,8 +8,8 @@
 //! # entry: radius=500 um
 //! # wavelength_nm: 650
 //! # units: angle in deg (0 = forward); intensities in 1/sr, integral over 4pi of unpolarised = 1
-//! # angle_deg	i_perp	i_par	unpolarised
-//! 0	1.2e3	1.2e3	1.2e3
+//! # angle_deg<TAB>i_perp<TAB>i_par<TAB>unpolarised
+//! 0<TAB>1.2e3<TAB>1.2e3<TAB>1.2e3
 //! ```
 //! Numbers are written as the shortest decimal that round-trips the f64 value, so reading the
 //! file back reproduces the table's values exactly.
@@ -50,7 +50,11 @@ pub fn write_mieplot(d: &MiePlotData, comments: &[String]) -> String {
     s.push_str("# units: angle in deg (0 = forward); intensities in 1/sr, integral over 4pi of unpolarised = 1\n");
     s.push_str("# angle_deg\ti_perp\ti_par\tunpolarised\n");
     for j in 0..d.angle_deg.len() {
-        let _ = writeln!(s, "{:e}\t{:e}\t{:e}\t{:e}", d.angle_deg[j], d.i_perp[j], d.i_par[j], d.unpolarised[j]);
+        let _ = writeln!(
+            s,
+            "{:e}\t{:e}\t{:e}\t{:e}",
+            d.angle_deg[j], d.i_perp[j], d.i_par[j], d.unpolarised[j]
+        );
     }
     s
 }
@@ -62,7 +66,11 @@ pub fn read_mieplot(text: &str) -> anyhow::Result<MiePlotData> {
         let line = line.trim();
         if let Some(rest) = line.strip_prefix('#') {
             if let Some(v) = rest.trim().strip_prefix("wavelength_nm:") {
-                d.wavelength_nm = Some(v.trim().parse().with_context(|| format!("line {}: wavelength", ln + 1))?);
+                d.wavelength_nm = Some(
+                    v.trim()
+                        .parse()
+                        .with_context(|| format!("line {}: wavelength", ln + 1))?,
+                );
             }
             continue;
         }
@@ -70,7 +78,9 @@ pub fn read_mieplot(text: &str) -> anyhow::Result<MiePlotData> {
             .split(|c: char| c.is_whitespace() || c == ',' || c == ';')
             .filter(|f| !f.is_empty())
             .collect();
-        let Some(first) = fields.first() else { continue };
+        let Some(first) = fields.first() else {
+            continue;
+        };
         if first.parse::<f64>().is_err() {
             continue; // header or title line
         }
@@ -85,7 +95,11 @@ pub fn read_mieplot(text: &str) -> anyhow::Result<MiePlotData> {
         d.angle_deg.push(nums[0]);
         d.i_perp.push(nums[1]);
         d.i_par.push(nums[2]);
-        d.unpolarised.push(if nums.len() >= 4 { nums[3] } else { 0.5 * (nums[1] + nums[2]) });
+        d.unpolarised.push(if nums.len() >= 4 {
+            nums[3]
+        } else {
+            0.5 * (nums[1] + nums[2])
+        });
     }
     if d.angle_deg.is_empty() {
         bail!("no data rows found");
@@ -94,7 +108,11 @@ pub fn read_mieplot(text: &str) -> anyhow::Result<MiePlotData> {
 }
 
 /// MiePlot-style data of one entry and wavelength of a phase table, on the table's angles.
-pub fn from_table(pt: &PhaseTable, entry: &[EntrySelection], wavelength_nm: f64) -> anyhow::Result<MiePlotData> {
+pub fn from_table(
+    pt: &PhaseTable,
+    entry: &[EntrySelection],
+    wavelength_nm: f64,
+) -> anyhow::Result<MiePlotData> {
     let e = pt.resolve_entry(entry)?;
     let angles = pt.angles_deg();
     let mut d = MiePlotData {
@@ -160,9 +178,19 @@ pub struct ValidationReport {
 }
 
 /// Compare reference data against a table at the reference's angles and wavelength.
-pub fn compare(pt: &PhaseTable, entry: &[EntrySelection], wavelength_nm: f64, r: &MiePlotData, rescale: bool) -> anyhow::Result<ValidationReport> {
+pub fn compare(
+    pt: &PhaseTable,
+    entry: &[EntrySelection],
+    wavelength_nm: f64,
+    r: &MiePlotData,
+    rescale: bool,
+) -> anyhow::Result<ValidationReport> {
     let e = pt.resolve_entry(entry)?;
-    let vals: Vec<[f64; 3]> = r.angle_deg.iter().map(|&a| pt.sample_at(wavelength_nm, &e, a)).collect();
+    let vals: Vec<[f64; 3]> = r
+        .angle_deg
+        .iter()
+        .map(|&a| pt.sample_at(wavelength_nm, &e, a))
+        .collect();
     let scale = if rescale {
         let num: f64 = vals.iter().zip(&r.unpolarised).map(|(v, u)| v[0] * u).sum();
         let den: f64 = r.unpolarised.iter().map(|u| u * u).sum();
@@ -178,7 +206,11 @@ pub fn compare(pt: &PhaseTable, entry: &[EntrySelection], wavelength_nm: f64, r:
         let tab = [v[1], v[2], v[0]];
         for c in 0..3 {
             let rf = refs[c] * scale;
-            let err = if rf == tab[c] { 0.0 } else { (tab[c] - rf).abs() / rf.abs().max(f64::MIN_POSITIVE) };
+            let err = if rf == tab[c] {
+                0.0
+            } else {
+                (tab[c] - rf).abs() / rf.abs().max(f64::MIN_POSITIVE)
+            };
             if err > max[c] {
                 max[c] = err;
                 if c == 2 {
@@ -219,11 +251,13 @@ pub struct ValidateArgs {
 /// Run the validation; prints the figures, errors out when over `--tolerance`.
 pub fn run_validate(args: &ValidateArgs) -> anyhow::Result<()> {
     let pt = PhaseTable::open(&args.table)?;
-    let r = read_mieplot(&std::fs::read_to_string(&args.reference).with_context(|| args.reference.display().to_string())?)?;
-    let wl = args
-        .wavelength_nm
-        .or(r.wavelength_nm)
-        .ok_or_else(|| anyhow::anyhow!("reference has no `# wavelength_nm:` line: pass --wavelength-nm"))?;
+    let r = read_mieplot(
+        &std::fs::read_to_string(&args.reference)
+            .with_context(|| args.reference.display().to_string())?,
+    )?;
+    let wl = args.wavelength_nm.or(r.wavelength_nm).ok_or_else(|| {
+        anyhow::anyhow!("reference has no `# wavelength_nm:` line: pass --wavelength-nm")
+    })?;
     let rep = compare(&pt, &args.entry, wl, &r, args.rescale)?;
     println!(
         "{} vs {} at {wl} nm: {} rows, scale {:.6e}, max rel. error i_perp {:.3e}, i_par {:.3e}, unpolarised {:.3e} (worst at {} deg)",
@@ -256,7 +290,13 @@ mod tests {
     use crate::consumers::synthetic::henyey_greenstein_table;
 
     fn table() -> PhaseTable {
-        let t = henyey_greenstein_table(&[450.0, 650.0], &[100.0, 500.0], |k, r| 0.5 + 0.1 * k as f64 + 0.05 * r as f64, 721, 0.4);
+        let t = henyey_greenstein_table(
+            &[450.0, 650.0],
+            &[100.0, 500.0],
+            |k, r| 0.5 + 0.1 * k as f64 + 0.05 * r as f64,
+            721,
+            0.4,
+        );
         PhaseTable::new(t).unwrap()
     }
 
@@ -281,7 +321,12 @@ mod tests {
         // MiePlot-like: title lines, comma separated, 3 columns, arbitrary units (×1000).
         let mut s = String::from("MiePlot v4.6\nAngle, Perpendicular, Parallel\n");
         for j in 0..d.angle_deg.len() {
-            s.push_str(&format!("{}, {}, {}\n", d.angle_deg[j], 1000.0 * d.i_perp[j], 1000.0 * d.i_par[j]));
+            s.push_str(&format!(
+                "{}, {}, {}\n",
+                d.angle_deg[j],
+                1000.0 * d.i_perp[j],
+                1000.0 * d.i_par[j]
+            ));
         }
         let r = read_mieplot(&s).unwrap();
         assert_eq!(r.angle_deg.len(), 721);

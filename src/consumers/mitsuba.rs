@@ -35,14 +35,22 @@ use std::path::PathBuf;
 
 /// The μ grid of a tabphase list of `n` values (ascending from −1 to +1).
 pub fn mu_grid(n: usize) -> Vec<f64> {
-    (0..n).map(|k| -1.0 + 2.0 * k as f64 / (n - 1) as f64).collect()
+    (0..n)
+        .map(|k| -1.0 + 2.0 * k as f64 / (n - 1) as f64)
+        .collect()
 }
 
 /// Resample a phase function (given on `angles_deg`) onto the tabphase μ grid.
 pub fn tabphase_values(angles_deg: &[f64], phase: &[f64], n: usize) -> Vec<f64> {
     mu_grid(n)
         .into_iter()
-        .map(|mu| crate::optics::interp::interp1(angles_deg, phase, mu.clamp(-1.0, 1.0).acos().to_degrees()))
+        .map(|mu| {
+            crate::optics::interp::interp1(
+                angles_deg,
+                phase,
+                mu.clamp(-1.0, 1.0).acos().to_degrees(),
+            )
+        })
         .collect()
 }
 
@@ -68,7 +76,12 @@ pub struct TabphaseQuality {
 /// Quality of `values` against the original curve.
 pub fn quality(values: &[f64], angles_deg: &[f64], phase: &[f64]) -> TabphaseQuality {
     let h = 2.0 / (values.len() - 1) as f64;
-    let normalisation_ratio = 2.0 * PI * values.windows(2).map(|w| 0.5 * (w[0] + w[1]) * h).sum::<f64>();
+    let normalisation_ratio = 2.0
+        * PI
+        * values
+            .windows(2)
+            .map(|w| 0.5 * (w[0] + w[1]) * h)
+            .sum::<f64>();
     let mut max_rel_error_back: f64 = 0.0;
     for (&t, &p) in angles_deg.iter().zip(phase) {
         if t >= 90.0 && p > 0.0 {
@@ -113,7 +126,12 @@ fn weighted_curve(c: &PhaseCurves, w: &[f64]) -> Vec<f64> {
 }
 
 /// Build the lists for a mode.
-pub fn build_lists(c: &PhaseCurves, mode: MitsubaMode, wavelength_nm: Option<f64>, n: usize) -> anyhow::Result<Vec<NamedList>> {
+pub fn build_lists(
+    c: &PhaseCurves,
+    mode: MitsubaMode,
+    wavelength_nm: Option<f64>,
+    n: usize,
+) -> anyhow::Result<Vec<NamedList>> {
     let mk = |id: String, label: String, curve: Vec<f64>| {
         let mut values = tabphase_values(&c.angles_deg, &curve, n);
         let clamped = values.iter().filter(|v| **v < 0.0).count();
@@ -135,17 +153,32 @@ pub fn build_lists(c: &PhaseCurves, mode: MitsubaMode, wavelength_nm: Option<f64
             .wavelengths_nm
             .iter()
             .enumerate()
-            .map(|(k, wl)| mk(format!("sbt_{wl}nm"), format!("wavelength {wl} nm"), c.phase[k].clone()))
+            .map(|(k, wl)| {
+                mk(
+                    format!("sbt_{wl}nm"),
+                    format!("wavelength {wl} nm"),
+                    c.phase[k].clone(),
+                )
+            })
             .collect(),
         MitsubaMode::Wavelength => {
-            let wl = wavelength_nm.ok_or_else(|| anyhow::anyhow!("--mode wavelength needs --wavelength-nm"))?;
+            let wl = wavelength_nm
+                .ok_or_else(|| anyhow::anyhow!("--mode wavelength needs --wavelength-nm"))?;
             let k = c.nearest_wavelength(wl);
             let w = c.wavelengths_nm[k];
-            vec![mk(format!("sbt_{w}nm"), format!("wavelength {w} nm (nearest to {wl} nm)"), c.phase[k].clone())]
+            vec![mk(
+                format!("sbt_{w}nm"),
+                format!("wavelength {w} nm (nearest to {wl} nm)"),
+                c.phase[k].clone(),
+            )]
         }
         MitsubaMode::Luminance => {
             let w: Vec<f64> = sw.weights.iter().map(|x| x[1]).collect();
-            vec![mk("sbt_luminance".into(), "CIE Y weighted under D65".into(), weighted_curve(c, &w))]
+            vec![mk(
+                "sbt_luminance".into(),
+                "CIE Y weighted under D65".into(),
+                weighted_curve(c, &w),
+            )]
         }
         MitsubaMode::Rgb => {
             let rgb_w: Vec<[f64; 3]> = sw.weights.iter().map(|x| xyz_to_linear_srgb(*x)).collect();
@@ -154,7 +187,11 @@ pub fn build_lists(c: &PhaseCurves, mode: MitsubaMode, wavelength_nm: Option<f64
                 .enumerate()
                 .map(|(ci, name)| {
                     let w: Vec<f64> = rgb_w.iter().map(|x| x[ci]).collect();
-                    mk(format!("sbt_{name}"), format!("linear sRGB channel {name} (D65 sun)"), weighted_curve(c, &w))
+                    mk(
+                        format!("sbt_{name}"),
+                        format!("linear sRGB channel {name} (D65 sun)"),
+                        weighted_curve(c, &w),
+                    )
                 })
                 .collect()
         }
@@ -177,7 +214,10 @@ pub fn values_string(values: &[f64]) -> String {
 pub fn xml_snippet(lists: &[NamedList], source: &str) -> String {
     let mut s = String::new();
     let _ = writeln!(s, "<!-- scatterbake tabphase export: {source} -->");
-    let _ = writeln!(s, "<!-- values: p(mu) at mu = -1 .. +1 uniformly (first = backscatter), physics convention; Mitsuba renormalises. -->");
+    let _ = writeln!(
+        s,
+        "<!-- values: p(mu) at mu = -1 .. +1 uniformly (first = backscatter), physics convention; Mitsuba renormalises. -->"
+    );
     for l in lists {
         let _ = writeln!(
             s,
@@ -186,10 +226,18 @@ pub fn xml_snippet(lists: &[NamedList], source: &str) -> String {
             l.values.len(),
             l.quality.normalisation_ratio,
             l.quality.max_rel_error_back,
-            if l.clamped > 0 { format!(", {} negative values clamped to 0", l.clamped) } else { String::new() }
+            if l.clamped > 0 {
+                format!(", {} negative values clamped to 0", l.clamped)
+            } else {
+                String::new()
+            }
         );
         let _ = writeln!(s, "<phase type=\"tabphase\" id=\"{}\">", l.id);
-        let _ = writeln!(s, "    <string name=\"values\" value=\"{}\"/>", values_string(&l.values));
+        let _ = writeln!(
+            s,
+            "    <string name=\"values\" value=\"{}\"/>",
+            values_string(&l.values)
+        );
         let _ = writeln!(s, "</phase>");
     }
     s
@@ -227,7 +275,11 @@ pub fn run_mitsuba(args: &MitsubaArgs) -> anyhow::Result<()> {
     let pt = PhaseTable::open(&args.table)?;
     let c = pt.curves(&args.entry)?;
     let lists = build_lists(&c, args.mode, args.wavelength_nm, args.samples)?;
-    let source = format!("{} [{}]", args.table.display(), describe_entry(&pt.table, &c.entry));
+    let source = format!(
+        "{} [{}]",
+        args.table.display(),
+        describe_entry(&pt.table, &c.entry)
+    );
     let xml = xml_snippet(&lists, &source);
     match &args.out {
         Some(p) => std::fs::write(p, &xml)?,
@@ -248,7 +300,11 @@ pub fn run_mitsuba(args: &MitsubaArgs) -> anyhow::Result<()> {
             l.values.len(),
             l.quality.normalisation_ratio,
             l.quality.max_rel_error_back,
-            if l.clamped > 0 { format!(", {} negative values clamped", l.clamped) } else { String::new() }
+            if l.clamped > 0 {
+                format!(", {} negative values clamped", l.clamped)
+            } else {
+                String::new()
+            }
         );
     }
     Ok(())
@@ -270,7 +326,11 @@ mod tests {
         for k in (0..1001).step_by(50) {
             let mu = -1.0 + 2.0 * k as f64 / 1000.0;
             let exact = henyey_greenstein(0.6, mu);
-            assert!((v[k] - exact).abs() < 1e-3 * exact, "k={k}: {} vs {exact}", v[k]);
+            assert!(
+                (v[k] - exact).abs() < 1e-3 * exact,
+                "k={k}: {} vs {exact}",
+                v[k]
+            );
         }
         // Mitsuba's normalised evaluation reproduces the analytic function (HG is smooth in μ).
         let q = quality(&v, &c.angles_deg, &c.phase[0]);
@@ -299,8 +359,17 @@ mod tests {
         // And the snippet parses back to the same numbers.
         let xml = xml_snippet(&lists, "test");
         assert_eq!(xml.matches("<phase type=\"tabphase\"").count(), 3);
-        let first = xml.split("value=\"").nth(1).unwrap().split('"').next().unwrap();
-        let parsed: Vec<f64> = first.split(',').map(|s| s.trim().parse().unwrap()).collect();
+        let first = xml
+            .split("value=\"")
+            .nth(1)
+            .unwrap()
+            .split('"')
+            .next()
+            .unwrap();
+        let parsed: Vec<f64> = first
+            .split(',')
+            .map(|s| s.trim().parse().unwrap())
+            .collect();
         assert_eq!(parsed.len(), 257);
         assert!((parsed[0] - lists[0].values[0]).abs() < 1e-6 * parsed[0]);
     }
@@ -310,15 +379,29 @@ mod tests {
         // Peak at 138° for red light, 140° for blue: the red channel must peak at the smaller
         // angle.
         let wl: Vec<f64> = (0..33).map(|i| 380.0 + 10.0 * i as f64).collect();
-        let t = crate::consumers::synthetic::peak_table(&wl, |l| 140.0 - 2.0 * (l - 450.0) / 200.0, 0.3, 1e-3, 3601);
+        let t = crate::consumers::synthetic::peak_table(
+            &wl,
+            |l| 140.0 - 2.0 * (l - 450.0) / 200.0,
+            0.3,
+            1e-3,
+            3601,
+        );
         let c = PhaseTable::new(t).unwrap().curves(&[]).unwrap();
         let lists = build_lists(&c, MitsubaMode::Rgb, None, 20001).unwrap();
         let argmax = |v: &[f64]| {
-            let k = v.iter().enumerate().max_by(|a, b| a.1.total_cmp(b.1)).unwrap().0;
+            let k = v
+                .iter()
+                .enumerate()
+                .max_by(|a, b| a.1.total_cmp(b.1))
+                .unwrap()
+                .0;
             (-1.0 + 2.0 * k as f64 / 20000.0_f64).acos().to_degrees()
         };
         let (r, b) = (argmax(&lists[0].values), argmax(&lists[2].values));
         assert!(r < b - 0.8, "red peak {r}, blue peak {b}");
-        assert!((r - 138.3).abs() < 0.6 && (b - 139.7).abs() < 0.6, "red {r} blue {b}");
+        assert!(
+            (r - 138.3).abs() < 0.6 && (b - 139.7).abs() < 0.6,
+            "red {r} blue {b}"
+        );
     }
 }

@@ -100,9 +100,9 @@ impl PhaseTable {
             );
         }
         let ch = |n: &str| {
-            table
-                .channel_index(n)
-                .map_err(|_| anyhow::anyhow!("table has no channel `{n}` required by the phase contract"))
+            table.channel_index(n).map_err(|_| {
+                anyhow::anyhow!("table has no channel `{n}` required by the phase contract")
+            })
         };
         let (ch_phase, ch_perp, ch_par) = (ch("phase")?, ch("i_perp")?, ch("i_par")?);
         Ok(PhaseTable {
@@ -131,8 +131,15 @@ impl PhaseTable {
         let axes = self.table.axes();
         for s in sel {
             if !self.entry_axes.iter().any(|&i| axes[i].name == s.axis) {
-                let names: Vec<&str> = self.entry_axes.iter().map(|&i| axes[i].name.as_str()).collect();
-                bail!("`{}` is not an entry axis of this table (entry axes: {names:?})", s.axis);
+                let names: Vec<&str> = self
+                    .entry_axes
+                    .iter()
+                    .map(|&i| axes[i].name.as_str())
+                    .collect();
+                bail!(
+                    "`{}` is not an entry axis of this table (entry axes: {names:?})",
+                    s.axis
+                );
             }
         }
         Ok(self
@@ -153,7 +160,12 @@ impl PhaseTable {
 
     /// Interpolated (phase, i_perp, i_par) at wavelength, entry values and angle (table lookup
     /// formula: multilinear in the stored coordinates, clamped at the axis ends).
-    pub fn sample_at(&self, wavelength_nm: f64, entry: &[(String, f64)], angle_deg: f64) -> [f64; 3] {
+    pub fn sample_at(
+        &self,
+        wavelength_nm: f64,
+        entry: &[(String, f64)],
+        angle_deg: f64,
+    ) -> [f64; 3] {
         let mut coords = Vec::with_capacity(entry.len() + 2);
         coords.push(wavelength_nm);
         coords.extend(entry.iter().map(|e| e.1));
@@ -220,7 +232,12 @@ impl PhaseCurves {
     pub fn phase_at(&self, k: usize, angle_deg: f64) -> f64 {
         // Fast path for uniform grids (the contract's preferred layout); same formula.
         if let Some(step) = self.uniform_step {
-            return crate::optics::interp::interp1_uniform(&self.phase[k], self.angles_deg[0], step, angle_deg);
+            return crate::optics::interp::interp1_uniform(
+                &self.phase[k],
+                self.angles_deg[0],
+                step,
+                angle_deg,
+            );
         }
         crate::optics::interp::interp1(&self.angles_deg, &self.phase[k], angle_deg)
     }

@@ -46,7 +46,12 @@ macro_rules! with_backend {
         ensure_font();
         let out: &Path = $out;
         let size: (u32, u32) = $size;
-        match out.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase()).as_deref() {
+        match out
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(|e| e.to_ascii_lowercase())
+            .as_deref()
+        {
             Some("svg") => {
                 let $root = SVGBackend::new(out, size).into_drawing_area();
                 $body?;
@@ -97,7 +102,11 @@ fn pick_wavelengths(all: &[f64], wanted: &[f64]) -> Vec<usize> {
     if !wanted.is_empty() {
         let mut v: Vec<usize> = wanted
             .iter()
-            .map(|w| (0..all.len()).min_by(|&a, &b| (all[a] - w).abs().total_cmp(&(all[b] - w).abs())).unwrap())
+            .map(|w| {
+                (0..all.len())
+                    .min_by(|&a, &b| (all[a] - w).abs().total_cmp(&(all[b] - w).abs()))
+                    .unwrap()
+            })
             .collect();
         v.dedup();
         return v;
@@ -112,13 +121,24 @@ fn pick_wavelengths(all: &[f64], wanted: &[f64]) -> Vec<usize> {
 }
 
 /// Phase function vs angle.
-pub fn plot_phase(pt: &PhaseTable, entry: &[EntrySelection], wavelengths: &[f64], polarised: bool, out: &Path, size: (u32, u32)) -> anyhow::Result<()> {
+pub fn plot_phase(
+    pt: &PhaseTable,
+    entry: &[EntrySelection],
+    wavelengths: &[f64],
+    polarised: bool,
+    out: &Path,
+    size: (u32, u32),
+) -> anyhow::Result<()> {
     let c = pt.curves(entry)?;
     let ks = pick_wavelengths(&c.wavelengths_nm, wavelengths);
     let mut lo = f64::INFINITY;
     let mut hi: f64 = 0.0;
     for &k in &ks {
-        let series: Vec<&Vec<f64>> = if polarised { vec![&c.phase[k], &c.i_perp[k], &c.i_par[k]] } else { vec![&c.phase[k]] };
+        let series: Vec<&Vec<f64>> = if polarised {
+            vec![&c.phase[k], &c.i_perp[k], &c.i_par[k]]
+        } else {
+            vec![&c.phase[k]]
+        };
         for s in series {
             for &v in s {
                 if v > 0.0 {
@@ -128,11 +148,14 @@ pub fn plot_phase(pt: &PhaseTable, entry: &[EntrySelection], wavelengths: &[f64]
             }
         }
     }
-    if !(hi > 0.0) {
+    if hi.is_nan() || hi <= 0.0 {
         bail!("no positive values to plot on a log scale");
     }
     lo = lo.max(hi * 1e-12);
-    let title = format!("phase function, {}", super::phase::describe_entry(&pt.table, &c.entry));
+    let title = format!(
+        "phase function, {}",
+        super::phase::describe_entry(&pt.table, &c.entry)
+    );
     with_backend!(out, size, |root| {
         root.fill(&WHITE).map_err(perr)?;
         let mut chart = ChartBuilder::on(&root)
@@ -151,15 +174,37 @@ pub fn plot_phase(pt: &PhaseTable, entry: &[EntrySelection], wavelengths: &[f64]
             .map_err(perr)?;
         for &k in &ks {
             let col = wavelength_colour(c.wavelengths_nm[k]);
-            let pts = |v: &Vec<f64>| c.angles_deg.iter().cloned().zip(v.iter().map(|x| x.max(lo))).collect::<Vec<_>>();
+            let pts = |v: &Vec<f64>| {
+                c.angles_deg
+                    .iter()
+                    .cloned()
+                    .zip(v.iter().map(|x| x.max(lo)))
+                    .collect::<Vec<_>>()
+            };
             chart
                 .draw_series(LineSeries::new(pts(&c.phase[k]), col.stroke_width(2)))
                 .map_err(perr)?
                 .label(format!("{} nm", c.wavelengths_nm[k]))
-                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], col.stroke_width(2)));
+                .legend(move |(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 20, y)], col.stroke_width(2))
+                });
             if polarised {
-                chart.draw_series(DashedLineSeries::new(pts(&c.i_perp[k]), 6, 4, col.stroke_width(1))).map_err(perr)?;
-                chart.draw_series(DashedLineSeries::new(pts(&c.i_par[k]), 2, 3, col.stroke_width(1))).map_err(perr)?;
+                chart
+                    .draw_series(DashedLineSeries::new(
+                        pts(&c.i_perp[k]),
+                        6,
+                        4,
+                        col.stroke_width(1),
+                    ))
+                    .map_err(perr)?;
+                chart
+                    .draw_series(DashedLineSeries::new(
+                        pts(&c.i_par[k]),
+                        2,
+                        3,
+                        col.stroke_width(1),
+                    ))
+                    .map_err(perr)?;
             }
         }
         chart
@@ -170,22 +215,36 @@ pub fn plot_phase(pt: &PhaseTable, entry: &[EntrySelection], wavelengths: &[f64]
             .draw()
             .map_err(perr)?;
         if polarised {
-            root.draw(&Text::new("solid: phase, dashed: i_perp, dotted: i_par", (90, size.1 as i32 - 60), ("sans-serif", 14)))
-                .map_err(perr)?;
+            root.draw(&Text::new(
+                "solid: phase, dashed: i_perp, dotted: i_par",
+                (90, size.1 as i32 - 60),
+                ("sans-serif", 14),
+            ))
+            .map_err(perr)?;
         }
         Ok::<(), anyhow::Error>(())
     })
 }
 
 /// Colour strip vs scattering angle over `[lo, hi]`.
-pub fn plot_strip(pt: &PhaseTable, entry: &[EntrySelection], sun_diameter_deg: f64, range: (f64, f64), out: &Path, size: (u32, u32)) -> anyhow::Result<()> {
+pub fn plot_strip(
+    pt: &PhaseTable,
+    entry: &[EntrySelection],
+    sun_diameter_deg: f64,
+    range: (f64, f64),
+    out: &Path,
+    size: (u32, u32),
+) -> anyhow::Result<()> {
     let xyz = xyz_vs_angle(pt, entry, sun_diameter_deg)?;
     let idx = |a: f64| ((a / THETA_STEP_DEG).round() as usize).min(xyz.len() - 1);
     let (i0, i1) = (idx(range.0), idx(range.1));
     let ymax = xyz[i0..=i1].iter().map(|v| v[1]).fold(0.0, f64::max);
     let scale = if ymax > 0.0 { 1.0 / ymax } else { 1.0 };
     let e = pt.resolve_entry(entry)?;
-    let title = format!("rainbow colours vs scattering angle (D65 sun, {sun_diameter_deg} deg disc), {}", super::phase::describe_entry(&pt.table, &e));
+    let title = format!(
+        "rainbow colours vs scattering angle (D65 sun, {sun_diameter_deg} deg disc), {}",
+        super::phase::describe_entry(&pt.table, &e)
+    );
     with_backend!(out, size, |root| {
         root.fill(&WHITE).map_err(perr)?;
         let mut chart = ChartBuilder::on(&root)
@@ -216,7 +275,14 @@ pub fn plot_strip(pt: &PhaseTable, entry: &[EntrySelection], sun_diameter_deg: f
 }
 
 /// Lee diagram over the entry axis `radius`.
-pub fn plot_lee(pt: &PhaseTable, entry: &[EntrySelection], sun_diameter_deg: f64, range: (f64, f64), out: &Path, size: (u32, u32)) -> anyhow::Result<()> {
+pub fn plot_lee(
+    pt: &PhaseTable,
+    entry: &[EntrySelection],
+    sun_diameter_deg: f64,
+    range: (f64, f64),
+    out: &Path,
+    size: (u32, u32),
+) -> anyhow::Result<()> {
     let axes = pt.table.axes();
     let ai = pt
         .entry_axes
@@ -231,8 +297,15 @@ pub fn plot_lee(pt: &PhaseTable, entry: &[EntrySelection], sun_diameter_deg: f64
     let unit = axes[ai].unit.clone();
     let mut cols = Vec::new();
     for &r in &radii {
-        let mut sel: Vec<EntrySelection> = entry.iter().filter(|e| e.axis != "radius").cloned().collect();
-        sel.push(EntrySelection { axis: "radius".into(), value: r });
+        let mut sel: Vec<EntrySelection> = entry
+            .iter()
+            .filter(|e| e.axis != "radius")
+            .cloned()
+            .collect();
+        sel.push(EntrySelection {
+            axis: "radius".into(),
+            value: r,
+        });
         cols.push(xyz_vs_angle(pt, &sel, sun_diameter_deg)?);
     }
     let idx = |a: f64| ((a / THETA_STEP_DEG).round() as usize).min(cols[0].len() - 1);
@@ -253,7 +326,10 @@ pub fn plot_lee(pt: &PhaseTable, entry: &[EntrySelection], sun_diameter_deg: f64
     with_backend!(out, size, |root| {
         root.fill(&WHITE).map_err(perr)?;
         let mut chart = ChartBuilder::on(&root)
-            .caption("Lee diagram (each radius normalised to its brightest angle)", ("sans-serif", 18))
+            .caption(
+                "Lee diagram (each radius normalised to its brightest angle)",
+                ("sans-serif", 18),
+            )
             .margin(10)
             .x_label_area_size(40)
             .y_label_area_size(60)
@@ -261,20 +337,30 @@ pub fn plot_lee(pt: &PhaseTable, entry: &[EntrySelection], sun_diameter_deg: f64
             .map_err(perr)?;
         chart
             .configure_mesh()
-            .x_desc(if log_x { format!("log10 drop radius ({unit})") } else { format!("drop radius ({unit})") })
+            .x_desc(if log_x {
+                format!("log10 drop radius ({unit})")
+            } else {
+                format!("drop radius ({unit})")
+            })
             .y_desc("angle from antisolar point (deg)")
             .draw()
             .map_err(perr)?;
         let ny = size.1 as usize;
         let dy = (yhi - ylo) / ny as f64;
         for (c, col) in cols.iter().enumerate() {
-            let ymax = col[idx(range.0)..=idx(range.1)].iter().map(|v| v[1]).fold(0.0, f64::max);
+            let ymax = col[idx(range.0)..=idx(range.1)]
+                .iter()
+                .map(|v| v[1])
+                .fold(0.0, f64::max);
             let scale = if ymax > 0.0 { 1.0 / ymax } else { 1.0 };
             chart
                 .draw_series((0..ny).map(|j| {
                     let rad = ylo + j as f64 * dy;
                     let v = col[idx(180.0 - (rad + 0.5 * dy))];
-                    Rectangle::new([(edges[c], rad), (edges[c + 1], rad + dy)], xyz_colour(v, scale).filled())
+                    Rectangle::new(
+                        [(edges[c], rad), (edges[c + 1], rad + dy)],
+                        xyz_colour(v, scale).filled(),
+                    )
                 }))
                 .map_err(perr)?;
         }
@@ -284,7 +370,13 @@ pub fn plot_lee(pt: &PhaseTable, entry: &[EntrySelection], sun_diameter_deg: f64
 
 /// Heatmap of one channel over the last two axes (others at the entry selection / first
 /// sample), sampled with the table's lookup formula on a grid of at most 800 × 500 cells.
-pub fn plot_heatmap(table: &Table, entry: &[EntrySelection], channel: Option<&str>, out: &Path, size: (u32, u32)) -> anyhow::Result<()> {
+pub fn plot_heatmap(
+    table: &Table,
+    entry: &[EntrySelection],
+    channel: Option<&str>,
+    out: &Path,
+    size: (u32, u32),
+) -> anyhow::Result<()> {
     let axes = table.axes();
     if axes.len() < 2 {
         bail!("a heatmap needs at least two axes");
@@ -308,8 +400,16 @@ pub fn plot_heatmap(table: &Table, entry: &[EntrySelection], channel: Option<&st
         for i in 0..nx {
             let mut c = coords.clone();
             let n = c.len();
-            c[n - 1] = if nx > 1 { x0 + (x1 - x0) * i as f64 / (nx - 1) as f64 } else { x0 };
-            c[n - 2] = if ny > 1 { y0 + (y1 - y0) * j as f64 / (ny - 1) as f64 } else { y0 };
+            c[n - 1] = if nx > 1 {
+                x0 + (x1 - x0) * i as f64 / (nx - 1) as f64
+            } else {
+                x0
+            };
+            c[n - 2] = if ny > 1 {
+                y0 + (y1 - y0) * j as f64 / (ny - 1) as f64
+            } else {
+                y0
+            };
             vals[j * nx + i] = table.sample(&c)?[ch];
         }
     }
@@ -323,9 +423,15 @@ pub fn plot_heatmap(table: &Table, entry: &[EntrySelection], channel: Option<&st
     let (flo, fhi) = (f(lo), f(hi));
     let cname = table.header.channels[ch].name.clone();
     let cunit = table.header.channels[ch].unit.clone();
-    let title = format!("{cname} ({cunit}){}, range {lo:.3e} .. {hi:.3e}", if log { ", log10 colour" } else { "" });
+    let title = format!(
+        "{cname} ({cunit}){}, range {lo:.3e} .. {hi:.3e}",
+        if log { ", log10 colour" } else { "" }
+    );
     let (dx, dy) = ((x1 - x0) / nx as f64, (y1 - y0) / ny as f64);
-    let (dx, dy) = (if dx > 0.0 { dx } else { 1.0 }, if dy > 0.0 { dy } else { 1.0 });
+    let (dx, dy) = (
+        if dx > 0.0 { dx } else { 1.0 },
+        if dy > 0.0 { dy } else { 1.0 },
+    );
     with_backend!(out, size, |root| {
         root.fill(&WHITE).map_err(perr)?;
         let mut chart = ChartBuilder::on(&root)
@@ -341,22 +447,53 @@ pub fn plot_heatmap(table: &Table, entry: &[EntrySelection], channel: Option<&st
             .y_desc(format!("{} ({})", ya.name, ya.unit))
             .draw()
             .map_err(perr)?;
-        let cx = |i: usize| if nx > 1 { x0 + (x1 - x0) * i as f64 / (nx - 1) as f64 } else { x0 };
-        let cy = |j: usize| if ny > 1 { y0 + (y1 - y0) * j as f64 / (ny - 1) as f64 } else { y0 };
+        let cx = |i: usize| {
+            if nx > 1 {
+                x0 + (x1 - x0) * i as f64 / (nx - 1) as f64
+            } else {
+                x0
+            }
+        };
+        let cy = |j: usize| {
+            if ny > 1 {
+                y0 + (y1 - y0) * j as f64 / (ny - 1) as f64
+            } else {
+                y0
+            }
+        };
         chart
-            .draw_series((0..ny).flat_map(|j| (0..nx).map(move |i| (i, j))).map(|(i, j)| {
-                let v = vals[j * nx + i];
-                let t = if fhi > flo { ((f(v) - flo) / (fhi - flo)) as f32 } else { 0.5 };
-                let col: RGBColor = ViridisRGB.get_color(t);
-                Rectangle::new([(cx(i) - 0.5 * dx, cy(j) - 0.5 * dy), (cx(i) + 0.5 * dx, cy(j) + 0.5 * dy)], col.filled())
-            }))
+            .draw_series(
+                (0..ny)
+                    .flat_map(|j| (0..nx).map(move |i| (i, j)))
+                    .map(|(i, j)| {
+                        let v = vals[j * nx + i];
+                        let t = if fhi > flo {
+                            ((f(v) - flo) / (fhi - flo)) as f32
+                        } else {
+                            0.5
+                        };
+                        let col: RGBColor = ViridisRGB.get_color(t);
+                        Rectangle::new(
+                            [
+                                (cx(i) - 0.5 * dx, cy(j) - 0.5 * dy),
+                                (cx(i) + 0.5 * dx, cy(j) + 0.5 * dy),
+                            ],
+                            col.filled(),
+                        )
+                    }),
+            )
             .map_err(perr)?;
         Ok::<(), anyhow::Error>(())
     })
 }
 
 /// Channels of a 1-D table (or of the last axis at the entry selection) vs that axis.
-pub fn plot_line(table: &Table, entry: &[EntrySelection], out: &Path, size: (u32, u32)) -> anyhow::Result<()> {
+pub fn plot_line(
+    table: &Table,
+    entry: &[EntrySelection],
+    out: &Path,
+    size: (u32, u32),
+) -> anyhow::Result<()> {
     let axes = table.axes();
     let xa = &axes[axes.len() - 1];
     let mut coords: Vec<f64> = axes.iter().map(|a| a.coord(0)).collect();
@@ -376,7 +513,9 @@ pub fn plot_line(table: &Table, entry: &[EntrySelection], out: &Path, size: (u32
         }
     }
     let all = series.iter().flatten().map(|p| p.1);
-    let (lo, hi) = all.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(v), b.max(v)));
+    let (lo, hi) = all.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+        (a.min(v), b.max(v))
+    });
     let pad = if hi > lo { 0.05 * (hi - lo) } else { 1.0 };
     let palette = [BLUE, RED, GREEN, MAGENTA, CYAN, BLACK];
     with_backend!(out, size, |root| {
@@ -386,9 +525,16 @@ pub fn plot_line(table: &Table, entry: &[EntrySelection], out: &Path, size: (u32
             .margin(10)
             .x_label_area_size(40)
             .y_label_area_size(70)
-            .build_cartesian_2d(xs[0]..xs[xs.len() - 1].max(xs[0] + 1e-9), lo - pad..hi + pad)
+            .build_cartesian_2d(
+                xs[0]..xs[xs.len() - 1].max(xs[0] + 1e-9),
+                lo - pad..hi + pad,
+            )
             .map_err(perr)?;
-        chart.configure_mesh().x_desc(format!("{} ({})", xa.name, xa.unit)).draw().map_err(perr)?;
+        chart
+            .configure_mesh()
+            .x_desc(format!("{} ({})", xa.name, xa.unit))
+            .draw()
+            .map_err(perr)?;
         for (k, s) in series.iter().enumerate() {
             let col = palette[k % palette.len()];
             let ch = &table.header.channels[k];
@@ -396,9 +542,16 @@ pub fn plot_line(table: &Table, entry: &[EntrySelection], out: &Path, size: (u32
                 .draw_series(LineSeries::new(s.clone(), col.stroke_width(2)))
                 .map_err(perr)?
                 .label(format!("{} ({})", ch.name, ch.unit))
-                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], col.stroke_width(2)));
+                .legend(move |(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 20, y)], col.stroke_width(2))
+                });
         }
-        chart.configure_series_labels().background_style(WHITE.mix(0.8)).border_style(BLACK).draw().map_err(perr)?;
+        chart
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.8))
+            .border_style(BLACK)
+            .draw()
+            .map_err(perr)?;
         Ok::<(), anyhow::Error>(())
     })
 }
@@ -407,7 +560,11 @@ pub fn plot_line(table: &Table, entry: &[EntrySelection], out: &Path, size: (u32
 /// files written.
 pub fn previews(table_path: &Path, out_dir: &Path) -> anyhow::Result<Vec<PathBuf>> {
     std::fs::create_dir_all(out_dir)?;
-    let stem = table_path.file_stem().and_then(|s| s.to_str()).unwrap_or("table").to_string();
+    let stem = table_path
+        .file_stem()
+        .and_then(|s| s.to_str())
+        .unwrap_or("table")
+        .to_string();
     let table = Table::open(table_path).map_err(|e| anyhow!(e))?;
     let name = |k: &str| out_dir.join(format!("{stem}-{k}.png"));
     let mut written = Vec::new();
@@ -419,7 +576,11 @@ pub fn previews(table_path: &Path, out_dir: &Path) -> anyhow::Result<Vec<PathBuf
             let p = name("strip");
             plot_strip(&pt, &[], 0.5, (120.0, 145.0), &p, (1000, 160))?;
             written.push(p);
-            if pt.entry_axes.iter().any(|&i| pt.table.axes()[i].name == "radius" && pt.table.axes()[i].len() > 1) {
+            if pt
+                .entry_axes
+                .iter()
+                .any(|&i| pt.table.axes()[i].name == "radius" && pt.table.axes()[i].len() > 1)
+            {
                 let p = name("lee");
                 plot_lee(&pt, &[], 0.5, (120.0, 145.0), &p, (900, 600))?;
                 written.push(p);
@@ -452,8 +613,13 @@ pub enum PlotKind {
 }
 
 fn parse_range(s: &str) -> Result<(f64, f64), String> {
-    let (a, b) = s.split_once(',').ok_or_else(|| format!("`{s}`: expected LO,HI"))?;
-    let (a, b): (f64, f64) = (a.trim().parse().map_err(|e| format!("{e}"))?, b.trim().parse().map_err(|e| format!("{e}"))?);
+    let (a, b) = s
+        .split_once(',')
+        .ok_or_else(|| format!("`{s}`: expected LO,HI"))?;
+    let (a, b): (f64, f64) = (
+        a.trim().parse().map_err(|e| format!("{e}"))?,
+        b.trim().parse().map_err(|e| format!("{e}"))?,
+    );
     if !(0.0..=180.0).contains(&a) || !(0.0..=180.0).contains(&b) || a >= b {
         return Err(format!("`{s}`: need 0 <= LO < HI <= 180"));
     }
@@ -503,11 +669,34 @@ pub fn run_plot(args: &PlotArgs) -> anyhow::Result<()> {
             }
             return Ok(());
         }
-        PlotKind::Phase => plot_phase(&phase()?, &args.entry, &args.wavelength_nm, args.polarised, &args.out, size)?,
-        PlotKind::Strip => plot_strip(&phase()?, &args.entry, args.sun_diameter_deg, args.angle_range, &args.out, size)?,
-        PlotKind::Lee => plot_lee(&phase()?, &args.entry, args.sun_diameter_deg, args.angle_range, &args.out, size)?,
+        PlotKind::Phase => plot_phase(
+            &phase()?,
+            &args.entry,
+            &args.wavelength_nm,
+            args.polarised,
+            &args.out,
+            size,
+        )?,
+        PlotKind::Strip => plot_strip(
+            &phase()?,
+            &args.entry,
+            args.sun_diameter_deg,
+            args.angle_range,
+            &args.out,
+            size,
+        )?,
+        PlotKind::Lee => plot_lee(
+            &phase()?,
+            &args.entry,
+            args.sun_diameter_deg,
+            args.angle_range,
+            &args.out,
+            size,
+        )?,
         PlotKind::Heatmap | PlotKind::Line => {
-            let t = Table::open(&args.table).map_err(|e| anyhow!(e)).with_context(|| args.table.display().to_string())?;
+            let t = Table::open(&args.table)
+                .map_err(|e| anyhow!(e))
+                .with_context(|| args.table.display().to_string())?;
             if args.kind == PlotKind::Heatmap {
                 plot_heatmap(&t, &args.entry, args.channel.as_deref(), &args.out, size)?
             } else {

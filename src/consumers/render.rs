@@ -72,7 +72,11 @@ impl Camera {
         let p = self.view_elevation_deg.to_radians();
         let f = [-p.cos(), 0.0, p.sin()];
         let r = [0.0, 1.0, 0.0]; // f × z normalised, for azimuth 180°: (0, cos p, 0)/cos p
-        let u = [r[1] * f[2] - r[2] * f[1], r[2] * f[0] - r[0] * f[2], r[0] * f[1] - r[1] * f[0]];
+        let u = [
+            r[1] * f[2] - r[2] * f[1],
+            r[2] * f[0] - r[0] * f[2],
+            r[0] * f[1] - r[1] * f[0],
+        ];
         (f, r, norm(u))
     }
 
@@ -82,7 +86,8 @@ impl Camera {
         let (f, r, u) = self.basis();
         let half = 0.5 * self.fov_deg.to_radians();
         let x = 2.0 * (i as f64 + 0.5) / self.width as f64 - 1.0;
-        let y = (1.0 - 2.0 * (j as f64 + 0.5) / self.height as f64) * self.height as f64 / self.width as f64;
+        let y = (1.0 - 2.0 * (j as f64 + 0.5) / self.height as f64) * self.height as f64
+            / self.width as f64;
         match self.lens {
             Lens::Rectilinear => {
                 let t = half.tan();
@@ -116,9 +121,10 @@ impl Camera {
     pub fn pixel_deg(&self) -> f64 {
         match self.lens {
             Lens::Fisheye => self.fov_deg / self.width as f64,
-            Lens::Rectilinear => {
-                (2.0 * (0.5 * self.fov_deg.to_radians()).tan() / self.width as f64).atan().to_degrees()
-            }
+            Lens::Rectilinear => (2.0 * (0.5 * self.fov_deg.to_radians()).tan()
+                / self.width as f64)
+                .atan()
+                .to_degrees(),
         }
     }
 }
@@ -179,7 +185,11 @@ pub const THETA_STEP_DEG: f64 = 0.01;
 
 /// XYZ (per unit sun irradiance, D65 sun, sun disc averaged) as a function of the angle Θ
 /// between view direction and sun centre, on a grid of [`THETA_STEP_DEG`] over [0, 180].
-pub fn xyz_vs_angle(pt: &PhaseTable, entry: &[EntrySelection], sun_diameter_deg: f64) -> anyhow::Result<Vec<[f64; 3]>> {
+pub fn xyz_vs_angle(
+    pt: &PhaseTable,
+    entry: &[EntrySelection],
+    sun_diameter_deg: f64,
+) -> anyhow::Result<Vec<[f64; 3]>> {
     let c = pt.curves(entry)?;
     let sw = SpectralWeights::new(&c.wavelengths_nm, Illuminant1931::D65);
     let n = (180.0 / THETA_STEP_DEG).round() as usize + 1;
@@ -191,7 +201,8 @@ pub fn xyz_vs_angle(pt: &PhaseTable, entry: &[EntrySelection], sun_diameter_deg:
         let u = (a as f64 + 0.5) / nr as f64;
         let beta = (1.0 - u * (1.0 - alpha.cos())).acos();
         for b in 0..na {
-            let psi = 2.0 * std::f64::consts::PI * (b as f64 + 0.5 + 0.5 * (a % 2) as f64) / na as f64;
+            let psi =
+                2.0 * std::f64::consts::PI * (b as f64 + 0.5 + 0.5 * (a % 2) as f64) / na as f64;
             disc.push((beta.sin(), beta.cos(), psi.cos()));
         }
     }
@@ -202,7 +213,10 @@ pub fn xyz_vs_angle(pt: &PhaseTable, entry: &[EntrySelection], sun_diameter_deg:
             let (sb, cb) = big.sin_cos();
             let mut spec = vec![0.0; c.wavelengths_nm.len()];
             for &(sbeta, cbeta, cpsi) in &disc {
-                let th = (cb * cbeta + sb * sbeta * cpsi).clamp(-1.0, 1.0).acos().to_degrees();
+                let th = (cb * cbeta + sb * sbeta * cpsi)
+                    .clamp(-1.0, 1.0)
+                    .acos()
+                    .to_degrees();
                 for (k, s) in spec.iter_mut().enumerate() {
                     *s += c.phase_at(k, th);
                 }
@@ -222,14 +236,21 @@ pub struct Rendered {
 }
 
 /// Render linear sRGB radiance (unit sun irradiance).
-pub fn render(pt: &PhaseTable, entry: &[EntrySelection], scene: &Scene, camera: &Camera) -> anyhow::Result<Rendered> {
+pub fn render(
+    pt: &PhaseTable,
+    entry: &[EntrySelection],
+    scene: &Scene,
+    camera: &Camera,
+) -> anyhow::Result<Rendered> {
     let xyz = xyz_vs_angle(pt, entry, scene.sun_diameter_deg)?;
     let s = scene.sun_direction();
     let px: Vec<[f64; 3]> = (0..camera.width * camera.height)
         .into_par_iter()
         .map(|p| {
             let (i, j) = (p % camera.width, p / camera.width);
-            let Some(d) = camera.direction(i, j) else { return [0.0; 3] };
+            let Some(d) = camera.direction(i, j) else {
+                return [0.0; 3];
+            };
             let m = scene.march(d);
             if m == 0.0 {
                 return [0.0; 3];
@@ -250,7 +271,11 @@ pub fn render(pt: &PhaseTable, entry: &[EntrySelection], scene: &Scene, camera: 
 
 /// Exposure that maps the 99.5th percentile of luminance (Y) to 0.9.
 pub fn auto_exposure(img: &[[f64; 3]]) -> f64 {
-    let mut y: Vec<f64> = img.iter().map(|p| 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2]).filter(|v| *v > 0.0).collect();
+    let mut y: Vec<f64> = img
+        .iter()
+        .map(|p| 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2])
+        .filter(|v| *v > 0.0)
+        .collect();
     if y.is_empty() {
         return 1.0;
     }
@@ -272,7 +297,12 @@ pub fn to_srgb8(img: &[[f64; 3]], exposure: f64, intensity: f64, background: [u8
 }
 
 /// Write 8-bit RGB as PNG.
-pub fn write_png(path: &std::path::Path, width: usize, height: usize, rgb: &[u8]) -> anyhow::Result<()> {
+pub fn write_png(
+    path: &std::path::Path,
+    width: usize,
+    height: usize,
+    rgb: &[u8],
+) -> anyhow::Result<()> {
     let f = std::io::BufWriter::new(std::fs::File::create(path)?);
     let mut enc = png::Encoder::new(f, width as u32, height as u32);
     enc.set_color(png::ColorType::Rgb);
@@ -296,7 +326,12 @@ pub struct BowMeasurement {
 /// Measure a bow in `[lo_deg, hi_deg]` from the antisolar point along the centre column of an
 /// equidistant fisheye render, using only the lens definition (centre column elevation =
 /// view elevation + (H/2 − j − ½)·pixel) — independent of the renderer's ray generation.
-pub fn measure_bow(r: &Rendered, sun_elevation_deg: f64, lo_deg: f64, hi_deg: f64) -> Option<BowMeasurement> {
+pub fn measure_bow(
+    r: &Rendered,
+    sun_elevation_deg: f64,
+    lo_deg: f64,
+    hi_deg: f64,
+) -> Option<BowMeasurement> {
     let cam = &r.camera;
     if cam.lens != Lens::Fisheye {
         return None;
@@ -313,7 +348,12 @@ pub fn measure_bow(r: &Rendered, sun_elevation_deg: f64, lo_deg: f64, hi_deg: f6
             continue;
         }
         let p = r.linear_srgb[j * cam.width + col];
-        let vals = [0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2], p[0], p[1], p[2]];
+        let vals = [
+            0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2],
+            p[0],
+            p[1],
+            p[2],
+        ];
         for c in 0..4 {
             if vals[c] > best[c].0 {
                 best[c] = (vals[c], radius);
@@ -403,7 +443,10 @@ pub struct RenderRainbowArgs {
 
 /// Run the renderer; prints the measured bow radii next to the table's.
 pub fn run_render_rainbow(args: &RenderRainbowArgs) -> anyhow::Result<()> {
-    anyhow::ensure!(args.width >= 2 && args.steps >= 1, "width ≥ 2 and steps ≥ 1");
+    anyhow::ensure!(
+        args.width >= 2 && args.steps >= 1,
+        "width ≥ 2 and steps ≥ 1"
+    );
     anyhow::ensure!(
         args.fov_deg > 0.0 && (args.lens == Lens::Fisheye || args.fov_deg < 179.0),
         "fov must be positive (and below 179° for a rectilinear lens)"
@@ -414,7 +457,9 @@ pub fn run_render_rainbow(args: &RenderRainbowArgs) -> anyhow::Result<()> {
         width: args.width,
         height: args.height.unwrap_or(args.width * 2 / 3).max(2),
         fov_deg: args.fov_deg,
-        view_elevation_deg: args.view_elevation_deg.unwrap_or(0.5 * 51.0 - args.sun_elevation_deg),
+        view_elevation_deg: args
+            .view_elevation_deg
+            .unwrap_or(0.5 * 51.0 - args.sun_elevation_deg),
     };
     let scene = Scene {
         sun_elevation_deg: args.sun_elevation_deg,
@@ -426,7 +471,9 @@ pub fn run_render_rainbow(args: &RenderRainbowArgs) -> anyhow::Result<()> {
         steps: args.steps,
     };
     let r = render(&pt, &args.entry, &scene, &camera)?;
-    let exposure = args.exposure.unwrap_or_else(|| auto_exposure(&r.linear_srgb));
+    let exposure = args
+        .exposure
+        .unwrap_or_else(|| auto_exposure(&r.linear_srgb));
     let rgb = to_srgb8(&r.linear_srgb, exposure, args.intensity, args.background);
     write_png(&args.out, camera.width, camera.height, &rgb)?;
     let entry = pt.resolve_entry(&args.entry)?;
@@ -554,7 +601,9 @@ mod tests {
         let mean = |lo: f64, hi: f64| {
             let (mut sum, mut n) = (0.0, 0);
             for j in 0..cam.height {
-                let rad = cam.view_elevation_deg + (cam.height as f64 / 2.0 - j as f64 - 0.5) * pix + 25.0;
+                let rad = cam.view_elevation_deg
+                    + (cam.height as f64 / 2.0 - j as f64 - 0.5) * pix
+                    + 25.0;
                 if rad >= lo && rad <= hi {
                     let q = r.linear_srgb[j * cam.width + cam.width / 2];
                     sum += 0.2126 * q[0] + 0.7152 * q[1] + 0.0722 * q[2];

@@ -32,14 +32,24 @@ fn attributes(kind: &str) -> serde_json::Map<String, serde_json::Value> {
     put("water_index_model", "none (synthetic)".into());
     put("medium", "water drops in air (outside index 1.0)".into());
     put("sun_disc_diameter_deg", 0.0.into());
-    put("angular_resampling", "point samples of an analytic function".into());
-    put("validated_domain", format!("synthetic {kind} table, exact by construction").into());
+    put(
+        "angular_resampling",
+        "point samples of an analytic function".into(),
+    );
+    put(
+        "validated_domain",
+        format!("synthetic {kind} table, exact by construction").into(),
+    );
     a
 }
 
 fn channels() -> Vec<Channel> {
     vec![
-        Channel::new("phase", "1/sr", "unpolarised phase function, integral over 4pi = 1"),
+        Channel::new(
+            "phase",
+            "1/sr",
+            "unpolarised phase function, integral over 4pi = 1",
+        ),
         Channel::new("i_perp", "1/sr", "perpendicular part, same normalisation"),
         Channel::new("i_par", "1/sr", "parallel part, same normalisation"),
         Channel::new("dolp", "1", "(i_perp - i_par)/(i_perp + i_par)"),
@@ -47,7 +57,12 @@ fn channels() -> Vec<Channel> {
 }
 
 fn push_point(data: &mut Vec<f32>, p: f64, d: f64) {
-    data.extend_from_slice(&[p as f32, (p * (1.0 + d)) as f32, (p * (1.0 - d)) as f32, d as f32]);
+    data.extend_from_slice(&[
+        p as f32,
+        (p * (1.0 + d)) as f32,
+        (p * (1.0 - d)) as f32,
+        d as f32,
+    ]);
 }
 
 /// A `wavelength × radius × scattering_angle` table of Henyey–Greenstein phase functions:
@@ -66,7 +81,11 @@ pub fn henyey_greenstein_table(
             let gk = g(k, r);
             for j in 0..n_angle {
                 let t = step * j as f64;
-                push_point(&mut data, henyey_greenstein(gk, t.to_radians().cos()), dolp_shape(dolp_max, t));
+                push_point(
+                    &mut data,
+                    henyey_greenstein(gk, t.to_radians().cos()),
+                    dolp_shape(dolp_max, t),
+                );
             }
         }
     }
@@ -109,7 +128,10 @@ pub fn peak_table(
         // 2π ∫ p sinθ dθ by the trapezoid rule in θ.
         let mut integral = 0.0;
         for j in 1..n_angle {
-            let (a, b) = ((step * (j - 1) as f64).to_radians(), (step * j as f64).to_radians());
+            let (a, b) = (
+                (step * (j - 1) as f64).to_radians(),
+                (step * j as f64).to_radians(),
+            );
             integral += 0.5 * (raw[j - 1] * a.sin() + raw[j] * b.sin()) * (b - a);
         }
         integral *= 2.0 * PI;

@@ -5,7 +5,9 @@
 #![allow(dead_code)]
 
 use scatterbake::consumers::synthetic::{henyey_greenstein_table, peak_table};
-use scatterbake::table::{Axis, Channel, Provenance, Schema, Table, TableContent, write_table_atomic};
+use scatterbake::table::{
+    Axis, Channel, Provenance, Schema, Table, TableContent, write_table_atomic,
+};
 use std::path::{Path, PathBuf};
 
 /// Write the synthetic tables into `dir` and return their paths together with the repository's
@@ -19,10 +21,19 @@ pub fn tables(dir: &Path) -> Vec<PathBuf> {
     };
     write(
         "hg.sbt",
-        henyey_greenstein_table(&[450.0, 550.0, 650.0], &[10.0, 100.0, 1000.0], |k, r| 0.3 + 0.1 * k as f64 + 0.15 * r as f64, 361, 0.5),
+        henyey_greenstein_table(
+            &[450.0, 550.0, 650.0],
+            &[10.0, 100.0, 1000.0],
+            |k, r| 0.3 + 0.1 * k as f64 + 0.15 * r as f64,
+            361,
+            0.5,
+        ),
     );
     let wl: Vec<f64> = (0..33).map(|i| 380.0 + 10.0 * i as f64).collect();
-    write("peak.sbt", peak_table(&wl, |l| 139.0 - (l - 380.0) / 200.0, 0.3, 1e-3, 1801));
+    write(
+        "peak.sbt",
+        peak_table(&wl, |l| 139.0 - (l - 380.0) / 200.0, 0.3, 1e-3, 1801),
+    );
     // 2-D phase function of a non-spherical drop (layout of the ray-traced stage).
     let (np, na) = (91, 72);
     let mut data = Vec::new();
@@ -30,7 +41,10 @@ pub fn tables(dir: &Path) -> Vec<PathBuf> {
         for e in 0..3 {
             for i in 0..np {
                 for j in 0..na {
-                    let v = 1e-3 * (1.0 + w as f32) * (1.0 + e as f32 * 0.1) * (1.0 + (i as f32 * 0.1).sin() * (j as f32 * 0.2).cos().abs());
+                    let v = 1e-3
+                        * (1.0 + w as f32)
+                        * (1.0 + e as f32 * 0.1)
+                        * (1.0 + (i as f32 * 0.1).sin() * (j as f32 * 0.2).cos().abs());
                     data.extend_from_slice(&[v, v * 1.1, v * 0.9, 0.1]);
                 }
             }
@@ -45,22 +59,46 @@ pub fn tables(dir: &Path) -> Vec<PathBuf> {
             Axis::uniform("outgoing_polar", "deg", 0.0, 2.0, np),
             Axis::uniform("outgoing_azimuth", "deg", 0.0, 5.0, na),
         ],
-        channels: ["phase", "i_perp", "i_par", "dolp"].iter().map(|n| Channel::new(n, "1/sr", "test")).collect(),
+        channels: ["phase", "i_perp", "i_par", "dolp"]
+            .iter()
+            .map(|n| Channel::new(n, "1/sr", "test"))
+            .collect(),
         attributes: serde_json::Map::new(),
         data,
     };
-    write("latlong.sbt", Table::from_content(content, Provenance::default()).unwrap());
+    write(
+        "latlong.sbt",
+        Table::from_content(content, Provenance::default()).unwrap(),
+    );
     // Special float values must survive bit for bit.
-    let special = vec![0.0f32, -0.0, f32::MIN_POSITIVE, 1e-45, f32::MAX, -f32::MAX, f32::INFINITY, f32::NEG_INFINITY, f32::NAN, 1.0 / 3.0];
+    let special = vec![
+        0.0f32,
+        -0.0,
+        f32::MIN_POSITIVE,
+        1e-45,
+        f32::MAX,
+        -f32::MAX,
+        f32::INFINITY,
+        f32::NEG_INFINITY,
+        f32::NAN,
+        1.0 / 3.0,
+    ];
     let content = TableContent {
         schema: Schema::new("special-values", 1),
         description: "special f32 values".into(),
-        axes: vec![Axis::values("x", "1", (0..special.len()).map(|i| i as f64 * 0.5).collect())],
+        axes: vec![Axis::values(
+            "x",
+            "1",
+            (0..special.len()).map(|i| i as f64 * 0.5).collect(),
+        )],
         channels: vec![Channel::new("value", "1", "test")],
         attributes: serde_json::Map::new(),
         data: special,
     };
-    write("special.sbt", Table::from_content(content, Provenance::default()).unwrap());
+    write(
+        "special.sbt",
+        Table::from_content(content, Provenance::default()).unwrap(),
+    );
     let built = Path::new(env!("CARGO_MANIFEST_DIR")).join("tables");
     if let Ok(rd) = std::fs::read_dir(&built) {
         let mut v: Vec<PathBuf> = rd
