@@ -571,7 +571,8 @@ pub fn previews(table_path: &Path, out_dir: &Path) -> anyhow::Result<Vec<PathBuf
     match PhaseTable::new(table.clone()) {
         Ok(pt) => {
             let p = name("phase");
-            plot_phase(&pt, &[], &[], true, &p, (1000, 600))?;
+            // Three wavelengths, unpolarised: Mie ripple makes 8 polarised curves unreadable.
+            plot_phase(&pt, &[], &[450.0, 550.0, 650.0], false, &p, (1000, 600))?;
             written.push(p);
             let p = name("strip");
             plot_strip(&pt, &[], 0.5, (120.0, 145.0), &p, (1000, 160))?;
