@@ -1,0 +1,73 @@
+/*
+ * scatterbake_table.h: C interface to scatterbake tables (.sbt), for C and C++ renderers.
+ *
+ * The functions are exported by the scatterbake library built as a C dynamic library
+ * (`cargo build --release` produces target/release/libscatterbake.so, .dylib or .dll). Link
+ * with -lscatterbake. The library does all the verification (magic, format version: newer
+ * majors are refused, SHA-256 of the header and of the compressed and uncompressed payload,
+ * sizes) with the same code as the Rust reader, so a table that opens here is bit-identical to
+ * what the Rust writer wrote.
+ *
+ * Data layout: row-major float32, axes in header order, channel index innermost:
+ *     value(i_0, ..., i_{n-1}, c) = data[((i_0 * len_1 + i_1) * ... + i_{n-1}) * n_channels + c]
+ * Lookup: sbt_sample() interpolates multilinearly in the stored axis coordinates, clamping
+ * coordinates outside an axis to its end points (no extrapolation).
+ *
+ * All returned pointers stay valid until sbt_close(). Out-of-range indices return 0 or NULL.
+ */
+#ifndef SCATTERBAKE_TABLE_H
+#define SCATTERBAKE_TABLE_H
+
+#include <stddef.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef struct SbtTable sbt_table;
+
+/* Open and fully verify a table. NULL on failure, with a message in err (if not NULL). */
+sbt_table *sbt_open(const char *path, char *err, size_t err_len);
+/* Free a table (NULL is ignored). */
+void sbt_close(sbt_table *t);
+
+/* The verified JSON header (schema, axes, channels, attributes, provenance, payload). */
+const char *sbt_header_json(const sbt_table *t);
+
+size_t sbt_num_axes(const sbt_table *t);
+const char *sbt_axis_name(const sbt_table *t, size_t axis);
+const char *sbt_axis_unit(const sbt_table *t, size_t axis);
+size_t sbt_axis_len(const sbt_table *t, size_t axis);
+/* sbt_axis_len(t, axis) coordinates, strictly increasing. */
+const double *sbt_axis_coords(const sbt_table *t, size_t axis);
+
+size_t sbt_num_channels(const sbt_table *t);
+const char *sbt_channel_name(const sbt_table *t, size_t channel);
+const char *sbt_channel_unit(const sbt_table *t, size_t channel);
+
+/* The samples (see the layout above) and their count. */
+const float *sbt_data(const sbt_table *t);
+size_t sbt_data_len(const sbt_table *t);
+
+/* Multilinear lookup of every channel at coords[0..n_coords) (one per axis, axis units).
+ * Writes sbt_num_channels(t) doubles to out (n_out must be at least that). 0 on success,
+ * -1 on bad arguments (wrong arity, NaN coordinate, NULL pointers, short out). */
+int sbt_sample(const sbt_table *t, const double *coords, size_t n_coords, double *out, size_t n_out);
+
+/* Convenience (header-only): index of the channel called name, or -1. */
+static inline long sbt_channel_index(const sbt_table *t, const char *name) {
+    size_t n = sbt_num_channels(t);
+    for (size_t c = 0; c < n; ++c) {
+        const char *a = sbt_channel_name(t, c);
+        const char *b = name;
+        while (*a && *a == *b) { ++a; ++b; }
+        if (*a == 0 && *b == 0) return (long)c;
+    }
+    return -1;
+}
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* SCATTERBAKE_TABLE_H */

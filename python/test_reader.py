@@ -1,0 +1,47 @@
+"""Test driver for scatterbake_table.py, run by tests/python_reader.rs:
+
+    python3 python/test_reader.py TABLE.sbt DUMP.bin [COORD ...]
+
+Prints one JSON object (format version, axes with coordinates, channels, shape, the sample at
+COORDs; floats as IEEE-754 f64 bit patterns) and writes the payload as raw float32 little-endian to DUMP.bin, so the Rust side can
+compare bit for bit. Exit code 3 with the message on stderr when the table is rejected.
+"""
+
+import json
+import os
+import struct
+import sys
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import scatterbake_table as sbt  # noqa: E402
+
+
+def bits(x) -> int:
+    return struct.unpack("<Q", struct.pack("<d", float(x)))[0]
+
+
+def main() -> int:
+    path, dump = sys.argv[1], sys.argv[2]
+    coords = [float(x) for x in sys.argv[3:]]
+    try:
+        t = sbt.open_table(path)
+    except sbt.TableError as e:
+        print(str(e), file=sys.stderr)
+        return 3
+    t.data.astype("<f4").tofile(dump)
+    out = {
+        "format_version": list(t.format_version),
+        # f64 values as their IEEE bit patterns (u64) so JSON cannot round them.
+        "axes": [{"name": a.name, "unit": a.unit, "coords_bits": [bits(c) for c in a.coords]} for a in t.axes],
+        "channels": [c.name for c in t.channels],
+        "shape": list(t.data.shape),
+        "schema": t.header["schema"],
+    }
+    if coords:
+        out["sample_bits"] = [bits(v) for v in t.sample(coords)]
+    print(json.dumps(out))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

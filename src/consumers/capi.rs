@@ -1,0 +1,233 @@
+//! C ABI over the table reader, for C/C++ renderers (header `c/scatterbake_table.h`, example
+//! `c/example.c`). Built into `libscatterbake.so` / `.dylib` / `.dll` (the crate's `cdylib`).
+//!
+//! `sbt_open` fully verifies the file (magic, version, header SHA-256, payload SHA-256 of the
+//! compressed and uncompressed bytes, sizes) with the same code as `Table::open`; every other
+//! call reads the verified table. All pointers returned stay valid until `sbt_close`. Functions
+//! taking an out-of-range index return 0 / NULL / NaN rather than aborting.
+
+use crate::table::Table;
+use std::ffi::{CStr, CString, c_char};
+
+/// Opaque handle behind `sbt_table *`.
+pub struct SbtTable {
+    table: Table,
+    header_json: CString,
+    axis_names: Vec<CString>,
+    axis_units: Vec<CString>,
+    axis_coords: Vec<Vec<f64>>,
+    channel_names: Vec<CString>,
+    channel_units: Vec<CString>,
+}
+
+fn cstring(s: &str) -> CString {
+    CString::new(s.replace('\0', " ")).expect("no interior NUL")
+}
+
+fn write_err(err: *mut c_char, err_len: usize, msg: &str) {
+    if err.is_null() || err_len == 0 {
+        return;
+    }
+    let bytes = msg.as_bytes();
+    let n = bytes.len().min(err_len - 1);
+    // SAFETY: the caller guarantees `err` points to `err_len` writable bytes.
+    unsafe {
+        std::ptr::copy_nonoverlapping(bytes.as_ptr(), err.cast::<u8>(), n);
+        *err.add(n) = 0;
+    }
+}
+
+/// Open and verify a table. Returns NULL on failure with a message in `err` (if not NULL).
+///
+/// # Safety
+/// `path` must be a NUL-terminated string; `err` NULL or `err_len` writable bytes.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn sbt_open(
+    path: *const c_char,
+    err: *mut c_char,
+    err_len: usize,
+) -> *mut SbtTable {
+    if path.is_null() {
+        write_err(err, err_len, "path is NULL");
+        return std::ptr::null_mut();
+    }
+    // SAFETY: NUL-terminated per the contract.
+    let p = unsafe { CStr::from_ptr(path) }
+        .to_string_lossy()
+        .into_owned();
+    match Table::open(&p) {
+        Ok(table) => {
+            let header_json = cstring(&serde_json::to_string(&table.header).unwrap_or_default());
+            let h = &table.header;
+            let t = SbtTable {
+                header_json,
+                axis_names: h.axes.iter().map(|a| cstring(&a.name)).collect(),
+                axis_units: h.axes.iter().map(|a| cstring(&a.unit)).collect(),
+                axis_coords: h.axes.iter().map(|a| a.coords()).collect(),
+                channel_names: h.channels.iter().map(|c| cstring(&c.name)).collect(),
+                channel_units: h.channels.iter().map(|c| cstring(&c.unit)).collect(),
+                table,
+            };
+            Box::into_raw(Box::new(t))
+        }
+        Err(e) => {
+            write_err(err, err_len, &e.to_string());
+            std::ptr::null_mut()
+        }
+    }
+}
+
+/// Free a table (NULL is ignored).
+///
+/// # Safety
+/// `t` must come from `sbt_open` and not be used afterwards.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn sbt_close(t: *mut SbtTable) {
+    if !t.is_null() {
+        // SAFETY: allocated by Box::into_raw in sbt_open.
+        drop(unsafe { Box::from_raw(t) });
+    }
+}
+
+fn get<'a>(t: *const SbtTable) -> Option<&'a SbtTable> {
+    // SAFETY: callers pass NULL or a live handle from sbt_open.
+    unsafe { t.as_ref() }
+}
+
+fn ptr_or_null(v: Option<&CString>) -> *const c_char {
+    v.map(|s| s.as_ptr()).unwrap_or(std::ptr::null())
+}
+
+/// The verified JSON header (NUL-terminated).
+///
+/// # Safety
+/// `t` must be NULL or a live handle.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn sbt_header_json(t: *const SbtTable) -> *const c_char {
+    ptr_or_null(get(t).map(|t| &t.header_json))
+}
+
+/// Number of axes.
+///
+/// # Safety
+/// `t` must be NULL or a live handle.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn sbt_num_axes(t: *const SbtTable) -> usize {
+    get(t).map_or(0, |t| t.axis_names.len())
+}
+
+/// Name of axis `a`.
+///
+/// # Safety
+/// `t` must be NULL or a live handle.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn sbt_axis_name(t: *const SbtTable, a: usize) -> *const c_char {
+    ptr_or_null(get(t).and_then(|t| t.axis_names.get(a)))
+}
+
+/// Unit of axis `a`.
+///
+/// # Safety
+/// `t` must be NULL or a live handle.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn sbt_axis_unit(t: *const SbtTable, a: usize) -> *const c_char {
+    ptr_or_null(get(t).and_then(|t| t.axis_units.get(a)))
+}
+
+/// Number of samples of axis `a`.
+///
+/// # Safety
+/// `t` must be NULL or a live handle.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn sbt_axis_len(t: *const SbtTable, a: usize) -> usize {
+    get(t)
+        .and_then(|t| t.axis_coords.get(a))
+        .map_or(0, |c| c.len())
+}
+
+/// Pointer to the `sbt_axis_len(t, a)` coordinates of axis `a` (doubles).
+///
+/// # Safety
+/// `t` must be NULL or a live handle.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn sbt_axis_coords(t: *const SbtTable, a: usize) -> *const f64 {
+    get(t)
+        .and_then(|t| t.axis_coords.get(a))
+        .map_or(std::ptr::null(), |c| c.as_ptr())
+}
+
+/// Number of channels.
+///
+/// # Safety
+/// `t` must be NULL or a live handle.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn sbt_num_channels(t: *const SbtTable) -> usize {
+    get(t).map_or(0, |t| t.channel_names.len())
+}
+
+/// Name of channel `c`.
+///
+/// # Safety
+/// `t` must be NULL or a live handle.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn sbt_channel_name(t: *const SbtTable, c: usize) -> *const c_char {
+    ptr_or_null(get(t).and_then(|t| t.channel_names.get(c)))
+}
+
+/// Unit of channel `c`.
+///
+/// # Safety
+/// `t` must be NULL or a live handle.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn sbt_channel_unit(t: *const SbtTable, c: usize) -> *const c_char {
+    ptr_or_null(get(t).and_then(|t| t.channel_units.get(c)))
+}
+
+/// The samples: row-major, axes in order, channel innermost (`sbt_data_len` floats).
+///
+/// # Safety
+/// `t` must be NULL or a live handle.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn sbt_data(t: *const SbtTable) -> *const f32 {
+    get(t).map_or(std::ptr::null(), |t| t.table.data.as_ptr())
+}
+
+/// Number of floats behind `sbt_data`.
+///
+/// # Safety
+/// `t` must be NULL or a live handle.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn sbt_data_len(t: *const SbtTable) -> usize {
+    get(t).map_or(0, |t| t.table.data.len())
+}
+
+/// Multilinear lookup of every channel at `coords` (one per axis, axis units; clamped at the
+/// axis ends), written to `out` (`n_out` ≥ number of channels). Returns 0 on success, −1 on bad
+/// arguments (wrong arity, NaN, NULL, short `out`).
+///
+/// # Safety
+/// `t` NULL or live; `coords` `n_coords` readable doubles; `out` `n_out` writable doubles.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn sbt_sample(
+    t: *const SbtTable,
+    coords: *const f64,
+    n_coords: usize,
+    out: *mut f64,
+    n_out: usize,
+) -> i32 {
+    let Some(t) = get(t) else { return -1 };
+    if coords.is_null() || out.is_null() || n_out < t.channel_names.len() {
+        return -1;
+    }
+    // SAFETY: sizes per the contract above.
+    let c = unsafe { std::slice::from_raw_parts(coords, n_coords) };
+    match t.table.sample(c) {
+        Ok(v) => {
+            // SAFETY: n_out ≥ v.len() checked above.
+            let o = unsafe { std::slice::from_raw_parts_mut(out, v.len()) };
+            o.copy_from_slice(&v);
+            0
+        }
+        Err(_) => -1,
+    }
+}

@@ -1,0 +1,18 @@
+//! Consumers of phase-function tables: renderer exports (Mitsuba 3 `tabphase`, Legendre
+//! moments, MiePlot-style text), a reference rainbow renderer, plots, and the C ABI for readers
+//! in other languages. Everything reads tables through the public reader API
+//! ([`crate::table::Table::open`], [`crate::table::Table::sample`]) and the phase contract
+//! (`docs/consumers.md`).
+//!
+//! CLI entry points (wired by `cli.rs`): [`mitsuba::MitsubaArgs`], [`legendre::LegendreArgs`],
+//! [`mieplot::MiePlotArgs`], [`mieplot::ValidateArgs`], [`plot::PlotArgs`],
+//! [`render::RenderRainbowArgs`].
+
+pub mod capi;
+pub mod legendre;
+pub mod mieplot;
+pub mod mitsuba;
+pub mod phase;
+pub mod plot;
+pub mod render;
+pub mod synthetic;

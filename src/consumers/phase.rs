@@ -1,0 +1,262 @@
+//! Reading phase-function tables that follow `PHASE_CONTRACT` (see `docs/consumers.md`):
+//! first axis `wavelength` (nm), last axis `scattering_angle` (deg, 0 = forward, covering
+//! [0, 180]), any axes in between are "entry" axes selected by `--entry name=value`; channels
+//! `phase`, `i_perp`, `i_par` (1/sr, ∫_{4π} p dΩ = 1) and `dolp`.
+//!
+//! Everything here goes through the public reader API ([`Table::open`], [`Table::sample`]).
+
+use crate::table::{Table, TableError};
+use anyhow::{Context, bail};
+use std::path::Path;
+
+/// One `name=value` entry selection (value in the axis unit).
+#[derive(Debug, Clone, PartialEq)]
+pub struct EntrySelection {
+    pub axis: String,
+    pub value: f64,
+}
+
+impl std::str::FromStr for EntrySelection {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        let (name, value) = s
+            .split_once('=')
+            .ok_or_else(|| format!("`{s}`: expected NAME=VALUE, e.g. radius=500"))?;
+        let value: f64 = value
+            .trim()
+            .parse()
+            .map_err(|e| format!("`{s}`: value is not a number ({e})"))?;
+        Ok(EntrySelection {
+            axis: name.trim().to_string(),
+            value,
+        })
+    }
+}
+
+/// A table checked against the phase-function contract, with the entry axes identified.
+pub struct PhaseTable {
+    pub table: Table,
+    /// Index of the `scattering_angle` axis (always the last).
+    pub angle_axis: usize,
+    /// Indices of the entry axes (between wavelength and scattering_angle).
+    pub entry_axes: Vec<usize>,
+    ch_phase: usize,
+    ch_perp: usize,
+    ch_par: usize,
+}
+
+/// The phase function of one entry at every wavelength, on the table's own angle grid.
+#[derive(Debug, Clone)]
+pub struct PhaseCurves {
+    pub wavelengths_nm: Vec<f64>,
+    pub angles_deg: Vec<f64>,
+    /// `phase[k][j]`: p at wavelength k and angle j (1/sr).
+    pub phase: Vec<Vec<f64>>,
+    pub i_perp: Vec<Vec<f64>>,
+    pub i_par: Vec<Vec<f64>>,
+    /// Coordinates of the selected entry, `(axis name, value)` per entry axis.
+    pub entry: Vec<(String, f64)>,
+    /// Step of the angle grid when it is uniform (to 1e-9 relative).
+    pub uniform_step: Option<f64>,
+}
+
+impl PhaseTable {
+    /// Open a table file and check the contract.
+    pub fn open(path: &Path) -> anyhow::Result<Self> {
+        let table = Table::open(path).map_err(|e: TableError| anyhow::anyhow!(e))?;
+        Self::new(table).with_context(|| format!("{}", path.display()))
+    }
+
+    /// Check a table in memory against the contract.
+    pub fn new(table: Table) -> anyhow::Result<Self> {
+        let axes = table.axes();
+        if axes.len() < 2 {
+            bail!("a phase-function table needs at least the axes wavelength and scattering_angle");
+        }
+        let first = &axes[0];
+        if first.name != "wavelength" || first.unit != "nm" {
+            bail!(
+                "first axis must be `wavelength` in nm (found `{}` in `{}`)",
+                first.name,
+                first.unit
+            );
+        }
+        let last = axes.len() - 1;
+        let a = &axes[last];
+        if a.name != "scattering_angle" || a.unit != "deg" {
+            bail!(
+                "last axis must be `scattering_angle` in deg (found `{}` in `{}`); 2-D tables \
+                 (outgoing_polar/outgoing_azimuth) are not 1-D phase functions",
+                a.name,
+                a.unit
+            );
+        }
+        let c = a.coords();
+        if c[0] > 1e-9 || c[c.len() - 1] < 180.0 - 1e-9 {
+            bail!(
+                "scattering_angle must cover [0, 180] deg (covers [{}, {}])",
+                c[0],
+                c[c.len() - 1]
+            );
+        }
+        let ch = |n: &str| {
+            table.channel_index(n).map_err(|_| {
+                anyhow::anyhow!("table has no channel `{n}` required by the phase contract")
+            })
+        };
+        let (ch_phase, ch_perp, ch_par) = (ch("phase")?, ch("i_perp")?, ch("i_par")?);
+        Ok(PhaseTable {
+            entry_axes: (1..last).collect(),
+            angle_axis: last,
+            ch_phase,
+            ch_perp,
+            ch_par,
+            table,
+        })
+    }
+
+    /// Wavelengths of the table (nm).
+    pub fn wavelengths_nm(&self) -> Vec<f64> {
+        self.table.axes()[0].coords()
+    }
+
+    /// Scattering angles of the table (deg).
+    pub fn angles_deg(&self) -> Vec<f64> {
+        self.table.axes()[self.angle_axis].coords()
+    }
+
+    /// Resolve an entry selection: for every entry axis the requested value, or its first
+    /// sample when not selected. Unknown axis names are an error.
+    pub fn resolve_entry(&self, sel: &[EntrySelection]) -> anyhow::Result<Vec<(String, f64)>> {
+        let axes = self.table.axes();
+        for s in sel {
+            if !self.entry_axes.iter().any(|&i| axes[i].name == s.axis) {
+                let names: Vec<&str> = self
+                    .entry_axes
+                    .iter()
+                    .map(|&i| axes[i].name.as_str())
+                    .collect();
+                bail!(
+                    "`{}` is not an entry axis of this table (entry axes: {names:?})",
+                    s.axis
+                );
+            }
+        }
+        Ok(self
+            .entry_axes
+            .iter()
+            .map(|&i| {
+                let a = &axes[i];
+                let v = sel
+                    .iter()
+                    .rev()
+                    .find(|s| s.axis == a.name)
+                    .map(|s| s.value)
+                    .unwrap_or_else(|| a.coord(0));
+                (a.name.clone(), v)
+            })
+            .collect())
+    }
+
+    /// Interpolated (phase, i_perp, i_par) at wavelength, entry values and angle (table lookup
+    /// formula: multilinear in the stored coordinates, clamped at the axis ends).
+    pub fn sample_at(
+        &self,
+        wavelength_nm: f64,
+        entry: &[(String, f64)],
+        angle_deg: f64,
+    ) -> [f64; 3] {
+        let mut coords = Vec::with_capacity(entry.len() + 2);
+        coords.push(wavelength_nm);
+        coords.extend(entry.iter().map(|e| e.1));
+        coords.push(angle_deg);
+        let v = self
+            .table
+            .sample(&coords)
+            .expect("coordinates are finite and one per axis");
+        [v[self.ch_phase], v[self.ch_perp], v[self.ch_par]]
+    }
+
+    /// Curves of one entry at every table wavelength on the table's angle grid (grid values are
+    /// reproduced exactly when the entry value lies on a grid sample).
+    pub fn curves(&self, sel: &[EntrySelection]) -> anyhow::Result<PhaseCurves> {
+        let entry = self.resolve_entry(sel)?;
+        let wavelengths_nm = self.wavelengths_nm();
+        let angles_deg = self.angles_deg();
+        let mut out = PhaseCurves {
+            wavelengths_nm: wavelengths_nm.clone(),
+            angles_deg: angles_deg.clone(),
+            phase: vec![],
+            i_perp: vec![],
+            i_par: vec![],
+            entry: entry.clone(),
+            uniform_step: {
+                let n = angles_deg.len();
+                let step = (angles_deg[n - 1] - angles_deg[0]) / (n - 1) as f64;
+                angles_deg
+                    .windows(2)
+                    .all(|w| (w[1] - w[0] - step).abs() <= 1e-9 * step)
+                    .then_some(step)
+            },
+        };
+        for &wl in &wavelengths_nm {
+            let (mut p, mut s, mut q) = (vec![], vec![], vec![]);
+            for &a in &angles_deg {
+                let v = self.sample_at(wl, &entry, a);
+                p.push(v[0]);
+                s.push(v[1]);
+                q.push(v[2]);
+            }
+            out.phase.push(p);
+            out.i_perp.push(s);
+            out.i_par.push(q);
+        }
+        Ok(out)
+    }
+}
+
+impl PhaseCurves {
+    /// Index of the table wavelength nearest to `wavelength_nm`.
+    pub fn nearest_wavelength(&self, wavelength_nm: f64) -> usize {
+        let mut best = 0;
+        for (k, &w) in self.wavelengths_nm.iter().enumerate() {
+            if (w - wavelength_nm).abs() < (self.wavelengths_nm[best] - wavelength_nm).abs() {
+                best = k;
+            }
+        }
+        best
+    }
+
+    /// Phase function of wavelength index `k` at `angle_deg`, linear in angle (the table's
+    /// lookup formula), clamped to [0, 180].
+    pub fn phase_at(&self, k: usize, angle_deg: f64) -> f64 {
+        // Fast path for uniform grids (the contract's preferred layout); same formula.
+        if let Some(step) = self.uniform_step {
+            return crate::optics::interp::interp1_uniform(
+                &self.phase[k],
+                self.angles_deg[0],
+                step,
+                angle_deg,
+            );
+        }
+        crate::optics::interp::interp1(&self.angles_deg, &self.phase[k], angle_deg)
+    }
+}
+
+/// Human-readable description of a selected entry, e.g. `radius=500 um`.
+pub fn describe_entry(table: &Table, entry: &[(String, f64)]) -> String {
+    if entry.is_empty() {
+        return "(single entry)".into();
+    }
+    entry
+        .iter()
+        .map(|(n, v)| {
+            let unit = table
+                .axis_index(n)
+                .map(|i| table.axes()[i].unit.clone())
+                .unwrap_or_default();
+            format!("{n}={v} {unit}")
+        })
+        .collect::<Vec<_>>()
+        .join(", ")
+}

@@ -1,0 +1,617 @@
+//! Reference renderer `scatterbake render rainbow`: single scattering of sunlight in a
+//! homogeneous rain volume, ray-marched along each view ray, spectral over every table
+//! wavelength, to sRGB through CIE 1931 2° and a D65 sun (as the rainbow thesis renders, §3.5 and
+//! Appendix A). It reads the table only through the public reader API ([`PhaseTable`] on top of
+//! `Table::open`/`Table::sample`).
+//!
+//! World: z up, camera at `camera_height_m` above flat ground, sun at azimuth 0° and elevation
+//! `e`, so the direction *toward* the sun is s = (cos e, 0, sin e) and the antisolar point is
+//! −s, e below the horizon at azimuth 180°. A view ray with direction d sees light scattered by
+//! the angle θ with cos θ = s·d (θ = 180° at the antisolar point, so a bow of radius r around it
+//! comes from θ = 180° − r).
+//!
+//! Rain: a horizontal layer 0 ≤ z ≤ `rain_top_m` beginning at horizontal distance `rain_near_m`
+//! from the camera (clear air nearer), extinction σ_t = σ_s (water drops do not absorb visible
+//! light noticeably). Single scattering along the view ray, marched with `steps` midpoint steps
+//! between entry and exit (top, ground, or 30 km):
+//!
+//! ```text
+//! L_λ(d) = E_λ · P̄_λ(Θ) · Σ_i σ_s e^{−σ_t (t_i − t_in)} e^{−σ_t (top − z_i)/sin e} Δt
+//! ```
+//!
+//! with the sun's path to each point leaving the layer through its top. P̄_λ(Θ) is the phase
+//! function averaged over the sun disc (angular diameter `sun_diameter_deg`), Θ the angle
+//! between d and the disc centre: the disc is importance-sampled uniformly in solid angle
+//! (cos β uniform on [cos α, 1], stratified in 16 rings × 16 azimuths with rotated offsets).
+//! For an axisymmetric phase function that average depends on Θ only, so it is computed once per
+//! Θ on a 0.01° grid and looked up per pixel (identical result, much cheaper than per pixel).
+//! Spectral: XYZ = Σ_k W_k L_k with [`SpectralWeights`] under D65 (the sun spectrum), then
+//! linear sRGB, exposure, `intensity` and an added `background` sRGB colour (Table 3.4), then the
+//! sRGB transfer curve.
+//!
+//! Lenses: `rectilinear` (pinhole, horizontal `fov_deg`) and `fisheye` (equidistant: the angle
+//! from the view axis is proportional to the distance from the image centre, horizontal
+//! `fov_deg` across the width) — the thesis does not say which fisheye mapping; we choose the
+//! equidistant one because bow radii can then be read off linearly.
+
+use super::phase::{EntrySelection, PhaseTable, describe_entry};
+use crate::optics::colour::{Illuminant1931, SpectralWeights, srgb_encode, xyz_to_linear_srgb};
+use rayon::prelude::*;
+use std::path::PathBuf;
+
+/// Camera lens model.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Lens {
+    Rectilinear,
+    /// Equidistant fisheye.
+    Fisheye,
+}
+
+/// Camera looking toward the antisolar azimuth (180°) with its axis at `view_elevation_deg`.
+#[derive(Debug, Clone, Copy)]
+pub struct Camera {
+    pub lens: Lens,
+    pub width: usize,
+    pub height: usize,
+    /// Horizontal field of view (deg).
+    pub fov_deg: f64,
+    pub view_elevation_deg: f64,
+}
+
+type V3 = [f64; 3];
+fn dot(a: V3, b: V3) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+fn norm(a: V3) -> V3 {
+    let l = dot(a, a).sqrt();
+    [a[0] / l, a[1] / l, a[2] / l]
+}
+
+impl Camera {
+    fn basis(&self) -> (V3, V3, V3) {
+        let p = self.view_elevation_deg.to_radians();
+        let f = [-p.cos(), 0.0, p.sin()];
+        let r = [0.0, 1.0, 0.0]; // f × z normalised, for azimuth 180°: (0, cos p, 0)/cos p
+        let u = [
+            r[1] * f[2] - r[2] * f[1],
+            r[2] * f[0] - r[0] * f[2],
+            r[0] * f[1] - r[1] * f[0],
+        ];
+        (f, r, norm(u))
+    }
+
+    /// World direction through the centre of pixel (i, j) (j = 0 at the top), or `None` outside
+    /// the fisheye's 180° half-angle.
+    pub fn direction(&self, i: usize, j: usize) -> Option<V3> {
+        let (f, r, u) = self.basis();
+        let half = 0.5 * self.fov_deg.to_radians();
+        let x = 2.0 * (i as f64 + 0.5) / self.width as f64 - 1.0;
+        let y = (1.0 - 2.0 * (j as f64 + 0.5) / self.height as f64) * self.height as f64
+            / self.width as f64;
+        match self.lens {
+            Lens::Rectilinear => {
+                let t = half.tan();
+                Some(norm([
+                    f[0] + t * (x * r[0] + y * u[0]),
+                    f[1] + t * (x * r[1] + y * u[1]),
+                    f[2] + t * (x * r[2] + y * u[2]),
+                ]))
+            }
+            Lens::Fisheye => {
+                let (ax, ay) = (x * half, y * half);
+                let rho = (ax * ax + ay * ay).sqrt();
+                if rho > std::f64::consts::PI {
+                    return None;
+                }
+                if rho == 0.0 {
+                    return Some(f);
+                }
+                let (s, c) = rho.sin_cos();
+                let (cx, cy) = (ax / rho, ay / rho);
+                Some([
+                    c * f[0] + s * (cx * r[0] + cy * u[0]),
+                    c * f[1] + s * (cx * r[1] + cy * u[1]),
+                    c * f[2] + s * (cx * r[2] + cy * u[2]),
+                ])
+            }
+        }
+    }
+
+    /// Angular size of one pixel at the image centre (deg).
+    pub fn pixel_deg(&self) -> f64 {
+        match self.lens {
+            Lens::Fisheye => self.fov_deg / self.width as f64,
+            Lens::Rectilinear => (2.0 * (0.5 * self.fov_deg.to_radians()).tan()
+                / self.width as f64)
+                .atan()
+                .to_degrees(),
+        }
+    }
+}
+
+/// The rain layer and sun.
+#[derive(Debug, Clone, Copy)]
+pub struct Scene {
+    pub sun_elevation_deg: f64,
+    pub sun_diameter_deg: f64,
+    pub extinction_per_km: f64,
+    pub rain_top_m: f64,
+    pub rain_near_m: f64,
+    pub camera_height_m: f64,
+    pub steps: usize,
+}
+
+impl Scene {
+    /// Direction toward the sun centre.
+    pub fn sun_direction(&self) -> V3 {
+        let e = self.sun_elevation_deg.to_radians();
+        [e.cos(), 0.0, e.sin()]
+    }
+
+    /// Ray-marched single-scattering factor along direction d (per unit sun irradiance and unit
+    /// phase function), see the module doc.
+    pub fn march(&self, d: V3) -> f64 {
+        let sig = self.extinction_per_km * 1e-3;
+        let h = self.camera_height_m;
+        let horiz = (d[0] * d[0] + d[1] * d[1]).sqrt();
+        if horiz < 1e-9 {
+            return 0.0;
+        }
+        let t_in = self.rain_near_m / horiz;
+        let mut t_out: f64 = 30_000.0;
+        if d[2] > 0.0 {
+            t_out = t_out.min((self.rain_top_m - h) / d[2]);
+        } else if d[2] < 0.0 {
+            t_out = t_out.min(h / -d[2]);
+        }
+        if t_out <= t_in {
+            return 0.0;
+        }
+        let sin_e = self.sun_elevation_deg.to_radians().sin().max(1e-3);
+        let dt = (t_out - t_in) / self.steps as f64;
+        let mut acc = 0.0;
+        for i in 0..self.steps {
+            let t = t_in + (i as f64 + 0.5) * dt;
+            let z = (h + t * d[2]).clamp(0.0, self.rain_top_m);
+            let tau = sig * (t - t_in) + sig * (self.rain_top_m - z) / sin_e;
+            acc += sig * (-tau).exp() * dt;
+        }
+        acc
+    }
+}
+
+/// Spacing of the precomputed Θ grid (deg).
+pub const THETA_STEP_DEG: f64 = 0.01;
+
+/// XYZ (per unit sun irradiance, D65 sun, sun disc averaged) as a function of the angle Θ
+/// between view direction and sun centre, on a grid of [`THETA_STEP_DEG`] over [0, 180].
+pub fn xyz_vs_angle(
+    pt: &PhaseTable,
+    entry: &[EntrySelection],
+    sun_diameter_deg: f64,
+) -> anyhow::Result<Vec<[f64; 3]>> {
+    let c = pt.curves(entry)?;
+    let sw = SpectralWeights::new(&c.wavelengths_nm, Illuminant1931::D65);
+    let n = (180.0 / THETA_STEP_DEG).round() as usize + 1;
+    let alpha = 0.5 * sun_diameter_deg.to_radians();
+    let (nr, na) = if alpha > 0.0 { (16, 16) } else { (1, 1) };
+    // Disc samples as (β, ψ): uniform in solid angle, stratified.
+    let mut disc = Vec::with_capacity(nr * na);
+    for a in 0..nr {
+        let u = (a as f64 + 0.5) / nr as f64;
+        let beta = (1.0 - u * (1.0 - alpha.cos())).acos();
+        for b in 0..na {
+            let psi =
+                2.0 * std::f64::consts::PI * (b as f64 + 0.5 + 0.5 * (a % 2) as f64) / na as f64;
+            disc.push((beta.sin(), beta.cos(), psi.cos()));
+        }
+    }
+    Ok((0..n)
+        .into_par_iter()
+        .map(|i| {
+            let big = (i as f64 * THETA_STEP_DEG).to_radians();
+            let (sb, cb) = big.sin_cos();
+            let mut spec = vec![0.0; c.wavelengths_nm.len()];
+            for &(sbeta, cbeta, cpsi) in &disc {
+                let th = (cb * cbeta + sb * sbeta * cpsi)
+                    .clamp(-1.0, 1.0)
+                    .acos()
+                    .to_degrees();
+                for (k, s) in spec.iter_mut().enumerate() {
+                    *s += c.phase_at(k, th);
+                }
+            }
+            for s in &mut spec {
+                *s /= disc.len() as f64;
+            }
+            sw.xyz(&spec)
+        })
+        .collect())
+}
+
+/// A rendered image: linear sRGB (before exposure) per pixel, row-major from the top-left.
+pub struct Rendered {
+    pub camera: Camera,
+    pub linear_srgb: Vec<[f64; 3]>,
+}
+
+/// Render linear sRGB radiance (unit sun irradiance).
+pub fn render(
+    pt: &PhaseTable,
+    entry: &[EntrySelection],
+    scene: &Scene,
+    camera: &Camera,
+) -> anyhow::Result<Rendered> {
+    let xyz = xyz_vs_angle(pt, entry, scene.sun_diameter_deg)?;
+    let s = scene.sun_direction();
+    let px: Vec<[f64; 3]> = (0..camera.width * camera.height)
+        .into_par_iter()
+        .map(|p| {
+            let (i, j) = (p % camera.width, p / camera.width);
+            let Some(d) = camera.direction(i, j) else {
+                return [0.0; 3];
+            };
+            let m = scene.march(d);
+            if m == 0.0 {
+                return [0.0; 3];
+            }
+            let big = dot(s, d).clamp(-1.0, 1.0).acos().to_degrees();
+            let u = big / THETA_STEP_DEG;
+            let k = (u.floor() as usize).min(xyz.len() - 2);
+            let t = u - k as f64;
+            let v = [0, 1, 2].map(|c| (xyz[k][c] * (1.0 - t) + xyz[k + 1][c] * t) * m);
+            xyz_to_linear_srgb(v)
+        })
+        .collect();
+    Ok(Rendered {
+        camera: *camera,
+        linear_srgb: px,
+    })
+}
+
+/// Exposure that maps the 99.5th percentile of luminance (Y) to 0.9.
+pub fn auto_exposure(img: &[[f64; 3]]) -> f64 {
+    let mut y: Vec<f64> = img
+        .iter()
+        .map(|p| 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2])
+        .filter(|v| *v > 0.0)
+        .collect();
+    if y.is_empty() {
+        return 1.0;
+    }
+    let k = ((y.len() as f64 * 0.995) as usize).min(y.len() - 1);
+    let (_, v, _) = y.select_nth_unstable_by(k, |a, b| a.total_cmp(b));
+    if *v > 0.0 { 0.9 / *v } else { 1.0 }
+}
+
+/// Encode as 8-bit sRGB: `encode(exposure · intensity · linear) + background/255`, clamped.
+pub fn to_srgb8(img: &[[f64; 3]], exposure: f64, intensity: f64, background: [u8; 3]) -> Vec<u8> {
+    img.iter()
+        .flat_map(|p| {
+            (0..3).map(move |c| {
+                let v = srgb_encode(p[c] * exposure * intensity) + background[c] as f64 / 255.0;
+                (v.clamp(0.0, 1.0) * 255.0).round() as u8
+            })
+        })
+        .collect()
+}
+
+/// Write 8-bit RGB as PNG.
+pub fn write_png(
+    path: &std::path::Path,
+    width: usize,
+    height: usize,
+    rgb: &[u8],
+) -> anyhow::Result<()> {
+    let f = std::io::BufWriter::new(std::fs::File::create(path)?);
+    let mut enc = png::Encoder::new(f, width as u32, height as u32);
+    enc.set_color(png::ColorType::Rgb);
+    enc.set_depth(png::BitDepth::Eight);
+    enc.set_source_srgb(png::SrgbRenderingIntent::Perceptual);
+    let mut w = enc.write_header()?;
+    w.write_image_data(rgb)?;
+    w.finish()?;
+    Ok(())
+}
+
+/// Bow measurement along the image column through the antisolar point (fisheye only, where
+/// the vertical centre line maps angle linearly): radius (deg from the antisolar point) of the
+/// luminance maximum within `[lo, hi]` deg, and of each sRGB channel's maximum.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BowMeasurement {
+    pub radius_deg: f64,
+    pub radius_rgb_deg: [f64; 3],
+}
+
+/// Measure a bow in `[lo_deg, hi_deg]` from the antisolar point along the centre column of an
+/// equidistant fisheye render, using only the lens definition (centre column elevation =
+/// view elevation + (H/2 − j − ½)·pixel) — independent of the renderer's ray generation.
+pub fn measure_bow(
+    r: &Rendered,
+    sun_elevation_deg: f64,
+    lo_deg: f64,
+    hi_deg: f64,
+) -> Option<BowMeasurement> {
+    let cam = &r.camera;
+    if cam.lens != Lens::Fisheye {
+        return None;
+    }
+    let pix = cam.pixel_deg();
+    let col = cam.width / 2;
+    let mut best = [(f64::NEG_INFINITY, f64::NAN); 4];
+    for j in 0..cam.height {
+        let elev = cam.view_elevation_deg + (cam.height as f64 / 2.0 - j as f64 - 0.5) * pix;
+        // Centre column at azimuth 180° when the width is even the column centre sits half a
+        // pixel off axis; the angular offset is below 0.25 px, negligible.
+        let radius = elev + sun_elevation_deg;
+        if radius < lo_deg || radius > hi_deg {
+            continue;
+        }
+        let p = r.linear_srgb[j * cam.width + col];
+        let vals = [
+            0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2],
+            p[0],
+            p[1],
+            p[2],
+        ];
+        for c in 0..4 {
+            if vals[c] > best[c].0 {
+                best[c] = (vals[c], radius);
+            }
+        }
+    }
+    if best[0].1.is_nan() {
+        return None;
+    }
+    Some(BowMeasurement {
+        radius_deg: best[0].1,
+        radius_rgb_deg: [best[1].1, best[2].1, best[3].1],
+    })
+}
+
+/// Radius (deg from the antisolar point, 180° − θ) of the luminance maximum of the
+/// disc-averaged table in `[lo, hi]` — what the image measurement should reproduce.
+pub fn table_bow_radius(xyz: &[[f64; 3]], lo_deg: f64, hi_deg: f64) -> f64 {
+    let mut best = (f64::NEG_INFINITY, f64::NAN);
+    for (i, v) in xyz.iter().enumerate() {
+        let r = 180.0 - i as f64 * THETA_STEP_DEG;
+        if r >= lo_deg && r <= hi_deg && v[1] > best.0 {
+            best = (v[1], r);
+        }
+    }
+    best.1
+}
+
+fn parse_rgb(s: &str) -> Result<[u8; 3], String> {
+    let v: Vec<u8> = s
+        .split(',')
+        .map(|x| x.trim().parse::<u8>().map_err(|e| format!("`{s}`: {e}")))
+        .collect::<Result<_, _>>()?;
+    v.try_into().map_err(|_| format!("`{s}`: expected R,G,B"))
+}
+
+/// `scatterbake render rainbow`.
+#[derive(Debug, Clone, clap::Args)]
+pub struct RenderRainbowArgs {
+    /// Phase-function table (.sbt) following the phase contract (1-D in scattering angle).
+    #[arg(long)]
+    pub table: PathBuf,
+    #[arg(long = "entry", value_name = "NAME=VALUE")]
+    pub entry: Vec<EntrySelection>,
+    #[arg(long, default_value_t = 25.0)]
+    pub sun_elevation_deg: f64,
+    /// Angular diameter of the sun disc (0 = point sun).
+    #[arg(long, default_value_t = 0.5)]
+    pub sun_diameter_deg: f64,
+    /// Horizontal field of view.
+    #[arg(long, default_value_t = 120.0)]
+    pub fov_deg: f64,
+    #[arg(long, value_enum, default_value = "fisheye")]
+    pub lens: Lens,
+    #[arg(long, default_value_t = 1024)]
+    pub width: usize,
+    /// Default: width · 2/3.
+    #[arg(long)]
+    pub height: Option<usize>,
+    /// Elevation of the view axis (toward the antisolar azimuth); default: the midpoint between
+    /// the antisolar point and the top of the secondary bow, 51° above it.
+    #[arg(long)]
+    pub view_elevation_deg: Option<f64>,
+    /// Rain extinction coefficient (1/km).
+    #[arg(long, default_value_t = 0.5)]
+    pub extinction_per_km: f64,
+    #[arg(long, default_value_t = 1500.0)]
+    pub rain_top_m: f64,
+    #[arg(long, default_value_t = 300.0)]
+    pub rain_near_m: f64,
+    /// Ray-marching steps per view ray.
+    #[arg(long, default_value_t = 64)]
+    pub steps: usize,
+    /// Linear exposure multiplier; default: automatic (99.5th luminance percentile → 0.9).
+    #[arg(long)]
+    pub exposure: Option<f64>,
+    /// Rendering intensity (Table 3.4 "Intensity", 1 = 100 %).
+    #[arg(long, default_value_t = 1.0)]
+    pub intensity: f64,
+    /// Background sRGB colour added to the render, R,G,B in 0–255 (Table 3.4).
+    #[arg(long, default_value = "0,0,0", value_parser = parse_rgb)]
+    pub background: [u8; 3],
+    /// Output PNG.
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+/// Run the renderer; prints the measured bow radii next to the table's.
+pub fn run_render_rainbow(args: &RenderRainbowArgs) -> anyhow::Result<()> {
+    anyhow::ensure!(
+        args.width >= 2 && args.steps >= 1,
+        "width ≥ 2 and steps ≥ 1"
+    );
+    anyhow::ensure!(
+        args.fov_deg > 0.0 && (args.lens == Lens::Fisheye || args.fov_deg < 179.0),
+        "fov must be positive (and below 179° for a rectilinear lens)"
+    );
+    let pt = PhaseTable::open(&args.table)?;
+    let camera = Camera {
+        lens: args.lens,
+        width: args.width,
+        height: args.height.unwrap_or(args.width * 2 / 3).max(2),
+        fov_deg: args.fov_deg,
+        view_elevation_deg: args
+            .view_elevation_deg
+            .unwrap_or(0.5 * 51.0 - args.sun_elevation_deg),
+    };
+    let scene = Scene {
+        sun_elevation_deg: args.sun_elevation_deg,
+        sun_diameter_deg: args.sun_diameter_deg,
+        extinction_per_km: args.extinction_per_km,
+        rain_top_m: args.rain_top_m,
+        rain_near_m: args.rain_near_m,
+        camera_height_m: 1.7,
+        steps: args.steps,
+    };
+    let r = render(&pt, &args.entry, &scene, &camera)?;
+    let exposure = args
+        .exposure
+        .unwrap_or_else(|| auto_exposure(&r.linear_srgb));
+    let rgb = to_srgb8(&r.linear_srgb, exposure, args.intensity, args.background);
+    write_png(&args.out, camera.width, camera.height, &rgb)?;
+    let entry = pt.resolve_entry(&args.entry)?;
+    eprintln!(
+        "rendered {} ({}x{}, {:?}, fov {} deg, sun {} deg, disc {} deg, {}), exposure {:.4e}",
+        args.out.display(),
+        camera.width,
+        camera.height,
+        camera.lens,
+        camera.fov_deg,
+        args.sun_elevation_deg,
+        args.sun_diameter_deg,
+        describe_entry(&pt.table, &entry),
+        exposure
+    );
+    let xyz = xyz_vs_angle(&pt, &args.entry, args.sun_diameter_deg)?;
+    for (name, lo, hi) in [("primary", 36.0, 46.0), ("secondary", 48.0, 56.0)] {
+        if let Some(m) = measure_bow(&r, args.sun_elevation_deg, lo, hi) {
+            eprintln!(
+                "{name} bow: image radius {:.2} deg (R {:.2}, G {:.2}, B {:.2}), table maximum {:.2} deg, pixel {:.3} deg",
+                m.radius_deg,
+                m.radius_rgb_deg[0],
+                m.radius_rgb_deg[1],
+                m.radius_rgb_deg[2],
+                table_bow_radius(&xyz, lo, hi),
+                camera.pixel_deg()
+            );
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::consumers::synthetic::peak_table;
+
+    fn cam() -> Camera {
+        Camera {
+            lens: Lens::Fisheye,
+            width: 240,
+            height: 160,
+            fov_deg: 120.0,
+            view_elevation_deg: 5.0,
+        }
+    }
+
+    fn scene(disc: f64) -> Scene {
+        Scene {
+            sun_elevation_deg: 25.0,
+            sun_diameter_deg: disc,
+            extinction_per_km: 0.5,
+            rain_top_m: 1500.0,
+            rain_near_m: 300.0,
+            camera_height_m: 1.7,
+            steps: 32,
+        }
+    }
+
+    #[test]
+    fn peak_at_138_deg_renders_ring_of_42_deg() {
+        let wl: Vec<f64> = (0..33).map(|i| 380.0 + 10.0 * i as f64).collect();
+        let pt = PhaseTable::new(peak_table(&wl, |_| 138.0, 0.2, 1e-4, 3601)).unwrap();
+        let r = render(&pt, &[], &scene(0.5), &cam()).unwrap();
+        let m = measure_bow(&r, 25.0, 30.0, 60.0).unwrap();
+        let pix = cam().pixel_deg();
+        assert!((m.radius_deg - 42.0).abs() <= pix, "{m:?}, pixel {pix}");
+        // Ring, not a blob: in every direction around the antisolar point the brightest pixel
+        // within 30°–60° lies at 42° (directions from the camera model; 8 azimuths).
+        let s = scene(0.5).sun_direction();
+        let mut by_angle: Vec<(f64, f64)> = vec![];
+        for j in 0..160 {
+            for i in 0..240 {
+                if let Some(d) = cam().direction(i, j) {
+                    let rad = 180.0 - dot(s, d).clamp(-1.0, 1.0).acos().to_degrees();
+                    let p = r.linear_srgb[j * 240 + i];
+                    by_angle.push((rad, p[0] + p[1] + p[2]));
+                }
+            }
+        }
+        let bright: Vec<&(f64, f64)> = by_angle.iter().filter(|(_, v)| *v > 0.0).collect();
+        let max = bright.iter().map(|x| x.1).fold(0.0, f64::max);
+        for (rad, v) in &bright {
+            if *v > 0.5 * max {
+                assert!((rad - 42.0).abs() < 1.0, "bright pixel at radius {rad}");
+            }
+        }
+    }
+
+    #[test]
+    fn primary_and_secondary_colour_order_and_dark_band() {
+        // Dispersive synthetic table: primary at θ = 137.6° (red, 700 nm) … 139.4° (violet, 400
+        // nm) — red outside; secondary at 129.9° (red) … 126.6° (violet) — red inside; plus a
+        // bright region inside the primary (θ > 140°) and a floor; the Alexander band between.
+        let wl: Vec<f64> = (0..33).map(|i| 380.0 + 10.0 * i as f64).collect();
+        let mut t = peak_table(&wl, |l| 139.4 - 1.8 * (l - 400.0) / 300.0, 0.25, 0.0, 3601);
+        let sec = peak_table(&wl, |l| 126.6 + 3.3 * (l - 400.0) / 300.0, 0.35, 0.0, 3601);
+        // Combine: p = primary + 0.4·secondary + inside glow for θ > 140°, rebuilt through
+        // TableContent so the table stays a valid contract table.
+        for (k, v) in t.data.chunks_mut(4).enumerate() {
+            let j = k % 3601;
+            let theta = j as f64 * 0.05;
+            let glow = if theta > 140.0 { 2e-3 } else { 1e-4 };
+            let s = sec.data[k * 4] as f64;
+            let p = v[0] as f64 + 0.4 * s + glow;
+            v[0] = p as f32;
+            v[1] = p as f32;
+            v[2] = p as f32;
+            v[3] = 0.0;
+        }
+        let pt = PhaseTable::new(t).unwrap();
+        let r = render(&pt, &[], &scene(0.5), &cam()).unwrap();
+        let pix = cam().pixel_deg();
+        let p = measure_bow(&r, 25.0, 36.0, 46.0).unwrap();
+        let s = measure_bow(&r, 25.0, 47.0, 58.0).unwrap();
+        // Primary: red channel peaks outside blue; secondary reversed.
+        assert!(p.radius_rgb_deg[0] > p.radius_rgb_deg[2], "{p:?}");
+        assert!(s.radius_rgb_deg[0] < s.radius_rgb_deg[2], "{s:?}");
+        // Radii against the geometry: red primary at 180 − 137.6 = 42.4°, violet-blue side
+        // near 40.8°; secondary red at 50.1°.
+        assert!((p.radius_rgb_deg[0] - 42.2).abs() < 2.0 * pix, "{p:?}");
+        assert!((s.radius_rgb_deg[0] - 50.3).abs() < 2.0 * pix, "{s:?}");
+        // Alexander's dark band: mean luminance at radii 44–48° below that at 30–38°.
+        let cam = cam();
+        let mean = |lo: f64, hi: f64| {
+            let (mut sum, mut n) = (0.0, 0);
+            for j in 0..cam.height {
+                let rad = cam.view_elevation_deg
+                    + (cam.height as f64 / 2.0 - j as f64 - 0.5) * pix
+                    + 25.0;
+                if rad >= lo && rad <= hi {
+                    let q = r.linear_srgb[j * cam.width + cam.width / 2];
+                    sum += 0.2126 * q[0] + 0.7152 * q[1] + 0.0722 * q[2];
+                    n += 1;
+                }
+            }
+            sum / n as f64
+        };
+        assert!(mean(44.0, 48.0) < 0.5 * mean(30.0, 38.0));
+    }
+}

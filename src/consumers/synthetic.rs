@@ -1,0 +1,154 @@
+//! Synthetic phase-function tables that follow the phase contract, with analytically known
+//! properties, for tests, demos and the readers of other languages:
+//! - [`henyey_greenstein_table`]: p(θ) = (1 − g²) / (4π (1 + g² − 2g cos θ)^{3/2}), whose
+//!   Legendre moments are exactly g^l;
+//! - [`peak_table`]: a narrow Gaussian peak in scattering angle on a weak isotropic floor, with a
+//!   wavelength-dependent peak position, normalised numerically to ∫_{4π} p dΩ = 1; a peak at
+//!   138° must render as a ring of radius 42° around the antisolar point.
+//!
+//! Polarisation: i_perp = p (1 + d), i_par = p (1 − d) with d(θ) = `dolp_max` sin²θ / (1 + cos²θ)
+//! (Rayleigh-like shape), so phase = (i_perp + i_par)/2 and dolp = d exactly.
+
+use crate::table::{Axis, Channel, Provenance, Schema, Table, TableContent};
+use std::f64::consts::PI;
+
+/// Henyey–Greenstein phase function (1/sr) at `cos_theta`.
+pub fn henyey_greenstein(g: f64, cos_theta: f64) -> f64 {
+    (1.0 - g * g) / (4.0 * PI * (1.0 + g * g - 2.0 * g * cos_theta).powf(1.5))
+}
+
+fn dolp_shape(dolp_max: f64, theta_deg: f64) -> f64 {
+    let c = theta_deg.to_radians().cos();
+    dolp_max * (1.0 - c * c) / (1.0 + c * c)
+}
+
+fn attributes(kind: &str) -> serde_json::Map<String, serde_json::Value> {
+    let mut a = serde_json::Map::new();
+    let mut put = |k: &str, v: serde_json::Value| {
+        a.insert(k.into(), v);
+    };
+    put("normalization", "integral over 4pi sr equals 1".into());
+    put("angle_convention", "scattering angle, 0 deg forward".into());
+    put("water_index_model", "none (synthetic)".into());
+    put("medium", "water drops in air (outside index 1.0)".into());
+    put("sun_disc_diameter_deg", 0.0.into());
+    put(
+        "angular_resampling",
+        "point samples of an analytic function".into(),
+    );
+    put(
+        "validated_domain",
+        format!("synthetic {kind} table, exact by construction").into(),
+    );
+    a
+}
+
+fn channels() -> Vec<Channel> {
+    vec![
+        Channel::new(
+            "phase",
+            "1/sr",
+            "unpolarised phase function, integral over 4pi = 1",
+        ),
+        Channel::new("i_perp", "1/sr", "perpendicular part, same normalisation"),
+        Channel::new("i_par", "1/sr", "parallel part, same normalisation"),
+        Channel::new("dolp", "1", "(i_perp - i_par)/(i_perp + i_par)"),
+    ]
+}
+
+fn push_point(data: &mut Vec<f32>, p: f64, d: f64) {
+    data.extend_from_slice(&[
+        p as f32,
+        (p * (1.0 + d)) as f32,
+        (p * (1.0 - d)) as f32,
+        d as f32,
+    ]);
+}
+
+/// A `wavelength × radius × scattering_angle` table of Henyey–Greenstein phase functions:
+/// asymmetry `g[k][r]` at wavelength k and radius r, `n_angle` uniform angles over [0, 180].
+pub fn henyey_greenstein_table(
+    wavelengths_nm: &[f64],
+    radii_um: &[f64],
+    g: impl Fn(usize, usize) -> f64,
+    n_angle: usize,
+    dolp_max: f64,
+) -> Table {
+    let step = 180.0 / (n_angle - 1) as f64;
+    let mut data = Vec::new();
+    for k in 0..wavelengths_nm.len() {
+        for r in 0..radii_um.len() {
+            let gk = g(k, r);
+            for j in 0..n_angle {
+                let t = step * j as f64;
+                push_point(
+                    &mut data,
+                    henyey_greenstein(gk, t.to_radians().cos()),
+                    dolp_shape(dolp_max, t),
+                );
+            }
+        }
+    }
+    let content = TableContent {
+        schema: Schema::new("synthetic-hg-phase", 1),
+        description: "Henyey-Greenstein phase functions (synthetic)".into(),
+        axes: vec![
+            Axis::values("wavelength", "nm", wavelengths_nm.to_vec()),
+            Axis::values("radius", "um", radii_um.to_vec()),
+            Axis::uniform("scattering_angle", "deg", 0.0, step, n_angle),
+        ],
+        channels: channels(),
+        attributes: attributes("Henyey-Greenstein"),
+        data,
+    };
+    Table::from_content(content, Provenance::default()).expect("consistent synthetic table")
+}
+
+/// A `wavelength × scattering_angle` table with a Gaussian peak of standard deviation
+/// `sigma_deg` at `peak_deg(λ)` on an isotropic floor `floor` (relative to the peak height),
+/// normalised so that ∫_{4π} p dΩ = 1 (trapezoid rule on the grid, which is how every consumer
+/// integrates it).
+pub fn peak_table(
+    wavelengths_nm: &[f64],
+    peak_deg: impl Fn(f64) -> f64,
+    sigma_deg: f64,
+    floor: f64,
+    n_angle: usize,
+) -> Table {
+    let step = 180.0 / (n_angle - 1) as f64;
+    let mut data = Vec::new();
+    for &wl in wavelengths_nm {
+        let t0 = peak_deg(wl);
+        let raw: Vec<f64> = (0..n_angle)
+            .map(|j| {
+                let t = step * j as f64;
+                floor + (-(t - t0).powi(2) / (2.0 * sigma_deg * sigma_deg)).exp()
+            })
+            .collect();
+        // 2π ∫ p sinθ dθ by the trapezoid rule in θ.
+        let mut integral = 0.0;
+        for j in 1..n_angle {
+            let (a, b) = (
+                (step * (j - 1) as f64).to_radians(),
+                (step * j as f64).to_radians(),
+            );
+            integral += 0.5 * (raw[j - 1] * a.sin() + raw[j] * b.sin()) * (b - a);
+        }
+        integral *= 2.0 * PI;
+        for (j, v) in raw.iter().enumerate() {
+            push_point(&mut data, v / integral, dolp_shape(0.3, step * j as f64));
+        }
+    }
+    let content = TableContent {
+        schema: Schema::new("synthetic-peak-phase", 1),
+        description: "Gaussian peak in scattering angle (synthetic)".into(),
+        axes: vec![
+            Axis::values("wavelength", "nm", wavelengths_nm.to_vec()),
+            Axis::uniform("scattering_angle", "deg", 0.0, step, n_angle),
+        ],
+        channels: channels(),
+        attributes: attributes("Gaussian peak"),
+        data,
+    };
+    Table::from_content(content, Provenance::default()).expect("consistent synthetic table")
+}

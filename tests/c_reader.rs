@@ -1,0 +1,171 @@
+//! The C interface (`c/scatterbake_table.h`, the crate's cdylib) reads tables written by the
+//! Rust writer bit for bit and refuses corrupt files and newer majors: `c/example.c` is compiled
+//! with the system C compiler (`cc`) against `libscatterbake` and run on every test table.
+
+mod common;
+
+use scatterbake::table::Table;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+/// Build the cdylib (cargo builds only the rlib for integration tests) and return the
+/// directory holding libscatterbake.{so,dylib}. Uses the cargo that runs this test, the same
+/// target directory and the `test` profile, so it is a no-op when the library is up to date.
+fn lib_dir() -> PathBuf {
+    let exe = std::env::current_exe().unwrap();
+    // target/<profile dir>/deps/<test exe> -> target/<profile dir>
+    let profile_dir = exe.parent().unwrap().parent().unwrap().to_path_buf();
+    let target_dir = profile_dir.parent().unwrap();
+    let out = Command::new(env!("CARGO"))
+        .args(["build", "--lib", "--profile", "test", "--quiet"])
+        .arg("--manifest-path")
+        .arg(Path::new(env!("CARGO_MANIFEST_DIR")).join("Cargo.toml"))
+        .env("CARGO_TARGET_DIR", target_dir)
+        .output()
+        .expect("cargo runs");
+    assert!(
+        out.status.success(),
+        "building the cdylib failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    profile_dir
+}
+
+fn parse_hex_float(s: &str) -> f64 {
+    // C99 %a output, e.g. 0x1.8p+1, -0x0p+0.
+    let (neg, s) = s.strip_prefix('-').map_or((false, s), |r| (true, r));
+    let s = s.strip_prefix("0x").unwrap();
+    let (mant, exp) = s.split_once('p').unwrap();
+    let (int, frac) = mant.split_once('.').unwrap_or((mant, ""));
+    let mut v = u64::from_str_radix(int, 16).unwrap() as f64;
+    let mut scale = 1.0 / 16.0;
+    for ch in frac.chars() {
+        v += ch.to_digit(16).unwrap() as f64 * scale;
+        scale /= 16.0;
+    }
+    let v = v * 2f64.powi(exp.parse().unwrap());
+    if neg { -v } else { v }
+}
+
+#[test]
+fn c_reader_is_bit_exact_and_verifies() {
+    let dir = tempfile::tempdir().unwrap();
+    let libdir = lib_dir();
+    assert!(
+        libdir.join("libscatterbake.so").exists() || libdir.join("libscatterbake.dylib").exists(),
+        "cdylib not found in {}",
+        libdir.display()
+    );
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let exe = dir.path().join("sbt-example");
+    let cc = Command::new("cc")
+        .args(["-std=c99", "-Wall", "-Wextra", "-Werror", "-I"])
+        .arg(root.join("c"))
+        .arg(root.join("c/example.c"))
+        .arg("-L")
+        .arg(&libdir)
+        .arg("-lscatterbake")
+        .arg(format!("-Wl,-rpath,{}", libdir.display()))
+        .arg("-o")
+        .arg(&exe)
+        .output()
+        .expect("a C compiler `cc` is installed");
+    assert!(
+        cc.status.success(),
+        "cc failed: {}",
+        String::from_utf8_lossy(&cc.stderr)
+    );
+    for p in common::tables(dir.path()) {
+        let t = Table::open(&p).unwrap();
+        let coords: Vec<f64> = t
+            .axes()
+            .iter()
+            .map(|a| {
+                if a.len() > 1 {
+                    0.37 * a.coord(0) + 0.63 * a.coord(1)
+                } else {
+                    a.coord(0)
+                }
+            })
+            .collect();
+        let dump = dir.path().join("dump.bin");
+        let out = Command::new(&exe)
+            .arg(&p)
+            .arg("--dump")
+            .arg(&dump)
+            .args(coords.iter().map(|c| format!("{c:e}")))
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{}: {}",
+            p.display(),
+            String::from_utf8_lossy(&out.stderr)
+        );
+        assert_eq!(
+            std::fs::read(&dump).unwrap(),
+            common::raw_bytes(&t),
+            "{}: payload differs",
+            p.display()
+        );
+        let text = String::from_utf8_lossy(&out.stdout);
+        let axes: Vec<&str> = text.lines().filter(|l| l.starts_with("axis ")).collect();
+        assert_eq!(axes.len(), t.axes().len());
+        for (line, a) in axes.iter().zip(t.axes()) {
+            let f: Vec<&str> = line.split_whitespace().collect();
+            assert_eq!(f[1], a.name);
+            assert_eq!(f[3].parse::<usize>().unwrap(), a.len());
+            assert_eq!(parse_hex_float(f[4]).to_bits(), a.coord(0).to_bits());
+            assert_eq!(
+                parse_hex_float(f[5]).to_bits(),
+                a.coord(a.len() - 1).to_bits()
+            );
+        }
+        // The coordinates went through decimal text: sample Rust at the parsed-back values.
+        let parsed: Vec<f64> = coords
+            .iter()
+            .map(|c| format!("{c:e}").parse().unwrap())
+            .collect();
+        let want = t.sample(&parsed).unwrap();
+        let got: Vec<f64> = text
+            .lines()
+            .filter(|l| l.starts_with("sample "))
+            .map(|l| l.split_whitespace().nth(2).unwrap())
+            .map(|s| {
+                if s.contains("nan") {
+                    f64::NAN
+                } else if s.contains("inf") {
+                    if s.starts_with('-') {
+                        f64::NEG_INFINITY
+                    } else {
+                        f64::INFINITY
+                    }
+                } else {
+                    parse_hex_float(s)
+                }
+            })
+            .collect();
+        assert_eq!(got.len(), want.len());
+        for (w, g) in want.iter().zip(&got) {
+            assert!(
+                w.to_bits() == g.to_bits() || (w.is_nan() && g.is_nan()),
+                "{}: sample {w} vs {g}",
+                p.display()
+            );
+        }
+    }
+    let good = dir.path().join("hg.sbt");
+    let bad = dir.path().join("bad.sbt");
+    common::corrupt_copy(&good, &bad, 10);
+    let out = Command::new(&exe).arg(&bad).output().unwrap();
+    assert_eq!(out.status.code(), Some(3));
+    assert!(
+        String::from_utf8_lossy(&out.stderr).contains("checksum"),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    common::newer_major_copy(&good, &bad);
+    let out = Command::new(&exe).arg(&bad).output().unwrap();
+    assert_eq!(out.status.code(), Some(3));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("newer"));
+}

@@ -1,0 +1,255 @@
+//! The consumer commands through their clap `Args` + `run_*` entry points, on tables written
+//! by the Rust writer: MiePlot export → validate round trip (zero error), Legendre export
+//! reconstructs to the reported truncation error, Mitsuba snippet, plots and the renderer write
+//! decodable images of the requested size that show what they should.
+
+use clap::Parser;
+use scatterbake::consumers::{legendre, mieplot, mitsuba, plot, render, synthetic};
+use scatterbake::table::write_table_atomic;
+use std::path::{Path, PathBuf};
+
+#[derive(Parser)]
+struct Cli<A: clap::Args> {
+    #[command(flatten)]
+    args: A,
+}
+
+fn parse<A: clap::Args>(argv: &[&str]) -> A {
+    Cli::<A>::try_parse_from(std::iter::once("test").chain(argv.iter().copied()))
+        .unwrap_or_else(|e| panic!("{e}"))
+        .args
+}
+
+fn hg_table(dir: &Path) -> PathBuf {
+    let p = dir.join("hg.sbt");
+    let mut t = synthetic::henyey_greenstein_table(
+        &[450.0, 550.0, 650.0],
+        &[100.0, 500.0],
+        |k, r| 0.6 + 0.05 * k as f64 + 0.1 * r as f64,
+        1801,
+        0.3,
+    );
+    write_table_atomic(&mut t, &p).unwrap();
+    p
+}
+
+fn decode_png(p: &Path) -> (u32, u32, Vec<u8>) {
+    let dec = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(p).unwrap()));
+    let mut r = dec.read_info().unwrap();
+    let mut buf = vec![0; r.output_buffer_size().unwrap()];
+    let info = r.next_frame(&mut buf).unwrap();
+    buf.truncate(info.buffer_size());
+    (info.width, info.height, buf)
+}
+
+#[test]
+fn mieplot_export_then_validate_is_exact() {
+    let dir = tempfile::tempdir().unwrap();
+    let t = hg_table(dir.path());
+    let out = dir.path().join("ref.txt");
+    let (ts, os) = (t.to_str().unwrap(), out.to_str().unwrap());
+    mieplot::run_mieplot(&parse(&[
+        ts,
+        "--entry",
+        "radius=500",
+        "--wavelength-nm",
+        "550",
+        "--out",
+        os,
+    ]))
+    .unwrap();
+    let r = mieplot::read_mieplot_file(&out).unwrap();
+    assert_eq!(r.angle_deg.len(), 1801);
+    assert_eq!(r.wavelength_nm, Some(550.0));
+    let pt = scatterbake::consumers::phase::PhaseTable::open(&t).unwrap();
+    let rep = mieplot::compare(&pt, &["radius=500".parse().unwrap()], 550.0, &r, false).unwrap();
+    assert_eq!(rep.max_rel_error, [0.0; 3], "{rep:?}");
+    // validate with zero tolerance passes for the right entry and fails for another.
+    mieplot::run_validate(&parse(&[
+        ts,
+        "--reference",
+        os,
+        "--entry",
+        "radius=500",
+        "--tolerance",
+        "0",
+    ]))
+    .unwrap();
+    assert!(
+        mieplot::run_validate(&parse(&[
+            ts,
+            "--reference",
+            os,
+            "--entry",
+            "radius=100",
+            "--tolerance",
+            "1e-3"
+        ]))
+        .is_err()
+    );
+}
+
+#[test]
+fn legendre_export_reconstructs_to_reported_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let t = hg_table(dir.path());
+    let out = dir.path().join("leg.txt");
+    let (ts, os) = (t.to_str().unwrap(), out.to_str().unwrap());
+    // g = 0.6 + 0.05 + 0.1 = 0.75 at 550 nm, radius 500.
+    legendre::run_legendre(&parse(&[
+        ts,
+        "--entry",
+        "radius=500",
+        "--order",
+        "40",
+        "--wavelength-nm",
+        "550",
+        "--out",
+        os,
+    ]))
+    .unwrap();
+    let text = std::fs::read_to_string(&out).unwrap();
+    let reported: f64 = text
+        .lines()
+        .find(|l| l.starts_with("# truncation:"))
+        .and_then(|l| l.split("max_rel_error ").nth(1))
+        .and_then(|s| s.split_whitespace().next())
+        .unwrap()
+        .parse()
+        .unwrap();
+    let chi: Vec<f64> = text
+        .lines()
+        .filter(|l| !l.starts_with('#'))
+        .map(|l| l.split('\t').nth(1).unwrap().parse().unwrap())
+        .collect();
+    assert_eq!(chi.len(), 41);
+    for (l, c) in chi.iter().enumerate() {
+        assert!((c - 0.75f64.powi(l as i32)).abs() < 2e-4, "chi_{l} = {c}");
+    }
+    // Reconstruct from the file and compare with the analytic HG: the largest relative error
+    // equals the reported one (to its 4 printed digits, plus the grid's interpolation error).
+    let mut worst: f64 = 0.0;
+    for j in 0..=1800 {
+        let t = j as f64 * 0.1;
+        let mu = t.to_radians().cos();
+        let exact = synthetic::henyey_greenstein(0.75, mu) as f32 as f64;
+        worst = worst.max((legendre::reconstruct(&chi, mu) - exact).abs() / exact);
+    }
+    assert!(
+        (worst - reported).abs() < 1e-3 * reported + 1e-6,
+        "worst {worst}, reported {reported}"
+    );
+    assert!(
+        reported > 1e-4,
+        "order 40 of HG(0.75) must leave a visible truncation error"
+    );
+}
+
+#[test]
+fn mitsuba_export_writes_three_rgb_lists() {
+    let dir = tempfile::tempdir().unwrap();
+    let t = hg_table(dir.path());
+    let (xml, vals) = (dir.path().join("p.xml"), dir.path().join("p.txt"));
+    mitsuba::run_mitsuba(&parse(&[
+        t.to_str().unwrap(),
+        "--samples",
+        "512",
+        "--out",
+        xml.to_str().unwrap(),
+        "--values-out",
+        vals.to_str().unwrap(),
+    ]))
+    .unwrap();
+    let x = std::fs::read_to_string(&xml).unwrap();
+    assert_eq!(x.matches("<phase type=\"tabphase\"").count(), 3);
+    let lists: Vec<Vec<f64>> = std::fs::read_to_string(&vals)
+        .unwrap()
+        .lines()
+        .filter(|l| !l.starts_with('#'))
+        .map(|l| l.split(',').map(|v| v.trim().parse().unwrap()).collect())
+        .collect();
+    assert_eq!(lists.len(), 3);
+    for l in &lists {
+        assert_eq!(l.len(), 512);
+        // Forward-peaked HG(g ≈ 0.6–0.7): p(+1)/p(−1) = ((1+g)/(1−g))³ ≥ 64.
+        assert!(l[511] > 30.0 * l[0], "{} {}", l[511], l[0]);
+    }
+}
+
+#[test]
+fn plots_and_render_write_images_that_show_the_data() {
+    let dir = tempfile::tempdir().unwrap();
+    let t = hg_table(dir.path());
+    let ts = t.to_str().unwrap();
+    for ext in ["png", "svg"] {
+        let out = dir.path().join(format!("phase.{ext}"));
+        plot::run_plot(&parse(&[
+            ts,
+            "--kind",
+            "phase",
+            "--polarised",
+            "--width",
+            "640",
+            "--height",
+            "400",
+            "--out",
+            out.to_str().unwrap(),
+        ]))
+        .unwrap();
+        assert!(std::fs::metadata(&out).unwrap().len() > 1000);
+    }
+    let (w, h, px) = decode_png(&dir.path().join("phase.png"));
+    assert_eq!((w, h), (640, 400));
+    // The 650 nm curve is drawn in its own (red) colour.
+    let red = plot::wavelength_colour(650.0);
+    assert!(
+        px.chunks(3).any(|p| p == [red.0, red.1, red.2]),
+        "no pixel in the 650 nm colour"
+    );
+    let svg = std::fs::read_to_string(dir.path().join("phase.svg")).unwrap();
+    assert!(svg.contains("scattering angle"));
+    // Auto previews: phase, strip and Lee (the table has a radius axis).
+    let prev = dir.path().join("previews");
+    plot::run_plot(&parse(&[ts, "--out", prev.to_str().unwrap()])).unwrap();
+    for k in ["phase", "strip", "lee"] {
+        let (w, _, _) = decode_png(&prev.join(format!("hg-{k}.png")));
+        assert!(w > 100);
+    }
+    // Renderer: a peak at 138° gives a ring; the PNG has the requested size and the ring is
+    // the brightest thing in the picture.
+    let peak = dir.path().join("peak.sbt");
+    let wl: Vec<f64> = (0..33).map(|i| 380.0 + 10.0 * i as f64).collect();
+    write_table_atomic(
+        &mut synthetic::peak_table(&wl, |_| 138.0, 0.3, 1e-4, 1801),
+        &peak,
+    )
+    .unwrap();
+    let out = dir.path().join("sky.png");
+    render::run_render_rainbow(&parse(&[
+        "--table",
+        peak.to_str().unwrap(),
+        "--width",
+        "300",
+        "--height",
+        "200",
+        "--view-elevation-deg",
+        "5",
+        "--out",
+        out.to_str().unwrap(),
+    ]))
+    .unwrap();
+    let (w, h, px) = decode_png(&out);
+    assert_eq!((w, h), (300, 200));
+    // Centre column: brightest pixel at elevation 42 − 25 = 17° (equidistant fisheye, 0.4°/px).
+    let pix = 120.0 / 300.0;
+    let col = 150usize;
+    let (jbest, _) = (0..200usize)
+        .map(|j| {
+            let p = &px[(j * 300 + col) * 3..][..3];
+            (j, p[0] as u32 + p[1] as u32 + p[2] as u32)
+        })
+        .max_by_key(|x| x.1)
+        .unwrap();
+    let elev = 5.0 + (100.0 - jbest as f64 - 0.5) * pix;
+    assert!((elev - 17.0).abs() <= pix, "ring top at elevation {elev}");
+}
