@@ -53,14 +53,15 @@ enum Command {
         #[arg(required = true)]
         files: Vec<PathBuf>,
     },
-    /// Export a table to CSV, JSON or EXR.
-    Export {
-        file: PathBuf,
-        #[arg(long, value_enum)]
-        format: crate::export::GenericFormat,
-        #[arg(long)]
-        out: PathBuf,
-    },
+    /// Export a table: csv|json|exr (any table) or mitsuba|legendre|mieplot (phase functions).
+    Export(ExportArgs),
+    /// Plot a table (phase function, rainbow colour strip, Lee diagram, 2-D maps) to PNG/SVG.
+    Plot(crate::consumers::plot::PlotArgs),
+    /// Render a picture through the public table reader API.
+    #[command(subcommand)]
+    Render(RenderCommand),
+    /// Compare a phase-function table with a MiePlot-style reference text file.
+    Validate(crate::consumers::mieplot::ValidateArgs),
     /// List stages with their parameters and defaults.
     Stages,
     /// Rebuild DIR/index.json from the tables in DIR (after sharded builds).
@@ -68,6 +69,104 @@ enum Command {
         #[arg(default_value = "tables")]
         dir: PathBuf,
     },
+}
+
+/// What `render` can draw.
+#[derive(Subcommand, Debug)]
+enum RenderCommand {
+    /// Spectral single-scattering rainbow in a rain volume, sun importance-sampled as a disc.
+    Rainbow(crate::consumers::render::RenderRainbowArgs),
+}
+
+/// Every export format.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum ExportFormat {
+    /// One row per grid point (any table).
+    Csv,
+    /// Header plus one object per grid point (any table).
+    Json,
+    /// f32 texture, last axis along x, other axes flattened along y (any table).
+    Exr,
+    /// Mitsuba 3 `tabphase` XML snippet (phase-function tables).
+    Mitsuba,
+    /// Legendre moments with truncation error (phase-function tables).
+    Legendre,
+    /// MiePlot-style text table: angle, i_perp, i_par, unpolarised (phase-function tables).
+    Mieplot,
+}
+
+#[derive(clap::Args, Debug)]
+struct ExportArgs {
+    /// Table file (.sbt).
+    file: PathBuf,
+    #[arg(long, value_enum)]
+    format: ExportFormat,
+    /// Output file (required for csv/json/exr; stdout otherwise when omitted).
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Entry selection NAME=VALUE per entry axis (phase formats; default: first sample of each).
+    #[arg(long = "entry", value_name = "NAME=VALUE")]
+    entry: Vec<crate::consumers::phase::EntrySelection>,
+    /// Wavelength in nm (phase formats).
+    #[arg(long)]
+    wavelength_nm: Option<f64>,
+    /// Highest Legendre order (legendre).
+    #[arg(long, default_value_t = 64)]
+    order: usize,
+    /// What to export for Mitsuba (mitsuba).
+    #[arg(long, value_enum, default_value = "rgb")]
+    mode: crate::consumers::mitsuba::MitsubaMode,
+    /// Number of tabphase values, uniform in cos θ (mitsuba).
+    #[arg(long, default_value_t = 4096)]
+    samples: usize,
+    /// Also write the plain tabphase value lists here (mitsuba).
+    #[arg(long)]
+    values_out: Option<PathBuf>,
+}
+
+fn run_export(a: ExportArgs) -> Result<()> {
+    use crate::consumers::{legendre, mieplot, mitsuba};
+    use crate::export::GenericFormat;
+    let generic = match a.format {
+        ExportFormat::Csv => Some(GenericFormat::Csv),
+        ExportFormat::Json => Some(GenericFormat::Json),
+        ExportFormat::Exr => Some(GenericFormat::Exr),
+        _ => None,
+    };
+    if let Some(format) = generic {
+        let out = a
+            .out
+            .ok_or_else(|| anyhow::anyhow!("--out is required for --format csv|json|exr"))?;
+        let t = Table::open(&a.file)?;
+        crate::export::export(&t, format, &out)?;
+        println!("wrote {}", out.display());
+        return Ok(());
+    }
+    match a.format {
+        ExportFormat::Mitsuba => mitsuba::run_mitsuba(&mitsuba::MitsubaArgs {
+            table: a.file,
+            entry: a.entry,
+            mode: a.mode,
+            wavelength_nm: a.wavelength_nm,
+            samples: a.samples,
+            out: a.out,
+            values_out: a.values_out,
+        }),
+        ExportFormat::Legendre => legendre::run_legendre(&legendre::LegendreArgs {
+            table: a.file,
+            entry: a.entry,
+            order: a.order,
+            wavelength_nm: a.wavelength_nm,
+            out: a.out,
+        }),
+        ExportFormat::Mieplot => mieplot::run_mieplot(&mieplot::MiePlotArgs {
+            table: a.file,
+            entry: a.entry,
+            wavelength_nm: a.wavelength_nm,
+            out: a.out,
+        }),
+        _ => unreachable!("generic formats handled above"),
+    }
 }
 
 /// Entry point; returns the process exit code.
@@ -171,12 +270,12 @@ fn run(cmd: Command) -> Result<i32> {
                 Ok(0)
             }
         }
-        Command::Export { file, format, out } => {
-            let t = Table::open(&file)?;
-            crate::export::export(&t, format, &out)?;
-            println!("wrote {}", out.display());
-            Ok(0)
+        Command::Export(a) => run_export(a).map(|_| 0),
+        Command::Plot(a) => crate::consumers::plot::run_plot(&a).map(|_| 0),
+        Command::Render(RenderCommand::Rainbow(a)) => {
+            crate::consumers::render::run_render_rainbow(&a).map(|_| 0)
         }
+        Command::Validate(a) => crate::consumers::mieplot::run_validate(&a).map(|_| 0),
         Command::Stages => {
             for s in crate::stages::registry() {
                 println!(

@@ -69,8 +69,18 @@ impl<'a> Cumulative<'a> {
 
     /// ∫ from angles_deg[j] to `to_deg` (within segment j) of p sin θ dθ.
     fn segment(a: &[f64], p: &[f64], j: usize, to_deg: f64) -> f64 {
-        const X: [f64; 4] = [-0.861_136_311_594_052_6, -0.339_981_043_584_856_3, 0.339_981_043_584_856_3, 0.861_136_311_594_052_6];
-        const W: [f64; 4] = [0.347_854_845_137_453_9, 0.652_145_154_862_546_1, 0.652_145_154_862_546_1, 0.347_854_845_137_453_9];
+        const X: [f64; 4] = [
+            -0.861_136_311_594_052_6,
+            -0.339_981_043_584_856_3,
+            0.339_981_043_584_856_3,
+            0.861_136_311_594_052_6,
+        ];
+        const W: [f64; 4] = [
+            0.347_854_845_137_453_9,
+            0.652_145_154_862_546_1,
+            0.652_145_154_862_546_1,
+            0.347_854_845_137_453_9,
+        ];
         let (t0, t1) = (a[j], to_deg);
         if t1 <= t0 {
             return 0.0;
@@ -88,7 +98,10 @@ impl<'a> Cumulative<'a> {
     fn at(&self, theta_deg: f64) -> f64 {
         let a = self.angles_deg;
         let t = theta_deg.clamp(a[0], a[a.len() - 1]);
-        let j = a.partition_point(|&x| x <= t).saturating_sub(1).min(a.len() - 2);
+        let j = a
+            .partition_point(|&x| x <= t)
+            .saturating_sub(1)
+            .min(a.len() - 2);
         self.at_nodes[j] + Self::segment(a, self.phase, j, t)
     }
 }
@@ -103,7 +116,10 @@ pub fn tabphase_values(angles_deg: &[f64], phase: &[f64], n: usize) -> Vec<f64> 
     let c = Cumulative::new(angles_deg, phase);
     let h = 2.0 / (n - 1) as f64;
     // ∫_{μ_lo}^{μ_hi} p dμ = C(θ(μ_lo)) − C(θ(μ_hi)).
-    let integral = |lo: f64, hi: f64| c.at(lo.clamp(-1.0, 1.0).acos().to_degrees()) - c.at(hi.clamp(-1.0, 1.0).acos().to_degrees());
+    let integral = |lo: f64, hi: f64| {
+        c.at(lo.clamp(-1.0, 1.0).acos().to_degrees())
+            - c.at(hi.clamp(-1.0, 1.0).acos().to_degrees())
+    };
     mu_grid(n)
         .into_iter()
         .map(|mu| {
@@ -118,7 +134,13 @@ pub fn tabphase_values(angles_deg: &[f64], phase: &[f64], n: usize) -> Vec<f64> 
 pub fn tabphase_point_values(angles_deg: &[f64], phase: &[f64], n: usize) -> Vec<f64> {
     mu_grid(n)
         .into_iter()
-        .map(|mu| crate::optics::interp::interp1(angles_deg, phase, mu.clamp(-1.0, 1.0).acos().to_degrees()))
+        .map(|mu| {
+            crate::optics::interp::interp1(
+                angles_deg,
+                phase,
+                mu.clamp(-1.0, 1.0).acos().to_degrees(),
+            )
+        })
         .collect()
 }
 
@@ -395,7 +417,11 @@ mod tests {
         for k in (50..1000).step_by(50) {
             let mu = -1.0 + 2.0 * k as f64 / 1000.0;
             let exact = henyey_greenstein(0.6, mu);
-            assert!((v[k] - exact).abs() < 1e-3 * exact, "k={k}: {} vs {exact}", v[k]);
+            assert!(
+                (v[k] - exact).abs() < 1e-3 * exact,
+                "k={k}: {} vs {exact}",
+                v[k]
+            );
         }
         // Mitsuba's normalised evaluation reproduces the analytic function (HG is smooth in μ).
         let q = quality(&v, &c.angles_deg, &c.phase[0]);
@@ -422,10 +448,16 @@ mod tests {
         // peak_table normalises with the trapezoid rule); point samples over-count the peak by
         // orders of magnitude.
         let chi0 = crate::consumers::legendre::moments(&c.angles_deg, &c.phase[0], 0)[0];
-        assert!((q_avg.normalisation_ratio / chi0 - 1.0).abs() < 1e-6, "{q_avg:?} vs {chi0}");
+        assert!(
+            (q_avg.normalisation_ratio / chi0 - 1.0).abs() < 1e-6,
+            "{q_avg:?} vs {chi0}"
+        );
         assert!(q_pts.normalisation_ratio > 10.0, "{q_pts:?}");
         // Back hemisphere: only the renormalisation by χ_0 remains.
-        assert!(q_avg.max_rel_error_back < (chi0 - 1.0).abs() + 1e-4, "{q_avg:?}");
+        assert!(
+            q_avg.max_rel_error_back < (chi0 - 1.0).abs() + 1e-4,
+            "{q_avg:?}"
+        );
     }
 
     #[test]

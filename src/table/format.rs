@@ -220,7 +220,12 @@ impl Table {
                 ),
             });
         }
-        let mut raw = Vec::with_capacity(p.uncompressed_bytes as usize);
+        // The capacity is only a hint (bounded), so a crafted size cannot force a huge allocation
+        // before decompression proves the data exists.
+        let mut raw = Vec::with_capacity(
+            p.uncompressed_bytes
+                .min(p.compressed_bytes.saturating_mul(64)) as usize,
+        );
         zstd::stream::Decoder::new(compressed)
             .and_then(|d| d.take(p.uncompressed_bytes + 1).read_to_end(&mut raw))
             .map_err(|e| TableError::Decompress {
