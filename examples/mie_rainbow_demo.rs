@@ -11,21 +11,29 @@
 
 use num_complex::Complex;
 use rayon::prelude::*;
+use scatrs::mie::{Mie, MieOptions};
 use scatterbake::consumers::{phase::PhaseTable, plot, render};
 use scatterbake::optics::water::{SADEGHI_WAVELENGTHS_NM, WaterIndexModel};
-use scatterbake::table::{Axis, Channel, Provenance, Schema, Table, TableContent, write_table_atomic};
-use scatrs::mie::{Mie, MieOptions};
+use scatterbake::table::{
+    Axis, Channel, Provenance, Schema, Table, TableContent, write_table_atomic,
+};
 use std::path::PathBuf;
 
 /// (|S1|², |S2|²) / (k² C_sca) at the given cos θ, i.e. i_perp and i_par normalised so that
 /// ∫ (i_perp + i_par)/2 dΩ = 1.
 fn mie_intensities(x: f64, m: f64, mu: &[f64]) -> Vec<(f64, f64)> {
     let mut w = Mie::<f64>::new();
-    let sol = w.compute(x, Complex::new(m, 0.0), &MieOptions::new()).expect("inside scatrs' validated domain");
+    let sol = w
+        .compute(x, Complex::new(m, 0.0), &MieOptions::new())
+        .expect("inside scatrs' validated domain");
     let (a, b) = (sol.a().to_vec(), sol.b().to_vec());
     let k2csca: f64 = 2.0
         * std::f64::consts::PI
-        * a.iter().zip(&b).enumerate().map(|(i, (a, b))| (2 * i + 3) as f64 * (a.norm_sqr() + b.norm_sqr())).sum::<f64>();
+        * a.iter()
+            .zip(&b)
+            .enumerate()
+            .map(|(i, (a, b))| (2 * i + 3) as f64 * (a.norm_sqr() + b.norm_sqr()))
+            .sum::<f64>();
     mu.iter()
         .map(|&u| {
             let (mut pi_prev, mut pi) = (0.0, 1.0);
@@ -46,16 +54,27 @@ fn mie_intensities(x: f64, m: f64, mu: &[f64]) -> Vec<(f64, f64)> {
 }
 
 fn main() -> anyhow::Result<()> {
-    let out = PathBuf::from(std::env::args().nth(1).unwrap_or_else(|| "target/mie-demo".into()));
+    let out = PathBuf::from(
+        std::env::args()
+            .nth(1)
+            .unwrap_or_else(|| "target/mie-demo".into()),
+    );
     std::fs::create_dir_all(&out)?;
     let radii_um = [100.0, 200.0, 300.0, 400.0, 500.0];
-    let n_angle = 1801; // 0.1° steps
-    let step = 180.0 / (n_angle - 1) as f64;
-    let mu: Vec<f64> = (0..n_angle).map(|j| (j as f64 * step).to_radians().cos()).collect();
+    // 0.002° steps over 0–2° (resolves the forward diffraction peak, whose first zero is at
+    // ≈ 0.035° for 0.5 mm drops at 380 nm), then 0.1° steps to 180°.
+    let angles: Vec<f64> = (0..1000)
+        .map(|j| j as f64 * 0.002)
+        .chain((20..=1800).map(|j| j as f64 * 0.1))
+        .collect();
+    let n_angle = angles.len();
+    let mu: Vec<f64> = angles.iter().map(|t| t.to_radians().cos()).collect();
     let water = WaterIndexModel::SadeghiTable32;
     let wl = SADEGHI_WAVELENGTHS_NM.to_vec();
     let t0 = std::time::Instant::now();
-    let jobs: Vec<(usize, usize)> = (0..wl.len()).flat_map(|k| (0..radii_um.len()).map(move |r| (k, r))).collect();
+    let jobs: Vec<(usize, usize)> = (0..wl.len())
+        .flat_map(|k| (0..radii_um.len()).map(move |r| (k, r)))
+        .collect();
     let results: Vec<Vec<(f64, f64)>> = jobs
         .par_iter()
         .map(|&(k, r)| {
@@ -77,8 +96,14 @@ fn main() -> anyhow::Result<()> {
         ("angle_convention", "scattering angle, 0 deg forward"),
         ("water_index_model", water.name()),
         ("medium", "water drops in air (outside index 1.0)"),
-        ("angular_resampling", "point samples every 0.1 deg (forward diffraction peak of large drops under-resolved)"),
-        ("validated_domain", "demo table computed with the scatrs reference library (examples/mie_rainbow_demo.rs)"),
+        (
+            "angular_resampling",
+            "point samples every 0.002 deg over 0-2 deg, every 0.1 deg above",
+        ),
+        (
+            "validated_domain",
+            "demo table computed with the scatrs reference library (examples/mie_rainbow_demo.rs)",
+        ),
     ] {
         attributes.insert(k.into(), v.into());
     }
@@ -89,10 +114,14 @@ fn main() -> anyhow::Result<()> {
         axes: vec![
             Axis::values("wavelength", "nm", wl.clone()),
             Axis::values("radius", "um", radii_um.to_vec()),
-            Axis::uniform("scattering_angle", "deg", 0.0, step, n_angle),
+            Axis::values("scattering_angle", "deg", angles.clone()),
         ],
         channels: vec![
-            Channel::new("phase", "1/sr", "unpolarised phase function, integral over 4pi = 1"),
+            Channel::new(
+                "phase",
+                "1/sr",
+                "unpolarised phase function, integral over 4pi = 1",
+            ),
             Channel::new("i_perp", "1/sr", "|S1|^2/(k^2 C_sca)"),
             Channel::new("i_par", "1/sr", "|S2|^2/(k^2 C_sca)"),
             Channel::new("dolp", "1", "(i_perp - i_par)/(i_perp + i_par)"),
@@ -101,13 +130,23 @@ fn main() -> anyhow::Result<()> {
         data,
     };
     let table_path = out.join("mie-demo.sbt");
-    write_table_atomic(&mut Table::from_content(content, Provenance::default())?, &table_path)?;
+    write_table_atomic(
+        &mut Table::from_content(content, Provenance::default())?,
+        &table_path,
+    )?;
     for p in plot::previews(&table_path, &out)? {
         eprintln!("wrote {}", p.display());
     }
     let pt = PhaseTable::open(&table_path)?;
-    for (r, name) in [(500.0, "rainbow-0.5mm"), (300.0, "rainbow-0.3mm"), (100.0, "rainbow-0.1mm")] {
-        let entry = vec![scatterbake::consumers::phase::EntrySelection { axis: "radius".into(), value: r }];
+    for (r, name) in [
+        (500.0, "rainbow-0.5mm"),
+        (300.0, "rainbow-0.3mm"),
+        (100.0, "rainbow-0.1mm"),
+    ] {
+        let entry = vec![scatterbake::consumers::phase::EntrySelection {
+            axis: "radius".into(),
+            value: r,
+        }];
         let camera = render::Camera {
             lens: render::Lens::Fisheye,
             width: 800,
@@ -128,7 +167,12 @@ fn main() -> anyhow::Result<()> {
         let img = render::render(&pt, &entry, &scene, &camera)?;
         let exposure = render::auto_exposure(&img.linear_srgb);
         let png = out.join(format!("{name}.png"));
-        render::write_png(&png, camera.width, camera.height, &render::to_srgb8(&img.linear_srgb, exposure, 1.0, [0, 0, 0]))?;
+        render::write_png(
+            &png,
+            camera.width,
+            camera.height,
+            &render::to_srgb8(&img.linear_srgb, exposure, 1.0, [0, 0, 0]),
+        )?;
         let xyz = render::xyz_vs_angle(&pt, &entry, 0.5)?;
         println!("{} ({:.1} s):", png.display(), t1.elapsed().as_secs_f64());
         for (bow, lo, hi) in [("primary", 36.0, 46.0), ("secondary", 48.0, 56.0)] {
@@ -147,7 +191,9 @@ fn main() -> anyhow::Result<()> {
         let band = |lo: f64, hi: f64| {
             let (mut s, mut n) = (0.0, 0);
             for j in 0..camera.height {
-                let rad = camera.view_elevation_deg + (camera.height as f64 / 2.0 - j as f64 - 0.5) * camera.pixel_deg() + 25.0;
+                let rad = camera.view_elevation_deg
+                    + (camera.height as f64 / 2.0 - j as f64 - 0.5) * camera.pixel_deg()
+                    + 25.0;
                 if rad >= lo && rad <= hi {
                     let q = img.linear_srgb[j * camera.width + camera.width / 2];
                     s += 0.2126 * q[0] + 0.7152 * q[1] + 0.0722 * q[2];

@@ -1,6 +1,6 @@
 //! Consumers of phase-function tables: renderer exports (Mitsuba 3 `tabphase`, Legendre
-//! moments, MiePlot-style text), a reference rainbow renderer, plots, and the C ABI for readers
-//! in other languages. Everything reads tables through the public reader API
+//! moments, MiePlot-style text), a reference rainbow renderer and plots (the C ABI
+//! for other languages is the `capi/` crate, `libscatterbake_table`). Everything reads tables through the public reader API
 //! ([`crate::table::Table::open`], [`crate::table::Table::sample`]) and the phase contract
 //! (`docs/consumers.md`).
 //!
@@ -8,7 +8,6 @@
 //! [`mieplot::MiePlotArgs`], [`mieplot::ValidateArgs`], [`plot::PlotArgs`],
 //! [`render::RenderRainbowArgs`].
 
-pub mod capi;
 pub mod legendre;
 pub mod mieplot;
 pub mod mitsuba;
