@@ -19,11 +19,18 @@ fn lib_dir() -> PathBuf {
     let target_dir = profile_dir.parent().unwrap();
     let out = Command::new(env!("CARGO"))
         .args([
+            // `-p scatterbake --tests`: resolve features with scatterbake's dev-dependencies,
+            // exactly as the `cargo test` running this did, so its scatterbake rlib is reused
+            // instead of rebuilt with another feature set.
             "build",
+            "-p",
+            "scatterbake",
             "-p",
             "scatterbake-capi",
             "--profile",
             "test",
+            "--lib",
+            "--tests",
             "--quiet",
         ])
         .arg("--manifest-path")
