@@ -1,7 +1,7 @@
 /*
  * example.c: open a scatterbake table from C, print its axes and channels, and look up a
- * value. Build (after `cargo build --release`):
- *     cc -std=c99 -Wall -I c c/example.c -L target/release -lscatterbake \
+ * value. Build (after `cargo build -p scatterbake-capi --release`):
+ *     cc -std=c99 -Wall -I c c/example.c -L target/release -lscatterbake_table \
  *        -Wl,-rpath,$PWD/target/release -o sbt-example
  * Run:
  *     ./sbt-example tables/mie.sbt [--dump out.bin] [COORD ...]

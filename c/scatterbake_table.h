@@ -1,9 +1,9 @@
 /*
  * scatterbake_table.h: C interface to scatterbake tables (.sbt), for C and C++ renderers.
  *
- * The functions are exported by the scatterbake library built as a C dynamic library
- * (`cargo build --release` produces target/release/libscatterbake.so, .dylib or .dll). Link
- * with -lscatterbake. The library does all the verification (magic, format version: newer
+ * The functions are exported by the C dynamic library of the workspace crate `capi/`
+ * (`cargo build -p scatterbake-capi --release` produces target/release/libscatterbake_table.so,
+ * .dylib or scatterbake_table.dll). Link with -lscatterbake_table. The library does all the verification (magic, format version: newer
  * majors are refused, SHA-256 of the header and of the compressed and uncompressed payload,
  * sizes) with the same code as the Rust reader, so a table that opens here is bit-identical to
  * what the Rust writer wrote.

@@ -1,6 +1,6 @@
 //! The C interface (`c/scatterbake_table.h`, the crate's cdylib) reads tables written by the
 //! Rust writer bit for bit and refuses corrupt files and newer majors: `c/example.c` is compiled
-//! with the system C compiler (`cc`) against `libscatterbake` and run on every test table.
+//! with the system C compiler (`cc`) against `libscatterbake_table` (workspace crate `capi/`) and run on every test table.
 
 mod common;
 
@@ -8,16 +8,31 @@ use scatterbake::table::Table;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-/// Build the cdylib (cargo builds only the rlib for integration tests) and return the
-/// directory holding libscatterbake.{so,dylib}. Uses the cargo that runs this test, the same
-/// target directory and the `test` profile, so it is a no-op when the library is up to date.
+/// Build the cdylib crate `scatterbake-capi` and return the directory holding
+/// libscatterbake_table.{so,dylib}. Uses the cargo that runs this test, the same target
+/// directory and the `test` profile, so the scatterbake rlib already built for this test is
+/// reused and only the small capi crate is compiled (a no-op when up to date).
 fn lib_dir() -> PathBuf {
     let exe = std::env::current_exe().unwrap();
     // target/<profile dir>/deps/<test exe> -> target/<profile dir>
     let profile_dir = exe.parent().unwrap().parent().unwrap().to_path_buf();
     let target_dir = profile_dir.parent().unwrap();
     let out = Command::new(env!("CARGO"))
-        .args(["build", "--lib", "--profile", "test", "--quiet"])
+        .args([
+            // `-p scatterbake --tests`: resolve features with scatterbake's dev-dependencies,
+            // exactly as the `cargo test` running this did, so its scatterbake rlib is reused
+            // instead of rebuilt with another feature set.
+            "build",
+            "-p",
+            "scatterbake",
+            "-p",
+            "scatterbake-capi",
+            "--profile",
+            "test",
+            "--lib",
+            "--tests",
+            "--quiet",
+        ])
         .arg("--manifest-path")
         .arg(Path::new(env!("CARGO_MANIFEST_DIR")).join("Cargo.toml"))
         .env("CARGO_TARGET_DIR", target_dir)
@@ -52,7 +67,8 @@ fn c_reader_is_bit_exact_and_verifies() {
     let dir = tempfile::tempdir().unwrap();
     let libdir = lib_dir();
     assert!(
-        libdir.join("libscatterbake.so").exists() || libdir.join("libscatterbake.dylib").exists(),
+        libdir.join("libscatterbake_table.so").exists()
+            || libdir.join("libscatterbake_table.dylib").exists(),
         "cdylib not found in {}",
         libdir.display()
     );
@@ -64,7 +80,7 @@ fn c_reader_is_bit_exact_and_verifies() {
         .arg(root.join("c/example.c"))
         .arg("-L")
         .arg(&libdir)
-        .arg("-lscatterbake")
+        .arg("-lscatterbake_table")
         .arg(format!("-Wl,-rpath,{}", libdir.display()))
         .arg("-o")
         .arg(&exe)

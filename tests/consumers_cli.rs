@@ -253,3 +253,72 @@ fn plots_and_render_write_images_that_show_the_data() {
     let elev = 5.0 + (100.0 - jbest as f64 - 0.5) * pix;
     assert!((elev - 17.0).abs() <= pix, "ring top at elevation {elev}");
 }
+
+#[test]
+fn previews_of_non_phase_tables() {
+    use scatterbake::table::{Axis, Channel, Provenance, Schema, Table, TableContent};
+    let dir = tempfile::tempdir().unwrap();
+    // 1-D table (like the water index table) → line plot.
+    let wl: Vec<f64> = (0..33).map(|i| 380.0 + 10.0 * i as f64).collect();
+    let content = TableContent {
+        schema: Schema::new("test-1d", 1),
+        description: "refractive index".into(),
+        axes: vec![Axis::values("wavelength", "nm", wl.clone())],
+        channels: vec![Channel::new("n", "1", "real index")],
+        attributes: serde_json::Map::new(),
+        data: wl
+            .iter()
+            .map(|l| (1.33 + 3000.0 / (l * l)) as f32)
+            .collect(),
+    };
+    let p1 = dir.path().join("index.sbt");
+    write_table_atomic(
+        &mut Table::from_content(content, Provenance::default()).unwrap(),
+        &p1,
+    )
+    .unwrap();
+    // 2-D phase function layout → lat-long heatmap; bright spot at polar 40°, azimuth 90°.
+    let (np, na) = (91, 72);
+    let mut data = Vec::new();
+    for _ in 0..2 {
+        for i in 0..np {
+            for j in 0..na {
+                let (t, f) = (i as f32 * 2.0, j as f32 * 5.0);
+                let v = 1e-3 + (-((t - 40.0).powi(2) + (f - 90.0).powi(2)) / 50.0).exp();
+                data.extend_from_slice(&[v, v, v, 0.0]);
+            }
+        }
+    }
+    let content = TableContent {
+        schema: Schema::new("test-2d", 1),
+        description: "2-D".into(),
+        axes: vec![
+            Axis::values("wavelength", "nm", vec![450.0, 650.0]),
+            Axis::uniform("outgoing_polar", "deg", 0.0, 2.0, np),
+            Axis::uniform("outgoing_azimuth", "deg", 0.0, 5.0, na),
+        ],
+        channels: ["phase", "i_perp", "i_par", "dolp"]
+            .iter()
+            .map(|n| Channel::new(n, "1/sr", "test"))
+            .collect(),
+        attributes: serde_json::Map::new(),
+        data,
+    };
+    let p2 = dir.path().join("latlong.sbt");
+    write_table_atomic(
+        &mut Table::from_content(content, Provenance::default()).unwrap(),
+        &p2,
+    )
+    .unwrap();
+    let out = dir.path().join("prev");
+    let w1 = plot::previews(&p1, &out).unwrap();
+    assert_eq!(w1, vec![out.join("index-line.png")]);
+    let w2 = plot::previews(&p2, &out).unwrap();
+    assert_eq!(w2, vec![out.join("latlong-heatmap.png")]);
+    // The heatmap's brightest colour (viridis top, yellow) appears: the spot is drawn.
+    let (_, _, px) = decode_png(&w2[0]);
+    assert!(
+        px.chunks(3).any(|p| p[0] > 200 && p[1] > 200 && p[2] < 100),
+        "no bright spot drawn"
+    );
+}

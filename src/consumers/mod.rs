@@ -1,15 +1,16 @@
 //! Consumers of phase-function tables: renderer exports (Mitsuba 3 `tabphase`, Legendre
-//! moments, MiePlot-style text), a reference rainbow renderer, plots, and the C ABI for readers
-//! in other languages. Everything reads tables through the public reader API
+//! moments, MiePlot-style text, an RGB lookup texture), a reference rainbow renderer and plots
+//! (the C ABI for other languages is the `capi/` crate, `libscatterbake_table`; the Python
+//! reader is `python/scatterbake_table.py`). Everything reads tables through the public reader API
 //! ([`crate::table::Table::open`], [`crate::table::Table::sample`]) and the phase contract
 //! (`docs/consumers.md`).
 //!
 //! CLI entry points (wired by `cli.rs`): [`mitsuba::MitsubaArgs`], [`legendre::LegendreArgs`],
-//! [`mieplot::MiePlotArgs`], [`mieplot::ValidateArgs`], [`plot::PlotArgs`],
+//! [`mieplot::MiePlotArgs`], [`mieplot::ValidateArgs`], [`lut::LutArgs`], [`plot::PlotArgs`],
 //! [`render::RenderRainbowArgs`].
 
-pub mod capi;
 pub mod legendre;
+pub mod lut;
 pub mod mieplot;
 pub mod mitsuba;
 pub mod phase;

@@ -227,6 +227,20 @@ impl PhaseCurves {
         best
     }
 
+    /// Cell `(j, t)` of `angle_deg` on the angle grid (clamped), for interpolating several
+    /// wavelengths at one angle: value = v[j] (1 − t) + v[j + 1] t. Needs ≥ 2 angles.
+    pub fn locate_angle(&self, angle_deg: f64) -> (usize, f64) {
+        match self.uniform_step {
+            Some(step) => crate::optics::interp::locate_uniform(
+                self.angles_deg[0],
+                step,
+                self.angles_deg.len(),
+                angle_deg,
+            ),
+            None => crate::optics::interp::locate(&self.angles_deg, angle_deg),
+        }
+    }
+
     /// Phase function of wavelength index `k` at `angle_deg`, linear in angle (the table's
     /// lookup formula), clamped to [0, 180].
     pub fn phase_at(&self, k: usize, angle_deg: f64) -> f64 {

@@ -217,8 +217,10 @@ pub fn xyz_vs_angle(
                     .clamp(-1.0, 1.0)
                     .acos()
                     .to_degrees();
-                for (k, s) in spec.iter_mut().enumerate() {
-                    *s += c.phase_at(k, th);
+                // All wavelengths share the angle grid: locate once, interpolate each.
+                let (j, t) = c.locate_angle(th);
+                for (s, p) in spec.iter_mut().zip(&c.phase) {
+                    *s += p[j] * (1.0 - t) + p[j + 1] * t;
                 }
             }
             for s in &mut spec {

@@ -1,12 +1,14 @@
-//! C ABI over the table reader, for C/C++ renderers (header `c/scatterbake_table.h`, example
-//! `c/example.c`). Built into `libscatterbake.so` / `.dylib` / `.dll` (the crate's `cdylib`).
+//! C ABI over the scatterbake table reader, for C/C++ renderers (header
+//! `c/scatterbake_table.h`, example `c/example.c`). Built as `libscatterbake_table.so` /
+//! `.dylib` / `scatterbake_table.dll` by `cargo build -p scatterbake-capi --release`. A separate
+//! workspace crate so the main library is not linked as a cdylib on every build.
 //!
 //! `sbt_open` fully verifies the file (magic, version, header SHA-256, payload SHA-256 of the
 //! compressed and uncompressed bytes, sizes) with the same code as `Table::open`; every other
 //! call reads the verified table. All pointers returned stay valid until `sbt_close`. Functions
 //! taking an out-of-range index return 0 / NULL / NaN rather than aborting.
 
-use crate::table::Table;
+use scatterbake::table::Table;
 use std::ffi::{CStr, CString, c_char};
 
 /// Opaque handle behind `sbt_table *`.
