@@ -93,6 +93,8 @@ enum ExportFormat {
     Legendre,
     /// MiePlot-style text table: angle, i_perp, i_par, unpolarised (phase-function tables).
     Mieplot,
+    /// Sun-disc-convolved linear-sRGB lookup vs angle, `.csv` or `.png` (phase-function tables).
+    RgbLut,
 }
 
 #[derive(clap::Args, Debug)]
@@ -122,6 +124,9 @@ struct ExportArgs {
     /// Also write the plain tabphase value lists here (mitsuba).
     #[arg(long)]
     values_out: Option<PathBuf>,
+    /// Sun disc angular diameter in degrees (rgb-lut).
+    #[arg(long, default_value_t = 0.5)]
+    sun_diameter_deg: f64,
 }
 
 fn run_export(a: ExportArgs) -> Result<()> {
@@ -158,6 +163,15 @@ fn run_export(a: ExportArgs) -> Result<()> {
             order: a.order,
             wavelength_nm: a.wavelength_nm,
             out: a.out,
+        }),
+        ExportFormat::RgbLut => crate::consumers::lut::run_lut(&crate::consumers::lut::LutArgs {
+            table: a.file,
+            entry: a.entry,
+            samples: if a.samples == 4096 { 7201 } else { a.samples },
+            sun_diameter_deg: a.sun_diameter_deg,
+            out: a
+                .out
+                .ok_or_else(|| anyhow::anyhow!("--out (.csv or .png) is required for rgb-lut"))?,
         }),
         ExportFormat::Mieplot => mieplot::run_mieplot(&mieplot::MiePlotArgs {
             table: a.file,
