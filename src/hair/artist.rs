@@ -16,7 +16,10 @@
 //! ([A4e]). The stored `N^G_X` include `C_X I_X / K` so that `f_s^scatter = Σ_X M'^G_X N^G_X`
 //! uses `f'^norm` as the thesis requires; [`bare_forward_average`] gives the bare constants.
 
-use super::dual::{DualScattering, average_backscatter_attenuation, average_backscatter_shift, average_backscatter_variance};
+use super::dual::{
+    DualScattering, average_backscatter_attenuation, average_backscatter_shift,
+    average_backscatter_variance,
+};
 use super::longitudinal::{gaussian_unit_height, lobe_energy};
 use crate::optics::quadrature::gauss_legendre;
 use serde::{Deserialize, Serialize};
@@ -86,17 +89,30 @@ impl ArtistParams {
                 return Err((k, format!("{v} is outside 0.5–60°")));
             }
         }
-        for (k, v) in [("shift_r_deg", self.shift_r_deg), ("shift_tt_deg", self.shift_tt_deg), ("shift_trt_deg", self.shift_trt_deg)] {
+        for (k, v) in [
+            ("shift_r_deg", self.shift_r_deg),
+            ("shift_tt_deg", self.shift_tt_deg),
+            ("shift_trt_deg", self.shift_trt_deg),
+        ] {
             if !(-30.0..=30.0).contains(&v) {
                 return Err((k, format!("{v} is outside −30–30°")));
             }
         }
-        for (k, c) in [("colour_r", self.colour_r), ("colour_tt", self.colour_tt), ("colour_trt", self.colour_trt)] {
+        for (k, c) in [
+            ("colour_r", self.colour_r),
+            ("colour_tt", self.colour_tt),
+            ("colour_trt", self.colour_trt),
+        ] {
             if c.iter().any(|x| !(x.is_finite() && *x >= 0.0)) {
                 return Err((k, "colours must be finite and ≥ 0 (linear RGB)".into()));
             }
         }
-        for (k, v) in [("intensity_r", self.intensity_r), ("intensity_tt", self.intensity_tt), ("intensity_trt", self.intensity_trt), ("glint_intensity", self.glint_intensity)] {
+        for (k, v) in [
+            ("intensity_r", self.intensity_r),
+            ("intensity_tt", self.intensity_tt),
+            ("intensity_trt", self.intensity_trt),
+            ("glint_intensity", self.glint_intensity),
+        ] {
             if !(v.is_finite() && v >= 0.0) {
                 return Err((k, format!("{v} must be finite and ≥ 0")));
             }
@@ -188,7 +204,11 @@ pub fn bare_forward_average(params: &ArtistParams, lobe: usize) -> f64 {
 fn longitudinal_energies(params: &ArtistParams, theta_i: f64) -> [f64; 3] {
     let a = params.shifts();
     let b = params.widths();
-    std::array::from_fn(|x| lobe_energy(theta_i, b[x], |t_h| gaussian_unit_height(t_h - a[x], b[x] * b[x])))
+    std::array::from_fn(|x| {
+        lobe_energy(theta_i, b[x], |t_h| {
+            gaussian_unit_height(t_h - a[x], b[x] * b[x])
+        })
+    })
 }
 
 /// The scalar normaliser K of eq. 4.17 ([A4]): max over RGB of the energy at `θ_i = 0`.
@@ -198,7 +218,9 @@ pub fn normalisation(params: &ArtistParams) -> f64 {
     (0..3)
         .map(|c| {
             let w = params.weights(c);
-            (0..3).map(|x| w[x] * l[x] * (hemi[x].0 + hemi[x].1)).sum::<f64>()
+            (0..3)
+                .map(|x| w[x] * l[x] * (hemi[x].0 + hemi[x].1))
+                .sum::<f64>()
         })
         .fold(0.0, f64::max)
 }
@@ -220,7 +242,12 @@ impl ArtistModel {
 
     /// DS quantities per colour channel at `θ_i`, plus the normalised lobe energies
     /// `[R, TT, TRT]` per channel.
-    pub fn dual_scattering(&self, theta_i: f64, d_b: f64, clamp: f64) -> [(DualScattering, [f64; 3]); 3] {
+    pub fn dual_scattering(
+        &self,
+        theta_i: f64,
+        d_b: f64,
+        clamp: f64,
+    ) -> [(DualScattering, [f64; 3]); 3] {
         let l = longitudinal_energies(&self.params, theta_i);
         let alpha = self.params.shifts();
         let beta = self.params.widths();
@@ -230,7 +257,11 @@ impl ArtistModel {
             let ef: [f64; 3] = std::array::from_fn(|x| w[x] * l[x] * self.hemi[x].1 / self.k);
             let mean = |e: &[f64; 3], v: &dyn Fn(usize) -> f64| {
                 let s: f64 = e.iter().sum();
-                if s <= 0.0 { (0..3).map(v).sum::<f64>() / 3.0 } else { (0..3).map(|x| e[x] * v(x)).sum::<f64>() / s }
+                if s <= 0.0 {
+                    (0..3).map(v).sum::<f64>() / 3.0
+                } else {
+                    (0..3).map(|x| e[x] * v(x)).sum::<f64>() / s
+                }
             };
             let a_f = ef.iter().sum::<f64>().min(clamp);
             let a_b = eb.iter().sum::<f64>().min(clamp);
@@ -268,22 +299,47 @@ mod tests {
 
     #[test]
     fn forward_averages_match_closed_forms() {
-        let mut p = ArtistParams { glint_intensity: 0.0, ..Default::default() };
+        let mut p = ArtistParams {
+            glint_intensity: 0.0,
+            ..Default::default()
+        };
         // Cosine lobe: (4/π)(1 − 1/√2) = 0.3729232.
         assert!((bare_forward_average(&p, 0) - 0.3729232).abs() < 1e-7);
         assert!((bare_forward_average(&p, 2) - 0.3729232).abs() < 1e-7);
-        for (g, want) in [(5.0, 0.069629), (10.0, 0.139257), (15.0, 0.208886), (20.0, 0.278512), (30.0, 0.416643)] {
+        for (g, want) in [
+            (5.0, 0.069629),
+            (10.0, 0.139257),
+            (15.0, 0.208886),
+            (20.0, 0.278512),
+            (30.0, 0.416643),
+        ] {
             p.azimuthal_width_tt_deg = g;
-            assert!((bare_forward_average(&p, 1) - want).abs() < 2e-6, "γ={g}: {}", bare_forward_average(&p, 1));
+            assert!(
+                (bare_forward_average(&p, 1) - want).abs() < 2e-6,
+                "γ={g}: {}",
+                bare_forward_average(&p, 1)
+            );
             // And the closed form of the digest, (2/π) γ sqrt(π/2) erf(π/(2√2 γ)).
             let gr = f64::to_radians(g);
             let cf = 2.0 / PI * gr * (PI / 2.0).sqrt() * erf(PI / (2.0 * 2f64.sqrt() * gr));
             assert!((bare_forward_average(&p, 1) - cf).abs() < 1e-9);
         }
         // Glint contribution per unit I_g at a fixed angle (digest §7 item 9).
-        for (gang, gw, want) in [(45.0, 25.0, 2.5e-2), (35.0, 25.0, 9.7e-3), (45.0, 15.0, 5.6e-4)] {
-            let base = ArtistParams { glint_angle_deg: [gang, gang], glint_width_deg: gw, glint_intensity: 0.0, ..Default::default() };
-            let with = ArtistParams { glint_intensity: 1.0, ..base.clone() };
+        for (gang, gw, want) in [
+            (45.0, 25.0, 2.5e-2),
+            (35.0, 25.0, 9.7e-3),
+            (45.0, 15.0, 5.6e-4),
+        ] {
+            let base = ArtistParams {
+                glint_angle_deg: [gang, gang],
+                glint_width_deg: gw,
+                glint_intensity: 0.0,
+                ..Default::default()
+            };
+            let with = ArtistParams {
+                glint_intensity: 1.0,
+                ..base.clone()
+            };
             let d = bare_forward_average(&with, 2) - bare_forward_average(&base, 2);
             assert!((d - want).abs() < 0.05 * want, "G={gang} γ={gw}: {d}");
         }

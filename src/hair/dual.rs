@@ -91,7 +91,13 @@ pub fn average_backscatter_shift(a_f: f64, a_b: f64, alpha_f: f64, alpha_b: f64)
 /// σ̄_b² (rad²): the square of ZYWK08 eq. 17 with the `sqrt(2β̄_f² + 3β̄_b²)` second root
 /// (the thesis prints `+ β̄_b²`, a typo; [A6]); widths (not variances) in the denominator, kept
 /// verbatim.
-pub fn average_backscatter_variance(a_f: f64, a_b: f64, beta_f2: f64, beta_b2: f64, d_b: f64) -> f64 {
+pub fn average_backscatter_variance(
+    a_f: f64,
+    a_b: f64,
+    beta_f2: f64,
+    beta_b2: f64,
+    d_b: f64,
+) -> f64 {
     let bf = beta_f2.sqrt();
     let bb = beta_b2.sqrt();
     let num = a_b * (2.0 * beta_f2 + beta_b2).sqrt()
@@ -120,7 +126,12 @@ impl LobeShape {
     pub fn marschner(tilt_rad: f64, beta_r_rad: f64) -> Self {
         LobeShape {
             alpha_rad: [-tilt_rad, 0.5 * tilt_rad, 1.5 * tilt_rad, 0.0],
-            beta_rad: [beta_r_rad, 0.5 * beta_r_rad, 2.0 * beta_r_rad, 2.0 * beta_r_rad],
+            beta_rad: [
+                beta_r_rad,
+                0.5 * beta_r_rad,
+                2.0 * beta_r_rad,
+                2.0 * beta_r_rad,
+            ],
         }
     }
 }
@@ -272,7 +283,9 @@ mod tests {
             // a_f, a_b, alpha_f, alpha_b, beta_f, beta_b (deg), A_b, delta_b, sigma_b
             (0.6, 0.2, 2.0, -4.0, 6.0, 10.0, 0.123486, 0.060575, 0.294794),
             (0.3, 0.1, 3.0, -5.0, 4.0, 8.0, 0.010010, 0.030168, 0.183532),
-            (0.9, 0.05, 2.5, -5.0, 5.0, 12.0, 0.227920, 0.435645, 0.381667),
+            (
+                0.9, 0.05, 2.5, -5.0, 5.0, 12.0, 0.227920, 0.435645, 0.381667,
+            ),
         ];
         for (af, ab, alf, alb, bf, bb, big_a, delta, sigma) in cases {
             let a = average_backscatter_attenuation(af, ab);
@@ -280,7 +293,11 @@ mod tests {
             let s2 = average_backscatter_variance(af, ab, deg(bf).powi(2), deg(bb).powi(2), 0.7);
             assert!((a - big_a).abs() < 2e-6, "A_b {a} vs {big_a}");
             assert!((d - delta).abs() < 2e-6, "delta_b {d} vs {delta}");
-            assert!((s2.sqrt() - sigma).abs() < 2e-6, "sigma_b {} vs {sigma}", s2.sqrt());
+            assert!(
+                (s2.sqrt() - sigma).abs() < 2e-6,
+                "sigma_b {} vs {sigma}",
+                s2.sqrt()
+            );
         }
         // The thesis's squared form of Ā_b differs (0.119531): make sure we are not it.
         assert!((average_backscatter_attenuation(0.6, 0.2) - 0.119531).abs() > 1e-3);
@@ -398,13 +415,27 @@ mod tests {
         let (x, w) = gauss_legendre_interval(200, 0.0, PI / 2.0);
         let mut back = [0.0; LOBES];
         for (phi, wt) in x.iter().zip(&w) {
-            let n = azimuthal_pointwise(1.55, theta, *phi, s, fiber.azimuthal_width_rad, fiber.fresnel, 400, 8);
+            let n = azimuthal_pointwise(
+                1.55,
+                theta,
+                *phi,
+                s,
+                fiber.azimuthal_width_rad,
+                fiber.fresnel,
+                400,
+                8,
+            );
             for p in 0..LOBES {
                 back[p] += 2.0 * wt * n[p];
             }
         }
         for p in 0..LOBES {
-            assert!((back[p] - eb[p]).abs() < 1e-6, "lobe {p}: {} vs {}", back[p], eb[p]);
+            assert!(
+                (back[p] - eb[p]).abs() < 1e-6,
+                "lobe {p}: {} vs {}",
+                back[p],
+                eb[p]
+            );
         }
         assert!(ef[1] > eb[1]);
     }

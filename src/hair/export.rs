@@ -31,8 +31,15 @@ pub struct DualLutLayout {
 
 /// Turn a `hair-dual/1` table into the texture layout of [`DualLutLayout`].
 pub fn dual_lut_layout(t: &TableContent) -> anyhow::Result<DualLutLayout> {
-    ensure!(t.schema.name == "hair-dual" && t.schema.version == 1, "not a hair-dual/1 table ({})", t.schema);
-    ensure!(t.channels.len() == DUAL_TABLE_CHANNELS, "unexpected channel count");
+    ensure!(
+        t.schema.name == "hair-dual" && t.schema.version == 1,
+        "not a hair-dual/1 table ({})",
+        t.schema
+    );
+    ensure!(
+        t.channels.len() == DUAL_TABLE_CHANNELS,
+        "unexpected channel count"
+    );
     let (n_roughness, col_axis, theta_axis) = match t.axes.len() {
         3 => (t.axes[0].len(), &t.axes[1], &t.axes[2]),
         2 => (1, &t.axes[0], &t.axes[1]),
@@ -42,7 +49,8 @@ pub fn dual_lut_layout(t: &TableContent) -> anyhow::Result<DualLutLayout> {
     let width = col_axis.len();
     let n_theta = theta_axis.len();
     let height = n_theta * n_roughness;
-    let mut parts: [[Vec<f32>; 4]; 3] = std::array::from_fn(|_| std::array::from_fn(|_| vec![0f32; width * height]));
+    let mut parts: [[Vec<f32>; 4]; 3] =
+        std::array::from_fn(|_| std::array::from_fn(|_| vec![0f32; width * height]));
     for ir in 0..n_roughness {
         for ia in 0..width {
             for it in 0..n_theta {
@@ -54,7 +62,14 @@ pub fn dual_lut_layout(t: &TableContent) -> anyhow::Result<DualLutLayout> {
             }
         }
     }
-    Ok(DualLutLayout { width, height, n_theta, n_roughness, parts, column_axis: col_axis.name.clone() })
+    Ok(DualLutLayout {
+        width,
+        height,
+        n_theta,
+        n_roughness,
+        parts,
+        column_axis: col_axis.name.clone(),
+    })
 }
 
 /// Write the layout as a multi-part OpenEXR file (32-bit float, lossless ZIP/RLE compression).
@@ -85,8 +100,14 @@ pub fn write_dual_lut_exr(layout: &DualLutLayout, path: &std::path::Path) -> any
             Layer::new(size, attrs, Encoding::FAST_LOSSLESS, AnyChannels::sort(channels))
         })
         .collect();
-    let image = Image::from_layers(ImageAttributes::new(IntegerBounds::from_dimensions(size)), layers);
-    image.write().to_file(path).with_context(|| format!("writing {}", path.display()))?;
+    let image = Image::from_layers(
+        ImageAttributes::new(IntegerBounds::from_dimensions(size)),
+        layers,
+    );
+    image
+        .write()
+        .to_file(path)
+        .with_context(|| format!("writing {}", path.display()))?;
     Ok(())
 }
 
@@ -94,8 +115,14 @@ pub fn write_dual_lut_exr(layout: &DualLutLayout, path: &std::path::Path) -> any
 /// `colour_channel` and which has one roughness.
 pub fn dual_json(t: &TableContent) -> anyhow::Result<Value> {
     let layout = dual_lut_layout(t)?;
-    ensure!(layout.column_axis == "colour_channel", "the JSON export needs a one-colour table (sigma_a_rgb, melanin or the artist model)");
-    ensure!(layout.n_roughness == 1, "the JSON export needs a single roughness");
+    ensure!(
+        layout.column_axis == "colour_channel",
+        "the JSON export needs a one-colour table (sigma_a_rgb, melanin or the artist model)"
+    );
+    ensure!(
+        layout.n_roughness == 1,
+        "the JSON export needs a single roughness"
+    );
     let nt = layout.n_theta;
     let theta_axis = t.axes.last().expect("axes");
     let theta_deg: Vec<f64> = theta_axis.coords();
@@ -126,7 +153,10 @@ pub fn dual_json(t: &TableContent) -> anyhow::Result<Value> {
 pub fn dual_csv(t: &TableContent) -> anyhow::Result<String> {
     let j = dual_json(t)?;
     let theta = j["theta_deg"].as_array().expect("theta").clone();
-    let mut cols: Vec<(String, &Value)> = DUAL_CHANNELS.iter().map(|n| (n.to_string(), &j[*n])).collect();
+    let mut cols: Vec<(String, &Value)> = DUAL_CHANNELS
+        .iter()
+        .map(|n| (n.to_string(), &j[*n]))
+        .collect();
     for n in ["R", "TT", "TRT", "residual"] {
         cols.push((format!("E_{n}"), &j["lobe_energy"][n]));
     }
@@ -152,7 +182,8 @@ pub fn dual_csv(t: &TableContent) -> anyhow::Result<String> {
 /// Run a planned job in memory (rayon over tasks).
 pub fn run_job_in_memory(job: &dyn Job) -> anyhow::Result<TableContent> {
     let n = job.tasks().len();
-    let chunks: anyhow::Result<Vec<Vec<f32>>> = (0..n).into_par_iter().map(|i| job.run_task(i)).collect();
+    let chunks: anyhow::Result<Vec<Vec<f32>>> =
+        (0..n).into_par_iter().map(|i| job.run_task(i)).collect();
     job.assemble(chunks?)
 }
 
@@ -219,7 +250,12 @@ pub struct DualScatteringArgs {
     #[arg(long, value_delimiter = ',', num_args = 3)]
     pub absorption: Option<Vec<f64>>,
     /// Eumelanin,pheomelanin concentrations instead of --absorption.
-    #[arg(long, value_delimiter = ',', num_args = 2, conflicts_with = "absorption")]
+    #[arg(
+        long,
+        value_delimiter = ',',
+        num_args = 2,
+        conflicts_with = "absorption"
+    )]
     pub melanin: Option<Vec<f64>>,
     /// Cuticle tilt α (deg).
     #[arg(long, default_value_t = 5.0)]
@@ -256,7 +292,10 @@ pub struct DualScatteringArgs {
 pub type HairJsonArgs = DualScatteringArgs;
 
 /// The `hair-dual` parameters corresponding to the CLI arguments (pure).
-pub fn dual_params_from_args(args: &DualScatteringArgs, artist: Option<ArtistParams>) -> anyhow::Result<HairDualParams> {
+pub fn dual_params_from_args(
+    args: &DualScatteringArgs,
+    artist: Option<ArtistParams>,
+) -> anyhow::Result<HairDualParams> {
     let fresnel = match args.fresnel.as_str() {
         "three-d" => FresnelModel::ThreeD,
         "bravais" => FresnelModel::Bravais,
@@ -270,7 +309,11 @@ pub fn dual_params_from_args(args: &DualScatteringArgs, artist: Option<ArtistPar
         (None, None) => (Some([0.2, 0.3, 0.5]), None),
     };
     Ok(HairDualParams {
-        model: if physical { HairModel::Physical } else { HairModel::Artist },
+        model: if physical {
+            HairModel::Physical
+        } else {
+            HairModel::Artist
+        },
         eta: args.eta,
         fresnel,
         cuticle_tilt_deg: args.alpha_deg,
@@ -284,7 +327,11 @@ pub fn dual_params_from_args(args: &DualScatteringArgs, artist: Option<ArtistPar
         d_b: args.d_b,
         clamp: args.clamp,
         quadrature_order: 8,
-        artist: if physical { None } else { Some(artist.unwrap_or_default()) },
+        artist: if physical {
+            None
+        } else {
+            Some(artist.unwrap_or_default())
+        },
     })
 }
 
@@ -294,7 +341,9 @@ pub fn run_dual_scattering(args: &DualScatteringArgs) -> anyhow::Result<()> {
         content_of(Table::open(path)?)
     } else {
         let artist = match &args.artist_params {
-            Some(p) => Some(toml::from_str::<ArtistParams>(&std::fs::read_to_string(p)?)?),
+            Some(p) => Some(toml::from_str::<ArtistParams>(&std::fs::read_to_string(
+                p,
+            )?)?),
             None => None,
         };
         let params = dual_params_from_args(args, artist)?;
@@ -328,7 +377,10 @@ mod tests {
 
     #[test]
     fn exr_lut_round_trips_and_matches_table() {
-        let job = HairDualJob::new(params("roughness_deg = [4.0, 9.0]\nabsorption_count = 6\ntheta_count = 7")).unwrap();
+        let job = HairDualJob::new(params(
+            "roughness_deg = [4.0, 9.0]\nabsorption_count = 6\ntheta_count = 7",
+        ))
+        .unwrap();
         let t = run_job_in_memory(&job).unwrap();
         let layout = dual_lut_layout(&t).unwrap();
         assert_eq!((layout.width, layout.height), (6, 14));
@@ -338,8 +390,17 @@ mod tests {
         use exr::prelude::*;
         let img = read_all_flat_layers_from_file(&path).unwrap();
         assert_eq!(img.layer_data.len(), 3);
-        let ds1 = img.layer_data.iter().find(|l| l.attributes.layer_name.as_ref().map(|n| n.to_string()) == Some("ds1".into())).unwrap();
-        let b = ds1.channel_data.list.iter().find(|c| c.name.to_string() == "B").unwrap();
+        let ds1 = img
+            .layer_data
+            .iter()
+            .find(|l| l.attributes.layer_name.as_ref().map(|n| n.to_string()) == Some("ds1".into()))
+            .unwrap();
+        let b = ds1
+            .channel_data
+            .list
+            .iter()
+            .find(|c| c.name.to_string() == "B")
+            .unwrap();
         // Texel (x = absorption 3, y = roughness 1, θ index 5) holds Ā_b of that table cell.
         let x = 3;
         let y = 7 + 5;

@@ -107,8 +107,8 @@ pub fn crossing(eta: f64, theta_rad: f64, h: f64, fresnel: FresnelModel) -> Cros
             let c_safe = c.max(1e-9);
             let n_perp = root / c_safe;
             let n_par = (eta * eta * c_safe / root).max(1e-9);
-            let ext = 0.5
-                * (reflectance_s(1.0, n_perp, cos_gi) + reflectance_p(1.0, n_par, cos_gi));
+            let ext =
+                0.5 * (reflectance_s(1.0, n_perp, cos_gi) + reflectance_p(1.0, n_par, cos_gi));
             let int = 0.5
                 * (reflectance_s(1.0, 1.0 / n_perp, cos_gt)
                     + reflectance_p(1.0, 1.0 / n_par, cos_gt));
@@ -228,7 +228,12 @@ impl OffsetQuadrature {
     pub fn new(max_panel_rad: f64, order: usize, breakpoints: &[f64]) -> Self {
         let (x, w) = gauss_legendre(order);
         let mut edges = vec![0.0];
-        edges.extend(breakpoints.iter().copied().filter(|&b| b > 0.0 && b < FRAC_PI_2));
+        edges.extend(
+            breakpoints
+                .iter()
+                .copied()
+                .filter(|&b| b > 0.0 && b < FRAC_PI_2),
+        );
         edges.push(FRAC_PI_2);
         let mut gamma = Vec::new();
         let mut weight = Vec::new();
@@ -452,7 +457,8 @@ pub fn azimuthal_pointwise(
             let c = crossing(eta, theta_rad, g.sin(), fresnel);
             let a = attenuations(&c, sigma_a);
             for p in 0..3 {
-                out[p] += weight * a[p] * wrapped_normal(phi_rad - exit_azimuth(p, g, c.gamma_t), w);
+                out[p] +=
+                    weight * a[p] * wrapped_normal(phi_rad - exit_azimuth(p, g, c.gamma_t), w);
             }
             out[3] += weight * a[3] / TAU;
         }
@@ -497,8 +503,8 @@ pub fn azimuthal_smooth_roots(
                     }
                 }
                 let h = 0.5 * (a + b);
-                let dphi = 2.0 / (1.0 - h * h).sqrt()
-                    - 2.0 * p as f64 / (n_perp * n_perp - h * h).sqrt();
+                let dphi =
+                    2.0 / (1.0 - h * h).sqrt() - 2.0 * p as f64 / (n_perp * n_perp - h * h).sqrt();
                 let x = crossing(eta, theta_rad, h, fresnel);
                 *slot += 0.5 * attenuations(&x, sigma_a)[p] / dphi.abs();
             }
@@ -524,9 +530,16 @@ mod tests {
 
     #[test]
     fn bravais_indices_match_digest_table() {
-        for (t, n1, n2) in [(30.0, 1.69411, 1.41815), (60.0, 2.57099, 0.93446), (75.0, 4.68367, 0.51295)] {
+        for (t, n1, n2) in [
+            (30.0, 1.69411, 1.41815),
+            (60.0, 2.57099, 0.93446),
+            (75.0, 4.68367, 0.51295),
+        ] {
             let (a, b) = bravais_indices(1.55, deg(t));
-            assert!((a - n1).abs() < 2e-5 && (b - n2).abs() < 2e-5, "{t}: {a} {b}");
+            assert!(
+                (a - n1).abs() < 2e-5 && (b - n2).abs() < 2e-5,
+                "{t}: {a} {b}"
+            );
         }
         // n'' = 1 at θ = acos(1/sqrt(η²+1)) = 57.17°.
         let t = (1.0 / (1.55f64 * 1.55 + 1.0).sqrt()).acos();
@@ -546,10 +559,17 @@ mod tests {
             assert!(crossing(1.55, 0.3, 1.0, m).f_ext > 0.999_999);
         }
         // Digest: Bravais vs true 3-D reflectance.
-        for (t, h, brav, three_d) in [(30.0, 0.9, 0.14881, 0.15485), (60.0, 0.9, 0.26135, 0.31804), (75.0, 0.9, 0.84177, 0.53951)] {
+        for (t, h, brav, three_d) in [
+            (30.0, 0.9, 0.14881, 0.15485),
+            (60.0, 0.9, 0.26135, 0.31804),
+            (75.0, 0.9, 0.84177, 0.53951),
+        ] {
             let b = crossing(1.55, deg(t), h, FresnelModel::Bravais).f_ext;
             let d = crossing(1.55, deg(t), h, FresnelModel::ThreeD).f_ext;
-            assert!((b - brav).abs() < 2e-5 && (d - three_d).abs() < 2e-5, "{t} {h}: {b} {d}");
+            assert!(
+                (b - brav).abs() < 2e-5 && (d - three_d).abs() < 2e-5,
+                "{t} {h}: {b} {d}"
+            );
         }
         // 3-D: reflectance inside equals outside (reciprocity of the unpolarised reflectance).
         let x = crossing(1.55, deg(40.0), 0.7, FresnelModel::ThreeD);
@@ -568,9 +588,16 @@ mod tests {
             }
         }
         // Digest per-h attenuations at θ = 0.
-        for (h, r, tt, trt) in [(0.0, 0.04652, 0.90912, 0.04229), (0.9, 0.12268, 0.76969, 0.09443), (0.99, 0.46620, 0.28495, 0.13284)] {
+        for (h, r, tt, trt) in [
+            (0.0, 0.04652, 0.90912, 0.04229),
+            (0.9, 0.12268, 0.76969, 0.09443),
+            (0.99, 0.46620, 0.28495, 0.13284),
+        ] {
             let a = attenuations(&crossing(1.55, 0.0, h, FresnelModel::ThreeD), 0.0);
-            assert!((a[0] - r).abs() < 1e-5 && (a[1] - tt).abs() < 1e-5 && (a[2] - trt).abs() < 1e-5, "h={h}: {a:?}");
+            assert!(
+                (a[0] - r).abs() < 1e-5 && (a[1] - tt).abs() < 1e-5 && (a[2] - trt).abs() < 1e-5,
+                "h={h}: {a:?}"
+            );
         }
     }
 
@@ -581,16 +608,36 @@ mod tests {
             (FresnelModel::ThreeD, 0.0, 0.0, [0.07496, 0.86179, 0.05567]),
             (FresnelModel::ThreeD, 0.0, 0.5, [0.07496, 0.33998, 0.00933]),
             (FresnelModel::ThreeD, 0.0, 2.0, [0.07496, 0.02143, 0.00005]),
-            (FresnelModel::Bravais, 30.0, 0.0, [0.08513, 0.84596, 0.06169]),
-            (FresnelModel::Bravais, 60.0, 0.0, [0.18350, 0.70697, 0.09311]),
-            (FresnelModel::Bravais, 60.0, 0.5, [0.18350, 0.21719, 0.00893]),
+            (
+                FresnelModel::Bravais,
+                30.0,
+                0.0,
+                [0.08513, 0.84596, 0.06169],
+            ),
+            (
+                FresnelModel::Bravais,
+                60.0,
+                0.0,
+                [0.18350, 0.70697, 0.09311],
+            ),
+            (
+                FresnelModel::Bravais,
+                60.0,
+                0.5,
+                [0.18350, 0.21719, 0.00893],
+            ),
         ];
         // Tolerance: the digest's values are 5-digit Simpson results; at 60° the Bravais p-TIR
         // kink (n'' < 1) limits them to ≈ 4e-5 (ours converge to 1e-9 under panel doubling).
         for (m, t, s, want) in cases {
             let e = energies(deg(t), s, m);
             for p in 0..3 {
-                assert!((e[p] - want[p]).abs() < 5e-5, "{m:?} θ={t} σ={s} p={p}: {} vs {}", e[p], want[p]);
+                assert!(
+                    (e[p] - want[p]).abs() < 5e-5,
+                    "{m:?} θ={t} σ={s} p={p}: {} vs {}",
+                    e[p],
+                    want[p]
+                );
             }
         }
         // Lossless: the residual p ≥ 3 holds the rest (0.00757 at θ = 0), the total is 1.
@@ -617,12 +664,22 @@ mod tests {
     /// A narrow azimuthal blur converges to the smooth fibre away from caustics.
     #[test]
     fn rough_fibre_tends_to_smooth_fibre() {
-        for (t, phi, s) in [(0.0, 2.6, 0.0), (deg(30.0), 2.0, 0.3), (deg(10.0), 0.05, 0.0)] {
+        for (t, phi, s) in [
+            (0.0, 2.6, 0.0),
+            (deg(30.0), 2.0, 0.3),
+            (deg(10.0), 0.05, 0.0),
+        ] {
             let smooth = azimuthal_smooth_roots(1.55, t, phi, s, FresnelModel::ThreeD);
-            let rough = azimuthal_pointwise(1.55, t, phi, s, deg(0.2), FresnelModel::ThreeD, 2000, 8);
+            let rough =
+                azimuthal_pointwise(1.55, t, phi, s, deg(0.2), FresnelModel::ThreeD, 2000, 8);
             for p in 0..3 {
                 let tol = 2e-3 * smooth[p].abs() + 1e-6;
-                assert!((rough[p] - smooth[p]).abs() < tol, "θ={t} φ={phi} p={p}: {} vs {}", rough[p], smooth[p]);
+                assert!(
+                    (rough[p] - smooth[p]).abs() < tol,
+                    "θ={t} φ={phi} p={p}: {} vs {}",
+                    rough[p],
+                    smooth[p]
+                );
             }
         }
     }
@@ -645,18 +702,24 @@ mod tests {
         let step = PI / (n - 1) as f64;
         let grid = slice.azimuthal_on_grid(s, w, 0.0, step, n);
         for j in [0, 40, 200, 360] {
-            let a = azimuthal_pointwise(1.55, t, step * j as f64, s, w, FresnelModel::ThreeD, 600, 8);
+            let a =
+                azimuthal_pointwise(1.55, t, step * j as f64, s, w, FresnelModel::ThreeD, 600, 8);
             for p in 0..LOBES {
-                assert!((grid[j][p] - a[p]).abs() < 1e-9, "j={j} p={p}: {} vs {}", grid[j][p], a[p]);
+                assert!(
+                    (grid[j][p] - a[p]).abs() < 1e-9,
+                    "j={j} p={p}: {} vs {}",
+                    grid[j][p],
+                    a[p]
+                );
             }
         }
         // ∫_{−π}^{π} N_p dφ = lobe energy (trapezoid on the even function, [0, π] doubled).
         let e = slice.lobe_energies(s);
         for p in 0..LOBES {
             let mut int = 0.0;
-            for j in 0..n {
+            for (j, g) in grid.iter().enumerate() {
                 let wj = if j == 0 || j == n - 1 { 0.5 } else { 1.0 };
-                int += 2.0 * wj * step * grid[j][p];
+                int += 2.0 * wj * step * g[p];
             }
             assert!((int - e[p]).abs() < 1e-7, "p={p}: {int} vs {}", e[p]);
         }

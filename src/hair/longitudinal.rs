@@ -85,7 +85,10 @@ mod tests {
                 let x = 2.0 * t_h - d; // θ_o + θ_i − Δθ
                 norm * (-x * x / (2.0 * w * w)).exp()
             });
-            assert!((e - want).abs() < 6e-4, "w={w_deg} Δ={shift_deg} θ={ti_deg}: {e} vs {want}");
+            assert!(
+                (e - want).abs() < 6e-4,
+                "w={w_deg} Δ={shift_deg} θ={ti_deg}: {e} vs {want}"
+            );
         }
     }
 

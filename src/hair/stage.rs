@@ -3,7 +3,7 @@
 
 use super::artist::{ArtistModel, ArtistParams};
 use super::dual::{DUAL_CHANNELS, HQuadrature, LobeShape, PhysicalFiber, combine};
-use super::fiber::{FiberSlice, FresnelModel, LOBES, LOBE_NAMES};
+use super::fiber::{FiberSlice, FresnelModel, LOBE_NAMES, LOBES};
 use super::melanin::{sigma_a_from_absorption_u, sigma_a_from_melanin};
 use crate::stage::{Job, ParamDoc, PlanError, Stage, TaskSpec, parse_params};
 use crate::table::{Axis, Channel, Schema, TableContent};
@@ -37,10 +37,15 @@ impl AbsorptionAxis {
         rgb: Option<[f64; 3]>,
         melanin: Option<[f64; 2]>,
     ) -> Result<Self, PlanError> {
-        let given = [count.is_some(), sigma_a.is_some(), rgb.is_some(), melanin.is_some()]
-            .iter()
-            .filter(|&&b| b)
-            .count();
+        let given = [
+            count.is_some(),
+            sigma_a.is_some(),
+            rgb.is_some(),
+            melanin.is_some(),
+        ]
+        .iter()
+        .filter(|&&b| b)
+        .count();
         if given != 1 {
             return Err(PlanError::invalid(
                 "absorption_count",
@@ -49,7 +54,10 @@ impl AbsorptionAxis {
         }
         if let Some(n) = count {
             if !(2..=1024).contains(&n) {
-                return Err(PlanError::invalid("absorption_count", "must be within 2–1024"));
+                return Err(PlanError::invalid(
+                    "absorption_count",
+                    "must be within 2–1024",
+                ));
             }
             return Ok(AbsorptionAxis::Sweep(n));
         }
@@ -70,7 +78,10 @@ impl AbsorptionAxis {
         }
         let [ce, cp] = melanin.expect("one key is given");
         if !(ce.is_finite() && cp.is_finite() && ce >= 0.0 && cp >= 0.0) {
-            return Err(PlanError::invalid("melanin", "concentrations must be finite and ≥ 0"));
+            return Err(PlanError::invalid(
+                "melanin",
+                "concentrations must be finite and ≥ 0",
+            ));
         }
         Ok(AbsorptionAxis::Rgb(sigma_a_from_melanin(ce, cp)))
     }
@@ -110,7 +121,10 @@ impl AbsorptionAxis {
             }
             AbsorptionAxis::SigmaA(_) => {}
             AbsorptionAxis::Rgb(c) => {
-                attributes.insert("colour_channel".into(), "0 = R, 1 = G, 2 = B (linear sRGB)".into());
+                attributes.insert(
+                    "colour_channel".into(),
+                    "0 = R, 1 = G, 2 = B (linear sRGB)".into(),
+                );
                 attributes.insert("sigma_a_rgb".into(), json!(c));
             }
         }
@@ -119,7 +133,10 @@ impl AbsorptionAxis {
 
 fn validate_common(eta: f64, fresnel: FresnelModel) -> Result<(), PlanError> {
     if !(1.1..=2.5).contains(&eta) {
-        return Err(PlanError::invalid("eta", format!("{eta} is outside 1.1–2.5")));
+        return Err(PlanError::invalid(
+            "eta",
+            format!("{eta} is outside 1.1–2.5"),
+        ));
     }
     let _ = fresnel;
     Ok(())
@@ -199,21 +216,96 @@ pub struct HairDualParams {
 }
 
 const DUAL_PARAMS: &[ParamDoc] = &[
-    ParamDoc { name: "model", kind: "string", default: "physical", description: "physical (Marschner/Zinke fibre) or artist (Sadeghi 2010, eq. 4.17 scalar normalisation)" },
-    ParamDoc { name: "eta", kind: "float", default: "1.55", description: "fibre index of refraction, 1.1–2.5 (physical)" },
-    ParamDoc { name: "fresnel", kind: "string", default: "three-d", description: "three-d (exact unpolarised at the 3-D incidence angle) or bravais (Marschner two-index)" },
-    ParamDoc { name: "cuticle_tilt_deg", kind: "float, deg", default: "5", description: "cuticle tilt α: α_R = −α, α_TT = α/2, α_TRT = 3α/2 (0–15°)" },
-    ParamDoc { name: "roughness_deg", kind: "list of float, deg", default: "[7.5]", description: "longitudinal widths β_R (β_TT = β_R/2, β_TRT = 2β_R), 0.5–30°, strictly increasing; the roughness axis" },
-    ParamDoc { name: "azimuthal_width_ratio", kind: "float", default: "1", description: "azimuthal roughness w_φ = ratio·β_R (0 = smooth cylinder), 0–4" },
-    ParamDoc { name: "absorption_count", kind: "int", default: "—", description: "LUT mode: absorption_u = 1 − exp(−2σ_a) uniform on [0, 1] (exactly one of the four absorption keys)" },
-    ParamDoc { name: "sigma_a", kind: "list of float, 1/radius", default: "—", description: "explicit absorption values, strictly increasing" },
-    ParamDoc { name: "sigma_a_rgb", kind: "[r, g, b], 1/radius", default: "—", description: "one hair colour (axis colour_channel)" },
-    ParamDoc { name: "melanin", kind: "[eumelanin, pheomelanin]", default: "—", description: "one hair colour from melanin concentrations (pbrt/Chiang 2016 mapping)" },
-    ParamDoc { name: "theta_count", kind: "int", default: "64", description: "samples of the light inclination θ_i over [−90°, 90°], endpoints included (2–4096)" },
-    ParamDoc { name: "d_b", kind: "float", default: "0.7", description: "backscattering density factor in σ̄_b (ZYWK08)" },
-    ParamDoc { name: "clamp", kind: "float", default: "0.99", description: "ā_f, ā_b are clamped to ≤ clamp before Ā_b, Δ̄_b, σ̄_b² (0.5–1)" },
-    ParamDoc { name: "quadrature_order", kind: "int", default: "8", description: "Gauss–Legendre nodes per h panel (2–32)" },
-    ParamDoc { name: "artist", kind: "table", default: "Arnold-sample defaults", description: "artist-friendly lobe colours/intensities/shifts/widths/glints (model = artist)" },
+    ParamDoc {
+        name: "model",
+        kind: "string",
+        default: "physical",
+        description: "physical (Marschner/Zinke fibre) or artist (Sadeghi 2010, eq. 4.17 scalar normalisation)",
+    },
+    ParamDoc {
+        name: "eta",
+        kind: "float",
+        default: "1.55",
+        description: "fibre index of refraction, 1.1–2.5 (physical)",
+    },
+    ParamDoc {
+        name: "fresnel",
+        kind: "string",
+        default: "three-d",
+        description: "three-d (exact unpolarised at the 3-D incidence angle) or bravais (Marschner two-index)",
+    },
+    ParamDoc {
+        name: "cuticle_tilt_deg",
+        kind: "float, deg",
+        default: "5",
+        description: "cuticle tilt α: α_R = −α, α_TT = α/2, α_TRT = 3α/2 (0–15°)",
+    },
+    ParamDoc {
+        name: "roughness_deg",
+        kind: "list of float, deg",
+        default: "[7.5]",
+        description: "longitudinal widths β_R (β_TT = β_R/2, β_TRT = 2β_R), 0.5–30°, strictly increasing; the roughness axis",
+    },
+    ParamDoc {
+        name: "azimuthal_width_ratio",
+        kind: "float",
+        default: "1",
+        description: "azimuthal roughness w_φ = ratio·β_R (0 = smooth cylinder), 0–4",
+    },
+    ParamDoc {
+        name: "absorption_count",
+        kind: "int",
+        default: "—",
+        description: "LUT mode: absorption_u = 1 − exp(−2σ_a) uniform on [0, 1] (exactly one of the four absorption keys)",
+    },
+    ParamDoc {
+        name: "sigma_a",
+        kind: "list of float, 1/radius",
+        default: "—",
+        description: "explicit absorption values, strictly increasing",
+    },
+    ParamDoc {
+        name: "sigma_a_rgb",
+        kind: "[r, g, b], 1/radius",
+        default: "—",
+        description: "one hair colour (axis colour_channel)",
+    },
+    ParamDoc {
+        name: "melanin",
+        kind: "[eumelanin, pheomelanin]",
+        default: "—",
+        description: "one hair colour from melanin concentrations (pbrt/Chiang 2016 mapping)",
+    },
+    ParamDoc {
+        name: "theta_count",
+        kind: "int",
+        default: "64",
+        description: "samples of the light inclination θ_i over [−90°, 90°], endpoints included (2–4096)",
+    },
+    ParamDoc {
+        name: "d_b",
+        kind: "float",
+        default: "0.7",
+        description: "backscattering density factor in σ̄_b (ZYWK08)",
+    },
+    ParamDoc {
+        name: "clamp",
+        kind: "float",
+        default: "0.99",
+        description: "ā_f, ā_b are clamped to ≤ clamp before Ā_b, Δ̄_b, σ̄_b² (0.5–1)",
+    },
+    ParamDoc {
+        name: "quadrature_order",
+        kind: "int",
+        default: "8",
+        description: "Gauss–Legendre nodes per h panel (2–32)",
+    },
+    ParamDoc {
+        name: "artist",
+        kind: "table",
+        default: "Arnold-sample defaults",
+        description: "artist-friendly lobe colours/intensities/shifts/widths/glints (model = artist)",
+    },
 ];
 
 impl Stage for HairDualStage {
@@ -250,16 +342,28 @@ impl HairDualJob {
     pub fn new(p: HairDualParams) -> Result<Self, PlanError> {
         validate_common(p.eta, p.fresnel)?;
         if !(0.0..=15.0).contains(&p.cuticle_tilt_deg) {
-            return Err(PlanError::invalid("cuticle_tilt_deg", "must be within 0–15°"));
+            return Err(PlanError::invalid(
+                "cuticle_tilt_deg",
+                "must be within 0–15°",
+            ));
         }
         if p.roughness_deg.is_empty() || p.roughness_deg.iter().any(|b| !(0.5..=30.0).contains(b)) {
-            return Err(PlanError::invalid("roughness_deg", "needs values within 0.5–30°"));
+            return Err(PlanError::invalid(
+                "roughness_deg",
+                "needs values within 0.5–30°",
+            ));
         }
         if p.roughness_deg.windows(2).any(|w| w[1] <= w[0]) {
-            return Err(PlanError::invalid("roughness_deg", "must be strictly increasing"));
+            return Err(PlanError::invalid(
+                "roughness_deg",
+                "must be strictly increasing",
+            ));
         }
         if !(0.0..=4.0).contains(&p.azimuthal_width_ratio) {
-            return Err(PlanError::invalid("azimuthal_width_ratio", "must be within 0–4"));
+            return Err(PlanError::invalid(
+                "azimuthal_width_ratio",
+                "must be within 0–4",
+            ));
         }
         if !(2..=4096).contains(&p.theta_count) {
             return Err(PlanError::invalid("theta_count", "must be within 2–4096"));
@@ -271,44 +375,76 @@ impl HairDualJob {
             return Err(PlanError::invalid("clamp", "must be within 0.5–1"));
         }
         if !(2..=32).contains(&p.quadrature_order) {
-            return Err(PlanError::invalid("quadrature_order", "must be within 2–32"));
+            return Err(PlanError::invalid(
+                "quadrature_order",
+                "must be within 2–32",
+            ));
         }
         let (absorption, artist) = match p.model {
             HairModel::Physical => {
                 if p.artist.is_some() {
-                    return Err(PlanError::invalid("artist", "only used with model = \"artist\""));
+                    return Err(PlanError::invalid(
+                        "artist",
+                        "only used with model = \"artist\"",
+                    ));
                 }
                 (
-                    AbsorptionAxis::from_keys(p.absorption_count, p.sigma_a.clone(), p.sigma_a_rgb, p.melanin)?,
+                    AbsorptionAxis::from_keys(
+                        p.absorption_count,
+                        p.sigma_a.clone(),
+                        p.sigma_a_rgb,
+                        p.melanin,
+                    )?,
                     None,
                 )
             }
             HairModel::Artist => {
-                if p.absorption_count.is_some() || p.sigma_a.is_some() || p.sigma_a_rgb.is_some() || p.melanin.is_some() {
-                    return Err(PlanError::invalid("absorption_count", "the artist model takes colours, not absorption"));
+                if p.absorption_count.is_some()
+                    || p.sigma_a.is_some()
+                    || p.sigma_a_rgb.is_some()
+                    || p.melanin.is_some()
+                {
+                    return Err(PlanError::invalid(
+                        "absorption_count",
+                        "the artist model takes colours, not absorption",
+                    ));
                 }
                 if p.roughness_deg.len() != 1 {
-                    return Err(PlanError::invalid("roughness_deg", "the artist model has its own widths; leave the default"));
+                    return Err(PlanError::invalid(
+                        "roughness_deg",
+                        "the artist model has its own widths; leave the default",
+                    ));
                 }
                 let a = p.artist.clone().unwrap_or_default();
-                a.validate().map_err(|(k, m)| PlanError::invalid(&format!("artist.{k}"), m))?;
+                a.validate()
+                    .map_err(|(k, m)| PlanError::invalid(&format!("artist.{k}"), m))?;
                 (AbsorptionAxis::Rgb([0.0; 3]), Some(ArtistModel::new(a)))
             }
         };
-        Ok(HairDualJob { params: p, absorption, artist })
+        Ok(HairDualJob {
+            params: p,
+            absorption,
+            artist,
+        })
     }
 
     fn fiber(&self, beta_r_deg: f64) -> PhysicalFiber {
         PhysicalFiber {
             eta: self.params.eta,
             fresnel: self.params.fresnel,
-            lobes: LobeShape::marschner(self.params.cuticle_tilt_deg.to_radians(), beta_r_deg.to_radians()),
+            lobes: LobeShape::marschner(
+                self.params.cuticle_tilt_deg.to_radians(),
+                beta_r_deg.to_radians(),
+            ),
             azimuthal_width_rad: self.params.azimuthal_width_ratio * beta_r_deg.to_radians(),
         }
     }
 
     fn quadrature(&self) -> HQuadrature {
-        HQuadrature { order: self.params.quadrature_order, ..HQuadrature::default() }
+        HQuadrature {
+            order: self.params.quadrature_order,
+            ..HQuadrature::default()
+        }
     }
 
     /// One θ row: `[roughness][absorption][16]` for the given quadrature.
@@ -331,7 +467,9 @@ impl HairDualJob {
             let wb = slice.backward_fractions(fiber.azimuthal_width_rad);
             for &s in &sigmas {
                 let (eb, ef) = slice.hemisphere_energies(s, &wb);
-                out.extend(combine(&eb, &ef, &fiber.lobes, self.params.d_b, self.params.clamp).to_array());
+                out.extend(
+                    combine(&eb, &ef, &fiber.lobes, self.params.d_b, self.params.clamp).to_array(),
+                );
                 out.extend((0..LOBES).map(|p| eb[p] + ef[p]));
             }
         }
@@ -343,7 +481,11 @@ impl HairDualJob {
     }
 
     fn n_roughness(&self) -> usize {
-        if self.artist.is_some() { 1 } else { self.params.roughness_deg.len() }
+        if self.artist.is_some() {
+            1
+        } else {
+            self.params.roughness_deg.len()
+        }
     }
     fn n_absorption(&self) -> usize {
         match &self.absorption {
@@ -361,7 +503,10 @@ impl Job for HairDualJob {
     fn tasks(&self) -> Vec<TaskSpec> {
         self.theta_deg()
             .iter()
-            .map(|t| TaskSpec { label: format!("θ={t:.3}°"), params: json!({ "theta_deg": t }) })
+            .map(|t| TaskSpec {
+                label: format!("θ={t:.3}°"),
+                params: json!({ "theta_deg": t }),
+            })
             .collect()
     }
     /// Chunk: `[roughness][absorption][16 channels]` at this θ, then one value: the largest
@@ -374,7 +519,10 @@ impl Job for HairDualJob {
             0.0
         } else {
             let fine = self.compute_row(theta, &q.doubled());
-            row.iter().zip(&fine).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max)
+            row.iter()
+                .zip(&fine)
+                .map(|(a, b)| (a - b).abs())
+                .fold(0.0, f64::max)
         };
         let mut out: Vec<f32> = row.iter().map(|&v| v as f32).collect();
         out.push(check as f32);
@@ -385,11 +533,19 @@ impl Job for HairDualJob {
         let nr = self.n_roughness();
         let na = self.n_absorption();
         let nc = DUAL_TABLE_CHANNELS;
-        anyhow::ensure!(chunks.len() == nt, "expected {nt} chunks, got {}", chunks.len());
+        anyhow::ensure!(
+            chunks.len() == nt,
+            "expected {nt} chunks, got {}",
+            chunks.len()
+        );
         let mut data = vec![0f32; nr * na * nt * nc];
         let mut doubling: f64 = 0.0;
         for (it, chunk) in chunks.iter().enumerate() {
-            anyhow::ensure!(chunk.len() == nr * na * nc + 1, "chunk {it} has {} values", chunk.len());
+            anyhow::ensure!(
+                chunk.len() == nr * na * nc + 1,
+                "chunk {it} has {} values",
+                chunk.len()
+            );
             doubling = doubling.max(chunk[nr * na * nc] as f64);
             for ir in 0..nr {
                 for ia in 0..na {
@@ -401,35 +557,90 @@ impl Job for HairDualJob {
         }
         let mut channels: Vec<Channel> = Vec::new();
         let meanings = [
-            ("1", "ā_f: fraction of the light arriving at inclination θ scattered into |φ| ≥ π/2 (forward), clamped to ≤ clamp"),
-            ("1", "ā_b: fraction scattered into |φ| < π/2 (backward), clamped to ≤ clamp"),
-            ("rad", "ᾱ_f: energy-weighted mean longitudinal shift of the forward lobes (θ_h convention)"),
-            ("rad", "ᾱ_b: energy-weighted mean longitudinal shift of the backward lobes"),
-            ("rad^2", "β̄_f²: energy-weighted mean longitudinal variance β_p² of the forward lobes"),
-            ("rad^2", "β̄_b²: energy-weighted mean longitudinal variance of the backward lobes"),
-            ("1", "Ā_b = ā_b ā_f²/(1−ā_f²) + ā_b³ ā_f²/(1−ā_f²)³ (ZYWK08 eq. 14)"),
+            (
+                "1",
+                "ā_f: fraction of the light arriving at inclination θ scattered into |φ| ≥ π/2 (forward), clamped to ≤ clamp",
+            ),
+            (
+                "1",
+                "ā_b: fraction scattered into |φ| < π/2 (backward), clamped to ≤ clamp",
+            ),
+            (
+                "rad",
+                "ᾱ_f: energy-weighted mean longitudinal shift of the forward lobes (θ_h convention)",
+            ),
+            (
+                "rad",
+                "ᾱ_b: energy-weighted mean longitudinal shift of the backward lobes",
+            ),
+            (
+                "rad^2",
+                "β̄_f²: energy-weighted mean longitudinal variance β_p² of the forward lobes",
+            ),
+            (
+                "rad^2",
+                "β̄_b²: energy-weighted mean longitudinal variance of the backward lobes",
+            ),
+            (
+                "1",
+                "Ā_b = ā_b ā_f²/(1−ā_f²) + ā_b³ ā_f²/(1−ā_f²)³ (ZYWK08 eq. 14)",
+            ),
             ("rad", "Δ̄_b (ZYWK08 eq. 16 / thesis 4.28)"),
-            ("rad^2", "σ̄_b²: square of ZYWK08 eq. 17 with sqrt(2β̄_f² + 3β̄_b²) and d_b"),
-            ("1/rad", "N^G_R = (2/π)∫_{π/2}^{π} N_R dφ (artist: × C_R I_R / K)"),
-            ("1/rad", "N^G_TT = (2/π)∫_{π/2}^{π} N_TT dφ (artist: × C_TT I_TT / K)"),
-            ("1/rad", "N^G_TRT = (2/π)∫_{π/2}^{π} N_TRT dφ (artist: × C_TRT I_TRT / K)"),
+            (
+                "rad^2",
+                "σ̄_b²: square of ZYWK08 eq. 17 with sqrt(2β̄_f² + 3β̄_b²) and d_b",
+            ),
+            (
+                "1/rad",
+                "N^G_R = (2/π)∫_{π/2}^{π} N_R dφ (artist: × C_R I_R / K)",
+            ),
+            (
+                "1/rad",
+                "N^G_TT = (2/π)∫_{π/2}^{π} N_TT dφ (artist: × C_TT I_TT / K)",
+            ),
+            (
+                "1/rad",
+                "N^G_TRT = (2/π)∫_{π/2}^{π} N_TRT dφ (artist: × C_TRT I_TRT / K)",
+            ),
             ("1", "energy of lobe R, ∫∫ f_R cos²θ_o dθ_o dφ (unclamped)"),
             ("1", "energy of lobe TT"),
             ("1", "energy of lobe TRT"),
-            ("1", "energy of the residual p ≥ 3 lobe (physical; 0 for the artist model)"),
+            (
+                "1",
+                "energy of the residual p ≥ 3 lobe (physical; 0 for the artist model)",
+            ),
         ];
-        let names = DUAL_CHANNELS.iter().copied().chain(["E_R", "E_TT", "E_TRT", "E_residual"]);
+        let names = DUAL_CHANNELS
+            .iter()
+            .copied()
+            .chain(["E_R", "E_TT", "E_TRT", "E_residual"]);
         for (name, (unit, meaning)) in names.zip(meanings) {
             channels.push(Channel::new(name, unit, meaning));
         }
         let mut axes = Vec::new();
         if self.artist.is_none() {
-            axes.push(Axis::values("roughness", "deg", self.params.roughness_deg.clone()));
+            axes.push(Axis::values(
+                "roughness",
+                "deg",
+                self.params.roughness_deg.clone(),
+            ));
         }
         axes.push(self.absorption.axis());
-        axes.push(Axis::uniform("theta", "deg", -90.0, 180.0 / (nt - 1) as f64, nt));
+        axes.push(Axis::uniform(
+            "theta",
+            "deg",
+            -90.0,
+            180.0 / (nt - 1) as f64,
+            nt,
+        ));
         let mut attributes = Map::new();
-        attributes.insert("model".into(), json!(match self.params.model { HairModel::Physical => "physical", HairModel::Artist => "artist" }));
+        attributes.insert(
+            "model".into(),
+            json!(match self.params.model {
+                HairModel::Physical => "physical",
+                HairModel::Artist => "artist",
+            }),
+        );
         attributes.insert("theta".into(), "light inclination θ_i from the normal plane ([A1]); +90° = along the tangent toward the tip; look the tables up with θ_i".into());
         attributes.insert("tangent".into(), "fibre tangent points root → tip; α > 0 shifts toward the tip; R is shifted toward the root (α_R < 0) ([A23])".into());
         attributes.insert("azimuth".into(), "relative azimuth φ = φ_o − φ_i; φ = 0 back toward the light; forward half-space |φ| ≥ π/2, backward |φ| < π/2 ([A21])".into());
@@ -438,18 +649,30 @@ impl Job for HairDualJob {
         attributes.insert("a_clamp".into(), json!(self.params.clamp));
         attributes.insert("d_b".into(), json!(self.params.d_b));
         attributes.insert("closed_forms".into(), "ZYWK08 originals: (1 − ā_f²)³ in Ā_b ([A5]), sqrt(2β̄_f² + 3β̄_b²) in σ̄_b ([A6a]), widths in its denominator kept verbatim ([A6b,c]), σ̄_b stored squared ([A6d])".into());
-        attributes.insert("angles".into(), "radians inside the data; axis coordinates in degrees".into());
+        attributes.insert(
+            "angles".into(),
+            "radians inside the data; axis coordinates in degrees".into(),
+        );
         if let Some(m) = &self.artist {
             attributes.insert("artist_params".into(), serde_json::to_value(&m.params)?);
             attributes.insert("normalisation_k".into(), json!(m.k));
             attributes.insert("normalisation".into(), "eq. 4.17 with one scalar K = max over RGB of the energy of f'_s at θ_i = 0 under the energy measure, glints included (G_angle averaged uniformly over its range) ([A4], [A14])".into());
-            attributes.insert("longitudinal".into(), "unit-height g'(θ_h − α_X, β_X²)/cos²θ_d, cos²θ_d ≥ 1e-3 ([A9], [A18])".into());
+            attributes.insert(
+                "longitudinal".into(),
+                "unit-height g'(θ_h − α_X, β_X²)/cos²θ_d, cos²θ_d ≥ 1e-3 ([A9], [A18])".into(),
+            );
         } else {
             attributes.insert("eta".into(), json!(self.params.eta));
             attributes.insert("fresnel".into(), json!(self.params.fresnel.name()));
-            attributes.insert("cuticle_tilt_deg".into(), json!(self.params.cuticle_tilt_deg));
+            attributes.insert(
+                "cuticle_tilt_deg".into(),
+                json!(self.params.cuticle_tilt_deg),
+            );
             attributes.insert("lobes".into(), "α_R = −α, α_TT = α/2, α_TRT = 3α/2, residual 0; β_TT = β_R/2, β_TRT = β_residual = 2β_R (Marschner 2003 Table 1)".into());
-            attributes.insert("azimuthal_width_ratio".into(), json!(self.params.azimuthal_width_ratio));
+            attributes.insert(
+                "azimuthal_width_ratio".into(),
+                json!(self.params.azimuthal_width_ratio),
+            );
             attributes.insert("fiber_model".into(), "smooth dielectric cylinder integrated over h (Zinke & Weber 2007 far field), Bravais geometry, internal chord 2cosγ_t/cosθ_t, orders p ≥ 3 lumped in a residual lobe uniform in φ, wrapped-normal azimuthal roughness w_φ = ratio·β_R; N_p evaluated at the incident inclination and longitudinal lobes normalised per lobe under the energy measure, so a lossless fibre conserves energy exactly".into());
             attributes.insert("quadrature".into(), json!({
                 "rule": "composite Gauss–Legendre in γ_i = asin h, panels ≤ min(0.05 rad, w_φ/2), split where any exit azimuth crosses |φ| = π/2; closed-form (erf) azimuthal windows",
@@ -509,14 +732,54 @@ pub struct HairAzimuthalParams {
 }
 
 const AZ_PARAMS: &[ParamDoc] = &[
-    ParamDoc { name: "eta", kind: "float", default: "1.55", description: "fibre index of refraction, 1.1–2.5" },
-    ParamDoc { name: "fresnel", kind: "string", default: "three-d", description: "three-d or bravais" },
-    ParamDoc { name: "azimuthal_width_deg", kind: "float, deg", default: "5", description: "azimuthal roughness w_φ (wrapped normal std), 0.25–60°" },
-    ParamDoc { name: "absorption_count", kind: "int", default: "—", description: "absorption_u = 1 − exp(−2σ_a) uniform on [0, 1] (or give sigma_a)" },
-    ParamDoc { name: "sigma_a", kind: "list of float, 1/radius", default: "—", description: "explicit absorption values, strictly increasing" },
-    ParamDoc { name: "theta_count", kind: "int", default: "46", description: "samples of θ over [0°, 90°] (2–2048)" },
-    ParamDoc { name: "phi_count", kind: "int", default: "181", description: "samples of φ over [0°, 180°] (2–8192)" },
-    ParamDoc { name: "quadrature_order", kind: "int", default: "8", description: "Gauss–Legendre nodes per h panel (2–32)" },
+    ParamDoc {
+        name: "eta",
+        kind: "float",
+        default: "1.55",
+        description: "fibre index of refraction, 1.1–2.5",
+    },
+    ParamDoc {
+        name: "fresnel",
+        kind: "string",
+        default: "three-d",
+        description: "three-d or bravais",
+    },
+    ParamDoc {
+        name: "azimuthal_width_deg",
+        kind: "float, deg",
+        default: "5",
+        description: "azimuthal roughness w_φ (wrapped normal std), 0.25–60°",
+    },
+    ParamDoc {
+        name: "absorption_count",
+        kind: "int",
+        default: "—",
+        description: "absorption_u = 1 − exp(−2σ_a) uniform on [0, 1] (or give sigma_a)",
+    },
+    ParamDoc {
+        name: "sigma_a",
+        kind: "list of float, 1/radius",
+        default: "—",
+        description: "explicit absorption values, strictly increasing",
+    },
+    ParamDoc {
+        name: "theta_count",
+        kind: "int",
+        default: "46",
+        description: "samples of θ over [0°, 90°] (2–2048)",
+    },
+    ParamDoc {
+        name: "phi_count",
+        kind: "int",
+        default: "181",
+        description: "samples of φ over [0°, 180°] (2–8192)",
+    },
+    ParamDoc {
+        name: "quadrature_order",
+        kind: "int",
+        default: "8",
+        description: "Gauss–Legendre nodes per h panel (2–32)",
+    },
 ];
 
 impl Stage for HairAzimuthalStage {
@@ -548,7 +811,10 @@ impl HairAzimuthalJob {
     pub fn new(p: HairAzimuthalParams) -> Result<Self, PlanError> {
         validate_common(p.eta, p.fresnel)?;
         if !(0.25..=60.0).contains(&p.azimuthal_width_deg) {
-            return Err(PlanError::invalid("azimuthal_width_deg", "must be within 0.25–60°"));
+            return Err(PlanError::invalid(
+                "azimuthal_width_deg",
+                "must be within 0.25–60°",
+            ));
         }
         if !(2..=2048).contains(&p.theta_count) {
             return Err(PlanError::invalid("theta_count", "must be within 2–2048"));
@@ -557,10 +823,17 @@ impl HairAzimuthalJob {
             return Err(PlanError::invalid("phi_count", "must be within 2–8192"));
         }
         if !(2..=32).contains(&p.quadrature_order) {
-            return Err(PlanError::invalid("quadrature_order", "must be within 2–32"));
+            return Err(PlanError::invalid(
+                "quadrature_order",
+                "must be within 2–32",
+            ));
         }
-        let absorption = AbsorptionAxis::from_keys(p.absorption_count, p.sigma_a.clone(), None, None)?;
-        Ok(HairAzimuthalJob { params: p, absorption })
+        let absorption =
+            AbsorptionAxis::from_keys(p.absorption_count, p.sigma_a.clone(), None, None)?;
+        Ok(HairAzimuthalJob {
+            params: p,
+            absorption,
+        })
     }
     fn theta_deg(&self) -> Vec<f64> {
         (0..self.params.theta_count)
@@ -594,7 +867,10 @@ impl Job for HairAzimuthalJob {
     fn tasks(&self) -> Vec<TaskSpec> {
         self.theta_deg()
             .iter()
-            .map(|t| TaskSpec { label: format!("θ={t:.3}°"), params: json!({ "theta_deg": t }) })
+            .map(|t| TaskSpec {
+                label: format!("θ={t:.3}°"),
+                params: json!({ "theta_deg": t }),
+            })
             .collect()
     }
     /// Chunk: `[absorption][φ][5]` at this θ, then the largest relative change (to the peak of
@@ -604,7 +880,12 @@ impl Job for HairAzimuthalJob {
         let row = self.row(theta, 1.0);
         let fine = self.row(theta, 2.0);
         let peak = row.iter().cloned().fold(0.0, f64::max).max(1e-30);
-        let change = row.iter().zip(&fine).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max) / peak;
+        let change = row
+            .iter()
+            .zip(&fine)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max)
+            / peak;
         let mut out: Vec<f32> = row.iter().map(|&v| v as f32).collect();
         out.push(change as f32);
         Ok(out)
@@ -618,7 +899,11 @@ impl Job for HairAzimuthalJob {
         let mut data = vec![0f32; na * nt * np * nc];
         let mut change: f64 = 0.0;
         for (it, chunk) in chunks.iter().enumerate() {
-            anyhow::ensure!(chunk.len() == na * np * nc + 1, "chunk {it} has {} values", chunk.len());
+            anyhow::ensure!(
+                chunk.len() == na * np * nc + 1,
+                "chunk {it} has {} values",
+                chunk.len()
+            );
             change = change.max(chunk[na * np * nc] as f64);
             for ia in 0..na {
                 let src = ia * np * nc;
@@ -631,20 +916,34 @@ impl Job for HairAzimuthalJob {
             .map(|n| Channel::new(n, "1/rad", "azimuthal scattering function N_p(θ, φ); ∫_{−π}^{π} N_p dφ = ½∫ a_p dh (lobe energy)"))
             .collect();
         channels[3].meaning = "orders p ≥ 3 lumped, uniform in φ (energy / 2π)".into();
-        channels.push(Channel::new("sum", "1/rad", "N_R + N_TT + N_TRT + residual; ∫_{−π}^{π} sum dφ = 1 for σ_a = 0"));
+        channels.push(Channel::new(
+            "sum",
+            "1/rad",
+            "N_R + N_TT + N_TRT + residual; ∫_{−π}^{π} sum dφ = 1 for σ_a = 0",
+        ));
         let mut attributes = Map::new();
         attributes.insert("eta".into(), json!(self.params.eta));
         attributes.insert("fresnel".into(), json!(self.params.fresnel.name()));
-        attributes.insert("azimuthal_width_deg".into(), json!(self.params.azimuthal_width_deg));
+        attributes.insert(
+            "azimuthal_width_deg".into(),
+            json!(self.params.azimuthal_width_deg),
+        );
         attributes.insert("theta".into(), "inclination used for the Bravais indices, Fresnel and path length; N_p is even in θ. Marschner/Zinke look it up with θ_d = (θ_o − θ_i)/2; the energy-conserving DS model of scatterbake with θ_i (identical at the specular cone)".into());
         attributes.insert("azimuth".into(), "relative azimuth φ = φ_o − φ_i in [0°, 180°]; N_p(−φ) = N_p(φ); φ = 0 back toward the light".into());
-        attributes.insert("exit_azimuth".into(), "Φ_p(h) = 2γ_i − 2pγ_t + pπ, γ_i = asin h, sin γ_t = h/n' (Zinke & Weber eq. 17–19)".into());
+        attributes.insert(
+            "exit_azimuth".into(),
+            "Φ_p(h) = 2γ_i − 2pγ_t + pπ, γ_i = asin h, sin γ_t = h/n' (Zinke & Weber eq. 17–19)"
+                .into(),
+        );
         attributes.insert("roughness".into(), "each lobe convolved with a wrapped normal of std azimuthal_width_deg (exactly normalised on the circle)".into());
-        attributes.insert("quadrature".into(), json!({
-            "rule": "composite Gauss–Legendre in γ_i = asin h, panels ≤ min(0.05 rad, w_φ/2)",
-            "order": self.params.quadrature_order,
-            "doubling_max_rel_change": change,
-        }));
+        attributes.insert(
+            "quadrature".into(),
+            json!({
+                "rule": "composite Gauss–Legendre in γ_i = asin h, panels ≤ min(0.05 rad, w_φ/2)",
+                "order": self.params.quadrature_order,
+                "doubling_max_rel_change": change,
+            }),
+        );
         self.absorption.describe(&mut attributes);
         Ok(TableContent {
             schema: Schema::new("hair-azimuthal", 1),
@@ -668,17 +967,26 @@ mod tests {
     fn plan(stage: &dyn Stage, src: &str) -> Result<Box<dyn Job>, PlanError> {
         let v: toml::Value = toml::from_str(src).unwrap();
         let s = toml::to_string(&v).unwrap();
-        stage.plan(toml::de::ValueDeserializer::parse(&format!("{{ {} }}", s.trim().replace('\n', ", "))).unwrap())
+        stage.plan(
+            toml::de::ValueDeserializer::parse(&format!("{{ {} }}", s.trim().replace('\n', ", ")))
+                .unwrap(),
+        )
     }
 
     fn run(job: &dyn Job) -> TableContent {
-        let chunks = (0..job.tasks().len()).map(|i| job.run_task(i).unwrap()).collect();
+        let chunks = (0..job.tasks().len())
+            .map(|i| job.run_task(i).unwrap())
+            .collect();
         job.assemble(chunks).unwrap()
     }
 
     #[test]
     fn dual_sweep_is_consistent_and_lossless_column_conserves_energy() {
-        let job = plan(&HairDualStage, "roughness_deg = [3.0, 10.0]\nabsorption_count = 5\ntheta_count = 9").unwrap();
+        let job = plan(
+            &HairDualStage,
+            "roughness_deg = [3.0, 10.0]\nabsorption_count = 5\ntheta_count = 9",
+        )
+        .unwrap();
         let t = run(job.as_ref());
         assert_eq!(t.data.len(), t.expected_len());
         assert_eq!(t.axes.len(), 3);
@@ -688,20 +996,31 @@ mod tests {
                 let base = ((ir * 5) * 9 + it) * DUAL_TABLE_CHANNELS;
                 let v = &t.data[base..base + DUAL_TABLE_CHANNELS];
                 let e: f32 = v[12..16].iter().sum();
-                assert!((v[0] + v[1] - 1.0).abs() < 1e-5 && (e - 1.0).abs() < 1e-5, "{v:?}");
+                assert!(
+                    (v[0] + v[1] - 1.0).abs() < 1e-5 && (e - 1.0).abs() < 1e-5,
+                    "{v:?}"
+                );
             }
         }
         // u = 1 (opaque): only R remains.
         let base = ((4) * 9 + 4) * DUAL_TABLE_CHANNELS;
         assert_eq!(t.data[base + 13], 0.0);
-        let dbl = t.attributes["quadrature"]["doubling_max_abs_change"].as_f64().unwrap();
+        let dbl = t.attributes["quadrature"]["doubling_max_abs_change"]
+            .as_f64()
+            .unwrap();
         assert!(dbl < 1e-5, "{dbl}");
     }
 
     #[test]
     fn dual_rejects_bad_parameters() {
         assert!(plan(&HairDualStage, "absorption_count = 5\nsigma_a = [0.1]").is_err());
-        assert!(plan(&HairDualStage, "absorption_count = 5\nroughness_deg = [10.0, 5.0]").is_err());
+        assert!(
+            plan(
+                &HairDualStage,
+                "absorption_count = 5\nroughness_deg = [10.0, 5.0]"
+            )
+            .is_err()
+        );
         assert!(plan(&HairDualStage, "absorption_count = 5\neta = 0.9").is_err());
         assert!(plan(&HairDualStage, "absorption_count = 5\nbogus = 1").is_err());
         assert!(plan(&HairDualStage, "model = \"artist\"\nmelanin = [1.0, 0.0]").is_err());
@@ -709,17 +1028,27 @@ mod tests {
 
     #[test]
     fn dual_artist_and_melanin_tables_build() {
-        let t = run(plan(&HairDualStage, "model = \"artist\"\ntheta_count = 5").unwrap().as_ref());
+        let t = run(plan(&HairDualStage, "model = \"artist\"\ntheta_count = 5")
+            .unwrap()
+            .as_ref());
         assert_eq!(t.axes[0].name, "colour_channel");
         assert_eq!(t.data.len(), t.expected_len());
-        let t = run(plan(&HairDualStage, "melanin = [0.3, 0.0]\ntheta_count = 5").unwrap().as_ref());
+        let t = run(
+            plan(&HairDualStage, "melanin = [0.3, 0.0]\ntheta_count = 5")
+                .unwrap()
+                .as_ref(),
+        );
         assert_eq!(t.axes[1].name, "colour_channel");
         assert_eq!(t.attributes["sigma_a_rgb"][2].as_f64().unwrap(), 0.3 * 1.37);
     }
 
     #[test]
     fn azimuthal_table_is_normalised() {
-        let job = plan(&HairAzimuthalStage, "sigma_a = [0.0, 0.5]\ntheta_count = 4\nphi_count = 721\nazimuthal_width_deg = 3.0").unwrap();
+        let job = plan(
+            &HairAzimuthalStage,
+            "sigma_a = [0.0, 0.5]\ntheta_count = 4\nphi_count = 721\nazimuthal_width_deg = 3.0",
+        )
+        .unwrap();
         let t = run(job.as_ref());
         assert_eq!(t.data.len(), t.expected_len());
         // σ_a = 0: ∫_{−π}^{π} sum dφ = 1 (trapezoid over [0, π], doubled).
