@@ -268,6 +268,63 @@ pub fn dual_scattering_physical(
     combine(&eb, &ef, &fiber.lobes, d_b, clamp)
 }
 
+/// The physical fibre's scattering function `f_s(θ_i, θ_o, φ)` at a fixed incident inclination
+/// and absorption, for the energy-conserving model: Marschner lobes renormalised per lobe
+/// ([`super::longitudinal::marschner_lobe_normalisation`], cached here), `N_p` at the incident
+/// inclination by direct `h` integration (needs `azimuthal_width_rad > 0`). For renderers that
+/// evaluate the model pointwise and for tests; `∫∫ f_s cos²θ_o dθ_o dφ = Σ_p E_p(θ_i)`.
+#[derive(Debug, Clone)]
+pub struct PhysicalBcsdf {
+    fiber: PhysicalFiber,
+    theta_i: f64,
+    sigma_a: f64,
+    z: [f64; LOBES],
+}
+
+impl PhysicalBcsdf {
+    pub fn new(fiber: &PhysicalFiber, theta_i: f64, sigma_a: f64) -> Self {
+        let z = std::array::from_fn(|p| {
+            super::longitudinal::marschner_lobe_normalisation(
+                theta_i,
+                fiber.lobes.alpha_rad[p],
+                fiber.lobes.beta_rad[p],
+            )
+        });
+        PhysicalBcsdf {
+            fiber: *fiber,
+            theta_i,
+            sigma_a,
+            z,
+        }
+    }
+
+    /// `f_s` at outgoing inclination `theta_o` and relative azimuth `phi` (rad).
+    pub fn eval(&self, theta_o: f64, phi: f64) -> f64 {
+        use super::fiber::azimuthal_pointwise;
+        use super::longitudinal::{cos2_theta_d, gaussian};
+        let f = &self.fiber;
+        let panels = ((PI / (0.5 * f.azimuthal_width_rad)).ceil() as usize).max(64);
+        let n = azimuthal_pointwise(
+            f.eta,
+            self.theta_i,
+            phi,
+            self.sigma_a,
+            f.azimuthal_width_rad,
+            f.fresnel,
+            panels,
+            8,
+        );
+        let t_h = 0.5 * (self.theta_i + theta_o);
+        let c2 = cos2_theta_d(self.theta_i, theta_o);
+        (0..LOBES)
+            .map(|p| {
+                let (a, b) = (f.lobes.alpha_rad[p], f.lobes.beta_rad[p]);
+                gaussian(t_h - a, b * b) * n[p] / (self.z[p] * c2)
+            })
+            .sum()
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -401,6 +458,37 @@ mod tests {
         }
     }
 
+    /// Brute-force 2-D integration of the pointwise f_s over (θ_o, φ) reproduces the factored
+    /// hemisphere energies (checks the longitudinal renormalisation and the φ split).
+    #[test]
+    fn brute_force_two_dimensional_integral_matches_factored_averages() {
+        use crate::optics::quadrature::gauss_legendre_interval;
+        let fiber = blond();
+        let q = HQuadrature::default();
+        for (theta_i, s) in [(deg(20.0), 0.25), (deg(-70.0), 0.0)] {
+            let (eb, ef) = hemisphere_lobe_energies(&fiber, theta_i, s, &q);
+            let f_s = PhysicalBcsdf::new(&fiber, theta_i, s);
+            let (to, wo) = gauss_legendre_interval(48, -PI / 2.0, PI / 2.0);
+            let (pb, wb) = gauss_legendre_interval(24, 0.0, PI / 2.0);
+            let (pf, wf) = gauss_legendre_interval(24, PI / 2.0, PI);
+            let mut back = 0.0;
+            let mut fwd = 0.0;
+            for (t, w1) in to.iter().zip(&wo) {
+                for (p, w2) in pb.iter().zip(&wb) {
+                    back += 2.0 * w1 * w2 * f_s.eval(*t, *p) * t.cos().powi(2);
+                }
+                for (p, w2) in pf.iter().zip(&wf) {
+                    fwd += 2.0 * w1 * w2 * f_s.eval(*t, *p) * t.cos().powi(2);
+                }
+            }
+            let (sb, sf): (f64, f64) = (eb.iter().sum(), ef.iter().sum());
+            assert!(
+                (back - sb).abs() < 2e-4 && (fwd - sf).abs() < 2e-4,
+                "θ_i={theta_i}: {back} vs {sb}, {fwd} vs {sf}"
+            );
+        }
+    }
+
     /// Independent check of the hemisphere split: integrate the pointwise N_p(φ) over φ with a
     /// plain Gauss–Legendre rule (no closed-form erf windows, no breakpoints).
     #[test]
@@ -438,5 +526,58 @@ mod tests {
             );
         }
         assert!(ef[1] > eb[1]);
+    }
+}
+
+/// Accuracy figures quoted in `docs/hair.md`. Run:
+/// `cargo test --lib hair::dual::report -- --ignored --nocapture`.
+#[cfg(test)]
+mod report {
+    use super::*;
+
+    #[test]
+    #[ignore]
+    fn print_accuracy_figures() {
+        let q = HQuadrature::default();
+        for w_deg in [0.0, 2.0, 7.5] {
+            let fiber = PhysicalFiber {
+                eta: 1.55,
+                fresnel: FresnelModel::ThreeD,
+                lobes: LobeShape::marschner(5f64.to_radians(), 7.5f64.to_radians()),
+                azimuthal_width_rad: f64::to_radians(w_deg),
+            };
+            let mut worst_sum: f64 = 0.0;
+            let mut worst_dbl: f64 = 0.0;
+            for k in 0..=180 {
+                let theta = f64::to_radians(-90.0 + k as f64);
+                let (eb, ef) = hemisphere_lobe_energies(&fiber, theta, 0.0, &q);
+                worst_sum = worst_sum.max((eb.iter().chain(&ef).sum::<f64>() - 1.0).abs());
+                for s in [0.0, 0.2, 1.0] {
+                    let a = dual_scattering_physical(&fiber, theta, s, 0.7, 0.99, &q).to_array();
+                    let b = dual_scattering_physical(&fiber, theta, s, 0.7, 0.99, &q.doubled())
+                        .to_array();
+                    for (x, y) in a.iter().zip(&b) {
+                        worst_dbl = worst_dbl.max((x - y).abs());
+                    }
+                }
+            }
+            println!(
+                "w_phi = {w_deg}°: max |a_f + a_b − 1| (σ=0, 181 θ) = {worst_sum:.3e}; max |Δ| under panel doubling (σ = 0, 0.2, 1) = {worst_dbl:.3e}"
+            );
+        }
+        let fiber = PhysicalFiber {
+            eta: 1.55,
+            fresnel: FresnelModel::ThreeD,
+            lobes: LobeShape::marschner(0.0, 0.1),
+            azimuthal_width_rad: 0.0,
+        };
+        let (eb, ef) = hemisphere_lobe_energies(&fiber, 0.0, 0.0, &q);
+        let e: Vec<f64> = (0..LOBES).map(|p| eb[p] + ef[p]).collect();
+        println!(
+            "lobe energies θ=0 σ=0: R {:.6} TT {:.6} TRT {:.6} residual {:.6}",
+            e[0], e[1], e[2], e[3]
+        );
+        let ds = dual_scattering_physical(&fiber, 0.0, 0.0, 0.7, 0.99, &q);
+        println!("smooth lossless θ=0: a_f {:.6} a_b {:.6}", ds.a_f, ds.a_b);
     }
 }

@@ -365,16 +365,33 @@ impl FiberSlice {
         sigma_a: f64,
         wb: &[[f64; 3]],
     ) -> ([f64; LOBES], [f64; LOBES]) {
+        self.hemisphere_energies_from(&self.weighted_attenuations(sigma_a), wb)
+    }
+
+    /// Quadrature weight × attenuations at every node, for reuse across azimuthal widths.
+    pub fn weighted_attenuations(&self, sigma_a: f64) -> Vec<[f64; LOBES]> {
+        self.crossing
+            .iter()
+            .zip(&self.weight)
+            .map(|(x, w)| attenuations(x, sigma_a).map(|a| w * a))
+            .collect()
+    }
+
+    /// [`Self::hemisphere_energies`] from precomputed [`Self::weighted_attenuations`].
+    pub fn hemisphere_energies_from(
+        &self,
+        wa: &[[f64; LOBES]],
+        wb: &[[f64; 3]],
+    ) -> ([f64; LOBES], [f64; LOBES]) {
         let mut eb = [0.0; LOBES];
         let mut ef = [0.0; LOBES];
-        for ((x, w), b) in self.crossing.iter().zip(&self.weight).zip(wb) {
-            let a = attenuations(x, sigma_a);
+        for (a, b) in wa.iter().zip(wb) {
             for p in 0..3 {
-                eb[p] += w * a[p] * b[p];
-                ef[p] += w * a[p] * (1.0 - b[p]);
+                eb[p] += a[p] * b[p];
+                ef[p] += a[p] * (1.0 - b[p]);
             }
-            eb[3] += 0.5 * w * a[3];
-            ef[3] += 0.5 * w * a[3];
+            eb[3] += 0.5 * a[3];
+            ef[3] += 0.5 * a[3];
         }
         (eb, ef)
     }

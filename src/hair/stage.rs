@@ -462,20 +462,32 @@ impl HairDualJob {
         let w_min = self.params.azimuthal_width_ratio * self.params.roughness_deg[0].to_radians();
         let offs = quad.offsets(self.params.eta, theta_rad, w_min);
         let slice = FiberSlice::new(self.params.eta, theta_rad, self.params.fresnel, &offs);
-        for &beta in &self.params.roughness_deg {
-            let fiber = self.fiber(beta);
-            let wb = slice.backward_fractions(fiber.azimuthal_width_rad);
-            for &s in &sigmas {
-                let (eb, ef) = slice.hemisphere_energies(s, &wb);
-                out.extend(
-                    combine(&eb, &ef, &fiber.lobes, self.params.d_b, self.params.clamp).to_array(),
-                );
-                out.extend((0..LOBES).map(|p| eb[p] + ef[p]));
+        let na = sigmas.len();
+        let fibers: Vec<PhysicalFiber> = self
+            .params
+            .roughness_deg
+            .iter()
+            .map(|&b| self.fiber(b))
+            .collect();
+        let wbs: Vec<Vec<[f64; 3]>> = fibers
+            .iter()
+            .map(|f| slice.backward_fractions(f.azimuthal_width_rad))
+            .collect();
+        let mut out = vec![0.0; fibers.len() * na * DUAL_TABLE_CHANNELS];
+        for (ia, &s) in sigmas.iter().enumerate() {
+            let wa = slice.weighted_attenuations(s);
+            for (ir, (fiber, wb)) in fibers.iter().zip(&wbs).enumerate() {
+                let (eb, ef) = slice.hemisphere_energies_from(&wa, wb);
+                let ds = combine(&eb, &ef, &fiber.lobes, self.params.d_b, self.params.clamp);
+                let o = (ir * na + ia) * DUAL_TABLE_CHANNELS;
+                out[o..o + 12].copy_from_slice(&ds.to_array());
+                for p in 0..LOBES {
+                    out[o + 12 + p] = eb[p] + ef[p];
+                }
             }
         }
         out
     }
-
     fn theta_deg(&self) -> Vec<f64> {
         theta_axis_deg(self.params.theta_count)
     }
@@ -1061,6 +1073,31 @@ mod tests {
                 s += 2.0 * w * step * t.data[(it * np + j) * 5 + 4] as f64;
             }
             assert!((s - 1.0).abs() < 1e-5, "θ index {it}: {s}");
+        }
+    }
+}
+
+/// The shipped manifests parse and plan (their tables build in the pipeline).
+#[cfg(test)]
+mod manifest_tests {
+    use super::*;
+
+    #[test]
+    fn shipped_manifests_plan() {
+        for path in ["manifests/hair-dual.toml", "manifests/full/hair-dual.toml"] {
+            let text = std::fs::read_to_string(path).unwrap();
+            let doc: toml::Value = toml::from_str(&text).unwrap();
+            for entry in doc["table"].as_array().unwrap() {
+                let params = toml::to_string(&entry["params"]).unwrap();
+                let stage: Box<dyn Stage> = match entry["stage"].as_str().unwrap() {
+                    "hair-dual" => Box::new(HairDualStage),
+                    "hair-azimuthal" => Box::new(HairAzimuthalStage),
+                    s => panic!("unexpected stage {s}"),
+                };
+                let inline = format!("{{ {} }}", params.trim().replace('\n', ", "));
+                let de = toml::de::ValueDeserializer::parse(&inline).unwrap();
+                stage.plan(de).unwrap_or_else(|e| panic!("{path}: {e}"));
+            }
         }
     }
 }
