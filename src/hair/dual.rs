@@ -579,5 +579,70 @@ mod report {
         );
         let ds = dual_scattering_physical(&fiber, 0.0, 0.0, 0.7, 0.99, &q);
         println!("smooth lossless θ=0: a_f {:.6} a_b {:.6}", ds.a_f, ds.a_b);
+        // Linear interpolation error of a 64-sample θ table at the midpoints (A24).
+        let fiber64 = PhysicalFiber {
+            eta: 1.55,
+            fresnel: FresnelModel::ThreeD,
+            lobes: LobeShape::marschner(5f64.to_radians(), 7.5f64.to_radians()),
+            azimuthal_width_rad: 7.5f64.to_radians(),
+        };
+        for (n, sig) in [(64usize, 0.1), (64, 1.0), (128, 0.1)] {
+            let th = |i: f64| -PI / 2.0 + PI * i / (n - 1) as f64;
+            let mut worst = [0.0f64; 12];
+            for i in 0..n - 1 {
+                let a =
+                    dual_scattering_physical(&fiber64, th(i as f64), sig, 0.7, 0.99, &q).to_array();
+                let b = dual_scattering_physical(&fiber64, th(i as f64 + 1.0), sig, 0.7, 0.99, &q)
+                    .to_array();
+                let m = dual_scattering_physical(&fiber64, th(i as f64 + 0.5), sig, 0.7, 0.99, &q)
+                    .to_array();
+                for k in 0..12 {
+                    worst[k] = worst[k].max((0.5 * (a[k] + b[k]) - m[k]).abs());
+                }
+            }
+            println!(
+                "θ table n={n} σ={sig}: max |lerp − exact| at midpoints: a_f {:.2e} a_b {:.2e} alpha_f {:.2e} beta_b2 {:.2e} A_b {:.2e} delta_b {:.2e} sigma_b2 {:.2e} N_G_TT {:.2e}",
+                worst[0], worst[1], worst[2], worst[5], worst[6], worst[7], worst[8], worst[10]
+            );
+        }
+        // The benchmark peer (pointwise N_p on a 256-node φ rule) against the factored result.
+        use super::super::fiber::azimuthal_pointwise;
+        use crate::optics::quadrature::gauss_legendre_interval;
+        let fiber = PhysicalFiber {
+            eta: 1.55,
+            fresnel: FresnelModel::ThreeD,
+            lobes: LobeShape::marschner(5f64.to_radians(), 7.5f64.to_radians()),
+            azimuthal_width_rad: 7.5f64.to_radians(),
+        };
+        let (theta, s) = (0.4, 0.3);
+        let (eb, ef) = hemisphere_lobe_energies(&fiber, theta, s, &q);
+        let (x, w) = gauss_legendre_interval(256, 0.0, PI);
+        let (mut pb, mut pf) = (0.0, 0.0);
+        for (phi, wt) in x.iter().zip(&w) {
+            let n: f64 = azimuthal_pointwise(
+                1.55,
+                theta,
+                *phi,
+                s,
+                fiber.azimuthal_width_rad,
+                fiber.fresnel,
+                90,
+                8,
+            )
+            .iter()
+            .sum();
+            if *phi < PI / 2.0 {
+                pb += 2.0 * wt * n
+            } else {
+                pf += 2.0 * wt * n
+            }
+        }
+        println!(
+            "bench cell (θ=0.4, σ=0.3, β=w=7.5°): factored a_b {:.8} a_f {:.8}; peer a_b {:.8} a_f {:.8}",
+            eb.iter().sum::<f64>(),
+            ef.iter().sum::<f64>(),
+            pb,
+            pf
+        );
     }
 }

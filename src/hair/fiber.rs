@@ -206,7 +206,17 @@ pub fn backward_fraction(c: f64, w: f64) -> f64 {
     let mut s = 0.0;
     for k in -images..=images {
         let m = c + TAU * k as f64;
-        s += normal_cdf((FRAC_PI_2 - m) / w) - normal_cdf((-FRAC_PI_2 - m) / w);
+        let hi = (FRAC_PI_2 - m) / w;
+        let lo = (-FRAC_PI_2 - m) / w;
+        // Φ(±8.5) is 1 ∓ 1e-17: skip the error functions where they cannot matter.
+        if hi < -8.5 || lo > 8.5 {
+            continue;
+        }
+        if lo < -8.5 && hi > 8.5 {
+            s += 1.0;
+            continue;
+        }
+        s += normal_cdf(hi) - normal_cdf(lo);
     }
     s.clamp(0.0, 1.0)
 }

@@ -1101,3 +1101,43 @@ mod manifest_tests {
         }
     }
 }
+
+/// Build every table of the default manifest in memory and print time and quadrature figures.
+/// Run: `cargo test --release --lib hair::stage::manifest_report -- --ignored --nocapture`.
+#[cfg(test)]
+mod manifest_report {
+    use super::*;
+
+    #[test]
+    #[ignore]
+    fn print_default_manifest_build() {
+        let path = std::env::var("HAIR_MANIFEST").unwrap_or("manifests/hair-dual.toml".into());
+        let text = std::fs::read_to_string(&path).unwrap();
+        let doc: toml::Value = toml::from_str(&text).unwrap();
+        let all = std::time::Instant::now();
+        for entry in doc["table"].as_array().unwrap() {
+            let params = toml::to_string(&entry["params"]).unwrap();
+            let stage: Box<dyn Stage> = match entry["stage"].as_str().unwrap() {
+                "hair-dual" => Box::new(HairDualStage),
+                _ => Box::new(HairAzimuthalStage),
+            };
+            let inline = format!("{{ {} }}", params.trim().replace('\n', ", "));
+            let job = stage
+                .plan(toml::de::ValueDeserializer::parse(&inline).unwrap())
+                .unwrap();
+            let t0 = std::time::Instant::now();
+            let t = crate::hair::export::run_job_in_memory(job.as_ref()).unwrap();
+            println!(
+                "{}: {} values in {:.2} s; quadrature {}",
+                entry["name"].as_str().unwrap(),
+                t.data.len(),
+                t0.elapsed().as_secs_f64(),
+                t.attributes
+                    .get("quadrature")
+                    .map(|q| q.to_string())
+                    .unwrap_or("-".into())
+            );
+        }
+        println!("total {:.2} s", all.elapsed().as_secs_f64());
+    }
+}
