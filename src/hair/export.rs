@@ -15,7 +15,7 @@ use std::path::PathBuf;
 
 /// A `hair-dual` table laid out as an engine texture: `width` = absorption (or colour) samples,
 /// `height` = θ samples × roughness layers (layer `r` occupies rows `r·n_theta .. (r+1)·n_theta`,
-/// θ increasing downwards from −90°), three RGBA parts `ds0..ds2` holding the twelve quantities in
+/// θ increasing downwards from −90°), three RGBA groups `ds0..ds2` holding the twelve quantities in
 /// [`DUAL_CHANNELS`] order (`ds0 = ā_f, ā_b, ᾱ_f, ᾱ_b`; `ds1 = β̄_f², β̄_b², Ā_b, Δ̄_b`;
 /// `ds2 = σ̄_b², N^G_R, N^G_TT, N^G_TRT`). `parts[k][c]` is row-major `height × width`.
 #[derive(Debug, Clone, PartialEq)]
@@ -72,39 +72,43 @@ pub fn dual_lut_layout(t: &TableContent) -> anyhow::Result<DualLutLayout> {
     })
 }
 
-/// Write the layout as a multi-part OpenEXR file (32-bit float, lossless ZIP/RLE compression).
+/// Write the layout as a single-part OpenEXR file (32-bit float, lossless compression) with
+/// twelve channels named `ds0.R … ds2.A` (the classic layer.channel naming every OpenEXR reader
+/// understands; no multi-part support needed). A header comment records the layout.
 pub fn write_dual_lut_exr(layout: &DualLutLayout, path: &std::path::Path) -> anyhow::Result<()> {
     use exr::prelude::*;
     let size = (layout.width, layout.height);
-    let layers: Vec<Layer<AnyChannels<FlatSamples>>> = (0..3)
-        .map(|k| {
-            let names = ["R", "G", "B", "A"];
-            let channels: SmallVec<[AnyChannel<FlatSamples>; 4]> = names
-                .iter()
-                .enumerate()
-                .map(|(c, n)| AnyChannel::new(*n, FlatSamples::F32(layout.parts[k][c].clone())))
-                .collect();
-            let mut attrs = LayerAttributes::named(format!("ds{k}").as_str());
-            let q: Vec<&str> = (0..4).map(|c| DUAL_CHANNELS[4 * k + c]).collect();
-            attrs.comments = Some(Text::from(
-                format!(
-                    "RGBA = {}; columns = {} ({} samples), rows = theta -90..90 deg ({} samples) x {} roughness layers; scatterbake hair-dual/1, see docs/hair.md",
-                    q.join(", "),
-                    layout.column_axis,
-                    layout.width,
-                    layout.n_theta,
-                    layout.n_roughness
-                )
-                .as_str(),
+    let mut channels: SmallVec<[AnyChannel<FlatSamples>; 4]> = SmallVec::new();
+    for k in 0..3 {
+        for (c, n) in ["R", "G", "B", "A"].iter().enumerate() {
+            channels.push(AnyChannel::new(
+                format!("ds{k}.{n}").as_str(),
+                FlatSamples::F32(layout.parts[k][c].clone()),
             ));
-            Layer::new(size, attrs, Encoding::FAST_LOSSLESS, AnyChannels::sort(channels))
-        })
+        }
+    }
+    let mut attrs = LayerAttributes::named("hair-dual");
+    let groups: Vec<String> = (0..3)
+        .map(|k| format!("ds{k} = ({})", DUAL_CHANNELS[4 * k..4 * k + 4].join(", ")))
         .collect();
-    let image = Image::from_layers(
-        ImageAttributes::new(IntegerBounds::from_dimensions(size)),
-        layers,
+    attrs.comments = Some(Text::from(
+        format!(
+            "scatterbake hair-dual/1 LUT: {}; columns = {} ({} samples), rows = theta -90..90 deg ({} samples) x {} roughness layers (docs/hair.md)",
+            groups.join("; "),
+            layout.column_axis,
+            layout.width,
+            layout.n_theta,
+            layout.n_roughness
+        )
+        .as_str(),
+    ));
+    let layer = Layer::new(
+        size,
+        attrs,
+        Encoding::FAST_LOSSLESS,
+        AnyChannels::sort(channels),
     );
-    image
+    Image::from_layer(layer)
         .write()
         .to_file(path)
         .with_context(|| format!("writing {}", path.display()))?;
@@ -215,7 +219,7 @@ pub fn run_hair_lut(args: &HairLutArgs) -> anyhow::Result<()> {
     let layout = dual_lut_layout(&t)?;
     write_dual_lut_exr(&layout, &args.out)?;
     eprintln!(
-        "wrote {} ({}×{} texels, {} roughness layers, parts ds0–ds2)",
+        "wrote {} ({}×{} texels, {} roughness layers, channels ds0–ds2.RGBA)",
         args.out.display(),
         layout.width,
         layout.height,
@@ -389,17 +393,12 @@ mod tests {
         write_dual_lut_exr(&layout, &path).unwrap();
         use exr::prelude::*;
         let img = read_all_flat_layers_from_file(&path).unwrap();
-        assert_eq!(img.layer_data.len(), 3);
-        let ds1 = img
-            .layer_data
+        assert_eq!(img.layer_data.len(), 1);
+        let chans = &img.layer_data[0].channel_data.list;
+        assert_eq!(chans.len(), 12);
+        let b = chans
             .iter()
-            .find(|l| l.attributes.layer_name.as_ref().map(|n| n.to_string()) == Some("ds1".into()))
-            .unwrap();
-        let b = ds1
-            .channel_data
-            .list
-            .iter()
-            .find(|c| c.name.to_string() == "B")
+            .find(|c| c.name.to_string() == "ds1.B")
             .unwrap();
         // Texel (x = absorption 3, y = roughness 1, θ index 5) holds Ā_b of that table cell.
         let x = 3;
