@@ -439,4 +439,57 @@ mod tests {
         assert_eq!(csv.lines().count(), 10);
         assert_eq!(csv.lines().next().unwrap().split(',').count(), 1 + 16 * 3);
     }
+
+    /// End to end through the `.sbt` format: the CLI runners read a written table.
+    #[test]
+    fn runners_work_from_sbt_files() {
+        use crate::table::{Provenance, write_table_atomic};
+        let dir = tempfile::tempdir().unwrap();
+        let write = |src: &str, name: &str| {
+            let job = HairDualJob::new(params(src)).unwrap();
+            let content = run_job_in_memory(&job).unwrap();
+            let mut table = Table::from_content(content, Provenance::default()).unwrap();
+            let path = dir.path().join(name);
+            write_table_atomic(&mut table, &path).unwrap();
+            path
+        };
+        let lut = write(
+            "roughness_deg = [5.0, 10.0]\nabsorption_count = 4\ntheta_count = 5",
+            "lut.sbt",
+        );
+        let exr_path = dir.path().join("lut.exr");
+        run_hair_lut(&HairLutArgs {
+            table: lut.clone(),
+            out: exr_path.clone(),
+        })
+        .unwrap();
+        let img = exr::prelude::read_all_flat_layers_from_file(&exr_path).unwrap();
+        assert_eq!(img.layer_data[0].size.0, 4);
+        assert_eq!(img.layer_data[0].size.1, 10);
+        let one = write("sigma_a_rgb = [0.1, 0.2, 0.4]\ntheta_count = 5", "one.sbt");
+        let json_path = dir.path().join("one.json");
+        let mut args = DualScatteringArgs {
+            model: ModelArg::Physical,
+            eta: 1.55,
+            absorption: None,
+            melanin: None,
+            alpha_deg: 5.0,
+            beta_deg: 7.5,
+            azimuthal_width_ratio: 1.0,
+            fresnel: "three-d".into(),
+            theta_samples: 5,
+            d_b: 0.7,
+            clamp: 0.99,
+            artist_params: None,
+            table: Some(one),
+            format: FormatArg::Json,
+            out: Some(json_path.clone()),
+        };
+        run_dual_scattering(&args).unwrap();
+        let j: Value = serde_json::from_str(&std::fs::read_to_string(&json_path).unwrap()).unwrap();
+        assert_eq!(j["theta_deg"][2].as_f64().unwrap(), 0.0);
+        // The LUT table is not a one-colour table: the JSON export refuses it.
+        args.table = Some(lut);
+        assert!(run_dual_scattering(&args).is_err());
+    }
 }
