@@ -131,14 +131,13 @@ impl AbsorptionAxis {
     }
 }
 
-fn validate_common(eta: f64, fresnel: FresnelModel) -> Result<(), PlanError> {
+fn validate_eta(eta: f64) -> Result<(), PlanError> {
     if !(1.1..=2.5).contains(&eta) {
         return Err(PlanError::invalid(
             "eta",
             format!("{eta} is outside 1.1–2.5"),
         ));
     }
-    let _ = fresnel;
     Ok(())
 }
 
@@ -340,7 +339,7 @@ pub const DUAL_TABLE_CHANNELS: usize = 16;
 impl HairDualJob {
     /// Validate and plan.
     pub fn new(p: HairDualParams) -> Result<Self, PlanError> {
-        validate_common(p.eta, p.fresnel)?;
+        validate_eta(p.eta)?;
         if !(0.0..=15.0).contains(&p.cuticle_tilt_deg) {
             return Err(PlanError::invalid(
                 "cuticle_tilt_deg",
@@ -821,7 +820,7 @@ pub struct HairAzimuthalJob {
 
 impl HairAzimuthalJob {
     pub fn new(p: HairAzimuthalParams) -> Result<Self, PlanError> {
-        validate_common(p.eta, p.fresnel)?;
+        validate_eta(p.eta)?;
         if !(0.25..=60.0).contains(&p.azimuthal_width_deg) {
             return Err(PlanError::invalid(
                 "azimuthal_width_deg",
