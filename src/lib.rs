@@ -12,6 +12,7 @@ pub mod catalog;
 pub mod cli;
 pub mod consumers;
 pub mod export;
+pub mod hair;
 pub mod manifest;
 pub mod optics;
 pub mod pipeline;

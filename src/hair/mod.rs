@@ -1,0 +1,20 @@
+//! Hair fibre scattering tables: single-scattering lobes of a dielectric fibre and the Dual
+//! Scattering averages (Zinke et al. 2008) for the physically based and the artist-friendly
+//! (Sadeghi et al. 2010) fibre models. Conventions, validated domain, accuracy and every [A]
+//! decision: `docs/hair.md`.
+//!
+//! - [`fiber`]: smooth/rough dielectric cylinder, Bravais indices, Fresnel, absorption, `N_p`;
+//! - [`longitudinal`]: longitudinal lobes `M_p` and their energy normalisation;
+//! - [`dual`]: Dual Scattering averages and closed forms;
+//! - [`artist`]: the artist-friendly model with the scalar normalisation of thesis eq. 4.17;
+//! - [`melanin`]: eumelanin/pheomelanin concentration → `σ_a`;
+//! - [`stage`]: the `hair-azimuthal` and `hair-dual` stages;
+//! - [`export`]: EXR LUT and JSON exports, CLI argument structs.
+
+pub mod artist;
+pub mod dual;
+pub mod export;
+pub mod fiber;
+pub mod longitudinal;
+pub mod melanin;
+pub mod stage;

@@ -1,0 +1,1142 @@
+//! Stages `hair-dual` (Dual Scattering averages, schema `hair-dual/1`) and `hair-azimuthal`
+//! (azimuthal functions `N_p(θ, φ)`, schema `hair-azimuthal/1`). See `docs/hair.md`.
+
+use super::artist::{ArtistModel, ArtistParams};
+use super::dual::{DUAL_CHANNELS, HQuadrature, LobeShape, PhysicalFiber, combine};
+use super::fiber::{FiberSlice, FresnelModel, LOBE_NAMES, LOBES};
+use super::melanin::{sigma_a_from_absorption_u, sigma_a_from_melanin};
+use crate::stage::{Job, ParamDoc, PlanError, Stage, TaskSpec, parse_params};
+use crate::table::{Axis, Channel, Schema, TableContent};
+use serde::{Deserialize, Serialize};
+use serde_json::{Map, Value, json};
+
+/// Which fibre model feeds the Dual Scattering averages.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "kebab-case")]
+pub enum HairModel {
+    #[default]
+    Physical,
+    Artist,
+}
+
+/// The absorption axis of a table, resolved from the flat manifest keys.
+#[derive(Debug, Clone, PartialEq)]
+pub enum AbsorptionAxis {
+    /// `absorption_u = 1 − exp(−2σ_a)` uniform on `[0, 1]` with `count` samples (LUT mode).
+    Sweep(usize),
+    /// Explicit `σ_a` values (per unit radius), strictly increasing.
+    SigmaA(Vec<f64>),
+    /// One colour: `σ_a` for R, G, B (axis `colour_channel` = 0, 1, 2).
+    Rgb([f64; 3]),
+}
+
+impl AbsorptionAxis {
+    fn from_keys(
+        count: Option<usize>,
+        sigma_a: Option<Vec<f64>>,
+        rgb: Option<[f64; 3]>,
+        melanin: Option<[f64; 2]>,
+    ) -> Result<Self, PlanError> {
+        let given = [
+            count.is_some(),
+            sigma_a.is_some(),
+            rgb.is_some(),
+            melanin.is_some(),
+        ]
+        .iter()
+        .filter(|&&b| b)
+        .count();
+        if given != 1 {
+            return Err(PlanError::invalid(
+                "absorption_count",
+                "give exactly one of absorption_count, sigma_a, sigma_a_rgb, melanin",
+            ));
+        }
+        if let Some(n) = count {
+            if !(2..=1024).contains(&n) {
+                return Err(PlanError::invalid(
+                    "absorption_count",
+                    "must be within 2–1024",
+                ));
+            }
+            return Ok(AbsorptionAxis::Sweep(n));
+        }
+        if let Some(v) = sigma_a {
+            if v.is_empty() || v.iter().any(|x| !(x.is_finite() && *x >= 0.0)) {
+                return Err(PlanError::invalid("sigma_a", "needs finite values ≥ 0"));
+            }
+            if v.windows(2).any(|w| w[1] <= w[0]) {
+                return Err(PlanError::invalid("sigma_a", "must be strictly increasing"));
+            }
+            return Ok(AbsorptionAxis::SigmaA(v));
+        }
+        if let Some(c) = rgb {
+            if c.iter().any(|x| !(x.is_finite() && *x >= 0.0)) {
+                return Err(PlanError::invalid("sigma_a_rgb", "needs finite values ≥ 0"));
+            }
+            return Ok(AbsorptionAxis::Rgb(c));
+        }
+        let [ce, cp] = melanin.expect("one key is given");
+        if !(ce.is_finite() && cp.is_finite() && ce >= 0.0 && cp >= 0.0) {
+            return Err(PlanError::invalid(
+                "melanin",
+                "concentrations must be finite and ≥ 0",
+            ));
+        }
+        Ok(AbsorptionAxis::Rgb(sigma_a_from_melanin(ce, cp)))
+    }
+
+    /// The σ_a values along the axis.
+    pub fn sigma_values(&self) -> Vec<f64> {
+        match self {
+            AbsorptionAxis::Sweep(n) => (0..*n)
+                .map(|i| sigma_a_from_absorption_u(i as f64 / (*n - 1) as f64))
+                .collect(),
+            AbsorptionAxis::SigmaA(v) => v.clone(),
+            AbsorptionAxis::Rgb(c) => c.to_vec(),
+        }
+    }
+
+    fn axis(&self) -> Axis {
+        match self {
+            AbsorptionAxis::Sweep(n) => {
+                Axis::uniform("absorption_u", "1", 0.0, 1.0 / (*n - 1) as f64, *n)
+            }
+            AbsorptionAxis::SigmaA(v) => Axis::values("sigma_a", "1/radius", v.clone()),
+            AbsorptionAxis::Rgb(_) => Axis::values("colour_channel", "1", vec![0.0, 1.0, 2.0]),
+        }
+    }
+
+    fn describe(&self, attributes: &mut Map<String, Value>) {
+        attributes.insert(
+            "absorption_convention".into(),
+            "sigma_a per unit fibre radius (internal chord 2 cos γ_t / cos θ_t at r = 1, as pbrt's HairBxDF)".into(),
+        );
+        match self {
+            AbsorptionAxis::Sweep(_) => {
+                attributes.insert(
+                    "absorption_u".into(),
+                    "u = 1 − exp(−2 sigma_a); sigma_a = −ln(1 − u)/2; u = 1 is an opaque interior (sigma_a = ∞). Look up each RGB channel with its own u.".into(),
+                );
+            }
+            AbsorptionAxis::SigmaA(_) => {}
+            AbsorptionAxis::Rgb(c) => {
+                attributes.insert(
+                    "colour_channel".into(),
+                    "0 = R, 1 = G, 2 = B (linear sRGB)".into(),
+                );
+                attributes.insert("sigma_a_rgb".into(), json!(c));
+            }
+        }
+    }
+}
+
+fn validate_eta(eta: f64) -> Result<(), PlanError> {
+    if !(1.1..=2.5).contains(&eta) {
+        return Err(PlanError::invalid(
+            "eta",
+            format!("{eta} is outside 1.1–2.5"),
+        ));
+    }
+    Ok(())
+}
+
+fn theta_axis_deg(count: usize) -> Vec<f64> {
+    (0..count)
+        .map(|i| -90.0 + 180.0 * i as f64 / (count - 1) as f64)
+        .collect()
+}
+
+// ---------------------------------------------------------------------------------------------
+// hair-dual
+
+/// The `hair-dual` stage.
+pub struct HairDualStage;
+
+fn default_eta() -> f64 {
+    1.55
+}
+fn default_tilt() -> f64 {
+    5.0
+}
+fn default_roughness() -> Vec<f64> {
+    vec![7.5]
+}
+fn default_ratio() -> f64 {
+    1.0
+}
+fn default_theta_count() -> usize {
+    64
+}
+fn default_d_b() -> f64 {
+    0.7
+}
+fn default_clamp() -> f64 {
+    0.99
+}
+fn default_order() -> usize {
+    8
+}
+
+/// Parameters of `hair-dual`.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct HairDualParams {
+    #[serde(default)]
+    pub model: HairModel,
+    #[serde(default = "default_eta")]
+    pub eta: f64,
+    #[serde(default)]
+    pub fresnel: FresnelModel,
+    /// Cuticle tilt α (deg): α_R = −α, α_TT = α/2, α_TRT = 3α/2.
+    #[serde(default = "default_tilt")]
+    pub cuticle_tilt_deg: f64,
+    /// Longitudinal R widths β_R (deg): β_TT = β_R/2, β_TRT = 2β_R.
+    #[serde(default = "default_roughness")]
+    pub roughness_deg: Vec<f64>,
+    /// Azimuthal roughness w_φ = ratio × β_R (0 = smooth cylinder).
+    #[serde(default = "default_ratio")]
+    pub azimuthal_width_ratio: f64,
+    pub absorption_count: Option<usize>,
+    pub sigma_a: Option<Vec<f64>>,
+    pub sigma_a_rgb: Option<[f64; 3]>,
+    pub melanin: Option<[f64; 2]>,
+    #[serde(default = "default_theta_count")]
+    pub theta_count: usize,
+    #[serde(default = "default_d_b")]
+    pub d_b: f64,
+    #[serde(default = "default_clamp")]
+    pub clamp: f64,
+    /// Gauss–Legendre nodes per panel of the h integral.
+    #[serde(default = "default_order")]
+    pub quadrature_order: usize,
+    /// Artist-friendly parameters (model = "artist" only).
+    pub artist: Option<ArtistParams>,
+}
+
+const DUAL_PARAMS: &[ParamDoc] = &[
+    ParamDoc {
+        name: "model",
+        kind: "string",
+        default: "physical",
+        description: "physical (Marschner/Zinke fibre) or artist (Sadeghi 2010, eq. 4.17 scalar normalisation)",
+    },
+    ParamDoc {
+        name: "eta",
+        kind: "float",
+        default: "1.55",
+        description: "fibre index of refraction, 1.1–2.5 (physical)",
+    },
+    ParamDoc {
+        name: "fresnel",
+        kind: "string",
+        default: "three-d",
+        description: "three-d (exact unpolarised at the 3-D incidence angle) or bravais (Marschner two-index)",
+    },
+    ParamDoc {
+        name: "cuticle_tilt_deg",
+        kind: "float, deg",
+        default: "5",
+        description: "cuticle tilt α: α_R = −α, α_TT = α/2, α_TRT = 3α/2 (0–15°)",
+    },
+    ParamDoc {
+        name: "roughness_deg",
+        kind: "list of float, deg",
+        default: "[7.5]",
+        description: "longitudinal widths β_R (β_TT = β_R/2, β_TRT = 2β_R), 0.5–30°, strictly increasing; the roughness axis",
+    },
+    ParamDoc {
+        name: "azimuthal_width_ratio",
+        kind: "float",
+        default: "1",
+        description: "azimuthal roughness w_φ = ratio·β_R (0 = smooth cylinder), 0–4",
+    },
+    ParamDoc {
+        name: "absorption_count",
+        kind: "int",
+        default: "—",
+        description: "LUT mode: absorption_u = 1 − exp(−2σ_a) uniform on [0, 1] (exactly one of the four absorption keys)",
+    },
+    ParamDoc {
+        name: "sigma_a",
+        kind: "list of float, 1/radius",
+        default: "—",
+        description: "explicit absorption values, strictly increasing",
+    },
+    ParamDoc {
+        name: "sigma_a_rgb",
+        kind: "[r, g, b], 1/radius",
+        default: "—",
+        description: "one hair colour (axis colour_channel)",
+    },
+    ParamDoc {
+        name: "melanin",
+        kind: "[eumelanin, pheomelanin]",
+        default: "—",
+        description: "one hair colour from melanin concentrations (pbrt/Chiang 2016 mapping)",
+    },
+    ParamDoc {
+        name: "theta_count",
+        kind: "int",
+        default: "64",
+        description: "samples of the light inclination θ_i over [−90°, 90°], endpoints included (2–4096)",
+    },
+    ParamDoc {
+        name: "d_b",
+        kind: "float",
+        default: "0.7",
+        description: "backscattering density factor in σ̄_b (ZYWK08)",
+    },
+    ParamDoc {
+        name: "clamp",
+        kind: "float",
+        default: "0.99",
+        description: "ā_f, ā_b are clamped to ≤ clamp before Ā_b, Δ̄_b, σ̄_b² (0.5–1)",
+    },
+    ParamDoc {
+        name: "quadrature_order",
+        kind: "int",
+        default: "8",
+        description: "Gauss–Legendre nodes per h panel (2–32)",
+    },
+    ParamDoc {
+        name: "artist",
+        kind: "table",
+        default: "Arnold-sample defaults",
+        description: "artist-friendly lobe colours/intensities/shifts/widths/glints (model = artist)",
+    },
+];
+
+impl Stage for HairDualStage {
+    fn name(&self) -> &'static str {
+        "hair-dual"
+    }
+    fn algorithm_version(&self) -> u32 {
+        1
+    }
+    fn summary(&self) -> &'static str {
+        "Dual Scattering hair averages (ā, ᾱ, β̄², Ā_b, Δ̄_b, σ̄_b², N^G) over roughness × absorption × light inclination"
+    }
+    fn parameters(&self) -> &'static [ParamDoc] {
+        DUAL_PARAMS
+    }
+    fn plan(&self, params: toml::de::ValueDeserializer<'_>) -> Result<Box<dyn Job>, PlanError> {
+        let p: HairDualParams = parse_params(params)?;
+        Ok(Box::new(HairDualJob::new(p)?))
+    }
+}
+
+/// A planned `hair-dual` table.
+pub struct HairDualJob {
+    pub params: HairDualParams,
+    absorption: AbsorptionAxis,
+    artist: Option<ArtistModel>,
+}
+
+/// Channels stored by `hair-dual`: the twelve DS quantities, then the lobe energies.
+pub const DUAL_TABLE_CHANNELS: usize = 16;
+
+impl HairDualJob {
+    /// Validate and plan.
+    pub fn new(p: HairDualParams) -> Result<Self, PlanError> {
+        validate_eta(p.eta)?;
+        if !(0.0..=15.0).contains(&p.cuticle_tilt_deg) {
+            return Err(PlanError::invalid(
+                "cuticle_tilt_deg",
+                "must be within 0–15°",
+            ));
+        }
+        if p.roughness_deg.is_empty() || p.roughness_deg.iter().any(|b| !(0.5..=30.0).contains(b)) {
+            return Err(PlanError::invalid(
+                "roughness_deg",
+                "needs values within 0.5–30°",
+            ));
+        }
+        if p.roughness_deg.windows(2).any(|w| w[1] <= w[0]) {
+            return Err(PlanError::invalid(
+                "roughness_deg",
+                "must be strictly increasing",
+            ));
+        }
+        if !(0.0..=4.0).contains(&p.azimuthal_width_ratio) {
+            return Err(PlanError::invalid(
+                "azimuthal_width_ratio",
+                "must be within 0–4",
+            ));
+        }
+        if !(2..=4096).contains(&p.theta_count) {
+            return Err(PlanError::invalid("theta_count", "must be within 2–4096"));
+        }
+        if !(0.0..=1.0).contains(&p.d_b) {
+            return Err(PlanError::invalid("d_b", "must be within 0–1"));
+        }
+        if !(0.5..=1.0).contains(&p.clamp) {
+            return Err(PlanError::invalid("clamp", "must be within 0.5–1"));
+        }
+        if !(2..=32).contains(&p.quadrature_order) {
+            return Err(PlanError::invalid(
+                "quadrature_order",
+                "must be within 2–32",
+            ));
+        }
+        let (absorption, artist) = match p.model {
+            HairModel::Physical => {
+                if p.artist.is_some() {
+                    return Err(PlanError::invalid(
+                        "artist",
+                        "only used with model = \"artist\"",
+                    ));
+                }
+                (
+                    AbsorptionAxis::from_keys(
+                        p.absorption_count,
+                        p.sigma_a.clone(),
+                        p.sigma_a_rgb,
+                        p.melanin,
+                    )?,
+                    None,
+                )
+            }
+            HairModel::Artist => {
+                if p.absorption_count.is_some()
+                    || p.sigma_a.is_some()
+                    || p.sigma_a_rgb.is_some()
+                    || p.melanin.is_some()
+                {
+                    return Err(PlanError::invalid(
+                        "absorption_count",
+                        "the artist model takes colours, not absorption",
+                    ));
+                }
+                if p.roughness_deg.len() != 1 {
+                    return Err(PlanError::invalid(
+                        "roughness_deg",
+                        "the artist model has its own widths; leave the default",
+                    ));
+                }
+                let a = p.artist.clone().unwrap_or_default();
+                a.validate()
+                    .map_err(|(k, m)| PlanError::invalid(&format!("artist.{k}"), m))?;
+                (AbsorptionAxis::Rgb([0.0; 3]), Some(ArtistModel::new(a)))
+            }
+        };
+        Ok(HairDualJob {
+            params: p,
+            absorption,
+            artist,
+        })
+    }
+
+    fn fiber(&self, beta_r_deg: f64) -> PhysicalFiber {
+        PhysicalFiber {
+            eta: self.params.eta,
+            fresnel: self.params.fresnel,
+            lobes: LobeShape::marschner(
+                self.params.cuticle_tilt_deg.to_radians(),
+                beta_r_deg.to_radians(),
+            ),
+            azimuthal_width_rad: self.params.azimuthal_width_ratio * beta_r_deg.to_radians(),
+        }
+    }
+
+    fn quadrature(&self) -> HQuadrature {
+        HQuadrature {
+            order: self.params.quadrature_order,
+            ..HQuadrature::default()
+        }
+    }
+
+    /// One θ row: `[roughness][absorption][16]` for the given quadrature.
+    fn compute_row(&self, theta_rad: f64, quad: &HQuadrature) -> Vec<f64> {
+        let mut out = Vec::new();
+        if let Some(m) = &self.artist {
+            for (ds, e) in m.dual_scattering(theta_rad, self.params.d_b, self.params.clamp) {
+                out.extend(ds.to_array());
+                out.extend(e);
+                out.push(0.0);
+            }
+            return out;
+        }
+        let sigmas = self.absorption.sigma_values();
+        let w_min = self.params.azimuthal_width_ratio * self.params.roughness_deg[0].to_radians();
+        let offs = quad.offsets(self.params.eta, theta_rad, w_min);
+        let slice = FiberSlice::new(self.params.eta, theta_rad, self.params.fresnel, &offs);
+        let na = sigmas.len();
+        let fibers: Vec<PhysicalFiber> = self
+            .params
+            .roughness_deg
+            .iter()
+            .map(|&b| self.fiber(b))
+            .collect();
+        let wbs: Vec<Vec<[f64; 3]>> = fibers
+            .iter()
+            .map(|f| slice.backward_fractions(f.azimuthal_width_rad))
+            .collect();
+        let mut out = vec![0.0; fibers.len() * na * DUAL_TABLE_CHANNELS];
+        for (ia, &s) in sigmas.iter().enumerate() {
+            let wa = slice.weighted_attenuations(s);
+            for (ir, (fiber, wb)) in fibers.iter().zip(&wbs).enumerate() {
+                let (eb, ef) = slice.hemisphere_energies_from(&wa, wb);
+                let ds = combine(&eb, &ef, &fiber.lobes, self.params.d_b, self.params.clamp);
+                let o = (ir * na + ia) * DUAL_TABLE_CHANNELS;
+                out[o..o + 12].copy_from_slice(&ds.to_array());
+                for p in 0..LOBES {
+                    out[o + 12 + p] = eb[p] + ef[p];
+                }
+            }
+        }
+        out
+    }
+    fn theta_deg(&self) -> Vec<f64> {
+        theta_axis_deg(self.params.theta_count)
+    }
+
+    fn n_roughness(&self) -> usize {
+        if self.artist.is_some() {
+            1
+        } else {
+            self.params.roughness_deg.len()
+        }
+    }
+    fn n_absorption(&self) -> usize {
+        match &self.absorption {
+            AbsorptionAxis::Sweep(n) => *n,
+            AbsorptionAxis::SigmaA(v) => v.len(),
+            AbsorptionAxis::Rgb(_) => 3,
+        }
+    }
+}
+
+impl Job for HairDualJob {
+    fn parameters(&self) -> Value {
+        serde_json::to_value(&self.params).expect("params serialise")
+    }
+    fn tasks(&self) -> Vec<TaskSpec> {
+        self.theta_deg()
+            .iter()
+            .map(|t| TaskSpec {
+                label: format!("θ={t:.3}°"),
+                params: json!({ "theta_deg": t }),
+            })
+            .collect()
+    }
+    /// Chunk: `[roughness][absorption][16 channels]` at this θ, then one value: the largest
+    /// change of any of the 16 channels when the h-panels are halved (quadrature doubling).
+    fn run_task(&self, index: usize) -> anyhow::Result<Vec<f32>> {
+        let theta = self.theta_deg()[index].to_radians();
+        let q = self.quadrature();
+        let row = self.compute_row(theta, &q);
+        let check = if self.artist.is_some() {
+            0.0
+        } else {
+            let fine = self.compute_row(theta, &q.doubled());
+            row.iter()
+                .zip(&fine)
+                .map(|(a, b)| (a - b).abs())
+                .fold(0.0, f64::max)
+        };
+        let mut out: Vec<f32> = row.iter().map(|&v| v as f32).collect();
+        out.push(check as f32);
+        Ok(out)
+    }
+    fn assemble(&self, chunks: Vec<Vec<f32>>) -> anyhow::Result<TableContent> {
+        let nt = self.params.theta_count;
+        let nr = self.n_roughness();
+        let na = self.n_absorption();
+        let nc = DUAL_TABLE_CHANNELS;
+        anyhow::ensure!(
+            chunks.len() == nt,
+            "expected {nt} chunks, got {}",
+            chunks.len()
+        );
+        let mut data = vec![0f32; nr * na * nt * nc];
+        let mut doubling: f64 = 0.0;
+        for (it, chunk) in chunks.iter().enumerate() {
+            anyhow::ensure!(
+                chunk.len() == nr * na * nc + 1,
+                "chunk {it} has {} values",
+                chunk.len()
+            );
+            doubling = doubling.max(chunk[nr * na * nc] as f64);
+            for ir in 0..nr {
+                for ia in 0..na {
+                    let src = (ir * na + ia) * nc;
+                    let dst = ((ir * na + ia) * nt + it) * nc;
+                    data[dst..dst + nc].copy_from_slice(&chunk[src..src + nc]);
+                }
+            }
+        }
+        let mut channels: Vec<Channel> = Vec::new();
+        let meanings = [
+            (
+                "1",
+                "ā_f: fraction of the light arriving at inclination θ scattered into |φ| ≥ π/2 (forward), clamped to ≤ clamp",
+            ),
+            (
+                "1",
+                "ā_b: fraction scattered into |φ| < π/2 (backward), clamped to ≤ clamp",
+            ),
+            (
+                "rad",
+                "ᾱ_f: energy-weighted mean longitudinal shift of the forward lobes (θ_h convention)",
+            ),
+            (
+                "rad",
+                "ᾱ_b: energy-weighted mean longitudinal shift of the backward lobes",
+            ),
+            (
+                "rad^2",
+                "β̄_f²: energy-weighted mean longitudinal variance β_p² of the forward lobes",
+            ),
+            (
+                "rad^2",
+                "β̄_b²: energy-weighted mean longitudinal variance of the backward lobes",
+            ),
+            (
+                "1",
+                "Ā_b = ā_b ā_f²/(1−ā_f²) + ā_b³ ā_f²/(1−ā_f²)³ (ZYWK08 eq. 14)",
+            ),
+            ("rad", "Δ̄_b (ZYWK08 eq. 16 / thesis 4.28)"),
+            (
+                "rad^2",
+                "σ̄_b²: square of ZYWK08 eq. 17 with sqrt(2β̄_f² + 3β̄_b²) and d_b",
+            ),
+            (
+                "1/rad",
+                "N^G_R = (2/π)∫_{π/2}^{π} N_R dφ (artist: × C_R I_R / K)",
+            ),
+            (
+                "1/rad",
+                "N^G_TT = (2/π)∫_{π/2}^{π} N_TT dφ (artist: × C_TT I_TT / K)",
+            ),
+            (
+                "1/rad",
+                "N^G_TRT = (2/π)∫_{π/2}^{π} N_TRT dφ (artist: × C_TRT I_TRT / K)",
+            ),
+            ("1", "energy of lobe R, ∫∫ f_R cos²θ_o dθ_o dφ (unclamped)"),
+            ("1", "energy of lobe TT"),
+            ("1", "energy of lobe TRT"),
+            (
+                "1",
+                "energy of the residual p ≥ 3 lobe (physical; 0 for the artist model)",
+            ),
+        ];
+        let names = DUAL_CHANNELS
+            .iter()
+            .copied()
+            .chain(["E_R", "E_TT", "E_TRT", "E_residual"]);
+        for (name, (unit, meaning)) in names.zip(meanings) {
+            channels.push(Channel::new(name, unit, meaning));
+        }
+        let mut axes = Vec::new();
+        if self.artist.is_none() {
+            axes.push(Axis::values(
+                "roughness",
+                "deg",
+                self.params.roughness_deg.clone(),
+            ));
+        }
+        axes.push(self.absorption.axis());
+        axes.push(Axis::uniform(
+            "theta",
+            "deg",
+            -90.0,
+            180.0 / (nt - 1) as f64,
+            nt,
+        ));
+        let mut attributes = Map::new();
+        attributes.insert(
+            "model".into(),
+            json!(match self.params.model {
+                HairModel::Physical => "physical",
+                HairModel::Artist => "artist",
+            }),
+        );
+        attributes.insert("theta".into(), "light inclination θ_i from the normal plane ([A1]); +90° = along the tangent toward the tip; look the tables up with θ_i".into());
+        attributes.insert("tangent".into(), "fibre tangent points root → tip; α > 0 shifts toward the tip; R is shifted toward the root (α_R < 0) ([A23])".into());
+        attributes.insert("azimuth".into(), "relative azimuth φ = φ_o − φ_i; φ = 0 back toward the light; forward half-space |φ| ≥ π/2, backward |φ| < π/2 ([A21])".into());
+        attributes.insert("energy_measure".into(), "a_H(θ_i) = ∫_{−π/2}^{π/2} ∫_{H} f_s(θ_i, θ_o, φ) cos²θ_o dφ dθ_o (power per unit curve irradiance, Zinke & Weber eq. 33/36), relative azimuth, no extra incident-azimuth average ([A3])".into());
+        attributes.insert("averages".into(), "ᾱ, β̄² are energy-weighted means of the lobe α_p and β_p² (variances, [A7]); ā is clamped before the closed forms".into());
+        attributes.insert("a_clamp".into(), json!(self.params.clamp));
+        attributes.insert("d_b".into(), json!(self.params.d_b));
+        attributes.insert("closed_forms".into(), "ZYWK08 originals: (1 − ā_f²)³ in Ā_b ([A5]), sqrt(2β̄_f² + 3β̄_b²) in σ̄_b ([A6a]), widths in its denominator kept verbatim ([A6b,c]), σ̄_b stored squared ([A6d])".into());
+        attributes.insert(
+            "angles".into(),
+            "radians inside the data; axis coordinates in degrees".into(),
+        );
+        if let Some(m) = &self.artist {
+            attributes.insert("artist_params".into(), serde_json::to_value(&m.params)?);
+            attributes.insert("normalisation_k".into(), json!(m.k));
+            attributes.insert("normalisation".into(), "eq. 4.17 with one scalar K = max over RGB of the energy of f'_s at θ_i = 0 under the energy measure, glints included (G_angle averaged uniformly over its range) ([A4], [A14])".into());
+            attributes.insert(
+                "longitudinal".into(),
+                "unit-height g'(θ_h − α_X, β_X²)/cos²θ_d, cos²θ_d ≥ 1e-3 ([A9], [A18])".into(),
+            );
+        } else {
+            attributes.insert("eta".into(), json!(self.params.eta));
+            attributes.insert("fresnel".into(), json!(self.params.fresnel.name()));
+            attributes.insert(
+                "cuticle_tilt_deg".into(),
+                json!(self.params.cuticle_tilt_deg),
+            );
+            attributes.insert("lobes".into(), "α_R = −α, α_TT = α/2, α_TRT = 3α/2, residual 0; β_TT = β_R/2, β_TRT = β_residual = 2β_R (Marschner 2003 Table 1)".into());
+            attributes.insert(
+                "azimuthal_width_ratio".into(),
+                json!(self.params.azimuthal_width_ratio),
+            );
+            attributes.insert("fiber_model".into(), "smooth dielectric cylinder integrated over h (Zinke & Weber 2007 far field), Bravais geometry, internal chord 2cosγ_t/cosθ_t, orders p ≥ 3 lumped in a residual lobe uniform in φ, wrapped-normal azimuthal roughness w_φ = ratio·β_R; N_p evaluated at the incident inclination and longitudinal lobes normalised per lobe under the energy measure, so a lossless fibre conserves energy exactly".into());
+            attributes.insert("quadrature".into(), json!({
+                "rule": "composite Gauss–Legendre in γ_i = asin h, panels ≤ min(0.05 rad, w_φ/2), split where any exit azimuth crosses |φ| = π/2; closed-form (erf) azimuthal windows",
+                "order": self.params.quadrature_order,
+                "doubling_max_abs_change": doubling,
+            }));
+        }
+        self.absorption.describe(&mut attributes);
+        Ok(TableContent {
+            schema: Schema::new("hair-dual", 1),
+            description: "Dual Scattering averages of a hair fibre per light inclination".into(),
+            axes,
+            channels,
+            attributes,
+            data,
+        })
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// hair-azimuthal
+
+/// The `hair-azimuthal` stage.
+pub struct HairAzimuthalStage;
+
+fn default_phi_count() -> usize {
+    181
+}
+fn default_theta_az() -> usize {
+    46
+}
+fn default_az_width() -> f64 {
+    5.0
+}
+
+/// Parameters of `hair-azimuthal`.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct HairAzimuthalParams {
+    #[serde(default = "default_eta")]
+    pub eta: f64,
+    #[serde(default)]
+    pub fresnel: FresnelModel,
+    /// Azimuthal roughness (standard deviation of the wrapped normal), deg, 0.25–60.
+    #[serde(default = "default_az_width")]
+    pub azimuthal_width_deg: f64,
+    pub absorption_count: Option<usize>,
+    pub sigma_a: Option<Vec<f64>>,
+    /// Samples of θ over [0°, 90°] (N_p is even in θ).
+    #[serde(default = "default_theta_az")]
+    pub theta_count: usize,
+    /// Samples of φ over [0°, 180°] (N_p is even in φ).
+    #[serde(default = "default_phi_count")]
+    pub phi_count: usize,
+    #[serde(default = "default_order")]
+    pub quadrature_order: usize,
+}
+
+const AZ_PARAMS: &[ParamDoc] = &[
+    ParamDoc {
+        name: "eta",
+        kind: "float",
+        default: "1.55",
+        description: "fibre index of refraction, 1.1–2.5",
+    },
+    ParamDoc {
+        name: "fresnel",
+        kind: "string",
+        default: "three-d",
+        description: "three-d or bravais",
+    },
+    ParamDoc {
+        name: "azimuthal_width_deg",
+        kind: "float, deg",
+        default: "5",
+        description: "azimuthal roughness w_φ (wrapped normal std), 0.25–60°",
+    },
+    ParamDoc {
+        name: "absorption_count",
+        kind: "int",
+        default: "—",
+        description: "absorption_u = 1 − exp(−2σ_a) uniform on [0, 1] (or give sigma_a)",
+    },
+    ParamDoc {
+        name: "sigma_a",
+        kind: "list of float, 1/radius",
+        default: "—",
+        description: "explicit absorption values, strictly increasing",
+    },
+    ParamDoc {
+        name: "theta_count",
+        kind: "int",
+        default: "46",
+        description: "samples of θ over [0°, 90°] (2–2048)",
+    },
+    ParamDoc {
+        name: "phi_count",
+        kind: "int",
+        default: "181",
+        description: "samples of φ over [0°, 180°] (2–8192)",
+    },
+    ParamDoc {
+        name: "quadrature_order",
+        kind: "int",
+        default: "8",
+        description: "Gauss–Legendre nodes per h panel (2–32)",
+    },
+];
+
+impl Stage for HairAzimuthalStage {
+    fn name(&self) -> &'static str {
+        "hair-azimuthal"
+    }
+    fn algorithm_version(&self) -> u32 {
+        1
+    }
+    fn summary(&self) -> &'static str {
+        "azimuthal scattering functions N_R, N_TT, N_TRT of a rough dielectric fibre over absorption × θ × φ"
+    }
+    fn parameters(&self) -> &'static [ParamDoc] {
+        AZ_PARAMS
+    }
+    fn plan(&self, params: toml::de::ValueDeserializer<'_>) -> Result<Box<dyn Job>, PlanError> {
+        let p: HairAzimuthalParams = parse_params(params)?;
+        Ok(Box::new(HairAzimuthalJob::new(p)?))
+    }
+}
+
+/// A planned `hair-azimuthal` table.
+pub struct HairAzimuthalJob {
+    pub params: HairAzimuthalParams,
+    absorption: AbsorptionAxis,
+}
+
+impl HairAzimuthalJob {
+    pub fn new(p: HairAzimuthalParams) -> Result<Self, PlanError> {
+        validate_eta(p.eta)?;
+        if !(0.25..=60.0).contains(&p.azimuthal_width_deg) {
+            return Err(PlanError::invalid(
+                "azimuthal_width_deg",
+                "must be within 0.25–60°",
+            ));
+        }
+        if !(2..=2048).contains(&p.theta_count) {
+            return Err(PlanError::invalid("theta_count", "must be within 2–2048"));
+        }
+        if !(2..=8192).contains(&p.phi_count) {
+            return Err(PlanError::invalid("phi_count", "must be within 2–8192"));
+        }
+        if !(2..=32).contains(&p.quadrature_order) {
+            return Err(PlanError::invalid(
+                "quadrature_order",
+                "must be within 2–32",
+            ));
+        }
+        let absorption =
+            AbsorptionAxis::from_keys(p.absorption_count, p.sigma_a.clone(), None, None)?;
+        Ok(HairAzimuthalJob {
+            params: p,
+            absorption,
+        })
+    }
+    fn theta_deg(&self) -> Vec<f64> {
+        (0..self.params.theta_count)
+            .map(|i| 90.0 * i as f64 / (self.params.theta_count - 1) as f64)
+            .collect()
+    }
+    fn row(&self, theta_rad: f64, panel_scale: f64) -> Vec<f64> {
+        let w = self.params.azimuthal_width_deg.to_radians();
+        let quad = super::fiber::OffsetQuadrature::new(
+            (0.05f64).min(0.5 * w) / panel_scale,
+            self.params.quadrature_order,
+            &[],
+        );
+        let slice = FiberSlice::new(self.params.eta, theta_rad, self.params.fresnel, &quad);
+        let n = self.params.phi_count;
+        let step = std::f64::consts::PI / (n - 1) as f64;
+        let mut out = Vec::new();
+        for s in self.absorption.sigma_values() {
+            for v in slice.azimuthal_on_grid(s, w, 0.0, step, n) {
+                out.extend([v[0], v[1], v[2], v[3], v.iter().sum()]);
+            }
+        }
+        out
+    }
+}
+
+impl Job for HairAzimuthalJob {
+    fn parameters(&self) -> Value {
+        serde_json::to_value(&self.params).expect("params serialise")
+    }
+    fn tasks(&self) -> Vec<TaskSpec> {
+        self.theta_deg()
+            .iter()
+            .map(|t| TaskSpec {
+                label: format!("θ={t:.3}°"),
+                params: json!({ "theta_deg": t }),
+            })
+            .collect()
+    }
+    /// Chunk: `[absorption][φ][5]` at this θ, then the largest relative change (to the peak of
+    /// each lobe) under quadrature doubling.
+    fn run_task(&self, index: usize) -> anyhow::Result<Vec<f32>> {
+        let theta = self.theta_deg()[index].to_radians();
+        let row = self.row(theta, 1.0);
+        let fine = self.row(theta, 2.0);
+        let peak = row.iter().cloned().fold(0.0, f64::max).max(1e-30);
+        let change = row
+            .iter()
+            .zip(&fine)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max)
+            / peak;
+        let mut out: Vec<f32> = row.iter().map(|&v| v as f32).collect();
+        out.push(change as f32);
+        Ok(out)
+    }
+    fn assemble(&self, chunks: Vec<Vec<f32>>) -> anyhow::Result<TableContent> {
+        let nt = self.params.theta_count;
+        let np = self.params.phi_count;
+        let na = self.absorption.sigma_values().len();
+        let nc = 5;
+        anyhow::ensure!(chunks.len() == nt, "expected {nt} chunks");
+        let mut data = vec![0f32; na * nt * np * nc];
+        let mut change: f64 = 0.0;
+        for (it, chunk) in chunks.iter().enumerate() {
+            anyhow::ensure!(
+                chunk.len() == na * np * nc + 1,
+                "chunk {it} has {} values",
+                chunk.len()
+            );
+            change = change.max(chunk[na * np * nc] as f64);
+            for ia in 0..na {
+                let src = ia * np * nc;
+                let dst = (ia * nt + it) * np * nc;
+                data[dst..dst + np * nc].copy_from_slice(&chunk[src..src + np * nc]);
+            }
+        }
+        let mut channels: Vec<Channel> = LOBE_NAMES
+            .iter()
+            .map(|n| Channel::new(n, "1/rad", "azimuthal scattering function N_p(θ, φ); ∫_{−π}^{π} N_p dφ = ½∫ a_p dh (lobe energy)"))
+            .collect();
+        channels[3].meaning = "orders p ≥ 3 lumped, uniform in φ (energy / 2π)".into();
+        channels.push(Channel::new(
+            "sum",
+            "1/rad",
+            "N_R + N_TT + N_TRT + residual; ∫_{−π}^{π} sum dφ = 1 for σ_a = 0",
+        ));
+        let mut attributes = Map::new();
+        attributes.insert("eta".into(), json!(self.params.eta));
+        attributes.insert("fresnel".into(), json!(self.params.fresnel.name()));
+        attributes.insert(
+            "azimuthal_width_deg".into(),
+            json!(self.params.azimuthal_width_deg),
+        );
+        attributes.insert("theta".into(), "inclination used for the Bravais indices, Fresnel and path length; N_p is even in θ. Marschner/Zinke look it up with θ_d = (θ_o − θ_i)/2; the energy-conserving DS model of scatterbake with θ_i (identical at the specular cone)".into());
+        attributes.insert("azimuth".into(), "relative azimuth φ = φ_o − φ_i in [0°, 180°]; N_p(−φ) = N_p(φ); φ = 0 back toward the light".into());
+        attributes.insert(
+            "exit_azimuth".into(),
+            "Φ_p(h) = 2γ_i − 2pγ_t + pπ, γ_i = asin h, sin γ_t = h/n' (Zinke & Weber eq. 17–19)"
+                .into(),
+        );
+        attributes.insert("roughness".into(), "each lobe convolved with a wrapped normal of std azimuthal_width_deg (exactly normalised on the circle)".into());
+        attributes.insert(
+            "quadrature".into(),
+            json!({
+                "rule": "composite Gauss–Legendre in γ_i = asin h, panels ≤ min(0.05 rad, w_φ/2)",
+                "order": self.params.quadrature_order,
+                "doubling_max_rel_change": change,
+            }),
+        );
+        self.absorption.describe(&mut attributes);
+        Ok(TableContent {
+            schema: Schema::new("hair-azimuthal", 1),
+            description: "azimuthal scattering functions of a rough dielectric hair fibre".into(),
+            axes: vec![
+                self.absorption.axis(),
+                Axis::uniform("theta", "deg", 0.0, 90.0 / (nt - 1) as f64, nt),
+                Axis::uniform("phi", "deg", 0.0, 180.0 / (np - 1) as f64, np),
+            ],
+            channels,
+            attributes,
+            data,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn plan(stage: &dyn Stage, src: &str) -> Result<Box<dyn Job>, PlanError> {
+        let v: toml::Value = toml::from_str(src).unwrap();
+        let s = toml::to_string(&v).unwrap();
+        stage.plan(
+            toml::de::ValueDeserializer::parse(&format!("{{ {} }}", s.trim().replace('\n', ", ")))
+                .unwrap(),
+        )
+    }
+
+    fn run(job: &dyn Job) -> TableContent {
+        let chunks = (0..job.tasks().len())
+            .map(|i| job.run_task(i).unwrap())
+            .collect();
+        job.assemble(chunks).unwrap()
+    }
+
+    #[test]
+    fn dual_sweep_is_consistent_and_lossless_column_conserves_energy() {
+        let job = plan(
+            &HairDualStage,
+            "roughness_deg = [3.0, 10.0]\nabsorption_count = 5\ntheta_count = 9",
+        )
+        .unwrap();
+        let t = run(job.as_ref());
+        assert_eq!(t.data.len(), t.expected_len());
+        assert_eq!(t.axes.len(), 3);
+        // absorption_u = 0 (lossless): a_f + a_b = Σ E = 1 for every θ and roughness.
+        for ir in 0..2 {
+            for it in 0..9 {
+                let base = ((ir * 5) * 9 + it) * DUAL_TABLE_CHANNELS;
+                let v = &t.data[base..base + DUAL_TABLE_CHANNELS];
+                let e: f32 = v[12..16].iter().sum();
+                assert!(
+                    (v[0] + v[1] - 1.0).abs() < 1e-5 && (e - 1.0).abs() < 1e-5,
+                    "{v:?}"
+                );
+            }
+        }
+        // u = 1 (opaque): only R remains.
+        let base = ((4) * 9 + 4) * DUAL_TABLE_CHANNELS;
+        assert_eq!(t.data[base + 13], 0.0);
+        let dbl = t.attributes["quadrature"]["doubling_max_abs_change"]
+            .as_f64()
+            .unwrap();
+        assert!(dbl < 1e-5, "{dbl}");
+    }
+
+    #[test]
+    fn dual_rejects_bad_parameters() {
+        assert!(plan(&HairDualStage, "absorption_count = 5\nsigma_a = [0.1]").is_err());
+        assert!(
+            plan(
+                &HairDualStage,
+                "absorption_count = 5\nroughness_deg = [10.0, 5.0]"
+            )
+            .is_err()
+        );
+        assert!(plan(&HairDualStage, "absorption_count = 5\neta = 0.9").is_err());
+        assert!(plan(&HairDualStage, "absorption_count = 5\nbogus = 1").is_err());
+        assert!(plan(&HairDualStage, "model = \"artist\"\nmelanin = [1.0, 0.0]").is_err());
+    }
+
+    #[test]
+    fn dual_artist_and_melanin_tables_build() {
+        let t = run(plan(&HairDualStage, "model = \"artist\"\ntheta_count = 5")
+            .unwrap()
+            .as_ref());
+        assert_eq!(t.axes[0].name, "colour_channel");
+        assert_eq!(t.data.len(), t.expected_len());
+        let t = run(
+            plan(&HairDualStage, "melanin = [0.3, 0.0]\ntheta_count = 5")
+                .unwrap()
+                .as_ref(),
+        );
+        assert_eq!(t.axes[1].name, "colour_channel");
+        assert_eq!(t.attributes["sigma_a_rgb"][2].as_f64().unwrap(), 0.3 * 1.37);
+    }
+
+    #[test]
+    fn azimuthal_table_is_normalised() {
+        let job = plan(
+            &HairAzimuthalStage,
+            "sigma_a = [0.0, 0.5]\ntheta_count = 4\nphi_count = 721\nazimuthal_width_deg = 3.0",
+        )
+        .unwrap();
+        let t = run(job.as_ref());
+        assert_eq!(t.data.len(), t.expected_len());
+        // σ_a = 0: ∫_{−π}^{π} sum dφ = 1 (trapezoid over [0, π], doubled).
+        let np = 721;
+        let step = std::f64::consts::PI / 720.0;
+        for it in 0..4 {
+            let mut s = 0.0;
+            for j in 0..np {
+                let w = if j == 0 || j == np - 1 { 0.5 } else { 1.0 };
+                s += 2.0 * w * step * t.data[(it * np + j) * 5 + 4] as f64;
+            }
+            assert!((s - 1.0).abs() < 1e-5, "θ index {it}: {s}");
+        }
+    }
+}
+
+/// The shipped manifests parse and plan (their tables build in the pipeline).
+#[cfg(test)]
+mod manifest_tests {
+    use super::*;
+
+    #[test]
+    fn shipped_manifests_plan() {
+        for path in ["manifests/hair-dual.toml", "manifests/full/hair-dual.toml"] {
+            let text = std::fs::read_to_string(path).unwrap();
+            let doc: toml::Value = toml::from_str(&text).unwrap();
+            for entry in doc["table"].as_array().unwrap() {
+                let params = toml::to_string(&entry["params"]).unwrap();
+                let stage: Box<dyn Stage> = match entry["stage"].as_str().unwrap() {
+                    "hair-dual" => Box::new(HairDualStage),
+                    "hair-azimuthal" => Box::new(HairAzimuthalStage),
+                    s => panic!("unexpected stage {s}"),
+                };
+                let inline = format!("{{ {} }}", params.trim().replace('\n', ", "));
+                let de = toml::de::ValueDeserializer::parse(&inline).unwrap();
+                stage.plan(de).unwrap_or_else(|e| panic!("{path}: {e}"));
+            }
+        }
+    }
+}
+
+/// Build every table of the default manifest in memory and print time and quadrature figures.
+/// Run: `cargo test --release --lib hair::stage::manifest_report -- --ignored --nocapture`.
+#[cfg(test)]
+mod manifest_report {
+    use super::*;
+
+    #[test]
+    #[ignore]
+    fn print_default_manifest_build() {
+        let path = std::env::var("HAIR_MANIFEST").unwrap_or("manifests/hair-dual.toml".into());
+        let text = std::fs::read_to_string(&path).unwrap();
+        let doc: toml::Value = toml::from_str(&text).unwrap();
+        let all = std::time::Instant::now();
+        for entry in doc["table"].as_array().unwrap() {
+            let params = toml::to_string(&entry["params"]).unwrap();
+            let stage: Box<dyn Stage> = match entry["stage"].as_str().unwrap() {
+                "hair-dual" => Box::new(HairDualStage),
+                _ => Box::new(HairAzimuthalStage),
+            };
+            let inline = format!("{{ {} }}", params.trim().replace('\n', ", "));
+            let job = stage
+                .plan(toml::de::ValueDeserializer::parse(&inline).unwrap())
+                .unwrap();
+            let t0 = std::time::Instant::now();
+            let t = crate::hair::export::run_job_in_memory(job.as_ref()).unwrap();
+            println!(
+                "{}: {} values in {:.2} s; quadrature {}",
+                entry["name"].as_str().unwrap(),
+                t.data.len(),
+                t0.elapsed().as_secs_f64(),
+                t.attributes
+                    .get("quadrature")
+                    .map(|q| q.to_string())
+                    .unwrap_or("-".into())
+            );
+        }
+        println!("total {:.2} s", all.elapsed().as_secs_f64());
+    }
+}
