@@ -60,6 +60,10 @@ enum Command {
     /// Render a picture through the public table reader API.
     #[command(subcommand)]
     Render(RenderCommand),
+    /// Hair Dual Scattering table → engine EXR LUT (layout and shader lookup in docs/hair.md).
+    HairLut(crate::hair::export::HairLutArgs),
+    /// Dual Scattering averages for one hair parameter set, as JSON or CSV.
+    HairJson(crate::hair::export::DualScatteringArgs),
     /// Compare a phase-function table with a MiePlot-style reference text file.
     Validate(crate::consumers::mieplot::ValidateArgs),
     /// List stages with their parameters and defaults.
@@ -289,6 +293,8 @@ fn run(cmd: Command) -> Result<i32> {
         Command::Render(RenderCommand::Rainbow(a)) => {
             crate::consumers::render::run_render_rainbow(&a).map(|_| 0)
         }
+        Command::HairLut(a) => crate::hair::export::run_hair_lut(&a).map(|_| 0),
+        Command::HairJson(a) => crate::hair::export::run_dual_scattering(&a).map(|_| 0),
         Command::Validate(a) => crate::consumers::mieplot::run_validate(&a).map(|_| 0),
         Command::Stages => {
             for s in crate::stages::registry() {
