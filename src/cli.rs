@@ -40,6 +40,9 @@ enum Command {
         /// No progress bar.
         #[arg(long, short)]
         quiet: bool,
+        /// Do not draw preview pictures into OUT/previews/.
+        #[arg(long)]
+        no_previews: bool,
     },
     /// Show a table's header, axes, channels, provenance and sizes.
     Inspect {
@@ -214,6 +217,7 @@ fn run(cmd: Command) -> Result<i32> {
             shard,
             force,
             quiet,
+            no_previews,
         } => {
             let manifests = if manifests.is_empty() {
                 crate::manifest::default_manifests(std::path::Path::new("manifests")).context(
@@ -240,6 +244,7 @@ fn run(cmd: Command) -> Result<i32> {
                 shard,
                 force,
                 quiet,
+                previews: !no_previews,
             })?;
             println!(
                 "built {} table(s), {} up to date, {} pending other shards; tasks: {} computed, {} reused from checkpoints; {:.1} s; catalog {}",
