@@ -12,6 +12,7 @@ pub mod catalog;
 pub mod cli;
 pub mod export;
 pub mod manifest;
+pub mod mie;
 pub mod optics;
 pub mod pipeline;
 pub mod stage;

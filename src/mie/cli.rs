@@ -1,0 +1,1 @@
+//! `scatterbake mie` (placeholder during development).

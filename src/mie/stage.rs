@@ -1,0 +1,1 @@
+//! `mie` stage (placeholder during development).
