@@ -21,6 +21,7 @@
 pub mod angular;
 pub mod cli;
 pub mod coefficients;
+pub mod distributions;
 pub mod filters;
 pub mod riccati;
 pub mod stage;
