@@ -20,7 +20,7 @@
 //! - `g = (4/(x² Q_sca)) Σ [n(n+2)/(n+1) Re(a_n a*_{n+1} + b_n b*_{n+1})
 //!   + (2n+1)/(n(n+1)) Re(a_n b*_n)]`.
 
-use super::riccati::{log_derivative_complex, n_stop_wiscombe, RiccatiBessel};
+use super::riccati::{log_derivative_complex, n_stop_default, RiccatiBessel};
 use super::{check_domain, MieError};
 use num_complex::Complex64;
 
@@ -57,11 +57,11 @@ pub struct Efficiencies {
 }
 
 impl MieCoefficients {
-    /// Computes `a_n`, `b_n` for `n = 1..=n_stop_wiscombe(x)` at size parameter `x` and relative
+    /// Computes `a_n`, `b_n` for `n = 1..=n_stop_default(x)` at size parameter `x` and relative
     /// index `m`, refusing inputs outside [`super::VALIDATED_DOMAIN`].
     pub fn new(size_parameter: f64, m: Complex64) -> Result<Self, MieError> {
         check_domain(size_parameter, m)?;
-        Ok(Self::with_order(size_parameter, m, n_stop_wiscombe(size_parameter)))
+        Ok(Self::with_order(size_parameter, m, n_stop_default(size_parameter)))
     }
 
     /// As [`MieCoefficients::new`] with an explicit truncation order `n_stop` and no domain check

@@ -386,7 +386,7 @@ mod tests {
     }
 
     fn n_stop_of(x: f64) -> usize {
-        super::super::riccati::n_stop_wiscombe(x)
+        super::super::riccati::n_stop_default(x)
     }
 
     /// Bin resampling preserves Σ ΔΩ p exactly (to rounding), on aligned and misaligned grids.

@@ -24,6 +24,17 @@
 
 use num_complex::Complex64;
 
+/// Default truncation order `n_stop = ⌈x + 6 x^{1/3} + 3⌉` (at least 3).
+///
+/// Wiscombe's rule ([`n_stop_wiscombe`]) leaves truncation errors that s11 reveals: at
+/// x = 2000, m = 1.55 + 0.002i, 8.5e-9 relative at 180° and 8.2e-9 at 10° against the
+/// 40-digit reference (Q_ext 4.4e-11); twenty more terms bring them to ≤ 1e-11. This rule
+/// (the one `scatrs` adopted from Arb measurements) adds ~2x^{1/3} terms, i.e. < 1 % cost at
+/// large x.
+pub fn n_stop_default(x: f64) -> usize {
+    ((x + 6.0 * x.cbrt() + 3.0).ceil() as usize).max(3)
+}
+
 /// Wiscombe's (1980) truncation order `n_stop = ⌈x + 4.05 x^{1/3} + 2⌉` (at least 3).
 ///
 /// Wiscombe gives `x + 4 x^{1/3} + 1` below x = 8, `x + 4.05 x^{1/3} + 2` for 8–4200 and
