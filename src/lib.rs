@@ -10,6 +10,7 @@
 
 pub mod catalog;
 pub mod cli;
+pub mod debye;
 pub mod export;
 pub mod manifest;
 pub mod mie;
