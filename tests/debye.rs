@@ -1,0 +1,187 @@
+//! Validation of the Debye series (`scatterbake::debye`) against the independent Lorenz–Mie
+//! module, geometric optics and Airy theory. Fast tests run by default; the slow ones are
+//! `#[ignore]`d: `cargo test --test debye -- --ignored --nocapture` prints the figures recorded
+//! in `docs/debye.md`.
+
+use num_complex::Complex64;
+use scatterbake::debye::airy::{airy_rainbow, AiryRainbow};
+use scatterbake::debye::{DebyeCoefficients, Mode, OrderSet};
+use scatterbake::mie::Sphere;
+
+fn s11(s1: &[Complex64], s2: &[Complex64]) -> Vec<f64> {
+    s1.iter()
+        .zip(s2)
+        .map(|(a, b)| 0.5 * (a.norm_sqr() + b.norm_sqr()))
+        .collect()
+}
+
+fn max_rel(a: &[f64], b: &[f64]) -> f64 {
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| ((x - y) / y).abs())
+        .fold(0.0, f64::max)
+}
+
+/// Max relative s11 error of (i) the closed-form Σ_{p≥0} and (ii) the partial sums
+/// Σ_{p<P} for increasing P, against Mie, on 0..180° step 0.25°. Returns the closed-form error
+/// and the list (P, error).
+fn sum_vs_mie(x: f64, m: Complex64, orders: &[usize]) -> (f64, Vec<(usize, f64)>) {
+    let d = DebyeCoefficients::new(x, m).unwrap();
+    let angles: Vec<f64> = (0..=720).map(|k| k as f64 * 0.25).collect();
+    let mie = Sphere::new(x, m).unwrap();
+    let (m1, m2) = mie.amplitudes_deg(&angles);
+    let reference = s11(&m1, &m2);
+    let (c1, c2) = d.amplitudes_deg(&OrderSet::From(0), &angles);
+    let closed = max_rel(&s11(&c1, &c2), &reference);
+    // partial sums, accumulated order by order
+    let n = d.n_stop();
+    let (mut a, mut b) = (d.term(Mode::Tm, 0), d.term(Mode::Te, 0));
+    let mut pow_tm: Vec<Complex64> = vec![Complex64::new(1.0, 0.0); n];
+    let mut pow_te = pow_tm.clone();
+    let mut out = Vec::new();
+    let mut p = 1;
+    for &target in orders {
+        while p < target {
+            for k in 0..n {
+                a[k] += -0.5 * d.tm[k].t_product * pow_tm[k];
+                b[k] += -0.5 * d.te[k].t_product * pow_te[k];
+                pow_tm[k] *= d.tm[k].r_int;
+                pow_te[k] *= d.te[k].r_int;
+            }
+            p += 1;
+        }
+        let (s1, s2) = d.term_sphere(a.clone(), b.clone()).amplitudes_deg(&angles);
+        out.push((target, max_rel(&s11(&s1, &s2), &reference)));
+    }
+    (closed, out)
+}
+
+/// Acceptance: Σ_p Debye = Mie to ≤ 1e-8 relative in s11 at x = 100 (closed form), and the
+/// partial sums converge to it (error decreasing to ≤ 1e-8 at large P).
+#[test]
+fn debye_sum_equals_mie_x100() {
+    let (closed, partial) =
+        sum_vs_mie(100.0, Complex64::new(1.333, 0.0), &[1, 3, 10, 30, 100, 300, 1000, 3000]);
+    println!("x=100 closed-form max rel s11 error {closed:.2e}; partial sums {partial:?}");
+    assert!(closed < 1e-10, "closed form {closed}");
+    assert!(partial.windows(2).all(|w| w[1].1 <= w[0].1 * 1.0001 || w[1].1 < 1e-10));
+    assert!(partial.last().unwrap().1 < 1e-8, "{partial:?}");
+    assert!(partial[0].1 > 1e-2, "a single term must not already be Mie");
+}
+
+/// As above at x = 1000, absorbing and non-absorbing.
+#[test]
+fn debye_sum_equals_mie_x1000() {
+    let (closed, partial) =
+        sum_vs_mie(1000.0, Complex64::new(1.333, 0.0), &[1, 10, 100, 1000, 10000]);
+    println!("x=1000 closed-form max rel s11 error {closed:.2e}; partial sums {partial:?}");
+    assert!(closed < 1e-10, "closed form {closed}");
+    assert!(partial.last().unwrap().1 < 1e-8, "{partial:?}");
+    let (closed, partial) = sum_vs_mie(1000.0, Complex64::new(1.5, 0.01), &[1, 3, 10]);
+    println!("x=1000 m=1.5+0.01i closed {closed:.2e}; partial {partial:?}");
+    assert!(closed < 1e-10 && partial[2].1 < 1e-8);
+}
+
+/// As above at x = 10⁴ (closed form only in the default suite).
+#[test]
+fn debye_sum_equals_mie_x10000_closed_form() {
+    let (closed, _) = sum_vs_mie(1e4, Complex64::new(1.333, 0.0), &[]);
+    println!("x=1e4 closed-form max rel s11 error {closed:.2e}");
+    assert!(closed < 1e-8, "closed form {closed}");
+}
+
+/// x = 10⁴ and 2·10⁴ partial sums to convergence (slow: many orders for grazing waves).
+#[test]
+#[ignore]
+fn debye_sum_equals_mie_large_x_partial_sums() {
+    for x in [1e4, 2e4] {
+        let (closed, partial) = sum_vs_mie(
+            x,
+            Complex64::new(1.333, 0.0),
+            &[1, 10, 100, 1000, 3000, 10000, 30000],
+        );
+        println!("x={x} closed-form max rel s11 error {closed:.2e}; partial sums {partial:?}");
+        assert!(closed < 1e-8);
+    }
+}
+
+/// Strongly absorbing large sphere: the inside ratio underflows without harm; p = 0 alone is
+/// Mie (no light comes back through the sphere).
+#[test]
+fn strongly_absorbing_sphere_is_p0() {
+    let x = 2e4;
+    let m = Complex64::new(1.5, 0.5);
+    let d = DebyeCoefficients::new(x, m).unwrap();
+    let angles: Vec<f64> = (0..=36).map(|k| k as f64 * 5.0).collect();
+    let (a1, a2) = d.amplitudes_deg(&OrderSet::Orders(vec![0]), &angles);
+    let (m1, m2) = Sphere::new(x, m).unwrap().amplitudes_deg(&angles);
+    let err = max_rel(&s11(&a1, &a2), &s11(&m1, &m2));
+    println!("x=2e4 m=1.5+0.5i p=0 vs Mie {err:.2e}");
+    assert!(err < 1e-8);
+    assert!(d.tm.iter().all(|s| s.t_product.is_finite() && s.r_int.is_finite()));
+}
+
+/// Energy shares of p = 0..3 against geometric optics (digest §6: n = 1.333, p=0 6.64 %,
+/// p=1 88.37 %, p=2 4.06 %, p=3 0.61 % of the silhouette flux). The Debye p = 0 term holds
+/// diffraction (efficiency 1) and reflection; reflection alone is compared through the
+/// `−½R22` coefficients of the partial waves that hit the sphere, `n + ½ ≤ x`.
+#[test]
+fn energy_shares_match_geometric_optics() {
+    let x = 1e4;
+    let d = DebyeCoefficients::new(x, Complex64::new(1.333, 0.0)).unwrap();
+    let go = [0.0664, 0.8837, 0.0406, 0.0061];
+    let hit = (x - 0.5).floor() as usize; // partial waves n with n + 1/2 ≤ x
+    let (ra, rb) = d.external_reflection();
+    let refl = d.efficiency_of(&ra[..hit], &rb[..hit]);
+    let (a0, b0) = d.coefficients(&OrderSet::Orders(vec![0]));
+    let q0 = d.efficiency_of(&a0, &b0);
+    let mut shares = vec![refl];
+    for p in 1..=3 {
+        let (a, b) = d.coefficients(&OrderSet::Orders(vec![p]));
+        shares.push(d.efficiency_of(&a, &b));
+    }
+    println!("x=1e4: Q(p=0) = {q0:.5} (diffraction 1 + reflection), reflection (n+1/2<=x) {refl:.5}, Q(p=0)-1 {:.5}, shares p=0..3 {shares:.5?} vs GO {go:?}", q0 - 1.0);
+    for (s, g) in shares.iter().zip(go) {
+        assert!((s - g).abs() < 0.003 * g.max(0.05) / 0.05 * 0.05 + 0.0005, "{s} vs {g}");
+    }
+    assert!((q0 - 1.0 - refl).abs() < 2e-3);
+}
+
+/// The p = 2 term near the primary bow for 0.4 mm at 650 nm: maxima positions of the
+/// perpendicular intensity vs Airy theory.
+#[test]
+fn primary_bow_p2_vs_airy() {
+    let x = scatterbake::mie::size_parameter(400.0, 650.0);
+    let n = 1.331;
+    let d = DebyeCoefficients::new(x, Complex64::new(n, 0.0)).unwrap();
+    let angles: Vec<f64> = (0..=6000).map(|k| 137.5 + k as f64 * 0.0005).collect();
+    let (s1, _) = d.amplitudes_deg(&OrderSet::Orders(vec![2]), &angles);
+    let debye: Vec<f64> = s1.iter().map(|v| v.norm_sqr()).collect();
+    let bow = AiryRainbow::new(x, n, 1);
+    let airy: Vec<f64> = angles.iter().map(|&t| airy_rainbow(&bow, t).0).collect();
+    let pd = local_maxima(&angles, &debye);
+    let pa = local_maxima(&angles, &airy);
+    println!("p=2 maxima {:?}\nAiry maxima {:?}", &pd[..pd.len().min(5)], &pa[..pa.len().min(5)]);
+    for k in 0..3 {
+        assert!((pd[k] - pa[k]).abs() < 0.03, "max {k}: {} vs {}", pd[k], pa[k]);
+    }
+    // peak heights agree to a few per cent for ⊥ (Airy is a large-x asymptotic)
+    let hd = debye.iter().cloned().fold(0.0, f64::max);
+    let ha = airy.iter().cloned().fold(0.0, f64::max);
+    println!("peak |S1|^2: p=2 {hd:.4e}, Airy {ha:.4e}");
+    assert!((hd / ha - 1.0).abs() < 0.05);
+}
+
+/// Local maxima positions (parabolic refinement), in increasing angle.
+pub fn local_maxima(angles: &[f64], v: &[f64]) -> Vec<f64> {
+    let mut out = Vec::new();
+    for i in 1..v.len() - 1 {
+        if v[i] > v[i - 1] && v[i] >= v[i + 1] {
+            let den = v[i - 1] - 2.0 * v[i] + v[i + 1];
+            let h = angles[i + 1] - angles[i];
+            let shift = if den != 0.0 { 0.5 * (v[i - 1] - v[i + 1]) / den } else { 0.0 };
+            out.push(angles[i] + shift * h);
+        }
+    }
+    out
+}
