@@ -198,3 +198,84 @@ pub fn local_maxima(angles: &[f64], v: &[f64]) -> Vec<f64> {
     }
     out
 }
+
+/// Maxima of the full Mie ⊥ intensity (smoothed by the digest's Gaussian σ = 0.04° to remove
+/// the p = 0/p = 2 ripple) vs the p = 2 term alone, 0.4 mm at 650 nm, n = 1.331.
+#[test]
+fn primary_bow_p2_vs_mie() {
+    let x = scatterbake::mie::size_parameter(400.0, 650.0);
+    let m = Complex64::new(1.331, 0.0);
+    let step = 0.001;
+    let angles: Vec<f64> = (0..=4000).map(|k| 137.0 + k as f64 * step).collect();
+    let d = DebyeCoefficients::new(x, m).unwrap();
+    let (s1, _) = d.amplitudes_deg(&OrderSet::Orders(vec![2]), &angles);
+    let p2: Vec<f64> = s1.iter().map(|v| v.norm_sqr()).collect();
+    let (m1, _) = Sphere::new(x, m).unwrap().amplitudes_deg(&angles);
+    let mie: Vec<f64> = m1.iter().map(|v| v.norm_sqr()).collect();
+    let smooth = scatterbake::mie::filters::gaussian_blur_1d(&mie, step, 0.04);
+    let pm = local_maxima(&angles[200..3800], &smooth[200..3800]);
+    let pd = local_maxima(&angles, &p2);
+    println!("0.4 mm 650 nm: p=2 maxima {:?}\nMie (σ=0.04°) maxima {:?}", &pd[..4], &pm[..pm.len().min(4)]);
+    // digest §5 (miepython, same smoothing): 138.03, 138.91, 139.53, 140.05
+    for (k, v) in [138.03, 138.91, 139.53, 140.05].iter().enumerate() {
+        assert!((pm[k] - v).abs() < 0.015, "Mie max {k}: {} vs digest {v}", pm[k]);
+        assert!((pd[k] - pm[k]).abs() < 0.03, "p=2 max {k}: {} vs Mie {}", pd[k], pm[k]);
+    }
+}
+
+/// Airy theory vs the Debye p = 2 (primary) and p = 3 (secondary) terms for 0.1–1 mm drops at
+/// 650 nm: maxima positions (main bow, supernumeraries), peak heights and the relative L2
+/// difference over the first three fringes, per polarisation. Prints the table of
+/// `docs/debye.md`.
+#[test]
+#[ignore]
+fn airy_vs_debye_table() {
+    let n = 1.331;
+    println!("| a (mm) | order | pol | Debye maxima (deg) | Airy − Debye (deg) | peak Airy/Debye | rel. L2 (3 fringes) |");
+    println!("|---|---|---|---|---|---|---|");
+    for a_mm in [0.1, 0.2, 0.4, 0.7, 1.0] {
+        let x = scatterbake::mie::size_parameter(a_mm * 1e3, 650.0);
+        let d = DebyeCoefficients::new(x, Complex64::new(n, 0.0)).unwrap();
+        for order in [1usize, 2] {
+            let bow = AiryRainbow::new(x, n, order);
+            // window: from 1.5 Airy units on the dark side to the 4th maximum on the lit side
+            let (t0, t1) = (bow.angle_at(-2.5), bow.angle_at(6.6));
+            let (lo, hi) = (t0.min(t1), t0.max(t1));
+            let count = 6000;
+            let angles: Vec<f64> = (0..=count).map(|k| lo + (hi - lo) * k as f64 / count as f64).collect();
+            let (s1, s2) = d.amplitudes_deg(&OrderSet::Orders(vec![order + 1]), &angles);
+            for (pol, debye) in [
+                ("perp", s1.iter().map(|v| v.norm_sqr()).collect::<Vec<_>>()),
+                ("par", s2.iter().map(|v| v.norm_sqr()).collect::<Vec<_>>()),
+            ] {
+                let airy: Vec<f64> = angles
+                    .iter()
+                    .map(|&t| {
+                        let (p, q) = airy_rainbow(&bow, t);
+                        if pol == "perp" { p } else { q }
+                    })
+                    .collect();
+                let mut md = local_maxima(&angles, &debye);
+                let mut ma = local_maxima(&angles, &airy);
+                if bow.side < 0.0 {
+                    md.reverse();
+                    ma.reverse();
+                }
+                let k = md.len().min(ma.len()).min(4);
+                let diffs: Vec<String> = (0..k).map(|i| format!("{:+.3}", ma[i] - md[i])).collect();
+                let hd = debye.iter().cloned().fold(0.0, f64::max);
+                let ha = airy.iter().cloned().fold(0.0, f64::max);
+                let num: f64 = debye.iter().zip(&airy).map(|(u, v)| (u - v).powi(2)).sum();
+                let den: f64 = debye.iter().map(|u| u * u).sum();
+                println!(
+                    "| {a_mm} | {} | {pol} | {} | {} | {:.3} | {:.3} |",
+                    if order == 1 { "primary (p=2)" } else { "secondary (p=3)" },
+                    md[..k].iter().map(|v| format!("{v:.3}")).collect::<Vec<_>>().join(", "),
+                    diffs.join(", "),
+                    ha / hd,
+                    (num / den).sqrt()
+                );
+            }
+        }
+    }
+}
