@@ -4,7 +4,7 @@
 //! in `docs/debye.md`.
 
 use num_complex::Complex64;
-use scatterbake::debye::airy::{airy_rainbow, AiryRainbow};
+use scatterbake::debye::airy::{AiryRainbow, airy_rainbow};
 use scatterbake::debye::{DebyeCoefficients, Mode, OrderSet};
 use scatterbake::mie::Sphere;
 
@@ -70,7 +70,10 @@ fn sum_vs_mie(x: f64, m: Complex64, orders: &[usize]) -> SumFigures {
 
 fn check_sum(x: f64, m: Complex64, orders: &[usize], closed_tol: f64) -> SumFigures {
     let f = sum_vs_mie(x, m, orders);
-    println!("x={x} m={m}: closed-form Σ_p max rel s11 error {:.2e}", f.closed);
+    println!(
+        "x={x} m={m}: closed-form Σ_p max rel s11 error {:.2e}",
+        f.closed
+    );
     for (p, e, r) in &f.partial {
         println!("  P={p:>6}: Σ_(p<P) {e:.3e}   Σ_(p<P) + exact remainder {r:.2e}");
     }
@@ -86,7 +89,12 @@ fn check_sum(x: f64, m: Complex64, orders: &[usize], closed_tol: f64) -> SumFigu
 /// sphere because the grazing and above-edge (resonant) partial waves have |R11| → 1.
 #[test]
 fn debye_sum_equals_mie_x100() {
-    let f = check_sum(100.0, Complex64::new(1.333, 0.0), &[1, 3, 10, 30, 100, 300, 1000], 1e-10);
+    let f = check_sum(
+        100.0,
+        Complex64::new(1.333, 0.0),
+        &[1, 3, 10, 30, 100, 300, 1000],
+        1e-10,
+    );
     let (first, last) = (f.partial[0].1, f.partial.last().unwrap().1);
     assert!(first > 1.0 && last < 1e-2 * first, "{first} {last}");
 }
@@ -94,10 +102,25 @@ fn debye_sum_equals_mie_x100() {
 /// As above at x = 1000, lossless and absorbing (there the partial sums alone reach 1e-8).
 #[test]
 fn debye_sum_equals_mie_x1000() {
-    let f = check_sum(1000.0, Complex64::new(1.333, 0.0), &[1, 10, 100, 1000], 1e-10);
+    let f = check_sum(
+        1000.0,
+        Complex64::new(1.333, 0.0),
+        &[1, 10, 100, 1000],
+        1e-10,
+    );
     assert!(f.partial[3].1 < 1e-2 * f.partial[0].1);
-    let f = check_sum(1000.0, Complex64::new(1.333, 2e-3), &[1, 2, 3, 5, 10, 20, 40, 80], 1e-10);
-    assert!(f.partial.windows(2).all(|w| w[1].1 < w[0].1 || w[1].1 < 1e-11), "not monotone");
+    let f = check_sum(
+        1000.0,
+        Complex64::new(1.333, 2e-3),
+        &[1, 2, 3, 5, 10, 20, 40, 80],
+        1e-10,
+    );
+    assert!(
+        f.partial
+            .windows(2)
+            .all(|w| w[1].1 < w[0].1 || w[1].1 < 1e-11),
+        "not monotone"
+    );
     assert!(f.partial.last().unwrap().1 < 1e-8);
 }
 
@@ -112,7 +135,12 @@ fn debye_sum_equals_mie_x10000() {
 #[ignore]
 fn debye_sum_equals_mie_large_x_partial_sums() {
     for x in [1e4, 2e4] {
-        check_sum(x, Complex64::new(1.333, 0.0), &[1, 10, 100, 1000, 10000], 1e-8);
+        check_sum(
+            x,
+            Complex64::new(1.333, 0.0),
+            &[1, 10, 100, 1000, 10000],
+            1e-8,
+        );
     }
 }
 
@@ -129,7 +157,10 @@ fn strongly_absorbing_sphere_is_p0() {
     let err = max_rel(&s11(&a1, &a2), &s11(&m1, &m2));
     println!("x=2e4 m=1.5+0.5i p=0 vs Mie {err:.2e}");
     assert!(err < 1e-8);
-    assert!(d.tm.iter().all(|s| s.t_product.is_finite() && s.r_int.is_finite()));
+    assert!(
+        d.tm.iter()
+            .all(|s| s.t_product.is_finite() && s.r_int.is_finite())
+    );
 }
 
 /// Energy shares of p = 0..3 against geometric optics (digest §6: n = 1.333, p=0 6.64 %,
@@ -151,7 +182,10 @@ fn energy_shares_match_geometric_optics() {
         let (a, b) = d.coefficients(&OrderSet::Orders(vec![p]));
         shares.push(d.efficiency_of(&a, &b));
     }
-    println!("x=1e4: Q(p=0) = {q0:.5} (diffraction 1 + reflection), reflection (n+1/2<=x) {refl:.5}, Q(p=0)-1 {:.5}, shares p=0..3 {shares:.5?} vs GO {go:?}", q0 - 1.0);
+    println!(
+        "x=1e4: Q(p=0) = {q0:.5} (diffraction 1 + reflection), reflection (n+1/2<=x) {refl:.5}, Q(p=0)-1 {:.5}, shares p=0..3 {shares:.5?} vs GO {go:?}",
+        q0 - 1.0
+    );
     for (s, g) in shares.iter().zip(go) {
         assert!((s / g - 1.0).abs() < 0.03, "{s} vs {g}");
     }
@@ -174,9 +208,18 @@ fn primary_bow_p2_vs_airy() {
     let airy: Vec<f64> = angles.iter().map(|&t| airy_rainbow(&bow, t).0).collect();
     let pd = local_maxima(&angles, &debye);
     let pa = local_maxima(&angles, &airy);
-    println!("p=2 maxima {:?}\nAiry maxima {:?}", &pd[..pd.len().min(5)], &pa[..pa.len().min(5)]);
+    println!(
+        "p=2 maxima {:?}\nAiry maxima {:?}",
+        &pd[..pd.len().min(5)],
+        &pa[..pa.len().min(5)]
+    );
     for k in 0..3 {
-        assert!((pd[k] - pa[k]).abs() < 0.03, "max {k}: {} vs {}", pd[k], pa[k]);
+        assert!(
+            (pd[k] - pa[k]).abs() < 0.03,
+            "max {k}: {} vs {}",
+            pd[k],
+            pa[k]
+        );
     }
     // peak heights agree to a few per cent for ⊥ (Airy is a large-x asymptotic)
     let hd = debye.iter().cloned().fold(0.0, f64::max);
@@ -192,7 +235,11 @@ pub fn local_maxima(angles: &[f64], v: &[f64]) -> Vec<f64> {
         if v[i] > v[i - 1] && v[i] >= v[i + 1] {
             let den = v[i - 1] - 2.0 * v[i] + v[i + 1];
             let h = angles[i + 1] - angles[i];
-            let shift = if den != 0.0 { 0.5 * (v[i - 1] - v[i + 1]) / den } else { 0.0 };
+            let shift = if den != 0.0 {
+                0.5 * (v[i - 1] - v[i + 1]) / den
+            } else {
+                0.0
+            };
             out.push(angles[i] + shift * h);
         }
     }
@@ -215,11 +262,24 @@ fn primary_bow_p2_vs_mie() {
     let smooth = scatterbake::mie::filters::gaussian_blur_1d(&mie, step, 0.04);
     let pm = local_maxima(&angles[200..3800], &smooth[200..3800]);
     let pd = local_maxima(&angles, &p2);
-    println!("0.4 mm 650 nm: p=2 maxima {:?}\nMie (σ=0.04°) maxima {:?}", &pd[..4], &pm[..pm.len().min(4)]);
+    println!(
+        "0.4 mm 650 nm: p=2 maxima {:?}\nMie (σ=0.04°) maxima {:?}",
+        &pd[..4],
+        &pm[..pm.len().min(4)]
+    );
     // digest §5 (miepython, same smoothing): 138.03, 138.91, 139.53, 140.05
     for (k, v) in [138.03, 138.91, 139.53, 140.05].iter().enumerate() {
-        assert!((pm[k] - v).abs() < 0.015, "Mie max {k}: {} vs digest {v}", pm[k]);
-        assert!((pd[k] - pm[k]).abs() < 0.03, "p=2 max {k}: {} vs Mie {}", pd[k], pm[k]);
+        assert!(
+            (pm[k] - v).abs() < 0.015,
+            "Mie max {k}: {} vs digest {v}",
+            pm[k]
+        );
+        assert!(
+            (pd[k] - pm[k]).abs() < 0.03,
+            "p=2 max {k}: {} vs Mie {}",
+            pd[k],
+            pm[k]
+        );
     }
 }
 
@@ -231,7 +291,9 @@ fn primary_bow_p2_vs_mie() {
 #[ignore]
 fn airy_vs_debye_table() {
     let n = 1.331;
-    println!("| a (mm) | order | pol | Debye maxima (deg) | Airy − Debye (deg) | peak Airy/Debye | rel. L2 (3 fringes) |");
+    println!(
+        "| a (mm) | order | pol | Debye maxima (deg) | Airy − Debye (deg) | peak Airy/Debye | rel. L2 (3 fringes) |"
+    );
     println!("|---|---|---|---|---|---|---|");
     for a_mm in [0.1, 0.2, 0.4, 0.7, 1.0] {
         let x = scatterbake::mie::size_parameter(a_mm * 1e3, 650.0);
@@ -242,7 +304,9 @@ fn airy_vs_debye_table() {
             let (t0, t1) = (bow.angle_at(-2.5), bow.angle_at(6.6));
             let (lo, hi) = (t0.min(t1), t0.max(t1));
             let count = 6000;
-            let angles: Vec<f64> = (0..=count).map(|k| lo + (hi - lo) * k as f64 / count as f64).collect();
+            let angles: Vec<f64> = (0..=count)
+                .map(|k| lo + (hi - lo) * k as f64 / count as f64)
+                .collect();
             let (s1, s2) = d.amplitudes_deg(&OrderSet::Orders(vec![order + 1]), &angles);
             for (pol, debye) in [
                 ("perp", s1.iter().map(|v| v.norm_sqr()).collect::<Vec<_>>()),
@@ -269,8 +333,16 @@ fn airy_vs_debye_table() {
                 let den: f64 = debye.iter().map(|u| u * u).sum();
                 println!(
                     "| {a_mm} | {} | {pol} | {} | {} | {:.3} | {:.3} |",
-                    if order == 1 { "primary (p=2)" } else { "secondary (p=3)" },
-                    md[..k].iter().map(|v| format!("{v:.3}")).collect::<Vec<_>>().join(", "),
+                    if order == 1 {
+                        "primary (p=2)"
+                    } else {
+                        "secondary (p=3)"
+                    },
+                    md[..k]
+                        .iter()
+                        .map(|v| format!("{v:.3}"))
+                        .collect::<Vec<_>>()
+                        .join(", "),
                     diffs.join(", "),
                     ha / hd,
                     (num / den).sqrt()

@@ -68,7 +68,10 @@ impl AiryRainbow {
     pub fn new(x: f64, n: f64, order: usize) -> Self {
         let p = order + 1;
         let pf = p as f64;
-        assert!(order >= 1 && n > 1.0 && n < pf, "no rainbow of order {order} for n = {n}");
+        assert!(
+            order >= 1 && n > 1.0 && n < pf,
+            "no rainbow of order {order} for n = {n}"
+        );
         let cos_i = ((n * n - 1.0) / (pf * pf - 1.0)).sqrt();
         let u = (1.0 - cos_i * cos_i).sqrt();
         let i = u.asin();
@@ -125,7 +128,13 @@ pub fn airy_rainbow(bow: &AiryRainbow, theta_deg: f64) -> (f64, f64) {
 
 /// First maxima of `Ai(−z)²` (the zeros of `Ai'`, DLMF Table 9.9.1): the main bow and the first
 /// supernumeraries in Airy theory.
-pub const AIRY_MAXIMA_Z: [f64; 5] = [1.018_792_97, 3.248_197_58, 4.820_099_21, 6.163_307_36, 7.372_177_26];
+pub const AIRY_MAXIMA_Z: [f64; 5] = [
+    1.018_792_97,
+    3.248_197_58,
+    4.820_099_21,
+    6.163_307_36,
+    7.372_177_26,
+];
 
 #[cfg(test)]
 mod tests {
@@ -135,10 +144,19 @@ mod tests {
     /// → 139.57° primary; 129.53°/126.14° secondary) and Descartes' formula.
     #[test]
     fn geometric_rainbow_angles() {
-        let cases = [(1.3314, 1, 137.69), (1.3445, 1, 139.57), (1.3314, 2, 129.53), (1.3445, 2, 126.14)];
+        let cases = [
+            (1.3314, 1, 137.69),
+            (1.3445, 1, 139.57),
+            (1.3314, 2, 129.53),
+            (1.3445, 2, 126.14),
+        ];
         for (n, order, theta) in cases {
             let b = AiryRainbow::new(1000.0, n, order);
-            assert!((b.rainbow_angle_deg - theta).abs() < 0.01, "n={n} order={order}: {}", b.rainbow_angle_deg);
+            assert!(
+                (b.rainbow_angle_deg - theta).abs() < 0.01,
+                "n={n} order={order}: {}",
+                b.rainbow_angle_deg
+            );
         }
         assert_eq!(AiryRainbow::new(1000.0, 1.33, 1).side, 1.0);
         assert_eq!(AiryRainbow::new(1000.0, 1.33, 2).side, -1.0);
@@ -154,7 +172,11 @@ mod tests {
             let u0 = b.incidence_deg.to_radians().sin();
             let h = 1e-4;
             let fd = (d(u0 + h) - 2.0 * d(u0) + d(u0 - h)) / (h * h);
-            assert!(((fd - b.curvature) / b.curvature).abs() < 1e-5, "{fd} vs {}", b.curvature);
+            assert!(
+                ((fd - b.curvature) / b.curvature).abs() < 1e-5,
+                "{fd} vs {}",
+                b.curvature
+            );
         }
     }
 

@@ -57,8 +57,8 @@ pub mod stage;
 
 use crate::mie::coefficients::MieCoefficients;
 use crate::mie::filters::PolarisedPhase;
-use crate::mie::riccati::{log_derivative_complex, RiccatiBessel};
-use crate::mie::{check_domain, MieError, Sphere};
+use crate::mie::riccati::{RiccatiBessel, log_derivative_complex};
+use crate::mie::{MieError, Sphere, check_domain};
 use num_complex::Complex64;
 
 /// Surface coefficients of one partial wave for one polarisation.
@@ -276,8 +276,7 @@ fn term_of(s: &SurfaceCoefficients, p: usize) -> Complex64 {
 
 /// `Σ_{p ≥ p_min} c^{(p)}` of one partial wave (closed form).
 fn remainder_of(s: &SurfaceCoefficients, p_min: usize) -> Complex64 {
-    let tail = -0.5 * s.t_product * s.r_int.powu(p_min.saturating_sub(1) as u32)
-        / (1.0 - s.r_int);
+    let tail = -0.5 * s.t_product * s.r_int.powu(p_min.saturating_sub(1) as u32) / (1.0 - s.r_int);
     if p_min == 0 {
         0.5 * (1.0 - s.r_ext) + tail
     } else {
@@ -303,38 +302,30 @@ pub fn surface_coefficients(
     let mut ln_q = (2.0 * e / (e - 1.0)).ln();
     if !ln_q.is_finite() {
         // E underflowed (Im y > ~350): ln q_0 = ln 2 + 2iy − ln(E − 1) with E → 0.
-        ln_q = Complex64::new(std::f64::consts::LN_2, 0.0) + 2.0 * i * y - Complex64::new(-1.0, 0.0).ln();
+        ln_q = Complex64::new(std::f64::consts::LN_2, 0.0) + 2.0 * i * y
+            - Complex64::new(-1.0, 0.0).ln();
     }
     let mut d1_y = i; // D¹_0(y)
     let mut tm = Vec::with_capacity(n_stop);
     let mut te = Vec::with_capacity(n_stop);
-    for n in 1..=n_stop {
+    for (n, &dpsi) in d_psi_y.iter().enumerate().skip(1) {
         let nf = n as f64;
         // inside: ζ¹ ratio and log-derivative (upward), ψ ratio (from the downward D^ψ)
         let g1 = 1.0 / (nf * inv_y - d1_y); // ζ¹_{n−1}/ζ¹_n
         d1_y = g1 - nf * inv_y;
-        let dpsi = d_psi_y[n];
         let gpsi = dpsi + nf * inv_y; // ψ_{n−1}/ψ_n
         ln_q += (gpsi / g1).ln();
-        // ρ = q/(2 − q) and ρ(1 + ρ) = 2q/(2 − q)², evaluated without overflow
-        let (rho, rho_one_plus) = if ln_q.re <= 0.0 {
+        // ρ = q/(2 − q) and 1 + ρ = 2/(2 − q), evaluated without overflow (via 1/q when |q| > 1)
+        let (rho, one_plus_rho) = if ln_q.re <= 0.0 {
             let q = ln_q.exp();
             let d = 2.0 - q;
-            (q / d, 2.0 * q / (d * d))
+            (q / d, 2.0 / d)
         } else {
             let w = (-ln_q).exp(); // 1/q
             let d = 2.0 * w - 1.0;
-            (1.0 / d, 2.0 * w / (d * d))
+            (1.0 / d, 2.0 * w / d)
         };
-        let dy_diff_scaled = rho_one_plus * (dpsi - d1_y); // ρ (D²(y) − D¹(y))
-        // D²(y) = D¹ + (1 + ρ)(D^ψ − D¹); with (1 + ρ) = ρ(1+ρ)/ρ unstable for ρ → 0, so use
-        // 1 + ρ = 2/(2 − q) directly.
-        let one_plus_rho = if ln_q.re <= 0.0 {
-            2.0 / (2.0 - ln_q.exp())
-        } else {
-            let w = (-ln_q).exp();
-            2.0 * w / (2.0 * w - 1.0)
-        };
+        let dy_diff_scaled = rho * one_plus_rho * (dpsi - d1_y); // ρ (D²(y) − D¹(y))
         let d2_y = d1_y + one_plus_rho * (dpsi - d1_y);
         // outside
         let xi = rb.xi(n);
@@ -383,8 +374,20 @@ mod tests {
             let (a, b) = d.coefficients(&OrderSet::From(0));
             let scale = d.mie.a.iter().map(|v| v.norm()).fold(0.0, f64::max);
             for n in 0..d.n_stop() {
-                assert!((a[n] - d.mie.a[n]).norm() < 1e-11 * scale, "x={x} m={m} n={} a {} vs {}", n + 1, a[n], d.mie.a[n]);
-                assert!((b[n] - d.mie.b[n]).norm() < 1e-11 * scale, "x={x} m={m} n={} b {} vs {}", n + 1, b[n], d.mie.b[n]);
+                assert!(
+                    (a[n] - d.mie.a[n]).norm() < 1e-11 * scale,
+                    "x={x} m={m} n={} a {} vs {}",
+                    n + 1,
+                    a[n],
+                    d.mie.a[n]
+                );
+                assert!(
+                    (b[n] - d.mie.b[n]).norm() < 1e-11 * scale,
+                    "x={x} m={m} n={} b {} vs {}",
+                    n + 1,
+                    b[n],
+                    d.mie.b[n]
+                );
             }
         }
     }
@@ -400,7 +403,11 @@ mod tests {
             for (k, s) in d.surface(mode).iter().enumerate() {
                 let n = k + 1;
                 assert!((s.r_ext.norm() - s.r_int.norm()).abs() < 1e-9, "n={n}");
-                assert!((s.r_ext.norm_sqr() + s.t_product.norm() - 1.0).abs() < 1e-9, "n={n} {:?}", s);
+                assert!(
+                    (s.r_ext.norm_sqr() + s.t_product.norm() - 1.0).abs() < 1e-9,
+                    "n={n} {:?}",
+                    s
+                );
             }
         }
     }
@@ -422,7 +429,11 @@ mod tests {
                 }
                 let rest = d.remainder(mode, p + 1);
                 for n in 0..d.n_stop() {
-                    assert!((partial[n] + rest[n] - mie[n]).norm() < 1e-12, "p={p} n={}", n + 1);
+                    assert!(
+                        (partial[n] + rest[n] - mie[n]).norm() < 1e-12,
+                        "p={p} n={}",
+                        n + 1
+                    );
                 }
                 // geometric convergence: waves that reach the surface (n < x) are partly
                 // transmitted on every internal hit, |R11| < 1

@@ -10,6 +10,7 @@ pub fn registry() -> Vec<Box<dyn Stage>> {
     vec![
         Box::new(water_index::WaterIndexStage),
         Box::new(crate::mie::stage::MieStage),
+        Box::new(crate::debye::stage::DebyeStage),
     ]
 }
 
