@@ -265,6 +265,73 @@ impl DebyeCoefficients {
     }
 }
 
+/// Point values of the full Mie phase function and of single Debye orders: the data of
+/// MiePlot's "Mie with its Debye components" figure. All curves are `s11/(π x² Q_sca)` with the
+/// full sphere's `Q_sca` (1/sr), so components are on the Mie scale.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ComponentCurves {
+    /// Scattering angles (deg).
+    pub angles_deg: Vec<f64>,
+    /// Full Mie phase function.
+    pub mie: Vec<f64>,
+    /// Orders of `components`.
+    pub orders: Vec<usize>,
+    /// Phase function of each order alone, `components[k][j]` for `orders[k]` at `angles_deg[j]`.
+    pub components: Vec<Vec<f64>>,
+}
+
+impl ComponentCurves {
+    /// CSV: `angle_deg,mie,p<k>...` with a header row.
+    pub fn to_csv(&self) -> String {
+        let mut s = String::from("angle_deg,mie");
+        for p in &self.orders {
+            s.push_str(&format!(",p{p}"));
+        }
+        s.push('\n');
+        for (j, t) in self.angles_deg.iter().enumerate() {
+            s.push_str(&format!("{t},{:.6e}", self.mie[j]));
+            for c in &self.components {
+                s.push_str(&format!(",{:.6e}", c[j]));
+            }
+            s.push('\n');
+        }
+        s
+    }
+}
+
+/// Computes [`ComponentCurves`] of the sphere `(x, m)` at `angles_deg` for `orders`.
+pub fn mie_with_components(
+    x: f64,
+    m: Complex64,
+    orders: &[usize],
+    angles_deg: &[f64],
+) -> Result<ComponentCurves, MieError> {
+    let d = DebyeCoefficients::new(x, m)?;
+    let norm = d.mie_normalisation();
+    let phase = |s1: &[Complex64], s2: &[Complex64]| -> Vec<f64> {
+        s1.iter()
+            .zip(s2)
+            .map(|(a, b)| 0.5 * (a.norm_sqr() + b.norm_sqr()) / norm)
+            .collect()
+    };
+    let mie_sphere = Sphere::from_coefficients(d.mie.clone());
+    let (s1, s2) = mie_sphere.amplitudes_deg(angles_deg);
+    let mie = phase(&s1, &s2);
+    let components = orders
+        .iter()
+        .map(|&p| {
+            let (s1, s2) = d.amplitudes_deg(&OrderSet::Orders(vec![p]), angles_deg);
+            phase(&s1, &s2)
+        })
+        .collect();
+    Ok(ComponentCurves {
+        angles_deg: angles_deg.to_vec(),
+        mie,
+        orders: orders.to_vec(),
+        components,
+    })
+}
+
 /// `c^{(p)}` of one partial wave.
 fn term_of(s: &SurfaceCoefficients, p: usize) -> Complex64 {
     if p == 0 {
