@@ -142,6 +142,9 @@ fn debye_sum_equals_mie_large_x_partial_sums() {
             1e-8,
         );
     }
+    // absorbing, and the top of the validated domain
+    check_sum(1e4, Complex64::new(1.333, 1e-4), &[1, 3, 10, 30], 1e-8);
+    check_sum(1e5, Complex64::new(1.333, 0.0), &[1], 1e-8);
 }
 
 /// Strongly absorbing large sphere: the inside ratio underflows without harm; p = 0 alone is
@@ -379,4 +382,53 @@ fn write_components_csv() {
         .unwrap();
     println!("p=2 max at {}°", angles[k2]);
     assert!((angles[k2] - 138.6).abs() < 0.3);
+}
+
+/// `manifests/debye.toml` plans and runs with the `debye` stage: every row's orders 0–3 hold
+/// ≈ all the energy (interference and p ≥ 4 make up the rest), and the per-order channels
+/// integrate to their stated order efficiencies.
+#[test]
+fn default_manifest_runs() {
+    let text =
+        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/manifests/debye.toml"))
+            .unwrap();
+    let doc: toml::Table = toml::from_str(&text).unwrap();
+    let table = &doc["table"].as_array().unwrap()[0];
+    assert_eq!(table["stage"].as_str().unwrap(), "debye");
+    let params = toml::to_string(&table["params"]).unwrap();
+    let stage = scatterbake::stages::find("debye").unwrap();
+    let job = stage
+        .plan(
+            toml::de::ValueDeserializer::parse(&format!(
+                "{{ {} }}",
+                params.trim().replace('\n', ", ")
+            ))
+            .unwrap(),
+        )
+        .unwrap();
+    let chunks: Vec<Vec<f32>> = (0..job.tasks().len())
+        .map(|i| job.run_task(i).unwrap())
+        .collect();
+    let t = job.assemble(chunks).unwrap();
+    let nc = t.channels.len();
+    assert_eq!(nc, 8);
+    let n_a = t.axes[2].len();
+    let cells = scatterbake::mie::filters::cell_solid_angles(n_a - 1);
+    for (w, row) in t.data.chunks(n_a * nc).enumerate() {
+        let integral = |c: usize| -> f64 {
+            row.chunks(nc)
+                .zip(&cells)
+                .map(|(v, s)| v[c] as f64 * s)
+                .sum()
+        };
+        let total = integral(0);
+        let q_sca = t.attributes["q_sca"][w][0].as_f64().unwrap();
+        let parts: Vec<f64> = (0..4).map(|p| integral(4 + p)).collect();
+        println!("λ index {w}: ∫ sum(0..3) = {total:.5}, per order {parts:.5?}");
+        assert!(total > 0.99 && total < 1.01, "{total}");
+        for p in 0..4 {
+            let share = t.attributes["order_efficiency"][w][0][p].as_f64().unwrap() / q_sca;
+            assert!((parts[p] / share - 1.0).abs() < 1e-3, "p={p}");
+        }
+    }
 }
