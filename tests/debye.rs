@@ -432,3 +432,26 @@ fn default_manifest_runs() {
         }
     }
 }
+
+/// The p = 3 term near the secondary bow, 0.4 mm at 650 nm, n = 1.331: its ⊥ maxima against the
+/// digest's smoothed-Mie secondary (§5: main ≈ 128.9°, supernumeraries 127.35°, 126.28°,
+/// 125.27°, miepython).
+#[test]
+fn secondary_bow_p3_vs_digest_mie() {
+    let x = scatterbake::mie::size_parameter(400.0, 650.0);
+    let d = DebyeCoefficients::new(x, Complex64::new(1.331, 0.0)).unwrap();
+    let angles: Vec<f64> = (0..=5000).map(|k| 124.5 + k as f64 * 0.001).collect();
+    let (s1, _) = d.amplitudes_deg(&OrderSet::Orders(vec![3]), &angles);
+    let v: Vec<f64> = s1.iter().map(|v| v.norm_sqr()).collect();
+    let mut peaks = local_maxima(&angles, &v);
+    peaks.reverse();
+    println!("p=3 maxima (from the bow inwards) {:?}", &peaks[..4]);
+    assert!((peaks[0] - 128.9).abs() < 0.1);
+    for (k, want) in [127.35, 126.28, 125.27].iter().enumerate() {
+        assert!(
+            (peaks[k + 1] - want).abs() < 0.05,
+            "{} vs {want}",
+            peaks[k + 1]
+        );
+    }
+}
