@@ -12,9 +12,12 @@ fn plan_manifest(path: &str) -> Vec<Box<dyn Job>> {
         .unwrap()
         .iter()
         .map(|t| {
-            let stage = scatterbake::stages::find(t["stage"].as_str().unwrap()).expect("stage registered");
+            let stage =
+                scatterbake::stages::find(t["stage"].as_str().unwrap()).expect("stage registered");
             let inline = t["params"].to_string();
-            stage.plan(toml::de::ValueDeserializer::parse(&inline).unwrap()).unwrap()
+            stage
+                .plan(toml::de::ValueDeserializer::parse(&inline).unwrap())
+                .unwrap()
         })
         .collect()
 }
@@ -45,7 +48,11 @@ fn default_manifest_builds_normalised() {
     let cells = scatterbake::mie::filters::cell_solid_angles(n_a - 1);
     let mut worst: f64 = 0.0;
     for row in table.data.chunks(n_a * 4) {
-        let e: f64 = row.chunks(4).zip(&cells).map(|(c, w)| c[0] as f64 * w).sum();
+        let e: f64 = row
+            .chunks(4)
+            .zip(&cells)
+            .map(|(c, w)| c[0] as f64 * w)
+            .sum();
         worst = worst.max((e - 1.0).abs());
     }
     println!(

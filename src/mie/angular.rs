@@ -80,7 +80,11 @@ pub struct MirroredAmplitudes {
 
 /// Computes `S_1`, `S_2` at `μ_j` and `−μ_j` for every cosine in `mu` (single thread unless
 /// `parallel`, which splits the angles over rayon's pool).
-pub fn amplitudes_mirrored(series: &AngularSeries, mu: &[f64], parallel: bool) -> MirroredAmplitudes {
+pub fn amplitudes_mirrored(
+    series: &AngularSeries,
+    mu: &[f64],
+    parallel: bool,
+) -> MirroredAmplitudes {
     let z = Complex64::new(0.0, 0.0);
     let mut out = MirroredAmplitudes {
         s1: vec![z; mu.len()],
@@ -97,7 +101,14 @@ pub fn amplitudes_mirrored(series: &AngularSeries, mu: &[f64], parallel: bool) -
             .zip(out.s2_mirror.par_chunks_mut(CHUNK))
             .for_each(|((((m, a), b), c), d)| run(&series.terms, m, a, b, c, d));
     } else {
-        run(&series.terms, mu, &mut out.s1, &mut out.s2, &mut out.s1_mirror, &mut out.s2_mirror);
+        run(
+            &series.terms,
+            mu,
+            &mut out.s1,
+            &mut out.s2,
+            &mut out.s1_mirror,
+            &mut out.s2_mirror,
+        );
     }
     out
 }
@@ -286,7 +297,9 @@ mod tests {
     fn kernel_matches_direct_sum_and_mirror() {
         let c = MieCoefficients::new(57.3, Complex64::new(1.33, 0.01)).unwrap();
         let series = AngularSeries::new(&c);
-        let mu: Vec<f64> = (0..37).map(|k| (k as f64 * 2.5f64).to_radians().cos()).collect();
+        let mu: Vec<f64> = (0..37)
+            .map(|k| (k as f64 * 2.5f64).to_radians().cos())
+            .collect();
         for parallel in [false, true] {
             let out = amplitudes_mirrored(&series, &mu, parallel);
             for (j, &m) in mu.iter().enumerate() {

@@ -63,7 +63,9 @@ impl SizeDistribution {
             } => {
                 positive(median_radius_um, "median_radius_um")?;
                 if !(geometric_sigma > 1.0 && geometric_sigma < 5.0) {
-                    return Err(format!("geometric_sigma must be in (1, 5), got {geometric_sigma}"));
+                    return Err(format!(
+                        "geometric_sigma must be in (1, 5), got {geometric_sigma}"
+                    ));
                 }
                 Ok(())
             }
