@@ -104,7 +104,7 @@ impl MieQuery {
             None => {
                 let step = args.angles_step_deg;
                 let count = 180.0 / step;
-                if !(step > 0.0) || (count - count.round()).abs() > 1e-6 {
+                if step.is_nan() || step <= 0.0 || (count - count.round()).abs() > 1e-6 {
                     bail!("--angles-step-deg must divide 180");
                 }
                 (0..=count.round() as usize)

@@ -88,7 +88,7 @@ impl SizeDistribution {
             } => {
                 positive(rain_rate_mm_h, "rain_rate_mm_h")?;
                 positive(min_radius_um, "min_radius_um")?;
-                if !(max_radius_um > min_radius_um) {
+                if max_radius_um.is_nan() || max_radius_um <= min_radius_um {
                     return Err("max_radius_um must exceed min_radius_um".into());
                 }
                 Ok(())

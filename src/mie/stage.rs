@@ -194,7 +194,7 @@ impl FilterSettings {
             limit = limit.min(self.gaussian_sigma_deg / 4.0);
         }
         let mut k = (step / limit - 1e-9).ceil().max(1.0) as usize;
-        if k % 2 == 0 {
+        if k.is_multiple_of(2) {
             k += 1;
         }
         self.output_intervals * k
@@ -229,7 +229,7 @@ pub fn compute_entry(
             // fine cells nest in intermediate cells: an odd multiple of `mid`
             let need = fine_intervals(n_stop, mid);
             let mut k = need.div_ceil(mid);
-            if k % 2 == 0 {
+            if k.is_multiple_of(2) {
                 k += 1;
             }
             let fine = PolarisedPhase::from_sphere(&sphere, mid * k, FINE_CELL_POINTS, false);
@@ -320,7 +320,10 @@ fn plan_job(p: MieParams) -> Result<MieJob, PlanError> {
         .map_err(|e| PlanError::invalid("wavelengths_nm", e.to_string()))?;
     let entries = match (&p.radii_um, &p.distributions) {
         (Some(r), None) => {
-            if r.is_empty() || r.windows(2).any(|w| w[1] <= w[0]) || r.iter().any(|v| !(*v > 0.0)) {
+            if r.is_empty()
+                || r.windows(2).any(|w| w[1] <= w[0])
+                || r.iter().any(|v| v.is_nan() || *v <= 0.0)
+            {
                 return Err(PlanError::invalid(
                     "radii_um",
                     "must be positive, non-empty and strictly increasing",
@@ -346,7 +349,11 @@ fn plan_job(p: MieParams) -> Result<MieJob, PlanError> {
         }
     };
     let ratio = 180.0 / p.angle_step_deg;
-    if !(p.angle_step_deg > 0.0) || (ratio - ratio.round()).abs() > 1e-6 || ratio.round() > 1e6 {
+    if p.angle_step_deg.is_nan()
+        || p.angle_step_deg <= 0.0
+        || (ratio - ratio.round()).abs() > 1e-6
+        || ratio.round() > 1e6
+    {
         return Err(PlanError::invalid(
             "angle_step_deg",
             "must be > 0 with 180/step an integer ≤ 1e6",
