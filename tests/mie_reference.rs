@@ -225,7 +225,8 @@ fn convergence_and_energy_beyond_scatrs() {
 
 /// Digest §5 (miepython, Table 3.2 index n = 1.331): 0.4 mm at 650 nm has Q_sca = 2.0077,
 /// g = 0.8837, and after a Gaussian of σ = 0.04° the perpendicular component peaks at 138.03°
-/// (primary) with supernumeraries at 138.91° and 139.53°, and the secondary near 128.9°.
+/// (primary) with supernumeraries at 138.91° and 139.53°, and the secondary near 128.9°;
+/// there p = 0.087 sr⁻¹ and DoLP = 0.92; Alexander's band (130–136°) has mean p 1.1e-3.
 #[test]
 fn digest_rainbow_maxima_0_4mm_650nm() {
     let x = scatterbake::mie::size_parameter(400.0, 650.0);
@@ -242,9 +243,11 @@ fn digest_rainbow_maxima_0_4mm_650nm() {
     );
     let step = 0.005;
     let angles: Vec<f64> = (0..=4000).map(|k| 120.0 + step * k as f64).collect();
-    let (s1, _) = s.amplitudes_deg(&angles);
+    let (s1, s2) = s.amplitudes_deg(&angles);
     let perp: Vec<f64> = s1.iter().map(|a| a.norm_sqr()).collect();
+    let par: Vec<f64> = s2.iter().map(|a| a.norm_sqr()).collect();
     let smooth = gaussian_blur_1d(&perp, step, 0.04);
+    let smooth_par = gaussian_blur_1d(&par, step, 0.04);
     let argmax = |lo: f64, hi: f64| -> f64 {
         let (mut best, mut at) = (f64::MIN, 0.0);
         for (a, v) in angles.iter().zip(&smooth) {
@@ -263,6 +266,23 @@ fn digest_rainbow_maxima_0_4mm_650nm() {
         "primary {primary:.3}°, supernumeraries {sup1:.3}°, {sup2:.3}°, secondary {secondary:.3}°"
     );
     assert!((primary - 138.03).abs() <= 0.02, "primary {primary}");
+    // digest: p_unpol at the main maximum 0.087 sr⁻¹, DoLP 0.92, Alexander band mean p 1.1e-3
+    let k = ((primary - 120.0) / step).round() as usize;
+    let norm = s.phase_normalisation();
+    let p_max = 0.5 * (smooth[k] + smooth_par[k]) / norm;
+    let dolp = (smooth[k] - smooth_par[k]) / (smooth[k] + smooth_par[k]);
+    let in_band: Vec<usize> = (0..angles.len())
+        .filter(|&i| (130.0..136.0).contains(&angles[i]))
+        .collect();
+    let band_p = in_band
+        .iter()
+        .map(|&i| 0.5 * (perp[i] + par[i]) / norm)
+        .sum::<f64>()
+        / in_band.len() as f64;
+    println!("p at max {p_max:.4} sr^-1, DoLP {dolp:.3}, Alexander band mean p {band_p:.2e}");
+    assert!((p_max - 0.087).abs() < 0.002, "p_max {p_max}");
+    assert!((dolp - 0.92).abs() < 0.01, "dolp {dolp}");
+    assert!((band_p - 1.1e-3).abs() < 0.1e-3, "band {band_p}");
     assert!((sup1 - 138.91).abs() <= 0.03 && (sup2 - 139.53).abs() <= 0.03);
     assert!((secondary - 128.9).abs() <= 0.3, "secondary {secondary}");
     // Descartes angle for n = 1.331 is 137.63°: the Mie maximum lies slightly beyond it, and

@@ -606,4 +606,26 @@ mod tests {
             );
         }
     }
+
+    /// A size distribution entry: normalised, and its ensemble Q_sca lies between the
+    /// single-sphere values at the ends of the support (weights n(r) dr · π r²).
+    #[test]
+    fn distribution_entry_is_normalised() {
+        let job = plan(
+            "distributions = [{ kind = \"gamma\", effective_radius_um = 3.0, effective_variance = 0.1 }]\nwavelengths_nm = [550.0]\nangle_step_deg = 0.5\nradius_points = 8",
+        )
+        .unwrap();
+        let chunk = job.run_task(0).unwrap();
+        let cells = crate::mie::filters::cell_solid_angles(360);
+        let e: f64 = chunk[..361 * 4]
+            .chunks(4)
+            .zip(&cells)
+            .map(|(c, w)| c[0] as f64 * w)
+            .sum();
+        assert!((e - 1.0).abs() < 1e-5, "integral {e}");
+        let q_sca = chunk[361 * 4 + 1] as f64;
+        assert!(q_sca > 1.8 && q_sca < 2.6, "Q_sca {q_sca}");
+        let g = chunk[361 * 4 + 3] as f64;
+        assert!(g > 0.7 && g < 0.9, "g {g}");
+    }
 }
