@@ -7,7 +7,7 @@
 //! cargo bench --bench mie
 //! ```
 
-use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
+use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 use num_complex::Complex64;
 use std::hint::black_box;
 

@@ -9,9 +9,9 @@
 //! Intensities are raw Bohren–Huffman `|S|²` (dimensionless); `phase` is normalised to
 //! `∫_{4π} p dΩ = 1` (1/sr).
 
-use super::{size_parameter, Sphere};
+use super::{Sphere, size_parameter};
 use crate::optics::water::WaterIndexModel;
-use anyhow::{bail, Context};
+use anyhow::{Context, bail};
 use num_complex::Complex64;
 use std::fmt::Write as _;
 use std::path::PathBuf;
@@ -86,8 +86,10 @@ impl MieQuery {
         };
         let n = match (args.n, wavelength) {
             (Some(n), _) => n,
-            (None, Some(l)) => WaterIndexModel::from_name(&args.water_index_model, Some(args.temperature_c))?
-                .index(l)?,
+            (None, Some(l)) => {
+                WaterIndexModel::from_name(&args.water_index_model, Some(args.temperature_c))?
+                    .index(l)?
+            }
             (None, None) => bail!("--x needs --n (no wavelength to evaluate the water index)"),
         };
         let m = Complex64::new(n, args.k);
@@ -102,10 +104,12 @@ impl MieQuery {
             None => {
                 let step = args.angles_step_deg;
                 let count = 180.0 / step;
-                if !(step > 0.0) || (count - count.round()).abs() > 1e-6 {
+                if step.is_nan() || step <= 0.0 || (count - count.round()).abs() > 1e-6 {
                     bail!("--angles-step-deg must divide 180");
                 }
-                (0..=count.round() as usize).map(|i| i as f64 * step).collect()
+                (0..=count.round() as usize)
+                    .map(|i| i as f64 * step)
+                    .collect()
             }
         };
         let (s1, s2) = sphere.amplitudes_deg(&angles_deg);
@@ -142,10 +146,29 @@ impl MieQuery {
     pub fn to_table(&self) -> String {
         let e = self.sphere.efficiencies;
         let mut s = String::new();
-        let _ = writeln!(s, "# Lorenz-Mie (Bohren & Huffman conventions), x = {}, m = {} + {}i", self.x, self.m.re, self.m.im);
-        let _ = writeln!(s, "# Q_ext = {:.10}  Q_sca = {:.10}  Q_back = {:.10}  g = {:.10}  n_stop = {}", e.q_ext, e.q_sca, e.q_back, e.g, self.sphere.coefficients.n_stop());
-        let _ = writeln!(s, "# i_perp = |S1|^2, i_par = |S2|^2, unpolarised = (i_perp + i_par)/2 (dimensionless)");
-        let _ = writeln!(s, "# {:>10} {:>20} {:>20} {:>20}", "angle", "i_perp", "i_par", "unpolarised");
+        let _ = writeln!(
+            s,
+            "# Lorenz-Mie (Bohren & Huffman conventions), x = {}, m = {} + {}i",
+            self.x, self.m.re, self.m.im
+        );
+        let _ = writeln!(
+            s,
+            "# Q_ext = {:.10}  Q_sca = {:.10}  Q_back = {:.10}  g = {:.10}  n_stop = {}",
+            e.q_ext,
+            e.q_sca,
+            e.q_back,
+            e.g,
+            self.sphere.coefficients.n_stop()
+        );
+        let _ = writeln!(
+            s,
+            "# i_perp = |S1|^2, i_par = |S2|^2, unpolarised = (i_perp + i_par)/2 (dimensionless)"
+        );
+        let _ = writeln!(
+            s,
+            "# {:>10} {:>20} {:>20} {:>20}",
+            "angle", "i_perp", "i_par", "unpolarised"
+        );
         for (t, a, b, u, _, _) in self.rows() {
             let _ = writeln!(s, "{t:>12.4} {a:>20.10e} {b:>20.10e} {u:>20.10e}");
         }
@@ -203,7 +226,15 @@ mod tests {
         let j = q.to_json();
         assert!((j["qsca"].as_f64().unwrap() - 3.10547).abs() < 1e-5);
         assert_eq!(j["angles_deg"].as_array().unwrap().len(), 2);
-        let cli = Cli::parse_from(["t", "--radius-um", "10", "--wavelength-nm", "550", "--angles-step-deg", "45"]);
+        let cli = Cli::parse_from([
+            "t",
+            "--radius-um",
+            "10",
+            "--wavelength-nm",
+            "550",
+            "--angles-step-deg",
+            "45",
+        ]);
         let q = MieQuery::solve(&cli.args).unwrap();
         assert_eq!(q.angles_deg, vec![0.0, 45.0, 90.0, 135.0, 180.0]);
         assert!((q.m.re - 1.3352).abs() < 2e-3);

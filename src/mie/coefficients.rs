@@ -20,8 +20,8 @@
 //! - `g = (4/(x² Q_sca)) Σ [n(n+2)/(n+1) Re(a_n a*_{n+1} + b_n b*_{n+1})
 //!   + (2n+1)/(n(n+1)) Re(a_n b*_n)]`.
 
-use super::riccati::{log_derivative_complex, n_stop_default, RiccatiBessel};
-use super::{check_domain, MieError};
+use super::riccati::{RiccatiBessel, log_derivative_complex, n_stop_default};
+use super::{MieError, check_domain};
 use num_complex::Complex64;
 
 /// Mie coefficients of one sphere.
@@ -61,7 +61,11 @@ impl MieCoefficients {
     /// index `m`, refusing inputs outside [`super::VALIDATED_DOMAIN`].
     pub fn new(size_parameter: f64, m: Complex64) -> Result<Self, MieError> {
         check_domain(size_parameter, m)?;
-        Ok(Self::with_order(size_parameter, m, n_stop_default(size_parameter)))
+        Ok(Self::with_order(
+            size_parameter,
+            m,
+            n_stop_default(size_parameter),
+        ))
     }
 
     /// As [`MieCoefficients::new`] with an explicit truncation order `n_stop` and no domain check
@@ -75,6 +79,7 @@ impl MieCoefficients {
         let mut q_abs = 0.0;
         let inv_x = 1.0 / x;
         let inv_m = 1.0 / m;
+        #[allow(clippy::needless_range_loop)] // n indexes several arrays and is the order
         for n in 1..=n_stop {
             let nx = n as f64 * inv_x;
             let psi = rb.psi[n];
@@ -89,8 +94,8 @@ impl MieCoefficients {
             let bn = (m_d - dxn) * psi / den_b;
             a.push(an);
             b.push(bn);
-            q_abs -= (2 * n + 1) as f64
-                * (d_over_m.im / den_a.norm_sqr() + m_d.im / den_b.norm_sqr());
+            q_abs -=
+                (2 * n + 1) as f64 * (d_over_m.im / den_a.norm_sqr() + m_d.im / den_b.norm_sqr());
         }
         q_abs *= 2.0 * inv_x * inv_x;
         MieCoefficients {
@@ -128,7 +133,11 @@ impl MieCoefficients {
             }
         }
         let q_sca = 2.0 * sca / x2;
-        let g = if q_sca > 0.0 { 4.0 * g / (x2 * q_sca) } else { 0.0 };
+        let g = if q_sca > 0.0 {
+            4.0 * g / (x2 * q_sca)
+        } else {
+            0.0
+        };
         Efficiencies {
             q_ext: q_sca + self.q_abs,
             q_sca,
@@ -151,8 +160,16 @@ mod tests {
     fn bohren_huffman_test_case() {
         let c = MieCoefficients::new(5.2128, Complex64::new(1.55, 0.0)).unwrap();
         let e = c.efficiencies();
-        assert!(((e.q_sca - 3.10543) / 3.10543).abs() < 5e-5, "Q_sca = {}", e.q_sca);
-        assert!(((e.q_back - 2.92534) / 2.92534).abs() < 5e-5, "Q_back = {}", e.q_back);
+        assert!(
+            ((e.q_sca - 3.10543) / 3.10543).abs() < 5e-5,
+            "Q_sca = {}",
+            e.q_sca
+        );
+        assert!(
+            ((e.q_back - 2.92534) / 2.92534).abs() < 5e-5,
+            "Q_back = {}",
+            e.q_back
+        );
         assert_eq!(e.q_abs, 0.0);
         assert!((e.q_ext - e.q_ext_series).abs() < 1e-13);
     }
@@ -162,11 +179,19 @@ mod tests {
     #[test]
     fn rayleigh_limit() {
         let x = 1e-3;
-        for m in [Complex64::new(1.333, 0.0), Complex64::new(1.5, 0.1), Complex64::new(2.0, 1.0)] {
+        for m in [
+            Complex64::new(1.333, 0.0),
+            Complex64::new(1.5, 0.1),
+            Complex64::new(2.0, 1.0),
+        ] {
             let e = MieCoefficients::new(x, m).unwrap().efficiencies();
             let pol = (m * m - 1.0) / (m * m + 2.0);
             let q_sca = 8.0 / 3.0 * x.powi(4) * pol.norm_sqr();
-            assert!(((e.q_sca - q_sca) / q_sca).abs() < 1e-5, "m={m} {} vs {q_sca}", e.q_sca);
+            assert!(
+                ((e.q_sca - q_sca) / q_sca).abs() < 1e-5,
+                "m={m} {} vs {q_sca}",
+                e.q_sca
+            );
             let q_abs = 4.0 * x * pol.im;
             if q_abs > 0.0 {
                 assert!(((e.q_abs - q_abs) / q_abs).abs() < 1e-5);

@@ -63,7 +63,9 @@ impl SizeDistribution {
             } => {
                 positive(median_radius_um, "median_radius_um")?;
                 if !(geometric_sigma > 1.0 && geometric_sigma < 5.0) {
-                    return Err(format!("geometric_sigma must be in (1, 5), got {geometric_sigma}"));
+                    return Err(format!(
+                        "geometric_sigma must be in (1, 5), got {geometric_sigma}"
+                    ));
                 }
                 Ok(())
             }
@@ -86,7 +88,7 @@ impl SizeDistribution {
             } => {
                 positive(rain_rate_mm_h, "rain_rate_mm_h")?;
                 positive(min_radius_um, "min_radius_um")?;
-                if !(max_radius_um > min_radius_um) {
+                if max_radius_um.is_nan() || max_radius_um <= min_radius_um {
                     return Err("max_radius_um must exceed min_radius_um".into());
                 }
                 Ok(())

@@ -9,6 +9,7 @@
 //! convolution to the accuracy stated on [`sun_disc`].
 
 use super::Sphere;
+use rayon::prelude::*;
 use std::f64::consts::PI;
 
 /// Normalised polarised phase function on a uniform grid over `[0°, 180°]`.
@@ -235,10 +236,54 @@ fn arc_half_angle(cos_rho: f64, (sin_s, cos_s): (f64, f64), t: f64) -> f64 {
 /// discrete one conserves a constant to ~1e-12 and `Σ ΔΩ p` to the figures measured in the
 /// tests. Use it on a grid with step ≤ ρ/20 (e.g. after [`resample_bins`] to 0.01°).
 pub fn sun_disc(curve: &PolarisedPhase, diameter_deg: f64) -> PolarisedPhase {
-    if diameter_deg <= 0.0 {
-        return curve.clone();
+    SunDiscOperator::new(curve.intervals(), diameter_deg).apply(curve)
+}
+
+/// The linear operator of [`sun_disc`] on a grid of `intervals` cells, built once and
+/// applied to many curves (it depends only on the grid and the disc diameter).
+#[derive(Debug, Clone)]
+pub struct SunDiscOperator {
+    intervals: usize,
+    diameter_deg: f64,
+    /// Per target cell: first source index and weights.
+    rows: Vec<(usize, Vec<f64>)>,
+}
+
+impl SunDiscOperator {
+    /// Builds the operator (rows in parallel with rayon).
+    pub fn new(intervals: usize, diameter_deg: f64) -> Self {
+        if diameter_deg <= 0.0 {
+            return SunDiscOperator {
+                intervals,
+                diameter_deg,
+                rows: Vec::new(),
+            };
+        }
+        let rows = sun_disc_rows(intervals, diameter_deg);
+        SunDiscOperator {
+            intervals,
+            diameter_deg,
+            rows,
+        }
     }
-    let m = curve.intervals();
+
+    /// Applies the operator to both polarisation channels.
+    pub fn apply(&self, curve: &PolarisedPhase) -> PolarisedPhase {
+        if self.diameter_deg <= 0.0 {
+            return curve.clone();
+        }
+        assert_eq!(curve.intervals(), self.intervals, "grid mismatch");
+        let f = |v: &[f64]| -> Vec<f64> {
+            self.rows
+                .iter()
+                .map(|(j0, w)| w.iter().zip(&v[*j0..]).map(|(a, b)| a * b).sum())
+                .collect()
+        };
+        curve.map_channels(self.intervals, f)
+    }
+}
+
+fn sun_disc_rows(m: usize, diameter_deg: f64) -> Vec<(usize, Vec<f64>)> {
     let d = PI / m as f64;
     let rho = 0.5 * diameter_deg.to_radians();
     let cos_rho = rho.cos();
@@ -246,8 +291,7 @@ pub fn sun_disc(curve: &PolarisedPhase, diameter_deg: f64) -> PolarisedPhase {
     let (gx, gw) = crate::optics::quadrature::gauss_legendre(SUN_POINTS);
     let inv_disc = 1.0 / (2.0 * PI * (1.0 - cos_rho));
     // ∫_a^b 2 φ_0(s, t) sin t dt on a piece whose ends may carry a square-root singularity of
-    // φ_0: the substitution t = a + (b − a)(3u² − 2u³)... is replaced by splitting at the
-    // middle and using t = e ± h v² from each end, which makes the integrand smooth.
+    // φ_0: split at the middle and use t = e ± h v² from each end (smooth integrand in v).
     let piece = |s: (f64, f64), a: f64, b: f64| -> f64 {
         let mid = 0.5 * (a + b);
         let mut acc = 0.0;
@@ -279,7 +323,8 @@ pub fn sun_disc(curve: &PolarisedPhase, diameter_deg: f64) -> PolarisedPhase {
     // one is split at the kinks of φ_0.
     let (rx, rw) = crate::optics::quadrature::gauss_legendre(ROW_POINTS);
     let cells = cell_solid_angles(m);
-    let rows: Vec<(usize, Vec<f64>)> = (0..=m)
+    (0..=m)
+        .into_par_iter()
         .map(|i| {
             let j0 = i.saturating_sub(reach);
             let j1 = (i + reach).min(m);
@@ -316,13 +361,7 @@ pub fn sun_disc(curve: &PolarisedPhase, diameter_deg: f64) -> PolarisedPhase {
             }
             (j0, w)
         })
-        .collect();
-    let f = |v: &[f64]| -> Vec<f64> {
-        rows.iter()
-            .map(|(j0, w)| w.iter().zip(&v[*j0..]).map(|(a, b)| a * b).sum())
-            .collect()
-    };
-    curve.map_channels(m, f)
+        .collect()
 }
 
 /// 1-D Gaussian blur in θ with standard deviation `sigma_deg` (truncated at 5σ, rows
@@ -407,11 +446,18 @@ mod tests {
         let e0 = c.integral();
         let s = sun_disc(&c, 0.5);
         let e1 = s.integral();
-        assert!(((e1 - e0) / e0).abs() < 2e-6, "sun disc energy {e0} -> {e1}");
+        assert!(
+            ((e1 - e0) / e0).abs() < 2e-6,
+            "sun disc energy {e0} -> {e1}"
+        );
         let mut k = PolarisedPhase::zeros(18000);
         k.i_perp.iter_mut().for_each(|v| *v = 1.0);
         let ks = sun_disc(&k, 0.5);
-        let worst = ks.i_perp.iter().map(|v| (v - 1.0).abs()).fold(0.0, f64::max);
+        let worst = ks
+            .i_perp
+            .iter()
+            .map(|v| (v - 1.0).abs())
+            .fold(0.0, f64::max);
         assert!(worst < 1e-6, "constant not preserved: {worst}");
     }
 
@@ -427,7 +473,11 @@ mod tests {
         let rho = 0.25f64.to_radians();
         let s = sun_disc(&k, 0.5);
         let expected = 1.0 + 0.5 * (1.0 + rho.cos());
-        assert!((s.i_perp[0] - expected).abs() < 1e-7, "{} vs {expected}", s.i_perp[0]);
+        assert!(
+            (s.i_perp[0] - expected).abs() < 1e-7,
+            "{} vs {expected}",
+            s.i_perp[0]
+        );
         // Away from the pole, a linear function of cos θ is mapped to cos ρ-scaled copy:
         // the disc mean of cos θ' is cos θ · (1 + cos ρ)/2.
         let j = 6000;

@@ -26,7 +26,7 @@ pub mod filters;
 pub mod riccati;
 pub mod stage;
 
-pub use angular::{amplitudes, amplitudes_mirrored, AngularSeries, MirroredAmplitudes};
+pub use angular::{AngularSeries, MirroredAmplitudes, amplitudes, amplitudes_mirrored};
 pub use coefficients::{Efficiencies, MieCoefficients};
 
 use num_complex::Complex64;
@@ -59,9 +59,7 @@ pub const VALIDATED_DOMAIN: ValidatedDomain = ValidatedDomain {
 /// Errors of the Mie module.
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum MieError {
-    #[error(
-        "size parameter x = {0} is outside the validated domain [1e-3, 1e5] of the Mie module"
-    )]
+    #[error("size parameter x = {0} is outside the validated domain [1e-3, 1e5] of the Mie module")]
     SizeParameterOutOfDomain(f64),
     #[error(
         "refractive index m = {re} + {im}i is outside the validated domain (1.05 <= Re m <= 2.5, 0 <= Im m <= 1)"
@@ -187,7 +185,11 @@ mod tests {
     /// Optical theorem: Q_ext = (4/x²) Re S(0°), with Q_ext from Q_sca + Q_abs.
     #[test]
     fn optical_theorem() {
-        for (x, m) in [(0.5, Complex64::new(1.5, 0.0)), (30.0, Complex64::new(1.33, 0.05)), (800.0, Complex64::new(1.333, 0.0))] {
+        for (x, m) in [
+            (0.5, Complex64::new(1.5, 0.0)),
+            (30.0, Complex64::new(1.33, 0.05)),
+            (800.0, Complex64::new(1.333, 0.0)),
+        ] {
             let s = Sphere::new(x, m).unwrap();
             let (s1, s2) = s.amplitudes_deg(&[0.0]);
             let q = 4.0 / (x * x) * s1[0].re;

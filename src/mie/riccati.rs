@@ -95,6 +95,25 @@ pub fn log_derivative_real(x: f64, n_max: usize, out: &mut Vec<f64>) {
     }
 }
 
+/// Fills `out[0..=n_max]` with the log-derivative of the outgoing Riccati–Hankel function,
+/// `G_n(z) = ξ_n'(z)/ξ_n(z)`, `ξ_n = ψ_n − iχ_n = z h_n^{(1)}(z)`, for complex `z` with
+/// `Im z ≥ 0`, by the upward recurrence `G_n = −n/z + 1/(n/z − G_{n−1})` from `G_0 = i`
+/// (`ξ_0 = −i e^{iz}`). Upward is the stable direction for `ξ` (dominant for `n > |z|`). For
+/// Debye-series work (reflection/transmission coefficients need `D_n` and `G_n` at `x` and
+/// `mx`).
+pub fn log_derivative_xi_complex(z: Complex64, n_max: usize, out: &mut Vec<Complex64>) {
+    out.clear();
+    out.reserve(n_max + 1);
+    let inv_z = 1.0 / z;
+    let mut g = Complex64::new(0.0, 1.0);
+    out.push(g);
+    for n in 1..=n_max {
+        let nz = inv_z * n as f64;
+        g = -nz + 1.0 / (nz - g);
+        out.push(g);
+    }
+}
+
 /// Riccati–Bessel functions of a real argument for orders `0..=n_max`.
 #[derive(Debug, Clone, Default)]
 pub struct RiccatiBessel {
@@ -146,12 +165,20 @@ impl RiccatiBessel {
 
     /// `ψ_{n−1}` for `n ≥ 0` (`ψ_{−1} = cos x`).
     pub fn psi_prev(&self, n: usize) -> f64 {
-        if n == 0 { self.x.cos() } else { self.psi[n - 1] }
+        if n == 0 {
+            self.x.cos()
+        } else {
+            self.psi[n - 1]
+        }
     }
 
     /// `χ_{n−1}` for `n ≥ 0` (`χ_{−1} = −sin x`).
     pub fn chi_prev(&self, n: usize) -> f64 {
-        if n == 0 { -self.x.sin() } else { self.chi[n - 1] }
+        if n == 0 {
+            -self.x.sin()
+        } else {
+            self.chi[n - 1]
+        }
     }
 }
 
@@ -193,6 +220,26 @@ mod tests {
         for n in [1, 100, 2500, 4999, 5000, n_max] {
             let w = rb.psi_prev(n) * rb.chi[n] - rb.psi[n] * rb.chi_prev(n);
             assert!((w - 1.0).abs() < 1e-9, "n={n} w={w}");
+        }
+    }
+
+    /// G_n(x) = ξ_n'/ξ_n from the complex upward recurrence equals ξ_{n−1}/ξ_n − n/x from the
+    /// real-argument ψ/χ at real x, including n well beyond x.
+    #[test]
+    fn xi_log_derivative_matches_real_functions() {
+        let x = 250.0;
+        let n_max = 320;
+        let rb = RiccatiBessel::new(x, n_max);
+        let mut g = Vec::new();
+        log_derivative_xi_complex(Complex64::new(x, 0.0), n_max, &mut g);
+        for n in [1, 10, 200, 249, 260, 320] {
+            let xi = rb.xi(n);
+            let xi_prev = Complex64::new(rb.psi_prev(n), -rb.chi_prev(n));
+            let expect = xi_prev / xi - n as f64 / x;
+            assert!(
+                (g[n] - expect).norm() < 1e-10 * expect.norm().max(1.0),
+                "n={n}"
+            );
         }
     }
 

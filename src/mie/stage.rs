@@ -6,11 +6,11 @@
 
 use super::distributions::SizeDistribution;
 use super::filters::{
-    fine_intervals, gaussian_blur, resample_bins, sun_disc, PolarisedPhase, FINE_CELL_POINTS,
+    FINE_CELL_POINTS, PolarisedPhase, SunDiscOperator, fine_intervals, gaussian_blur, resample_bins,
 };
-use super::{size_parameter, Sphere};
-use crate::optics::water::{WaterIndexModel, SADEGHI_WAVELENGTHS_NM};
-use crate::stage::{parse_params, Job, ParamDoc, PlanError, Stage, TaskSpec};
+use super::{Sphere, size_parameter};
+use crate::optics::water::{SADEGHI_WAVELENGTHS_NM, WaterIndexModel};
+use crate::stage::{Job, ParamDoc, PlanError, Stage, TaskSpec, parse_params};
 use crate::table::{Axis, Channel, Schema, TableContent};
 use num_complex::Complex64;
 use rayon::prelude::*;
@@ -73,15 +73,60 @@ fn default_radius_points() -> usize {
 }
 
 const PARAMS: &[ParamDoc] = &[
-    ParamDoc { name: "wavelengths_nm", kind: "list of float, nm", default: "33 samples 380–700 nm", description: "vacuum wavelengths" },
-    ParamDoc { name: "radii_um", kind: "list of float, µm", default: "required unless distributions", description: "monodisperse drop radii, strictly increasing" },
-    ParamDoc { name: "distributions", kind: "list of tables", default: "required unless radii_um", description: "size distributions: kind = lognormal {median_radius_um, geometric_sigma} | gamma {effective_radius_um, effective_variance} | marshall-palmer {rain_rate_mm_h, min_radius_um=50, max_radius_um=3000} | monodisperse {radius_um}" },
-    ParamDoc { name: "water_index_model", kind: "string", default: "iapws1997", description: "iapws1997 | sadeghi-table-3.2" },
-    ParamDoc { name: "temperature_c", kind: "float, °C", default: "20", description: "water temperature (iapws1997)" },
-    ParamDoc { name: "angle_step_deg", kind: "float, deg", default: "0.05", description: "output bin width; 180/step integer; values are bin averages" },
-    ParamDoc { name: "sun_diameter_deg", kind: "float, deg", default: "0.5", description: "uniform solar disc convolution (0 = off)" },
-    ParamDoc { name: "gaussian_sigma_deg", kind: "float, deg", default: "0", description: "optional extra Gaussian blur in angle" },
-    ParamDoc { name: "radius_points", kind: "integer", default: "24", description: "Gauss–Legendre nodes in ln r per distribution" },
+    ParamDoc {
+        name: "wavelengths_nm",
+        kind: "list of float, nm",
+        default: "33 samples 380–700 nm",
+        description: "vacuum wavelengths",
+    },
+    ParamDoc {
+        name: "radii_um",
+        kind: "list of float, µm",
+        default: "required unless distributions",
+        description: "monodisperse drop radii, strictly increasing",
+    },
+    ParamDoc {
+        name: "distributions",
+        kind: "list of tables",
+        default: "required unless radii_um",
+        description: "size distributions: kind = lognormal {median_radius_um, geometric_sigma} | gamma {effective_radius_um, effective_variance} | marshall-palmer {rain_rate_mm_h, min_radius_um=50, max_radius_um=3000} | monodisperse {radius_um}",
+    },
+    ParamDoc {
+        name: "water_index_model",
+        kind: "string",
+        default: "iapws1997",
+        description: "iapws1997 | sadeghi-table-3.2",
+    },
+    ParamDoc {
+        name: "temperature_c",
+        kind: "float, °C",
+        default: "20",
+        description: "water temperature (iapws1997)",
+    },
+    ParamDoc {
+        name: "angle_step_deg",
+        kind: "float, deg",
+        default: "0.05",
+        description: "output bin width; 180/step integer; values are bin averages",
+    },
+    ParamDoc {
+        name: "sun_diameter_deg",
+        kind: "float, deg",
+        default: "0.5",
+        description: "uniform solar disc convolution (0 = off)",
+    },
+    ParamDoc {
+        name: "gaussian_sigma_deg",
+        kind: "float, deg",
+        default: "0",
+        description: "optional extra Gaussian blur in angle",
+    },
+    ParamDoc {
+        name: "radius_points",
+        kind: "integer",
+        default: "24",
+        description: "Gauss–Legendre nodes in ln r per distribution",
+    },
 ];
 
 /// Number of scalar values appended to each task chunk: Q_ext, Q_sca, Q_back, g.
@@ -149,22 +194,28 @@ impl FilterSettings {
             limit = limit.min(self.gaussian_sigma_deg / 4.0);
         }
         let mut k = (step / limit - 1e-9).ceil().max(1.0) as usize;
-        if k % 2 == 0 {
+        if k.is_multiple_of(2) {
             k += 1;
         }
         self.output_intervals * k
+    }
+
+    /// The sun-disc operator on the intermediate grid (build once per job, share across tasks).
+    pub fn sun_operator(&self) -> SunDiscOperator {
+        SunDiscOperator::new(self.intermediate_intervals(), self.sun_diameter_deg)
     }
 }
 
 /// Computes one table entry (pure): every radius of the distribution's quadrature on its own
 /// fine grid of cell averages, resampled to the intermediate grid, mixed with weights
 /// `n(r) dr · C_sca(r)`, convolved with the sun's disc, optionally blurred, and integrated
-/// over the output bins.
+/// over the output bins. `sun` must be [`FilterSettings::sun_operator`] of `settings`.
 pub fn compute_entry(
     distribution: &SizeDistribution,
     wavelength_nm: f64,
     m: Complex64,
     settings: &FilterSettings,
+    sun: &SunDiscOperator,
 ) -> Result<EntryResult, super::MieError> {
     let (radii, weights) = distribution.quadrature(settings.radius_points);
     let mid = settings.intermediate_intervals();
@@ -178,14 +229,23 @@ pub fn compute_entry(
             // fine cells nest in intermediate cells: an odd multiple of `mid`
             let need = fine_intervals(n_stop, mid);
             let mut k = need.div_ceil(mid);
-            if k % 2 == 0 {
+            if k.is_multiple_of(2) {
                 k += 1;
             }
             let fine = PolarisedPhase::from_sphere(&sphere, mid * k, FINE_CELL_POINTS, false);
             let curve = resample_bins(&fine, mid);
             let e = sphere.efficiencies;
             let area = std::f64::consts::PI * r * r;
-            Ok((curve, [w * area, w * area * e.q_ext, w * area * e.q_sca, w * area * e.q_back, w * area * e.q_sca * e.g]))
+            Ok((
+                curve,
+                [
+                    w * area,
+                    w * area * e.q_ext,
+                    w * area * e.q_sca,
+                    w * area * e.q_back,
+                    w * area * e.q_sca * e.g,
+                ],
+            ))
         })
         .collect();
     let mut mix = PolarisedPhase::zeros(mid);
@@ -203,7 +263,7 @@ pub fn compute_entry(
     for (curve, c_sca) in &parts {
         mix.add_scaled(curve, c_sca / total_sca);
     }
-    let mix = sun_disc(&mix, settings.sun_diameter_deg);
+    let mix = sun.apply(&mix);
     let mix = gaussian_blur(&mix, settings.gaussian_sigma_deg);
     let curve = resample_bins(&mix, settings.output_intervals);
     Ok(EntryResult {
@@ -221,6 +281,7 @@ struct MieJob {
     entries: Entries,
     indices: Vec<f64>,
     settings: FilterSettings,
+    sun: std::sync::OnceLock<SunDiscOperator>,
 }
 
 impl Stage for MieStage {
@@ -244,7 +305,10 @@ impl Stage for MieStage {
 
 fn plan_job(p: MieParams) -> Result<MieJob, PlanError> {
     if p.wavelengths_nm.is_empty() || p.wavelengths_nm.windows(2).any(|w| w[1] <= w[0]) {
-        return Err(PlanError::invalid("wavelengths_nm", "must be non-empty and strictly increasing"));
+        return Err(PlanError::invalid(
+            "wavelengths_nm",
+            "must be non-empty and strictly increasing",
+        ));
     }
     let model = WaterIndexModel::from_name(&p.water_index_model, Some(p.temperature_c))
         .map_err(|e| PlanError::invalid("water_index_model", e.to_string()))?;
@@ -256,8 +320,14 @@ fn plan_job(p: MieParams) -> Result<MieJob, PlanError> {
         .map_err(|e| PlanError::invalid("wavelengths_nm", e.to_string()))?;
     let entries = match (&p.radii_um, &p.distributions) {
         (Some(r), None) => {
-            if r.is_empty() || r.windows(2).any(|w| w[1] <= w[0]) || r.iter().any(|v| !(*v > 0.0)) {
-                return Err(PlanError::invalid("radii_um", "must be positive, non-empty and strictly increasing"));
+            if r.is_empty()
+                || r.windows(2).any(|w| w[1] <= w[0])
+                || r.iter().any(|v| v.is_nan() || *v <= 0.0)
+            {
+                return Err(PlanError::invalid(
+                    "radii_um",
+                    "must be positive, non-empty and strictly increasing",
+                ));
             }
             Entries::Radii(r.clone())
         }
@@ -272,18 +342,34 @@ fn plan_job(p: MieParams) -> Result<MieJob, PlanError> {
             Entries::Distributions(d.clone())
         }
         _ => {
-            return Err(PlanError::invalid("radii_um", "give exactly one of `radii_um` and `distributions`"));
+            return Err(PlanError::invalid(
+                "radii_um",
+                "give exactly one of `radii_um` and `distributions`",
+            ));
         }
     };
     let ratio = 180.0 / p.angle_step_deg;
-    if !(p.angle_step_deg > 0.0) || (ratio - ratio.round()).abs() > 1e-6 || ratio.round() > 1e6 {
-        return Err(PlanError::invalid("angle_step_deg", "must be > 0 with 180/step an integer ≤ 1e6"));
+    if p.angle_step_deg.is_nan()
+        || p.angle_step_deg <= 0.0
+        || (ratio - ratio.round()).abs() > 1e-6
+        || ratio.round() > 1e6
+    {
+        return Err(PlanError::invalid(
+            "angle_step_deg",
+            "must be > 0 with 180/step an integer ≤ 1e6",
+        ));
     }
     if !(0.0..=5.0).contains(&p.sun_diameter_deg) {
-        return Err(PlanError::invalid("sun_diameter_deg", "must be within 0–5 deg"));
+        return Err(PlanError::invalid(
+            "sun_diameter_deg",
+            "must be within 0–5 deg",
+        ));
     }
     if !(0.0..=10.0).contains(&p.gaussian_sigma_deg) {
-        return Err(PlanError::invalid("gaussian_sigma_deg", "must be within 0–10 deg"));
+        return Err(PlanError::invalid(
+            "gaussian_sigma_deg",
+            "must be within 0–10 deg",
+        ));
     }
     if !(4..=512).contains(&p.radius_points) {
         return Err(PlanError::invalid("radius_points", "must be within 4–512"));
@@ -296,7 +382,11 @@ fn plan_job(p: MieParams) -> Result<MieJob, PlanError> {
                 let x = size_parameter(r, *l);
                 super::check_domain(x, Complex64::new(*n, 0.0)).map_err(|err| {
                     PlanError::invalid(
-                        if p.radii_um.is_some() { "radii_um" } else { "distributions" },
+                        if p.radii_um.is_some() {
+                            "radii_um"
+                        } else {
+                            "distributions"
+                        },
                         format!("radius {r} µm at {l} nm: {err}"),
                     )
                 })?;
@@ -315,6 +405,7 @@ fn plan_job(p: MieParams) -> Result<MieJob, PlanError> {
         entries,
         indices,
         settings,
+        sun: std::sync::OnceLock::new(),
     })
 }
 
@@ -322,9 +413,11 @@ impl MieJob {
     fn entry_axis(&self) -> Axis {
         match &self.entries {
             Entries::Radii(r) => Axis::values("radius", "um", r.clone()),
-            Entries::Distributions(d) => {
-                Axis::values("distribution", "1", (0..d.len()).map(|i| i as f64).collect())
-            }
+            Entries::Distributions(d) => Axis::values(
+                "distribution",
+                "1",
+                (0..d.len()).map(|i| i as f64).collect(),
+            ),
         }
     }
 }
@@ -350,11 +443,23 @@ impl Job for MieJob {
         let e = index % self.entries.len();
         let w = index / self.entries.len();
         let m = Complex64::new(self.indices[w], 0.0);
-        let r = compute_entry(&self.entries.distribution(e), self.p.wavelengths_nm[w], m, &self.settings)?;
+        let sun = self.sun.get_or_init(|| self.settings.sun_operator());
+        let r = compute_entry(
+            &self.entries.distribution(e),
+            self.p.wavelengths_nm[w],
+            m,
+            &self.settings,
+            sun,
+        )?;
         let (phase, dolp) = (r.curve.phase(), r.curve.dolp());
         let mut out = Vec::with_capacity(phase.len() * 4 + TAIL);
         for j in 0..phase.len() {
-            out.extend([phase[j] as f32, r.curve.i_perp[j] as f32, r.curve.i_par[j] as f32, dolp[j] as f32]);
+            out.extend([
+                phase[j] as f32,
+                r.curve.i_perp[j] as f32,
+                r.curve.i_par[j] as f32,
+                dolp[j] as f32,
+            ]);
         }
         out.extend([r.q_ext as f32, r.q_sca as f32, r.q_back as f32, r.g as f32]);
         Ok(out)
@@ -363,11 +468,19 @@ impl Job for MieJob {
         let n_e = self.entries.len();
         let n_a = self.settings.output_intervals + 1;
         let per = n_a * CHANNELS.len();
-        anyhow::ensure!(chunks.len() == self.p.wavelengths_nm.len() * n_e, "wrong number of chunks");
+        anyhow::ensure!(
+            chunks.len() == self.p.wavelengths_nm.len() * n_e,
+            "wrong number of chunks"
+        );
         let mut data = Vec::with_capacity(chunks.len() * per);
         let mut scalars: [Vec<Vec<f64>>; 4] = Default::default();
         for (i, c) in chunks.iter().enumerate() {
-            anyhow::ensure!(c.len() == per + TAIL, "chunk {i} has {} values, expected {}", c.len(), per + TAIL);
+            anyhow::ensure!(
+                c.len() == per + TAIL,
+                "chunk {i} has {} values, expected {}",
+                c.len(),
+                per + TAIL
+            );
             data.extend_from_slice(&c[..per]);
             if i % n_e == 0 {
                 scalars.iter_mut().for_each(|s| s.push(Vec::new()));
@@ -379,16 +492,28 @@ impl Job for MieJob {
         let mut a = serde_json::Map::new();
         let s = |v: &str| serde_json::Value::from(v);
         a.insert("normalization".into(), s("integral over 4pi sr equals 1"));
-        a.insert("angle_convention".into(), s("scattering angle, 0 deg forward"));
+        a.insert(
+            "angle_convention".into(),
+            s("scattering angle, 0 deg forward"),
+        );
         a.insert("water_index_model".into(), s(self.model.name()));
         if let WaterIndexModel::Iapws1997 { temperature_c } = self.model {
             a.insert("temperature_c".into(), temperature_c.into());
         }
         a.insert("refractive_index_real".into(), self.indices.clone().into());
         a.insert("medium".into(), s("water drops in air (outside index 1.0)"));
-        a.insert("sun_disc_diameter_deg".into(), self.p.sun_diameter_deg.into());
-        a.insert("sun_disc_model".into(), s("uniform disc (no limb darkening), exact 2-D average on the sphere"));
-        a.insert("gaussian_sigma_deg".into(), self.p.gaussian_sigma_deg.into());
+        a.insert(
+            "sun_disc_diameter_deg".into(),
+            self.p.sun_diameter_deg.into(),
+        );
+        a.insert(
+            "sun_disc_model".into(),
+            s("uniform disc (no limb darkening), exact 2-D average on the sphere"),
+        );
+        a.insert(
+            "gaussian_sigma_deg".into(),
+            self.p.gaussian_sigma_deg.into(),
+        );
         a.insert("angular_resampling".into(), s("each value is the solid-angle average over its bin [theta - step/2, theta + step/2] (clipped at 0 and 180 deg) of the single-sphere curve, computed as cell averages with 6 Gauss points per cell of at most 180/n_stop deg; no point sampling"));
         a.insert("validated_domain".into(), s("1e-3 <= x <= 1e5, 1.05 <= Re m <= 2.5, 0 <= Im m <= 1; s11 vs arbitrary-precision references <= 1e-8 relative (see docs/mie.md)"));
         a.insert("conventions".into(), s("Bohren & Huffman: exp(-i omega t), m = n + ik; i_perp = |S1|^2, i_par = |S2|^2 over (pi x^2 Q_sca); phase = (i_perp + i_par)/2; dolp = (i_perp - i_par)/(i_perp + i_par)"));
@@ -410,9 +535,21 @@ impl Job for MieJob {
                 Axis::uniform("scattering_angle", "deg", 0.0, self.p.angle_step_deg, n_a),
             ],
             channels: vec![
-                Channel::new("phase", "1/sr", "unpolarised phase function, integral over 4pi = 1"),
-                Channel::new("i_perp", "1/sr", "|S1|^2/(pi x^2 Q_sca), perpendicular to the scattering plane"),
-                Channel::new("i_par", "1/sr", "|S2|^2/(pi x^2 Q_sca), parallel to the scattering plane"),
+                Channel::new(
+                    "phase",
+                    "1/sr",
+                    "unpolarised phase function, integral over 4pi = 1",
+                ),
+                Channel::new(
+                    "i_perp",
+                    "1/sr",
+                    "|S1|^2/(pi x^2 Q_sca), perpendicular to the scattering plane",
+                ),
+                Channel::new(
+                    "i_par",
+                    "1/sr",
+                    "|S2|^2/(pi x^2 Q_sca), parallel to the scattering plane",
+                ),
                 Channel::new("dolp", "1", "(i_perp - i_par)/(i_perp + i_par)"),
             ],
             attributes: a,
@@ -444,18 +581,51 @@ mod tests {
     /// output bins after sun disc and bin integration.
     #[test]
     fn small_job_is_normalised() {
-        let job = plan("radii_um = [2.0, 20.0]\nwavelengths_nm = [450.0, 650.0]\nangle_step_deg = 0.5").unwrap();
-        let chunks: Vec<Vec<f32>> = (0..job.tasks().len()).map(|i| job.run_task(i).unwrap()).collect();
+        let job =
+            plan("radii_um = [2.0, 20.0]\nwavelengths_nm = [450.0, 650.0]\nangle_step_deg = 0.5")
+                .unwrap();
+        let chunks: Vec<Vec<f32>> = (0..job.tasks().len())
+            .map(|i| job.run_task(i).unwrap())
+            .collect();
         let t = job.assemble(chunks).unwrap();
         assert_eq!(t.data.len(), t.expected_len());
         assert_eq!(t.axes[0].name, "wavelength");
         assert_eq!(t.axes[2].name, "scattering_angle");
         let cells = crate::mie::filters::cell_solid_angles(360);
         for row in t.data.chunks(361 * 4) {
-            let e: f64 = row.chunks(4).zip(&cells).map(|(c, w)| c[0] as f64 * w).sum();
+            let e: f64 = row
+                .chunks(4)
+                .zip(&cells)
+                .map(|(c, w)| c[0] as f64 * w)
+                .sum();
             assert!((e - 1.0).abs() < 1e-5, "integral {e}");
             // phase = (i_perp + i_par)/2
-            assert!(row.chunks(4).all(|c| (c[0] - 0.5 * (c[1] + c[2])).abs() <= 1e-6 * c[0].abs()));
+            assert!(
+                row.chunks(4)
+                    .all(|c| (c[0] - 0.5 * (c[1] + c[2])).abs() <= 1e-6 * c[0].abs())
+            );
         }
+    }
+
+    /// A size distribution entry: normalised, and its ensemble Q_sca lies between the
+    /// single-sphere values at the ends of the support (weights n(r) dr · π r²).
+    #[test]
+    fn distribution_entry_is_normalised() {
+        let job = plan(
+            "distributions = [{ kind = \"gamma\", effective_radius_um = 3.0, effective_variance = 0.1 }]\nwavelengths_nm = [550.0]\nangle_step_deg = 0.5\nradius_points = 8",
+        )
+        .unwrap();
+        let chunk = job.run_task(0).unwrap();
+        let cells = crate::mie::filters::cell_solid_angles(360);
+        let e: f64 = chunk[..361 * 4]
+            .chunks(4)
+            .zip(&cells)
+            .map(|(c, w)| c[0] as f64 * w)
+            .sum();
+        assert!((e - 1.0).abs() < 1e-5, "integral {e}");
+        let q_sca = chunk[361 * 4 + 1] as f64;
+        assert!(q_sca > 1.8 && q_sca < 2.6, "Q_sca {q_sca}");
+        let g = chunk[361 * 4 + 3] as f64;
+        assert!(g > 0.7 && g < 0.9, "g {g}");
     }
 }
