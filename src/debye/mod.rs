@@ -37,8 +37,9 @@
 //!   `D¹(x) = ξ_{n−1}/ξ_n − n/x`, `D²(x) = conj D¹(x)`, `D¹(x) − D²(x) = 2i/|ξ_n|²`
 //!   (Wronskian, no cancellation), `r_x = conj(ξ_n)/ξ_n`.
 //! - Inside (complex `y`): `D^ψ_n(y)` by the downward recurrence of [`crate::mie::riccati`];
-//!   `D¹_n(y)` by the upward recurrence `g_n = ζ¹_{n−1}/ζ¹_n = 1/(n/y − D¹_{n−1})`,
-//!   `D¹_n = g_n − n/y`, `D¹_0 = i` (ζ¹ is the dominant solution upward when `Im y ≥ 0`).
+//!   `D¹_n(y)` by [`crate::mie::riccati::log_derivative_xi_complex`] (upward from `D¹_0 = i`;
+//!   ζ¹ is the dominant solution upward when `Im y ≥ 0`), and the ratio
+//!   `g_n = ζ¹_{n−1}/ζ¹_n = 1/(n/y − D¹_{n−1})` (no cancellation).
 //!   The inside ratio enters only through `q_n = ζ¹_n(y)/ψ_n(y)`, kept as a complex logarithm
 //!   (`ln q_0 = ln(2E/(E − 1))`, `E = e^{2iy}`; `q_n = q_{n−1} (ψ_{n−1}/ψ_n)/(ζ¹_{n−1}/ζ¹_n)`),
 //!   so neither `e^{±Im y}` overflows nor underflow loses the large-`n` waves:
@@ -57,7 +58,7 @@ pub mod stage;
 
 use crate::mie::coefficients::MieCoefficients;
 use crate::mie::filters::PolarisedPhase;
-use crate::mie::riccati::{RiccatiBessel, log_derivative_complex};
+use crate::mie::riccati::{RiccatiBessel, log_derivative_complex, log_derivative_xi_complex};
 use crate::mie::{MieError, Sphere, check_domain};
 use num_complex::Complex64;
 
@@ -372,14 +373,17 @@ pub fn surface_coefficients(
         ln_q = Complex64::new(std::f64::consts::LN_2, 0.0) + 2.0 * i * y
             - Complex64::new(-1.0, 0.0).ln();
     }
-    let mut d1_y = i; // D¹_0(y)
+    // D¹_n(y) = ξ_n'(y)/ξ_n(y), upward from D¹_0 = i (the dominant direction for Im y ≥ 0)
+    let mut d1_y_all = Vec::new();
+    log_derivative_xi_complex(y, n_stop, &mut d1_y_all);
     let mut tm = Vec::with_capacity(n_stop);
     let mut te = Vec::with_capacity(n_stop);
     for (n, &dpsi) in d_psi_y.iter().enumerate().skip(1) {
         let nf = n as f64;
         // inside: ζ¹ ratio and log-derivative (upward), ψ ratio (from the downward D^ψ)
-        let g1 = 1.0 / (nf * inv_y - d1_y); // ζ¹_{n−1}/ζ¹_n
-        d1_y = g1 - nf * inv_y;
+        // ζ¹_{n−1}/ζ¹_n from D¹_{n−1} (no cancellation, unlike D¹_n + n/y above the edge)
+        let g1 = 1.0 / (nf * inv_y - d1_y_all[n - 1]);
+        let d1_y = d1_y_all[n];
         let gpsi = dpsi + nf * inv_y; // ψ_{n−1}/ψ_n
         ln_q += (gpsi / g1).ln();
         // ρ = q/(2 − q) and 1 + ρ = 2/(2 − q), evaluated without overflow (via 1/q when |q| > 1)

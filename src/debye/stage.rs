@@ -11,7 +11,7 @@
 
 use super::{DebyeCoefficients, OrderSet};
 use crate::mie::filters::{
-    FINE_CELL_POINTS, PolarisedPhase, fine_intervals, resample_bins, sun_disc,
+    FINE_CELL_POINTS, PolarisedPhase, SunDiscOperator, fine_intervals, resample_bins,
 };
 use crate::mie::stage::FilterSettings;
 use crate::mie::{check_domain, size_parameter};
@@ -130,13 +130,15 @@ pub struct DebyeEntry {
 
 /// Computes one entry (pure): the coherent sum of `orders` and each order alone, as cell
 /// averages on the fine grid of the sphere, resampled to the intermediate grid, convolved with
-/// the sun's disc and integrated over the output bins; normalised by the Mie `π x² Q_sca`.
+/// the sun's disc (`sun`, built on `settings.intermediate_intervals()`) and integrated over the
+/// output bins; normalised by the Mie `π x² Q_sca`.
 pub fn compute_debye_entry(
     radius_um: f64,
     wavelength_nm: f64,
     m: Complex64,
     orders: &[usize],
     settings: &FilterSettings,
+    sun: &SunDiscOperator,
 ) -> Result<DebyeEntry, crate::mie::MieError> {
     let x = size_parameter(radius_um, wavelength_nm);
     let d = DebyeCoefficients::new(x, m)?;
@@ -149,7 +151,7 @@ pub fn compute_debye_entry(
     let fine = mid * k;
     let finish = |c: PolarisedPhase| {
         let c = resample_bins(&c, mid);
-        let c = sun_disc(&c, settings.sun_diameter_deg);
+        let c = sun.apply(&c);
         resample_bins(&c, settings.output_intervals)
     };
     let sum = finish(d.curve(
@@ -178,6 +180,8 @@ struct DebyeJob {
     model: WaterIndexModel,
     indices: Vec<f64>,
     settings: FilterSettings,
+    /// Sun-disc operator on the intermediate grid, built once per job.
+    sun: std::sync::OnceLock<SunDiscOperator>,
 }
 
 impl Stage for DebyeStage {
@@ -271,6 +275,7 @@ fn plan_job(p: DebyeParams) -> Result<DebyeJob, PlanError> {
         model,
         indices,
         settings,
+        sun: std::sync::OnceLock::new(),
     })
 }
 
@@ -309,6 +314,7 @@ impl Job for DebyeJob {
             m,
             &self.p.orders,
             &self.settings,
+            self.sun.get_or_init(|| self.settings.sun_operator()),
         )?;
         let (phase, dolp) = (r.sum.phase(), r.sum.dolp());
         let per_order: Vec<Vec<f64>> = r.orders.iter().map(|c| c.phase()).collect();
