@@ -491,4 +491,33 @@ mod tests {
                 .all(|c| (c[0] - 0.5 * (c[1] + c[2])).abs() <= 1e-6 * c[0].abs())
         );
     }
+
+    /// The sun disc (0.5°) keeps each order's energy: ∫ phase_p<k> dΩ with and without it agree.
+    #[test]
+    fn sun_disc_preserves_order_energy() {
+        let run = |sun: f64| {
+            let job = plan(&format!("radii_um = [50.0]\nwavelengths_nm = [550.0]\nangle_step_deg = 0.25\nsun_diameter_deg = {sun}\norders = [0, 2]")).unwrap();
+            let t = job.assemble(vec![job.run_task(0).unwrap()]).unwrap();
+            let cells = crate::mie::filters::cell_solid_angles(720);
+            let nc = t.channels.len();
+            (0..nc)
+                .map(|c| {
+                    t.data
+                        .chunks(nc)
+                        .zip(&cells)
+                        .map(|(v, w)| v[c] as f64 * w)
+                        .sum::<f64>()
+                })
+                .collect::<Vec<f64>>()
+        };
+        let (off, on) = (run(0.0), run(0.5));
+        for c in [0usize, 4, 5] {
+            assert!(
+                (on[c] / off[c] - 1.0).abs() < 1e-4,
+                "channel {c}: {} vs {}",
+                on[c],
+                off[c]
+            );
+        }
+    }
 }
