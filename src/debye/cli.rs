@@ -311,6 +311,14 @@ mod tests {
         args: AiryArgs,
     }
 
+    /// clap's own consistency checks of both argument sets.
+    #[test]
+    fn clap_definitions_are_consistent() {
+        use clap::CommandFactory;
+        DCli::command().debug_assert();
+        ACli::command().debug_assert();
+    }
+
     /// `--debye-orders` with all of 0..=400 reproduces the Mie columns at x = 50 (the rest is
     /// the tail of grazing waves), and per-order columns appear.
     #[test]
