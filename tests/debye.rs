@@ -426,9 +426,9 @@ fn default_manifest_runs() {
         let parts: Vec<f64> = (0..4).map(|p| integral(4 + p)).collect();
         println!("λ index {w}: ∫ sum(0..3) = {total:.5}, per order {parts:.5?}");
         assert!(total > 0.99 && total < 1.01, "{total}");
-        for p in 0..4 {
+        for (p, part) in parts.iter().enumerate() {
             let share = t.attributes["order_efficiency"][w][0][p].as_f64().unwrap() / q_sca;
-            assert!((parts[p] / share - 1.0).abs() < 1e-3, "p={p}");
+            assert!((part / share - 1.0).abs() < 1e-3, "p={p}");
         }
     }
 }
