@@ -11,9 +11,11 @@
 pub mod catalog;
 pub mod cli;
 pub mod consumers;
+pub mod debye;
 pub mod export;
 pub mod hair;
 pub mod manifest;
+pub mod mie;
 pub mod optics;
 pub mod pipeline;
 pub mod stage;

@@ -6,6 +6,7 @@
 //! - angles in radians in code, with `_rad`/`_deg` in names where confusion is possible;
 //! - wavelengths in nanometres (`_nm`) at interfaces.
 
+pub mod airy_function;
 pub mod colour;
 pub mod fresnel;
 pub mod interp;

@@ -11,6 +11,8 @@ pub fn registry() -> Vec<Box<dyn Stage>> {
         Box::new(water_index::WaterIndexStage),
         Box::new(crate::hair::stage::HairDualStage),
         Box::new(crate::hair::stage::HairAzimuthalStage),
+        Box::new(crate::mie::stage::MieStage),
+        Box::new(crate::debye::stage::DebyeStage),
     ]
 }
 

@@ -1,0 +1,246 @@
+//! `scatterbake mie`: one sphere, printed as a MiePlot-style table, CSV or JSON (the lead
+//! wires [`MieArgs`] and [`run_mie`] into the command line).
+//!
+//! ```text
+//! scatterbake mie (--radius-um R --wavelength-nm L | --x X) [--n 1.333 --k 0 |
+//!     --water-index-model iapws1997 --temperature-c 20] [--angles-step-deg 0.1 |
+//!     --angles-deg 0,90,180] [--format table|csv|json] [--csv FILE]
+//! ```
+//! Intensities are raw Bohren–Huffman `|S|²` (dimensionless); `phase` is normalised to
+//! `∫_{4π} p dΩ = 1` (1/sr).
+
+use super::{Sphere, size_parameter};
+use crate::optics::water::WaterIndexModel;
+use anyhow::{Context, bail};
+use num_complex::Complex64;
+use std::fmt::Write as _;
+use std::path::PathBuf;
+
+/// Output format of `scatterbake mie`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum MieFormat {
+    /// Aligned columns with a `#` header block (MiePlot style).
+    Table,
+    /// Comma-separated values with a header row.
+    Csv,
+    /// One JSON object.
+    Json,
+}
+
+/// Arguments of `scatterbake mie`.
+#[derive(Debug, Clone, clap::Args)]
+pub struct MieArgs {
+    /// Drop radius in µm (with --wavelength-nm).
+    #[arg(long)]
+    pub radius_um: Option<f64>,
+    /// Vacuum wavelength in nm (with --radius-um; also selects the water index).
+    #[arg(long)]
+    pub wavelength_nm: Option<f64>,
+    /// Size parameter 2πr/λ (instead of radius and wavelength; then --n is required).
+    #[arg(long, conflicts_with = "radius_um")]
+    pub x: Option<f64>,
+    /// Real part of the relative refractive index (default: water at the wavelength).
+    #[arg(long)]
+    pub n: Option<f64>,
+    /// Imaginary part (absorption), k ≥ 0.
+    #[arg(long, default_value_t = 0.0)]
+    pub k: f64,
+    /// Water index model when --n is not given: iapws1997 | sadeghi-table-3.2.
+    #[arg(long, default_value = "iapws1997")]
+    pub water_index_model: String,
+    /// Water temperature (°C) for iapws1997.
+    #[arg(long, default_value_t = 20.0)]
+    pub temperature_c: f64,
+    /// Uniform angle step from 0 to 180° (degrees).
+    #[arg(long, default_value_t = 0.1)]
+    pub angles_step_deg: f64,
+    /// Explicit comma-separated angles in degrees (overrides --angles-step-deg).
+    #[arg(long, value_delimiter = ',')]
+    pub angles_deg: Option<Vec<f64>>,
+    /// Output format on stdout.
+    #[arg(long, value_enum, default_value_t = MieFormat::Table)]
+    pub format: MieFormat,
+    /// Also write CSV to this file.
+    #[arg(long)]
+    pub csv: Option<PathBuf>,
+}
+
+/// Result of one query (for printing and tests).
+#[derive(Debug, Clone)]
+pub struct MieQuery {
+    pub x: f64,
+    pub m: Complex64,
+    pub sphere: Sphere,
+    pub angles_deg: Vec<f64>,
+    pub i_perp: Vec<f64>,
+    pub i_par: Vec<f64>,
+}
+
+impl MieQuery {
+    /// Solves the query described by `args` (no I/O).
+    pub fn solve(args: &MieArgs) -> anyhow::Result<Self> {
+        let (x, wavelength) = match (args.x, args.radius_um, args.wavelength_nm) {
+            (Some(x), None, _) => (x, args.wavelength_nm),
+            (None, Some(r), Some(l)) => (size_parameter(r, l), Some(l)),
+            _ => bail!("give either --x, or --radius-um with --wavelength-nm"),
+        };
+        let n = match (args.n, wavelength) {
+            (Some(n), _) => n,
+            (None, Some(l)) => {
+                WaterIndexModel::from_name(&args.water_index_model, Some(args.temperature_c))?
+                    .index(l)?
+            }
+            (None, None) => bail!("--x needs --n (no wavelength to evaluate the water index)"),
+        };
+        let m = Complex64::new(n, args.k);
+        let sphere = Sphere::new(x, m).context("Mie query")?;
+        let angles_deg = match &args.angles_deg {
+            Some(a) => {
+                if let Some(bad) = a.iter().find(|t| !(0.0..=180.0).contains(*t)) {
+                    bail!("angle {bad} is outside 0–180°");
+                }
+                a.clone()
+            }
+            None => {
+                let step = args.angles_step_deg;
+                let count = 180.0 / step;
+                if step.is_nan() || step <= 0.0 || (count - count.round()).abs() > 1e-6 {
+                    bail!("--angles-step-deg must divide 180");
+                }
+                (0..=count.round() as usize)
+                    .map(|i| i as f64 * step)
+                    .collect()
+            }
+        };
+        let (s1, s2) = sphere.amplitudes_deg(&angles_deg);
+        Ok(MieQuery {
+            x,
+            m,
+            angles_deg,
+            i_perp: s1.iter().map(|v| v.norm_sqr()).collect(),
+            i_par: s2.iter().map(|v| v.norm_sqr()).collect(),
+            sphere,
+        })
+    }
+
+    fn rows(&self) -> impl Iterator<Item = (f64, f64, f64, f64, f64, f64)> + '_ {
+        let norm = 1.0 / self.sphere.phase_normalisation();
+        (0..self.angles_deg.len()).map(move |i| {
+            let (a, b) = (self.i_perp[i], self.i_par[i]);
+            let s11 = 0.5 * (a + b);
+            let pol = if a + b > 0.0 { (a - b) / (a + b) } else { 0.0 };
+            (self.angles_deg[i], a, b, s11, s11 * norm, pol)
+        })
+    }
+
+    /// CSV with a header row.
+    pub fn to_csv(&self) -> String {
+        let mut s = String::from("angle_deg,i_perp,i_par,s11,phase,polarization\n");
+        for (t, a, b, u, p, d) in self.rows() {
+            let _ = writeln!(s, "{t},{a:e},{b:e},{u:e},{p:e},{d}");
+        }
+        s
+    }
+
+    /// MiePlot-style table with the efficiencies in a `#` header.
+    pub fn to_table(&self) -> String {
+        let e = self.sphere.efficiencies;
+        let mut s = String::new();
+        let _ = writeln!(
+            s,
+            "# Lorenz-Mie (Bohren & Huffman conventions), x = {}, m = {} + {}i",
+            self.x, self.m.re, self.m.im
+        );
+        let _ = writeln!(
+            s,
+            "# Q_ext = {:.10}  Q_sca = {:.10}  Q_back = {:.10}  g = {:.10}  n_stop = {}",
+            e.q_ext,
+            e.q_sca,
+            e.q_back,
+            e.g,
+            self.sphere.coefficients.n_stop()
+        );
+        let _ = writeln!(
+            s,
+            "# i_perp = |S1|^2, i_par = |S2|^2, unpolarised = (i_perp + i_par)/2 (dimensionless)"
+        );
+        let _ = writeln!(
+            s,
+            "# {:>10} {:>20} {:>20} {:>20}",
+            "angle", "i_perp", "i_par", "unpolarised"
+        );
+        for (t, a, b, u, _, _) in self.rows() {
+            let _ = writeln!(s, "{t:>12.4} {a:>20.10e} {b:>20.10e} {u:>20.10e}");
+        }
+        s
+    }
+
+    /// JSON object (issue 3 §5 layout).
+    pub fn to_json(&self) -> serde_json::Value {
+        let e = self.sphere.efficiencies;
+        let rows: Vec<_> = self.rows().collect();
+        serde_json::json!({
+            "x": self.x,
+            "m": [self.m.re, self.m.im],
+            "qext": e.q_ext, "qsca": e.q_sca, "qback": e.q_back, "g": e.g,
+            "angles_deg": self.angles_deg,
+            "s11": rows.iter().map(|r| r.3).collect::<Vec<_>>(),
+            "i_perp": self.i_perp,
+            "i_par": self.i_par,
+            "phase": rows.iter().map(|r| r.4).collect::<Vec<_>>(),
+            "polarization": rows.iter().map(|r| r.5).collect::<Vec<_>>(),
+        })
+    }
+}
+
+/// Runs `scatterbake mie` (prints to stdout; writes `--csv` if given).
+pub fn run_mie(args: &MieArgs) -> anyhow::Result<()> {
+    let q = MieQuery::solve(args)?;
+    if let Some(path) = &args.csv {
+        std::fs::write(path, q.to_csv()).with_context(|| format!("writing {}", path.display()))?;
+    }
+    let out = match args.format {
+        MieFormat::Table => q.to_table(),
+        MieFormat::Csv => q.to_csv(),
+        MieFormat::Json => serde_json::to_string_pretty(&q.to_json())? + "\n",
+    };
+    print!("{out}");
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    #[derive(Parser)]
+    struct Cli {
+        #[command(flatten)]
+        args: MieArgs,
+    }
+
+    #[test]
+    fn query_by_radius_uses_water_index_and_reports_bh_values() {
+        let cli = Cli::parse_from(["t", "--x", "5.2128", "--n", "1.55", "--angles-deg", "0,180"]);
+        let q = MieQuery::solve(&cli.args).unwrap();
+        let j = q.to_json();
+        assert!((j["qsca"].as_f64().unwrap() - 3.10547).abs() < 1e-5);
+        assert_eq!(j["angles_deg"].as_array().unwrap().len(), 2);
+        let cli = Cli::parse_from([
+            "t",
+            "--radius-um",
+            "10",
+            "--wavelength-nm",
+            "550",
+            "--angles-step-deg",
+            "45",
+        ]);
+        let q = MieQuery::solve(&cli.args).unwrap();
+        assert_eq!(q.angles_deg, vec![0.0, 45.0, 90.0, 135.0, 180.0]);
+        assert!((q.m.re - 1.3352).abs() < 2e-3);
+        assert!(q.to_table().contains("Q_sca"));
+        assert_eq!(q.to_csv().lines().count(), 6);
+        let bad = Cli::parse_from(["t", "--x", "5", "--angles-step-deg", "0.1"]);
+        assert!(MieQuery::solve(&bad.args).is_err());
+    }
+}
