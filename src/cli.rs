@@ -63,6 +63,11 @@ enum Command {
     /// Render a picture through the public table reader API.
     #[command(subcommand)]
     Render(RenderCommand),
+    /// Lorenz–Mie scattering of one sphere (MiePlot-style columns); `--debye-orders` selects
+    /// Debye-series terms.
+    Mie(crate::debye::cli::DebyeArgs),
+    /// Airy theory of the primary or secondary rainbow (same columns as `mie`).
+    Airy(crate::debye::cli::AiryArgs),
     /// Hair Dual Scattering table → engine EXR LUT (layout and shader lookup in docs/hair.md).
     HairLut(crate::hair::export::HairLutArgs),
     /// Dual Scattering averages for one hair parameter set, as JSON or CSV.
@@ -298,6 +303,8 @@ fn run(cmd: Command) -> Result<i32> {
         Command::Render(RenderCommand::Rainbow(a)) => {
             crate::consumers::render::run_render_rainbow(&a).map(|_| 0)
         }
+        Command::Mie(a) => crate::debye::cli::run_debye(&a).map(|_| 0),
+        Command::Airy(a) => crate::debye::cli::run_airy(&a).map(|_| 0),
         Command::HairLut(a) => crate::hair::export::run_hair_lut(&a).map(|_| 0),
         Command::HairJson(a) => crate::hair::export::run_dual_scattering(&a).map(|_| 0),
         Command::Validate(a) => crate::consumers::mieplot::run_validate(&a).map(|_| 0),
