@@ -17,3 +17,4 @@ pub mod pipeline;
 pub mod stage;
 pub mod stages;
 pub mod table;
+pub mod fur;

@@ -8,6 +8,7 @@
 
 pub mod colour;
 pub mod fresnel;
+pub mod henyey_greenstein;
 pub mod interp;
 pub mod quadrature;
 pub mod water;
