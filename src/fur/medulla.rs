@@ -26,9 +26,14 @@
 //! - `Expected` (default): the first collision is forced inside the entry chord (weight
 //!   1 − e^{−σL}, the scattered fraction, exactly); at **every** collision the analytic
 //!   probability of scattering into each bin's direction and escaping without further collision,
-//!   ρ(ω_k − d)·Δ·exp(−σ·s(x, ω_k)), is scored to every bin (next-event / expected-value
-//!   estimation to the boundary, midpoint rule in the bin); the real photon then continues
-//!   analogously and is not scored when it escapes. Unbiased up to the O(Δ²) midpoint rule.
+//!   w·ρ(ω_k − d)·Δ·exp(−σ·s(x, ω_k)), is scored to every bin (next-event / expected-value
+//!   estimation to the boundary, midpoint rule in the bin). The photon then never escapes: its
+//!   next direction is importance-sampled from ρ·(1 − e^{−σs}) (bin by the tabulated weights,
+//!   uniform inside the bin, exact weight ratio), its next collision is forced before the
+//!   boundary, and its weight carries the non-escaping fraction (survival biasing); Russian
+//!   roulette ends it below 1e-3 of its initial weight. The per-photon total is then almost
+//!   constant, so the energy identity holds far below the per-bin noise. Unbiased up to the
+//!   O(Δ²) midpoint rule of the scoring.
 //! - `Histogram`: plain analog tracking; a photon is scored once, in the bin of its exit
 //!   direction. Kept as the independent reference for tests.
 //!
@@ -109,6 +114,24 @@ impl Geometry {
                 let tr = d[1].clamp(-1.0, 1.0).asin();
                 let j = (((tr + FRAC_PI_2) / dw) as usize).min(half - 1);
                 if d[0] < 0.0 { j } else { half + j }
+            }
+        }
+    }
+
+    /// Unit direction at fraction `frac` ∈ [0, 1) across bin `k` (uniform in angle).
+    #[inline]
+    fn direction_in_bin(&self, k: usize, frac: f64, bins: usize) -> [f64; 2] {
+        let dw = 2.0 * PI / bins as f64;
+        match self {
+            Geometry::Azimuthal { .. } => {
+                let a = -PI + (k as f64 + frac) * dw;
+                [a.cos(), a.sin()]
+            }
+            Geometry::Longitudinal { .. } => {
+                let half = bins / 2;
+                let (sign, j) = if k < half { (-1.0, k) } else { (1.0, k - half) };
+                let t = -FRAC_PI_2 + (j as f64 + frac) * dw;
+                [sign * t.cos(), t.sin()]
             }
         }
     }
@@ -239,44 +262,65 @@ fn simulate_expected(
     let n = s.photons as f64;
     // Scattered fraction, accurately for small σ·L.
     let w0 = -(-sigma * chord).exp_m1();
+    let roulette_below = ROULETTE_THRESHOLD * w0;
     let (p0, d0) = geom.entry();
     let mut sum = vec![0.0; bins];
     let mut sum2 = vec![0.0; bins];
     let mut sum_len = vec![0.0; bins];
     let mut e = vec![0.0; bins];
+    let mut q = vec![0.0; bins];
     let mut tot_sum = 0.0;
     let mut tot_sum2 = 0.0;
     for _ in 0..s.photons {
         e.iter_mut().for_each(|v| *v = 0.0);
-        // Forced first collision: t ~ σe^{−σt}/(1−e^{−σL}) on [0, L].
+        // Forced first collision: t ~ σe^{−σt}/(1−e^{−σL}) on [0, L], weight w0.
         let t = -(-rng.uniform() * w0).ln_1p() / sigma;
         let mut p = [p0[0] + t * d0[0], p0[1] + t * d0[1]];
         let mut d = d0;
+        let mut w = w0;
         let mut len = t;
         let mut order = 1u32;
         let mut photon_total = 0.0;
         loop {
-            // Next-event estimate to every bin.
-            let mut coll_total = 0.0;
+            // Next-event estimate to every bin, and the cumulative "scatter and collide again"
+            // weights q used to sample the next direction.
+            let mut acc_q = 0.0;
             for k in 0..bins {
-                let w = dirs[k];
-                let cos_dev = w[0] * d[0] + w[1] * d[1];
-                let sk = geom.dist(p, w);
-                let c = w0 * planar_hg_density_cos(cos_dev, g) * dw * (-sigma * sk).exp();
+                let wk = dirs[k];
+                let rho_dw = planar_hg_density_cos(wk[0] * d[0] + wk[1] * d[1], g) * dw;
+                let sk = geom.dist(p, wk);
+                let tr = (-sigma * sk).exp();
+                let c = w * rho_dw * tr;
                 e[k] += c;
                 sum_len[k] += c * (len + sk);
-                coll_total += c;
+                photon_total += c;
+                acc_q += rho_dw * (1.0 - tr);
+                q[k] = acc_q;
             }
-            photon_total += coll_total;
-            if s.max_order.is_some_and(|m| order >= m) {
+            if s.max_order.is_some_and(|m| order >= m) || acc_q <= 0.0 {
                 break;
             }
-            d = rotate(d, sample_planar_hg(rng.uniform(), g));
-            let to_boundary = geom.dist(p, d);
-            let t = -rng.uniform_open0().ln() / sigma;
-            if t >= to_boundary {
-                break;
+            // Next direction: bin k with probability q_k / Σq, uniform inside the bin; the
+            // weight takes the exact ratio ρ(ω)(1 − e^{−σ s(ω)}) / pdf(ω), so that the
+            // collision-before-escape event is forced without bias.
+            let u = rng.uniform() * acc_q;
+            let k = q.partition_point(|&c| c <= u).min(bins - 1);
+            let qk = q[k] - if k > 0 { q[k - 1] } else { 0.0 };
+            let nd = geom.direction_in_bin(k, rng.uniform(), bins);
+            let sd = geom.dist(p, nd);
+            let not_escape = -(-sigma * sd).exp_m1();
+            let pdf = qk / (acc_q * dw);
+            w *= planar_hg_density_cos(nd[0] * d[0] + nd[1] * d[1], g) * not_escape / pdf;
+            if w < roulette_below {
+                if rng.uniform() < ROULETTE_SURVIVAL {
+                    w /= ROULETTE_SURVIVAL;
+                } else {
+                    break;
+                }
             }
+            d = nd;
+            // Collision distance conditioned on colliding before the boundary.
+            let t = -(-rng.uniform() * not_escape).ln_1p() / sigma;
             p = [p[0] + t * d[0], p[1] + t * d[1]];
             len += t;
             order += 1;
@@ -290,6 +334,12 @@ fn simulate_expected(
     }
     finish(sum, sum2, sum_len, tot_sum, tot_sum2, n, ballistic, ballistic)
 }
+
+/// Russian roulette starts when a photon's weight drops below this fraction of its initial
+/// (scattered-fraction) weight.
+const ROULETTE_THRESHOLD: f64 = 1e-3;
+/// Survival probability in Russian roulette.
+const ROULETTE_SURVIVAL: f64 = 0.1;
 
 fn simulate_histogram(
     sigma: f64,
@@ -453,7 +503,7 @@ mod tests {
             (6.0, 0.8, Geometry::Longitudinal { theta_i_rad: -1.2 }),
         ] {
             for est in [Estimator::Expected, Estimator::Histogram] {
-                let n = if est == Estimator::Expected { 400 } else { 40_000 };
+                let n = if est == Estimator::Expected { 60 } else { 40_000 };
                 let p = simulate(sigma, g, geom, &settings(n, est));
                 let expect = 1.0 - (-sigma * geom.chord()).exp();
                 let dev = (p.scattered - expect).abs();
@@ -478,7 +528,7 @@ mod tests {
             (2.0, 0.5, Geometry::Azimuthal { h: 0.4 }),
             (2.0, 0.3, Geometry::Longitudinal { theta_i_rad: 0.5 }),
         ] {
-            let a = simulate(sigma, g, geom, &settings(2_000, Estimator::Expected));
+            let a = simulate(sigma, g, geom, &settings(400, Estimator::Expected));
             let b = simulate(sigma, g, geom, &settings(200_000, Estimator::Histogram));
             let group = 16;
             let mut worst: f64 = 0.0;
@@ -498,7 +548,10 @@ mod tests {
 
     #[test]
     fn mirror_symmetries_hold_statistically() {
-        let s = settings(1_500, Estimator::Expected);
+        // Independent runs at +entry and −entry (different streams), 16 replicate seeds each,
+        // compared on 8° groups with a replicate-based t statistic.
+        let reps = 16;
+        let group = 16;
         for (a, b) in [
             (Geometry::Azimuthal { h: 0.5 }, Geometry::Azimuthal { h: -0.5 }),
             (
@@ -506,32 +559,48 @@ mod tests {
                 Geometry::Longitudinal { theta_i_rad: -0.6 },
             ),
         ] {
-            let pa = simulate(3.0, 0.6, a, &s);
-            let pb = simulate(3.0, 0.6, b, &s);
             let half = 360;
             let mirror = |k: usize| match a {
                 Geometry::Azimuthal { .. } => 719 - k,
                 Geometry::Longitudinal { .. } => {
-                    if k < half {
-                        half - 1 - k
-                    } else {
-                        half + (2 * half - 1 - k)
-                    }
+                    if k < half { half - 1 - k } else { half + (2 * half - 1 - k) }
                 }
             };
-            let mut chi2 = 0.0;
-            for k in 0..720 {
-                let m = mirror(k);
-                let v = pa.std_error[k].powi(2) + pb.std_error[m].powi(2);
-                if v > 0.0 {
-                    chi2 += (pa.energy[k] - pb.energy[m]).powi(2) / v;
+            let run = |geom: Geometry, seed: u64| -> Vec<f64> {
+                let mut s = settings(50, Estimator::Expected);
+                s.seed = seed;
+                simulate(2.0, 0.6, geom, &s).energy
+            };
+            let grouped = |e: &[f64], flip: bool| -> Vec<f64> {
+                let e: Vec<f64> = (0..720).map(|k| e[if flip { mirror(k) } else { k }]).collect();
+                e.chunks(group).map(|c| c.iter().sum()).collect()
+            };
+            let ng = 720 / group;
+            let (mut ma, mut va, mut mb, mut vb) = (vec![0.0; ng], vec![0.0; ng], vec![0.0; ng], vec![0.0; ng]);
+            let mut asym = 0.0;
+            for r in 0..reps {
+                let ea = run(a, 100 + r);
+                let ga = grouped(&ea, false);
+                let gb = grouped(&run(b, 200 + r), true);
+                let ga_flipped = grouped(&ea, true);
+                for i in 0..ng {
+                    ma[i] += ga[i] / reps as f64;
+                    va[i] += ga[i] * ga[i] / reps as f64;
+                    mb[i] += gb[i] / reps as f64;
+                    vb[i] += gb[i] * gb[i] / reps as f64;
+                    asym += (ga[i] - ga_flipped[i]).abs() / reps as f64;
                 }
             }
-            // Bins are correlated (one photon feeds all), so use a loose bound on χ²/dof ≈ 1.
-            assert!(chi2 / 720.0 < 1.6, "{a:?}: χ²/dof {}", chi2 / 720.0);
-            // And the mirror is not trivially satisfied: the profile is asymmetric itself.
-            let asym: f64 = (0..720).map(|k| (pa.energy[k] - pa.energy[mirror(k)]).abs()).sum();
-            assert!(asym > 0.05 * pa.scattered);
+            let mut worst: f64 = 0.0;
+            for i in 0..ng {
+                let sa = (va[i] - ma[i] * ma[i]).max(0.0) / (reps - 1) as f64;
+                let sb = (vb[i] - mb[i] * mb[i]).max(0.0) / (reps - 1) as f64;
+                let t = (ma[i] - mb[i]) / (sa + sb).sqrt().max(1e-12);
+                worst = worst.max(t.abs());
+            }
+            assert!(worst < 6.0, "{a:?}: worst t {worst}");
+            // The mirror is not trivially satisfied: the profile itself is asymmetric.
+            assert!(asym > 0.05, "{a:?}: asymmetry {asym}");
         }
     }
 

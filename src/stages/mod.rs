@@ -7,7 +7,11 @@ use crate::stage::Stage;
 
 /// All stages known to this build, in the order `scatterbake stages` lists them.
 pub fn registry() -> Vec<Box<dyn Stage>> {
-    vec![Box::new(water_index::WaterIndexStage)]
+    vec![
+        Box::new(water_index::WaterIndexStage),
+        Box::new(crate::fur::stage::FurMedullaAzimuthalStage),
+        Box::new(crate::fur::stage::FurMedullaLongitudinalStage),
+    ]
 }
 
 /// Look up a stage by manifest name.
