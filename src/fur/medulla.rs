@@ -31,7 +31,7 @@
 //!   next direction is importance-sampled from ρ·(1 − e^{−σs}) (bin by the tabulated weights,
 //!   uniform inside the bin, exact weight ratio), its next collision is forced before the
 //!   boundary, and its weight carries the non-escaping fraction (survival biasing); Russian
-//!   roulette ends it below 1e-3 of its initial weight. The per-photon total is then almost
+//!   roulette (survival ½) plays it once its weight falls below 5 % of the initial weight. The per-photon total is then almost
 //!   constant, so the energy identity holds far below the per-bin noise. Unbiased up to the
 //!   O(Δ²) midpoint rule of the scoring.
 //! - `Histogram`: plain analog tracking; a photon is scored once, in the bin of its exit
@@ -97,6 +97,15 @@ impl Geometry {
                     f64::INFINITY
                 }
             }
+        }
+    }
+
+    /// Distance from `p` to the nearest boundary point.
+    #[inline]
+    fn depth(&self, p: [f64; 2]) -> f64 {
+        match self {
+            Geometry::Azimuthal { .. } => (1.0 - (p[0] * p[0] + p[1] * p[1]).sqrt()).max(0.0),
+            Geometry::Longitudinal { .. } => p[0].min(2.0 - p[0]).max(0.0),
         }
     }
 
@@ -283,33 +292,51 @@ fn simulate_expected(
         let mut photon_total = 0.0;
         loop {
             // Next-event estimate to every bin, and the cumulative "scatter and collide again"
-            // weights q used to sample the next direction.
+            // weights q used to sample the next direction. Deep inside the medium every
+            // escape probability is below e^{−σ·d_min}: the estimate is then evaluated only
+            // with probability π = min(1, e^{NEE_DEPTH − σ·d_min}) and scored with weight
+            // 1/π (unbiased roulette on the estimate; saves the O(bins) work where it is
+            // negligible).
+            let depth = sigma * geom.depth(p);
+            let pi_nee = (NEE_DEPTH - depth).exp().min(1.0);
+            let evaluate = pi_nee >= 1.0 || rng.uniform() < pi_nee;
             let mut acc_q = 0.0;
-            for k in 0..bins {
-                let wk = dirs[k];
-                let rho_dw = planar_hg_density_cos(wk[0] * d[0] + wk[1] * d[1], g) * dw;
-                let sk = geom.dist(p, wk);
-                let tr = (-sigma * sk).exp();
-                let c = w * rho_dw * tr;
-                e[k] += c;
-                sum_len[k] += c * (len + sk);
-                photon_total += c;
-                acc_q += rho_dw * (1.0 - tr);
-                q[k] = acc_q;
+            if evaluate {
+                let ws = w / pi_nee;
+                for k in 0..bins {
+                    let wk = dirs[k];
+                    let rho_dw = planar_hg_density_cos(wk[0] * d[0] + wk[1] * d[1], g) * dw;
+                    let sk = geom.dist(p, wk);
+                    let tr = (-sigma * sk).exp();
+                    let c = ws * rho_dw * tr;
+                    e[k] += c;
+                    sum_len[k] += c * (len + sk);
+                    photon_total += c;
+                    acc_q += rho_dw * (1.0 - tr);
+                    q[k] = acc_q;
+                }
             }
-            if s.max_order.is_some_and(|m| order >= m) || acc_q <= 0.0 {
+            if s.max_order.is_some_and(|m| order >= m) {
                 break;
             }
-            // Next direction: bin k with probability q_k / Σq, uniform inside the bin; the
-            // weight takes the exact ratio ρ(ω)(1 − e^{−σ s(ω)}) / pdf(ω), so that the
-            // collision-before-escape event is forced without bias.
-            let u = rng.uniform() * acc_q;
-            let k = q.partition_point(|&c| c <= u).min(bins - 1);
-            let qk = q[k] - if k > 0 { q[k - 1] } else { 0.0 };
-            let nd = geom.direction_in_bin(k, rng.uniform(), bins);
+            // Next direction. Near the boundary (estimate evaluated, π = 1): bin k with
+            // probability q_k / Σq, uniform inside the bin. Otherwise: the planar HG itself.
+            // Either way the weight takes the exact ratio ρ(ω)(1 − e^{−σ s(ω)}) / pdf(ω), so
+            // that the collision-before-escape event is forced without bias.
+            let (nd, pdf) = if evaluate && pi_nee >= 1.0 && acc_q > 0.0 {
+                let u = rng.uniform() * acc_q;
+                let k = q.partition_point(|&c| c <= u).min(bins - 1);
+                let qk = q[k] - if k > 0 { q[k - 1] } else { 0.0 };
+                (geom.direction_in_bin(k, rng.uniform(), bins), qk / (acc_q * dw))
+            } else {
+                let nd = rotate(d, sample_planar_hg(rng.uniform(), g));
+                (nd, planar_hg_density_cos(nd[0] * d[0] + nd[1] * d[1], g))
+            };
+            if pdf <= 0.0 {
+                break;
+            }
             let sd = geom.dist(p, nd);
             let not_escape = -(-sigma * sd).exp_m1();
-            let pdf = qk / (acc_q * dw);
             w *= planar_hg_density_cos(nd[0] * d[0] + nd[1] * d[1], g) * not_escape / pdf;
             if w < roulette_below {
                 if rng.uniform() < ROULETTE_SURVIVAL {
@@ -335,11 +362,15 @@ fn simulate_expected(
     finish(sum, sum2, sum_len, tot_sum, tot_sum2, n, ballistic, ballistic)
 }
 
+/// Optical depth below which the next-event estimate is always evaluated (see
+/// `simulate_expected`); deeper collisions evaluate it with probability e^{NEE_DEPTH − τ}.
+const NEE_DEPTH: f64 = 3.0;
+
 /// Russian roulette starts when a photon's weight drops below this fraction of its initial
 /// (scattered-fraction) weight.
-const ROULETTE_THRESHOLD: f64 = 1e-3;
+const ROULETTE_THRESHOLD: f64 = 0.05;
 /// Survival probability in Russian roulette.
-const ROULETTE_SURVIVAL: f64 = 0.1;
+const ROULETTE_SURVIVAL: f64 = 0.5;
 
 fn simulate_histogram(
     sigma: f64,
