@@ -4,7 +4,7 @@
 //! identity check and, with TT_TOL, the tensor-train size and reconstruction error.
 use rayon::prelude::*;
 use scatterbake::fur::tt::compress_table;
-use scatterbake::table::{write_table_atomic, Provenance, Table};
+use scatterbake::table::{Provenance, Table, write_table_atomic};
 use std::time::Instant;
 
 fn main() -> anyhow::Result<()> {
@@ -22,31 +22,60 @@ fn main() -> anyhow::Result<()> {
         let job = stage.plan(toml::de::ValueDeserializer::parse(&params)?)?;
         let t0 = Instant::now();
         let n = job.tasks().len();
-        let chunks: Vec<Vec<f32>> = (0..n).into_par_iter().map(|i| job.run_task(i).unwrap()).collect();
+        let chunks: Vec<Vec<f32>> = (0..n)
+            .into_par_iter()
+            .map(|i| job.run_task(i).unwrap())
+            .collect();
         let content = job.assemble(chunks)?;
         let secs = t0.elapsed().as_secs_f64();
         let a = &content.attributes;
         println!(
             "{name}: {n} tasks, {secs:.1} s, energy identity max dev {:.3e} ({:.2} std errors)",
             a["energy_identity_max_deviation"].as_f64().unwrap(),
-            a["energy_identity_max_deviation_std_errors"].as_f64().unwrap()
+            a["energy_identity_max_deviation_std_errors"]
+                .as_f64()
+                .unwrap()
         );
         if let Some(tol) = tt_tol {
-            let ch = if content.schema.name == "fur-medulla-longitudinal" { "pdf" } else { "energy" };
+            let ch = if content.schema.name == "fur-medulla-longitudinal" {
+                "pdf"
+            } else {
+                "energy"
+            };
             let t1 = Instant::now();
             let (tt, rep) = compress_table(&content, ch, tol, 64)?;
-            let mut tab = Table::from_content(tt, Provenance { tool: "scatterbake".into(), ..Default::default() })?;
+            let mut tab = Table::from_content(
+                tt,
+                Provenance {
+                    tool: "scatterbake".into(),
+                    ..Default::default()
+                },
+            )?;
             let bytes = write_table_atomic(&mut tab, &out.join(format!("{name}-{ch}-tt.sbt")))?;
             println!(
                 "  TT `{ch}` tol {tol}: ranks {}, {} values, file {bytes} B, rel Frobenius {:.3e}, max abs {:.3e} ({:.3e} of max), {:.1} s",
-                tab.header.attributes["ranks"], rep.parameters, rep.rel_frobenius_error, rep.max_abs_error,
-                rep.max_abs_error_rel_to_max, t1.elapsed().as_secs_f64()
+                tab.header.attributes["ranks"],
+                rep.parameters,
+                rep.rel_frobenius_error,
+                rep.max_abs_error,
+                rep.max_abs_error_rel_to_max,
+                t1.elapsed().as_secs_f64()
             );
         }
-        let mut tab = Table::from_content(content, Provenance { tool: "scatterbake".into(), ..Default::default() })?;
+        let mut tab = Table::from_content(
+            content,
+            Provenance {
+                tool: "scatterbake".into(),
+                ..Default::default()
+            },
+        )?;
         let bytes = write_table_atomic(&mut tab, &out.join(format!("{name}.sbt")))?;
         println!("  dense file {bytes} B ({} f32 values)", tab.data.len());
     }
-    println!("total {:.1} s on {} threads", t_all.elapsed().as_secs_f64(), rayon::current_num_threads());
+    println!(
+        "total {:.1} s on {} threads",
+        t_all.elapsed().as_secs_f64(),
+        rayon::current_num_threads()
+    );
     Ok(())
 }

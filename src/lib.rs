@@ -11,10 +11,10 @@
 pub mod catalog;
 pub mod cli;
 pub mod export;
+pub mod fur;
 pub mod manifest;
 pub mod optics;
 pub mod pipeline;
 pub mod stage;
 pub mod stages;
 pub mod table;
-pub mod fur;

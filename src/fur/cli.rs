@@ -1,7 +1,7 @@
 //! `scatterbake medulla`: one medulla profile on the command line (issue 6 item 7). The lead
 //! wires [`MedullaArgs`] / [`run_medulla`] into the CLI.
 
-use super::medulla::{simulate, Estimator, Geometry, McSettings};
+use super::medulla::{Estimator, Geometry, McSettings, simulate};
 use serde_json::json;
 use std::io::Write;
 
@@ -58,9 +58,15 @@ pub fn run_medulla(args: &MedullaArgs) -> anyhow::Result<()> {
 
 /// The text `run_medulla` prints.
 pub fn medulla_report(args: &MedullaArgs) -> anyhow::Result<String> {
-    anyhow::ensure!(args.sigma >= 0.0 && args.sigma.is_finite(), "--sigma must be ≥ 0");
+    anyhow::ensure!(
+        args.sigma >= 0.0 && args.sigma.is_finite(),
+        "--sigma must be ≥ 0"
+    );
     anyhow::ensure!((0.0..1.0).contains(&args.g), "--g must be in [0, 1)");
-    anyhow::ensure!(args.bins >= 4 && args.bins % 4 == 0, "--bins must be a multiple of 4");
+    anyhow::ensure!(
+        args.bins >= 4 && args.bins.is_multiple_of(4),
+        "--bins must be a multiple of 4"
+    );
     let geom = match (args.h, args.theta_i_deg) {
         (Some(h), None) => {
             anyhow::ensure!((-1.0..=1.0).contains(&h), "--h must be in [−1, 1]");
@@ -68,7 +74,9 @@ pub fn medulla_report(args: &MedullaArgs) -> anyhow::Result<String> {
         }
         (None, Some(t)) => {
             anyhow::ensure!(t > -90.0 && t < 90.0, "--theta-i-deg must be in (−90, 90)");
-            Geometry::Longitudinal { theta_i_rad: t.to_radians() }
+            Geometry::Longitudinal {
+                theta_i_rad: t.to_radians(),
+            }
         }
         _ => anyhow::bail!("give exactly one of --h and --theta-i-deg"),
     };
@@ -87,11 +95,15 @@ pub fn medulla_report(args: &MedullaArgs) -> anyhow::Result<String> {
     let (convention, centres): (&str, Vec<f64>) = match geom {
         Geometry::Azimuthal { .. } => (
             "phi' in deg of the exit direction from the entering direction (0 = unscattered continuation), counter-clockwise towards +h'; bin k covers [-180 + k*w, -180 + (k+1)*w)",
-            (0..args.bins).map(|k| -180.0 + (k as f64 + 0.5) * dw).collect(),
+            (0..args.bins)
+                .map(|k| -180.0 + (k as f64 + 0.5) * dw)
+                .collect(),
         ),
         Geometry::Longitudinal { .. } => (
             "bins 0..bins/2: back lobe (exits the entry face), bins/2..bins: forward lobe; theta_r in deg from the exit face normal, sin(theta_r) = exit direction along the fiber axis, unscattered continuation at theta_r = -theta_i; bin j of a lobe covers [-90 + j*w, -90 + (j+1)*w)",
-            (0..args.bins).map(|k| -90.0 + ((k % (args.bins / 2)) as f64 + 0.5) * dw).collect(),
+            (0..args.bins)
+                .map(|k| -90.0 + ((k % (args.bins / 2)) as f64 + 0.5) * dw)
+                .collect(),
         ),
     };
     Ok(match args.format {
@@ -127,7 +139,8 @@ pub fn medulla_report(args: &MedullaArgs) -> anyhow::Result<String> {
                 args.g,
                 match geom {
                     Geometry::Azimuthal { h } => format!("h={h}"),
-                    Geometry::Longitudinal { .. } => format!("theta_i_deg={}", args.theta_i_deg.unwrap_or(0.0)),
+                    Geometry::Longitudinal { .. } =>
+                        format!("theta_i_deg={}", args.theta_i_deg.unwrap_or(0.0)),
                 },
                 args.paths,
                 args.seed,
@@ -139,18 +152,20 @@ pub fn medulla_report(args: &MedullaArgs) -> anyhow::Result<String> {
             );
             o.push_str(match geom {
                 Geometry::Azimuthal { .. } => "bin,phi_deg,energy,path_length,std_error\n",
-                Geometry::Longitudinal { .. } => "bin,lobe,theta_r_deg,energy,path_length,std_error\n",
+                Geometry::Longitudinal { .. } => {
+                    "bin,lobe,theta_r_deg,energy,path_length,std_error\n"
+                }
             });
-            for k in 0..args.bins {
+            for (k, centre) in centres.iter().enumerate() {
                 match geom {
                     Geometry::Azimuthal { .. } => o.push_str(&format!(
                         "{k},{:.3},{:.6e},{:.6e},{:.3e}\n",
-                        centres[k], p.energy[k], p.path_length[k], p.std_error[k]
+                        centre, p.energy[k], p.path_length[k], p.std_error[k]
                     )),
                     Geometry::Longitudinal { .. } => o.push_str(&format!(
                         "{k},{},{:.3},{:.6e},{:.6e},{:.3e}\n",
                         if k < args.bins / 2 { "back" } else { "forward" },
-                        centres[k],
+                        centre,
                         p.energy[k],
                         p.path_length[k],
                         p.std_error[k]
@@ -175,16 +190,46 @@ mod tests {
 
     #[test]
     fn json_profile_sums_to_scattered_fraction() {
-        let cli = Cli::parse_from(["x", "--sigma", "1.5", "--g", "0.4", "--h", "-0.3", "--paths", "200", "--format", "json"]);
+        let cli = Cli::parse_from([
+            "x", "--sigma", "1.5", "--g", "0.4", "--h", "-0.3", "--paths", "200", "--format",
+            "json",
+        ]);
         let v: serde_json::Value = serde_json::from_str(&medulla_report(&cli.m).unwrap()).unwrap();
-        let sum: f64 = v["profile"].as_array().unwrap().iter().map(|x| x.as_f64().unwrap()).sum();
+        let sum: f64 = v["profile"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|x| x.as_f64().unwrap())
+            .sum();
         let expect = 1.0 - (-2.0 * 1.5 * (1.0f64 - 0.09).sqrt()).exp();
         let se = v["scattered_std_error"].as_f64().unwrap();
-        assert!((sum - expect).abs() < 5.0 * se + 1e-9, "{sum} vs {expect} (se {se})");
+        assert!(
+            (sum - expect).abs() < 5.0 * se + 1e-9,
+            "{sum} vs {expect} (se {se})"
+        );
         assert_eq!(v["h"], json!(-0.3));
         assert_eq!(v["profile"].as_array().unwrap().len(), 720);
         assert!(Cli::try_parse_from(["x", "--sigma", "1", "--g", "0"]).is_err());
-        let csv = Cli::parse_from(["x", "--sigma", "1", "--g", "0", "--theta-i-deg", "30", "--paths", "20", "--bins", "8"]);
-        assert_eq!(medulla_report(&csv.m).unwrap().lines().filter(|l| !l.starts_with('#')).count(), 9);
+        let csv = Cli::parse_from([
+            "x",
+            "--sigma",
+            "1",
+            "--g",
+            "0",
+            "--theta-i-deg",
+            "30",
+            "--paths",
+            "20",
+            "--bins",
+            "8",
+        ]);
+        assert_eq!(
+            medulla_report(&csv.m)
+                .unwrap()
+                .lines()
+                .filter(|l| !l.starts_with('#'))
+                .count(),
+            9
+        );
     }
 }

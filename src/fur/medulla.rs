@@ -39,7 +39,7 @@
 //!
 //! Path lengths are in medulla radii (multiply by the medulla radius in the renderer's unit).
 
-use super::rng::{derive_seed, SplitMix64};
+use super::rng::{SplitMix64, derive_seed};
 use crate::optics::henyey_greenstein::{planar_hg_density_cos, sample_planar_hg};
 use serde::{Deserialize, Serialize};
 use std::f64::consts::{FRAC_PI_2, PI};
@@ -70,11 +70,7 @@ impl Geometry {
             Geometry::Azimuthal { h } => 2.0 * (1.0 - h * h).max(0.0).sqrt(),
             Geometry::Longitudinal { theta_i_rad } => {
                 let c = theta_i_rad.cos();
-                if c > 0.0 {
-                    2.0 / c
-                } else {
-                    f64::INFINITY
-                }
+                if c > 0.0 { 2.0 / c } else { f64::INFINITY }
             }
         }
     }
@@ -234,7 +230,7 @@ fn rotate(d: [f64; 2], angle: f64) -> [f64; 2] {
 /// Simulate one table entry. `sigma` ≥ 0 per unit medulla radius, `g` ∈ [0, 1).
 pub fn simulate(sigma: f64, g: f64, geom: Geometry, s: &McSettings) -> Profile {
     let bins = s.bins;
-    assert!(bins >= 2 && bins % 2 == 0, "bins must be even");
+    assert!(bins >= 2 && bins.is_multiple_of(2), "bins must be even");
     let chord = geom.chord();
     let ballistic = (-sigma * chord).exp();
     let zero = |b: f64| Profile {
@@ -327,7 +323,10 @@ fn simulate_expected(
                 let u = rng.uniform() * acc_q;
                 let k = q.partition_point(|&c| c <= u).min(bins - 1);
                 let qk = q[k] - if k > 0 { q[k - 1] } else { 0.0 };
-                (geom.direction_in_bin(k, rng.uniform(), bins), qk / (acc_q * dw))
+                (
+                    geom.direction_in_bin(k, rng.uniform(), bins),
+                    qk / (acc_q * dw),
+                )
             } else {
                 let nd = rotate(d, sample_planar_hg(rng.uniform(), g));
                 (nd, planar_hg_density_cos(nd[0] * d[0] + nd[1] * d[1], g))
@@ -359,7 +358,9 @@ fn simulate_expected(
         tot_sum += photon_total;
         tot_sum2 += photon_total * photon_total;
     }
-    finish(sum, sum2, sum_len, tot_sum, tot_sum2, n, ballistic, ballistic)
+    finish(
+        sum, sum2, sum_len, tot_sum, tot_sum2, n, ballistic, ballistic,
+    )
 }
 
 /// Optical depth below which the next-event estimate is always evaluated (see
@@ -416,7 +417,16 @@ fn simulate_histogram(
     let sum2 = sum.clone();
     let tot: f64 = sum.iter().sum();
     let n = s.photons as f64;
-    finish(sum, sum2, sum_len, tot, tot, n, ballistic, n_ballistic as f64 / n)
+    finish(
+        sum,
+        sum2,
+        sum_len,
+        tot,
+        tot,
+        n,
+        ballistic,
+        n_ballistic as f64 / n,
+    )
 }
 
 #[allow(clippy::too_many_arguments)]
@@ -458,7 +468,13 @@ fn finish(
 /// Analytic single-scattering energy per bin (midpoint in the bin, Gauss–Legendre along the
 /// entry chord with `nodes` points): ∫₀^L σe^{−σt} ρ(ω_k − d₀) Δ e^{−σ s(x(t), ω_k)} dt.
 /// Independent of the Monte Carlo; the small-σ limit of the full profile.
-pub fn single_scatter_energy(sigma: f64, g: f64, geom: Geometry, bins: usize, nodes: usize) -> Vec<f64> {
+pub fn single_scatter_energy(
+    sigma: f64,
+    g: f64,
+    geom: Geometry,
+    bins: usize,
+    nodes: usize,
+) -> Vec<f64> {
     let dw = 2.0 * PI / bins as f64;
     let chord = geom.chord();
     let (p0, d0) = geom.entry();
@@ -509,7 +525,13 @@ mod tests {
     use super::*;
 
     fn settings(photons: u64, est: Estimator) -> McSettings {
-        McSettings { photons, seed: 11, estimator: est, bins: 720, max_order: None }
+        McSettings {
+            photons,
+            seed: 11,
+            estimator: est,
+            bins: 720,
+            max_order: None,
+        }
     }
 
     #[test]
@@ -534,7 +556,11 @@ mod tests {
             (6.0, 0.8, Geometry::Longitudinal { theta_i_rad: -1.2 }),
         ] {
             for est in [Estimator::Expected, Estimator::Histogram] {
-                let n = if est == Estimator::Expected { 60 } else { 40_000 };
+                let n = if est == Estimator::Expected {
+                    60
+                } else {
+                    40_000
+                };
                 let p = simulate(sigma, g, geom, &settings(n, est));
                 let expect = 1.0 - (-sigma * geom.chord()).exp();
                 let dev = (p.scattered - expect).abs();
@@ -584,7 +610,10 @@ mod tests {
         let reps = 16;
         let group = 16;
         for (a, b) in [
-            (Geometry::Azimuthal { h: 0.5 }, Geometry::Azimuthal { h: -0.5 }),
+            (
+                Geometry::Azimuthal { h: 0.5 },
+                Geometry::Azimuthal { h: -0.5 },
+            ),
             (
                 Geometry::Longitudinal { theta_i_rad: 0.6 },
                 Geometry::Longitudinal { theta_i_rad: -0.6 },
@@ -594,7 +623,11 @@ mod tests {
             let mirror = |k: usize| match a {
                 Geometry::Azimuthal { .. } => 719 - k,
                 Geometry::Longitudinal { .. } => {
-                    if k < half { half - 1 - k } else { half + (2 * half - 1 - k) }
+                    if k < half {
+                        half - 1 - k
+                    } else {
+                        half + (2 * half - 1 - k)
+                    }
                 }
             };
             let run = |geom: Geometry, seed: u64| -> Vec<f64> {
@@ -603,11 +636,14 @@ mod tests {
                 simulate(2.0, 0.6, geom, &s).energy
             };
             let grouped = |e: &[f64], flip: bool| -> Vec<f64> {
-                let e: Vec<f64> = (0..720).map(|k| e[if flip { mirror(k) } else { k }]).collect();
+                let e: Vec<f64> = (0..720)
+                    .map(|k| e[if flip { mirror(k) } else { k }])
+                    .collect();
                 e.chunks(group).map(|c| c.iter().sum()).collect()
             };
             let ng = 720 / group;
-            let (mut ma, mut va, mut mb, mut vb) = (vec![0.0; ng], vec![0.0; ng], vec![0.0; ng], vec![0.0; ng]);
+            let (mut ma, mut va, mut mb, mut vb) =
+                (vec![0.0; ng], vec![0.0; ng], vec![0.0; ng], vec![0.0; ng]);
             let mut asym = 0.0;
             for r in 0..reps {
                 let ea = run(a, 100 + r);
@@ -658,9 +694,15 @@ mod tests {
                 let ea: f64 = a.energy[r.clone()].iter().sum();
                 let eb: f64 = b.energy[r.clone()].iter().sum();
                 let sea: f64 = a.std_error[r.clone()].iter().sum(); // fully correlated bound
-                assert!((ea - ex).abs() < 4.0 * sea + 1e-9, "{geom:?} group {c}: {ea} vs {ex}");
+                assert!(
+                    (ea - ex).abs() < 4.0 * sea + 1e-9,
+                    "{geom:?} group {c}: {ea} vs {ex}"
+                );
                 let seb = (ex / 400_000.0).sqrt();
-                assert!((eb - ex).abs() < 4.5 * seb + 1e-9, "{geom:?} group {c}: {eb} vs {ex}");
+                assert!(
+                    (eb - ex).abs() < 4.5 * seb + 1e-9,
+                    "{geom:?} group {c}: {eb} vs {ex}"
+                );
             }
         }
         // Full transport at small σ, g = 0: multiple scattering is O(σ) of the single term.
@@ -688,9 +730,18 @@ mod tests {
             // Mean per-bin variance over all bins (histogram variance estimated from the
             // better-resolved expected profile: Poisson p/N, so empty bins do not flatter it).
             let va: f64 = a.std_error.iter().map(|x| x * x).sum::<f64>() / 720.0;
-            let vb: f64 = a.energy.iter().map(|p| p * (1.0 - p) / 2_000.0).sum::<f64>() / 720.0;
+            let vb: f64 = a
+                .energy
+                .iter()
+                .map(|p| p * (1.0 - p) / 2_000.0)
+                .sum::<f64>()
+                / 720.0;
             let vb_direct: f64 = b.std_error.iter().map(|x| x * x).sum::<f64>() / 720.0;
-            assert!(va * 30.0 < vb, "{geom:?} σ={sigma}: variance ratio {}", vb / va);
+            assert!(
+                va * 30.0 < vb,
+                "{geom:?} σ={sigma}: variance ratio {}",
+                vb / va
+            );
             assert!((vb_direct / vb - 1.0).abs() < 0.2, "{vb_direct} vs {vb}");
         }
     }

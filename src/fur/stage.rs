@@ -17,8 +17,8 @@
 //! Per-entry scalars (ballistic and scattered fractions, their standard errors, lobe energies)
 //! are stored in the attributes as flat row-major arrays over (sigma, g, entry).
 
-use super::medulla::{normalise_lobes, simulate, Estimator, Geometry, McSettings, Profile};
-use crate::stage::{parse_params, Job, ParamDoc, PlanError, Stage, TaskSpec};
+use super::medulla::{Estimator, Geometry, McSettings, Profile, normalise_lobes, simulate};
+use crate::stage::{Job, ParamDoc, PlanError, Stage, TaskSpec, parse_params};
 use crate::table::{Axis, Channel, Schema, TableContent};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -44,16 +44,29 @@ impl Grid {
     pub fn points(&self) -> Vec<f64> {
         match self {
             Grid::List(v) => v.clone(),
-            &Grid::Range { start, stop, count, centred } => {
+            &Grid::Range {
+                start,
+                stop,
+                count,
+                centred,
+            } => {
                 if centred {
                     let step = (stop - start) / count as f64;
-                    (0..count).map(|i| start + (i as f64 + 0.5) * step).collect()
+                    (0..count)
+                        .map(|i| start + (i as f64 + 0.5) * step)
+                        .collect()
                 } else if count == 1 {
                     vec![start]
                 } else {
                     let step = (stop - start) / (count - 1) as f64;
                     (0..count)
-                        .map(|i| if i + 1 == count { stop } else { start + i as f64 * step })
+                        .map(|i| {
+                            if i + 1 == count {
+                                stop
+                            } else {
+                                start + i as f64 * step
+                            }
+                        })
                         .collect()
                 }
             }
@@ -61,7 +74,14 @@ impl Grid {
     }
 }
 
-fn check_grid(key: &str, pts: &[f64], lo: f64, hi: f64, lo_open: bool, hi_open: bool) -> Result<(), PlanError> {
+fn check_grid(
+    key: &str,
+    pts: &[f64],
+    lo: f64,
+    hi: f64,
+    lo_open: bool,
+    hi_open: bool,
+) -> Result<(), PlanError> {
     if pts.is_empty() || pts.len() > 4096 {
         return Err(PlanError::invalid(key, "needs 1 to 4096 points"));
     }
@@ -72,8 +92,14 @@ fn check_grid(key: &str, pts: &[f64], lo: f64, hi: f64, lo_open: bool, hi_open: 
         let below = if lo_open { p <= lo } else { p < lo };
         let above = if hi_open { p >= hi } else { p > hi };
         if !p.is_finite() || below || above {
-            return Err(PlanError::invalid(key, format!("value {p} outside the valid domain {}{lo}, {hi}{}",
-                if lo_open { "(" } else { "[" }, if hi_open { ")" } else { "]" })));
+            return Err(PlanError::invalid(
+                key,
+                format!(
+                    "value {p} outside the valid domain {}{lo}, {hi}{}",
+                    if lo_open { "(" } else { "[" },
+                    if hi_open { ")" } else { "]" }
+                ),
+            ));
         }
     }
     Ok(())
@@ -107,29 +133,93 @@ fn default_bins() -> usize {
 }
 
 const PARAMS_AZ: &[ParamDoc] = &[
-    ParamDoc { name: "sigma", kind: "list of float | {start, stop, count[, centred]}", default: "required",
-        description: "scattering coefficient per unit MEDULLA radius (dimensionless), 0–200; ranges include both endpoints" },
-    ParamDoc { name: "g", kind: "list of float | {start, stop, count}", default: "required",
-        description: "planar Henyey–Greenstein anisotropy, 0 ≤ g ≤ 0.95" },
-    ParamDoc { name: "h", kind: "list of float | {start, stop, count}", default: "required",
-        description: "entry offset h' on the unit medulla circle, −1 ≤ h' ≤ 1" },
-    ParamDoc { name: "bins", kind: "integer", default: "720", description: "exit-direction bins over [−π, π), even" },
-    ParamDoc { name: "photons", kind: "integer", default: "required", description: "paths per entry" },
-    ParamDoc { name: "seed", kind: "integer", default: "0", description: "random seed (streams derived per entry)" },
-    ParamDoc { name: "estimator", kind: "string", default: "expected", description: "`expected` (next-event, default) or `histogram`" },
+    ParamDoc {
+        name: "sigma",
+        kind: "list of float | {start, stop, count[, centred]}",
+        default: "required",
+        description: "scattering coefficient per unit MEDULLA radius (dimensionless), 0–200; ranges include both endpoints",
+    },
+    ParamDoc {
+        name: "g",
+        kind: "list of float | {start, stop, count}",
+        default: "required",
+        description: "planar Henyey–Greenstein anisotropy, 0 ≤ g ≤ 0.95",
+    },
+    ParamDoc {
+        name: "h",
+        kind: "list of float | {start, stop, count}",
+        default: "required",
+        description: "entry offset h' on the unit medulla circle, −1 ≤ h' ≤ 1",
+    },
+    ParamDoc {
+        name: "bins",
+        kind: "integer",
+        default: "720",
+        description: "exit-direction bins over [−π, π), even",
+    },
+    ParamDoc {
+        name: "photons",
+        kind: "integer",
+        default: "required",
+        description: "paths per entry",
+    },
+    ParamDoc {
+        name: "seed",
+        kind: "integer",
+        default: "0",
+        description: "random seed (streams derived per entry)",
+    },
+    ParamDoc {
+        name: "estimator",
+        kind: "string",
+        default: "expected",
+        description: "`expected` (next-event, default) or `histogram`",
+    },
 ];
 
 const PARAMS_LONG: &[ParamDoc] = &[
-    ParamDoc { name: "sigma", kind: "list of float | {start, stop, count[, centred]}", default: "required",
-        description: "scattering coefficient per unit MEDULLA radius (slab half-thickness 1), 0–200" },
-    ParamDoc { name: "g", kind: "list of float | {start, stop, count}", default: "required",
-        description: "planar Henyey–Greenstein anisotropy, 0 ≤ g ≤ 0.95" },
-    ParamDoc { name: "theta_i_deg", kind: "list of float | {start, stop, count, centred}", default: "required",
-        description: "entry inclination θ'_i in degrees, strictly inside (−90, 90)" },
-    ParamDoc { name: "bins", kind: "integer", default: "720", description: "exit bins over both faces (bins/2 per lobe), even" },
-    ParamDoc { name: "photons", kind: "integer", default: "required", description: "paths per entry" },
-    ParamDoc { name: "seed", kind: "integer", default: "0", description: "random seed (streams derived per entry)" },
-    ParamDoc { name: "estimator", kind: "string", default: "expected", description: "`expected` (next-event, default) or `histogram`" },
+    ParamDoc {
+        name: "sigma",
+        kind: "list of float | {start, stop, count[, centred]}",
+        default: "required",
+        description: "scattering coefficient per unit MEDULLA radius (slab half-thickness 1), 0–200",
+    },
+    ParamDoc {
+        name: "g",
+        kind: "list of float | {start, stop, count}",
+        default: "required",
+        description: "planar Henyey–Greenstein anisotropy, 0 ≤ g ≤ 0.95",
+    },
+    ParamDoc {
+        name: "theta_i_deg",
+        kind: "list of float | {start, stop, count, centred}",
+        default: "required",
+        description: "entry inclination θ'_i in degrees, strictly inside (−90, 90)",
+    },
+    ParamDoc {
+        name: "bins",
+        kind: "integer",
+        default: "720",
+        description: "exit bins over both faces (bins/2 per lobe), even",
+    },
+    ParamDoc {
+        name: "photons",
+        kind: "integer",
+        default: "required",
+        description: "paths per entry",
+    },
+    ParamDoc {
+        name: "seed",
+        kind: "integer",
+        default: "0",
+        description: "random seed (streams derived per entry)",
+    },
+    ParamDoc {
+        name: "estimator",
+        kind: "string",
+        default: "expected",
+        description: "`expected` (next-event, default) or `histogram`",
+    },
 ];
 
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -143,7 +233,10 @@ pub struct FurMedullaAzimuthalStage;
 /// Stage for the longitudinal family C^M(θ'_r; θ'_i, σ, g).
 pub struct FurMedullaLongitudinalStage;
 
-fn plan(family: Family, params: toml::de::ValueDeserializer<'_>) -> Result<Box<dyn Job>, PlanError> {
+fn plan(
+    family: Family,
+    params: toml::de::ValueDeserializer<'_>,
+) -> Result<Box<dyn Job>, PlanError> {
     let p: Params = parse_params(params)?;
     let sigma = p.sigma.points();
     let g = p.g.points();
@@ -152,9 +245,15 @@ fn plan(family: Family, params: toml::de::ValueDeserializer<'_>) -> Result<Box<d
     let entries = match family {
         Family::Azimuthal => {
             if p.theta_i_deg.is_some() {
-                return Err(PlanError::invalid("theta_i_deg", "belongs to the longitudinal stage"));
+                return Err(PlanError::invalid(
+                    "theta_i_deg",
+                    "belongs to the longitudinal stage",
+                ));
             }
-            let h = p.h.as_ref().ok_or_else(|| PlanError::invalid("h", "required"))?.points();
+            let h =
+                p.h.as_ref()
+                    .ok_or_else(|| PlanError::invalid("h", "required"))?
+                    .points();
             check_grid("h", &h, -1.0, 1.0, false, false)?;
             h
         }
@@ -162,18 +261,31 @@ fn plan(family: Family, params: toml::de::ValueDeserializer<'_>) -> Result<Box<d
             if p.h.is_some() {
                 return Err(PlanError::invalid("h", "belongs to the azimuthal stage"));
             }
-            let t = p.theta_i_deg.as_ref().ok_or_else(|| PlanError::invalid("theta_i_deg", "required"))?.points();
+            let t = p
+                .theta_i_deg
+                .as_ref()
+                .ok_or_else(|| PlanError::invalid("theta_i_deg", "required"))?
+                .points();
             check_grid("theta_i_deg", &t, -90.0, 90.0, true, true)?;
             t
         }
     };
-    if p.bins < 8 || p.bins % 4 != 0 || p.bins > 36_000 {
-        return Err(PlanError::invalid("bins", "must be a multiple of 4 in 8..=36000"));
+    if p.bins < 8 || !p.bins.is_multiple_of(4) || p.bins > 36_000 {
+        return Err(PlanError::invalid(
+            "bins",
+            "must be a multiple of 4 in 8..=36000",
+        ));
     }
     if p.photons == 0 || p.photons > 1_000_000_000 {
         return Err(PlanError::invalid("photons", "must be in 1..=1e9"));
     }
-    Ok(Box::new(MedullaJob { family, p, sigma, g, entries }))
+    Ok(Box::new(MedullaJob {
+        family,
+        p,
+        sigma,
+        g,
+        entries,
+    }))
 }
 
 impl Stage for FurMedullaAzimuthalStage {
@@ -232,14 +344,16 @@ impl MedullaJob {
     }
     fn scalars(&self) -> usize {
         match self.family {
-            Family::Azimuthal => 3,      // ballistic, scattered, scattered_se
-            Family::Longitudinal => 5,   // ballistic, scattered, scattered_se, back, forward
+            Family::Azimuthal => 3,    // ballistic, scattered, scattered_se
+            Family::Longitudinal => 5, // ballistic, scattered, scattered_se, back, forward
         }
     }
     fn geometry(&self, x: f64) -> Geometry {
         match self.family {
             Family::Azimuthal => Geometry::Azimuthal { h: x },
-            Family::Longitudinal => Geometry::Longitudinal { theta_i_rad: x.to_radians() },
+            Family::Longitudinal => Geometry::Longitudinal {
+                theta_i_rad: x.to_radians(),
+            },
         }
     }
     fn settings(&self) -> McSettings {
@@ -265,7 +379,11 @@ impl MedullaJob {
             Family::Azimuthal => b - 1 - k,
             Family::Longitudinal => {
                 let half = b / 2;
-                if k < half { half - 1 - k } else { half + (b - 1 - k) }
+                if k < half {
+                    half - 1 - k
+                } else {
+                    half + (b - 1 - k)
+                }
             }
         }
     }
@@ -279,9 +397,20 @@ impl MedullaJob {
             Family::Azimuthal => {
                 let mut v = Vec::with_capacity(b * 3);
                 for k in 0..b {
-                    v.extend([prof.energy[k] as f32, prof.path_length[k] as f32, prof.std_error[k] as f32]);
+                    v.extend([
+                        prof.energy[k] as f32,
+                        prof.path_length[k] as f32,
+                        prof.std_error[k] as f32,
+                    ]);
                 }
-                (v, vec![prof.ballistic as f32, prof.scattered as f32, prof.scattered_std_error as f32])
+                (
+                    v,
+                    vec![
+                        prof.ballistic as f32,
+                        prof.scattered as f32,
+                        prof.scattered_std_error as f32,
+                    ],
+                )
             }
             Family::Longitudinal => {
                 // Lobe shapes: for σ = 0 the stored pdf/cdf are the σ → 0 limit (energy stays 0).
@@ -325,7 +454,10 @@ impl Job for MedullaJob {
         let mut t = Vec::new();
         for &s in &self.sigma {
             for &g in &self.g {
-                t.push(TaskSpec { label: format!("σ={s:.4} g={g:.4}"), params: json!({ "sigma": s, "g": g }) });
+                t.push(TaskSpec {
+                    label: format!("σ={s:.4} g={g:.4}"),
+                    params: json!({ "sigma": s, "g": g }),
+                });
             }
         }
         t
@@ -368,7 +500,8 @@ impl Job for MedullaJob {
                             }
                             for j in 0..half {
                                 acc += data[base + j * c] as f64;
-                                data[base + j * c + 1] = if tot > 0.0 { (acc / tot) as f32 } else { 0.0 };
+                                data[base + j * c + 1] =
+                                    if tot > 0.0 { (acc / tot) as f32 } else { 0.0 };
                             }
                         }
                         // back and forward energies are unchanged by the mirror.
@@ -382,12 +515,22 @@ impl Job for MedullaJob {
         Ok(data)
     }
     fn assemble(&self, chunks: Vec<Vec<f32>>) -> anyhow::Result<TableContent> {
-        let (b, c, ns, n) = (self.p.bins, self.channels(), self.scalars(), self.entries.len());
+        let (b, c, ns, n) = (
+            self.p.bins,
+            self.channels(),
+            self.scalars(),
+            self.entries.len(),
+        );
         let row_len = n * b * c;
         let mut data = Vec::with_capacity(chunks.len() * row_len);
         let mut scal: Vec<Vec<f64>> = vec![Vec::new(); ns];
         for ch in &chunks {
-            anyhow::ensure!(ch.len() == row_len + n * ns, "chunk of length {} (expected {})", ch.len(), row_len + n * ns);
+            anyhow::ensure!(
+                ch.len() == row_len + n * ns,
+                "chunk of length {} (expected {})",
+                ch.len(),
+                row_len + n * ns
+            );
             data.extend_from_slice(&ch[..row_len]);
             for i in 0..n {
                 for (j, s) in scal.iter_mut().enumerate() {
@@ -398,12 +541,11 @@ impl Job for MedullaJob {
         // Energy-identity check over the whole table, in standard errors.
         let mut max_dev_se: f64 = 0.0;
         let mut max_dev_abs: f64 = 0.0;
-        for i in 0..scal[0].len() {
-            let expect = 1.0 - scal[0][i];
-            let dev = (scal[1][i] - expect).abs();
+        for ((ballistic, scattered), se) in scal[0].iter().zip(&scal[1]).zip(&scal[2]) {
+            let dev = (scattered - (1.0 - ballistic)).abs();
             max_dev_abs = max_dev_abs.max(dev);
-            if scal[2][i] > 0.0 {
-                max_dev_se = max_dev_se.max(dev / scal[2][i]);
+            if *se > 0.0 {
+                max_dev_se = max_dev_se.max(dev / se);
             }
         }
         let dw_deg = 360.0 / b as f64;
@@ -426,19 +568,34 @@ impl Job for MedullaJob {
         a.insert("path_length_convention".into(), "channel `path_length` is the energy-weighted mean in-medulla path length (medulla radii) of the light exiting in the bin; 0 where the bin is empty. Medulla absorption at render time: multiply energy by exp(-sigma_a * path_length) (first-order; exact only for a narrow length distribution)".into());
         a.insert("std_error_convention".into(), "channel `std_error` is the Monte Carlo standard error of `energy` in the bin (from per-photon second moments)".into());
         a.insert("symmetry".into(), "rows with a negative entry (h or theta_i) whose positive mirror is on the grid are stored as the exact mirror of that row (bins reversed, within each lobe for the longitudinal family)".into());
-        a.insert("scalars_layout".into(), "per-entry arrays below are flat row-major over (sigma, g, entry)".into());
+        a.insert(
+            "scalars_layout".into(),
+            "per-entry arrays below are flat row-major over (sigma, g, entry)".into(),
+        );
         a.insert("ballistic_fraction".into(), scal[0].clone().into());
         a.insert("scattered_fraction".into(), scal[1].clone().into());
-        a.insert("scattered_fraction_std_error".into(), scal[2].clone().into());
+        a.insert(
+            "scattered_fraction_std_error".into(),
+            scal[2].clone().into(),
+        );
         a.insert("energy_identity_max_deviation".into(), max_dev_abs.into());
-        a.insert("energy_identity_max_deviation_std_errors".into(), max_dev_se.into());
+        a.insert(
+            "energy_identity_max_deviation_std_errors".into(),
+            max_dev_se.into(),
+        );
         let sigma_ax = Axis::values("sigma", "1/medulla_radius", self.sigma.clone());
         let g_ax = Axis::values("g", "1", self.g.clone());
         let content = match self.family {
             Family::Azimuthal => {
-                a.insert("geometry".into(), "unit disc entered at (-sqrt(1-h^2), h) moving along +x".into());
+                a.insert(
+                    "geometry".into(),
+                    "unit disc entered at (-sqrt(1-h^2), h) moving along +x".into(),
+                );
                 a.insert("bin_convention".into(), "phi' = atan2(d_y, d_x) of the exit direction relative to the entering propagation direction: 0 = unscattered continuation (forward), +/-180 deg = straight back towards the source, counter-clockwise = towards the side of positive h'; bins cover [-180, 180) deg".into());
-                a.insert("energy_identity".into(), "sum over phi of energy = 1 - exp(-2 sigma sqrt(1 - h^2))".into());
+                a.insert(
+                    "energy_identity".into(),
+                    "sum over phi of energy = 1 - exp(-2 sigma sqrt(1 - h^2))".into(),
+                );
                 TableContent {
                     schema: Schema::new("fur-medulla-azimuthal", 1),
                     description: "fur medulla azimuthal scattering profile C^N(phi'; h', sigma, g) (scattered energy per exit-direction bin)".into(),
@@ -461,7 +618,10 @@ impl Job for MedullaJob {
                 a.insert("geometry".into(), "slab 0 <= x <= 2 (x along the slab normal = in the fiber's normal plane, y along the fiber axis), entered at x = 0 with propagation direction (cos theta_i, -sin theta_i)".into());
                 a.insert("bin_convention".into(), "theta_i is the inclination of the direction towards the source, theta_r of the exit direction (sin theta_r = exit d_y), both from the slab normal, Marschner-style: the unscattered continuation exits at theta_r = -theta_i. lobe 0 = back (exits through the entry face x = 0, the thesis's 'upper' lobe, used at phi = 0), lobe 1 = forward (exits through x = 2, the 'lower' lobe, used at phi = +/-180 deg); theta_r bins cover [-90, 90) deg per lobe".into());
                 a.insert("pdf_convention".into(), "channel `pdf` is each lobe normalised to a probability density per radian of theta_r (sum pdf * bin_width_rad = 1 per lobe); `cdf` is its cumulative distribution at the UPPER edge of each bin (last bin = 1). At sigma = 0 energy is 0 and pdf/cdf hold the sigma -> 0 limit shape (single scattering on the chord)".into());
-                a.insert("energy_identity".into(), "sum over both lobes of energy = 1 - exp(-2 sigma / cos theta_i)".into());
+                a.insert(
+                    "energy_identity".into(),
+                    "sum over both lobes of energy = 1 - exp(-2 sigma / cos theta_i)".into(),
+                );
                 a.insert("back_lobe_energy".into(), scal[3].clone().into());
                 a.insert("forward_lobe_energy".into(), scal[4].clone().into());
                 TableContent {
@@ -501,7 +661,9 @@ mod tests {
     }
 
     fn run(job: &dyn Job) -> TableContent {
-        let chunks = (0..job.tasks().len()).map(|i| job.run_task(i).unwrap()).collect();
+        let chunks = (0..job.tasks().len())
+            .map(|i| job.run_task(i).unwrap())
+            .collect();
         job.assemble(chunks).unwrap()
     }
 
@@ -536,7 +698,12 @@ mod tests {
                 assert!((sum - expect).abs() < 1e-2, "h={h}: {sum} vs {expect}");
             }
         }
-        assert!(t.attributes["energy_identity_max_deviation_std_errors"].as_f64().unwrap() < 5.0);
+        assert!(
+            t.attributes["energy_identity_max_deviation_std_errors"]
+                .as_f64()
+                .unwrap()
+                < 5.0
+        );
     }
 
     #[test]
@@ -556,7 +723,10 @@ mod tests {
                     let int: f64 = (0..half).map(|j| t.data[base + j * c] as f64 * dw).sum();
                     assert!((int - 1.0).abs() < 1e-5, "σ{si} θ{ti} lobe {lobe}: {int}");
                     assert!((t.data[base + (half - 1) * c + 1] - 1.0).abs() < 1e-6);
-                    assert!((0..half - 1).all(|j| t.data[base + (j + 1) * c + 1] >= t.data[base + j * c + 1]));
+                    assert!(
+                        (0..half - 1)
+                            .all(|j| t.data[base + (j + 1) * c + 1] >= t.data[base + j * c + 1])
+                    );
                     if si == 0 {
                         assert!((0..half).all(|j| t.data[base + j * c + 2] == 0.0));
                     }
@@ -567,10 +737,40 @@ mod tests {
 
     #[test]
     fn rejects_bad_params() {
-        assert!(plan_str(Family::Azimuthal, "{ sigma = [1.0], g = [0.0], h = [1.5], photons = 1 }").is_err());
-        assert!(plan_str(Family::Longitudinal, "{ sigma = [1.0], g = [0.0], theta_i_deg = [90.0], photons = 1 }").is_err());
-        assert!(plan_str(Family::Azimuthal, "{ sigma = [1.0], g = [0.99], h = [0.5], photons = 1 }").is_err());
-        assert!(plan_str(Family::Azimuthal, "{ sigma = [1.0], g = [0.0], h = [0.5], photons = 1, bogus = 2 }").is_err());
-        assert!(plan_str(Family::Azimuthal, "{ sigma = [1.0], g = [0.0], theta_i_deg = [0.5], photons = 1 }").is_err());
+        assert!(
+            plan_str(
+                Family::Azimuthal,
+                "{ sigma = [1.0], g = [0.0], h = [1.5], photons = 1 }"
+            )
+            .is_err()
+        );
+        assert!(
+            plan_str(
+                Family::Longitudinal,
+                "{ sigma = [1.0], g = [0.0], theta_i_deg = [90.0], photons = 1 }"
+            )
+            .is_err()
+        );
+        assert!(
+            plan_str(
+                Family::Azimuthal,
+                "{ sigma = [1.0], g = [0.99], h = [0.5], photons = 1 }"
+            )
+            .is_err()
+        );
+        assert!(
+            plan_str(
+                Family::Azimuthal,
+                "{ sigma = [1.0], g = [0.0], h = [0.5], photons = 1, bogus = 2 }"
+            )
+            .is_err()
+        );
+        assert!(
+            plan_str(
+                Family::Azimuthal,
+                "{ sigma = [1.0], g = [0.0], theta_i_deg = [0.5], photons = 1 }"
+            )
+            .is_err()
+        );
     }
 }

@@ -87,14 +87,18 @@ pub fn tt_svd(data: &[f64], dims: &[usize], rel_tol: f64, max_rank: usize) -> Te
     let d = dims.len();
     assert_eq!(data.len(), dims.iter().product::<usize>());
     let norm2: f64 = data.iter().map(|x| x * x).sum();
-    let delta2 = if d > 1 { rel_tol * rel_tol * norm2 / (d - 1) as f64 } else { 0.0 };
+    let delta2 = if d > 1 {
+        rel_tol * rel_tol * norm2 / (d - 1) as f64
+    } else {
+        0.0
+    };
     let mut ranks = vec![1usize];
     let mut cores = Vec::new();
     // Current remainder C, shape (r·n_k) × rest, row-major.
     let mut c = data.to_vec();
     let mut r = 1usize;
-    for k in 0..d - 1 {
-        let m = r * dims[k];
+    for &n_k in &dims[..d - 1] {
+        let m = r * n_k;
         let ncols = c.len() / m;
         // Row-major m × ncols is column-major ncols × m: A = Cᵀ in nalgebra's storage.
         let a = DMatrix::from_column_slice(ncols, m, &c);
@@ -103,7 +107,14 @@ pub fn tt_svd(data: &[f64], dims: &[usize], rel_tol: f64, max_rank: usize) -> Te
             let g = a.transpose() * &a;
             let eig = SymmetricEigen::new(g);
             let order = sorted_desc(eig.eigenvalues.as_slice());
-            let rk = choose_rank(&order.iter().map(|&i| eig.eigenvalues[i]).collect::<Vec<_>>(), delta2, max_rank);
+            let rk = choose_rank(
+                &order
+                    .iter()
+                    .map(|&i| eig.eigenvalues[i])
+                    .collect::<Vec<_>>(),
+                delta2,
+                max_rank,
+            );
             // U: m × rk (orthonormal columns); rest = Uᵀ C (rk × ncols).
             let mut u = DMatrix::zeros(m, rk);
             for (j, &i) in order.iter().take(rk).enumerate() {
@@ -116,7 +127,14 @@ pub fn tt_svd(data: &[f64], dims: &[usize], rel_tol: f64, max_rank: usize) -> Te
             let g = &a * a.transpose();
             let eig = SymmetricEigen::new(g);
             let order = sorted_desc(eig.eigenvalues.as_slice());
-            let rk = choose_rank(&order.iter().map(|&i| eig.eigenvalues[i]).collect::<Vec<_>>(), delta2, max_rank);
+            let rk = choose_rank(
+                &order
+                    .iter()
+                    .map(|&i| eig.eigenvalues[i])
+                    .collect::<Vec<_>>(),
+                delta2,
+                max_rank,
+            );
             let mut v = DMatrix::zeros(ncols, rk);
             for (j, &i) in order.iter().take(rk).enumerate() {
                 v.set_column(j, &eig.eigenvectors.column(i));
@@ -146,7 +164,11 @@ pub fn tt_svd(data: &[f64], dims: &[usize], rel_tol: f64, max_rank: usize) -> Te
     }
     cores.push(c);
     ranks.push(1);
-    TensorTrain { dims: dims.to_vec(), ranks, cores }
+    TensorTrain {
+        dims: dims.to_vec(),
+        ranks,
+        cores,
+    }
 }
 
 fn sorted_desc(v: &[f64]) -> Vec<usize> {
@@ -195,7 +217,13 @@ pub fn compress_table(
         .position(|c| c.name == channel)
         .ok_or_else(|| anyhow::anyhow!("table has no channel `{channel}`"))?;
     let dims: Vec<usize> = table.axes.iter().map(Axis::len).collect();
-    let dense: Vec<f64> = table.data.iter().skip(ci).step_by(nc).map(|&v| v as f64).collect();
+    let dense: Vec<f64> = table
+        .data
+        .iter()
+        .skip(ci)
+        .step_by(nc)
+        .map(|&v| v as f64)
+        .collect();
     let mut tt = tt_svd(&dense, &dims, rel_tol, max_rank);
     for core in &mut tt.cores {
         for v in core.iter_mut() {
@@ -213,25 +241,47 @@ pub fn compress_table(
     let mut a = serde_json::Map::new();
     a.insert("codec".into(), "tensor-train (TT-SVD, Oseledets 2011): A[i1..id] = G1[:,i1,:] G2[:,i2,:] ... Gd[:,id,:], core k row-major r_{k-1} x n_k x r_k, cores concatenated in the `value` axis at core_offsets".into());
     a.insert("source_schema".into(), table.schema.to_string().into());
-    a.insert("source_description".into(), table.description.clone().into());
+    a.insert(
+        "source_description".into(),
+        table.description.clone().into(),
+    );
     a.insert("source_axes".into(), serde_json::to_value(&table.axes)?);
-    a.insert("source_channel".into(), serde_json::to_value(&table.channels[ci])?);
-    a.insert("source_attributes".into(), serde_json::Value::Object(table.attributes.clone()));
+    a.insert(
+        "source_channel".into(),
+        serde_json::to_value(&table.channels[ci])?,
+    );
+    a.insert(
+        "source_attributes".into(),
+        serde_json::Value::Object(table.attributes.clone()),
+    );
     a.insert("dims".into(), serde_json::to_value(&tt.dims)?);
     a.insert("ranks".into(), serde_json::to_value(&tt.ranks)?);
     a.insert("core_offsets".into(), serde_json::to_value(&offsets)?);
     a.insert("rel_tol".into(), rel_tol.into());
     a.insert("max_rank".into(), max_rank.into());
-    a.insert("rel_frobenius_error".into(), report.rel_frobenius_error.into());
+    a.insert(
+        "rel_frobenius_error".into(),
+        report.rel_frobenius_error.into(),
+    );
     a.insert("max_abs_error".into(), report.max_abs_error.into());
-    a.insert("max_abs_error_rel_to_max".into(), report.max_abs_error_rel_to_max.into());
+    a.insert(
+        "max_abs_error_rel_to_max".into(),
+        report.max_abs_error_rel_to_max.into(),
+    );
     let n = data.len();
     Ok((
         TableContent {
             schema: Schema::new("fur-medulla-tt", 1),
-            description: format!("tensor-train compressed channel `{channel}` of {}", table.schema),
+            description: format!(
+                "tensor-train compressed channel `{channel}` of {}",
+                table.schema
+            ),
             axes: vec![Axis::uniform("value", "1", 0.0, 1.0, n)],
-            channels: vec![Channel::new("core_value", "1", "TT core entries (see attributes)")],
+            channels: vec![Channel::new(
+                "core_value",
+                "1",
+                "TT core entries (see attributes)",
+            )],
             attributes: a,
             data,
         },
@@ -258,33 +308,63 @@ fn error_report(dense: &[f64], approx: &[f64], parameters: usize) -> Compression
 
 /// Rebuild the dense single-channel table from a `fur-medulla-tt/1` table.
 pub fn reconstruct_table(tt_table: &TableContent) -> anyhow::Result<TableContent> {
-    anyhow::ensure!(tt_table.schema.name == "fur-medulla-tt", "not a fur-medulla-tt table");
+    anyhow::ensure!(
+        tt_table.schema.name == "fur-medulla-tt",
+        "not a fur-medulla-tt table"
+    );
     let at = &tt_table.attributes;
-    let get = |k: &str| at.get(k).ok_or_else(|| anyhow::anyhow!("missing attribute `{k}`"));
+    let get = |k: &str| {
+        at.get(k)
+            .ok_or_else(|| anyhow::anyhow!("missing attribute `{k}`"))
+    };
     let dims: Vec<usize> = serde_json::from_value(get("dims")?.clone())?;
     let ranks: Vec<usize> = serde_json::from_value(get("ranks")?.clone())?;
     let offsets: Vec<usize> = serde_json::from_value(get("core_offsets")?.clone())?;
-    anyhow::ensure!(ranks.len() == dims.len() + 1 && offsets.len() == dims.len() + 1, "inconsistent TT header");
+    anyhow::ensure!(
+        ranks.len() == dims.len() + 1 && offsets.len() == dims.len() + 1,
+        "inconsistent TT header"
+    );
     let mut cores = Vec::new();
     for k in 0..dims.len() {
-        anyhow::ensure!(offsets[k + 1] - offsets[k] == ranks[k] * dims[k] * ranks[k + 1], "core {k} size mismatch");
-        cores.push(tt_table.data[offsets[k]..offsets[k + 1]].iter().map(|&v| v as f64).collect());
+        anyhow::ensure!(
+            offsets[k + 1] - offsets[k] == ranks[k] * dims[k] * ranks[k + 1],
+            "core {k} size mismatch"
+        );
+        cores.push(
+            tt_table.data[offsets[k]..offsets[k + 1]]
+                .iter()
+                .map(|&v| v as f64)
+                .collect(),
+        );
     }
     let tt = TensorTrain { dims, ranks, cores };
     let axes: Vec<Axis> = serde_json::from_value(get("source_axes")?.clone())?;
     let channel: Channel = serde_json::from_value(get("source_channel")?.clone())?;
-    let schema_str = get("source_schema")?.as_str().unwrap_or_default().to_string();
-    let (name, ver) = schema_str.rsplit_once('/').unwrap_or((schema_str.as_str(), "1"));
+    let schema_str = get("source_schema")?
+        .as_str()
+        .unwrap_or_default()
+        .to_string();
+    let (name, ver) = schema_str
+        .rsplit_once('/')
+        .unwrap_or((schema_str.as_str(), "1"));
     let mut attributes = match get("source_attributes")? {
         serde_json::Value::Object(m) => m.clone(),
         _ => serde_json::Map::new(),
     };
-    for k in ["rel_frobenius_error", "max_abs_error", "max_abs_error_rel_to_max", "ranks"] {
+    for k in [
+        "rel_frobenius_error",
+        "max_abs_error",
+        "max_abs_error_rel_to_max",
+        "ranks",
+    ] {
         attributes.insert(format!("tt_{k}"), get(k)?.clone());
     }
     Ok(TableContent {
         schema: Schema::new(name, ver.parse().unwrap_or(1)),
-        description: format!("{} (reconstructed from tensor train)", get("source_description")?.as_str().unwrap_or("")),
+        description: format!(
+            "{} (reconstructed from tensor train)",
+            get("source_description")?.as_str().unwrap_or("")
+        ),
         axes,
         channels: vec![channel],
         attributes,
@@ -318,7 +398,11 @@ mod tests {
         let tt = tt_svd(&a, &dims, 1e-6, 64);
         assert_eq!(tt.ranks, vec![1, 2, 2, 2, 1]);
         let b = tt.reconstruct();
-        let err = a.iter().zip(&b).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max);
+        let err = a
+            .iter()
+            .zip(&b)
+            .map(|(x, y)| (x - y).abs())
+            .fold(0.0, f64::max);
         assert!(err < 1e-7, "{err}");
         assert!((tt.get(&[3, 2, 5, 6]) - a[((3 * 4 + 2) * 6 + 5) * 7 + 6]).abs() < 1e-7);
     }
@@ -332,7 +416,12 @@ mod tests {
             for j in 0..6 {
                 for k in 0..9 {
                     for l in 0..30 {
-                        let (x, y, z, w) = (i as f64 / 8.0, j as f64 / 6.0, k as f64 / 9.0, l as f64 / 30.0);
+                        let (x, y, z, w) = (
+                            i as f64 / 8.0,
+                            j as f64 / 6.0,
+                            k as f64 / 9.0,
+                            l as f64 / 30.0,
+                        );
                         a.push(1.0 / (1.0 + x + y * z + (w - 0.5 * x).powi(2) * 4.0));
                     }
                 }
@@ -349,7 +438,10 @@ mod tests {
 
     #[test]
     fn table_round_trip_through_tt_table() {
-        let axes = vec![Axis::uniform("a", "1", 0.0, 1.0, 6), Axis::uniform("b", "deg", 0.0, 1.0, 10)];
+        let axes = vec![
+            Axis::uniform("a", "1", 0.0, 1.0, 6),
+            Axis::uniform("b", "deg", 0.0, 1.0, 10),
+        ];
         let mut data = Vec::new();
         for i in 0..6 {
             for j in 0..10 {
