@@ -36,6 +36,39 @@ fn main() -> anyhow::Result<()> {
                 .as_f64()
                 .unwrap()
         );
+        // Relative standard error over bins above 1e-3 of each row's maximum (energy channel).
+        let nc = content.channels.len();
+        let (ei, si) = (
+            content
+                .channels
+                .iter()
+                .position(|c| c.name == "energy")
+                .unwrap(),
+            content
+                .channels
+                .iter()
+                .position(|c| c.name == "std_error")
+                .unwrap(),
+        );
+        let row = content.axes.last().unwrap().len() * if content.axes.len() == 5 { 2 } else { 1 };
+        let (mut worst, mut sum_rel, mut count) = (0.0f64, 0.0f64, 0usize);
+        for r in content.data.chunks(row * nc) {
+            let max = (0..row).map(|k| r[k * nc + ei]).fold(0.0f32, f32::max);
+            for k in 0..row {
+                let e = r[k * nc + ei];
+                if max > 0.0 && e > 1e-3 * max {
+                    let rel = (r[k * nc + si] / e) as f64;
+                    worst = worst.max(rel);
+                    sum_rel += rel;
+                    count += 1;
+                }
+            }
+        }
+        println!(
+            "  relative std error on bins > 1e-3 of row max: mean {:.4}, worst {:.4}",
+            sum_rel / count.max(1) as f64,
+            worst
+        );
         if let Some(tol) = tt_tol {
             let ch = if content.schema.name == "fur-medulla-longitudinal" {
                 "pdf"

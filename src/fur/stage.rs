@@ -736,6 +736,36 @@ mod tests {
     }
 
     #[test]
+    fn shipped_manifests_plan_with_the_documented_grids() {
+        let root = env!("CARGO_MANIFEST_DIR");
+        for (file, tasks) in [
+            ("manifests/fur-medulla.toml", 45),
+            ("manifests/full/fur-medulla-full.toml", 1024),
+        ] {
+            let text = std::fs::read_to_string(format!("{root}/{file}")).unwrap();
+            let doc: toml::Table = toml::from_str(&text).unwrap();
+            for entry in doc["table"].as_array().unwrap() {
+                let stage = crate::stages::find(entry["stage"].as_str().unwrap()).unwrap();
+                let params = entry["params"].to_string();
+                let job = stage
+                    .plan(toml::de::ValueDeserializer::parse(&params).unwrap())
+                    .unwrap();
+                assert_eq!(job.tasks().len(), tasks, "{file}");
+                if tasks == 1024 {
+                    let p: Params = serde_json::from_value(job.parameters()).unwrap();
+                    let sigma = p.sigma.points();
+                    assert_eq!((sigma.len(), sigma[0], sigma[63]), (64, 0.0, 20.0));
+                    assert!((sigma[1] - 20.0 / 63.0).abs() < 1e-12);
+                    let g = p.g.points();
+                    assert!((g[1] - 0.8 / 15.0).abs() < 1e-12 && g[15] == 0.8);
+                    let e = p.h.or(p.theta_i_deg).unwrap().points();
+                    assert_eq!(e.len(), 64);
+                }
+            }
+        }
+    }
+
+    #[test]
     fn rejects_bad_params() {
         assert!(
             plan_str(
