@@ -31,9 +31,11 @@
 //!   next direction is importance-sampled from ρ·(1 − e^{−σs}) (bin by the tabulated weights,
 //!   uniform inside the bin, exact weight ratio), its next collision is forced before the
 //!   boundary, and its weight carries the non-escaping fraction (survival biasing); Russian
-//!   roulette (survival ½) plays it once its weight falls below 5 % of the initial weight. The per-photon total is then almost
-//!   constant, so the energy identity holds far below the per-bin noise. Unbiased up to the
-//!   O(Δ²) midpoint rule of the scoring.
+//!   roulette (survival ½) plays it once its weight falls below 5 % of the initial weight. Deep
+//!   inside the medium (optical depth τ > 3 to the nearest boundary) the O(bins) estimate is
+//!   itself evaluated only with probability e^{3−τ} and weighted by its inverse. The per-photon
+//!   total is then almost constant, so the energy identity holds far below the per-bin noise.
+//!   Unbiased up to the O(Δ²) midpoint rule of the scoring (measured ≲ 1e-4 of the total).
 //! - `Histogram`: plain analog tracking; a photon is scored once, in the bin of its exit
 //!   direction. Kept as the independent reference for tests.
 //!
