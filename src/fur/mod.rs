@@ -7,6 +7,7 @@
 //! - [`stage`]: the `fur-medulla-azimuthal` and `fur-medulla-longitudinal` stages.
 //! - [`tt`]: tensor-train (TT-SVD) compression and reconstruction of a table channel.
 
+pub mod chief_ray;
 pub mod cli;
 pub mod medulla;
 pub mod rng;
