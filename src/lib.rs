@@ -14,6 +14,7 @@ pub mod consumers;
 pub mod debye;
 pub mod export;
 pub mod hair;
+pub mod fur;
 pub mod manifest;
 pub mod mie;
 pub mod optics;

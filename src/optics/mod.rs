@@ -9,6 +9,7 @@
 pub mod airy_function;
 pub mod colour;
 pub mod fresnel;
+pub mod henyey_greenstein;
 pub mod interp;
 pub mod quadrature;
 pub mod water;

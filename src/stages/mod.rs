@@ -13,6 +13,8 @@ pub fn registry() -> Vec<Box<dyn Stage>> {
         Box::new(crate::hair::stage::HairAzimuthalStage),
         Box::new(crate::mie::stage::MieStage),
         Box::new(crate::debye::stage::DebyeStage),
+        Box::new(crate::fur::stage::FurMedullaAzimuthalStage),
+        Box::new(crate::fur::stage::FurMedullaLongitudinalStage),
     ]
 }
 

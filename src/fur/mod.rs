@@ -1,0 +1,15 @@
+//! Fur: medulla scattering tables of the coaxial-cylinder fur model (Tseng 2015; Yan et al.
+//! 2015) and their compact low-rank form. Conventions and decisions: `docs/fur.md`.
+//!
+//! - [`medulla`]: 2-D volumetric Monte Carlo (planar Henyey–Greenstein, no absorption,
+//!   index-matched boundary) for the azimuthal C^N and longitudinal C^M families, with a
+//!   next-event (expected-value) estimator and a plain histogram estimator.
+//! - [`stage`]: the `fur-medulla-azimuthal` and `fur-medulla-longitudinal` stages.
+//! - [`tt`]: tensor-train (TT-SVD) compression and reconstruction of a table channel.
+
+pub mod chief_ray;
+pub mod cli;
+pub mod medulla;
+pub mod rng;
+pub mod stage;
+pub mod tt;

@@ -1,0 +1,806 @@
+//! Stages `fur-medulla-azimuthal` (C^N) and `fur-medulla-longitudinal` (C^M).
+//!
+//! One task per (σ, g) pair: it computes every entry row (h' or θ'_i) of that pair, in
+//! parallel over rows (each row has its own random stream derived from the seed and the entry
+//! parameters, so results do not depend on thread count or sharding). When the entry grid is
+//! mirror-symmetric, rows with a negative entry are the exact mirror of the positive row
+//! (C^N(φ'; −h') = C^N(−φ'; h'), C^M(θ'_r; −θ'_i) = C^M(−θ'_r; θ'_i)); the symmetry itself is
+//! tested on independent runs in [`super::medulla`].
+//!
+//! Table layouts (row-major, channel innermost):
+//! - azimuthal `fur-medulla-azimuthal/1`: axes `sigma` × `g` × `h` × `phi` (bins),
+//!   channels `energy`, `path_length`, `std_error`;
+//! - longitudinal `fur-medulla-longitudinal/1`: axes `sigma` × `g` × `theta_i` × `lobe` (0 back,
+//!   1 forward) × `theta_r` (bins/2), channels `pdf`, `cdf`, `energy`, `path_length`,
+//!   `std_error`.
+//!
+//! Per-entry scalars (ballistic and scattered fractions, their standard errors, lobe energies)
+//! are stored in the attributes as flat row-major arrays over (sigma, g, entry).
+
+use super::medulla::{Estimator, Geometry, McSettings, Profile, normalise_lobes, simulate};
+use crate::stage::{Job, ParamDoc, PlanError, Stage, TaskSpec, parse_params};
+use crate::table::{Axis, Channel, Schema, TableContent};
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use serde_json::json;
+use std::f64::consts::PI;
+
+/// A 1-D grid: an explicit increasing list, or `{ start, stop, count }` with both endpoints
+/// included (`centred = true`: `count` cell centres of [start, stop] instead).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum Grid {
+    List(Vec<f64>),
+    Range {
+        start: f64,
+        stop: f64,
+        count: usize,
+        #[serde(default)]
+        centred: bool,
+    },
+}
+
+impl Grid {
+    pub fn points(&self) -> Vec<f64> {
+        match self {
+            Grid::List(v) => v.clone(),
+            &Grid::Range {
+                start,
+                stop,
+                count,
+                centred,
+            } => {
+                if centred {
+                    let step = (stop - start) / count as f64;
+                    (0..count)
+                        .map(|i| start + (i as f64 + 0.5) * step)
+                        .collect()
+                } else if count == 1 {
+                    vec![start]
+                } else {
+                    let step = (stop - start) / (count - 1) as f64;
+                    (0..count)
+                        .map(|i| {
+                            if i + 1 == count {
+                                stop
+                            } else {
+                                start + i as f64 * step
+                            }
+                        })
+                        .collect()
+                }
+            }
+        }
+    }
+}
+
+fn check_grid(
+    key: &str,
+    pts: &[f64],
+    lo: f64,
+    hi: f64,
+    lo_open: bool,
+    hi_open: bool,
+) -> Result<(), PlanError> {
+    if pts.is_empty() || pts.len() > 4096 {
+        return Err(PlanError::invalid(key, "needs 1 to 4096 points"));
+    }
+    if pts.windows(2).any(|w| w[1] <= w[0]) {
+        return Err(PlanError::invalid(key, "must be strictly increasing"));
+    }
+    for &p in pts {
+        let below = if lo_open { p <= lo } else { p < lo };
+        let above = if hi_open { p >= hi } else { p > hi };
+        if !p.is_finite() || below || above {
+            return Err(PlanError::invalid(
+                key,
+                format!(
+                    "value {p} outside the valid domain {}{lo}, {hi}{}",
+                    if lo_open { "(" } else { "[" },
+                    if hi_open { ")" } else { "]" }
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Parameters shared by both stages.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Params {
+    /// Scattering coefficient per unit medulla radius (dimensionless).
+    sigma: Grid,
+    /// Planar HG anisotropy.
+    g: Grid,
+    /// Entry offsets h' ∈ [−1, 1] (azimuthal only).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    h: Option<Grid>,
+    /// Entry inclinations θ'_i in degrees, in (−90, 90) (longitudinal only).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    theta_i_deg: Option<Grid>,
+    #[serde(default = "default_bins")]
+    bins: usize,
+    photons: u64,
+    #[serde(default)]
+    seed: u64,
+    #[serde(default)]
+    estimator: Estimator,
+}
+
+fn default_bins() -> usize {
+    720
+}
+
+const PARAMS_AZ: &[ParamDoc] = &[
+    ParamDoc {
+        name: "sigma",
+        kind: "list of float | {start, stop, count[, centred]}",
+        default: "required",
+        description: "scattering coefficient per unit MEDULLA radius (dimensionless), 0–200; ranges include both endpoints",
+    },
+    ParamDoc {
+        name: "g",
+        kind: "list of float | {start, stop, count}",
+        default: "required",
+        description: "planar Henyey–Greenstein anisotropy, 0 ≤ g ≤ 0.95",
+    },
+    ParamDoc {
+        name: "h",
+        kind: "list of float | {start, stop, count}",
+        default: "required",
+        description: "entry offset h' on the unit medulla circle, −1 ≤ h' ≤ 1",
+    },
+    ParamDoc {
+        name: "bins",
+        kind: "integer",
+        default: "720",
+        description: "exit-direction bins over [−π, π), even",
+    },
+    ParamDoc {
+        name: "photons",
+        kind: "integer",
+        default: "required",
+        description: "paths per entry",
+    },
+    ParamDoc {
+        name: "seed",
+        kind: "integer",
+        default: "0",
+        description: "random seed (streams derived per entry)",
+    },
+    ParamDoc {
+        name: "estimator",
+        kind: "string",
+        default: "expected",
+        description: "`expected` (next-event, default) or `histogram`",
+    },
+];
+
+const PARAMS_LONG: &[ParamDoc] = &[
+    ParamDoc {
+        name: "sigma",
+        kind: "list of float | {start, stop, count[, centred]}",
+        default: "required",
+        description: "scattering coefficient per unit MEDULLA radius (slab half-thickness 1), 0–200",
+    },
+    ParamDoc {
+        name: "g",
+        kind: "list of float | {start, stop, count}",
+        default: "required",
+        description: "planar Henyey–Greenstein anisotropy, 0 ≤ g ≤ 0.95",
+    },
+    ParamDoc {
+        name: "theta_i_deg",
+        kind: "list of float | {start, stop, count, centred}",
+        default: "required",
+        description: "entry inclination θ'_i in degrees, strictly inside (−90, 90)",
+    },
+    ParamDoc {
+        name: "bins",
+        kind: "integer",
+        default: "720",
+        description: "exit bins over both faces (bins/2 per lobe), even",
+    },
+    ParamDoc {
+        name: "photons",
+        kind: "integer",
+        default: "required",
+        description: "paths per entry",
+    },
+    ParamDoc {
+        name: "seed",
+        kind: "integer",
+        default: "0",
+        description: "random seed (streams derived per entry)",
+    },
+    ParamDoc {
+        name: "estimator",
+        kind: "string",
+        default: "expected",
+        description: "`expected` (next-event, default) or `histogram`",
+    },
+];
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Family {
+    Azimuthal,
+    Longitudinal,
+}
+
+/// Stage for the azimuthal family C^N(φ'; h', σ, g).
+pub struct FurMedullaAzimuthalStage;
+/// Stage for the longitudinal family C^M(θ'_r; θ'_i, σ, g).
+pub struct FurMedullaLongitudinalStage;
+
+fn plan(
+    family: Family,
+    params: toml::de::ValueDeserializer<'_>,
+) -> Result<Box<dyn Job>, PlanError> {
+    let p: Params = parse_params(params)?;
+    let sigma = p.sigma.points();
+    let g = p.g.points();
+    check_grid("sigma", &sigma, 0.0, 200.0, false, false)?;
+    check_grid("g", &g, 0.0, 0.95, false, false)?;
+    let entries = match family {
+        Family::Azimuthal => {
+            if p.theta_i_deg.is_some() {
+                return Err(PlanError::invalid(
+                    "theta_i_deg",
+                    "belongs to the longitudinal stage",
+                ));
+            }
+            let h =
+                p.h.as_ref()
+                    .ok_or_else(|| PlanError::invalid("h", "required"))?
+                    .points();
+            check_grid("h", &h, -1.0, 1.0, false, false)?;
+            h
+        }
+        Family::Longitudinal => {
+            if p.h.is_some() {
+                return Err(PlanError::invalid("h", "belongs to the azimuthal stage"));
+            }
+            let t = p
+                .theta_i_deg
+                .as_ref()
+                .ok_or_else(|| PlanError::invalid("theta_i_deg", "required"))?
+                .points();
+            check_grid("theta_i_deg", &t, -90.0, 90.0, true, true)?;
+            t
+        }
+    };
+    if p.bins < 8 || !p.bins.is_multiple_of(4) || p.bins > 36_000 {
+        return Err(PlanError::invalid(
+            "bins",
+            "must be a multiple of 4 in 8..=36000",
+        ));
+    }
+    if p.photons == 0 || p.photons > 1_000_000_000 {
+        return Err(PlanError::invalid("photons", "must be in 1..=1e9"));
+    }
+    Ok(Box::new(MedullaJob {
+        family,
+        p,
+        sigma,
+        g,
+        entries,
+    }))
+}
+
+impl Stage for FurMedullaAzimuthalStage {
+    fn name(&self) -> &'static str {
+        "fur-medulla-azimuthal"
+    }
+    fn algorithm_version(&self) -> u32 {
+        1
+    }
+    fn summary(&self) -> &'static str {
+        "fur medulla azimuthal scattering C^N(φ'; h', σ, g): 2-D Monte Carlo in the unit disc"
+    }
+    fn parameters(&self) -> &'static [ParamDoc] {
+        PARAMS_AZ
+    }
+    fn plan(&self, params: toml::de::ValueDeserializer<'_>) -> Result<Box<dyn Job>, PlanError> {
+        plan(Family::Azimuthal, params)
+    }
+}
+
+impl Stage for FurMedullaLongitudinalStage {
+    fn name(&self) -> &'static str {
+        "fur-medulla-longitudinal"
+    }
+    fn algorithm_version(&self) -> u32 {
+        1
+    }
+    fn summary(&self) -> &'static str {
+        "fur medulla longitudinal scattering C^M(θ'_r; θ'_i, σ, g): back/forward lobes of a slab of thickness 2"
+    }
+    fn parameters(&self) -> &'static [ParamDoc] {
+        PARAMS_LONG
+    }
+    fn plan(&self, params: toml::de::ValueDeserializer<'_>) -> Result<Box<dyn Job>, PlanError> {
+        plan(Family::Longitudinal, params)
+    }
+}
+
+/// σ used to compute the σ → 0 limit *shape* of the normalised longitudinal lobes.
+const SIGMA_LIMIT: f64 = 1e-9;
+
+struct MedullaJob {
+    family: Family,
+    p: Params,
+    sigma: Vec<f64>,
+    g: Vec<f64>,
+    entries: Vec<f64>,
+}
+
+impl MedullaJob {
+    fn channels(&self) -> usize {
+        match self.family {
+            Family::Azimuthal => 3,
+            Family::Longitudinal => 5,
+        }
+    }
+    fn scalars(&self) -> usize {
+        match self.family {
+            Family::Azimuthal => 3,    // ballistic, scattered, scattered_se
+            Family::Longitudinal => 5, // ballistic, scattered, scattered_se, back, forward
+        }
+    }
+    fn geometry(&self, x: f64) -> Geometry {
+        match self.family {
+            Family::Azimuthal => Geometry::Azimuthal { h: x },
+            Family::Longitudinal => Geometry::Longitudinal {
+                theta_i_rad: x.to_radians(),
+            },
+        }
+    }
+    fn settings(&self) -> McSettings {
+        McSettings {
+            photons: self.p.photons,
+            seed: self.p.seed,
+            estimator: self.p.estimator,
+            bins: self.p.bins,
+            max_order: None,
+        }
+    }
+    /// Index of the mirror entry if it exists and is > 0 (negative rows are mirrored).
+    fn mirror_source(&self, i: usize) -> Option<usize> {
+        let x = self.entries[i];
+        if x >= 0.0 {
+            return None;
+        }
+        self.entries.iter().position(|&y| y == -x)
+    }
+    fn mirror_bin(&self, k: usize) -> usize {
+        let b = self.p.bins;
+        match self.family {
+            Family::Azimuthal => b - 1 - k,
+            Family::Longitudinal => {
+                let half = b / 2;
+                if k < half {
+                    half - 1 - k
+                } else {
+                    half + (b - 1 - k)
+                }
+            }
+        }
+    }
+    /// Row values (bins × channels) and scalars for one entry.
+    fn row(&self, sigma: f64, g: f64, x: f64) -> (Vec<f32>, Vec<f32>) {
+        let geom = self.geometry(x);
+        let s = self.settings();
+        let prof: Profile = simulate(sigma, g, geom, &s);
+        let b = self.p.bins;
+        match self.family {
+            Family::Azimuthal => {
+                let mut v = Vec::with_capacity(b * 3);
+                for k in 0..b {
+                    v.extend([
+                        prof.energy[k] as f32,
+                        prof.path_length[k] as f32,
+                        prof.std_error[k] as f32,
+                    ]);
+                }
+                (
+                    v,
+                    vec![
+                        prof.ballistic as f32,
+                        prof.scattered as f32,
+                        prof.scattered_std_error as f32,
+                    ],
+                )
+            }
+            Family::Longitudinal => {
+                // Lobe shapes: for σ = 0 the stored pdf/cdf are the σ → 0 limit (energy stays 0).
+                let (pdf, cdf) = if sigma > 0.0 {
+                    normalise_lobes(&prof.energy)
+                } else {
+                    normalise_lobes(&simulate(SIGMA_LIMIT, g, geom, &s).energy)
+                };
+                let mut v = Vec::with_capacity(b * 5);
+                for k in 0..b {
+                    v.extend([
+                        pdf[k] as f32,
+                        cdf[k] as f32,
+                        prof.energy[k] as f32,
+                        prof.path_length[k] as f32,
+                        prof.std_error[k] as f32,
+                    ]);
+                }
+                let back: f64 = prof.energy[..b / 2].iter().sum();
+                let fwd: f64 = prof.energy[b / 2..].iter().sum();
+                (
+                    v,
+                    vec![
+                        prof.ballistic as f32,
+                        prof.scattered as f32,
+                        prof.scattered_std_error as f32,
+                        back as f32,
+                        fwd as f32,
+                    ],
+                )
+            }
+        }
+    }
+}
+
+impl Job for MedullaJob {
+    fn parameters(&self) -> serde_json::Value {
+        serde_json::to_value(&self.p).expect("params serialise")
+    }
+    fn tasks(&self) -> Vec<TaskSpec> {
+        let mut t = Vec::new();
+        for &s in &self.sigma {
+            for &g in &self.g {
+                t.push(TaskSpec {
+                    label: format!("σ={s:.4} g={g:.4}"),
+                    params: json!({ "sigma": s, "g": g }),
+                });
+            }
+        }
+        t
+    }
+    fn run_task(&self, index: usize) -> anyhow::Result<Vec<f32>> {
+        let sigma = self.sigma[index / self.g.len()];
+        let g = self.g[index % self.g.len()];
+        let n = self.entries.len();
+        let rows: Vec<Option<(Vec<f32>, Vec<f32>)>> = (0..n)
+            .into_par_iter()
+            .map(|i| match self.mirror_source(i) {
+                Some(_) => None,
+                None => Some(self.row(sigma, g, self.entries[i])),
+            })
+            .collect();
+        let (b, c) = (self.p.bins, self.channels());
+        let mut data = Vec::with_capacity(n * (b * c + self.scalars()));
+        let mut scalars = Vec::with_capacity(n * self.scalars());
+        for i in 0..n {
+            match (&rows[i], self.mirror_source(i)) {
+                (Some((v, sc)), _) => {
+                    data.extend_from_slice(v);
+                    scalars.extend_from_slice(sc);
+                }
+                (None, Some(src)) => {
+                    let (v, sc) = rows[src].as_ref().expect("mirror source computed");
+                    for k in 0..b {
+                        let m = self.mirror_bin(k);
+                        data.extend_from_slice(&v[m * c..(m + 1) * c]);
+                    }
+                    if self.family == Family::Longitudinal {
+                        // cdf must be re-accumulated in the mirrored bin order.
+                        let half = b / 2;
+                        for lobe in 0..2 {
+                            let base = data.len() - b * c + lobe * half * c;
+                            let mut acc = 0.0f64;
+                            let mut tot = 0.0f64;
+                            for j in 0..half {
+                                tot += data[base + j * c] as f64;
+                            }
+                            for j in 0..half {
+                                acc += data[base + j * c] as f64;
+                                data[base + j * c + 1] =
+                                    if tot > 0.0 { (acc / tot) as f32 } else { 0.0 };
+                            }
+                        }
+                        // back and forward energies are unchanged by the mirror.
+                    }
+                    scalars.extend_from_slice(sc);
+                }
+                (None, None) => unreachable!(),
+            }
+        }
+        data.extend(scalars);
+        Ok(data)
+    }
+    fn assemble(&self, chunks: Vec<Vec<f32>>) -> anyhow::Result<TableContent> {
+        let (b, c, ns, n) = (
+            self.p.bins,
+            self.channels(),
+            self.scalars(),
+            self.entries.len(),
+        );
+        let row_len = n * b * c;
+        let mut data = Vec::with_capacity(chunks.len() * row_len);
+        let mut scal: Vec<Vec<f64>> = vec![Vec::new(); ns];
+        for ch in &chunks {
+            anyhow::ensure!(
+                ch.len() == row_len + n * ns,
+                "chunk of length {} (expected {})",
+                ch.len(),
+                row_len + n * ns
+            );
+            data.extend_from_slice(&ch[..row_len]);
+            for i in 0..n {
+                for (j, s) in scal.iter_mut().enumerate() {
+                    s.push(ch[row_len + i * ns + j] as f64);
+                }
+            }
+        }
+        // Energy-identity check over the whole table, in standard errors.
+        let mut max_dev_se: f64 = 0.0;
+        let mut max_dev_abs: f64 = 0.0;
+        for ((ballistic, scattered), se) in scal[0].iter().zip(&scal[1]).zip(&scal[2]) {
+            let dev = (scattered - (1.0 - ballistic)).abs();
+            max_dev_abs = max_dev_abs.max(dev);
+            if *se > 0.0 {
+                max_dev_se = max_dev_se.max(dev / se);
+            }
+        }
+        let dw_deg = 360.0 / b as f64;
+        let mut a = serde_json::Map::new();
+        a.insert("model".into(), "2-D volumetric Monte Carlo, Tseng 2015 §5 / App. A: purely scattering medium, planar Henyey–Greenstein phase function rho(theta) = (1-g^2)/(2 pi (1+g^2-2g cos theta)), no absorption, index-matched boundary (no Fresnel, no refraction), unit incident energy".into());
+        a.insert("sigma_convention".into(), "sigma is the scattering coefficient per unit MEDULLA radius (dimensionless optical coefficient; azimuthal disc radius 1, slab thickness 2). Renderer mapping (docs/fur.md): sigma = sigma_ms[per fiber radius] * kappa = sigma_ms[per fiber diameter] * kappa / 2; the thesis's sigma_ms/kappa lookup is NOT used".into());
+        a.insert("length_unit".into(), "medulla radius".into());
+        a.insert("estimator".into(), serde_json::to_value(self.p.estimator)?);
+        a.insert("estimator_description".into(), match self.p.estimator {
+            Estimator::Expected => "expected value: forced first collision (weight 1 - exp(-sigma chord)), next-event estimate to every bin at every collision (phase density at bin centre x bin width x exp(-sigma s)), analog continuation",
+            Estimator::Histogram => "analog histogram of exit directions",
+        }.into());
+        a.insert("photons_per_entry".into(), self.p.photons.into());
+        a.insert("seed".into(), self.p.seed.into());
+        a.insert("rng".into(), "SplitMix64, one stream per entry derived from (seed, family, sigma, g, entry) bit patterns: independent of threads and sharding".into());
+        a.insert("grid_endpoints".into(), "axis values are exactly the listed sample points; {start, stop, count} ranges include both endpoints unless centred = true".into());
+        a.insert("bin_width_deg".into(), dw_deg.into());
+        a.insert("bin_rule".into(), "bins are half-open cells [lower, upper) of equal width 360/bins deg; the axis coordinate is the cell centre; values are averages over the cell (midpoint rule for the expected-value estimator)".into());
+        a.insert("energy_convention".into(), "channel `energy` is scattered exiting energy per bin per unit incident energy (NOT a density: divide by the bin width in rad for per-radian density); it sums over bins to the scattered fraction 1 - ballistic".into());
+        a.insert("path_length_convention".into(), "channel `path_length` is the energy-weighted mean in-medulla path length (medulla radii) of the light exiting in the bin; 0 where the bin is empty. Medulla absorption at render time: multiply energy by exp(-sigma_a * path_length) (first-order; exact only for a narrow length distribution)".into());
+        a.insert("std_error_convention".into(), "channel `std_error` is the Monte Carlo standard error of `energy` in the bin (from per-photon second moments)".into());
+        a.insert("symmetry".into(), "rows with a negative entry (h or theta_i) whose positive mirror is on the grid are stored as the exact mirror of that row (bins reversed, within each lobe for the longitudinal family)".into());
+        a.insert(
+            "scalars_layout".into(),
+            "per-entry arrays below are flat row-major over (sigma, g, entry)".into(),
+        );
+        a.insert("ballistic_fraction".into(), scal[0].clone().into());
+        a.insert("scattered_fraction".into(), scal[1].clone().into());
+        a.insert(
+            "scattered_fraction_std_error".into(),
+            scal[2].clone().into(),
+        );
+        a.insert("energy_identity_max_deviation".into(), max_dev_abs.into());
+        a.insert(
+            "energy_identity_max_deviation_std_errors".into(),
+            max_dev_se.into(),
+        );
+        let sigma_ax = Axis::values("sigma", "1/medulla_radius", self.sigma.clone());
+        let g_ax = Axis::values("g", "1", self.g.clone());
+        let content = match self.family {
+            Family::Azimuthal => {
+                a.insert(
+                    "geometry".into(),
+                    "unit disc entered at (-sqrt(1-h^2), h) moving along +x".into(),
+                );
+                a.insert("bin_convention".into(), "phi' = atan2(d_y, d_x) of the exit direction relative to the entering propagation direction: 0 = unscattered continuation (forward), +/-180 deg = straight back towards the source, counter-clockwise = towards the side of positive h'; bins cover [-180, 180) deg".into());
+                a.insert(
+                    "energy_identity".into(),
+                    "sum over phi of energy = 1 - exp(-2 sigma sqrt(1 - h^2))".into(),
+                );
+                TableContent {
+                    schema: Schema::new("fur-medulla-azimuthal", 1),
+                    description: "fur medulla azimuthal scattering profile C^N(phi'; h', sigma, g) (scattered energy per exit-direction bin)".into(),
+                    axes: vec![
+                        sigma_ax,
+                        g_ax,
+                        Axis::values("h", "1", self.entries.clone()),
+                        Axis::uniform("phi", "deg", -180.0 + 0.5 * dw_deg, dw_deg, b),
+                    ],
+                    channels: vec![
+                        Channel::new("energy", "1", "scattered exiting energy in the bin per unit incident energy"),
+                        Channel::new("path_length", "medulla_radius", "mean in-medulla path length of the energy in the bin"),
+                        Channel::new("std_error", "1", "Monte Carlo standard error of energy"),
+                    ],
+                    attributes: a,
+                    data,
+                }
+            }
+            Family::Longitudinal => {
+                a.insert("geometry".into(), "slab 0 <= x <= 2 (x along the slab normal = in the fiber's normal plane, y along the fiber axis), entered at x = 0 with propagation direction (cos theta_i, -sin theta_i)".into());
+                a.insert("bin_convention".into(), "theta_i is the inclination of the direction towards the source, theta_r of the exit direction (sin theta_r = exit d_y), both from the slab normal, Marschner-style: the unscattered continuation exits at theta_r = -theta_i. lobe 0 = back (exits through the entry face x = 0, the thesis's 'upper' lobe, used at phi = 0), lobe 1 = forward (exits through x = 2, the 'lower' lobe, used at phi = +/-180 deg); theta_r bins cover [-90, 90) deg per lobe".into());
+                a.insert("pdf_convention".into(), "channel `pdf` is each lobe normalised to a probability density per radian of theta_r (sum pdf * bin_width_rad = 1 per lobe); `cdf` is its cumulative distribution at the UPPER edge of each bin (last bin = 1). At sigma = 0 energy is 0 and pdf/cdf hold the sigma -> 0 limit shape (single scattering on the chord)".into());
+                a.insert(
+                    "energy_identity".into(),
+                    "sum over both lobes of energy = 1 - exp(-2 sigma / cos theta_i)".into(),
+                );
+                a.insert("back_lobe_energy".into(), scal[3].clone().into());
+                a.insert("forward_lobe_energy".into(), scal[4].clone().into());
+                TableContent {
+                    schema: Schema::new("fur-medulla-longitudinal", 1),
+                    description: "fur medulla longitudinal scattering lobes C^M(theta'_r; theta'_i, sigma, g) of a slab of thickness 2".into(),
+                    axes: vec![
+                        sigma_ax,
+                        g_ax,
+                        Axis::values("theta_i", "deg", self.entries.clone()),
+                        Axis::values("lobe", "1", vec![0.0, 1.0]),
+                        Axis::uniform("theta_r", "deg", -90.0 + 0.5 * dw_deg, dw_deg, b / 2),
+                    ],
+                    channels: vec![
+                        Channel::new("pdf", "1/rad", "lobe-normalised density of theta_r"),
+                        Channel::new("cdf", "1", "lobe cumulative distribution at the bin's upper edge"),
+                        Channel::new("energy", "1", "scattered exiting energy in the bin per unit incident energy"),
+                        Channel::new("path_length", "medulla_radius", "mean in-medulla path length of the energy in the bin"),
+                        Channel::new("std_error", "1", "Monte Carlo standard error of energy"),
+                    ],
+                    attributes: a,
+                    data,
+                }
+            }
+        };
+        let _ = PI;
+        Ok(content)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn plan_str(family: Family, s: &str) -> Result<Box<dyn Job>, PlanError> {
+        let v = toml::de::ValueDeserializer::parse(s).unwrap();
+        plan(family, v)
+    }
+
+    fn run(job: &dyn Job) -> TableContent {
+        let chunks = (0..job.tasks().len())
+            .map(|i| job.run_task(i).unwrap())
+            .collect();
+        job.assemble(chunks).unwrap()
+    }
+
+    #[test]
+    fn azimuthal_table_energy_zeros_and_mirror_rows() {
+        let job = plan_str(
+            Family::Azimuthal,
+            "{ sigma = [0.0, 2.0], g = [0.0, 0.6], h = { start = -1.0, stop = 1.0, count = 5 }, bins = 72, photons = 300, seed = 3 }",
+        )
+        .unwrap();
+        let t = run(job.as_ref());
+        assert_eq!(t.data.len(), t.expected_len());
+        let (nh, b, c) = (5, 72, 3);
+        let at = |si: usize, gi: usize, hi: usize, k: usize, ch: usize| {
+            t.data[(((si * 2 + gi) * nh + hi) * b + k) * c + ch]
+        };
+        for gi in 0..2 {
+            for hi in 0..nh {
+                for k in 0..b {
+                    assert_eq!(at(0, gi, hi, k, 0), 0.0); // σ = 0
+                }
+            }
+            for k in 0..b {
+                assert_eq!(at(1, gi, 0, k, 0), 0.0); // h = −1
+                assert_eq!(at(1, gi, 4, k, 0), 0.0); // h = +1
+                assert_eq!(at(1, gi, 1, k, 0), at(1, gi, 3, b - 1 - k, 0)); // mirror
+            }
+            for hi in 0..nh {
+                let h: f64 = -1.0 + 0.5 * hi as f64;
+                let sum: f64 = (0..b).map(|k| at(1, gi, hi, k, 0) as f64).sum();
+                let expect = 1.0 - (-2.0 * 2.0 * (1.0 - h * h).max(0.0).sqrt()).exp();
+                assert!((sum - expect).abs() < 1e-2, "h={h}: {sum} vs {expect}");
+            }
+        }
+        assert!(
+            t.attributes["energy_identity_max_deviation_std_errors"]
+                .as_f64()
+                .unwrap()
+                < 5.0
+        );
+    }
+
+    #[test]
+    fn longitudinal_lobes_normalised_and_cdf_ends_at_one() {
+        let job = plan_str(
+            Family::Longitudinal,
+            "{ sigma = [0.0, 1.5], g = [0.3], theta_i_deg = { start = -60.0, stop = 60.0, count = 4, centred = true }, bins = 120, photons = 200 }",
+        )
+        .unwrap();
+        let t = run(job.as_ref());
+        let (nt, half, c) = (4, 60, 5);
+        let dw = 2.0 * PI / 120.0;
+        for si in 0..2 {
+            for ti in 0..nt {
+                for lobe in 0..2 {
+                    let base = (((si * nt + ti) * 2 + lobe) * half) * c;
+                    let int: f64 = (0..half).map(|j| t.data[base + j * c] as f64 * dw).sum();
+                    assert!((int - 1.0).abs() < 1e-5, "σ{si} θ{ti} lobe {lobe}: {int}");
+                    assert!((t.data[base + (half - 1) * c + 1] - 1.0).abs() < 1e-6);
+                    assert!(
+                        (0..half - 1)
+                            .all(|j| t.data[base + (j + 1) * c + 1] >= t.data[base + j * c + 1])
+                    );
+                    if si == 0 {
+                        assert!((0..half).all(|j| t.data[base + j * c + 2] == 0.0));
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn shipped_manifests_plan_with_the_documented_grids() {
+        let root = env!("CARGO_MANIFEST_DIR");
+        for (file, tasks) in [
+            ("manifests/fur-medulla.toml", 45),
+            ("manifests/full/fur-medulla-full.toml", 1024),
+        ] {
+            let text = std::fs::read_to_string(format!("{root}/{file}")).unwrap();
+            let doc: toml::Table = toml::from_str(&text).unwrap();
+            for entry in doc["table"].as_array().unwrap() {
+                let stage = crate::stages::find(entry["stage"].as_str().unwrap()).unwrap();
+                let params = entry["params"].to_string();
+                let job = stage
+                    .plan(toml::de::ValueDeserializer::parse(&params).unwrap())
+                    .unwrap();
+                assert_eq!(job.tasks().len(), tasks, "{file}");
+                if tasks == 1024 {
+                    let p: Params = serde_json::from_value(job.parameters()).unwrap();
+                    let sigma = p.sigma.points();
+                    assert_eq!((sigma.len(), sigma[0], sigma[63]), (64, 0.0, 20.0));
+                    assert!((sigma[1] - 20.0 / 63.0).abs() < 1e-12);
+                    let g = p.g.points();
+                    assert!((g[1] - 0.8 / 15.0).abs() < 1e-12 && g[15] == 0.8);
+                    let e = p.h.or(p.theta_i_deg).unwrap().points();
+                    assert_eq!(e.len(), 64);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn rejects_bad_params() {
+        assert!(
+            plan_str(
+                Family::Azimuthal,
+                "{ sigma = [1.0], g = [0.0], h = [1.5], photons = 1 }"
+            )
+            .is_err()
+        );
+        assert!(
+            plan_str(
+                Family::Longitudinal,
+                "{ sigma = [1.0], g = [0.0], theta_i_deg = [90.0], photons = 1 }"
+            )
+            .is_err()
+        );
+        assert!(
+            plan_str(
+                Family::Azimuthal,
+                "{ sigma = [1.0], g = [0.99], h = [0.5], photons = 1 }"
+            )
+            .is_err()
+        );
+        assert!(
+            plan_str(
+                Family::Azimuthal,
+                "{ sigma = [1.0], g = [0.0], h = [0.5], photons = 1, bogus = 2 }"
+            )
+            .is_err()
+        );
+        assert!(
+            plan_str(
+                Family::Azimuthal,
+                "{ sigma = [1.0], g = [0.0], theta_i_deg = [0.5], photons = 1 }"
+            )
+            .is_err()
+        );
+    }
+}
