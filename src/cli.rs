@@ -68,6 +68,8 @@ enum Command {
     Mie(crate::debye::cli::DebyeArgs),
     /// Airy theory of the primary or secondary rainbow (same columns as `mie`).
     Airy(crate::debye::cli::AiryArgs),
+    /// Fur medulla scattering profile for one (σ, g, entry) by Monte Carlo, as CSV or JSON.
+    Medulla(crate::fur::cli::MedullaArgs),
     /// Hair Dual Scattering table → engine EXR LUT (layout and shader lookup in docs/hair.md).
     HairLut(crate::hair::export::HairLutArgs),
     /// Dual Scattering averages for one hair parameter set, as JSON or CSV.
@@ -305,6 +307,7 @@ fn run(cmd: Command) -> Result<i32> {
         }
         Command::Mie(a) => crate::debye::cli::run_debye(&a).map(|_| 0),
         Command::Airy(a) => crate::debye::cli::run_airy(&a).map(|_| 0),
+        Command::Medulla(a) => crate::fur::cli::run_medulla(&a).map(|_| 0),
         Command::HairLut(a) => crate::hair::export::run_hair_lut(&a).map(|_| 0),
         Command::HairJson(a) => crate::hair::export::run_dual_scattering(&a).map(|_| 0),
         Command::Validate(a) => crate::consumers::mieplot::run_validate(&a).map(|_| 0),
