@@ -24,9 +24,9 @@ fn plan_manifest(path: &str) -> Vec<Box<dyn Job>> {
 
 #[test]
 fn shipped_manifests_plan() {
-    let jobs = plan_manifest("manifests/mie-rain.toml");
+    let jobs = plan_manifest("manifests/rainbow-mie.toml");
     assert_eq!(jobs[0].tasks().len(), 33 * 4);
-    let full = plan_manifest("manifests/full/mie-rain-full.toml");
+    let full = plan_manifest("manifests/full/rainbow-mie-full.toml");
     assert_eq!(full.len(), 2);
     assert_eq!(full[1].tasks().len(), 33 * 3);
 }
@@ -35,7 +35,7 @@ fn shipped_manifests_plan() {
 #[ignore = "builds the whole default table (~1 min of CPU in release); run with --ignored"]
 fn default_manifest_builds_normalised() {
     use rayon::prelude::*;
-    let jobs = plan_manifest("manifests/mie-rain.toml");
+    let jobs = plan_manifest("manifests/rainbow-mie.toml");
     let job = &jobs[0];
     let t0 = std::time::Instant::now();
     let chunks: Vec<Vec<f32>> = (0..job.tasks().len())
@@ -56,7 +56,7 @@ fn default_manifest_builds_normalised() {
         worst = worst.max((e - 1.0).abs());
     }
     println!(
-        "default mie-rain: {} tasks in {:.1} s on {} threads; worst |∫p dΩ − 1| = {worst:.1e}",
+        "default rainbow-mie: {} tasks in {:.1} s on {} threads; worst |∫p dΩ − 1| = {worst:.1e}",
         job.tasks().len(),
         elapsed.as_secs_f64(),
         rayon::current_num_threads()

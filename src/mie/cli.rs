@@ -27,6 +27,81 @@ pub enum MieFormat {
     Json,
 }
 
+/// Largest number of angles a single query may ask for.
+const MAX_ANGLES: usize = 10_000_000;
+
+/// Parse `N+Ki`, `N-Ki` (refused: k must be ≥ 0) or `N`.
+fn parse_complex_index(s: &str) -> Result<(f64, f64), String> {
+    let t = s.trim().replace(' ', "");
+    let bad = || format!("`{s}` is not a refractive index of the form N+Ki (e.g. 1.55+0.002i)");
+    let (n, k) = match t.strip_suffix(['i', 'j']) {
+        Some(body) => {
+            // Split at the last sign that is not an exponent sign.
+            let bytes = body.as_bytes();
+            let pos = (1..bytes.len())
+                .rev()
+                .find(|&i| matches!(bytes[i], b'+' | b'-') && !matches!(bytes[i - 1], b'e' | b'E'))
+                .ok_or_else(bad)?;
+            let n: f64 = body[..pos].parse().map_err(|_| bad())?;
+            let k: f64 = body[pos..]
+                .trim_start_matches('+')
+                .parse()
+                .map_err(|_| bad())?;
+            (n, k)
+        }
+        None => (t.parse().map_err(|_| bad())?, 0.0),
+    };
+    if !(n > 0.0) || !n.is_finite() {
+        return Err(format!("real part {n} of `{s}` must be positive"));
+    }
+    if !(k >= 0.0) || !k.is_finite() {
+        return Err(format!(
+            "imaginary part {k} of `{s}` must be ≥ 0 (absorbing convention m = n + ik, e^(-iωt))"
+        ));
+    }
+    Ok((n, k))
+}
+
+/// Parse `START:STOP:STEP` (degrees).
+fn parse_angle_range(s: &str) -> Result<(f64, f64, f64), String> {
+    let parts: Vec<&str> = s.split(':').collect();
+    let bad = || format!("`{s}` is not START:STOP:STEP in degrees (e.g. 0:180:0.05)");
+    if parts.len() != 3 {
+        return Err(bad());
+    }
+    let v: Vec<f64> = parts
+        .iter()
+        .map(|p| p.trim().parse::<f64>().map_err(|_| bad()))
+        .collect::<Result<_, _>>()?;
+    let (start, stop, step) = (v[0], v[1], v[2]);
+    if !(0.0..=180.0).contains(&start) || !(0.0..=180.0).contains(&stop) || !(stop >= start) {
+        return Err(format!("`{s}`: need 0 ≤ START ≤ STOP ≤ 180"));
+    }
+    if !(step > 0.0) || (stop - start) / step > MAX_ANGLES as f64 {
+        return Err(format!(
+            "`{s}`: STEP must be > 0 and give at most {MAX_ANGLES} angles"
+        ));
+    }
+    Ok((start, stop, step))
+}
+
+#[cfg(test)]
+mod parse_tests {
+    use super::*;
+
+    #[test]
+    fn complex_index_forms() {
+        assert_eq!(parse_complex_index("1.55+0.002i").unwrap(), (1.55, 0.002));
+        assert_eq!(parse_complex_index("1.333").unwrap(), (1.333, 0.0));
+        assert_eq!(parse_complex_index("1.5+1e-3i").unwrap(), (1.5, 1e-3));
+        assert!(parse_complex_index("1.5-0.1i").is_err());
+        assert!(parse_complex_index("abc").is_err());
+        assert_eq!(parse_angle_range("0:180:0.5").unwrap(), (0.0, 180.0, 0.5));
+        assert!(parse_angle_range("0:190:1").is_err());
+        assert!(parse_angle_range("0:180:0").is_err());
+    }
+}
+
 /// Arguments of `scatterbake mie`.
 #[derive(Debug, Clone, clap::Args)]
 pub struct MieArgs {
@@ -39,8 +114,15 @@ pub struct MieArgs {
     /// Size parameter 2πr/λ (instead of radius and wavelength; then --n is required).
     #[arg(long, conflicts_with = "radius_um")]
     pub x: Option<f64>,
-    /// Real part of the relative refractive index (default: water at the wavelength).
+    /// Relative complex refractive index as `N+Ki` (e.g. `1.55+0.002i`, or `1.333`); the same
+    /// as `--n N --k K`.
+    #[arg(long, conflicts_with_all = ["n", "water"], value_parser = parse_complex_index)]
+    pub index: Option<(f64, f64)>,
+    /// Use the index of water at the wavelength (the default when no index is given).
     #[arg(long)]
+    pub water: bool,
+    /// Real part of the relative refractive index (default: water at the wavelength).
+    #[arg(long, conflicts_with = "water")]
     pub n: Option<f64>,
     /// Imaginary part (absorption), k ≥ 0.
     #[arg(long, default_value_t = 0.0)]
@@ -54,6 +136,9 @@ pub struct MieArgs {
     /// Uniform angle step from 0 to 180° (degrees).
     #[arg(long, default_value_t = 0.1)]
     pub angles_step_deg: f64,
+    /// Angle range `START:STOP:STEP` in degrees, within 0–180 (overrides --angles-step-deg).
+    #[arg(long, conflicts_with = "angles_deg", value_parser = parse_angle_range)]
+    pub angles: Option<(f64, f64, f64)>,
     /// Explicit comma-separated angles in degrees (overrides --angles-step-deg).
     #[arg(long, value_delimiter = ',')]
     pub angles_deg: Option<Vec<f64>>,
@@ -84,7 +169,11 @@ impl MieQuery {
             (None, Some(r), Some(l)) => (size_parameter(r, l), Some(l)),
             _ => bail!("give either --x, or --radius-um with --wavelength-nm"),
         };
-        let n = match (args.n, wavelength) {
+        let (n_arg, k) = match args.index {
+            Some((n, k)) => (Some(n), k),
+            None => (args.n, args.k),
+        };
+        let n = match (n_arg, wavelength) {
             (Some(n), _) => n,
             (None, Some(l)) => {
                 WaterIndexModel::from_name(&args.water_index_model, Some(args.temperature_c))?
@@ -92,20 +181,27 @@ impl MieQuery {
             }
             (None, None) => bail!("--x needs --n (no wavelength to evaluate the water index)"),
         };
-        let m = Complex64::new(n, args.k);
+        let m = Complex64::new(n, k);
         let sphere = Sphere::new(x, m).context("Mie query")?;
-        let angles_deg = match &args.angles_deg {
-            Some(a) => {
+        let angles_deg = match (&args.angles_deg, args.angles) {
+            (None, Some((start, stop, step))) => {
+                let count = ((stop - start) / step + 1e-9).floor() as usize + 1;
+                (0..count).map(|i| start + step * i as f64).collect()
+            }
+            (Some(a), _) => {
                 if let Some(bad) = a.iter().find(|t| !(0.0..=180.0).contains(*t)) {
                     bail!("angle {bad} is outside 0–180°");
                 }
                 a.clone()
             }
-            None => {
+            (None, None) => {
                 let step = args.angles_step_deg;
                 let count = 180.0 / step;
                 if step.is_nan() || step <= 0.0 || (count - count.round()).abs() > 1e-6 {
                     bail!("--angles-step-deg must divide 180");
+                }
+                if count > MAX_ANGLES as f64 {
+                    bail!("--angles-step-deg {step} gives more than {MAX_ANGLES} angles");
                 }
                 (0..=count.round() as usize)
                     .map(|i| i as f64 * step)
