@@ -175,6 +175,26 @@ pub struct ValidationReport {
     pub max_rel_error: [f64; 3],
     /// Angle (deg) of the largest unpolarised relative error.
     pub worst_angle_deg: f64,
+    /// RMS relative error per column (i_perp, i_par, unpolarised).
+    pub rms_rel_error: [f64; 3],
+    /// Pearson correlation of the unpolarised curves (table vs reference).
+    pub correlation: f64,
+    /// Primary-bow maximum of the unpolarised curve (deg): (table, reference). The primary is
+    /// searched in (132°, 160°], the secondary in [115°, 132°] (132° ≈ middle of Alexander's
+    /// band for water); `None` when the reference has no angles there.
+    pub primary_max_deg: Option<(f64, f64)>,
+    /// Secondary-bow maximum (deg): (table, reference).
+    pub secondary_max_deg: Option<(f64, f64)>,
+}
+
+/// Angle of the largest value of `v` among angles in `[lo, hi]` (`lo_open` excludes `lo`).
+fn argmax_in(angles: &[f64], v: &[f64], lo: f64, hi: f64, lo_open: bool) -> Option<f64> {
+    angles
+        .iter()
+        .zip(v)
+        .filter(|(a, _)| (if lo_open { **a > lo } else { **a >= lo }) && **a <= hi)
+        .max_by(|x, y| x.1.total_cmp(y.1))
+        .map(|(a, _)| *a)
 }
 
 /// Compare reference data against a table at the reference's angles and wavelength.
@@ -219,11 +239,50 @@ pub fn compare(
             }
         }
     }
+    let mut sq = [0.0f64; 3];
+    for (j, v) in vals.iter().enumerate() {
+        let refs = [r.i_perp[j], r.i_par[j], r.unpolarised[j]];
+        let tab = [v[1], v[2], v[0]];
+        for c in 0..3 {
+            let rf = refs[c] * scale;
+            if rf != tab[c] {
+                sq[c] += ((tab[c] - rf) / rf.abs().max(f64::MIN_POSITIVE)).powi(2);
+            }
+        }
+    }
+    let nrows = vals.len().max(1) as f64;
+    let rms = sq.map(|s| (s / nrows).sqrt());
+    let tab_u: Vec<f64> = vals.iter().map(|v| v[0]).collect();
+    let ref_u: Vec<f64> = r.unpolarised.iter().map(|u| u * scale).collect();
+    let mean = |x: &[f64]| x.iter().sum::<f64>() / x.len().max(1) as f64;
+    let (mt, mr) = (mean(&tab_u), mean(&ref_u));
+    let cov: f64 = tab_u
+        .iter()
+        .zip(&ref_u)
+        .map(|(a, b)| (a - mt) * (b - mr))
+        .sum();
+    let vt: f64 = tab_u.iter().map(|a| (a - mt).powi(2)).sum();
+    let vr: f64 = ref_u.iter().map(|b| (b - mr).powi(2)).sum();
+    let correlation = if vt > 0.0 && vr > 0.0 {
+        cov / (vt * vr).sqrt()
+    } else {
+        f64::NAN
+    };
+    let both = |lo: f64, hi: f64, open: bool| {
+        Some((
+            argmax_in(&r.angle_deg, &tab_u, lo, hi, open)?,
+            argmax_in(&r.angle_deg, &ref_u, lo, hi, open)?,
+        ))
+    };
     Ok(ValidationReport {
         rows: r.angle_deg.len(),
         scale,
         max_rel_error: max,
         worst_angle_deg: worst,
+        rms_rel_error: rms,
+        correlation,
+        primary_max_deg: both(132.0, 160.0, true),
+        secondary_max_deg: both(115.0, 132.0, false),
     })
 }
 
@@ -270,6 +329,16 @@ pub fn run_validate(args: &ValidateArgs) -> anyhow::Result<()> {
         rep.max_rel_error[2],
         rep.worst_angle_deg
     );
+    println!(
+        "  rms rel. error i_perp {:.3e}, i_par {:.3e}, unpolarised {:.3e}; correlation {:.9}",
+        rep.rms_rel_error[0], rep.rms_rel_error[1], rep.rms_rel_error[2], rep.correlation
+    );
+    let show = |name: &str, m: Option<(f64, f64)>| match m {
+        Some((t, r)) => println!("  {name} bow maximum: table {t:.4} deg, reference {r:.4} deg"),
+        None => println!("  {name} bow maximum: no reference angles in its range"),
+    };
+    show("primary", rep.primary_max_deg);
+    show("secondary", rep.secondary_max_deg);
     if let Some(t) = args.tolerance {
         let worst = rep.max_rel_error.iter().cloned().fold(0.0, f64::max);
         if worst > t {
