@@ -14,6 +14,7 @@ pub mod export;
 pub mod manifest;
 pub mod optics;
 pub mod pipeline;
+pub mod raytrace;
 pub mod stage;
 pub mod stages;
 pub mod table;
