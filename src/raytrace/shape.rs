@@ -261,6 +261,19 @@ fn solve_dense(a: &mut [f64], b: &mut [f64], n: usize) -> Option<Vec<f64>> {
 }
 
 impl DropShape {
+    /// Beard–Chuang drop of equivalent radius `radius_mm`; a sphere when all coefficients
+    /// vanish (a ≤ 0.4 mm), which uses the exact analytic intersection.
+    pub fn beard_chuang(radius_mm: f64) -> Self {
+        let c = beard_chuang_coefficients(radius_mm);
+        if c.iter().all(|x| *x == 0.0) {
+            DropShape::Sphere {
+                radius_um: radius_mm * 1e3,
+            }
+        } else {
+            DropShape::Series(CosineSeries::beard_chuang(radius_mm))
+        }
+    }
+
     /// Bounding-sphere radius (µm).
     pub fn bounding_radius_um(&self) -> f64 {
         match self {
