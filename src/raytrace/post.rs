@@ -106,6 +106,21 @@ pub fn fraunhofer_bin_average(radius_um: f64, wavelength_nm: f64, lo_rad: f64, h
     (enclosed(hi) - enclosed(lo)) / omega
 }
 
+/// Default half-width of the caustic window, in units of the local filter σ.
+pub const DEFAULT_CAUSTIC_WINDOW_SIGMAS: f64 = 2.0;
+
+/// Weight in [0, 1] of the filtered value near caustics: `max_c exp(−½((θ − θ_c)/w)²)` over the
+/// caustic angles `centres` (radians), window half-width `w` (radians).
+pub fn caustic_weight(theta: f64, centres: &[f64], w: f64) -> f64 {
+    if w <= 0.0 {
+        return 1.0;
+    }
+    centres
+        .iter()
+        .map(|c| (-0.5 * ((theta - c) / w).powi(2)).exp())
+        .fold(0.0, f64::max)
+}
+
 /// Polar bin edges of sample `theta` on a uniform grid of spacing `step` (radians), clamped to
 /// [0, π].
 pub fn bin_edges(theta: f64, step: f64) -> (f64, f64) {

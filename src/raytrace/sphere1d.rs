@@ -23,7 +23,7 @@
 
 use crate::optics::fresnel::fresnel_amplitudes_real;
 use num_complex::Complex64;
-use std::f64::consts::{FRAC_PI_2, PI};
+use std::f64::consts::{FRAC_PI_2, FRAC_PI_4, PI};
 
 /// Complex far-field amplitudes of one order at one scattering angle, in sqrt(µm²/sr) when the
 /// radius is in µm: `|perp|²` and `|par|²` are dσ/dΩ for ⊥ and ∥ incident polarisation.
@@ -46,6 +46,58 @@ pub struct SphereGo {
     pub max_order: usize,
     /// Per order: monotonic intervals of D(i) as (i_lo, i_hi).
     intervals: Vec<Vec<(f64, f64)>>,
+    /// Per order: Airy continuation data of the rainbow caustic (p ≥ 2).
+    calibration: Vec<Option<Calibration>>,
+}
+
+/// One geometric-optics branch: incidence angle, real amplitudes sqrt(dσ/dΩ)·ε, phase k·l,
+/// and whether it carries the −π/2 focal-line phase (dl/di > 0).
+#[derive(Debug, Clone, Copy)]
+pub struct Branch {
+    pub interval: usize,
+    pub target_deviation: f64,
+    pub i: f64,
+    pub amp_perp: f64,
+    pub amp_par: f64,
+    pub phase: f64,
+    pub focal: bool,
+}
+
+#[derive(Debug, Clone)]
+struct Calibration {
+    theta_r: f64,
+    deviation_r: f64,
+    bright_sign: f64,
+    delta0: f64,
+    theta0: f64,
+    zeta0: f64,
+    zeta_slope: f64,
+    chi0: f64,
+    chi_slope: f64,
+    u: (Complex64, Complex64),
+    v: (Complex64, Complex64),
+}
+
+/// Beyond this ζ the uniform approximation equals GO to < 0.3 %; below −ζ_max Ai is < 1e-9.
+const ZETA_MAX: f64 = 10.0;
+/// Calibration point of the dark-side continuation.
+const ZETA0: f64 = 0.3;
+
+/// Indices of the two rainbow branches (shorter path first) whose target deviation is the one
+/// closest to the rainbow deviation.
+fn caustic_pair(br: &[Branch], deviation_r: f64) -> Option<(usize, usize)> {
+    let best = br
+        .iter()
+        .map(|b| (b.target_deviation - deviation_r).abs())
+        .fold(f64::MAX, f64::min);
+    let idx: Vec<usize> = (0..br.len())
+        .filter(|&n| ((br[n].target_deviation - deviation_r).abs() - best).abs() < 1e-12)
+        .collect();
+    if idx.len() != 2 || br[idx[0]].interval == br[idx[1]].interval {
+        return None;
+    }
+    let (a, b) = (idx[0], idx[1]);
+    if br[a].phase <= br[b].phase { Some((a, b)) } else { Some((b, a)) }
 }
 
 impl SphereGo {
@@ -66,13 +118,16 @@ impl SphereGo {
                 vec![(lo, hi)]
             })
             .collect();
-        SphereGo {
+        let mut go = SphereGo {
             radius_um,
             wavelength_nm,
             n,
             max_order,
             intervals,
-        }
+            calibration: Vec::new(),
+        };
+        go.calibration = (0..=max_order).map(|p| go.calibrate(p)).collect();
+        go
     }
 
     /// Deviation D(i) of order `p`.
@@ -133,12 +188,27 @@ impl SphereGo {
 
     /// Calls `f(i, field)` for every branch of order `p` reaching `theta_rad`.
     pub fn for_each_branch(&self, p: usize, theta_rad: f64, mut f: impl FnMut(f64, OrderField)) {
+        for b in self.branches(p, theta_rad) {
+            let ph = Complex64::from_polar(1.0, b.phase - if b.focal { FRAC_PI_2 } else { 0.0 });
+            f(
+                b.i,
+                OrderField {
+                    perp: ph * b.amp_perp,
+                    par: ph * b.amp_par,
+                },
+            );
+        }
+    }
+
+    /// Every geometric branch of order `p` at `theta_rad` (0 < θ < π).
+    pub fn branches(&self, p: usize, theta_rad: f64) -> Vec<Branch> {
+        let mut out = Vec::new();
         let k = 2.0 * PI / (self.wavelength_nm * 1e-3);
         let sin_theta = theta_rad.sin();
         if sin_theta <= 0.0 {
-            return;
+            return out;
         }
-        for &(lo, hi) in &self.intervals[p] {
+        for (iv, &(lo, hi)) in self.intervals[p].iter().enumerate() {
             let d_lo = self.deviation(p, lo);
             let d_hi = self.deviation(p, hi);
             let (dmin, dmax) = if d_lo < d_hi { (d_lo, d_hi) } else { (d_hi, d_lo) };
@@ -163,19 +233,128 @@ impl SphereGo {
                     }
                     let amp = weight.sqrt();
                     let (es, ep) = self.fresnel_product(p, i);
-                    let focal = if dd > 0.0 { FRAC_PI_2 } else { 0.0 };
-                    let phase = k * self.optical_path_um(p, i) - focal;
-                    let ph = Complex64::from_polar(amp, phase);
-                    f(
+                    out.push(Branch {
+                        interval: iv,
+                        target_deviation: target,
                         i,
-                        OrderField {
-                            perp: ph * es,
-                            par: ph * ep,
-                        },
-                    );
+                        amp_perp: amp * es,
+                        amp_par: amp * ep,
+                        phase: k * self.optical_path_um(p, i),
+                        focal: dd > 0.0,
+                    });
                 }
             }
         }
+        out
+    }
+
+    /// Field of order `p` with the uniform caustic (Airy) approximation across the rainbow of
+    /// that order (p ≥ 2), geometric optics elsewhere. On the bright side the two rainbow
+    /// branches (amplitudes P on the shorter-path branch, Q on the longer, phases Φ1 < Φ2) are
+    /// replaced by `√π e^{i(χ−π/4)} [(P+Q) ζ^{1/4} Ai(−ζ) + i(Q−P) ζ^{−1/4} Ai′(−ζ)]`,
+    /// `ζ = (¾(Φ2 − Φ1))^{2/3}`, `χ = (Φ1+Φ2)/2` (Kravtsov–Orlov/Marston CUA), which tends to
+    /// the GO two-branch sum with the corrected focal-line phase for large ζ. On the dark side
+    /// and within ζ < 0.3 of the caustic the coefficients are frozen at ζ₀ = 0.3 and ζ, χ are
+    /// continued linearly in θ (Airy theory).
+    pub fn order_field_uniform(&self, p: usize, theta_rad: f64) -> OrderField {
+        let Some(cal) = self.calibration.get(p).and_then(|c| c.as_ref()) else {
+            return self.order_field(p, theta_rad);
+        };
+        let delta = (theta_rad - cal.theta_r) * cal.bright_sign;
+        let branches = self.branches(p, theta_rad);
+        let pair = caustic_pair(&branches, cal.deviation_r);
+        let mut out = OrderField::default();
+        let mut add_go = |b: &Branch| {
+            let ph = Complex64::from_polar(1.0, b.phase - if b.focal { FRAC_PI_2 } else { 0.0 });
+            out.perp += ph * b.amp_perp;
+            out.par += ph * b.amp_par;
+        };
+        if delta > cal.delta0 {
+            let Some((i1, i2)) = pair else {
+                branches.iter().for_each(&mut add_go);
+                return out;
+            };
+            let (b1, b2) = (&branches[i1], &branches[i2]);
+            let zeta = (0.75 * (b2.phase - b1.phase)).max(0.0).powf(2.0 / 3.0);
+            if zeta > ZETA_MAX {
+                branches.iter().for_each(&mut add_go);
+                return out;
+            }
+            for (n, b) in branches.iter().enumerate() {
+                if n != i1 && n != i2 {
+                    add_go(b);
+                }
+            }
+            let (ai, aip) = crate::raytrace::airy::airy_ai(-zeta);
+            let pre = Complex64::from_polar(PI.sqrt(), 0.5 * (b1.phase + b2.phase) - FRAC_PI_4);
+            let z4 = zeta.powf(0.25);
+            let j = Complex64::new(0.0, 1.0);
+            let f = |pp: f64, qq: f64| pre * ((pp + qq) * z4 * ai + j * (qq - pp) / z4 * aip);
+            out.perp += f(b1.amp_perp, b2.amp_perp);
+            out.par += f(b1.amp_par, b2.amp_par);
+            return out;
+        }
+        for (n, b) in branches.iter().enumerate() {
+            if pair.is_none_or(|(i1, i2)| n != i1 && n != i2) {
+                add_go(b);
+            }
+        }
+        let zeta = cal.zeta0 + cal.zeta_slope * (delta - cal.delta0);
+        if zeta < -ZETA_MAX {
+            return out;
+        }
+        let (ai, aip) = crate::raytrace::airy::airy_ai(-zeta);
+        let chi = cal.chi0 + cal.chi_slope * (theta_rad - cal.theta0);
+        let pre = Complex64::from_polar(PI.sqrt(), chi - FRAC_PI_4);
+        out.perp += pre * (cal.u.0 * ai + cal.v.0 * aip);
+        out.par += pre * (cal.u.1 * ai + cal.v.1 * aip);
+        out
+    }
+
+    fn calibrate(&self, p: usize) -> Option<Calibration> {
+        let iv = &self.intervals[p];
+        if iv.len() < 2 {
+            return None;
+        }
+        let i_r = iv[0].1;
+        let deviation_r = self.deviation(p, i_r);
+        let theta_r = fold(deviation_r);
+        let bright_sign = (fold(self.deviation(p, i_r + 1e-3)) - theta_r).signum();
+        let zeta_at = |delta: f64| -> Option<(f64, f64, Complex64, Complex64)> {
+            let th = theta_r + bright_sign * delta;
+            let br = self.branches(p, th);
+            let (i1, i2) = caustic_pair(&br, deviation_r)?;
+            let (b1, b2) = (&br[i1], &br[i2]);
+            let zeta = (0.75 * (b2.phase - b1.phase)).max(0.0).powf(2.0 / 3.0);
+            let z4 = zeta.powf(0.25);
+            let j = Complex64::new(0.0, 1.0);
+            let u = Complex64::new((b1.amp_perp + b2.amp_perp) * z4, (b1.amp_par + b2.amp_par) * z4);
+            let v = Complex64::new(b2.amp_perp - b1.amp_perp, b2.amp_par - b1.amp_par) * j / z4;
+            Some((zeta, 0.5 * (b1.phase + b2.phase), u, v))
+        };
+        let (z_test, _, _, _) = zeta_at(1e-4)?;
+        if !(z_test > 0.0) {
+            return None;
+        }
+        let delta0 = 1e-4 * ZETA0 / z_test;
+        let (zeta0, chi0, u, v) = zeta_at(delta0)?;
+        let (zeta1, chi1, _, _) = zeta_at(2.0 * delta0)?;
+        // u, v pack (perp, par) into (re, im) of real-valued combinations; unpack.
+        let u = (Complex64::new(u.re, 0.0), Complex64::new(u.im, 0.0));
+        let v = (Complex64::new(0.0, v.im), Complex64::new(0.0, -v.re));
+        Some(Calibration {
+            theta_r,
+            deviation_r,
+            bright_sign,
+            delta0,
+            theta0: theta_r + bright_sign * delta0,
+            zeta0,
+            zeta_slope: (zeta1 - zeta0) / delta0,
+            chi0,
+            chi_slope: (chi1 - chi0) / (bright_sign * delta0),
+            u,
+            v,
+        })
     }
 
     /// Solve D(i) = target on the monotonic interval [lo, hi] (bisection + secant polish).
@@ -219,6 +398,21 @@ pub struct Phase1dOptions {
     pub diffraction_filter: bool,
     /// Add the forward Fraunhofer lobe (always on in the stage; off to study GO alone).
     pub forward_lobe: bool,
+    /// Apply the filter only in a window around the caustics (the geometric bows), of
+    /// Gaussian half-width `caustic_window_sigmas` × the local σ; 0 = everywhere (literal).
+    pub caustic_window_sigmas: f64,
+    /// Diffraction model of the filtered channels.
+    pub model: DiffractionModel,
+}
+
+/// How the main (filtered) channels model diffraction at the rainbow caustics.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum DiffractionModel {
+    /// Uniform caustic (Airy) approximation at each order's rainbow (spheres only).
+    AiryUniform,
+    /// The thesis' Gaussian post-filter (Table 3.3 σ, 2σ for the secondary).
+    Gaussian,
 }
 
 impl Default for Phase1dOptions {
@@ -226,6 +420,8 @@ impl Default for Phase1dOptions {
         Phase1dOptions {
             diffraction_filter: true,
             forward_lobe: true,
+            caustic_window_sigmas: crate::raytrace::post::DEFAULT_CAUSTIC_WINDOW_SIGMAS,
+            model: DiffractionModel::AiryUniform,
         }
     }
 }
@@ -259,15 +455,24 @@ pub fn sphere_phase_1d(
             let mut th = fstep * j as f64;
             th = th.clamp(0.25 * fstep, PI - 0.25 * fstep);
             let mut tot = OrderField::default();
-            let mut row = vec![0.0; 2 + orders];
+            let mut tot_u = OrderField::default();
+            // [i_perp, i_par, per order..., i_perp_airy, i_par_airy, per order airy...]
+            let mut row = vec![0.0; 2 * (2 + orders)];
+            let airy = opts.model == DiffractionModel::AiryUniform && opts.diffraction_filter;
             for p in 0..orders {
                 let f = go.order_field(p, th);
                 tot.perp += f.perp;
                 tot.par += f.par;
                 row[2 + p] = 0.5 * (f.perp.norm_sqr() + f.par.norm_sqr());
+                let u = if airy { go.order_field_uniform(p, th) } else { f };
+                tot_u.perp += u.perp;
+                tot_u.par += u.par;
+                row[2 + orders + 2 + p] = 0.5 * (u.perp.norm_sqr() + u.par.norm_sqr());
             }
             row[0] = tot.perp.norm_sqr();
             row[1] = tot.par.norm_sqr();
+            row[2 + orders] = tot_u.perp.norm_sqr();
+            row[2 + orders + 1] = tot_u.par.norm_sqr();
             row
         })
         .collect();
@@ -290,8 +495,28 @@ pub fn sphere_phase_1d(
     let unfiltered = |c: usize| {
         crate::raytrace::post::gaussian_blur(&column(c), 0.0, fstep, &out_rad, |_| 0.0)
     };
-    let filtered =
-        |c: usize| crate::raytrace::post::gaussian_blur(&column(c), 0.0, fstep, &out_rad, sigma_at);
+    let bows: Vec<f64> = [go.rainbow_angle_rad(2), go.rainbow_angle_rad(3)]
+        .into_iter()
+        .flatten()
+        .collect();
+    let filtered = |c: usize| {
+        if opts.model == DiffractionModel::AiryUniform && opts.diffraction_filter {
+            return unfiltered(c + 2 + orders);
+        }
+        let blurred = crate::raytrace::post::gaussian_blur(&column(c), 0.0, fstep, &out_rad, sigma_at);
+        if opts.caustic_window_sigmas <= 0.0 || !opts.diffraction_filter {
+            return blurred;
+        }
+        let raw = unfiltered(c);
+        out_rad
+            .iter()
+            .enumerate()
+            .map(|(j, &th)| {
+                let w = crate::raytrace::post::caustic_weight(th, &bows, sigma_at(th) * opts.caustic_window_sigmas);
+                w * blurred[j] + (1.0 - w) * raw[j]
+            })
+            .collect::<Vec<f64>>()
+    };
     let sigma_go: f64 = (0..orders).map(|p| go.energy_fraction(p)).sum::<f64>() * PI * a * a;
     let sigma_total = sigma_go + if opts.forward_lobe { PI * a * a } else { 0.0 };
     let lobe: Vec<f64> = out_rad

@@ -7,7 +7,10 @@ use crate::stage::Stage;
 
 /// All stages known to this build, in the order `scatterbake stages` lists them.
 pub fn registry() -> Vec<Box<dyn Stage>> {
-    vec![Box::new(water_index::WaterIndexStage)]
+    vec![
+        Box::new(water_index::WaterIndexStage),
+        Box::new(crate::raytrace::stage::RaytraceStage),
+    ]
 }
 
 /// Look up a stage by manifest name.
