@@ -15,9 +15,12 @@
 //! lobe of the projected area A), so that ∫_{4π} p dΩ = 1 up to the flux of triangles discarded
 //! at the silhouette (reported in the attributes).
 
-use super::post::{bin_edges, filter_sigma_deg, fraunhofer_bin_average, gaussian_blur};
+use super::post::{
+    bin_edges, caustic_weight, filter_sigma_deg, fraunhofer_bin_average, gaussian_blur,
+    DEFAULT_CAUSTIC_WINDOW_SIGMAS,
+};
 use super::shape::{CosineSeries, DropShape};
-use super::sphere1d::{sphere_phase_1d, Phase1dOptions, SphereGo};
+use super::sphere1d::{sphere_phase_1d, DiffractionModel, Phase1dOptions, SphereGo};
 use super::tracer::{trace_fields, DirectionGrid, TraceConfig};
 use crate::optics::water::{WaterIndexModel, SADEGHI_WAVELENGTHS_NM};
 use crate::stage::{parse_params, Job, ParamDoc, PlanError, Stage, TaskSpec};
@@ -85,6 +88,11 @@ pub struct RaytraceParams {
     pub azimuth_step_deg: f64,
     #[serde(default = "default_true")]
     pub diffraction_filter: bool,
+    /// Diffraction model of the main channels: `airy-uniform` (spheres only, default for
+    /// spheres) or `gaussian` (thesis Table 3.3 filter, windowed around the caustics; the only
+    /// choice for 2-D shapes).
+    #[serde(default)]
+    pub diffraction_model: Option<DiffractionModel>,
     #[serde(default)]
     pub profile_theta_deg: Option<Vec<f64>>,
     #[serde(default)]
@@ -104,6 +112,7 @@ const PARAMS: &[ParamDoc] = &[
     ParamDoc { name: "polar_step_deg", kind: "float, deg", default: "0.1", description: "outgoing polar step (divides 180), 2-D shapes" },
     ParamDoc { name: "azimuth_step_deg", kind: "float, deg", default: "5", description: "outgoing azimuth step (divides 360), 2-D shapes" },
     ParamDoc { name: "diffraction_filter", kind: "bool", default: "true", description: "apply the Table 3.3 Gaussian filter to the main channels (unfiltered channels are always written)" },
+    ParamDoc { name: "diffraction_model", kind: "string", default: "airy-uniform (sphere) / gaussian (2-D)", description: "airy-uniform: uniform caustic (Airy) approximation at each rainbow (spheres); gaussian: thesis Table 3.3 Gaussian filter windowed around the caustics" },
     ParamDoc { name: "profile_theta_deg", kind: "list of float, deg", default: "none", description: "shape = profile: polar angles from the downward pole" },
     ParamDoc { name: "profile_r", kind: "list of float", default: "none", description: "shape = profile: radii at profile_theta_deg (any unit; rescaled to radius_mm equal volume)" },
 ];
@@ -170,6 +179,10 @@ impl RaytraceJob {
         if !(1..=8).contains(&p.max_order) {
             return Err(PlanError::invalid("max_order", "must be within 1–8"));
         }
+        let two_d_shape = p.shape != "sphere";
+        if two_d_shape && p.diffraction_model == Some(DiffractionModel::AiryUniform) {
+            return Err(PlanError::invalid("diffraction_model", "airy-uniform is available for spheres only; use gaussian"));
+        }
         let two_d = match p.shape.as_str() {
             "sphere" => false,
             "beard-chuang" | "profile" => true,
@@ -218,6 +231,14 @@ impl RaytraceJob {
         };
         job.shape = Some(shape);
         Ok(job)
+    }
+
+    fn diffraction_model(&self) -> DiffractionModel {
+        self.p.diffraction_model.unwrap_or(if self.two_d {
+            DiffractionModel::Gaussian
+        } else {
+            DiffractionModel::AiryUniform
+        })
     }
 
     fn n_angles(&self) -> usize {
@@ -305,7 +326,28 @@ impl RaytraceJob {
                     cols[2 + o][j] = per[o];
                 }
             }
-            let filtered: Vec<Vec<f64>> = cols.iter().map(|c| gaussian_blur(c, 0.0, dth, &theta, sigma_at)).collect();
+            // Caustics of this column: the peaks of the unfiltered primary and secondary orders
+            // ("very sharp transitions"), searched in 130–150° and 115–135°.
+            let peak = |o: usize, lo: f64, hi: f64| -> Option<f64> {
+                if o >= orders {
+                    return None;
+                }
+                let (j0, j1) = ((lo.to_radians() / dth) as usize, ((hi.to_radians() / dth) as usize).min(np - 1));
+                (j0..=j1).max_by(|&x, &y| cols[2 + o][x].total_cmp(&cols[2 + o][y])).map(|j| theta[j])
+            };
+            let bows: Vec<f64> = [peak(2, 130.0, 150.0), peak(3, 115.0, 135.0)].into_iter().flatten().collect();
+            let filtered: Vec<Vec<f64>> = cols
+                .iter()
+                .map(|c| {
+                    let b = gaussian_blur(c, 0.0, dth, &theta, sigma_at);
+                    (0..np)
+                        .map(|j| {
+                            let w = caustic_weight(theta[j], &bows, sigma_at(theta[j]) * DEFAULT_CAUSTIC_WINDOW_SIGMAS);
+                            if filt { w * b[j] + (1.0 - w) * c[j] } else { c[j] }
+                        })
+                        .collect()
+                })
+                .collect();
             for j in 0..np {
                 let ip = (filtered[0][j] + lobe[j]) / sigma_total;
                 let ipar = (filtered[1][j] + lobe[j]) / sigma_total;
@@ -364,7 +406,11 @@ impl Job for RaytraceJob {
         let go = SphereGo::new(s * 1e3, l, n, self.p.max_order);
         let na = self.n_angles();
         let angles: Vec<f64> = (0..na).map(|j| self.p.angle_step_deg * j as f64).collect();
-        let (ch, _) = sphere_phase_1d(&go, &angles, Phase1dOptions { diffraction_filter: self.p.diffraction_filter, ..Default::default() });
+        let (ch, _) = sphere_phase_1d(&go, &angles, Phase1dOptions {
+                diffraction_filter: self.p.diffraction_filter,
+                model: self.diffraction_model(),
+                ..Default::default()
+            });
         let nch = ch.len();
         let mut out = vec![0f32; na * nch];
         for j in 0..na {
@@ -391,7 +437,12 @@ impl Job for RaytraceJob {
         at.insert("max_order".into(), self.p.max_order.into());
         at.insert("cross_section_normalization".into(), "p = (dσ/dΩ)/σ with σ = σ_GO (flux of the traced orders) + A (Fraunhofer forward lobe of the projected area A, added to i_perp and i_par as the exact bin average of a²J1(x sinθ)²/sin²θ)".into());
         at.insert("focal_line_rule".into(), "corrected rule of design digest §2.9: phase exp(i(k l − (π/2) f)), f = [dl/db > 0], b = u² + v²".into());
-        at.insert("diffraction_filter".into(), format!("Gaussian in polar angle, σ from thesis Table 3.3 vs radius (linear in radius, Airy a^(-2/3) outside 0.1–1 mm): σ = {:.4}° for θ above the Alexander-band midpoint, 2σ below; applied = {}", filter_sigma_deg(self.p.radius_mm[0]), self.p.diffraction_filter).into());
+        let model = self.diffraction_model();
+        let filter_text = match model {
+            DiffractionModel::AiryUniform => "airy-uniform: uniform caustic (Airy) approximation of each order's rainbow (two-branch CUA on the bright side, Airy continuation on the dark side); GO elsewhere".to_string(),
+            DiffractionModel::Gaussian => format!("gaussian: thesis Table 3.3 Gaussian in polar angle (σ linear in radius, Airy a^(-2/3) outside 0.1–1 mm; σ = {:.4}° at the first radius) for θ above the Alexander-band midpoint, 2σ below, blended in only within a Gaussian window of half-width 2σ_local around each caustic (peaks of the p = 2 and p = 3 intensities)", filter_sigma_deg(self.p.radius_mm[0])),
+        };
+        at.insert("diffraction_filter".into(), format!("{filter_text}; applied = {}", self.p.diffraction_filter).into());
         at.insert("fresnel".into(), "complex Fresnel amplitudes, Born–Wolf signs, power-consistent transmission (src/optics/fresnel.rs)".into());
         at.insert("cross_order_phase".into(), "orders summed coherently without per-order constant (axial focal line) phases, as in the thesis: the fine cross-order ripple of the unfiltered channels is not Mie-exact".into());
         if !self.two_d {
