@@ -496,3 +496,31 @@ fn report_curves() {
         }
     }
 }
+
+/// Reciprocity for an oriented Beard–Chuang drop, p(ω_in → ω_out) = p(−ω_out → −ω_in)
+/// (digest §7 [A]). In the vertical plane, sun elevation e with the outgoing ray rising at
+/// elevation e' is the reverse of sun elevation e' with the outgoing ray rising at e; both have
+/// polar angle θ = 180° − |e − e'| and azimuths 0° (first; the ray rises relative to e1) and
+/// 180° (second). Here e = 0°,
+/// e' = 40° → θ = 140°, inside the primary bow. Compared as means over θ ∈ [139°, 141°] (patch
+/// noise), both from one 2-D trace per elevation.
+#[test]
+fn beard_chuang_reciprocity_in_the_vertical_plane() {
+    let bc = DropShape::beard_chuang(1.0);
+    let grid = DirectionGrid { n_polar: 1801, n_azimuth: 36 };
+    let mean_phase = |elev_deg: f64, k: usize| -> f64 {
+        let cfg = TraceConfig { rays: 500, max_order: 3, sun_elevation_rad: elev_deg.to_radians(), wavelength_nm: 650.0, n: 1.331 };
+        let f = trace_fields(&bc, &cfg, grid);
+        let (j0, j1) = (1390, 1410);
+        (j0..=j1).map(|j| { let (a, b, _) = f.intensities(j, k); 0.5 * (a + b) }).sum::<f64>() / (j1 - j0 + 1) as f64
+    };
+    let forward = mean_phase(0.0, 0); // φ = 0°
+    let reverse = mean_phase(40.0, 18); // φ = 180°
+    let rel = (forward - reverse).abs() / (0.5 * (forward + reverse));
+    assert!(rel < 0.01, "reciprocity: {forward} vs {reverse} (rel {rel})");
+    // A non-reciprocal pairing (same elevation 0°, opposite azimuth) differs clearly: the drop
+    // is up/down asymmetric, so the comparison above is meaningful.
+    let other = mean_phase(0.0, 18);
+    // Measured: 5165.9 vs 5165.4 µm²/sr (rel 1e-4); unrelated pair 4398.0 (15 % off).
+    assert!((other - reverse).abs() / reverse > 0.05, "control pair {other} vs {reverse}");
+}

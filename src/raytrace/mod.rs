@@ -9,6 +9,7 @@
 //! - [`stage`]: the `raytrace` stage (schemas `raytrace-phase/1` and `raytrace-phase-2d/1`).
 
 pub mod airy;
+pub mod cli;
 pub mod post;
 pub mod shape;
 pub mod sphere1d;

@@ -77,6 +77,8 @@ pub struct CosineSeries {
     pub coeffs: Vec<f64>,
     /// Bounding-sphere radius (µm), slightly above max r.
     pub r_max_um: f64,
+    /// Inscribed-sphere radius (µm), slightly below min r.
+    pub r_min_um: f64,
 }
 
 impl CosineSeries {
@@ -86,8 +88,10 @@ impl CosineSeries {
             radius_um,
             coeffs,
             r_max_um: 0.0,
+            r_min_um: 0.0,
         };
         let mut rmax: f64 = 0.0;
+        let mut rmin = f64::MAX;
         for k in 0..=4096 {
             let c = (PI * k as f64 / 4096.0).cos();
             let (r, _) = s.r_and_rs(c);
@@ -95,8 +99,10 @@ impl CosineSeries {
                 return Err("profile radius must stay positive".into());
             }
             rmax = rmax.max(r);
+            rmin = rmin.min(r);
         }
         s.r_max_um = rmax * 1.001 + 1e-9;
+        s.r_min_um = rmin * 0.999;
         Ok(s)
     }
 
@@ -140,6 +146,7 @@ impl CosineSeries {
                 c
             },
             r_max_um: 0.0,
+            r_min_um: 0.0,
         };
         let v = unit.volume_um3();
         let a0 = (3.0 * v / (4.0 * PI)).cbrt();
@@ -352,6 +359,30 @@ impl DropShape {
                     return if inside { Some(self.degenerate_exit(s, o)) } else { None };
                 }
                 let sq = disc.sqrt();
+                let g_at = |t: f64| s.g(add(o, scale(d, t)));
+                let hit_at = |t: f64| {
+                    let p = add(o, scale(d, t));
+                    Hit {
+                        t,
+                        point: p,
+                        normal: s.normal(p),
+                    }
+                };
+                // Fast path: a chord through the inscribed sphere brackets the crossing between
+                // the two spheres (g > 0 outside the bounding sphere, g < 0 inside the
+                // inscribed one).
+                let ri = s.r_min_um;
+                let disc_in = b * b - (dot(o, o) - ri * ri);
+                if disc_in > 0.0 {
+                    let sqi = disc_in.sqrt();
+                    let (ta, tb) = if inside { (-b + sqi, -b + sq) } else { (-b - sq, -b - sqi) };
+                    if tb > ta && ta >= 0.0 {
+                        let (ga, gb) = (g_at(ta), g_at(tb));
+                        if (ga <= 0.0) != (gb <= 0.0) {
+                            return Some(hit_at(illinois(g_at, ta, ga, tb, gb)));
+                        }
+                    }
+                }
                 let (t0, t1) = if inside { (0.0, -b + sq) } else { (-b - sq, -b + sq) };
                 if t1 <= t0 {
                     return if inside { Some(self.degenerate_exit(s, o)) } else { None };
