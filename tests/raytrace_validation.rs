@@ -524,3 +524,13 @@ fn beard_chuang_reciprocity_in_the_vertical_plane() {
     // Measured: 5165.9 vs 5165.4 µm²/sr (rel 1e-4); unrelated pair 4398.0 (15 % off).
     assert!((other - reverse).abs() / reverse > 0.05, "control pair {other} vs {reverse}");
 }
+
+/// Profiling target: `perf record <test binary> profile_tracer --ignored`.
+#[test]
+#[ignore]
+fn profile_tracer() {
+    let cfg = TraceConfig { rays: 600, max_order: 3, sun_elevation_rad: 0.4, wavelength_nm: 650.0, n: 1.331 };
+    let t = std::time::Instant::now();
+    let f = trace_fields(&DropShape::Sphere { radius_um: 400.0 }, &cfg, DirectionGrid { n_polar: 3601, n_azimuth: 1800 });
+    println!("sphere 600² {:.2} s {}", t.elapsed().as_secs_f64(), f.rays_traced);
+}

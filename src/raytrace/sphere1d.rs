@@ -257,11 +257,15 @@ impl SphereGo {
     /// and within ζ < 0.3 of the caustic the coefficients are frozen at ζ₀ = 0.3 and ζ, χ are
     /// continued linearly in θ (Airy theory).
     pub fn order_field_uniform(&self, p: usize, theta_rad: f64) -> OrderField {
+        self.order_field_uniform_from(p, theta_rad, self.branches(p, theta_rad))
+    }
+
+    /// [`Self::order_field_uniform`] from precomputed [`Self::branches`].
+    pub fn order_field_uniform_from(&self, p: usize, theta_rad: f64, branches: Vec<Branch>) -> OrderField {
         let Some(cal) = self.calibration.get(p).and_then(|c| c.as_ref()) else {
-            return self.order_field(p, theta_rad);
+            return go_sum(&branches);
         };
         let delta = (theta_rad - cal.theta_r) * cal.bright_sign;
-        let branches = self.branches(p, theta_rad);
         let pair = caustic_pair(&branches, cal.deviation_r);
         let mut out = OrderField::default();
         let mut add_go = |b: &Branch| {
@@ -357,23 +361,39 @@ impl SphereGo {
         })
     }
 
-    /// Solve D(i) = target on the monotonic interval [lo, hi] (bisection + secant polish).
+    /// Solve D(i) = target on the monotonic interval [lo, hi]: Newton steps safeguarded by
+    /// bisection of the bracket.
     fn solve(&self, p: usize, lo: f64, hi: f64, d_lo: f64, target: f64) -> f64 {
         let (mut a, mut b) = (lo, hi);
-        let increasing = self.deviation(p, hi) > d_lo;
-        for _ in 0..60 {
-            let mid = 0.5 * (a + b);
-            let dm = self.deviation(p, mid);
-            if (dm < target) == increasing {
-                a = mid;
+        let d_hi = self.deviation(p, hi);
+        let increasing = d_hi > d_lo;
+        // Linear first guess.
+        let mut i = if d_hi != d_lo {
+            (lo + (target - d_lo) / (d_hi - d_lo) * (hi - lo)).clamp(lo, hi)
+        } else {
+            0.5 * (lo + hi)
+        };
+        for _ in 0..100 {
+            let f = self.deviation(p, i) - target;
+            if f == 0.0 {
+                return i;
+            }
+            if (f < 0.0) == increasing {
+                a = i;
             } else {
-                b = mid;
+                b = i;
             }
-            if b - a < 1e-15 {
-                break;
+            let dd = self.deviation_derivative(p, i);
+            let mut next = i - f / dd;
+            if !(next > a && next < b) || !next.is_finite() {
+                next = 0.5 * (a + b);
             }
+            if (next - i).abs() < 1e-15 || b - a < 1e-15 {
+                return next;
+            }
+            i = next;
         }
-        0.5 * (a + b)
+        i
     }
 
     /// Fraction of the flux incident on the silhouette that leaves in order `p`
@@ -460,11 +480,12 @@ pub fn sphere_phase_1d(
             let mut row = vec![0.0; 2 * (2 + orders)];
             let airy = opts.model == DiffractionModel::AiryUniform && opts.diffraction_filter;
             for p in 0..orders {
-                let f = go.order_field(p, th);
+                let br = go.branches(p, th);
+                let f = go_sum(&br);
                 tot.perp += f.perp;
                 tot.par += f.par;
                 row[2 + p] = 0.5 * (f.perp.norm_sqr() + f.par.norm_sqr());
-                let u = if airy { go.order_field_uniform(p, th) } else { f };
+                let u = if airy { go.order_field_uniform_from(p, th, br) } else { f };
                 tot_u.perp += u.perp;
                 tot_u.par += u.par;
                 row[2 + orders + 2 + p] = 0.5 * (u.perp.norm_sqr() + u.par.norm_sqr());
@@ -553,6 +574,17 @@ pub fn sphere_phase_1d(
     channels.push(ip_u);
     channels.push(ipar_u);
     (channels, sigma_total)
+}
+
+/// Geometric-optics sum of branches with the corrected focal-line phase.
+pub fn go_sum(branches: &[Branch]) -> OrderField {
+    let mut out = OrderField::default();
+    for b in branches {
+        let ph = Complex64::from_polar(1.0, b.phase - if b.focal { FRAC_PI_2 } else { 0.0 });
+        out.perp += ph * b.amp_perp;
+        out.par += ph * b.amp_par;
+    }
+    out
 }
 
 /// Fold a deviation angle into the scattering angle in [0, π].

@@ -115,6 +115,8 @@ impl FieldGrid {
 #[derive(Debug, Clone, Copy)]
 struct RayOut {
     dir: [f64; 3],
+    /// Polar angle and azimuth of `dir` in the table frame.
+    pa: (f64, f64),
     ea: CVec,
     eb: CVec,
     l: f64,
@@ -123,6 +125,7 @@ struct RayOut {
 
 const INVALID: RayOut = RayOut {
     dir: [0.0; 3],
+    pa: (0.0, 0.0),
     ea: [Complex64::new(0.0, 0.0); 3],
     eb: [Complex64::new(0.0, 0.0); 3],
     l: 0.0,
@@ -231,6 +234,7 @@ fn trace_ray(shape: &DropShape, fr: &Frame, dist: f64, n: f64, max_order: usize,
     let sp = interact(fr.d, h.normal, 1.0, n, &ea, &eb);
     out[0] = RayOut {
         dir: sp.refl_dir,
+        pa: polar_azimuth(fr, sp.refl_dir),
         ea: sp.refl.0,
         eb: sp.refl.1,
         l: l + dist - dot(h.point, sp.refl_dir),
@@ -250,6 +254,7 @@ fn trace_ray(shape: &DropShape, fr: &Frame, dist: f64, n: f64, max_order: usize,
         if let Some((td, ta, tb)) = sp.trans {
             *slot = RayOut {
                 dir: td,
+                pa: polar_azimuth(fr, td),
                 ea: ta,
                 eb: tb,
                 l: l + dist - dot(pos, td),
@@ -371,9 +376,12 @@ pub fn trace_fields(shape: &DropShape, cfg: &TraceConfig, grid: DirectionGrid) -
             }
         }
         let ray = |i: usize, j: usize, o: usize| -> &RayOut { &traced[i].0[j * orders + o] };
-        // Build triangles.
-        let mut tris: Vec<Tri> = Vec::new();
-        for i in 0..nrows - 1 {
+        // Build triangles (rayon over grid rows).
+        let built: Vec<(Vec<Tri>, Vec<f64>)> = (0..nrows - 1)
+            .into_par_iter()
+            .map(|i| {
+            let mut tris: Vec<Tri> = Vec::new();
+            let mut patch_flux = vec![0.0; orders];
             for j in 0..nr - 1 {
                 for o in 0..orders {
                     let a = (i, j);
@@ -428,7 +436,10 @@ pub fn trace_fields(shape: &DropShape, cfg: &TraceConfig, grid: DirectionGrid) -
                         let edges = [cross(v[0], v[1]), cross(v[1], v[2]), cross(v[2], v[0])];
                         let ties = [lex_less(v[0], v[1]), lex_less(v[1], v[2]), lex_less(v[2], v[0])];
                         // Direction-space bounding box.
-                        let pa: Vec<(f64, f64)> = v.iter().map(|w| polar_azimuth(&fr, *w)).collect();
+                        let mut pa = rs.map(|r| r.pa);
+                        if omega < 0.0 {
+                            pa.swap(1, 2);
+                        }
                         let lmax = (0..3)
                             .map(|e| {
                                 let c = sub(v[e], v[(e + 1) % 3]);
@@ -467,10 +478,12 @@ pub fn trace_fields(shape: &DropShape, cfg: &TraceConfig, grid: DirectionGrid) -
                                 lo = lo.min(ph0 + dphi);
                                 hi = hi.max(ph0 + dphi);
                             }
-                            let mphi = margin / sin_min;
-                            lo -= mphi;
-                            hi += mphi;
-                            if hi - lo >= 2.0 * PI - dph {
+                            // The azimuth along a minor great-circle arc that avoids the pole
+                            // is monotonic, so a triangle not containing a pole spans exactly its
+                            // vertices' azimuth range (unwrapping is unambiguous below π/2).
+                            lo -= 1e-9;
+                            hi += 1e-9;
+                            if hi - lo >= 0.5 * PI {
                                 full = true;
                             } else {
                                 k0 = (lo / dph).ceil() as i64;
@@ -496,6 +509,15 @@ pub fn trace_fields(shape: &DropShape, cfg: &TraceConfig, grid: DirectionGrid) -
                         });
                     }
                 }
+        }
+            (tris, patch_flux)
+            })
+            .collect();
+        let mut tris: Vec<Tri> = Vec::new();
+        for (t, pf) in built {
+            tris.extend(t);
+            for o in 0..orders {
+                patch_flux[o] += pf[o];
             }
         }
         // Bin triangles by polar row (CSR).
