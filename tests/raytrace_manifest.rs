@@ -16,7 +16,11 @@ fn plan_all(path: &str) -> Vec<(String, Box<dyn scatterbake::stage::Job>)> {
             let params = t["params"].as_table().unwrap();
             let inline = format!(
                 "{{ {} }}",
-                params.iter().map(|(k, v)| format!("{k} = {v}")).collect::<Vec<_>>().join(", ")
+                params
+                    .iter()
+                    .map(|(k, v)| format!("{k} = {v}"))
+                    .collect::<Vec<_>>()
+                    .join(", ")
             );
             let job = stage
                 .plan(toml::de::ValueDeserializer::parse(&inline).unwrap())
@@ -37,7 +41,10 @@ fn default_and_full_manifests_plan() {
 #[test]
 #[ignore]
 fn build_default_manifest_two_threads() {
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap();
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(2)
+        .build()
+        .unwrap();
     pool.install(|| {
         let t0 = std::time::Instant::now();
         for (name, job) in plan_all("manifests/raytrace.toml") {

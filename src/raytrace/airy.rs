@@ -29,7 +29,8 @@ pub fn airy_ai(z: f64) -> (f64, f64) {
         fp += tfp;
         g += tg;
         gp += tgp;
-        if k > 3 && tf.abs() + tfp.abs() + tg.abs() + tgp.abs() < 1e-18 * (1.0 + f.abs() + g.abs()) {
+        if k > 3 && tf.abs() + tfp.abs() + tg.abs() + tgp.abs() < 1e-18 * (1.0 + f.abs() + g.abs())
+        {
             break;
         }
     }
@@ -46,7 +47,10 @@ mod tests {
         // Ai(1) = 0.135292416312881, Ai(−1) = 0.535560883292352, Ai'(−1) = −0.010160567116645,
         // first zero a1 = −2.338107410459767, Ai(−5) = 0.350761009024114.
         let (a0, d0) = airy_ai(0.0);
-        assert!((a0 - 0.355_028_053_887_817).abs() < 1e-14 && (d0 + 0.258_819_403_792_807).abs() < 1e-14);
+        assert!(
+            (a0 - 0.355_028_053_887_817).abs() < 1e-14
+                && (d0 + 0.258_819_403_792_807).abs() < 1e-14
+        );
         assert!((airy_ai(1.0).0 - 0.135_292_416_312_881).abs() < 1e-13);
         assert!((airy_ai(-1.0).0 - 0.535_560_883_292_352).abs() < 1e-13);
         assert!((airy_ai(-1.0).1 + 0.010_160_567_116_645).abs() < 1e-12);
@@ -54,7 +58,8 @@ mod tests {
         assert!((airy_ai(-5.0).0 - 0.350_761_009_024_114).abs() < 1e-11);
         // Asymptotics at z = −12: Ai(−x) ≈ π^{−1/2} x^{−1/4} sin(2/3 x^{3/2} + π/4).
         let x: f64 = 12.0;
-        let asym = (std::f64::consts::PI).sqrt().recip() * x.powf(-0.25)
+        let asym = (std::f64::consts::PI).sqrt().recip()
+            * x.powf(-0.25)
             * (2.0 / 3.0 * x.powf(1.5) + std::f64::consts::FRAC_PI_4).sin();
         assert!((airy_ai(-12.0).0 - asym).abs() < 2e-3 * x.powf(-0.25));
     }

@@ -7,7 +7,7 @@
 
 use super::stage::{RaytraceJob, RaytraceParams};
 use crate::stage::Job;
-use anyhow::{bail, Context};
+use anyhow::{Context, bail};
 
 /// Arguments of `scatterbake raytrace`.
 #[derive(clap::Args, Debug, Clone)]
@@ -88,7 +88,10 @@ pub fn raytrace_columns(args: &RaytraceArgs) -> anyhow::Result<RaytraceColumns> 
             continue;
         }
         let mean = |c: usize| -> f64 {
-            (0..n_az).map(|k| chunk[(j * n_az + k) * nch + c] as f64).sum::<f64>() / n_az as f64
+            (0..n_az)
+                .map(|k| chunk[(j * n_az + k) * nch + c] as f64)
+                .sum::<f64>()
+                / n_az as f64
         };
         ang.push(th);
         ip.push(mean(1));
@@ -140,6 +143,12 @@ mod tests {
         for i in 0..a.len() {
             assert!((ph[i] - 0.5 * (ip[i] + ipar[i])).abs() <= 1e-6 * ph[i].abs() + 1e-12);
         }
-        assert!(raytrace_columns(&RaytraceArgs { angles: "1:2".into(), ..args }).is_err());
+        assert!(
+            raytrace_columns(&RaytraceArgs {
+                angles: "1:2".into(),
+                ..args
+            })
+            .is_err()
+        );
     }
 }

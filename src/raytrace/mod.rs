@@ -19,10 +19,17 @@ pub mod tracer;
 /// Channel names of every ray-traced phase table, in order: the contract's four, then the
 /// per-order (filtered) phase functions, then the unfiltered phase, i_perp and i_par.
 pub fn channel_names(max_order: usize) -> Vec<String> {
-    let mut v: Vec<String> = ["phase", "i_perp", "i_par", "dolp"].iter().map(|s| s.to_string()).collect();
+    let mut v: Vec<String> = ["phase", "i_perp", "i_par", "dolp"]
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
     for p in 0..=max_order {
         v.push(format!("phase_p{p}"));
     }
-    v.extend(["phase_unfiltered", "i_perp_unfiltered", "i_par_unfiltered"].iter().map(|s| s.to_string()));
+    v.extend(
+        ["phase_unfiltered", "i_perp_unfiltered", "i_par_unfiltered"]
+            .iter()
+            .map(|s| s.to_string()),
+    );
     v
 }

@@ -150,7 +150,11 @@ mod tests {
             total += avg * 2.0 * PI * (th.cos() - (th + step).cos());
             th += step;
         }
-        assert!((total / (PI * a * a) - 1.0).abs() < 1e-3, "{}", total / (PI * a * a));
+        assert!(
+            (total / (PI * a * a) - 1.0).abs() < 1e-3,
+            "{}",
+            total / (PI * a * a)
+        );
         // Peak value a²x²/4 at θ → 0 (Airy disc).
         let x = 2.0 * PI * a / 0.65;
         let peak = fraunhofer_bin_average(a, 650.0, 0.0, 1e-9);

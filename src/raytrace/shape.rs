@@ -21,11 +21,36 @@ use std::f64::consts::PI;
 /// equivalent radii 0.4 (sphere, added by the thesis), 1.0, 1.5, 2.0, 2.5 and 3.0 mm.
 pub const BEARD_CHUANG_TABLE_3_1: [(f64, [f64; 8]); 6] = [
     (0.4, [0.0; 8]),
-    (1.0, [-0.0131, -0.0120, -0.0376, -0.0096, -0.0004, 0.0015, 0.0005, 0.0]),
-    (1.5, [-0.0282, -0.0230, -0.0779, -0.0175, 0.0021, 0.0046, 0.0011, -0.0006]),
-    (2.0, [-0.0458, -0.0335, -0.1211, -0.0227, 0.0083, 0.0089, 0.0012, -0.0021]),
-    (2.5, [-0.0644, -0.0416, -0.1629, -0.0246, 0.0176, 0.0131, 0.0002, -0.0044]),
-    (3.0, [-0.0840, -0.0480, -0.2034, -0.0237, 0.0297, 0.0166, -0.0021, -0.0072]),
+    (
+        1.0,
+        [
+            -0.0131, -0.0120, -0.0376, -0.0096, -0.0004, 0.0015, 0.0005, 0.0,
+        ],
+    ),
+    (
+        1.5,
+        [
+            -0.0282, -0.0230, -0.0779, -0.0175, 0.0021, 0.0046, 0.0011, -0.0006,
+        ],
+    ),
+    (
+        2.0,
+        [
+            -0.0458, -0.0335, -0.1211, -0.0227, 0.0083, 0.0089, 0.0012, -0.0021,
+        ],
+    ),
+    (
+        2.5,
+        [
+            -0.0644, -0.0416, -0.1629, -0.0246, 0.0176, 0.0131, 0.0002, -0.0044,
+        ],
+    ),
+    (
+        3.0,
+        [
+            -0.0840, -0.0480, -0.2034, -0.0237, 0.0297, 0.0166, -0.0021, -0.0072,
+        ],
+    ),
 ];
 
 /// Beard–Chuang coefficients at equivalent radius `radius_mm`: linear in `a` between the rows
@@ -108,8 +133,11 @@ impl CosineSeries {
 
     /// Beard–Chuang drop of equivalent radius `radius_mm` (see [`beard_chuang_coefficients`]).
     pub fn beard_chuang(radius_mm: f64) -> Self {
-        Self::new(radius_mm * 1e3, beard_chuang_coefficients(radius_mm).to_vec())
-            .expect("Table 3.1 profiles are positive")
+        Self::new(
+            radius_mm * 1e3,
+            beard_chuang_coefficients(radius_mm).to_vec(),
+        )
+        .expect("Table 3.1 profiles are positive")
     }
 
     /// Least-squares cosine-series fit (order ≤ 12) of a tabulated profile `r(θ)` (θ in degrees
@@ -119,7 +147,7 @@ impl CosineSeries {
         if theta_deg.len() != r.len() || theta_deg.len() < 3 {
             return Err("profile table needs ≥ 3 (θ, r) pairs of equal length".into());
         }
-        if r.iter().any(|&x| !(x > 0.0)) {
+        if r.iter().any(|&x| x.is_nan() || x <= 0.0) {
             return Err("profile radii must be positive".into());
         }
         let order = ((theta_deg.len() - 1) / 2).min(12);
@@ -240,7 +268,8 @@ impl CosineSeries {
 /// Gaussian elimination with partial pivoting (small dense systems).
 fn solve_dense(a: &mut [f64], b: &mut [f64], n: usize) -> Option<Vec<f64>> {
     for col in 0..n {
-        let piv = (col..n).max_by(|&i, &j| a[i * n + col].abs().total_cmp(&a[j * n + col].abs()))?;
+        let piv =
+            (col..n).max_by(|&i, &j| a[i * n + col].abs().total_cmp(&a[j * n + col].abs()))?;
         if a[piv * n + col].abs() < 1e-300 {
             return None;
         }
@@ -312,7 +341,9 @@ impl DropShape {
                     let rho = r * th.sin();
                     let z = -r * th.cos();
                     w2 = w2.max(rho);
-                    w1 = w1.max((se * rho + ce * z).abs()).max((-se * rho + ce * z).abs());
+                    w1 = w1
+                        .max((se * rho + ce * z).abs())
+                        .max((-se * rho + ce * z).abs());
                 }
                 (w1 * 1.002, w2 * 1.002)
             }
@@ -356,7 +387,11 @@ impl DropShape {
                 let c = dot(o, o) - rb * rb;
                 let disc = b * b - c;
                 if disc <= 0.0 {
-                    return if inside { Some(self.degenerate_exit(s, o)) } else { None };
+                    return if inside {
+                        Some(self.degenerate_exit(s, o))
+                    } else {
+                        None
+                    };
                 }
                 let sq = disc.sqrt();
                 let g_at = |t: f64| s.g(add(o, scale(d, t)));
@@ -375,7 +410,11 @@ impl DropShape {
                 let disc_in = b * b - (dot(o, o) - ri * ri);
                 if disc_in > 0.0 {
                     let sqi = disc_in.sqrt();
-                    let (ta, tb) = if inside { (-b + sqi, -b + sq) } else { (-b - sq, -b - sqi) };
+                    let (ta, tb) = if inside {
+                        (-b + sqi, -b + sq)
+                    } else {
+                        (-b - sq, -b - sqi)
+                    };
                     if tb > ta && ta >= 0.0 {
                         let (ga, gb) = (g_at(ta), g_at(tb));
                         if (ga <= 0.0) != (gb <= 0.0) {
@@ -383,14 +422,26 @@ impl DropShape {
                         }
                     }
                 }
-                let (t0, t1) = if inside { (0.0, -b + sq) } else { (-b - sq, -b + sq) };
+                let (t0, t1) = if inside {
+                    (0.0, -b + sq)
+                } else {
+                    (-b - sq, -b + sq)
+                };
                 if t1 <= t0 {
-                    return if inside { Some(self.degenerate_exit(s, o)) } else { None };
+                    return if inside {
+                        Some(self.degenerate_exit(s, o))
+                    } else {
+                        None
+                    };
                 }
                 const M: usize = 32;
                 let dt = (t1 - t0) / M as f64;
                 let mut ta = t0;
-                let mut ga = if inside { -0.01 * dt } else { s.g(add(o, scale(d, t0))) };
+                let mut ga = if inside {
+                    -0.01 * dt
+                } else {
+                    s.g(add(o, scale(d, t0)))
+                };
                 for k in 1..=M {
                     let tb = if k == M { t1 } else { t0 + dt * k as f64 };
                     let gb = s.g(add(o, scale(d, tb)));
@@ -407,7 +458,11 @@ impl DropShape {
                     ta = tb;
                     ga = gb;
                 }
-                if inside { Some(self.degenerate_exit(s, o)) } else { None }
+                if inside {
+                    Some(self.degenerate_exit(s, o))
+                } else {
+                    None
+                }
             }
         }
     }
@@ -428,8 +483,16 @@ fn illinois(g: impl Fn(f64) -> f64, mut a: f64, mut ga: f64, mut b: f64, mut gb:
     }
     let mut side = 0i32;
     for _ in 0..100 {
-        let c = if (gb - ga).abs() > 0.0 { (a * gb - b * ga) / (gb - ga) } else { 0.5 * (a + b) };
-        let c = if c.is_finite() && c > a.min(b) && c < a.max(b) { c } else { 0.5 * (a + b) };
+        let c = if (gb - ga).abs() > 0.0 {
+            (a * gb - b * ga) / (gb - ga)
+        } else {
+            0.5 * (a + b)
+        };
+        let c = if c.is_finite() && c > a.min(b) && c < a.max(b) {
+            c
+        } else {
+            0.5 * (a + b)
+        };
         let gc = g(c);
         if gc == 0.0 || (b - a).abs() < 1e-13 * (1.0 + a.abs().max(b.abs())) {
             return c;
@@ -505,8 +568,16 @@ mod tests {
             let s = CosineSeries::beard_chuang(a);
             let v = s.volume_um3();
             let v_sphere = 4.0 / 3.0 * PI * (a * 1e3f64).powi(3);
-            assert!((v / v_sphere - 1.0).abs() < 5e-4, "a={a}: volume {}", v / v_sphere);
-            assert!((s.axis_ratio() - ratio).abs() < 6e-4, "a={a}: {}", s.axis_ratio());
+            assert!(
+                (v / v_sphere - 1.0).abs() < 5e-4,
+                "a={a}: volume {}",
+                v / v_sphere
+            );
+            assert!(
+                (s.axis_ratio() - ratio).abs() < 6e-4,
+                "a={a}: {}",
+                s.axis_ratio()
+            );
             assert!((s.r_at(0.0) / (a * 1e3) - r0).abs() < 1e-4);
             assert!((s.r_at(PI) / (a * 1e3) - rpi).abs() < 1e-4);
         }
@@ -561,7 +632,7 @@ mod tests {
             DropShape::Sphere { radius_um: 1000.0 },
             DropShape::Series(CosineSeries::beard_chuang(3.0)),
         ] {
-            for elev in [0.0f64, 0.4, 1.5707963267948966] {
+            for elev in [0.0f64, 0.4, std::f64::consts::FRAC_PI_2] {
                 let (se, ce) = elev.sin_cos();
                 let d = [-ce, 0.0, -se];
                 let e1 = [-se, 0.0, ce];
@@ -574,7 +645,9 @@ mod tests {
                         let u = -w1 + 2.0 * w1 * i as f64 / (n - 1) as f64;
                         let v = -w2 + 2.0 * w2 * j as f64 / (n - 1) as f64;
                         let o = add(add(scale(e1, u), scale(e2, v)), scale(d, -5000.0));
-                        let Some(h) = shape.intersect(o, d, false) else { continue };
+                        let Some(h) = shape.intersect(o, d, false) else {
+                            continue;
+                        };
                         entered += 1;
                         let cos_i = -dot(d, h.normal);
                         assert!(cos_i >= -1e-9, "entry on the back face");

@@ -97,7 +97,11 @@ fn caustic_pair(br: &[Branch], deviation_r: f64) -> Option<(usize, usize)> {
         return None;
     }
     let (a, b) = (idx[0], idx[1]);
-    if br[a].phase <= br[b].phase { Some((a, b)) } else { Some((b, a)) }
+    if br[a].phase <= br[b].phase {
+        Some((a, b))
+    } else {
+        Some((b, a))
+    }
 }
 
 impl SphereGo {
@@ -211,7 +215,11 @@ impl SphereGo {
         for (iv, &(lo, hi)) in self.intervals[p].iter().enumerate() {
             let d_lo = self.deviation(p, lo);
             let d_hi = self.deviation(p, hi);
-            let (dmin, dmax) = if d_lo < d_hi { (d_lo, d_hi) } else { (d_hi, d_lo) };
+            let (dmin, dmax) = if d_lo < d_hi {
+                (d_lo, d_hi)
+            } else {
+                (d_hi, d_lo)
+            };
             // Candidates D* = ±θ + 2πm inside [dmin, dmax].
             let m_lo = ((dmin - PI) / (2.0 * PI)).floor() as i64 - 1;
             let m_hi = ((dmax + PI) / (2.0 * PI)).ceil() as i64 + 1;
@@ -228,7 +236,7 @@ impl SphereGo {
                     }
                     let weight = self.radius_um * self.radius_um * i.sin() * i.cos()
                         / (sin_theta * dd.abs());
-                    if !(weight > 0.0) {
+                    if weight.is_nan() || weight <= 0.0 {
                         continue;
                     }
                     let amp = weight.sqrt();
@@ -261,7 +269,12 @@ impl SphereGo {
     }
 
     /// [`Self::order_field_uniform`] from precomputed [`Self::branches`].
-    pub fn order_field_uniform_from(&self, p: usize, theta_rad: f64, branches: Vec<Branch>) -> OrderField {
+    pub fn order_field_uniform_from(
+        &self,
+        p: usize,
+        theta_rad: f64,
+        branches: Vec<Branch>,
+    ) -> OrderField {
         let Some(cal) = self.calibration.get(p).and_then(|c| c.as_ref()) else {
             return go_sum(&branches);
         };
@@ -332,12 +345,15 @@ impl SphereGo {
             let zeta = (0.75 * (b2.phase - b1.phase)).max(0.0).powf(2.0 / 3.0);
             let z4 = zeta.powf(0.25);
             let j = Complex64::new(0.0, 1.0);
-            let u = Complex64::new((b1.amp_perp + b2.amp_perp) * z4, (b1.amp_par + b2.amp_par) * z4);
+            let u = Complex64::new(
+                (b1.amp_perp + b2.amp_perp) * z4,
+                (b1.amp_par + b2.amp_par) * z4,
+            );
             let v = Complex64::new(b2.amp_perp - b1.amp_perp, b2.amp_par - b1.amp_par) * j / z4;
             Some((zeta, 0.5 * (b1.phase + b2.phase), u, v))
         };
         let (z_test, _, _, _) = zeta_at(1e-4)?;
-        if !(z_test > 0.0) {
+        if z_test.is_nan() || z_test <= 0.0 {
             return None;
         }
         let delta0 = 1e-4 * ZETA0 / z_test;
@@ -385,7 +401,7 @@ impl SphereGo {
             }
             let dd = self.deviation_derivative(p, i);
             let mut next = i - f / dd;
-            if !(next > a && next < b) || !next.is_finite() {
+            if !(next > a && next < b && next.is_finite()) {
                 next = 0.5 * (a + b);
             }
             if (next - i).abs() < 1e-15 || b - a < 1e-15 {
@@ -485,7 +501,11 @@ pub fn sphere_phase_1d(
                 tot.perp += f.perp;
                 tot.par += f.par;
                 row[2 + p] = 0.5 * (f.perp.norm_sqr() + f.par.norm_sqr());
-                let u = if airy { go.order_field_uniform_from(p, th, br) } else { f };
+                let u = if airy {
+                    go.order_field_uniform_from(p, th, br)
+                } else {
+                    f
+                };
                 tot_u.perp += u.perp;
                 tot_u.par += u.par;
                 row[2 + orders + 2 + p] = 0.5 * (u.perp.norm_sqr() + u.par.norm_sqr());
@@ -513,9 +533,8 @@ pub fn sphere_phase_1d(
             2.0 * sigma
         }
     };
-    let unfiltered = |c: usize| {
-        crate::raytrace::post::gaussian_blur(&column(c), 0.0, fstep, &out_rad, |_| 0.0)
-    };
+    let unfiltered =
+        |c: usize| crate::raytrace::post::gaussian_blur(&column(c), 0.0, fstep, &out_rad, |_| 0.0);
     let bows: Vec<f64> = [go.rainbow_angle_rad(2), go.rainbow_angle_rad(3)]
         .into_iter()
         .flatten()
@@ -524,7 +543,8 @@ pub fn sphere_phase_1d(
         if opts.model == DiffractionModel::AiryUniform && opts.diffraction_filter {
             return unfiltered(c + 2 + orders);
         }
-        let blurred = crate::raytrace::post::gaussian_blur(&column(c), 0.0, fstep, &out_rad, sigma_at);
+        let blurred =
+            crate::raytrace::post::gaussian_blur(&column(c), 0.0, fstep, &out_rad, sigma_at);
         if opts.caustic_window_sigmas <= 0.0 || !opts.diffraction_filter {
             return blurred;
         }
@@ -533,7 +553,11 @@ pub fn sphere_phase_1d(
             .iter()
             .enumerate()
             .map(|(j, &th)| {
-                let w = crate::raytrace::post::caustic_weight(th, &bows, sigma_at(th) * opts.caustic_window_sigmas);
+                let w = crate::raytrace::post::caustic_weight(
+                    th,
+                    &bows,
+                    sigma_at(th) * opts.caustic_window_sigmas,
+                );
                 w * blurred[j] + (1.0 - w) * raw[j]
             })
             .collect::<Vec<f64>>()
@@ -558,7 +582,11 @@ pub fn sphere_phase_1d(
     };
     let i_perp = norm(filtered(0), true);
     let i_par = norm(filtered(1), true);
-    let phase: Vec<f64> = i_perp.iter().zip(&i_par).map(|(a, b)| 0.5 * (a + b)).collect();
+    let phase: Vec<f64> = i_perp
+        .iter()
+        .zip(&i_par)
+        .map(|(a, b)| 0.5 * (a + b))
+        .collect();
     let dolp: Vec<f64> = i_perp
         .iter()
         .zip(&i_par)
@@ -570,7 +598,12 @@ pub fn sphere_phase_1d(
     }
     let ip_u = norm(unfiltered(0), true);
     let ipar_u = norm(unfiltered(1), true);
-    channels.push(ip_u.iter().zip(&ipar_u).map(|(a, b)| 0.5 * (a + b)).collect());
+    channels.push(
+        ip_u.iter()
+            .zip(&ipar_u)
+            .map(|(a, b)| 0.5 * (a + b))
+            .collect(),
+    );
     channels.push(ip_u);
     channels.push(ipar_u);
     (channels, sigma_total)
@@ -605,7 +638,12 @@ mod tests {
         let f: Vec<f64> = (0..=3).map(|p| go.energy_fraction(p)).collect();
         let want = [0.0664, 0.8837, 0.0406, 0.0061];
         for p in 0..4 {
-            assert!((f[p] - want[p]).abs() < 6e-5, "p={p}: {} vs {}", f[p], want[p]);
+            assert!(
+                (f[p] - want[p]).abs() < 6e-5,
+                "p={p}: {} vs {}",
+                f[p],
+                want[p]
+            );
         }
         let left = 1.0 - f.iter().sum::<f64>();
         assert!((left - 0.0032).abs() < 1e-4, "left {left}");

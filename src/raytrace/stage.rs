@@ -16,14 +16,14 @@
 //! at the silhouette (reported in the attributes).
 
 use super::post::{
-    bin_edges, caustic_weight, filter_sigma_deg, fraunhofer_bin_average, gaussian_blur,
-    DEFAULT_CAUSTIC_WINDOW_SIGMAS,
+    DEFAULT_CAUSTIC_WINDOW_SIGMAS, bin_edges, caustic_weight, filter_sigma_deg,
+    fraunhofer_bin_average, gaussian_blur,
 };
 use super::shape::{CosineSeries, DropShape};
-use super::sphere1d::{sphere_phase_1d, DiffractionModel, Phase1dOptions, SphereGo};
-use super::tracer::{trace_fields, DirectionGrid, TraceConfig};
-use crate::optics::water::{WaterIndexModel, SADEGHI_WAVELENGTHS_NM};
-use crate::stage::{parse_params, Job, ParamDoc, PlanError, Stage, TaskSpec};
+use super::sphere1d::{DiffractionModel, Phase1dOptions, SphereGo, sphere_phase_1d};
+use super::tracer::{DirectionGrid, TraceConfig, trace_fields};
+use crate::optics::water::{SADEGHI_WAVELENGTHS_NM, WaterIndexModel};
+use crate::stage::{Job, ParamDoc, PlanError, Stage, TaskSpec, parse_params};
 use crate::table::{Axis, Channel, Schema, TableContent};
 use serde::{Deserialize, Serialize};
 use std::f64::consts::PI;
@@ -100,25 +100,100 @@ pub struct RaytraceParams {
 }
 
 const PARAMS: &[ParamDoc] = &[
-    ParamDoc { name: "shape", kind: "string", default: "required", description: "sphere (1-D table, exact GO+phase path) | beard-chuang | profile (2-D tables, patch tracer)" },
-    ParamDoc { name: "radius_mm", kind: "list of float, mm", default: "required", description: "equal-volume radii, 0.01–5 mm; exactly one for 2-D shapes" },
-    ParamDoc { name: "wavelength_nm", kind: "list of float, nm", default: "380..700 step 10 (33)", description: "vacuum wavelengths, strictly increasing" },
-    ParamDoc { name: "water_index_model", kind: "string", default: "sadeghi-table-3.2", description: "sadeghi-table-3.2 (thesis parity) or iapws1997" },
-    ParamDoc { name: "temperature_c", kind: "float, °C", default: "20", description: "temperature for iapws1997" },
-    ParamDoc { name: "max_order", kind: "integer", default: "3", description: "highest order p traced (0 reflection, 1 transmission, 2 primary, 3 secondary, ...), 1–8" },
-    ParamDoc { name: "angle_step_deg", kind: "float, deg", default: "0.05", description: "scattering-angle step of 1-D sphere tables (divides 180)" },
-    ParamDoc { name: "sun_elevation_deg", kind: "list of float, deg", default: "[0]", description: "sun elevations above the horizon (drop axis vertical), 0–90, 2-D shapes" },
-    ParamDoc { name: "rays", kind: "integer", default: "600", description: "rays per side of the square ray grid (2-D shapes; the thesis used 3000)" },
-    ParamDoc { name: "polar_step_deg", kind: "float, deg", default: "0.1", description: "outgoing polar step (divides 180), 2-D shapes" },
-    ParamDoc { name: "azimuth_step_deg", kind: "float, deg", default: "5", description: "outgoing azimuth step (divides 360), 2-D shapes" },
-    ParamDoc { name: "diffraction_filter", kind: "bool", default: "true", description: "apply the Table 3.3 Gaussian filter to the main channels (unfiltered channels are always written)" },
-    ParamDoc { name: "diffraction_model", kind: "string", default: "airy-uniform (sphere) / gaussian (2-D)", description: "airy-uniform: uniform caustic (Airy) approximation at each rainbow (spheres); gaussian: thesis Table 3.3 Gaussian filter windowed around the caustics" },
-    ParamDoc { name: "profile_theta_deg", kind: "list of float, deg", default: "none", description: "shape = profile: polar angles from the downward pole" },
-    ParamDoc { name: "profile_r", kind: "list of float", default: "none", description: "shape = profile: radii at profile_theta_deg (any unit; rescaled to radius_mm equal volume)" },
+    ParamDoc {
+        name: "shape",
+        kind: "string",
+        default: "required",
+        description: "sphere (1-D table, exact GO+phase path) | beard-chuang | profile (2-D tables, patch tracer)",
+    },
+    ParamDoc {
+        name: "radius_mm",
+        kind: "list of float, mm",
+        default: "required",
+        description: "equal-volume radii, 0.01–5 mm; exactly one for 2-D shapes",
+    },
+    ParamDoc {
+        name: "wavelength_nm",
+        kind: "list of float, nm",
+        default: "380..700 step 10 (33)",
+        description: "vacuum wavelengths, strictly increasing",
+    },
+    ParamDoc {
+        name: "water_index_model",
+        kind: "string",
+        default: "sadeghi-table-3.2",
+        description: "sadeghi-table-3.2 (thesis parity) or iapws1997",
+    },
+    ParamDoc {
+        name: "temperature_c",
+        kind: "float, °C",
+        default: "20",
+        description: "temperature for iapws1997",
+    },
+    ParamDoc {
+        name: "max_order",
+        kind: "integer",
+        default: "3",
+        description: "highest order p traced (0 reflection, 1 transmission, 2 primary, 3 secondary, ...), 1–8",
+    },
+    ParamDoc {
+        name: "angle_step_deg",
+        kind: "float, deg",
+        default: "0.05",
+        description: "scattering-angle step of 1-D sphere tables (divides 180)",
+    },
+    ParamDoc {
+        name: "sun_elevation_deg",
+        kind: "list of float, deg",
+        default: "[0]",
+        description: "sun elevations above the horizon (drop axis vertical), 0–90, 2-D shapes",
+    },
+    ParamDoc {
+        name: "rays",
+        kind: "integer",
+        default: "600",
+        description: "rays per side of the square ray grid (2-D shapes; the thesis used 3000)",
+    },
+    ParamDoc {
+        name: "polar_step_deg",
+        kind: "float, deg",
+        default: "0.1",
+        description: "outgoing polar step (divides 180), 2-D shapes",
+    },
+    ParamDoc {
+        name: "azimuth_step_deg",
+        kind: "float, deg",
+        default: "5",
+        description: "outgoing azimuth step (divides 360), 2-D shapes",
+    },
+    ParamDoc {
+        name: "diffraction_filter",
+        kind: "bool",
+        default: "true",
+        description: "apply the Table 3.3 Gaussian filter to the main channels (unfiltered channels are always written)",
+    },
+    ParamDoc {
+        name: "diffraction_model",
+        kind: "string",
+        default: "airy-uniform (sphere) / gaussian (2-D)",
+        description: "airy-uniform: uniform caustic (Airy) approximation at each rainbow (spheres); gaussian: thesis Table 3.3 Gaussian filter windowed around the caustics",
+    },
+    ParamDoc {
+        name: "profile_theta_deg",
+        kind: "list of float, deg",
+        default: "none",
+        description: "shape = profile: polar angles from the downward pole",
+    },
+    ParamDoc {
+        name: "profile_r",
+        kind: "list of float",
+        default: "none",
+        description: "shape = profile: radii at profile_theta_deg (any unit; rescaled to radius_mm equal volume)",
+    },
 ];
 
 fn divides(total: f64, step: f64) -> Option<usize> {
-    if !(step > 0.0) {
+    if step.is_nan() || step <= 0.0 {
         return None;
     }
     let n = total / step;
@@ -163,7 +238,10 @@ impl RaytraceJob {
         let model = WaterIndexModel::from_name(&p.water_index_model, p.temperature_c)
             .map_err(|e| PlanError::invalid("water_index_model", e.to_string()))?;
         if p.wavelength_nm.is_empty() || p.wavelength_nm.windows(2).any(|w| w[1] <= w[0]) {
-            return Err(PlanError::invalid("wavelength_nm", "must be non-empty and strictly increasing"));
+            return Err(PlanError::invalid(
+                "wavelength_nm",
+                "must be non-empty and strictly increasing",
+            ));
         }
         for &l in &p.wavelength_nm {
             model
@@ -171,60 +249,103 @@ impl RaytraceJob {
                 .map_err(|e| PlanError::invalid("wavelength_nm", e.to_string()))?;
         }
         if p.radius_mm.is_empty() || p.radius_mm.windows(2).any(|w| w[1] <= w[0]) {
-            return Err(PlanError::invalid("radius_mm", "must be non-empty and strictly increasing"));
+            return Err(PlanError::invalid(
+                "radius_mm",
+                "must be non-empty and strictly increasing",
+            ));
         }
         if let Some(r) = p.radius_mm.iter().find(|r| !(0.01..=5.0).contains(*r)) {
-            return Err(PlanError::invalid("radius_mm", format!("{r} mm is outside 0.01–5 mm (geometric optics needs x ≫ 1)")));
+            return Err(PlanError::invalid(
+                "radius_mm",
+                format!("{r} mm is outside 0.01–5 mm (geometric optics needs x ≫ 1)"),
+            ));
         }
         if !(1..=8).contains(&p.max_order) {
             return Err(PlanError::invalid("max_order", "must be within 1–8"));
         }
         let two_d_shape = p.shape != "sphere";
         if two_d_shape && p.diffraction_model == Some(DiffractionModel::AiryUniform) {
-            return Err(PlanError::invalid("diffraction_model", "airy-uniform is available for spheres only; use gaussian"));
+            return Err(PlanError::invalid(
+                "diffraction_model",
+                "airy-uniform is available for spheres only; use gaussian",
+            ));
         }
         let two_d = match p.shape.as_str() {
             "sphere" => false,
             "beard-chuang" | "profile" => true,
-            other => return Err(PlanError::invalid("shape", format!("unknown shape `{other}` (sphere, beard-chuang, profile)"))),
+            other => {
+                return Err(PlanError::invalid(
+                    "shape",
+                    format!("unknown shape `{other}` (sphere, beard-chuang, profile)"),
+                ));
+            }
         };
-        let mut job = RaytraceJob { p, model, two_d, shape: None, profile_fit_residual: None };
+        let mut job = RaytraceJob {
+            p,
+            model,
+            two_d,
+            shape: None,
+            profile_fit_residual: None,
+        };
         if !two_d {
             if divides(180.0, job.p.angle_step_deg).is_none() {
-                return Err(PlanError::invalid("angle_step_deg", "must be > 0 and divide 180"));
+                return Err(PlanError::invalid(
+                    "angle_step_deg",
+                    "must be > 0 and divide 180",
+                ));
             }
             return Ok(job);
         }
         let p = &job.p;
         if p.radius_mm.len() != 1 {
-            return Err(PlanError::invalid("radius_mm", "2-D shapes take exactly one radius per table"));
+            return Err(PlanError::invalid(
+                "radius_mm",
+                "2-D shapes take exactly one radius per table",
+            ));
         }
         if divides(180.0, p.polar_step_deg).is_none() {
-            return Err(PlanError::invalid("polar_step_deg", "must be > 0 and divide 180"));
+            return Err(PlanError::invalid(
+                "polar_step_deg",
+                "must be > 0 and divide 180",
+            ));
         }
         if divides(360.0, p.azimuth_step_deg).is_none() {
-            return Err(PlanError::invalid("azimuth_step_deg", "must be > 0 and divide 360"));
+            return Err(PlanError::invalid(
+                "azimuth_step_deg",
+                "must be > 0 and divide 360",
+            ));
         }
         if !(8..=20_000).contains(&p.rays) {
             return Err(PlanError::invalid("rays", "must be within 8–20000"));
         }
         if p.sun_elevation_deg.is_empty()
             || p.sun_elevation_deg.windows(2).any(|w| w[1] <= w[0])
-            || p.sun_elevation_deg.iter().any(|e| !(0.0..=90.0).contains(e))
+            || p.sun_elevation_deg
+                .iter()
+                .any(|e| !(0.0..=90.0).contains(e))
         {
-            return Err(PlanError::invalid("sun_elevation_deg", "must be strictly increasing within 0–90"));
+            return Err(PlanError::invalid(
+                "sun_elevation_deg",
+                "must be strictly increasing within 0–90",
+            ));
         }
         let r_mm = p.radius_mm[0];
         let shape = if p.shape == "beard-chuang" {
             DropShape::beard_chuang(r_mm)
         } else {
             let (Some(th), Some(r)) = (&p.profile_theta_deg, &p.profile_r) else {
-                return Err(PlanError::invalid("profile_theta_deg", "shape = profile needs profile_theta_deg and profile_r"));
+                return Err(PlanError::invalid(
+                    "profile_theta_deg",
+                    "shape = profile needs profile_theta_deg and profile_r",
+                ));
             };
             let (s, res) = CosineSeries::fit_table(r_mm * 1e3, th, r)
                 .map_err(|e| PlanError::invalid("profile_r", e))?;
             if res > 1e-3 {
-                return Err(PlanError::invalid("profile_r", format!("cosine-series fit residual {res:.2e} > 1e-3: profile too rough")));
+                return Err(PlanError::invalid(
+                    "profile_r",
+                    format!("cosine-series fit residual {res:.2e} > 1e-3: profile too rough"),
+                ));
             }
             job.profile_fit_residual = Some(res);
             DropShape::Series(s)
@@ -253,7 +374,11 @@ impl RaytraceJob {
     }
 
     fn task_pairs(&self) -> Vec<(f64, f64)> {
-        let second = if self.two_d { &self.p.sun_elevation_deg } else { &self.p.radius_mm };
+        let second = if self.two_d {
+            &self.p.sun_elevation_deg
+        } else {
+            &self.p.radius_mm
+        };
         self.p
             .wavelength_nm
             .iter()
@@ -281,6 +406,7 @@ impl RaytraceJob {
     }
 
     /// Run the 2-D tracer for one (wavelength, elevation): values [polar][azimuth][channel].
+    #[allow(clippy::needless_range_loop)]
     fn run_2d(&self, lambda: f64, elevation_deg: f64) -> anyhow::Result<Vec<f32>> {
         let shape = self.shape.as_ref().expect("2-D job has a shape");
         let n = self.model.index(lambda)?;
@@ -302,10 +428,19 @@ impl RaytraceJob {
         let dth = grid.polar_step();
         let theta: Vec<f64> = (0..np).map(|j| dth * j as f64).collect();
         let go = SphereGo::new(a_um, lambda, n, 3);
-        let split = 0.5 * (go.rainbow_angle_rad(2).unwrap_or(2.4) + go.rainbow_angle_rad(3).unwrap_or(2.26));
+        let split = 0.5
+            * (go.rainbow_angle_rad(2).unwrap_or(2.4) + go.rainbow_angle_rad(3).unwrap_or(2.26));
         let sigma = filter_sigma_deg(a_um * 1e-3).to_radians();
         let filt = self.p.diffraction_filter;
-        let sigma_at = |th: f64| if !filt { 0.0 } else if th > split { sigma } else { 2.0 * sigma };
+        let sigma_at = |th: f64| {
+            if !filt {
+                0.0
+            } else if th > split {
+                sigma
+            } else {
+                2.0 * sigma
+            }
+        };
         let lobe: Vec<f64> = theta
             .iter()
             .map(|&th| {
@@ -332,18 +467,34 @@ impl RaytraceJob {
                 if o >= orders {
                     return None;
                 }
-                let (j0, j1) = ((lo.to_radians() / dth) as usize, ((hi.to_radians() / dth) as usize).min(np - 1));
-                (j0..=j1).max_by(|&x, &y| cols[2 + o][x].total_cmp(&cols[2 + o][y])).map(|j| theta[j])
+                let (j0, j1) = (
+                    (lo.to_radians() / dth) as usize,
+                    ((hi.to_radians() / dth) as usize).min(np - 1),
+                );
+                (j0..=j1)
+                    .max_by(|&x, &y| cols[2 + o][x].total_cmp(&cols[2 + o][y]))
+                    .map(|j| theta[j])
             };
-            let bows: Vec<f64> = [peak(2, 130.0, 150.0), peak(3, 115.0, 135.0)].into_iter().flatten().collect();
+            let bows: Vec<f64> = [peak(2, 130.0, 150.0), peak(3, 115.0, 135.0)]
+                .into_iter()
+                .flatten()
+                .collect();
             let filtered: Vec<Vec<f64>> = cols
                 .iter()
                 .map(|c| {
                     let b = gaussian_blur(c, 0.0, dth, &theta, sigma_at);
                     (0..np)
                         .map(|j| {
-                            let w = caustic_weight(theta[j], &bows, sigma_at(theta[j]) * DEFAULT_CAUSTIC_WINDOW_SIGMAS);
-                            if filt { w * b[j] + (1.0 - w) * c[j] } else { c[j] }
+                            let w = caustic_weight(
+                                theta[j],
+                                &bows,
+                                sigma_at(theta[j]) * DEFAULT_CAUSTIC_WINDOW_SIGMAS,
+                            );
+                            if filt {
+                                w * b[j] + (1.0 - w) * c[j]
+                            } else {
+                                c[j]
+                            }
                         })
                         .collect()
                 })
@@ -354,7 +505,16 @@ impl RaytraceJob {
                 let ipu = (cols[0][j] + lobe[j]) / sigma_total;
                 let iparu = (cols[1][j] + lobe[j]) / sigma_total;
                 let base = (j * na + k) * nch;
-                let mut row = vec![0.5 * (ip + ipar), ip, ipar, if ip + ipar > 0.0 { (ip - ipar) / (ip + ipar) } else { 0.0 }];
+                let mut row = vec![
+                    0.5 * (ip + ipar),
+                    ip,
+                    ipar,
+                    if ip + ipar > 0.0 {
+                        (ip - ipar) / (ip + ipar)
+                    } else {
+                        0.0
+                    },
+                ];
                 for o in 0..orders {
                     row.push(filtered[2 + o][j] / sigma_total);
                 }
@@ -389,9 +549,15 @@ impl Job for RaytraceJob {
             .into_iter()
             .map(|(l, s)| {
                 if self.two_d {
-                    TaskSpec { label: format!("λ={l} nm sun={s}°"), params: serde_json::json!({"wavelength_nm": l, "sun_elevation_deg": s}) }
+                    TaskSpec {
+                        label: format!("λ={l} nm sun={s}°"),
+                        params: serde_json::json!({"wavelength_nm": l, "sun_elevation_deg": s}),
+                    }
                 } else {
-                    TaskSpec { label: format!("λ={l} nm a={s} mm"), params: serde_json::json!({"wavelength_nm": l, "radius_mm": s}) }
+                    TaskSpec {
+                        label: format!("λ={l} nm a={s} mm"),
+                        params: serde_json::json!({"wavelength_nm": l, "radius_mm": s}),
+                    }
                 }
             })
             .collect()
@@ -406,11 +572,15 @@ impl Job for RaytraceJob {
         let go = SphereGo::new(s * 1e3, l, n, self.p.max_order);
         let na = self.n_angles();
         let angles: Vec<f64> = (0..na).map(|j| self.p.angle_step_deg * j as f64).collect();
-        let (ch, _) = sphere_phase_1d(&go, &angles, Phase1dOptions {
+        let (ch, _) = sphere_phase_1d(
+            &go,
+            &angles,
+            Phase1dOptions {
                 diffraction_filter: self.p.diffraction_filter,
                 model: self.diffraction_model(),
                 ..Default::default()
-            });
+            },
+        );
         let nch = ch.len();
         let mut out = vec![0f32; na * nch];
         for j in 0..na {
@@ -426,13 +596,22 @@ impl Job for RaytraceJob {
         let channels = self.channels();
         let nch = channels.len();
         let mut at = serde_json::Map::new();
-        at.insert("normalization".into(), "integral over 4pi sr equals 1".into());
-        at.insert("angle_convention".into(), "scattering angle, 0 deg forward".into());
+        at.insert(
+            "normalization".into(),
+            "integral over 4pi sr equals 1".into(),
+        );
+        at.insert(
+            "angle_convention".into(),
+            "scattering angle, 0 deg forward".into(),
+        );
         at.insert("water_index_model".into(), self.model.name().into());
         if let WaterIndexModel::Iapws1997 { temperature_c } = self.model {
             at.insert("water_temperature_c".into(), temperature_c.into());
         }
-        at.insert("medium".into(), "water drops in air (outside index 1.0)".into());
+        at.insert(
+            "medium".into(),
+            "water drops in air (outside index 1.0)".into(),
+        );
         at.insert("sun_disc_diameter_deg".into(), 0.0.into());
         at.insert("max_order".into(), self.p.max_order.into());
         at.insert("cross_section_normalization".into(), "p = (dσ/dΩ)/σ with σ = σ_GO (flux of the traced orders) + A (Fraunhofer forward lobe of the projected area A, added to i_perp and i_par as the exact bin average of a²J1(x sinθ)²/sin²θ)".into());
@@ -442,7 +621,10 @@ impl Job for RaytraceJob {
             DiffractionModel::AiryUniform => "airy-uniform: uniform caustic (Airy) approximation of each order's rainbow (two-branch CUA on the bright side, Airy continuation on the dark side); GO elsewhere".to_string(),
             DiffractionModel::Gaussian => format!("gaussian: thesis Table 3.3 Gaussian in polar angle (σ linear in radius, Airy a^(-2/3) outside 0.1–1 mm; σ = {:.4}° at the first radius) for θ above the Alexander-band midpoint, 2σ below, blended in only within a Gaussian window of half-width 2σ_local around each caustic (peaks of the p = 2 and p = 3 intensities)", filter_sigma_deg(self.p.radius_mm[0])),
         };
-        at.insert("diffraction_filter".into(), format!("{filter_text}; applied = {}", self.p.diffraction_filter).into());
+        at.insert(
+            "diffraction_filter".into(),
+            format!("{filter_text}; applied = {}", self.p.diffraction_filter).into(),
+        );
         at.insert("fresnel".into(), "complex Fresnel amplitudes, Born–Wolf signs, power-consistent transmission (src/optics/fresnel.rs)".into());
         at.insert("cross_order_phase".into(), "orders summed coherently without per-order constant (axial focal line) phases, as in the thesis: the fine cross-order ripple of the unfiltered channels is not Mie-exact".into());
         if !self.two_d {
@@ -451,20 +633,31 @@ impl Job for RaytraceJob {
             let mut ints = vec![];
             for e in 0..self.task_pairs().len() {
                 let base = e * na * nch;
-                ints.push(integral_1d((0..na).map(|j| data[base + j * nch] as f64), step));
+                ints.push(integral_1d(
+                    (0..na).map(|j| data[base + j * nch] as f64),
+                    step,
+                ));
             }
-            at.insert("integral_check".into(), serde_json::json!({"what": "bin-sum of phase over 4π per entry", "values": ints}));
+            at.insert(
+                "integral_check".into(),
+                serde_json::json!({"what": "bin-sum of phase over 4π per entry", "values": ints}),
+            );
             at.insert("angular_resampling".into(), format!("point samples of the GO+phase field on an internal grid of step ≤ λ/(10a); filtered channels are Gaussian averages of it; the forward lobe is the exact average over each {}° bin", self.p.angle_step_deg).into());
             at.insert("method".into(), "exact 1-D geometric optics plus phase for spheres (design digest §5), validated against the 2-D patch tracer and Lorenz–Mie (docs/raytrace.md)".into());
             at.insert("validated_domain".into(), "spheres of radius 0.1–1 mm in 380–700 nm (x ≳ 1000): supernumerary positions within 0.02° (primary) and 0.05° (secondary) of Lorenz–Mie; not valid within ~1° of 0° (forward lobe only approximate) and near 180° (glory, axial caustic clamped at a quarter bin)".into());
             let axes = vec![
                 Axis::values("wavelength", "nm", self.p.wavelength_nm.clone()),
-                Axis::values("radius", "um", self.p.radius_mm.iter().map(|r| r * 1e3).collect()),
+                Axis::values(
+                    "radius",
+                    "um",
+                    self.p.radius_mm.iter().map(|r| r * 1e3).collect(),
+                ),
                 Axis::uniform("scattering_angle", "deg", 0.0, self.p.angle_step_deg, na),
             ];
             return Ok(TableContent {
                 schema: Schema::new("raytrace-phase", 1),
-                description: "ray-traced (geometric optics + phase) phase function of water spheres".into(),
+                description:
+                    "ray-traced (geometric optics + phase) phase function of water spheres".into(),
                 axes,
                 channels,
                 attributes: at,
@@ -508,7 +701,10 @@ impl Job for RaytraceJob {
         ];
         Ok(TableContent {
             schema: Schema::new("raytrace-phase-2d", 1),
-            description: format!("ray-traced phase function of a {} drop, a = {} mm, over outgoing directions", self.p.shape, self.p.radius_mm[0]),
+            description: format!(
+                "ray-traced phase function of a {} drop, a = {} mm, over outgoing directions",
+                self.p.shape, self.p.radius_mm[0]
+            ),
             axes,
             channels,
             attributes: at,
@@ -538,11 +734,18 @@ mod tests {
 
     #[test]
     fn sphere_table_is_normalised_and_peaks_near_mie() {
-        let job = plan("shape = \"sphere\"\nradius_mm = [0.4]\nwavelength_nm = [650.0]\nangle_step_deg = 0.05").unwrap();
-        let chunks: Vec<Vec<f32>> = (0..job.tasks().len()).map(|i| job.run_task(i).unwrap()).collect();
+        let job = plan(
+            "shape = \"sphere\"\nradius_mm = [0.4]\nwavelength_nm = [650.0]\nangle_step_deg = 0.05",
+        )
+        .unwrap();
+        let chunks: Vec<Vec<f32>> = (0..job.tasks().len())
+            .map(|i| job.run_task(i).unwrap())
+            .collect();
         let t = job.assemble(chunks).unwrap();
         assert_eq!(t.data.len(), t.expected_len());
-        let integral = t.attributes["integral_check"]["values"][0].as_f64().unwrap();
+        let integral = t.attributes["integral_check"]["values"][0]
+            .as_f64()
+            .unwrap();
         // Traced orders (99.7 %) + lobe; bin-summed on the table grid.
         assert!((integral - 1.0).abs() < 0.01, "∫p = {integral}");
         // Filtered primary maximum: digest Mie 138.03° (0.4 mm, 650 nm); the Gaussian filter

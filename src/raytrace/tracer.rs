@@ -31,7 +31,7 @@
 //! each band's triangles are binned by polar table row (a CSR binning grid over direction) and
 //! rasterised with rayon over table rows, so memory stays bounded by the band and the table.
 
-use super::shape::{add, cross, dot, normalize, scale, sub, DropShape};
+use super::shape::{DropShape, add, cross, dot, normalize, scale, sub};
 use crate::optics::fresnel::{fresnel_amplitudes_real, power_consistent_transmission};
 use num_complex::{Complex32, Complex64};
 use rayon::prelude::*;
@@ -172,13 +172,21 @@ struct Split {
 /// from index `eta1` into `eta2`.
 fn interact(d: [f64; 3], normal: [f64; 3], eta1: f64, eta2: f64, ea: &CVec, eb: &CVec) -> Split {
     // Normal facing the incident side.
-    let nf = if dot(d, normal) < 0.0 { normal } else { scale(normal, -1.0) };
+    let nf = if dot(d, normal) < 0.0 {
+        normal
+    } else {
+        scale(normal, -1.0)
+    };
     let cos_i = (-dot(d, nf)).clamp(0.0, 1.0);
     let mut s = cross(d, nf);
     let sl = dot(s, s).sqrt();
     if sl < 1e-12 {
         // Normal incidence: any direction perpendicular to d.
-        let helper = if d[0].abs() < 0.9 { [1.0, 0.0, 0.0] } else { [0.0, 1.0, 0.0] };
+        let helper = if d[0].abs() < 0.9 {
+            [1.0, 0.0, 0.0]
+        } else {
+            [0.0, 1.0, 0.0]
+        };
         s = normalize(cross(d, helper));
     } else {
         s = scale(s, 1.0 / sl);
@@ -219,7 +227,17 @@ fn interact(d: [f64; 3], normal: [f64; 3], eta1: f64, eta2: f64, ea: &CVec, eb: 
 
 /// Trace one ray starting at emitting-plane coordinates (u, v); returns the outgoing ray of
 /// every order (invalid where absent) and whether the ray hit the drop.
-fn trace_ray(shape: &DropShape, fr: &Frame, dist: f64, n: f64, max_order: usize, u: f64, v: f64, out: &mut [RayOut]) -> bool {
+#[allow(clippy::too_many_arguments)]
+fn trace_ray(
+    shape: &DropShape,
+    fr: &Frame,
+    dist: f64,
+    n: f64,
+    max_order: usize,
+    u: f64,
+    v: f64,
+    out: &mut [RayOut],
+) -> bool {
     for o in out.iter_mut() {
         *o = INVALID;
     }
@@ -297,6 +315,7 @@ fn polar_azimuth(fr: &Frame, w: [f64; 3]) -> (f64, f64) {
 
 /// Inside test with exact-orientation tie-break (see module docs).
 #[inline]
+#[allow(clippy::needless_range_loop)]
 fn inside(t: &Tri, r: [f64; 3]) -> Option<[f64; 3]> {
     let mut w = [0.0; 3];
     for e in 0..3 {
@@ -315,6 +334,7 @@ fn inside(t: &Tri, r: [f64; 3]) -> Option<[f64; 3]> {
 }
 
 /// Trace the drop and accumulate the coherent far fields of every order on `grid`.
+#[allow(clippy::needless_range_loop)]
 pub fn trace_fields(shape: &DropShape, cfg: &TraceConfig, grid: DirectionGrid) -> FieldGrid {
     let fr = frame(cfg.sun_elevation_rad);
     let nr = cfg.rays.max(2);
@@ -337,8 +357,9 @@ pub fn trace_fields(shape: &DropShape, cfg: &TraceConfig, grid: DirectionGrid) -
     let dth = grid.polar_step();
     let dph = grid.azimuth_step();
     // Precomputed pixel directions.
-    let (sin_ph, cos_ph): (Vec<f64>, Vec<f64>) =
-        (0..grid.n_azimuth).map(|k| (dph * k as f64).sin_cos()).unzip();
+    let (sin_ph, cos_ph): (Vec<f64>, Vec<f64>) = (0..grid.n_azimuth)
+        .map(|k| (dph * k as f64).sin_cos())
+        .unzip();
     let band = (200_000 / (nr * orders)).clamp(2, nr - 1);
     let mut row0 = 0usize;
     while row0 < nr - 1 {
@@ -351,7 +372,16 @@ pub fn trace_fields(shape: &DropShape, cfg: &TraceConfig, grid: DirectionGrid) -
                 let mut row = vec![INVALID; nr * orders];
                 let mut hit = 0;
                 for j in 0..nr {
-                    if trace_ray(shape, &fr, dist, cfg.n, cfg.max_order, u_at(i), v_at(j), &mut row[j * orders..(j + 1) * orders]) {
+                    if trace_ray(
+                        shape,
+                        &fr,
+                        dist,
+                        cfg.n,
+                        cfg.max_order,
+                        u_at(i),
+                        v_at(j),
+                        &mut row[j * orders..(j + 1) * orders],
+                    ) {
                         hit += 1;
                     }
                 }
@@ -380,137 +410,144 @@ pub fn trace_fields(shape: &DropShape, cfg: &TraceConfig, grid: DirectionGrid) -
         let built: Vec<(Vec<Tri>, Vec<f64>)> = (0..nrows - 1)
             .into_par_iter()
             .map(|i| {
-            let mut tris: Vec<Tri> = Vec::new();
-            let mut patch_flux = vec![0.0; orders];
-            for j in 0..nr - 1 {
-                for o in 0..orders {
-                    let a = (i, j);
-                    let b = (i + 1, j);
-                    let c = (i + 1, j + 1);
-                    let dd = (i, j + 1);
-                    for tri in [[a, b, c], [a, c, dd]] {
-                        let rs = tri.map(|(ii, jj)| ray(ii, jj, o));
-                        if !rs.iter().all(|r| r.valid) {
-                            continue;
-                        }
-                        // Gradients of l and b over the emitting-plane triangle.
-                        let uv = tri.map(|(ii, jj)| (u_at(row0 + ii), v_at(jj)));
-                        let bval = uv.map(|(u, v)| u * u + v * v);
-                        let lval = rs.map(|r| r.l);
-                        let grad = |f: [f64; 3]| {
-                            let (x0, y0) = uv[0];
-                            let (x1, y1) = uv[1];
-                            let (x2, y2) = uv[2];
-                            let det = (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0);
-                            let gx = ((f[1] - f[0]) * (y2 - y0) - (f[2] - f[0]) * (y1 - y0)) / det;
-                            let gy = ((x1 - x0) * (f[2] - f[0]) - (x2 - x0) * (f[1] - f[0])) / det;
-                            (gx, gy)
-                        };
-                        let gl = grad(lval);
-                        let gb = grad(bval);
-                        let focal = gl.0 * gb.0 + gl.1 * gb.1 > 0.0;
-                        let mut v = rs.map(|r| r.dir);
-                        let mut corners = tri.map(|(ii, jj)| ((ii * nr + jj) * orders + o) as u32);
-                        // Signed solid angle (Van Oosterom–Strackee).
-                        let num = dot(v[0], cross(v[1], v[2]));
-                        let den = 1.0 + dot(v[0], v[1]) + dot(v[1], v[2]) + dot(v[2], v[0]);
-                        let omega = 2.0 * num.atan2(den);
-                        if omega < 0.0 {
-                            v.swap(1, 2);
-                            corners.swap(1, 2);
-                        }
-                        let s = omega.abs();
-                        if !(s > 1e-300) {
-                            continue;
-                        }
-                        let area = 0.5 * cell;
-                        let mean_flux = rs
-                            .iter()
-                            .map(|r| {
-                                0.5 * (r.ea.iter().map(|z| z.norm_sqr()).sum::<f64>()
-                                    + r.eb.iter().map(|z| z.norm_sqr()).sum::<f64>())
-                            })
-                            .sum::<f64>()
-                            / 3.0;
-                        patch_flux[o] += mean_flux * area;
-                        let edges = [cross(v[0], v[1]), cross(v[1], v[2]), cross(v[2], v[0])];
-                        let ties = [lex_less(v[0], v[1]), lex_less(v[1], v[2]), lex_less(v[2], v[0])];
-                        // Direction-space bounding box.
-                        let mut pa = rs.map(|r| r.pa);
-                        if omega < 0.0 {
-                            pa.swap(1, 2);
-                        }
-                        let lmax = (0..3)
-                            .map(|e| {
-                                let c = sub(v[e], v[(e + 1) % 3]);
-                                dot(c, c).sqrt()
-                            })
-                            .fold(0.0, f64::max);
-                        let th_min = pa.iter().map(|x| x.0).fold(f64::MAX, f64::min);
-                        let th_max = pa.iter().map(|x| x.0).fold(f64::MIN, f64::max);
-                        let sin_min = th_min.sin().min(th_max.sin()).max(1e-9);
-                        let margin = lmax * lmax * (0.5 + 0.5 / sin_min) + 1e-12;
-                        let in_tri = |r: [f64; 3]| edges.iter().all(|e| dot(*e, r) >= 0.0);
-                        let fwd_pole = in_tri(fr.d);
-                        let back_pole = in_tri(scale(fr.d, -1.0));
-                        let (mut tlo, mut thi) = (th_min - margin, th_max + margin);
-                        let mut full = false;
-                        if fwd_pole {
-                            tlo = 0.0;
-                            full = true;
-                        }
-                        if back_pole {
-                            thi = PI;
-                            full = true;
-                        }
-                        let j0 = (tlo / dth).ceil().max(0.0) as i64;
-                        let j1 = ((thi / dth).floor() as i64).min(grid.n_polar as i64 - 1);
-                        if j1 < j0 {
-                            continue;
-                        }
-                        let (mut k0, mut k1) = (0i64, grid.n_azimuth as i64 - 1);
-                        if !full {
-                            let ph0 = pa[0].1;
-                            let mut lo = ph0;
-                            let mut hi = ph0;
-                            for x in &pa[1..] {
-                                let dphi = (x.1 - ph0 + PI).rem_euclid(2.0 * PI) - PI;
-                                lo = lo.min(ph0 + dphi);
-                                hi = hi.max(ph0 + dphi);
+                let mut tris: Vec<Tri> = Vec::new();
+                let mut patch_flux = vec![0.0; orders];
+                for j in 0..nr - 1 {
+                    for o in 0..orders {
+                        let a = (i, j);
+                        let b = (i + 1, j);
+                        let c = (i + 1, j + 1);
+                        let dd = (i, j + 1);
+                        for tri in [[a, b, c], [a, c, dd]] {
+                            let rs = tri.map(|(ii, jj)| ray(ii, jj, o));
+                            if !rs.iter().all(|r| r.valid) {
+                                continue;
                             }
-                            // The azimuth along a minor great-circle arc that avoids the pole
-                            // is monotonic, so a triangle not containing a pole spans exactly its
-                            // vertices' azimuth range (unwrapping is unambiguous below π/2).
-                            lo -= 1e-9;
-                            hi += 1e-9;
-                            if hi - lo >= 0.5 * PI {
+                            // Gradients of l and b over the emitting-plane triangle.
+                            let uv = tri.map(|(ii, jj)| (u_at(row0 + ii), v_at(jj)));
+                            let bval = uv.map(|(u, v)| u * u + v * v);
+                            let lval = rs.map(|r| r.l);
+                            let grad = |f: [f64; 3]| {
+                                let (x0, y0) = uv[0];
+                                let (x1, y1) = uv[1];
+                                let (x2, y2) = uv[2];
+                                let det = (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0);
+                                let gx =
+                                    ((f[1] - f[0]) * (y2 - y0) - (f[2] - f[0]) * (y1 - y0)) / det;
+                                let gy =
+                                    ((x1 - x0) * (f[2] - f[0]) - (x2 - x0) * (f[1] - f[0])) / det;
+                                (gx, gy)
+                            };
+                            let gl = grad(lval);
+                            let gb = grad(bval);
+                            let focal = gl.0 * gb.0 + gl.1 * gb.1 > 0.0;
+                            let mut v = rs.map(|r| r.dir);
+                            let mut corners =
+                                tri.map(|(ii, jj)| ((ii * nr + jj) * orders + o) as u32);
+                            // Signed solid angle (Van Oosterom–Strackee).
+                            let num = dot(v[0], cross(v[1], v[2]));
+                            let den = 1.0 + dot(v[0], v[1]) + dot(v[1], v[2]) + dot(v[2], v[0]);
+                            let omega = 2.0 * num.atan2(den);
+                            if omega < 0.0 {
+                                v.swap(1, 2);
+                                corners.swap(1, 2);
+                            }
+                            let s = omega.abs();
+                            if s.is_nan() || s <= 1e-300 {
+                                continue;
+                            }
+                            let area = 0.5 * cell;
+                            let mean_flux = rs
+                                .iter()
+                                .map(|r| {
+                                    0.5 * (r.ea.iter().map(|z| z.norm_sqr()).sum::<f64>()
+                                        + r.eb.iter().map(|z| z.norm_sqr()).sum::<f64>())
+                                })
+                                .sum::<f64>()
+                                / 3.0;
+                            patch_flux[o] += mean_flux * area;
+                            let edges = [cross(v[0], v[1]), cross(v[1], v[2]), cross(v[2], v[0])];
+                            let ties = [
+                                lex_less(v[0], v[1]),
+                                lex_less(v[1], v[2]),
+                                lex_less(v[2], v[0]),
+                            ];
+                            // Direction-space bounding box.
+                            let mut pa = rs.map(|r| r.pa);
+                            if omega < 0.0 {
+                                pa.swap(1, 2);
+                            }
+                            let lmax = (0..3)
+                                .map(|e| {
+                                    let c = sub(v[e], v[(e + 1) % 3]);
+                                    dot(c, c).sqrt()
+                                })
+                                .fold(0.0, f64::max);
+                            let th_min = pa.iter().map(|x| x.0).fold(f64::MAX, f64::min);
+                            let th_max = pa.iter().map(|x| x.0).fold(f64::MIN, f64::max);
+                            let sin_min = th_min.sin().min(th_max.sin()).max(1e-9);
+                            let margin = lmax * lmax * (0.5 + 0.5 / sin_min) + 1e-12;
+                            let in_tri = |r: [f64; 3]| edges.iter().all(|e| dot(*e, r) >= 0.0);
+                            let fwd_pole = in_tri(fr.d);
+                            let back_pole = in_tri(scale(fr.d, -1.0));
+                            let (mut tlo, mut thi) = (th_min - margin, th_max + margin);
+                            let mut full = false;
+                            if fwd_pole {
+                                tlo = 0.0;
                                 full = true;
-                            } else {
-                                k0 = (lo / dph).ceil() as i64;
-                                k1 = (hi / dph).floor() as i64;
-                                if k1 < k0 {
-                                    continue;
+                            }
+                            if back_pole {
+                                thi = PI;
+                                full = true;
+                            }
+                            let j0 = (tlo / dth).ceil().max(0.0) as i64;
+                            let j1 = ((thi / dth).floor() as i64).min(grid.n_polar as i64 - 1);
+                            if j1 < j0 {
+                                continue;
+                            }
+                            let (mut k0, mut k1) = (0i64, grid.n_azimuth as i64 - 1);
+                            if !full {
+                                let ph0 = pa[0].1;
+                                let mut lo = ph0;
+                                let mut hi = ph0;
+                                for x in &pa[1..] {
+                                    let dphi = (x.1 - ph0 + PI).rem_euclid(2.0 * PI) - PI;
+                                    lo = lo.min(ph0 + dphi);
+                                    hi = hi.max(ph0 + dphi);
+                                }
+                                // The azimuth along a minor great-circle arc that avoids the pole
+                                // is monotonic, so a triangle not containing a pole spans exactly its
+                                // vertices' azimuth range (unwrapping is unambiguous below π/2).
+                                lo -= 1e-9;
+                                hi += 1e-9;
+                                if hi - lo >= 0.5 * PI {
+                                    full = true;
+                                } else {
+                                    k0 = (lo / dph).ceil() as i64;
+                                    k1 = (hi / dph).floor() as i64;
+                                    if k1 < k0 {
+                                        continue;
+                                    }
                                 }
                             }
-                        }
-                        tris.push(Tri {
-                            order: o as u8,
-                            corners,
+                            tris.push(Tri {
+                                order: o as u8,
+                                corners,
 
-                            edges,
-                            ties,
-                            amp: (area / s).sqrt(),
-                            phase0: if focal { -FRAC_PI_2 } else { 0.0 },
-                            j0: j0 as u32,
-                            j1: j1 as u32,
-                            k0,
-                            k1,
-                            full,
-                        });
+                                edges,
+                                ties,
+                                amp: (area / s).sqrt(),
+                                phase0: if focal { -FRAC_PI_2 } else { 0.0 },
+                                j0: j0 as u32,
+                                j1: j1 as u32,
+                                k0,
+                                k1,
+                                full,
+                            });
+                        }
                     }
                 }
-        }
-            (tris, patch_flux)
+                (tris, patch_flux)
             })
             .collect();
         let mut tris: Vec<Tri> = Vec::new();
@@ -550,7 +587,11 @@ pub fn trace_fields(shape: &DropShape, cfg: &TraceConfig, grid: DirectionGrid) -
                 let (st, ct) = (dth * j as f64).sin_cos();
                 for &ti in list {
                     let t = &tris[ti as usize];
-                    let (ka, kb) = if t.full { (0, grid.n_azimuth as i64 - 1) } else { (t.k0, t.k1) };
+                    let (ka, kb) = if t.full {
+                        (0, grid.n_azimuth as i64 - 1)
+                    } else {
+                        (t.k0, t.k1)
+                    };
                     for kk in ka..=kb {
                         let k = kk.rem_euclid(grid.n_azimuth as i64) as usize;
                         let radial = add(scale(fr.e1, cos_ph[k]), scale(fr.e2, sin_ph[k]));

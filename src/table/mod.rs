@@ -7,7 +7,9 @@
 mod format;
 mod sample;
 
-pub use format::{read_header_only, write_table_atomic, TableError, FORMAT_MAJOR, FORMAT_MINOR, MAGIC};
+pub use format::{
+    FORMAT_MAJOR, FORMAT_MINOR, MAGIC, TableError, read_header_only, write_table_atomic,
+};
 
 use serde::{Deserialize, Serialize};
 
