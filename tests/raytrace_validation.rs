@@ -596,6 +596,7 @@ struct StageVsMie {
     secondary_go: Vec<f64>,
     secondary_mie: Vec<f64>,
     l2_disc: f64,
+    super_filtered: Vec<f64>,
 }
 
 /// Stage-equivalent 1-D table (filtered) vs scatrs Mie at one radius, 650 nm, n = 1.331.
@@ -655,6 +656,8 @@ fn stage_vs_mie_opts(a_mm: f64, opts: Phase1dOptions) -> StageVsMie {
         &window(&ang, &d1, 125.0, 145.0),
         &window(&ang, &d2, 125.0, 145.0),
     );
+    let filt_s = smooth(&ch[1], sig);
+    let super_filtered = significant(&filt_s, primary_max.1 + 0.3, 145.0, 0.1 * peak);
     StageVsMie {
         primary_max,
         super_go,
@@ -662,6 +665,7 @@ fn stage_vs_mie_opts(a_mm: f64, opts: Phase1dOptions) -> StageVsMie {
         secondary_go,
         secondary_mie,
         l2_disc,
+        super_filtered,
     }
 }
 
@@ -719,6 +723,14 @@ fn report_stage_vs_mie() {
         println!(
             "   supernumeraries GO  {:?}",
             r.super_go
+                .iter()
+                .take(5)
+                .map(|x| format!("{x:.3}"))
+                .collect::<Vec<_>>()
+        );
+        println!(
+            "   supernumeraries filtered channel {:?}",
+            r.super_filtered
                 .iter()
                 .take(5)
                 .map(|x| format!("{x:.3}"))
