@@ -32,7 +32,7 @@ fn plan_all(path: &str) -> Vec<(String, Box<dyn scatterbake::stage::Job>)> {
 
 #[test]
 fn default_and_full_manifests_plan() {
-    assert_eq!(plan_all("manifests/raytrace.toml").len(), 2);
+    assert_eq!(plan_all("manifests/raytrace.toml").len(), 4);
     let full = plan_all("manifests/full/raytrace-full.toml");
     assert_eq!(full.len(), 4);
     assert_eq!(full[1].1.tasks().len(), 33 * 4);

@@ -869,3 +869,107 @@ fn profile_tracer() {
         f.rays_traced
     );
 }
+
+/// Beard–Chuang primary bow vs radius (sun at 0°, 650 nm, 500² rays): position of the maximum
+/// of the azimuth-averaged unfiltered p = 2 intensity in the vertical plane's two halves
+/// (φ = 0°, rays leaving upwards; φ = 180°, downwards) and averaged over all azimuths.
+#[test]
+#[ignore]
+fn report_beard_chuang_bow_shift() {
+    for a in [0.4, 0.5, 1.0, 1.5, 2.0, 2.5, 3.0] {
+        let shape = DropShape::beard_chuang(a);
+        let cfg = TraceConfig {
+            rays: 500,
+            max_order: 3,
+            sun_elevation_rad: 0.0,
+            wavelength_nm: 650.0,
+            n: 1.331,
+        };
+        let grid = DirectionGrid {
+            n_polar: 3601,
+            n_azimuth: 36,
+        };
+        let f = trace_fields(&shape, &cfg, grid);
+        let col = |k: Option<usize>| -> Vec<f64> {
+            (0..3601)
+                .map(|j| match k {
+                    Some(k) => f.intensities(j, k).2[2],
+                    None => (0..36).map(|k| f.intensities(j, k).2[2]).sum::<f64>() / 36.0,
+                })
+                .collect()
+        };
+        let ang: Vec<f64> = (0..3601).map(|j| 0.05 * j as f64).collect();
+        let argmax = |v: Vec<f64>| {
+            let s = smooth(&v, 2.0);
+            let (j, _) = s
+                .iter()
+                .enumerate()
+                .filter(|(j, _)| (130.0..150.0).contains(&ang[*j]))
+                .fold((0, 0.0), |b, (j, x)| if *x > b.1 { (j, *x) } else { b });
+            ang[j]
+        };
+        println!(
+            "a = {a} mm: p=2 peak at φ=0° {:.2}°, φ=180° {:.2}°, φ=90° {:.2}°, azimuth mean {:.2}°",
+            argmax(col(Some(0))),
+            argmax(col(Some(18))),
+            argmax(col(Some(9))),
+            argmax(col(None))
+        );
+    }
+}
+
+#[test]
+#[ignore]
+fn report_energy_per_order_2d() {
+    for (a, e) in [(3.0, 0.0), (3.0, 30.0), (1.0, 0.0)] {
+        let shape = DropShape::beard_chuang(a);
+        let cfg = TraceConfig {
+            rays: 400,
+            max_order: 3,
+            sun_elevation_rad: f64::to_radians(e),
+            wavelength_nm: 550.0,
+            n: 1.333,
+        };
+        let grid = DirectionGrid {
+            n_polar: 1801,
+            n_azimuth: 36,
+        };
+        let f = trace_fields(&shape, &cfg, grid);
+        let dth = grid.polar_step();
+        let mut integ = [0.0; 4];
+        for j in 0..1801 {
+            let th = dth * j as f64;
+            let om = ((th - 0.5 * dth).max(0.0).cos() - (th + 0.5 * dth).min(PI).cos())
+                * grid.azimuth_step();
+            for k in 0..36 {
+                let (_, _, per) = f.intensities(j, k);
+                for p in 0..4 {
+                    integ[p] += per[p] * om;
+                }
+            }
+        }
+        let mut top: Vec<(f64, usize, usize)> = vec![];
+        for j in 0..1801 {
+            let th = dth * j as f64;
+            let om = ((th - 0.5 * dth).max(0.0).cos() - (th + 0.5 * dth).min(PI).cos())
+                * grid.azimuth_step();
+            for k in 0..36 {
+                top.push((f.intensities(j, k).2[3] * om, j, k));
+            }
+        }
+        top.sort_by(|x, y| y.0.total_cmp(&x.0));
+        println!("top p3 pixels (energy, j, k): {:?}", &top[..6]);
+        println!(
+            "a={a} e={e}: table ∫ per order {:?}\n   ray xs {:?}\n   patch xs {:?}",
+            integ.map(|x| x.round()),
+            f.order_cross_section_um2
+                .iter()
+                .map(|x| x.round())
+                .collect::<Vec<_>>(),
+            f.patch_cross_section_um2
+                .iter()
+                .map(|x| x.round())
+                .collect::<Vec<_>>()
+        );
+    }
+}

@@ -356,6 +356,7 @@ pub fn trace_fields(shape: &DropShape, cfg: &TraceConfig, grid: DirectionGrid) -
     let mut hits = 0usize;
     let dth = grid.polar_step();
     let dph = grid.azimuth_step();
+    let omega_floor = 0.5 * dth * dth;
     // Precomputed pixel directions.
     let (sin_ph, cos_ph): (Vec<f64>, Vec<f64>) = (0..grid.n_azimuth)
         .map(|k| (dph * k as f64).sin_cos())
@@ -536,7 +537,12 @@ pub fn trace_fields(shape: &DropShape, cfg: &TraceConfig, grid: DirectionGrid) -
 
                                 edges,
                                 ties,
-                                amp: (area / s).sqrt(),
+                                // Solid-angle floor (decision #7): slivers folded across a
+                                // caustic (|Ω| → 0) are point-sampled by the table; their weight
+                                // is capped at sqrt(a / (½Δθ²)) so a single pixel cannot carry
+                                // more than the patch's flux (expected flux is conserved or
+                                // reduced, never inflated).
+                                amp: (area / s.max(omega_floor)).sqrt(),
                                 phase0: if focal { -FRAC_PI_2 } else { 0.0 },
                                 j0: j0 as u32,
                                 j1: j1 as u32,
