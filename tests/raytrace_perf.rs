@@ -64,13 +64,19 @@ fn full_thesis_grid_one_wavelength() {
         n_polar: 14401,
         n_azimuth: 1800,
     };
-    let t = std::time::Instant::now();
-    let f = trace_fields(&shape, &cfg, grid);
-    let el = t.elapsed().as_secs_f64();
-    println!(
-        "sphere 0.4 mm: 3000² rays, 14401 × 1800 directions, all threads: {el:.1} s; ×33 wavelengths = {:.1} min; seed 350 min → ratio {:.1}",
-        33.0 * el / 60.0,
-        350.0 * 60.0 / (33.0 * el)
-    );
-    assert_eq!(f.data.len(), 14401 * 1800 * 16);
+    for threads in [2usize, 1] {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        let t = std::time::Instant::now();
+        let f = pool.install(|| trace_fields(&shape, &cfg, grid));
+        let el = t.elapsed().as_secs_f64();
+        println!(
+            "sphere 0.4 mm: 3000² rays, 14401 × 1800 directions, {threads} thread(s): {el:.1} s; ×33 wavelengths = {:.1} min; seed 350 min → ratio {:.1}",
+            33.0 * el / 60.0,
+            350.0 * 60.0 / (33.0 * el)
+        );
+        assert_eq!(f.data.len(), 14401 * 1800 * 16);
+    }
 }
