@@ -77,7 +77,8 @@ pub fn fresnel_amplitudes(
     let r_p = (c - d) / (c + d);
     let t_s = 2.0 * a / (a + b);
     let t_p = 2.0 * a / (c + d);
-    let total_internal_reflection = eta_1.im == 0.0 && eta_2.im == 0.0 && cos2_t.re < 0.0;
+    let total_internal_reflection =
+        eta_1.im == 0.0 && eta_2.im == 0.0 && cos2_t.re < 0.0;
     FresnelAmplitudes {
         r_s,
         r_p,

@@ -53,11 +53,7 @@ pub fn interp1(grid: &[f64], values: &[f64], x: f64) -> f64 {
 ///
 /// `positions[d] = (i_d, t_d)` are per-axis cells from [`locate`]; `shape[d]` the axis lengths;
 /// `fetch(flat_index)` returns the stored value. Axes of length 1 contribute weight 1.
-pub fn multilinear(
-    positions: &[(usize, f64)],
-    shape: &[usize],
-    fetch: impl Fn(usize) -> f64,
-) -> f64 {
+pub fn multilinear(positions: &[(usize, f64)], shape: &[usize], fetch: impl Fn(usize) -> f64) -> f64 {
     let dims = positions.len();
     debug_assert_eq!(dims, shape.len());
     let mut acc = 0.0;

@@ -21,18 +21,14 @@ use thiserror::Error;
 /// Error for a wavelength/temperature outside a model's validated domain.
 #[derive(Debug, Error, PartialEq)]
 pub enum WaterIndexError {
-    #[error(
-        "wavelength {wavelength_nm} nm is outside the validated domain {min_nm}–{max_nm} nm of water index model `{model}`"
-    )]
+    #[error("wavelength {wavelength_nm} nm is outside the validated domain {min_nm}–{max_nm} nm of water index model `{model}`")]
     WavelengthOutOfDomain {
         model: &'static str,
         wavelength_nm: f64,
         min_nm: f64,
         max_nm: f64,
     },
-    #[error(
-        "temperature {temperature_c} °C is outside 0–100 °C (liquid water at 1 atm) for model `iapws1997`"
-    )]
+    #[error("temperature {temperature_c} °C is outside 0–100 °C (liquid water at 1 atm) for model `iapws1997`")]
     TemperatureOutOfDomain { temperature_c: f64 },
     #[error("unknown water index model `{0}` (known: iapws1997, sadeghi-table-3.2)")]
     UnknownModel(String),
@@ -50,9 +46,7 @@ pub enum WaterIndexModel {
 
 impl Default for WaterIndexModel {
     fn default() -> Self {
-        WaterIndexModel::Iapws1997 {
-            temperature_c: 20.0,
-        }
+        WaterIndexModel::Iapws1997 { temperature_c: 20.0 }
     }
 }
 

@@ -2,8 +2,8 @@
 //! from the IAPWS R9-97 formulation (see [`crate::optics::water`]). Small and exact; it also
 //! serves as the reference table for the index used by the scattering stages.
 
-use crate::optics::water::{WaterIndexModel, water_density_kell_kg_m3};
-use crate::stage::{Job, ParamDoc, PlanError, Stage, TaskSpec, parse_params};
+use crate::optics::water::{water_density_kell_kg_m3, WaterIndexModel};
+use crate::stage::{parse_params, Job, ParamDoc, PlanError, Stage, TaskSpec};
 use crate::table::{Axis, Channel, Schema, TableContent};
 use serde::{Deserialize, Serialize};
 
@@ -70,10 +70,7 @@ impl Stage for WaterIndexStage {
             return Err(PlanError::invalid("temperature_c", "must not be empty"));
         }
         if p.temperature_c.windows(2).any(|w| w[1] <= w[0]) {
-            return Err(PlanError::invalid(
-                "temperature_c",
-                "must be strictly increasing",
-            ));
+            return Err(PlanError::invalid("temperature_c", "must be strictly increasing"));
         }
         if let Some(t) = p.temperature_c.iter().find(|t| !(0.0..=100.0).contains(*t)) {
             return Err(PlanError::invalid(
@@ -125,10 +122,7 @@ impl Job for WaterIndexJob {
         // chunks are per temperature; the table is temperature × wavelength.
         let data: Vec<f32> = chunks.into_iter().flatten().collect();
         let mut attributes = serde_json::Map::new();
-        attributes.insert(
-            "model".into(),
-            "iapws1997 (IAPWS R9-97), liquid water at 1 atm".into(),
-        );
+        attributes.insert("model".into(), "iapws1997 (IAPWS R9-97), liquid water at 1 atm".into());
         attributes.insert(
             "density".into(),
             "Kell (1975) polynomial of temperature".into(),

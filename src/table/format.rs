@@ -42,9 +42,7 @@ pub enum TableError {
     BadMagic { path: PathBuf, found: Vec<u8> },
     #[error("{path}: file truncated: {what}")]
     Truncated { path: PathBuf, what: String },
-    #[error(
-        "{path}: table format version {major}.{minor} is newer than this reader (supports {FORMAT_MAJOR}.x); upgrade scatterbake"
-    )]
+    #[error("{path}: table format version {major}.{minor} is newer than this reader (supports {FORMAT_MAJOR}.x); upgrade scatterbake")]
     NewerMajor {
         path: PathBuf,
         major: u16,
@@ -72,21 +70,14 @@ impl Table {
     /// Build a table from stage content and provenance (computes layout and checksums on write).
     pub fn from_content(content: TableContent, provenance: Provenance) -> Result<Self, TableError> {
         if content.axes.is_empty() {
-            return Err(TableError::Inconsistent(
-                "a table needs at least one axis".into(),
-            ));
+            return Err(TableError::Inconsistent("a table needs at least one axis".into()));
         }
         if content.channels.is_empty() {
-            return Err(TableError::Inconsistent(
-                "a table needs at least one channel".into(),
-            ));
+            return Err(TableError::Inconsistent("a table needs at least one channel".into()));
         }
         for a in &content.axes {
             if a.is_empty() {
-                return Err(TableError::Inconsistent(format!(
-                    "axis `{}` is empty",
-                    a.name
-                )));
+                return Err(TableError::Inconsistent(format!("axis `{}` is empty", a.name)));
             }
             let c = a.coords();
             if c.windows(2).any(|w| w[1] <= w[0] || !w[1].is_finite()) || !c[0].is_finite() {
@@ -214,10 +205,7 @@ impl Table {
         if p.uncompressed_bytes > MAX_PAYLOAD_BYTES {
             return Err(TableError::BadHeader {
                 path: path.into(),
-                message: format!(
-                    "payload of {} bytes is implausibly large",
-                    p.uncompressed_bytes
-                ),
+                message: format!("payload of {} bytes is implausibly large", p.uncompressed_bytes),
             });
         }
         let mut raw = Vec::with_capacity(p.uncompressed_bytes as usize);
@@ -266,10 +254,7 @@ fn parse_header(bytes: &[u8], path: &Path) -> Result<Header, TableError> {
     if bytes.len() < PREAMBLE {
         return Err(TableError::Truncated {
             path: path.into(),
-            what: format!(
-                "{} bytes, shorter than the {PREAMBLE}-byte preamble",
-                bytes.len()
-            ),
+            what: format!("{} bytes, shorter than the {PREAMBLE}-byte preamble", bytes.len()),
         });
     }
     let major = u16::from_le_bytes([bytes[8], bytes[9]]);
@@ -304,11 +289,10 @@ fn parse_header(bytes: &[u8], path: &Path) -> Result<Header, TableError> {
     if h.finalize().as_slice() != &bytes[24..56] {
         return Err(TableError::HeaderChecksum { path: path.into() });
     }
-    let header: Header =
-        serde_json::from_slice(header_bytes).map_err(|e| TableError::BadHeader {
-            path: path.into(),
-            message: e.to_string(),
-        })?;
+    let header: Header = serde_json::from_slice(header_bytes).map_err(|e| TableError::BadHeader {
+        path: path.into(),
+        message: e.to_string(),
+    })?;
     validate_header(&header).map_err(|message| TableError::BadHeader {
         path: path.into(),
         message,
@@ -324,10 +308,7 @@ fn validate_header(h: &Header) -> Result<(), String> {
         ));
     }
     if h.payload.compression != "zstd" {
-        return Err(format!(
-            "unsupported compression `{}`",
-            h.payload.compression
-        ));
+        return Err(format!("unsupported compression `{}`", h.payload.compression));
     }
     let mut shape: Vec<usize> = h.axes.iter().map(|a| a.len()).collect();
     shape.push(h.channels.len());

@@ -7,9 +7,7 @@
 mod format;
 mod sample;
 
-pub use format::{
-    FORMAT_MAJOR, FORMAT_MINOR, MAGIC, TableError, read_header_only, write_table_atomic,
-};
+pub use format::{read_header_only, write_table_atomic, TableError, FORMAT_MAJOR, FORMAT_MINOR, MAGIC};
 
 use serde::{Deserialize, Serialize};
 
