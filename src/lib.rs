@@ -19,6 +19,7 @@ pub mod manifest;
 pub mod mie;
 pub mod optics;
 pub mod pipeline;
+pub mod raytrace;
 pub mod stage;
 pub mod stages;
 pub mod table;

@@ -1,0 +1,35 @@
+//! Patch-based wave-optics ray tracer for raindrops (Sadeghi et al., thesis chapter 3; design
+//! digest `seed-rainbow.md`). See `docs/raytrace.md` for the algorithm, conventions, decisions
+//! and measured accuracy.
+//!
+//! - [`shape`]: spheres, Beard–Chuang cosine-series drops, tabulated axisymmetric profiles;
+//! - [`tracer`]: the general 2-D patch tracer (any shape, any sun elevation);
+//! - [`sphere1d`]: the fast exact 1-D geometric-optics-plus-phase path for spheres;
+//! - [`post`]: the Gaussian diffraction filter and the forward Fraunhofer lobe;
+//! - [`stage`]: the `raytrace` stage (schemas `raytrace-phase/1` and `raytrace-phase-2d/1`).
+
+pub mod airy;
+pub mod cli;
+pub mod post;
+pub mod shape;
+pub mod sphere1d;
+pub mod stage;
+pub mod tracer;
+
+/// Channel names of every ray-traced phase table, in order: the contract's four, then the
+/// per-order (filtered) phase functions, then the unfiltered phase, i_perp and i_par.
+pub fn channel_names(max_order: usize) -> Vec<String> {
+    let mut v: Vec<String> = ["phase", "i_perp", "i_par", "dolp"]
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
+    for p in 0..=max_order {
+        v.push(format!("phase_p{p}"));
+    }
+    v.extend(
+        ["phase_unfiltered", "i_perp_unfiltered", "i_par_unfiltered"]
+            .iter()
+            .map(|s| s.to_string()),
+    );
+    v
+}

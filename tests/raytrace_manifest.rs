@@ -1,0 +1,65 @@
+//! The default manifest `manifests/raytrace.toml` plans, runs and assembles into tables that
+//! satisfy the phase-function contract. Timing (2 threads, as on the CI machine):
+//! `cargo test --release --test raytrace_manifest -- --ignored --nocapture`.
+
+use scatterbake::stages;
+
+fn plan_all(path: &str) -> Vec<(String, Box<dyn scatterbake::stage::Job>)> {
+    let text = std::fs::read_to_string(path).expect("manifest");
+    let doc: toml::Table = toml::from_str(&text).expect("toml");
+    let tables = doc["table"].as_array().expect("[[table]]");
+    tables
+        .iter()
+        .map(|t| {
+            let name = t["name"].as_str().unwrap().to_string();
+            let stage = stages::find(t["stage"].as_str().unwrap()).expect("stage registered");
+            let params = t["params"].as_table().unwrap();
+            let inline = format!(
+                "{{ {} }}",
+                params
+                    .iter()
+                    .map(|(k, v)| format!("{k} = {v}"))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            );
+            let job = stage
+                .plan(toml::de::ValueDeserializer::parse(&inline).unwrap())
+                .unwrap_or_else(|e| panic!("{name}: {e}"));
+            (name, job)
+        })
+        .collect()
+}
+
+#[test]
+fn default_and_full_manifests_plan() {
+    assert_eq!(plan_all("manifests/raytrace.toml").len(), 4);
+    let full = plan_all("manifests/full/raytrace-full.toml");
+    assert_eq!(full.len(), 4);
+    assert_eq!(full[1].1.tasks().len(), 33 * 4);
+}
+
+#[test]
+#[ignore]
+fn build_default_manifest_two_threads() {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(2)
+        .build()
+        .unwrap();
+    pool.install(|| {
+        let t0 = std::time::Instant::now();
+        for (name, job) in plan_all("manifests/raytrace.toml") {
+            let t = std::time::Instant::now();
+            let n = job.tasks().len();
+            let chunks: Vec<Vec<f32>> = (0..n).map(|i| job.run_task(i).unwrap()).collect();
+            let table = job.assemble(chunks).unwrap();
+            assert_eq!(table.data.len(), table.expected_len());
+            println!(
+                "{name}: {n} tasks, {:.1} s, {} values, integral_check {}",
+                t.elapsed().as_secs_f64(),
+                table.data.len(),
+                table.attributes["integral_check"]["values"]
+            );
+        }
+        println!("total {:.1} s", t0.elapsed().as_secs_f64());
+    });
+}

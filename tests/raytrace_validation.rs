@@ -1,0 +1,975 @@
+//! Validation of the ray tracer against independent references: the scatrs Lorenz–Mie code
+//! (dev-dependency, an independent implementation), the design digest's own Mie numbers
+//! (miepython 3.3.0, digest §5) and the 1-D geometric-optics-plus-phase path.
+//!
+//! The slow report (`cargo test --test raytrace_validation -- --ignored --nocapture`) prints
+//! the accuracy figures quoted in docs/raytrace.md.
+
+use num_complex::Complex;
+use scatrs::mie::{AmplitudeBuffers, Mie, MieOptions};
+use scatterbake::raytrace::shape::{CosineSeries, DropShape, beard_chuang_coefficients};
+#[allow(unused_imports)]
+use scatterbake::raytrace::sphere1d::DiffractionModel as _;
+use scatterbake::raytrace::sphere1d::{Phase1dOptions, SphereGo, sphere_phase_1d};
+use scatterbake::raytrace::tracer::{DirectionGrid, TraceConfig, trace_fields};
+use std::f64::consts::PI;
+
+/// Mie i_perp, i_par normalised to ∫ p dΩ = 1 (|S|²/(k² σ_sca)) at angles (deg).
+fn mie(a_um: f64, lambda_nm: f64, n: f64, angles_deg: &[f64]) -> (Vec<f64>, Vec<f64>, f64) {
+    let k = 2.0 * PI / (lambda_nm * 1e-3);
+    let x = k * a_um;
+    let mut m = Mie::<f64>::new();
+    let sol = m
+        .compute(x, Complex::new(n, 0.0), &MieOptions::new())
+        .expect("mie");
+    let q = sol.efficiencies().q_sca;
+    let mu: Vec<f64> = angles_deg.iter().map(|d| d.to_radians().cos()).collect();
+    let mut s1 = vec![Complex::new(0.0, 0.0); mu.len()];
+    let mut s2 = vec![Complex::new(0.0, 0.0); mu.len()];
+    sol.amplitudes(
+        &mu,
+        AmplitudeBuffers {
+            s1: &mut s1,
+            s2: &mut s2,
+        },
+    )
+    .expect("amplitudes");
+    let norm = k * k * q * PI * a_um * a_um;
+    (
+        s1.iter().map(|s| s.norm_sqr() / norm).collect(),
+        s2.iter().map(|s| s.norm_sqr() / norm).collect(),
+        q,
+    )
+}
+
+/// Gaussian smoothing on a uniform grid (σ in samples), renormalised at the ends.
+fn smooth(v: &[f64], sigma: f64) -> Vec<f64> {
+    let h = (4.0 * sigma).ceil() as i64;
+    (0..v.len() as i64)
+        .map(|i| {
+            let (mut s, mut w) = (0.0, 0.0);
+            for j in (i - h).max(0)..=(i + h).min(v.len() as i64 - 1) {
+                let d = (j - i) as f64 / sigma;
+                let g = (-0.5 * d * d).exp();
+                s += g * v[j as usize];
+                w += g;
+            }
+            s / w
+        })
+        .collect()
+}
+
+/// Local maxima positions (deg) inside [lo, hi], sorted by angle.
+fn maxima(angles: &[f64], v: &[f64], lo: f64, hi: f64) -> Vec<f64> {
+    (1..v.len() - 1)
+        .filter(|&i| angles[i] >= lo && angles[i] <= hi && v[i] > v[i - 1] && v[i] >= v[i + 1])
+        .map(|i| {
+            // Parabolic refinement.
+            let (a, b, c) = (v[i - 1], v[i], v[i + 1]);
+            let den = a - 2.0 * b + c;
+            let off = if den != 0.0 { 0.5 * (a - c) / den } else { 0.0 };
+            angles[i] + off * (angles[1] - angles[0])
+        })
+        .collect()
+}
+
+fn rel_l2(a: &[f64], b: &[f64]) -> f64 {
+    let num: f64 = a.iter().zip(b).map(|(x, y)| (x - y).powi(2)).sum();
+    let den: f64 = b.iter().map(|y| y * y).sum();
+    (num / den).sqrt()
+}
+
+fn grid(lo: f64, hi: f64, step: f64) -> Vec<f64> {
+    let n = ((hi - lo) / step).round() as usize + 1;
+    (0..n).map(|i| lo + step * i as f64).collect()
+}
+
+/// GO i_perp (µm²/sr → normalised by σ_total = σ_GO + πa², no lobe/filter) at angles.
+fn go_iperp(go: &SphereGo, angles: &[f64]) -> Vec<f64> {
+    let (ch, _) = sphere_phase_1d(
+        go,
+        angles,
+        Phase1dOptions {
+            diffraction_filter: false,
+            forward_lobe: true,
+            caustic_window_sigmas: 0.0,
+            model: scatterbake::raytrace::sphere1d::DiffractionModel::Gaussian,
+        },
+    );
+    ch[5 + go.max_order + 1].clone() // i_perp_unfiltered
+}
+
+/// Digest §5 (miepython) and scatrs agree: 0.4 mm, 650 nm, n = 1.331 (Table 3.2): primary main
+/// maximum 138.03°, supernumeraries 138.91, 139.53, 140.05, 140.52°; Q_sca = 2.0077. The 1-D
+/// GO+phase path reproduces the supernumeraries of scatrs within 0.02°.
+#[test]
+fn sphere_1d_matches_scatrs_mie_at_0_4_mm() {
+    let (a, lambda, n) = (400.0, 650.0, 1.331);
+    let step = 0.005;
+    let ang = grid(136.0, 141.2, step);
+    let (mp, _, q) = mie(a, lambda, n, &ang);
+    assert!((q - 2.0077).abs() < 5e-4, "Q_sca {q}");
+    let sig = 0.04 / step;
+    let mie_max = maxima(&ang, &smooth(&mp, sig), 137.0, 141.0);
+    let digest = [138.03, 138.91, 139.53, 140.05, 140.52];
+    for (m, d) in mie_max.iter().zip(digest) {
+        assert!((m - d).abs() < 0.011, "scatrs {m} vs digest {d}");
+    }
+    let go = SphereGo::new(a, lambda, n, 3);
+    let gp = go_iperp(&go, &ang);
+    let go_max = maxima(&ang, &smooth(&gp, sig), 138.5, 141.0);
+    // Supernumeraries (GO has no main maximum; that is what the diffraction filter models).
+    for (g, m) in go_max.iter().zip(&mie_max[1..]) {
+        assert!((g - m).abs() <= 0.02, "GO {g} vs Mie {m}");
+    }
+    assert!(go_max.len() >= 4);
+}
+
+/// Secondary-bow supernumeraries: digest §5 Mie (0.4 mm, 650 nm) 127.35, 126.28, 125.27°.
+#[test]
+fn sphere_1d_secondary_supernumeraries_match_mie() {
+    let (a, lambda, n) = (400.0, 650.0, 1.331);
+    let step = 0.005;
+    let ang = grid(124.5, 129.2, step);
+    let (mp, _, _) = mie(a, lambda, n, &ang);
+    let sig = 0.04 / step;
+    let mie_max = maxima(&ang, &smooth(&mp, sig), 124.8, 128.0);
+    let go = SphereGo::new(a, lambda, n, 3);
+    let go_max = maxima(&ang, &smooth(&go_iperp(&go, &ang), sig), 124.8, 128.0);
+    for want in [127.35, 126.28, 125.27] {
+        let m = mie_max
+            .iter()
+            .copied()
+            .min_by(|x, y| (x - want).abs().total_cmp(&(y - want).abs()))
+            .unwrap();
+        let g = go_max
+            .iter()
+            .copied()
+            .min_by(|x, y| (x - want).abs().total_cmp(&(y - want).abs()))
+            .unwrap();
+        assert!((m - want).abs() < 0.05, "Mie {m} vs digest {want}");
+        assert!((g - m).abs() < 0.05, "GO {g} vs Mie {m}");
+    }
+}
+
+/// 2-D tracer per-order unpolarised intensity and coherent i_perp, azimuth-averaged, against
+/// the 1-D path at the same polar samples. Returns (angles, 2-D p2+p3 per order, 1-D, and
+/// the φ-spread of the 2-D columns).
+struct Compare2d {
+    angles: Vec<f64>,
+    order2d: Vec<Vec<f64>>,
+    order1d: Vec<Vec<f64>>,
+    iperp2d: Vec<f64>,
+    iperp1d: Vec<f64>,
+    phi_spread: f64,
+    cross_sections: Vec<f64>,
+}
+
+#[allow(clippy::needless_range_loop)]
+fn compare_sphere_2d(
+    a: f64,
+    lambda: f64,
+    n: f64,
+    rays: usize,
+    n_polar: usize,
+    n_azimuth: usize,
+    elev: f64,
+) -> Compare2d {
+    let shape = DropShape::Sphere { radius_um: a };
+    let cfg = TraceConfig {
+        rays,
+        max_order: 3,
+        sun_elevation_rad: elev,
+        wavelength_nm: lambda,
+        n,
+    };
+    let grid = DirectionGrid { n_polar, n_azimuth };
+    let f = trace_fields(&shape, &cfg, grid);
+    let go = SphereGo::new(a, lambda, n, 3);
+    let dth = 180.0 / (n_polar - 1) as f64;
+    let angles: Vec<f64> = (0..n_polar).map(|j| dth * j as f64).collect();
+    let mut order2d = vec![vec![0.0; n_polar]; 4];
+    let mut order1d = vec![vec![0.0; n_polar]; 4];
+    let mut iperp2d = vec![0.0; n_polar];
+    let mut iperp1d = vec![0.0; n_polar];
+    let mut cols = vec![vec![0.0; n_polar]; n_azimuth];
+    for j in 1..n_polar - 1 {
+        let th = angles[j].to_radians();
+        for k in 0..n_azimuth {
+            let (ip, _, per) = f.intensities(j, k);
+            iperp2d[j] += ip / n_azimuth as f64;
+            for p in 0..4 {
+                order2d[p][j] += per[p] / n_azimuth as f64;
+            }
+            cols[k][j] = per[2] + per[3];
+        }
+        let mut tot = (
+            num_complex::Complex64::new(0.0, 0.0),
+            num_complex::Complex64::new(0.0, 0.0),
+        );
+        for p in 0..4 {
+            let o = go.order_field(p, th);
+            order1d[p][j] = 0.5 * (o.perp.norm_sqr() + o.par.norm_sqr());
+            tot.0 += o.perp;
+            tot.1 += o.par;
+        }
+        iperp1d[j] = tot.0.norm_sqr();
+    }
+    let sig = 0.04 / dth;
+    let mean: Vec<f64> = (0..n_polar)
+        .map(|j| cols.iter().map(|c| c[j]).sum::<f64>() / n_azimuth as f64)
+        .collect();
+    let sm = smooth(&mean, sig);
+    let spread = cols
+        .iter()
+        .map(|c| {
+            rel_l2(
+                &window(&angles, &smooth(c, sig), 120.0, 145.0),
+                &window(&angles, &sm, 120.0, 145.0),
+            )
+        })
+        .fold(0.0, f64::max);
+    Compare2d {
+        angles,
+        order2d,
+        order1d,
+        iperp2d,
+        iperp1d,
+        phi_spread: spread,
+        cross_sections: f.order_cross_section_um2.clone(),
+    }
+}
+
+fn window(angles: &[f64], v: &[f64], lo: f64, hi: f64) -> Vec<f64> {
+    angles
+        .iter()
+        .zip(v)
+        .filter(|(a, _)| **a >= lo && **a <= hi)
+        .map(|(_, x)| *x)
+        .collect()
+}
+
+#[test]
+#[ignore]
+fn report_sphere_2d_vs_1d() {
+    for &(a, rays) in &[(400.0, 400usize), (400.0, 800), (400.0, 1200)] {
+        let t = std::time::Instant::now();
+        let c = compare_sphere_2d(a, 650.0, 1.331, rays, 9001, 4, 0.3);
+        let el = t.elapsed().as_secs_f64();
+        let step = 0.02;
+        let sig = 0.04 / step;
+        let s2 = smooth(&c.order2d[2], sig);
+        let s1 = smooth(&c.order1d[2], sig);
+        let m2 = maxima(&c.angles, &s2, 138.3, 141.0);
+        let m1 = maxima(&c.angles, &s1, 138.3, 141.0);
+        let s23 = smooth(&c.order2d[3], sig);
+        let s13 = smooth(&c.order1d[3], sig);
+        println!(
+            "a={a} rays={rays} t={el:.2}s phi_spread={:.3e}",
+            c.phi_spread
+        );
+        println!("  p2 maxima 2d {m2:?}\n           1d {m1:?}");
+        println!(
+            "  p3 maxima 2d {:?}\n           1d {:?}",
+            maxima(&c.angles, &s23, 124.0, 128.0),
+            maxima(&c.angles, &s13, 124.0, 128.0)
+        );
+        println!(
+            "  L2 p2 130-145 {:.4}  p3 120-130 {:.4}  iperp(smoothed) 130-145 {:.4}",
+            rel_l2(
+                &window(&c.angles, &s2, 130.0, 145.0),
+                &window(&c.angles, &s1, 130.0, 145.0)
+            ),
+            rel_l2(
+                &window(&c.angles, &s23, 120.0, 130.0),
+                &window(&c.angles, &s13, 120.0, 130.0)
+            ),
+            rel_l2(
+                &window(&c.angles, &smooth(&c.iperp2d, sig), 130.0, 145.0),
+                &window(&c.angles, &smooth(&c.iperp1d, sig), 130.0, 145.0)
+            )
+        );
+        println!("  cross sections {:?}", c.cross_sections);
+    }
+}
+
+/// Sphere 0.4 mm, 650 nm: the general 2-D patch tracer (800² rays, sun elevation 17°) against
+/// the 1-D GO+phase path: primary supernumerary maxima within one table bin (0.02°), relative
+/// L2 of the primary-order intensity over 130–145° below 2 %, per-order cross-sections within
+/// 1 % of the Fresnel/geometric-optics expectation, and φ-rotation invariance (7 azimuths).
+#[test]
+fn sphere_2d_tracer_matches_1d_reference() {
+    let (a, lambda, n) = (400.0, 650.0, 1.331);
+    let c = compare_sphere_2d(a, lambda, n, 800, 9001, 7, 0.3);
+    let sig = 0.04 / 0.02;
+    let s2 = smooth(&c.order2d[2], sig);
+    let s1 = smooth(&c.order1d[2], sig);
+    let m2 = maxima(&c.angles, &s2, 138.3, 141.0);
+    let m1 = maxima(&c.angles, &s1, 138.3, 141.0);
+    assert_eq!(m2.len(), m1.len());
+    assert!(m1.len() >= 5);
+    for (x, y) in m2.iter().zip(&m1) {
+        assert!((x - y).abs() <= 0.02, "2-D {x} vs 1-D {y}");
+    }
+    let l2 = rel_l2(
+        &window(&c.angles, &s2, 130.0, 145.0),
+        &window(&c.angles, &s1, 130.0, 145.0),
+    );
+    assert!(l2 < 0.02, "L2 {l2}");
+    let go = SphereGo::new(a, lambda, n, 3);
+    for p in 0..4 {
+        let want = go.energy_fraction(p) * PI * a * a;
+        assert!((c.cross_sections[p] / want - 1.0).abs() < 0.01, "p={p}");
+    }
+    assert!(c.phi_spread < 0.02, "φ spread {}", c.phi_spread);
+}
+
+/// Beard–Chuang drop with the sun on its axis (elevation 90°): the table is φ-symmetric; at
+/// a = 0.4 mm the Beard–Chuang drop is the sphere (Table 3.1), so its table equals the sphere's.
+#[test]
+fn beard_chuang_symmetries() {
+    let grid = DirectionGrid {
+        n_polar: 1801,
+        n_azimuth: 12,
+    };
+    let bc = DropShape::Series(CosineSeries::beard_chuang(1.0));
+    let cfg = TraceConfig {
+        rays: 500,
+        max_order: 3,
+        sun_elevation_rad: PI / 2.0,
+        wavelength_nm: 650.0,
+        n: 1.331,
+    };
+    let f = trace_fields(&bc, &cfg, grid);
+    let angles: Vec<f64> = (0..1801).map(|j| 0.1 * j as f64).collect();
+    let cols: Vec<Vec<f64>> = (0..12)
+        .map(|k| {
+            smooth(
+                &(0..1801)
+                    .map(|j| {
+                        let (p, q, _) = f.intensities(j, k);
+                        p + q
+                    })
+                    .collect::<Vec<_>>(),
+                2.0,
+            )
+        })
+        .collect();
+    let mean: Vec<f64> = (0..1801)
+        .map(|j| cols.iter().map(|c| c[j]).sum::<f64>() / 12.0)
+        .collect();
+    let worst = cols
+        .iter()
+        .map(|c| {
+            rel_l2(
+                &window(&angles, c, 100.0, 175.0),
+                &window(&angles, &mean, 100.0, 175.0),
+            )
+        })
+        .fold(0.0, f64::max);
+    // The square ray grid is symmetric only under the 4-fold subgroup; the other azimuths agree
+    // up to the patch discretisation (measured 0.075 / 0.032 / 0.010 at 300² / 600² / 1200²).
+    assert!(worst < 0.05, "φ spread {worst}");
+    // 4-fold symmetry of the square grid about the axis: φ and φ + 90° agree exactly-ish.
+    for j in (200..1800).step_by(97) {
+        let (a0, b0, _) = f.intensities(j, 0);
+        let (a3, b3, _) = f.intensities(j, 3);
+        let (s0, s3) = (a0 + b0, a3 + b3);
+        assert!(
+            (s0 - s3).abs() <= 1e-3 * (s0 + s3) + 1e-12,
+            "j={j}: {s0} vs {s3}"
+        );
+    }
+    // a = 0.4 mm Beard–Chuang equals the sphere.
+    let sphere = DropShape::Sphere { radius_um: 400.0 };
+    let cfg = TraceConfig {
+        rays: 400,
+        max_order: 3,
+        sun_elevation_rad: 0.4,
+        wavelength_nm: 650.0,
+        n: 1.331,
+    };
+    let g = DirectionGrid {
+        n_polar: 901,
+        n_azimuth: 4,
+    };
+    let fs = trace_fields(&sphere, &cfg, g);
+    let bc04 = DropShape::Series(
+        CosineSeries::new(400.0, beard_chuang_coefficients(0.4).to_vec()).unwrap(),
+    );
+    let fb = trace_fields(&bc04, &cfg, g);
+    let ang: Vec<f64> = (0..901).map(|j| 0.2 * j as f64).collect();
+    let mean = |f: &scatterbake::raytrace::tracer::FieldGrid| -> Vec<f64> {
+        smooth(
+            &(0..901)
+                .map(|j| {
+                    (0..4)
+                        .map(|k| {
+                            let (a, b, _) = f.intensities(j, k);
+                            a + b
+                        })
+                        .sum::<f64>()
+                })
+                .collect::<Vec<_>>(),
+            1.0,
+        )
+    };
+    let l2 = rel_l2(
+        &window(&ang, &mean(&fb), 110.0, 150.0),
+        &window(&ang, &mean(&fs), 110.0, 150.0),
+    );
+    // The series path (bracketing intersection, 0.2 % larger ray box, different ray positions)
+    // reproduces the sphere in the bow region up to patch discretisation.
+    assert!(l2 < 0.05, "BC(0.4 mm) vs sphere L2 {l2}");
+    assert!(matches!(
+        DropShape::beard_chuang(0.4),
+        DropShape::Sphere { .. }
+    ));
+}
+
+#[test]
+#[ignore]
+fn report_bc_axis_symmetry() {
+    for rays in [300usize, 600, 1200] {
+        let grid = DirectionGrid {
+            n_polar: 1801,
+            n_azimuth: 12,
+        };
+        let bc = DropShape::Series(CosineSeries::beard_chuang(1.0));
+        let cfg = TraceConfig {
+            rays,
+            max_order: 3,
+            sun_elevation_rad: PI / 2.0,
+            wavelength_nm: 650.0,
+            n: 1.331,
+        };
+        let t = std::time::Instant::now();
+        let f = trace_fields(&bc, &cfg, grid);
+        let el = t.elapsed().as_secs_f64();
+        let angles: Vec<f64> = (0..1801).map(|j| 0.1 * j as f64).collect();
+        for sig in [2.0, 5.0] {
+            let cols: Vec<Vec<f64>> = (0..12)
+                .map(|k| {
+                    smooth(
+                        &(0..1801)
+                            .map(|j| {
+                                let (p, q, _) = f.intensities(j, k);
+                                p + q
+                            })
+                            .collect::<Vec<_>>(),
+                        sig,
+                    )
+                })
+                .collect();
+            let mean: Vec<f64> = (0..1801)
+                .map(|j| cols.iter().map(|c| c[j]).sum::<f64>() / 12.0)
+                .collect();
+            let per: Vec<f64> = cols
+                .iter()
+                .map(|c| {
+                    rel_l2(
+                        &window(&angles, c, 100.0, 175.0),
+                        &window(&angles, &mean, 100.0, 175.0),
+                    )
+                })
+                .collect();
+            println!(
+                "rays={rays} t={el:.2}s smooth={sig} per-column L2 {:?}",
+                per.iter().map(|x| format!("{x:.3}")).collect::<Vec<_>>()
+            );
+        }
+        println!(
+            "cross sections {:?} projected {}",
+            f.order_cross_section_um2, f.projected_area_um2
+        );
+    }
+}
+
+#[test]
+#[ignore]
+fn report_series_vs_sphere() {
+    let sphere = DropShape::Sphere { radius_um: 400.0 };
+    let bc04 = DropShape::Series(CosineSeries::new(400.0, vec![0.0; 8]).unwrap());
+    for rays in [200usize, 400] {
+        let cfg = TraceConfig {
+            rays,
+            max_order: 3,
+            sun_elevation_rad: 0.4,
+            wavelength_nm: 650.0,
+            n: 1.331,
+        };
+        let g = DirectionGrid {
+            n_polar: 901,
+            n_azimuth: 4,
+        };
+        let fs = trace_fields(&sphere, &cfg, g);
+        let fb = trace_fields(&bc04, &cfg, g);
+        println!(
+            "rays {rays}: xs sphere {:?}\n  series {:?}",
+            fs.order_cross_section_um2, fb.order_cross_section_um2
+        );
+        println!(
+            "  patch sphere {:?}\n  series {:?}",
+            fs.patch_cross_section_um2, fb.patch_cross_section_um2
+        );
+        let ang: Vec<f64> = (0..901).map(|j| 0.2 * j as f64).collect();
+        for p in 0..4 {
+            let m = |f: &scatterbake::raytrace::tracer::FieldGrid| -> Vec<f64> {
+                smooth(
+                    &(0..901)
+                        .map(|j| (0..4).map(|k| f.intensities(j, k).2[p]).sum::<f64>())
+                        .collect::<Vec<_>>(),
+                    1.0,
+                )
+            };
+            let (a, b) = (m(&fs), m(&fb));
+            for (lo, hi) in [(2.0, 60.0), (60.0, 120.0), (120.0, 150.0), (150.0, 178.0)] {
+                print!(
+                    " p{p} [{lo},{hi}] {:.3}",
+                    rel_l2(&window(&ang, &b, lo, hi), &window(&ang, &a, lo, hi))
+                );
+            }
+            println!();
+        }
+    }
+}
+
+#[test]
+#[ignore]
+fn report_p0_forward() {
+    let sphere = DropShape::Sphere { radius_um: 400.0 };
+    let bc04 = DropShape::Series(CosineSeries::new(400.0, vec![0.0; 8]).unwrap());
+    let go = SphereGo::new(400.0, 650.0, 1.331, 3);
+    let cfg = TraceConfig {
+        rays: 400,
+        max_order: 3,
+        sun_elevation_rad: 0.4,
+        wavelength_nm: 650.0,
+        n: 1.331,
+    };
+    let g = DirectionGrid {
+        n_polar: 901,
+        n_azimuth: 4,
+    };
+    let fs = trace_fields(&sphere, &cfg, g);
+    let fb = trace_fields(&bc04, &cfg, g);
+    for j in [10usize, 25, 50, 100, 150, 200, 250, 300] {
+        let th = (0.2 * j as f64).to_radians();
+        let o = go.order_field(0, th);
+        let r = 0.5 * (o.perp.norm_sqr() + o.par.norm_sqr());
+        let s: Vec<f64> = (0..4).map(|k| fs.intensities(j, k).2[0]).collect();
+        let b: Vec<f64> = (0..4).map(|k| fb.intensities(j, k).2[0]).collect();
+        println!(
+            "θ={:.1} 1d {r:.1} sphere {s:.1?} series {b:.1?}",
+            0.2 * j as f64
+        );
+    }
+}
+
+/// 1-D convolution with a uniform sun disc of angular diameter `diam_deg` (chord-length
+/// profile), on a uniform grid of `step_deg`.
+fn sun_disc(v: &[f64], step_deg: f64, diam_deg: f64) -> Vec<f64> {
+    let r = 0.5 * diam_deg / step_deg;
+    let h = r.ceil() as i64;
+    let w: Vec<f64> = (-h..=h)
+        .map(|d| (r * r - (d as f64).powi(2)).max(0.0).sqrt())
+        .collect();
+    (0..v.len() as i64)
+        .map(|i| {
+            let (mut s, mut ws) = (0.0, 0.0);
+            for (k, d) in (-h..=h).enumerate() {
+                let j = i + d;
+                if j >= 0 && (j as usize) < v.len() {
+                    s += w[k] * v[j as usize];
+                    ws += w[k];
+                }
+            }
+            s / ws
+        })
+        .collect()
+}
+
+struct StageVsMie {
+    primary_max: (f64, f64),
+    super_go: Vec<f64>,
+    super_mie: Vec<f64>,
+    secondary_go: Vec<f64>,
+    secondary_mie: Vec<f64>,
+    l2_disc: f64,
+    super_filtered: Vec<f64>,
+}
+
+/// Stage-equivalent 1-D table (filtered) vs scatrs Mie at one radius, 650 nm, n = 1.331.
+fn stage_vs_mie(a_mm: f64) -> StageVsMie {
+    stage_vs_mie_opts(a_mm, Phase1dOptions::default())
+}
+
+fn stage_vs_mie_opts(a_mm: f64, opts: Phase1dOptions) -> StageVsMie {
+    let (lambda, n) = (650.0, 1.331);
+    let a = a_mm * 1e3;
+    let step = 0.01;
+    let ang = grid(118.0, 150.0, step);
+    let go = SphereGo::new(a, lambda, n, 3);
+    let (ch, _) = sphere_phase_1d(&go, &ang, opts);
+    let (mp, mpar, _) = mie(a, lambda, n, &ang);
+    let mphase: Vec<f64> = mp.iter().zip(&mpar).map(|(x, y)| 0.5 * (x + y)).collect();
+    // Fine cross-order ripple removed from Mie as in the digest: σ = 0.04°·(0.4 mm/a).
+    let sig = 0.04 * (0.4 / a_mm) / step;
+    let mie_s = smooth(&mp, sig);
+    let go_u = smooth(&ch[5 + go.max_order + 1], sig);
+    let argmax = |v: &[f64], lo: f64, hi: f64| -> f64 {
+        let w = window(&ang, v, lo, hi);
+        let i = (0..w.len()).max_by(|&x, &y| w[x].total_cmp(&w[y])).unwrap();
+        lo + step * i as f64
+    };
+    let primary_max = (argmax(&ch[1], 137.0, 141.5), argmax(&mie_s, 137.0, 141.5));
+    // Significant maxima only (above 10 % of the primary peak), to skip residual ripple.
+    let significant = |v: &[f64], lo: f64, hi: f64, floor: f64| -> Vec<f64> {
+        maxima(&ang, v, lo, hi)
+            .into_iter()
+            .filter(|&x| v[((x - 118.0) / step).round() as usize] > floor)
+            .collect()
+    };
+    let peak = window(&ang, &mie_s, 137.0, 141.5)
+        .into_iter()
+        .fold(0.0, f64::max);
+    let super_go = significant(&go_u, primary_max.1 + 0.3, 145.0, 0.1 * peak);
+    let super_mie = significant(&mie_s, primary_max.1 + 0.3, 145.0, 0.1 * peak);
+    // Secondary: stronger smoothing for the p = 0 / p = 3 ripple (period ≈ 0.18° at 0.4 mm).
+    let sig2 = 0.1 * (0.4 / a_mm) / step;
+    let mie_s2 = smooth(&mp, sig2);
+    let go_u2 = smooth(&ch[5 + go.max_order + 1], sig2);
+    let peak2 = window(&ang, &mie_s2, 126.0, 131.0)
+        .into_iter()
+        .fold(0.0, f64::max);
+    let secondary_go = significant(&go_u2, 119.0, 128.6, 0.1 * peak2)
+        .into_iter()
+        .rev()
+        .collect();
+    let secondary_mie = significant(&mie_s2, 119.0, 128.6, 0.1 * peak2)
+        .into_iter()
+        .rev()
+        .collect();
+    let d1 = sun_disc(&ch[0], step, 0.5);
+    let d2 = sun_disc(&mphase, step, 0.5);
+    let l2_disc = rel_l2(
+        &window(&ang, &d1, 125.0, 145.0),
+        &window(&ang, &d2, 125.0, 145.0),
+    );
+    let filt_s = smooth(&ch[1], sig);
+    let super_filtered = significant(&filt_s, primary_max.1 + 0.3, 145.0, 0.1 * peak);
+    StageVsMie {
+        primary_max,
+        super_go,
+        super_mie,
+        secondary_go,
+        secondary_mie,
+        l2_disc,
+        super_filtered,
+    }
+}
+
+/// Acceptance at 0.4 mm, 650 nm: relative L2 between the filtered ray-traced phase function
+/// and Mie over 125–145°, both convolved with a 0.5° sun disc, ≤ 5 %; primary supernumerary
+/// maxima within 0.02° of Mie.
+#[test]
+fn sphere_stage_phase_vs_mie_with_sun_disc() {
+    let r = stage_vs_mie(0.4);
+    assert!(r.l2_disc <= 0.05, "L2 {}", r.l2_disc);
+    for (g, m) in r.super_go.iter().zip(&r.super_mie).take(4) {
+        assert!((g - m).abs() <= 0.02, "supernumerary GO {g} vs Mie {m}");
+    }
+}
+
+#[test]
+#[ignore]
+fn report_stage_vs_mie() {
+    use scatterbake::raytrace::sphere1d::DiffractionModel;
+    let variants = [
+        (
+            "none",
+            Phase1dOptions {
+                diffraction_filter: false,
+                ..Default::default()
+            },
+        ),
+        (
+            "gaussian everywhere",
+            Phase1dOptions {
+                model: DiffractionModel::Gaussian,
+                caustic_window_sigmas: 0.0,
+                ..Default::default()
+            },
+        ),
+        (
+            "gaussian 2σ window",
+            Phase1dOptions {
+                model: DiffractionModel::Gaussian,
+                ..Default::default()
+            },
+        ),
+        ("airy uniform", Phase1dOptions::default()),
+    ];
+    for (a, (name, opts)) in [0.1, 0.2, 0.4, 1.0]
+        .iter()
+        .flat_map(|a| variants.iter().map(move |v| (*a, *v)))
+    {
+        let r = stage_vs_mie_opts(a, opts);
+        println!("diffraction model: {name}");
+        println!(
+            "a={a} mm: primary max filtered GO {:.3} Mie {:.3}; L2(sun disc 0.5°, 125-145°) = {:.4}",
+            r.primary_max.0, r.primary_max.1, r.l2_disc
+        );
+        println!(
+            "   supernumeraries GO  {:?}",
+            r.super_go
+                .iter()
+                .take(5)
+                .map(|x| format!("{x:.3}"))
+                .collect::<Vec<_>>()
+        );
+        println!(
+            "   supernumeraries filtered channel {:?}",
+            r.super_filtered
+                .iter()
+                .take(5)
+                .map(|x| format!("{x:.3}"))
+                .collect::<Vec<_>>()
+        );
+        println!(
+            "   supernumeraries Mie {:?}",
+            r.super_mie
+                .iter()
+                .take(5)
+                .map(|x| format!("{x:.3}"))
+                .collect::<Vec<_>>()
+        );
+        println!(
+            "   secondary GO  {:?}",
+            r.secondary_go
+                .iter()
+                .take(4)
+                .map(|x| format!("{x:.3}"))
+                .collect::<Vec<_>>()
+        );
+        println!(
+            "   secondary Mie {:?}",
+            r.secondary_mie
+                .iter()
+                .take(4)
+                .map(|x| format!("{x:.3}"))
+                .collect::<Vec<_>>()
+        );
+    }
+}
+
+#[test]
+#[ignore]
+fn report_curves() {
+    let (lambda, n) = (650.0, 1.331);
+    for a_mm in [0.4f64] {
+        let a = a_mm * 1e3;
+        let step = 0.01;
+        let ang = grid(118.0, 150.0, step);
+        let go = SphereGo::new(a, lambda, n, 3);
+        let (ch, _) = sphere_phase_1d(&go, &ang, Phase1dOptions::default());
+        let (mp, mpar, _) = mie(a, lambda, n, &ang);
+        let mphase: Vec<f64> = mp.iter().zip(&mpar).map(|(x, y)| 0.5 * (x + y)).collect();
+        let d1 = sun_disc(&ch[0], step, 0.5);
+        let d2 = sun_disc(&mphase, step, 0.5);
+        let du = sun_disc(&ch[5 + 4], step, 0.5);
+        for th in [
+            120.0, 125.0, 127.0, 128.0, 128.5, 129.0, 129.5, 130.0, 133.0, 136.0, 137.0, 137.5,
+            138.0, 138.5, 139.0, 140.0, 142.0, 145.0,
+        ] {
+            let j = ((th - 118.0) / step).round() as usize;
+            println!(
+                "θ={th:6.1} GOfilt {:.5} GOunf {:.5} Mie {:.5} ratio {:.3}",
+                d1[j],
+                du[j],
+                d2[j],
+                d1[j] / d2[j]
+            );
+        }
+    }
+}
+
+/// Reciprocity for an oriented Beard–Chuang drop, p(ω_in → ω_out) = p(−ω_out → −ω_in)
+/// (digest §7 [A]). In the vertical plane, sun elevation e with the outgoing ray rising at
+/// elevation e' is the reverse of sun elevation e' with the outgoing ray rising at e; both have
+/// polar angle θ = 180° − |e − e'| and azimuths 0° (first; the ray rises relative to e1) and
+/// 180° (second). Here e = 0°,
+/// e' = 40° → θ = 140°, inside the primary bow. Compared as means over θ ∈ [139°, 141°] (patch
+/// noise), both from one 2-D trace per elevation.
+#[test]
+fn beard_chuang_reciprocity_in_the_vertical_plane() {
+    let bc = DropShape::beard_chuang(1.0);
+    let grid = DirectionGrid {
+        n_polar: 1801,
+        n_azimuth: 36,
+    };
+    let mean_phase = |elev_deg: f64, k: usize| -> f64 {
+        let cfg = TraceConfig {
+            rays: 500,
+            max_order: 3,
+            sun_elevation_rad: elev_deg.to_radians(),
+            wavelength_nm: 650.0,
+            n: 1.331,
+        };
+        let f = trace_fields(&bc, &cfg, grid);
+        let (j0, j1) = (1390, 1410);
+        (j0..=j1)
+            .map(|j| {
+                let (a, b, _) = f.intensities(j, k);
+                0.5 * (a + b)
+            })
+            .sum::<f64>()
+            / (j1 - j0 + 1) as f64
+    };
+    let forward = mean_phase(0.0, 0); // φ = 0°
+    let reverse = mean_phase(40.0, 18); // φ = 180°
+    let rel = (forward - reverse).abs() / (0.5 * (forward + reverse));
+    assert!(
+        rel < 0.01,
+        "reciprocity: {forward} vs {reverse} (rel {rel})"
+    );
+    // A non-reciprocal pairing (same elevation 0°, opposite azimuth) differs clearly: the drop
+    // is up/down asymmetric, so the comparison above is meaningful.
+    let other = mean_phase(0.0, 18);
+    // Measured: 5165.9 vs 5165.4 µm²/sr (rel 1e-4); unrelated pair 4398.0 (15 % off).
+    assert!(
+        (other - reverse).abs() / reverse > 0.05,
+        "control pair {other} vs {reverse}"
+    );
+}
+
+/// Profiling target: `perf record <test binary> profile_tracer --ignored`.
+#[test]
+#[ignore]
+fn profile_tracer() {
+    let cfg = TraceConfig {
+        rays: 600,
+        max_order: 3,
+        sun_elevation_rad: 0.4,
+        wavelength_nm: 650.0,
+        n: 1.331,
+    };
+    let t = std::time::Instant::now();
+    let f = trace_fields(
+        &DropShape::Sphere { radius_um: 400.0 },
+        &cfg,
+        DirectionGrid {
+            n_polar: 3601,
+            n_azimuth: 1800,
+        },
+    );
+    println!(
+        "sphere 600² {:.2} s {}",
+        t.elapsed().as_secs_f64(),
+        f.rays_traced
+    );
+}
+
+/// Beard–Chuang primary bow vs radius (sun at 0°, 650 nm, 500² rays): position of the maximum
+/// of the azimuth-averaged unfiltered p = 2 intensity in the vertical plane's two halves
+/// (φ = 0°, rays leaving upwards; φ = 180°, downwards) and averaged over all azimuths.
+#[test]
+#[ignore]
+fn report_beard_chuang_bow_shift() {
+    for a in [0.4, 0.5, 1.0, 1.5, 2.0, 2.5, 3.0] {
+        let shape = DropShape::beard_chuang(a);
+        let cfg = TraceConfig {
+            rays: 500,
+            max_order: 3,
+            sun_elevation_rad: 0.0,
+            wavelength_nm: 650.0,
+            n: 1.331,
+        };
+        let grid = DirectionGrid {
+            n_polar: 3601,
+            n_azimuth: 36,
+        };
+        let f = trace_fields(&shape, &cfg, grid);
+        let col = |k: Option<usize>| -> Vec<f64> {
+            (0..3601)
+                .map(|j| match k {
+                    Some(k) => f.intensities(j, k).2[2],
+                    None => (0..36).map(|k| f.intensities(j, k).2[2]).sum::<f64>() / 36.0,
+                })
+                .collect()
+        };
+        let ang: Vec<f64> = (0..3601).map(|j| 0.05 * j as f64).collect();
+        let argmax = |v: Vec<f64>| {
+            let s = smooth(&v, 2.0);
+            let (j, _) = s
+                .iter()
+                .enumerate()
+                .filter(|(j, _)| (130.0..150.0).contains(&ang[*j]))
+                .fold((0, 0.0), |b, (j, x)| if *x > b.1 { (j, *x) } else { b });
+            ang[j]
+        };
+        println!(
+            "a = {a} mm: p=2 peak at φ=0° {:.2}°, φ=180° {:.2}°, φ=90° {:.2}°, azimuth mean {:.2}°",
+            argmax(col(Some(0))),
+            argmax(col(Some(18))),
+            argmax(col(Some(9))),
+            argmax(col(None))
+        );
+    }
+}
+
+#[test]
+#[ignore]
+fn report_energy_per_order_2d() {
+    for (a, e) in [(3.0, 0.0), (3.0, 30.0), (1.0, 0.0)] {
+        let shape = DropShape::beard_chuang(a);
+        let cfg = TraceConfig {
+            rays: 400,
+            max_order: 3,
+            sun_elevation_rad: f64::to_radians(e),
+            wavelength_nm: 550.0,
+            n: 1.333,
+        };
+        let grid = DirectionGrid {
+            n_polar: 1801,
+            n_azimuth: 36,
+        };
+        let f = trace_fields(&shape, &cfg, grid);
+        let dth = grid.polar_step();
+        let mut integ = [0.0; 4];
+        for j in 0..1801 {
+            let th = dth * j as f64;
+            let om = ((th - 0.5 * dth).max(0.0).cos() - (th + 0.5 * dth).min(PI).cos())
+                * grid.azimuth_step();
+            for k in 0..36 {
+                let (_, _, per) = f.intensities(j, k);
+                for p in 0..4 {
+                    integ[p] += per[p] * om;
+                }
+            }
+        }
+        let mut top: Vec<(f64, usize, usize)> = vec![];
+        for j in 0..1801 {
+            let th = dth * j as f64;
+            let om = ((th - 0.5 * dth).max(0.0).cos() - (th + 0.5 * dth).min(PI).cos())
+                * grid.azimuth_step();
+            for k in 0..36 {
+                top.push((f.intensities(j, k).2[3] * om, j, k));
+            }
+        }
+        top.sort_by(|x, y| y.0.total_cmp(&x.0));
+        println!("top p3 pixels (energy, j, k): {:?}", &top[..6]);
+        println!(
+            "a={a} e={e}: table ∫ per order {:?}\n   ray xs {:?}\n   patch xs {:?}",
+            integ.map(|x| x.round()),
+            f.order_cross_section_um2
+                .iter()
+                .map(|x| x.round())
+                .collect::<Vec<_>>(),
+            f.patch_cross_section_um2
+                .iter()
+                .map(|x| x.round())
+                .collect::<Vec<_>>()
+        );
+    }
+}
