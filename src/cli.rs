@@ -66,6 +66,8 @@ enum Command {
     /// Lorenz–Mie scattering of one sphere (MiePlot-style columns); `--debye-orders` selects
     /// Debye-series terms.
     Mie(crate::debye::cli::DebyeArgs),
+    /// Patch-based wave-optics ray tracing of one drop (sphere or Beard–Chuang) at one wavelength.
+    Raytrace(crate::raytrace::cli::RaytraceArgs),
     /// Airy theory of the primary or secondary rainbow (same columns as `mie`).
     Airy(crate::debye::cli::AiryArgs),
     /// Fur medulla scattering profile for one (σ, g, entry) by Monte Carlo, as CSV or JSON.
@@ -306,6 +308,7 @@ fn run(cmd: Command) -> Result<i32> {
             crate::consumers::render::run_render_rainbow(&a).map(|_| 0)
         }
         Command::Mie(a) => crate::debye::cli::run_debye(&a).map(|_| 0),
+        Command::Raytrace(a) => crate::raytrace::cli::run_raytrace(&a).map(|_| 0),
         Command::Airy(a) => crate::debye::cli::run_airy(&a).map(|_| 0),
         Command::Medulla(a) => crate::fur::cli::run_medulla(&a).map(|_| 0),
         Command::HairLut(a) => crate::hair::export::run_hair_lut(&a).map(|_| 0),

@@ -302,7 +302,7 @@ impl SphereGo {
                     add_go(b);
                 }
             }
-            let (ai, aip) = crate::raytrace::airy::airy_ai(-zeta);
+            let (ai, aip) = crate::optics::airy_function::airy_ai_and_derivative_series(-zeta);
             let pre = Complex64::from_polar(PI.sqrt(), 0.5 * (b1.phase + b2.phase) - FRAC_PI_4);
             let z4 = zeta.powf(0.25);
             let j = Complex64::new(0.0, 1.0);
@@ -320,7 +320,7 @@ impl SphereGo {
         if zeta < -ZETA_MAX {
             return out;
         }
-        let (ai, aip) = crate::raytrace::airy::airy_ai(-zeta);
+        let (ai, aip) = crate::optics::airy_function::airy_ai_and_derivative_series(-zeta);
         let chi = cal.chi0 + cal.chi_slope * (theta_rad - cal.theta0);
         let pre = Complex64::from_polar(PI.sqrt(), chi - FRAC_PI_4);
         out.perp += pre * (cal.u.0 * ai + cal.v.0 * aip);
