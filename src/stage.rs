@@ -85,3 +85,58 @@ pub trait Stage: Send + Sync {
     /// Validate parameters and plan the job.
     fn plan(&self, params: toml::de::ValueDeserializer<'_>) -> Result<Box<dyn Job>, PlanError>;
 }
+
+/// Shared parameter checks, so every stage words and enforces them the same way.
+pub mod checks {
+    use super::PlanError;
+    use crate::optics::water::WaterIndexModel;
+
+    /// `values` must be non-empty, finite and strictly increasing (and positive when
+    /// `positive`).
+    pub fn increasing(key: &str, values: &[f64], positive: bool) -> Result<(), PlanError> {
+        let bad = values.is_empty()
+            || values
+                .iter()
+                .any(|v| !v.is_finite() || (positive && *v <= 0.0))
+            || values.windows(2).any(|w| w[1] <= w[0]);
+        if bad {
+            let what = if positive { "positive, " } else { "" };
+            return Err(PlanError::invalid(
+                key,
+                format!("must be {what}non-empty and strictly increasing"),
+            ));
+        }
+        Ok(())
+    }
+
+    /// Number of intervals `180/step` of a uniform scattering-angle grid; the step must divide
+    /// 180° into at most 1e6 intervals.
+    pub fn angle_step_intervals(key: &str, step_deg: f64) -> Result<usize, PlanError> {
+        let ratio = 180.0 / step_deg;
+        if !(step_deg > 0.0) || (ratio - ratio.round()).abs() > 1e-6 || ratio.round() > 1e6 {
+            return Err(PlanError::invalid(
+                key,
+                "must be > 0 with 180/step an integer ≤ 1e6",
+            ));
+        }
+        Ok(ratio.round() as usize)
+    }
+
+    /// Resolve a water index model by name and evaluate it at every wavelength; errors name
+    /// `water_index_model` or the wavelength key.
+    pub fn water_indices(
+        model_name: &str,
+        temperature_c: Option<f64>,
+        wavelengths_key: &str,
+        wavelengths_nm: &[f64],
+    ) -> Result<(WaterIndexModel, Vec<f64>), PlanError> {
+        let model = WaterIndexModel::from_name(model_name, temperature_c)
+            .map_err(|e| PlanError::invalid("water_index_model", e.to_string()))?;
+        let indices = wavelengths_nm
+            .iter()
+            .map(|&l| model.index(l))
+            .collect::<Result<Vec<_>, _>>()
+            .map_err(|e| PlanError::invalid(wavelengths_key, e.to_string()))?;
+        Ok((model, indices))
+    }
+}

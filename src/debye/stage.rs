@@ -16,7 +16,7 @@ use crate::mie::filters::{
 use crate::mie::stage::FilterSettings;
 use crate::mie::{check_domain, size_parameter};
 use crate::optics::water::{SADEGHI_WAVELENGTHS_NM, WaterIndexModel};
-use crate::stage::{Job, ParamDoc, PlanError, Stage, TaskSpec, parse_params};
+use crate::stage::{Job, ParamDoc, PlanError, Stage, TaskSpec, checks, parse_params};
 use crate::table::{Axis, Channel, Schema, TableContent};
 use num_complex::Complex64;
 use serde::{Deserialize, Serialize};
@@ -204,22 +204,9 @@ impl Stage for DebyeStage {
 }
 
 fn plan_job(p: DebyeParams) -> Result<DebyeJob, PlanError> {
-    if p.wavelengths_nm.is_empty() || p.wavelengths_nm.windows(2).any(|w| w[1] <= w[0]) {
-        return Err(PlanError::invalid(
-            "wavelengths_nm",
-            "must be non-empty and strictly increasing",
-        ));
-    }
+    checks::increasing("wavelengths_nm", &p.wavelengths_nm, true)?;
     let r = &p.radii_um;
-    if r.is_empty()
-        || r.windows(2).any(|w| w[1] <= w[0])
-        || r.iter().any(|v| v.is_nan() || *v <= 0.0)
-    {
-        return Err(PlanError::invalid(
-            "radii_um",
-            "must be positive, non-empty and strictly increasing",
-        ));
-    }
+    checks::increasing("radii_um", r, true)?;
     let mut sorted = p.orders.clone();
     sorted.sort_unstable();
     sorted.dedup();
@@ -232,25 +219,13 @@ fn plan_job(p: DebyeParams) -> Result<DebyeJob, PlanError> {
             format!("must be a non-empty list of distinct orders 0..={MAX_ORDER}"),
         ));
     }
-    let model = WaterIndexModel::from_name(&p.water_index_model, Some(p.temperature_c))
-        .map_err(|e| PlanError::invalid("water_index_model", e.to_string()))?;
-    let indices = p
-        .wavelengths_nm
-        .iter()
-        .map(|&l| model.index(l))
-        .collect::<Result<Vec<_>, _>>()
-        .map_err(|e| PlanError::invalid("wavelengths_nm", e.to_string()))?;
-    let ratio = 180.0 / p.angle_step_deg;
-    if p.angle_step_deg.is_nan()
-        || p.angle_step_deg <= 0.0
-        || (ratio - ratio.round()).abs() > 1e-6
-        || ratio.round() > 1e6
-    {
-        return Err(PlanError::invalid(
-            "angle_step_deg",
-            "must be > 0 with 180/step an integer ≤ 1e6",
-        ));
-    }
+    let (model, indices) = checks::water_indices(
+        &p.water_index_model,
+        Some(p.temperature_c),
+        "wavelengths_nm",
+        &p.wavelengths_nm,
+    )?;
+    let output_intervals = checks::angle_step_intervals("angle_step_deg", p.angle_step_deg)?;
     if !(0.0..=5.0).contains(&p.sun_diameter_deg) {
         return Err(PlanError::invalid(
             "sun_diameter_deg",
@@ -265,7 +240,7 @@ fn plan_job(p: DebyeParams) -> Result<DebyeJob, PlanError> {
         }
     }
     let settings = FilterSettings {
-        output_intervals: ratio.round() as usize,
+        output_intervals,
         sun_diameter_deg: p.sun_diameter_deg,
         gaussian_sigma_deg: 0.0,
         radius_points: 4,

@@ -10,7 +10,7 @@ use super::filters::{
 };
 use super::{Sphere, size_parameter};
 use crate::optics::water::{SADEGHI_WAVELENGTHS_NM, WaterIndexModel};
-use crate::stage::{Job, ParamDoc, PlanError, Stage, TaskSpec, parse_params};
+use crate::stage::{Job, ParamDoc, PlanError, Stage, TaskSpec, checks, parse_params};
 use crate::table::{Axis, Channel, Schema, TableContent};
 use num_complex::Complex64;
 use rayon::prelude::*;
@@ -304,31 +304,16 @@ impl Stage for MieStage {
 }
 
 fn plan_job(p: MieParams) -> Result<MieJob, PlanError> {
-    if p.wavelengths_nm.is_empty() || p.wavelengths_nm.windows(2).any(|w| w[1] <= w[0]) {
-        return Err(PlanError::invalid(
-            "wavelengths_nm",
-            "must be non-empty and strictly increasing",
-        ));
-    }
-    let model = WaterIndexModel::from_name(&p.water_index_model, Some(p.temperature_c))
-        .map_err(|e| PlanError::invalid("water_index_model", e.to_string()))?;
-    let indices = p
-        .wavelengths_nm
-        .iter()
-        .map(|&l| model.index(l))
-        .collect::<Result<Vec<_>, _>>()
-        .map_err(|e| PlanError::invalid("wavelengths_nm", e.to_string()))?;
+    checks::increasing("wavelengths_nm", &p.wavelengths_nm, true)?;
+    let (model, indices) = checks::water_indices(
+        &p.water_index_model,
+        Some(p.temperature_c),
+        "wavelengths_nm",
+        &p.wavelengths_nm,
+    )?;
     let entries = match (&p.radii_um, &p.distributions) {
         (Some(r), None) => {
-            if r.is_empty()
-                || r.windows(2).any(|w| w[1] <= w[0])
-                || r.iter().any(|v| v.is_nan() || *v <= 0.0)
-            {
-                return Err(PlanError::invalid(
-                    "radii_um",
-                    "must be positive, non-empty and strictly increasing",
-                ));
-            }
+            checks::increasing("radii_um", r, true)?;
             Entries::Radii(r.clone())
         }
         (None, Some(d)) => {
@@ -348,17 +333,7 @@ fn plan_job(p: MieParams) -> Result<MieJob, PlanError> {
             ));
         }
     };
-    let ratio = 180.0 / p.angle_step_deg;
-    if p.angle_step_deg.is_nan()
-        || p.angle_step_deg <= 0.0
-        || (ratio - ratio.round()).abs() > 1e-6
-        || ratio.round() > 1e6
-    {
-        return Err(PlanError::invalid(
-            "angle_step_deg",
-            "must be > 0 with 180/step an integer ≤ 1e6",
-        ));
-    }
+    let output_intervals = checks::angle_step_intervals("angle_step_deg", p.angle_step_deg)?;
     if !(0.0..=5.0).contains(&p.sun_diameter_deg) {
         return Err(PlanError::invalid(
             "sun_diameter_deg",
@@ -394,7 +369,7 @@ fn plan_job(p: MieParams) -> Result<MieJob, PlanError> {
         }
     }
     let settings = FilterSettings {
-        output_intervals: ratio.round() as usize,
+        output_intervals,
         sun_diameter_deg: p.sun_diameter_deg,
         gaussian_sigma_deg: p.gaussian_sigma_deg,
         radius_points: p.radius_points,

@@ -23,7 +23,7 @@ use super::shape::{CosineSeries, DropShape};
 use super::sphere1d::{DiffractionModel, Phase1dOptions, SphereGo, sphere_phase_1d};
 use super::tracer::{DirectionGrid, TraceConfig, trace_fields};
 use crate::optics::water::{SADEGHI_WAVELENGTHS_NM, WaterIndexModel};
-use crate::stage::{Job, ParamDoc, PlanError, Stage, TaskSpec, parse_params};
+use crate::stage::{Job, ParamDoc, PlanError, Stage, TaskSpec, checks, parse_params};
 use crate::table::{Axis, Channel, Schema, TableContent};
 use serde::{Deserialize, Serialize};
 use std::f64::consts::PI;
@@ -235,25 +235,14 @@ pub struct RaytraceJob {
 impl RaytraceJob {
     /// Validate parameters and plan.
     pub fn new(p: RaytraceParams) -> Result<Self, PlanError> {
-        let model = WaterIndexModel::from_name(&p.water_index_model, p.temperature_c)
-            .map_err(|e| PlanError::invalid("water_index_model", e.to_string()))?;
-        if p.wavelength_nm.is_empty() || p.wavelength_nm.windows(2).any(|w| w[1] <= w[0]) {
-            return Err(PlanError::invalid(
-                "wavelength_nm",
-                "must be non-empty and strictly increasing",
-            ));
-        }
-        for &l in &p.wavelength_nm {
-            model
-                .index(l)
-                .map_err(|e| PlanError::invalid("wavelength_nm", e.to_string()))?;
-        }
-        if p.radius_mm.is_empty() || p.radius_mm.windows(2).any(|w| w[1] <= w[0]) {
-            return Err(PlanError::invalid(
-                "radius_mm",
-                "must be non-empty and strictly increasing",
-            ));
-        }
+        checks::increasing("wavelength_nm", &p.wavelength_nm, true)?;
+        let (model, _) = checks::water_indices(
+            &p.water_index_model,
+            p.temperature_c,
+            "wavelength_nm",
+            &p.wavelength_nm,
+        )?;
+        checks::increasing("radius_mm", &p.radius_mm, true)?;
         if let Some(r) = p.radius_mm.iter().find(|r| !(0.01..=5.0).contains(*r)) {
             return Err(PlanError::invalid(
                 "radius_mm",
