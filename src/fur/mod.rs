@@ -9,6 +9,8 @@
 
 pub mod chief_ray;
 pub mod cli;
+pub mod farfield;
+pub mod farfield_stage;
 pub mod medulla;
 pub mod rng;
 pub mod stage;

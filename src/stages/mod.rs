@@ -15,6 +15,7 @@ pub fn registry() -> Vec<Box<dyn Stage>> {
         Box::new(crate::debye::stage::DebyeStage),
         Box::new(crate::fur::stage::FurMedullaAzimuthalStage),
         Box::new(crate::fur::stage::FurMedullaLongitudinalStage),
+        Box::new(crate::fur::farfield_stage::FurFarFieldStage),
     ]
 }
 
