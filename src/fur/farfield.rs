@@ -624,4 +624,69 @@ mod tests {
             }
         }
     }
+
+    fn profile(name: &str, ti_deg: f64) -> FarField {
+        let s = sample(name);
+        let set = settings();
+        let shapes = MedullaShapes::compute(medulla_sigma(&s), s.g, &set);
+        far_field(&s, ti_deg.to_radians(), &shapes, &set)
+    }
+
+    /// Digest §8 item 11 / §3.1: the cat (κη_m ≥ 1) has no classic TT or TRT at any θ_i; its
+    /// forward unscattered light is only the through-medulla TttT lobe.
+    #[test]
+    fn cat_has_no_tt_and_no_trt() {
+        for ti in [0.0, -40.0] {
+            let cat = profile("cat", ti);
+            let rac = profile("raccoon", ti);
+            assert_eq!(cat.energy(1), 0.0);
+            assert_eq!(cat.energy(2), 0.0);
+            assert!(rac.energy(1) > 0.02, "raccoon tt {}", rac.energy(1));
+            assert!(rac.energy(2) > 0.005, "raccoon trt {}", rac.energy(2));
+        }
+    }
+
+    /// Raccoon (κη_c = 0.726 < 1): TT exists only for |h| > κη_c, so it is confined to
+    /// |φ| ≲ 160° and vanishes towards φ = 180° with a sharp edge, unlike the same fibre
+    /// without a medulla (κ = 0.05), whose TT fills φ = 180°.
+    #[test]
+    fn raccoon_tt_is_edge_limited() {
+        let set = settings();
+        let mut thin = sample("raccoon");
+        thin.kappa = 0.05;
+        let shapes = MedullaShapes::compute(medulla_sigma(&thin), thin.g, &set);
+        for ti in [0.0f64, -40.0] {
+            let rac = profile("raccoon", ti);
+            let near = |_: f64, p: f64| p.abs() > 170f64.to_radians();
+            let frac = rac.energy_where(1, near) / rac.energy(1);
+            let bare = far_field(&thin, ti.to_radians(), &shapes, &set);
+            let frac_bare = bare.energy_where(1, near) / bare.energy(1);
+            assert!(
+                frac < 0.03 && frac < 0.1 * frac_bare,
+                "θi={ti}: TT fraction beyond 170°: raccoon {frac}, κ=0.05 {frac_bare}"
+            );
+        }
+    }
+
+    /// Digest §8 item 11: light leaking through the medulla makes a forward glow near
+    /// (θ_r, φ) = (−θ_i, 180°) (mouse, red fox at θ_i = −40°): the scattered forward column
+    /// peaks within 15° of θ_r = 40°, and the scattered energy is spread over both halves.
+    #[test]
+    fn forward_medulla_glow_near_specular_cone() {
+        for name in ["mouse", "red_fox"] {
+            let ff = profile(name, -40.0);
+            let j = ff.phi_cells - 1; // φ ≈ 180°
+            let col: Vec<f64> = (0..ff.theta_r_cells)
+                .map(|i| ff.components[4][i * ff.phi_cells + j])
+                .collect();
+            let imax = (0..col.len())
+                .max_by(|&a, &b| col[a].total_cmp(&col[b]))
+                .unwrap();
+            let peak = ff.theta_r(imax).to_degrees();
+            assert!((peak - 40.0).abs() < 15.0, "{name}: forward scattered peak at {peak}");
+            let fwd = ff.energy_where(4, |_, p| p.abs() > FRAC_PI_2);
+            let tot = ff.energy(4);
+            assert!(fwd > 0.3 * tot && fwd < 0.9 * tot, "{name}: {fwd} of {tot}");
+        }
+    }
 }
