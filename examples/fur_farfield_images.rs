@@ -38,7 +38,9 @@ fn main() -> anyhow::Result<()> {
         (180.0 / nt as f64).to_radians(),
         (360.0 / np as f64).to_radians(),
     );
-    println!("sample,total,r,tt,trt,medulla_paths,scattered,fwd_unscattered(|phi|>150),tt_fraction(|phi|>170)");
+    println!(
+        "sample,total,r,tt,trt,medulla_paths,scattered,fwd_unscattered(|phi|>150),tt_fraction(|phi|>170)"
+    );
     for (s, name) in names.iter().enumerate().take(ns) {
         let at = |i: usize, j: usize, c: usize| {
             t.data[(((s * nti + iti) * nt + i) * np + j) * nc + c] as f64
@@ -97,8 +99,8 @@ fn main() -> anyhow::Result<()> {
             attributes: Default::default(),
             data: vals,
         };
-        let img = Table::from_content(content, Provenance::default())
-            .map_err(|e| anyhow::anyhow!(e))?;
+        let img =
+            Table::from_content(content, Provenance::default()).map_err(|e| anyhow::anyhow!(e))?;
         let out = dir.join(format!("farfield-{name}-ti{ti}.png"));
         plot_heatmap(&img, &[], None, &out, (900, 420))?;
     }

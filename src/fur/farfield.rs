@@ -57,16 +57,39 @@ macro_rules! sample {
 
 /// Table 4.2 of the thesis, column order as printed.
 pub const TABLE_4_2: [FurSample; 10] = [
-    sample!("bobcat", 0.78, 1.40, 1.27, 4.44, 4.86, 0.75, 3.18, 0.54, 0.50),
+    sample!(
+        "bobcat", 0.78, 1.40, 1.27, 4.44, 4.86, 0.75, 3.18, 0.54, 0.50
+    ),
     sample!("cat", 0.85, 1.43, 1.35, 3.97, 4.94, 0.48, 2.58, 0.62, 0.59),
     sample!("deer", 0.87, 1.54, 1.42, 2.93, 5.35, 1.81, 2.75, 0.39, 0.69),
     sample!("dog", 0.69, 1.55, 1.37, 2.47, 4.21, 0.37, 3.17, 0.18, 0.53),
-    sample!("mouse", 0.60, 1.38, 1.38, 1.05, 4.70, 0.50, 2.93, 0.65, 0.89),
-    sample!("rabbit", 0.66, 1.36, 1.34, 4.41, 6.97, 0.83, 2.53, 0.31, 0.65),
-    sample!("raccoon", 0.59, 1.23, 1.23, 1.20, 5.27, 0.38, 3.45, 0.35, 1.51),
-    sample!("red_fox", 0.69, 1.43, 1.38, 2.25, 4.86, 0.73, 2.99, 0.63, 0.53),
-    sample!("springbok", 0.85, 1.55, 1.32, 0.03, 8.43, 0.96, 3.06, 0.03, 0.54),
-    sample!("human", 0.34, 1.21, 1.21, 0.87, 2.03, 0.83, 4.30, 0.38, 1.49),
+    sample!(
+        "mouse", 0.60, 1.38, 1.38, 1.05, 4.70, 0.50, 2.93, 0.65, 0.89
+    ),
+    sample!(
+        "rabbit", 0.66, 1.36, 1.34, 4.41, 6.97, 0.83, 2.53, 0.31, 0.65
+    ),
+    sample!(
+        "raccoon", 0.59, 1.23, 1.23, 1.20, 5.27, 0.38, 3.45, 0.35, 1.51
+    ),
+    sample!(
+        "red_fox", 0.69, 1.43, 1.38, 2.25, 4.86, 0.73, 2.99, 0.63, 0.53
+    ),
+    sample!(
+        "springbok",
+        0.85,
+        1.55,
+        1.32,
+        0.03,
+        8.43,
+        0.96,
+        3.06,
+        0.03,
+        0.54
+    ),
+    sample!(
+        "human", 0.34, 1.21, 1.21, 0.87, 2.03, 0.83, 4.30, 0.38, 1.49
+    ),
 ];
 
 /// Index of the cuticle plates of the Stokes pile (thesis §4.1: exocuticle index 1.55).
@@ -102,12 +125,32 @@ pub struct FarFieldSettings {
     /// Monte Carlo photons per medulla profile (expected-value estimator).
     pub photons: u64,
     pub seed: u64,
+    /// Mapping of σ_ms onto the medulla tables' σ (cortex σ_ca is always per diameter).
+    pub sigma_scaling: SigmaScaling,
 }
 
-/// Medulla optical coefficient per unit medulla radius for a sample: σ_ms[diameter⁻¹]·κ/2
-/// (the medulla tables' convention, docs/fur.md decision 1).
-pub fn medulla_sigma(s: &FurSample) -> f64 {
-    s.sigma_ms * s.kappa / 2.0
+/// How Table 4.2's σ_ms maps onto the medulla tables' coefficient per unit medulla radius
+/// (digest §9 item 1).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SigmaScaling {
+    /// σ_ms per fibre diameter (Table 4.2's unit) → σ_ms·κ/2 (optical depth preserved; the
+    /// medulla tables' convention, docs/fur.md decision 1). Default.
+    #[default]
+    KappaHalf,
+    /// σ_ms read as per fibre radius → σ_ms·κ (the 2017 follow-up's code).
+    Kappa,
+    /// The thesis's printed lookup σ_ms/κ (Eq. 5.10/5.11).
+    ThesisOverKappa,
+}
+
+/// Medulla optical coefficient per unit medulla radius for a sample under `scaling`.
+pub fn medulla_sigma(s: &FurSample, scaling: SigmaScaling) -> f64 {
+    match scaling {
+        SigmaScaling::KappaHalf => s.sigma_ms * s.kappa / 2.0,
+        SigmaScaling::Kappa => s.sigma_ms * s.kappa,
+        SigmaScaling::ThesisOverKappa => s.sigma_ms / s.kappa,
+    }
 }
 
 /// Normalised azimuthal medulla shapes C^N/ΣC^N on rows h' = j/(rows−1).
@@ -333,7 +376,7 @@ pub fn isotropic_fraction(s: &FurSample) -> f64 {
 
 /// Far-field profile of `s` at incidence inclination `theta_i_rad` (|θ_i| < 90°), given the
 /// sample's azimuthal medulla shapes (from [`MedullaShapes::compute`] at
-/// [`medulla_sigma`]`(s)` and `s.g`).
+/// [`medulla_sigma`]`(s, set.sigma_scaling)` and `s.g`).
 pub fn far_field(
     s: &FurSample,
     theta_i_rad: f64,
@@ -353,7 +396,7 @@ pub fn far_field(
     };
     // Coefficients per unit fibre radius, projected onto the azimuthal plane (÷ cos θ_t).
     let sca = s.sigma_ca / 2.0 / cos_tc;
-    let sigma_med = medulla_sigma(s) / cos_tm; // per unit medulla radius
+    let sigma_med = medulla_sigma(s, set.sigma_scaling) / cos_tm; // per unit medulla radius
     let cos_i = theta_i_rad.cos();
 
     // Azimuthal energy profiles (cell masses × energy) per path, h-averaged.
@@ -468,7 +511,7 @@ pub fn far_field(
         max_order: None,
     };
     let prof = simulate(
-        medulla_sigma(s) / cos_tm,
+        medulla_sigma(s, set.sigma_scaling) / cos_tm,
         s.g,
         Geometry::Longitudinal {
             theta_i_rad: theta_i_med,
@@ -532,6 +575,7 @@ mod tests {
             medulla_bins: 180,
             photons: 150,
             seed: 7,
+            sigma_scaling: SigmaScaling::KappaHalf,
         }
     }
 
@@ -591,9 +635,9 @@ mod tests {
         let mut s = sample("raccoon"); // η_m = η_c
         s.sigma_ca = 0.0;
         let set = settings();
-        let shapes = MedullaShapes::compute(medulla_sigma(&s), s.g, &set);
+        let shapes = MedullaShapes::compute(medulla_sigma(&s, SigmaScaling::KappaHalf), s.g, &set);
         let ff = far_field(&s, 0.0, &shapes, &set);
-        let sig = medulla_sigma(&s);
+        let sig = medulla_sigma(&s, SigmaScaling::KappaHalf);
         let (x, w) = gauss_legendre_interval(400, -FRAC_PI_2, FRAC_PI_2);
         let mut want = 0.0;
         for (g, wg) in x.iter().zip(&w) {
@@ -628,7 +672,7 @@ mod tests {
     fn profile(name: &str, ti_deg: f64) -> FarField {
         let s = sample(name);
         let set = settings();
-        let shapes = MedullaShapes::compute(medulla_sigma(&s), s.g, &set);
+        let shapes = MedullaShapes::compute(medulla_sigma(&s, SigmaScaling::KappaHalf), s.g, &set);
         far_field(&s, ti_deg.to_radians(), &shapes, &set)
     }
 
@@ -654,7 +698,8 @@ mod tests {
         let set = settings();
         let mut thin = sample("raccoon");
         thin.kappa = 0.05;
-        let shapes = MedullaShapes::compute(medulla_sigma(&thin), thin.g, &set);
+        let shapes =
+            MedullaShapes::compute(medulla_sigma(&thin, SigmaScaling::KappaHalf), thin.g, &set);
         for ti in [0.0f64, -40.0] {
             let rac = profile("raccoon", ti);
             let near = |_: f64, p: f64| p.abs() > 170f64.to_radians();
@@ -683,10 +728,37 @@ mod tests {
                 .max_by(|&a, &b| col[a].total_cmp(&col[b]))
                 .unwrap();
             let peak = ff.theta_r(imax).to_degrees();
-            assert!((peak - 40.0).abs() < 15.0, "{name}: forward scattered peak at {peak}");
+            assert!(
+                (peak - 40.0).abs() < 15.0,
+                "{name}: forward scattered peak at {peak}"
+            );
             let fwd = ff.energy_where(4, |_, p| p.abs() > FRAC_PI_2);
             let tot = ff.energy(4);
             assert!(fwd > 0.3 * tot && fwd < 0.9 * tot, "{name}: {fwd} of {tot}");
         }
+    }
+
+    /// The cat's forward unscattered light is the through-medulla TttT lobe, whose strength is
+    /// set by the σ mapping (digest §9 item 1): under the thesis's σ_ms/κ lookup it nearly
+    /// vanishes (the measured "no TT"), under σ_ms·κ/2 it stays comparable to the raccoon's
+    /// forward unscattered light. Forward window |φ| > 150°, θ_i = −40°.
+    #[test]
+    fn cat_forward_lobe_depends_on_the_sigma_mapping() {
+        let fwd = |name: &str, scaling: SigmaScaling| {
+            let s = sample(name);
+            let set = FarFieldSettings {
+                sigma_scaling: scaling,
+                ..settings()
+            };
+            let shapes = MedullaShapes::compute(medulla_sigma(&s, scaling), s.g, &set);
+            let ff = far_field(&s, (-40f64).to_radians(), &shapes, &set);
+            let w = |_: f64, p: f64| p.abs() > 150f64.to_radians();
+            ff.energy_where(1, w) + ff.energy_where(3, w)
+        };
+        let rac = fwd("raccoon", SigmaScaling::KappaHalf);
+        let cat_half = fwd("cat", SigmaScaling::KappaHalf);
+        let cat_thesis = fwd("cat", SigmaScaling::ThesisOverKappa);
+        assert!(cat_half > 0.4 * rac, "{cat_half} vs raccoon {rac}");
+        assert!(cat_thesis < 0.1 * rac, "{cat_thesis} vs raccoon {rac}");
     }
 }

@@ -8,7 +8,7 @@
 //! (rad⁻²) per unit intercepted incident power. One task per sample.
 
 use super::farfield::{
-    COMPONENTS, FarFieldSettings, FurSample, MedullaShapes, TABLE_4_2, far_field,
+    COMPONENTS, FarFieldSettings, FurSample, MedullaShapes, SigmaScaling, TABLE_4_2, far_field,
     isotropic_fraction, medulla_sigma,
 };
 use crate::stage::{Job, ParamDoc, PlanError, Stage, TaskSpec, parse_params};
@@ -37,6 +37,8 @@ struct Params {
     photons: u64,
     #[serde(default)]
     seed: u64,
+    #[serde(default)]
+    medulla_sigma_scaling: SigmaScaling,
 }
 
 fn default_samples() -> Vec<String> {
@@ -113,6 +115,12 @@ const PARAMS: &[ParamDoc] = &[
         default: "0",
         description: "random seed of the medulla profiles",
     },
+    ParamDoc {
+        name: "medulla_sigma_scaling",
+        kind: "string",
+        default: "kappa_half",
+        description: "σ_ms → table σ per medulla radius: kappa_half (σκ/2, σ per diameter), kappa (σκ), thesis_over_kappa (σ/κ)",
+    },
 ];
 
 /// The `fur-farfield` stage.
@@ -145,8 +153,7 @@ impl Stage for FurFarFieldStage {
             return Err(PlanError::invalid("samples", "empty"));
         }
         if p.theta_i_deg.is_empty()
-            || p
-                .theta_i_deg
+            || p.theta_i_deg
                 .iter()
                 .any(|t| !(t.abs() < 89.0) || !t.is_finite())
         {
@@ -198,6 +205,7 @@ impl FarFieldJob {
             medulla_bins: self.p.medulla_bins,
             photons: self.p.photons,
             seed: self.p.seed,
+            sigma_scaling: self.p.medulla_sigma_scaling,
         }
     }
     fn chunk_len(&self) -> usize {
@@ -223,7 +231,8 @@ impl Job for FarFieldJob {
     fn run_task(&self, index: usize) -> anyhow::Result<Vec<f32>> {
         let s = &self.samples[index];
         let set = self.settings();
-        let shapes = MedullaShapes::compute(medulla_sigma(s), s.g, &set);
+        let shapes =
+            MedullaShapes::compute(medulla_sigma(s, self.p.medulla_sigma_scaling), s.g, &set);
         let mut out = Vec::with_capacity(self.chunk_len());
         for &ti in &self.p.theta_i_deg {
             let ff = far_field(s, ti.to_radians(), &shapes, &set);
@@ -269,7 +278,7 @@ impl Job for FarFieldJob {
         a.insert("model".into(), "practical shading model of Tseng 2015 ch. 5 / App. A (coaxial cylinder): unscattered Gaussian lobes of R, TT, TRT, TrT, TttT, TtrtT, TrRrT, TttRttT (chief-ray exit azimuths, Stokes-pile cuticle Fresnel, medulla-interface Fresnel, cortex absorption, medulla extinction) plus medulla-scattered lobes of the TttT, TtrtT and TttRttT chords shaped by 2-D medulla Monte Carlo profiles (C^N, C^M) computed on the fly, averaged over the fibre width (h uniform on (-1, 1)). Decisions: docs/fur.md, far-field section".into());
         a.insert("value_convention".into(), "every channel is the exiting energy per unit theta_r per unit phi (1/rad^2) per unit incident power intercepted by the fibre, AVERAGED over the cell (lobes integrated analytically over the cell, medulla bins split linearly between phi cells): sum over cells of value * dtheta_r * dphi = energy carried. Longitudinal lobes are normalised with int M dtheta_r = 1 (no cos weight). The thesis BCSDF S of Eq. 5.1 is sum_p M_p N_p / cos^2 theta_i with N_p the per-h azimuthal energy density; this table holds the h-average of sum_p M_p N_p, i.e. cos^2 theta_i * S averaged over h".into());
         a.insert("angle_convention".into(), "theta from the fibre's normal plane, root at +90 deg (thesis convention, theta flipped w.r.t. Marschner 2003; the specular cone is theta_r = -theta_i); phi = phi_r - phi_i, 0 = back towards the light, +/-180 = forward; theta_r cells over [-90, 90], phi cells over [-180, 180), axis coordinates are cell centres".into());
-        a.insert("units_convention".into(), "Table 4.2 sigma_ca and sigma_ms are per fibre DIAMETER; internally fibre radius 1: cortex coefficient sigma_ca/2 per radius, medulla table coefficient sigma_ms*kappa/2 per unit medulla radius (the fur-medulla tables' convention); both divided by cos theta_t (longitudinal refraction into cortex / medulla) for the azimuthal projection".into());
+        a.insert("units_convention".into(), format!("Table 4.2 sigma_ca is per fibre DIAMETER; internally fibre radius 1: cortex coefficient sigma_ca/2 per radius. Medulla table coefficient per unit medulla radius: medulla_sigma_scaling = {:?} (KappaHalf: sigma_ms*kappa/2, sigma_ms per diameter, the fur-medulla tables' convention; Kappa: sigma_ms*kappa; ThesisOverKappa: sigma_ms/kappa as printed in Eq. 5.10). Both coefficients divided by cos theta_t (longitudinal refraction into cortex / medulla) for the azimuthal projection", self.p.medulla_sigma_scaling).into());
         a.insert("components".into(), "energy = r + tt + trt + medulla_paths + scattered; r, tt, trt: classic unscattered lobes (tt and trt only where the chief ray misses the medulla, |h| >= kappa*eta_c'); medulla_paths: unscattered TrT, TttT, TtrtT, TrRrT, TttRttT; scattered: medulla-scattered light (App. A mix with the isotropic fraction lambda)".into());
         a.insert("medulla_profiles".into(), format!("azimuthal C^N rows h' = j/{} (j = 0..{}), mirrored for h' < 0, linear in |h'|, normalised to unit sum (energy from the analytic 1 - exp(-sigma chord)); longitudinal C^M per theta_i at theta'_i = asin(sin theta_i / eta_m); expected-value estimator, {} photons, {} bins, seed {}", self.p.medulla_rows - 1, self.p.medulla_rows - 1, self.p.photons, self.p.medulla_bins, self.p.seed).into());
         a.insert("omitted".into(), "paths beyond the eight listed (e.g. TRRT) are omitted as in the thesis; for a lossless fibre without medulla they carry 1/2 int F^2 (1 - F) dh of the energy (tested)".into());
@@ -282,14 +291,20 @@ impl Job for FarFieldJob {
                     "alpha_deg": s.alpha_deg, "beta_deg": s.beta_deg,
                     "sigma_ca_per_diameter": s.sigma_ca, "sigma_ms_per_diameter": s.sigma_ms,
                     "g": s.g, "layers": s.layers,
-                    "medulla_sigma_per_medulla_radius": medulla_sigma(s),
+                    "medulla_sigma_per_medulla_radius": medulla_sigma(s, self.p.medulla_sigma_scaling),
                     "isotropic_fraction_lambda": isotropic_fraction(s),
                 })
             })
             .collect();
         a.insert("samples".into(), samples.into());
-        a.insert("samples_source".into(), "Tseng 2015, Table 4.2 (fitted parameters)".into());
-        a.insert("energy_layout".into(), "flat row-major over (sample, theta_i, channel) of sum value * cell area".into());
+        a.insert(
+            "samples_source".into(),
+            "Tseng 2015, Table 4.2 (fitted parameters)".into(),
+        );
+        a.insert(
+            "energy_layout".into(),
+            "flat row-major over (sample, theta_i, channel) of sum value * cell area".into(),
+        );
         a.insert(
             "energy".into(),
             energies.into_iter().flatten().collect::<Vec<f64>>().into(),
