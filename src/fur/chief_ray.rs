@@ -1,6 +1,6 @@
 //! Chief-ray geometry of the coaxial (double) cylinder in the azimuthal cross-section
 //! (Tseng 2015 §5, digest §4.2–4.3): exit azimuths Φ_p(h) and chord lengths of the unscattered
-//! paths. A building block of the far-field fur profiles (which are not implemented yet).
+//! paths. A building block of the far-field fur profiles ([`super::farfield`]).
 //!
 //! Fiber radius 1, medulla radius `kappa`, cortex index `eta_c`, medulla index `eta_m`, ray
 //! moving along +x hitting at signed offset `h` ∈ (−1, 1). Angles in radians. Φ follows

@@ -5,10 +5,14 @@
 //!   index-matched boundary) for the azimuthal C^N and longitudinal C^M families, with a
 //!   next-event (expected-value) estimator and a plain histogram estimator.
 //! - [`stage`]: the `fur-medulla-azimuthal` and `fur-medulla-longitudinal` stages.
+//! - [`farfield`], [`farfield_stage`]: far-field profiles of the practical shading model for the
+//!   Table 4.2 samples (stage `fur-farfield`).
 //! - [`tt`]: tensor-train (TT-SVD) compression and reconstruction of a table channel.
 
 pub mod chief_ray;
 pub mod cli;
+pub mod farfield;
+pub mod farfield_stage;
 pub mod medulla;
 pub mod rng;
 pub mod stage;

@@ -16,6 +16,7 @@ pub fn registry() -> Vec<Box<dyn Stage>> {
         Box::new(crate::fur::stage::FurMedullaAzimuthalStage),
         Box::new(crate::fur::stage::FurMedullaLongitudinalStage),
         Box::new(crate::raytrace::stage::RaytraceStage),
+        Box::new(crate::fur::farfield_stage::FurFarFieldStage),
     ]
 }
 

@@ -1,0 +1,389 @@
+//! Stage `fur-farfield` (schema `fur-farfield/1`): far-field profiles of the practical fur
+//! shading model ([`super::farfield`]) for the fitted samples of Tseng 2015 Table 4.2.
+//!
+//! Axes (row-major, channel innermost): `sample` (index into the attribute `samples`) ×
+//! `theta_i` (deg) × `theta_r` (deg, cell centres over [−90, 90]) × `phi` (deg, cell centres over
+//! [−180, 180)). Channels: `energy` (total) and its components `r`, `tt`, `trt`,
+//! `medulla_paths`, `scattered`, each the cell-averaged exiting energy per unit θ_r per unit φ
+//! (rad⁻²) per unit intercepted incident power. One task per sample.
+
+use super::farfield::{
+    COMPONENTS, FarFieldSettings, FurSample, MedullaShapes, SigmaScaling, TABLE_4_2, far_field,
+    isotropic_fraction, medulla_sigma,
+};
+use crate::stage::{Job, ParamDoc, PlanError, Stage, TaskSpec, parse_params};
+use crate::table::{Axis, Channel, Schema, TableContent};
+use serde::{Deserialize, Serialize};
+use serde_json::json;
+
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Params {
+    /// Sample names from Table 4.2 (default: all ten, in the thesis's column order).
+    #[serde(default = "default_samples")]
+    samples: Vec<String>,
+    /// Incidence inclinations θ_i (deg), |θ_i| < 90.
+    theta_i_deg: Vec<f64>,
+    #[serde(default = "default_theta_r_cells")]
+    theta_r_cells: usize,
+    #[serde(default = "default_phi_cells")]
+    phi_cells: usize,
+    #[serde(default = "default_h_samples")]
+    h_samples: usize,
+    #[serde(default = "default_medulla_rows")]
+    medulla_rows: usize,
+    #[serde(default = "default_medulla_bins")]
+    medulla_bins: usize,
+    photons: u64,
+    #[serde(default)]
+    seed: u64,
+    #[serde(default)]
+    medulla_sigma_scaling: SigmaScaling,
+}
+
+fn default_samples() -> Vec<String> {
+    TABLE_4_2.iter().map(|s| s.name.to_string()).collect()
+}
+fn default_theta_r_cells() -> usize {
+    90
+}
+fn default_phi_cells() -> usize {
+    180
+}
+fn default_h_samples() -> usize {
+    400
+}
+fn default_medulla_rows() -> usize {
+    17
+}
+fn default_medulla_bins() -> usize {
+    360
+}
+
+const PARAMS: &[ParamDoc] = &[
+    ParamDoc {
+        name: "samples",
+        kind: "list of string",
+        default: "all ten of Table 4.2",
+        description: "bobcat, cat, deer, dog, mouse, rabbit, raccoon, red_fox, springbok, human",
+    },
+    ParamDoc {
+        name: "theta_i_deg",
+        kind: "list of float",
+        default: "required",
+        description: "incidence inclinations from the fibre's normal plane, |θ_i| < 90",
+    },
+    ParamDoc {
+        name: "theta_r_cells",
+        kind: "integer",
+        default: "90",
+        description: "θ_r cells over [−90, 90] deg",
+    },
+    ParamDoc {
+        name: "phi_cells",
+        kind: "integer",
+        default: "180",
+        description: "φ cells over [−180, 180) deg (even)",
+    },
+    ParamDoc {
+        name: "h_samples",
+        kind: "integer",
+        default: "400",
+        description: "offsets across the fibre width (midpoint rule in asin h)",
+    },
+    ParamDoc {
+        name: "medulla_rows",
+        kind: "integer",
+        default: "17",
+        description: "rows h' ∈ [0, 1] of the on-the-fly azimuthal medulla profiles",
+    },
+    ParamDoc {
+        name: "medulla_bins",
+        kind: "integer",
+        default: "360",
+        description: "exit bins of the medulla profiles (multiple of 4)",
+    },
+    ParamDoc {
+        name: "photons",
+        kind: "integer",
+        default: "required",
+        description: "Monte Carlo photons per medulla profile (expected-value estimator)",
+    },
+    ParamDoc {
+        name: "seed",
+        kind: "integer",
+        default: "0",
+        description: "random seed of the medulla profiles",
+    },
+    ParamDoc {
+        name: "medulla_sigma_scaling",
+        kind: "string",
+        default: "kappa_half",
+        description: "σ_ms → table σ per medulla radius: kappa_half (σκ/2, σ per diameter), kappa (σκ), thesis_over_kappa (σ/κ)",
+    },
+];
+
+/// The `fur-farfield` stage.
+pub struct FurFarFieldStage;
+
+impl Stage for FurFarFieldStage {
+    fn name(&self) -> &'static str {
+        "fur-farfield"
+    }
+    fn algorithm_version(&self) -> u32 {
+        1
+    }
+    fn summary(&self) -> &'static str {
+        "far-field fur profiles S(θ_r, φ; θ_i) of the practical coaxial-cylinder model for Tseng 2015 Table 4.2"
+    }
+    fn parameters(&self) -> &'static [ParamDoc] {
+        PARAMS
+    }
+    fn plan(&self, params: toml::de::ValueDeserializer<'_>) -> Result<Box<dyn Job>, PlanError> {
+        let p: Params = parse_params(params)?;
+        let mut samples = Vec::new();
+        for n in &p.samples {
+            let s = TABLE_4_2
+                .iter()
+                .find(|s| s.name == n)
+                .ok_or_else(|| PlanError::invalid("samples", format!("unknown sample `{n}`")))?;
+            samples.push(*s);
+        }
+        if samples.is_empty() {
+            return Err(PlanError::invalid("samples", "empty"));
+        }
+        if p.theta_i_deg.is_empty()
+            || p.theta_i_deg
+                .iter()
+                .any(|t| !(t.abs() < 89.0) || !t.is_finite())
+        {
+            return Err(PlanError::invalid(
+                "theta_i_deg",
+                "need a non-empty list with |θ_i| < 89",
+            ));
+        }
+        if p.theta_i_deg.windows(2).any(|w| w[1] <= w[0]) {
+            return Err(PlanError::invalid("theta_i_deg", "must be increasing"));
+        }
+        if !(6..=1800).contains(&p.theta_r_cells) {
+            return Err(PlanError::invalid("theta_r_cells", "must be in 6..=1800"));
+        }
+        if !(8..=3600).contains(&p.phi_cells) || !p.phi_cells.is_multiple_of(2) {
+            return Err(PlanError::invalid("phi_cells", "must be even, 8..=3600"));
+        }
+        if !(16..=100_000).contains(&p.h_samples) {
+            return Err(PlanError::invalid("h_samples", "must be in 16..=100000"));
+        }
+        if !(2..=1000).contains(&p.medulla_rows) {
+            return Err(PlanError::invalid("medulla_rows", "must be in 2..=1000"));
+        }
+        if !(8..=36_000).contains(&p.medulla_bins) || !p.medulla_bins.is_multiple_of(4) {
+            return Err(PlanError::invalid(
+                "medulla_bins",
+                "must be a multiple of 4 in 8..=36000",
+            ));
+        }
+        if p.photons == 0 || p.photons > 100_000_000 {
+            return Err(PlanError::invalid("photons", "must be in 1..=1e8"));
+        }
+        Ok(Box::new(FarFieldJob { p, samples }))
+    }
+}
+
+struct FarFieldJob {
+    p: Params,
+    samples: Vec<FurSample>,
+}
+
+impl FarFieldJob {
+    fn settings(&self) -> FarFieldSettings {
+        FarFieldSettings {
+            theta_r_cells: self.p.theta_r_cells,
+            phi_cells: self.p.phi_cells,
+            h_samples: self.p.h_samples,
+            medulla_rows: self.p.medulla_rows,
+            medulla_bins: self.p.medulla_bins,
+            photons: self.p.photons,
+            seed: self.p.seed,
+            sigma_scaling: self.p.medulla_sigma_scaling,
+        }
+    }
+    fn chunk_len(&self) -> usize {
+        self.p.theta_i_deg.len() * self.p.theta_r_cells * self.p.phi_cells * CHANNELS
+    }
+}
+
+const CHANNELS: usize = 1 + COMPONENTS.len();
+
+impl Job for FarFieldJob {
+    fn parameters(&self) -> serde_json::Value {
+        serde_json::to_value(&self.p).expect("params serialise")
+    }
+    fn tasks(&self) -> Vec<TaskSpec> {
+        self.samples
+            .iter()
+            .map(|s| TaskSpec {
+                label: s.name.to_string(),
+                params: json!({ "sample": s.name }),
+            })
+            .collect()
+    }
+    fn run_task(&self, index: usize) -> anyhow::Result<Vec<f32>> {
+        let s = &self.samples[index];
+        let set = self.settings();
+        let shapes =
+            MedullaShapes::compute(medulla_sigma(s, self.p.medulla_sigma_scaling), s.g, &set);
+        let mut out = Vec::with_capacity(self.chunk_len());
+        for &ti in &self.p.theta_i_deg {
+            let ff = far_field(s, ti.to_radians(), &shapes, &set);
+            for i in 0..set.theta_r_cells {
+                for j in 0..set.phi_cells {
+                    let k = i * set.phi_cells + j;
+                    out.push(ff.total(i, j) as f32);
+                    for c in &ff.components {
+                        out.push(c[k] as f32);
+                    }
+                }
+            }
+        }
+        Ok(out)
+    }
+    fn assemble(&self, chunks: Vec<Vec<f32>>) -> anyhow::Result<TableContent> {
+        let n = self.chunk_len();
+        let mut data = Vec::with_capacity(n * chunks.len());
+        let (nt, np) = (self.p.theta_r_cells, self.p.phi_cells);
+        let area = (180.0 / nt as f64).to_radians() * (360.0 / np as f64).to_radians();
+        // Energy per (sample, θ_i) and component, from the stored (f32) values.
+        let mut energies = Vec::new();
+        for ch in &chunks {
+            anyhow::ensure!(ch.len() == n, "chunk of length {} (expected {n})", ch.len());
+            data.extend_from_slice(ch);
+            for ti in 0..self.p.theta_i_deg.len() {
+                let block = &ch[ti * nt * np * CHANNELS..(ti + 1) * nt * np * CHANNELS];
+                let e: Vec<f64> = (0..CHANNELS)
+                    .map(|c| {
+                        block
+                            .iter()
+                            .skip(c)
+                            .step_by(CHANNELS)
+                            .map(|&v| v as f64)
+                            .sum::<f64>()
+                            * area
+                    })
+                    .collect();
+                energies.push(e);
+            }
+        }
+        let mut a = serde_json::Map::new();
+        a.insert("model".into(), "practical shading model of Tseng 2015 ch. 5 / App. A (coaxial cylinder): unscattered Gaussian lobes of R, TT, TRT, TrT, TttT, TtrtT, TrRrT, TttRttT (chief-ray exit azimuths, Stokes-pile cuticle Fresnel, medulla-interface Fresnel, cortex absorption, medulla extinction) plus medulla-scattered lobes of the TttT, TtrtT and TttRttT chords shaped by 2-D medulla Monte Carlo profiles (C^N, C^M) computed on the fly, averaged over the fibre width (h uniform on (-1, 1)). Decisions: docs/fur.md, far-field section".into());
+        a.insert("value_convention".into(), "every channel is the exiting energy per unit theta_r per unit phi (1/rad^2) per unit incident power intercepted by the fibre, AVERAGED over the cell (lobes integrated analytically over the cell, medulla bins split linearly between phi cells): sum over cells of value * dtheta_r * dphi = energy carried. Longitudinal lobes are normalised with int M dtheta_r = 1 (no cos weight). The thesis BCSDF S of Eq. 5.1 is sum_p M_p N_p / cos^2 theta_i with N_p the per-h azimuthal energy density; this table holds the h-average of sum_p M_p N_p, i.e. cos^2 theta_i * S averaged over h".into());
+        a.insert("angle_convention".into(), "theta from the fibre's normal plane, root at +90 deg (thesis convention, theta flipped w.r.t. Marschner 2003; the specular cone is theta_r = -theta_i); phi = phi_r - phi_i, 0 = back towards the light, +/-180 = forward; theta_r cells over [-90, 90], phi cells over [-180, 180), axis coordinates are cell centres".into());
+        a.insert("units_convention".into(), format!("Table 4.2 sigma_ca is per fibre DIAMETER; internally fibre radius 1: cortex coefficient sigma_ca/2 per radius. Medulla table coefficient per unit medulla radius: medulla_sigma_scaling = {:?} (KappaHalf: sigma_ms*kappa/2, sigma_ms per diameter, the fur-medulla tables' convention; Kappa: sigma_ms*kappa; ThesisOverKappa: sigma_ms/kappa as printed in Eq. 5.10). Both coefficients divided by cos theta_t (longitudinal refraction into cortex / medulla) for the azimuthal projection", self.p.medulla_sigma_scaling).into());
+        a.insert("components".into(), "energy = r + tt + trt + medulla_paths + scattered; r, tt, trt: classic unscattered lobes (tt and trt only where the chief ray misses the medulla, |h| >= kappa*eta_c'); medulla_paths: unscattered TrT, TttT, TtrtT, TrRrT, TttRttT; scattered: medulla-scattered light (App. A mix with the isotropic fraction lambda)".into());
+        a.insert("medulla_profiles".into(), format!("azimuthal C^N rows h' = j/{} (j = 0..{}), mirrored for h' < 0, linear in |h'|, normalised to unit sum (energy from the analytic 1 - exp(-sigma chord)); longitudinal C^M per theta_i at theta'_i = asin(sin theta_i / eta_m); expected-value estimator, {} photons, {} bins, seed {}", self.p.medulla_rows - 1, self.p.medulla_rows - 1, self.p.photons, self.p.medulla_bins, self.p.seed).into());
+        a.insert("omitted".into(), "paths beyond the eight listed (e.g. TRRT) are omitted as in the thesis; for a lossless fibre without medulla they carry 1/2 int F^2 (1 - F) dh of the energy (tested)".into());
+        let samples: Vec<serde_json::Value> = self
+            .samples
+            .iter()
+            .map(|s| {
+                json!({
+                    "name": s.name, "kappa": s.kappa, "eta_c": s.eta_c, "eta_m": s.eta_m,
+                    "alpha_deg": s.alpha_deg, "beta_deg": s.beta_deg,
+                    "sigma_ca_per_diameter": s.sigma_ca, "sigma_ms_per_diameter": s.sigma_ms,
+                    "g": s.g, "layers": s.layers,
+                    "medulla_sigma_per_medulla_radius": medulla_sigma(s, self.p.medulla_sigma_scaling),
+                    "isotropic_fraction_lambda": isotropic_fraction(s),
+                })
+            })
+            .collect();
+        a.insert("samples".into(), samples.into());
+        a.insert(
+            "samples_source".into(),
+            "Tseng 2015, Table 4.2 (fitted parameters)".into(),
+        );
+        a.insert(
+            "energy_layout".into(),
+            "flat row-major over (sample, theta_i, channel) of sum value * cell area".into(),
+        );
+        a.insert(
+            "energy".into(),
+            energies.into_iter().flatten().collect::<Vec<f64>>().into(),
+        );
+        let dt = 180.0 / nt as f64;
+        let dp = 360.0 / np as f64;
+        let mut channels = vec![Channel::new(
+            "energy",
+            "1/rad^2",
+            "total exiting energy density per unit theta_r per unit phi",
+        )];
+        for c in COMPONENTS {
+            channels.push(Channel::new(c, "1/rad^2", "component of energy"));
+        }
+        Ok(TableContent {
+            schema: Schema::new("fur-farfield", 1),
+            description: "far-field fur scattering profiles of Tseng 2015 Table 4.2 samples (practical coaxial-cylinder model)".into(),
+            axes: vec![
+                Axis::values(
+                    "sample",
+                    "index",
+                    (0..self.samples.len()).map(|i| i as f64).collect(),
+                ),
+                Axis::values("theta_i", "deg", self.p.theta_i_deg.clone()),
+                Axis::uniform("theta_r", "deg", -90.0 + 0.5 * dt, dt, nt),
+                Axis::uniform("phi", "deg", -180.0 + 0.5 * dp, dp, np),
+            ],
+            channels,
+            attributes: a,
+            data,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn plan_str(s: &str) -> Result<Box<dyn Job>, PlanError> {
+        FurFarFieldStage.plan(toml::de::ValueDeserializer::parse(s).unwrap())
+    }
+
+    #[test]
+    fn small_table_is_consistent() {
+        let job = plan_str(
+            "{ samples = [\"cat\", \"raccoon\"], theta_i_deg = [-40.0, 0.0], theta_r_cells = 30, phi_cells = 60, h_samples = 100, medulla_rows = 5, medulla_bins = 120, photons = 60, seed = 3 }",
+        )
+        .unwrap();
+        assert_eq!(job.tasks().len(), 2);
+        let chunks: Vec<Vec<f32>> = (0..2).map(|i| job.run_task(i).unwrap()).collect();
+        let t = job.assemble(chunks).unwrap();
+        assert_eq!(t.data.len(), t.expected_len());
+        // energy channel = sum of components, everything non-negative.
+        for row in t.data.chunks(CHANNELS) {
+            let s: f32 = row[1..].iter().sum();
+            assert!((row[0] - s).abs() <= 1e-5 * row[0].abs().max(1e-3));
+            assert!(row.iter().all(|v| *v >= 0.0));
+        }
+        // Cat (κη_m ≥ 1): the tt and trt channels are identically zero.
+        let e = t.attributes["energy"].as_array().unwrap();
+        let e: Vec<f64> = e.iter().map(|v| v.as_f64().unwrap()).collect();
+        for ti in 0..2 {
+            let cat = &e[ti * CHANNELS..(ti + 1) * CHANNELS];
+            assert_eq!(cat[2], 0.0);
+            assert_eq!(cat[3], 0.0);
+            let rac = &e[(2 + ti) * CHANNELS..(3 + ti) * CHANNELS];
+            assert!(rac[2] > 1e-3, "raccoon tt {}", rac[2]);
+            // Absorbing fibre: less than the incident energy, but a sizeable part of it.
+            assert!(cat[0] < 1.0 && cat[0] > 0.2, "{}", cat[0]);
+        }
+    }
+
+    #[test]
+    fn rejects_bad_params() {
+        assert!(plan_str("{ theta_i_deg = [0.0], photons = 10, samples = [\"yeti\"] }").is_err());
+        assert!(plan_str("{ theta_i_deg = [90.0], photons = 10 }").is_err());
+        assert!(plan_str("{ theta_i_deg = [0.0], photons = 0 }").is_err());
+        assert!(plan_str("{ theta_i_deg = [0.0], photons = 10, phi_cells = 7 }").is_err());
+        assert!(plan_str("{ theta_i_deg = [0.0], photons = 10, bogus = 1 }").is_err());
+        assert!(plan_str("{ theta_i_deg = [0.0], photons = 10 }").is_ok());
+    }
+}
