@@ -1,4 +1,4 @@
-//! The default manifest `manifests/raytrace.toml` plans, runs and assembles into tables that
+//! The default manifest `manifests/rainbow-raytraced.toml` plans, runs and assembles into tables that
 //! satisfy the phase-function contract. Timing (2 threads, as on the CI machine):
 //! `cargo test --release --test raytrace_manifest -- --ignored --nocapture`.
 
@@ -32,8 +32,8 @@ fn plan_all(path: &str) -> Vec<(String, Box<dyn scatterbake::stage::Job>)> {
 
 #[test]
 fn default_and_full_manifests_plan() {
-    assert_eq!(plan_all("manifests/raytrace.toml").len(), 4);
-    let full = plan_all("manifests/full/raytrace-full.toml");
+    assert_eq!(plan_all("manifests/rainbow-raytraced.toml").len(), 4);
+    let full = plan_all("manifests/full/rainbow-raytraced-full.toml");
     assert_eq!(full.len(), 4);
     assert_eq!(full[1].1.tasks().len(), 33 * 4);
 }
@@ -47,7 +47,7 @@ fn build_default_manifest_two_threads() {
         .unwrap();
     pool.install(|| {
         let t0 = std::time::Instant::now();
-        for (name, job) in plan_all("manifests/raytrace.toml") {
+        for (name, job) in plan_all("manifests/rainbow-raytraced.toml") {
             let t = std::time::Instant::now();
             let n = job.tasks().len();
             let chunks: Vec<Vec<f32>> = (0..n).map(|i| job.run_task(i).unwrap()).collect();
