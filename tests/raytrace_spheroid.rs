@@ -92,9 +92,10 @@ fn traced_primary_max_deg(shape: &DropShape, n: f64) -> (f64, f64) {
         let sm: Vec<f64> = (0..v.len())
             .map(|i| {
                 let (mut s, mut w) = (0.0, 0.0);
-                for j in i.saturating_sub(8)..(i + 9).min(v.len()) {
+                let lo = i.saturating_sub(8);
+                for (j, vj) in v.iter().enumerate().take((i + 9).min(v.len())).skip(lo) {
                     let g = (-0.5 * ((j as f64 - i as f64) / 2.0).powi(2)).exp();
-                    s += g * v[j];
+                    s += g * vj;
                     w += g;
                 }
                 s / w
