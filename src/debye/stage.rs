@@ -17,6 +17,7 @@ use crate::mie::stage::FilterSettings;
 use crate::mie::{check_domain, size_parameter};
 use crate::optics::water::{SADEGHI_WAVELENGTHS_NM, WaterIndexModel};
 use crate::stage::{Job, ParamDoc, PlanError, Stage, TaskSpec, checks, parse_params};
+use crate::table::phase_contract;
 use crate::table::{Axis, Channel, Schema, TableContent};
 use num_complex::Complex64;
 use serde::{Deserialize, Serialize};
@@ -338,21 +339,12 @@ impl Job for DebyeJob {
         }
         let mut a = serde_json::Map::new();
         let s = |v: &str| serde_json::Value::from(v);
-        a.insert("normalization".into(), s("integral over 4pi sr equals 1 for the full sphere: every channel (the sum of the chosen orders and each order alone) is divided by the full Mie pi x^2 Q_sca, so a subset of orders integrates to its energy share"));
-        a.insert(
-            "angle_convention".into(),
-            s("scattering angle, 0 deg forward"),
-        );
-        a.insert("water_index_model".into(), s(self.model.name()));
-        if let WaterIndexModel::Iapws1997 { temperature_c } = self.model {
-            a.insert("temperature_c".into(), temperature_c.into());
-        }
+        a.extend(phase_contract::attributes(
+            "integral over 4pi sr equals 1 for the full sphere: every channel (the sum of the chosen orders and each order alone) is divided by the full Mie pi x^2 Q_sca, so a subset of orders integrates to its energy share",
+            &self.model,
+            self.p.sun_diameter_deg,
+        ));
         a.insert("refractive_index_real".into(), self.indices.clone().into());
-        a.insert("medium".into(), s("water drops in air (outside index 1.0)"));
-        a.insert(
-            "sun_disc_diameter_deg".into(),
-            self.p.sun_diameter_deg.into(),
-        );
         a.insert(
             "sun_disc_model".into(),
             s("uniform disc (no limb darkening), exact 2-D average on the sphere"),
@@ -365,24 +357,9 @@ impl Job for DebyeJob {
         a.insert("q_sca".into(), serde_json::to_value(q_sca)?);
         a.insert("order_efficiency".into(), serde_json::to_value(q_orders)?);
         a.insert("scalar_layout".into(), s("q_sca: [wavelength][radius] (Mie); order_efficiency: [wavelength][radius][order] = (2/x^2) sum (2n+1)(|a_n^(p)|^2 + |b_n^(p)|^2), the efficiency of each order alone (p = 0 includes diffraction, about 1)"));
-        let mut channels = vec![
-            Channel::new(
-                "phase",
-                "1/sr",
-                "phase function of the coherent sum of the chosen orders, over the full Mie pi x^2 Q_sca",
-            ),
-            Channel::new(
-                "i_perp",
-                "1/sr",
-                "|S1|^2/(pi x^2 Q_sca) of the sum of the chosen orders",
-            ),
-            Channel::new(
-                "i_par",
-                "1/sr",
-                "|S2|^2/(pi x^2 Q_sca) of the sum of the chosen orders",
-            ),
-            Channel::new("dolp", "1", "(i_perp - i_par)/(i_perp + i_par)"),
-        ];
+        let mut channels = phase_contract::channels(
+            "of the coherent sum of the chosen orders, over the full Mie pi x^2 Q_sca",
+        );
         for &o in &self.p.orders {
             channels.push(Channel::new(
                 &format!("phase_p{o}"),

@@ -11,7 +11,8 @@ use super::filters::{
 use super::{Sphere, size_parameter};
 use crate::optics::water::{SADEGHI_WAVELENGTHS_NM, WaterIndexModel};
 use crate::stage::{Job, ParamDoc, PlanError, Stage, TaskSpec, checks, parse_params};
-use crate::table::{Axis, Channel, Schema, TableContent};
+use crate::table::phase_contract::{self, CHANNELS};
+use crate::table::{Axis, Schema, TableContent};
 use num_complex::Complex64;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -131,8 +132,6 @@ const PARAMS: &[ParamDoc] = &[
 
 /// Number of scalar values appended to each task chunk: Q_ext, Q_sca, Q_back, g.
 const TAIL: usize = 4;
-/// Channels of the table.
-pub const CHANNELS: [&str; 4] = ["phase", "i_perp", "i_par", "dolp"];
 
 /// The entries (second axis) of a job.
 #[derive(Debug, Clone)]
@@ -466,21 +465,12 @@ impl Job for MieJob {
         }
         let mut a = serde_json::Map::new();
         let s = |v: &str| serde_json::Value::from(v);
-        a.insert("normalization".into(), s("integral over 4pi sr equals 1"));
-        a.insert(
-            "angle_convention".into(),
-            s("scattering angle, 0 deg forward"),
-        );
-        a.insert("water_index_model".into(), s(self.model.name()));
-        if let WaterIndexModel::Iapws1997 { temperature_c } = self.model {
-            a.insert("temperature_c".into(), temperature_c.into());
-        }
+        a.extend(phase_contract::attributes(
+            "integral over 4pi sr equals 1",
+            &self.model,
+            self.p.sun_diameter_deg,
+        ));
         a.insert("refractive_index_real".into(), self.indices.clone().into());
-        a.insert("medium".into(), s("water drops in air (outside index 1.0)"));
-        a.insert(
-            "sun_disc_diameter_deg".into(),
-            self.p.sun_diameter_deg.into(),
-        );
         a.insert(
             "sun_disc_model".into(),
             s("uniform disc (no limb darkening), exact 2-D average on the sphere"),
@@ -509,24 +499,7 @@ impl Job for MieJob {
                 self.entry_axis(),
                 Axis::uniform("scattering_angle", "deg", 0.0, self.p.angle_step_deg, n_a),
             ],
-            channels: vec![
-                Channel::new(
-                    "phase",
-                    "1/sr",
-                    "unpolarised phase function, integral over 4pi = 1",
-                ),
-                Channel::new(
-                    "i_perp",
-                    "1/sr",
-                    "|S1|^2/(pi x^2 Q_sca), perpendicular to the scattering plane",
-                ),
-                Channel::new(
-                    "i_par",
-                    "1/sr",
-                    "|S2|^2/(pi x^2 Q_sca), parallel to the scattering plane",
-                ),
-                Channel::new("dolp", "1", "(i_perp - i_par)/(i_perp + i_par)"),
-            ],
+            channels: phase_contract::channels("over pi x^2 Q_sca"),
             attributes: a,
             data,
         })

@@ -24,6 +24,7 @@ use super::sphere1d::{DiffractionModel, Phase1dOptions, SphereGo, sphere_phase_1
 use super::tracer::{DirectionGrid, TraceConfig, trace_fields};
 use crate::optics::water::{SADEGHI_WAVELENGTHS_NM, WaterIndexModel};
 use crate::stage::{Job, ParamDoc, PlanError, Stage, TaskSpec, checks, parse_params};
+use crate::table::phase_contract;
 use crate::table::{Axis, Channel, Schema, TableContent};
 use serde::{Deserialize, Serialize};
 use std::f64::consts::PI;
@@ -585,23 +586,11 @@ impl Job for RaytraceJob {
         let channels = self.channels();
         let nch = channels.len();
         let mut at = serde_json::Map::new();
-        at.insert(
-            "normalization".into(),
-            "integral over 4pi sr equals 1".into(),
-        );
-        at.insert(
-            "angle_convention".into(),
-            "scattering angle, 0 deg forward".into(),
-        );
-        at.insert("water_index_model".into(), self.model.name().into());
-        if let WaterIndexModel::Iapws1997 { temperature_c } = self.model {
-            at.insert("water_temperature_c".into(), temperature_c.into());
-        }
-        at.insert(
-            "medium".into(),
-            "water drops in air (outside index 1.0)".into(),
-        );
-        at.insert("sun_disc_diameter_deg".into(), 0.0.into());
+        at.extend(phase_contract::attributes(
+            "integral over 4pi sr equals 1",
+            &self.model,
+            0.0,
+        ));
         at.insert("max_order".into(), self.p.max_order.into());
         at.insert("cross_section_normalization".into(), "p = (dσ/dΩ)/σ with σ = σ_GO (flux of the traced orders) + A (Fraunhofer forward lobe of the projected area A, added to i_perp and i_par as the exact bin average of a²J1(x sinθ)²/sin²θ)".into());
         at.insert("focal_line_rule".into(), "corrected rule of design digest §2.9: phase exp(i(k l − (π/2) f)), f = [dl/db > 0], b = u² + v²".into());
