@@ -233,6 +233,7 @@ struct TableState {
     planned: PlannedTable,
     key: String,
     task_keys: Vec<String>,
+    task_labels: Vec<String>,
     work_dir: PathBuf,
     remaining: AtomicUsize,
 }
@@ -275,19 +276,20 @@ pub fn build(opts: &BuildOptions) -> Result<BuildReport> {
             report.tables_up_to_date.push(t.name.clone());
             continue;
         }
-        let task_keys = t
-            .job
-            .tasks()
+        let tasks = t.job.tasks();
+        let task_keys = tasks
             .iter()
             .enumerate()
             .map(|(i, s)| task_key(&key, i, &s.params))
             .collect::<Vec<_>>();
+        let task_labels = tasks.into_iter().map(|s| s.label).collect();
         let work_dir = opts.out_dir.join(".work").join(&t.name);
         states.push(TableState {
             remaining: AtomicUsize::new(task_keys.len()),
             planned: t,
             key,
             task_keys,
+            task_labels,
             work_dir,
         });
     }
@@ -385,7 +387,7 @@ pub fn build(opts: &BuildOptions) -> Result<BuildReport> {
             });
         pending.par_iter().for_each(|&(ti, k)| {
             let s = &states[ti];
-            let label = s.planned.job.tasks()[k].label.clone();
+            let label = &s.task_labels[k];
             let result = s.planned.job.run_task(k).and_then(|values| {
                 write_checkpoint(
                     &s.work_dir.join(format!("{}.chunk", s.task_keys[k])),
