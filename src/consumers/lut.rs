@@ -64,6 +64,10 @@ pub struct LutArgs {
 /// Run the LUT export.
 pub fn run_lut(args: &LutArgs) -> anyhow::Result<()> {
     anyhow::ensure!(args.samples >= 2, "--samples must be at least 2");
+    anyhow::ensure!(
+        (0.0..=10.0).contains(&args.sun_diameter_deg),
+        "--sun-diameter-deg must be within 0…10°"
+    );
     let pt = PhaseTable::open(&args.table)?;
     let lut = rgb_lut(&pt, &args.entry, args.sun_diameter_deg, args.samples)?;
     match args.out.extension().and_then(|e| e.to_str()) {

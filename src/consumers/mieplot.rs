@@ -120,7 +120,7 @@ pub fn from_table(
         ..Default::default()
     };
     for &a in &angles {
-        let [p, s, q] = pt.sample_at(wavelength_nm, &e, a);
+        let [p, s, q] = pt.sample_at(wavelength_nm, &e, a)?;
         d.angle_deg.push(a);
         d.i_perp.push(s);
         d.i_par.push(q);
@@ -210,7 +210,7 @@ pub fn compare(
         .angle_deg
         .iter()
         .map(|&a| pt.sample_at(wavelength_nm, &e, a))
-        .collect();
+        .collect::<anyhow::Result<_>>()?;
     let scale = if rescale {
         let num: f64 = vals.iter().zip(&r.unpolarised).map(|(v, u)| v[0] * u).sum();
         let den: f64 = r.unpolarised.iter().map(|u| u * u).sum();

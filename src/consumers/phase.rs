@@ -26,6 +26,9 @@ impl std::str::FromStr for EntrySelection {
             .trim()
             .parse()
             .map_err(|e| format!("`{s}`: value is not a number ({e})"))?;
+        if !value.is_finite() {
+            return Err(format!("`{s}`: value must be a finite number"));
+        }
         Ok(EntrySelection {
             axis: name.trim().to_string(),
             value,
@@ -165,16 +168,13 @@ impl PhaseTable {
         wavelength_nm: f64,
         entry: &[(String, f64)],
         angle_deg: f64,
-    ) -> [f64; 3] {
+    ) -> anyhow::Result<[f64; 3]> {
         let mut coords = Vec::with_capacity(entry.len() + 2);
         coords.push(wavelength_nm);
         coords.extend(entry.iter().map(|e| e.1));
         coords.push(angle_deg);
-        let v = self
-            .table
-            .sample(&coords)
-            .expect("coordinates are finite and one per axis");
-        [v[self.ch_phase], v[self.ch_perp], v[self.ch_par]]
+        let v = self.table.sample(&coords)?;
+        Ok([v[self.ch_phase], v[self.ch_perp], v[self.ch_par]])
     }
 
     /// Curves of one entry at every table wavelength on the table's angle grid (grid values are
@@ -202,7 +202,7 @@ impl PhaseTable {
         for &wl in &wavelengths_nm {
             let (mut p, mut s, mut q) = (vec![], vec![], vec![]);
             for &a in &angles_deg {
-                let v = self.sample_at(wl, &entry, a);
+                let v = self.sample_at(wl, &entry, a)?;
                 p.push(v[0]);
                 s.push(v[1]);
                 q.push(v[2]);

@@ -453,6 +453,14 @@ pub fn run_render_rainbow(args: &RenderRainbowArgs) -> anyhow::Result<()> {
         args.fov_deg > 0.0 && (args.lens == Lens::Fisheye || args.fov_deg < 179.0),
         "fov must be positive (and below 179° for a rectilinear lens)"
     );
+    anyhow::ensure!(
+        (-90.0..=90.0).contains(&args.sun_elevation_deg),
+        "--sun-elevation-deg must be within −90…90°"
+    );
+    anyhow::ensure!(
+        (0.0..=10.0).contains(&args.sun_diameter_deg),
+        "--sun-diameter-deg must be within 0…10°"
+    );
     let pt = PhaseTable::open(&args.table)?;
     let camera = Camera {
         lens: args.lens,
