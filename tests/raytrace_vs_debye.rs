@@ -434,6 +434,55 @@ fn ray_orders_match_debye_terms() {
     }
 }
 
+/// Where the Airy channel's p = 3 error sits: relative L2 (Gauss σ_s, ⊥ and ∥, normalised by
+/// the Debye norm over the whole 115°–135° window) in sub-windows, 0.4 mm.
+#[test]
+#[ignore]
+fn report_p3_airy_error_by_region() {
+    let (a_mm, p) = (0.4, 3);
+    let n = water_n();
+    let a_um = a_mm * 1e3;
+    let x = 2.0 * PI * a_um / (LAMBDA_NM * 1e-3);
+    let d = DebyeCoefficients::new(x, Complex64::new(n, 0.0)).unwrap();
+    let go = SphereGo::new(a_um, LAMBDA_NM, n, 3);
+    let step = step_for(a_mm);
+    let angles = grid(114.0, 136.0, step);
+    let bow = bow_deg(p);
+    let sig = 0.016 / a_mm / step;
+    for pol in [Pol::Perp, Pol::Par] {
+        let deb = gauss(&debye_order(&d, p, &angles, pol), sig);
+        for uniform in [false, true] {
+            let ray = gauss(&go_order(&go, p, &angles, uniform, pol), sig);
+            let den: f64 = angles
+                .iter()
+                .zip(&deb)
+                .filter(|(t, _)| (115.0..=135.0).contains(*t))
+                .map(|(_, y)| y * y)
+                .sum();
+            let part = |lo: f64, hi: f64| -> f64 {
+                let num: f64 = angles
+                    .iter()
+                    .zip(&ray)
+                    .zip(&deb)
+                    .filter(|((t, _), _)| **t >= lo && **t < hi)
+                    .map(|((_, r), y)| (r - y).powi(2))
+                    .sum();
+                (num / den).sqrt()
+            };
+            println!(
+                "{pol:?} {}: 115–121 {:.4} | 121–{:.2} {:.4} | {:.2}–bow {:.4} | bow–135 (dark) {:.4}",
+                if uniform { "Airy" } else { "GO" },
+                part(115.0, 121.0),
+                bow - 2.0,
+                part(121.0, bow - 2.0),
+                bow - 2.0,
+                part(bow - 2.0, bow),
+                part(bow, 135.0)
+            );
+        }
+    }
+}
+
 /// Full table (1-D, all radii and orders; 2-D tracer at 0.4 mm, 400² and 800² rays).
 #[test]
 #[ignore]
