@@ -89,18 +89,7 @@ fn traced_primary_max_deg(shape: &DropShape, n: f64) -> (f64, f64) {
     let f = trace_fields(shape, &cfg, grid);
     let peak = |k: usize| {
         let v: Vec<f64> = (0..3601).map(|j| f.intensities(j, k).2[2]).collect();
-        let sm: Vec<f64> = (0..v.len())
-            .map(|i| {
-                let (mut s, mut w) = (0.0, 0.0);
-                let lo = i.saturating_sub(8);
-                for (j, vj) in v.iter().enumerate().take((i + 9).min(v.len())).skip(lo) {
-                    let g = (-0.5 * ((j as f64 - i as f64) / 2.0).powi(2)).exp();
-                    s += g * vj;
-                    w += g;
-                }
-                s / w
-            })
-            .collect();
+        let sm = scatterbake::mie::filters::gaussian_blur_1d(&v, 0.05, 0.1);
         (2600..3500)
             .max_by(|&a, &b| sm[a].total_cmp(&sm[b]))
             .map(|j| 0.05 * j as f64)

@@ -44,19 +44,8 @@ fn mie(a_um: f64, lambda_nm: f64, n: f64, angles_deg: &[f64]) -> (Vec<f64>, Vec<
 
 /// Gaussian smoothing on a uniform grid (σ in samples), renormalised at the ends.
 fn smooth(v: &[f64], sigma: f64) -> Vec<f64> {
-    let h = (4.0 * sigma).ceil() as i64;
-    (0..v.len() as i64)
-        .map(|i| {
-            let (mut s, mut w) = (0.0, 0.0);
-            for j in (i - h).max(0)..=(i + h).min(v.len() as i64 - 1) {
-                let d = (j - i) as f64 / sigma;
-                let g = (-0.5 * d * d).exp();
-                s += g * v[j as usize];
-                w += g;
-            }
-            s / w
-        })
-        .collect()
+    // σ in samples: the shared Gaussian filter with a unit step.
+    scatterbake::mie::filters::gaussian_blur_1d(v, 1.0, sigma)
 }
 
 /// Local maxima positions (deg) inside [lo, hi], sorted by angle.
