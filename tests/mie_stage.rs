@@ -25,7 +25,7 @@ fn plan_manifest(path: &str) -> Vec<Box<dyn Job>> {
 #[test]
 fn shipped_manifests_plan() {
     let jobs = plan_manifest("manifests/rainbow-mie.toml");
-    assert_eq!(jobs[0].tasks().len(), 33 * 4);
+    assert_eq!(jobs[0].tasks().len(), 33 * 11);
     let full = plan_manifest("manifests/full/rainbow-mie-full.toml");
     assert_eq!(full.len(), 2);
     assert_eq!(full[1].tasks().len(), 33 * 3);
