@@ -140,3 +140,17 @@ pub mod checks {
         Ok((model, indices))
     }
 }
+
+/// Test helper: plan `stage` from parameter lines written as TOML (`key = value` per line).
+#[cfg(test)]
+pub fn plan_from_lines(stage: &dyn Stage, toml_lines: &str) -> Result<Box<dyn Job>, PlanError> {
+    let inline = format!(
+        "{{ {} }}",
+        toml_lines
+            .lines()
+            .filter(|l| !l.trim().is_empty())
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
+    stage.plan(toml::de::ValueDeserializer::parse(&inline).expect("test TOML parses"))
+}

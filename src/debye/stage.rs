@@ -389,9 +389,8 @@ impl Job for DebyeJob {
 mod tests {
     use super::*;
 
-    fn plan(toml_text: &str) -> Result<Box<dyn Job>, PlanError> {
-        let inline = format!("{{ {} }}", toml_text.replace('\n', ", "));
-        DebyeStage.plan(toml::de::ValueDeserializer::parse(&inline).unwrap())
+    fn plan(toml_lines: &str) -> Result<Box<dyn Job>, PlanError> {
+        crate::stage::plan_from_lines(&DebyeStage, toml_lines)
     }
 
     #[test]

@@ -510,9 +510,8 @@ impl Job for MieJob {
 mod tests {
     use super::*;
 
-    fn plan(toml_text: &str) -> Result<Box<dyn Job>, PlanError> {
-        let inline = format!("{{ {} }}", toml_text.replace('\n', ", "));
-        MieStage.plan(toml::de::ValueDeserializer::parse(&inline).unwrap())
+    fn plan(toml_lines: &str) -> Result<Box<dyn Job>, PlanError> {
+        crate::stage::plan_from_lines(&MieStage, toml_lines)
     }
 
     #[test]

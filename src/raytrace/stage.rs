@@ -695,9 +695,8 @@ impl Job for RaytraceJob {
 mod tests {
     use super::*;
 
-    fn plan(toml_src: &str) -> Result<Box<dyn Job>, PlanError> {
-        let s = format!("{{ {} }}", toml_src.lines().collect::<Vec<_>>().join(", "));
-        RaytraceStage.plan(toml::de::ValueDeserializer::parse(&s).unwrap())
+    fn plan(toml_lines: &str) -> Result<Box<dyn Job>, PlanError> {
+        crate::stage::plan_from_lines(&RaytraceStage, toml_lines)
     }
 
     #[test]
