@@ -87,6 +87,19 @@ pub trait Stage: Send + Sync {
 }
 
 /// Shared parameter checks, so every stage words and enforces them the same way.
+/// Split an f64 into an f32 pair `[hi, lo]` with `hi + lo` = v to about 2^-48 relative, so a
+/// task (whose result is an f32 vector) can carry an f64 scalar for the header without
+/// rounding it to f32. Finite values of f32 range only.
+pub fn split_f64(v: f64) -> [f32; 2] {
+    let hi = v as f32;
+    [hi, (v - hi as f64) as f32]
+}
+
+/// Inverse of [`split_f64`].
+pub fn join_f64(hi: f32, lo: f32) -> f64 {
+    hi as f64 + lo as f64
+}
+
 pub mod checks {
     use super::PlanError;
     use crate::optics::water::WaterIndexModel;

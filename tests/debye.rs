@@ -422,12 +422,12 @@ fn default_manifest_runs() {
                 .sum()
         };
         let total = integral(0);
-        let q_sca = t.attributes["q_sca"][w][0].as_f64().unwrap();
+        let q_sca = t.attributes["q_sca"][0][w].as_f64().unwrap();
         let parts: Vec<f64> = (0..4).map(|p| integral(4 + p)).collect();
         println!("λ index {w}: ∫ sum(0..3) = {total:.5}, per order {parts:.5?}");
         assert!(total > 0.99 && total < 1.01, "{total}");
         for (p, part) in parts.iter().enumerate() {
-            let share = t.attributes["order_efficiency"][w][0][p].as_f64().unwrap() / q_sca;
+            let share = t.attributes["order_efficiency"][0][w][p].as_f64().unwrap() / q_sca;
             assert!((part / share - 1.0).abs() < 1e-3, "p={p}");
         }
     }

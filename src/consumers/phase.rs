@@ -1,6 +1,7 @@
 //! Reading phase-function tables that follow `PHASE_CONTRACT` (see `docs/consumers.md`):
-//! first axis `wavelength` (nm), last axis `scattering_angle` (deg, 0 = forward, covering
-//! [0, 180]), any axes in between are "entry" axes selected by `--entry name=value`; channels
+//! one axis `wavelength` (nm, at any position but the last), last axis `scattering_angle` (deg,
+//! 0 = forward, covering [0, 180]), every other axis is an "entry" axis (e.g. `radius`) selected
+//! by `--entry name=value`; channels
 //! `phase`, `i_perp`, `i_par` (1/sr, ∫_{4π} p dΩ = 1) and `dolp`.
 //!
 //! Everything here goes through the public reader API ([`Table::open`], [`Table::sample`]).
@@ -41,7 +42,9 @@ pub struct PhaseTable {
     pub table: Table,
     /// Index of the `scattering_angle` axis (always the last).
     pub angle_axis: usize,
-    /// Indices of the entry axes (between wavelength and scattering_angle).
+    /// Index of the `wavelength` axis.
+    pub wavelength_axis: usize,
+    /// Indices of the entry axes (every axis but wavelength and scattering_angle, in order).
     pub entry_axes: Vec<usize>,
     ch_phase: usize,
     ch_perp: usize,
@@ -76,15 +79,19 @@ impl PhaseTable {
         if axes.len() < 2 {
             bail!("a phase-function table needs at least the axes wavelength and scattering_angle");
         }
-        let first = &axes[0];
-        if first.name != "wavelength" || first.unit != "nm" {
+        let last = axes.len() - 1;
+        let Some(wavelength_axis) = axes[..last].iter().position(|a| a.name == "wavelength") else {
+            let names: Vec<&str> = axes.iter().map(|a| a.name.as_str()).collect();
             bail!(
-                "first axis must be `wavelength` in nm (found `{}` in `{}`)",
-                first.name,
-                first.unit
+                "a phase-function table needs a `wavelength` axis before `scattering_angle` (axes: {names:?})"
+            );
+        };
+        if axes[wavelength_axis].unit != "nm" {
+            bail!(
+                "axis `wavelength` must be in nm (found `{}`)",
+                axes[wavelength_axis].unit
             );
         }
-        let last = axes.len() - 1;
         let a = &axes[last];
         if a.name != "scattering_angle" || a.unit != "deg" {
             bail!(
@@ -109,8 +116,9 @@ impl PhaseTable {
         };
         let (ch_phase, ch_perp, ch_par) = (ch("phase")?, ch("i_perp")?, ch("i_par")?);
         Ok(PhaseTable {
-            entry_axes: (1..last).collect(),
+            entry_axes: (0..last).filter(|&i| i != wavelength_axis).collect(),
             angle_axis: last,
+            wavelength_axis,
             ch_phase,
             ch_perp,
             ch_par,
@@ -120,7 +128,7 @@ impl PhaseTable {
 
     /// Wavelengths of the table (nm).
     pub fn wavelengths_nm(&self) -> Vec<f64> {
-        self.table.axes()[0].coords()
+        self.table.axes()[self.wavelength_axis].coords()
     }
 
     /// Scattering angles of the table (deg).
@@ -169,10 +177,12 @@ impl PhaseTable {
         entry: &[(String, f64)],
         angle_deg: f64,
     ) -> anyhow::Result<[f64; 3]> {
-        let mut coords = Vec::with_capacity(entry.len() + 2);
-        coords.push(wavelength_nm);
-        coords.extend(entry.iter().map(|e| e.1));
-        coords.push(angle_deg);
+        let mut coords = vec![0.0; entry.len() + 2];
+        coords[self.wavelength_axis] = wavelength_nm;
+        for (&i, e) in self.entry_axes.iter().zip(entry) {
+            coords[i] = e.1;
+        }
+        coords[self.angle_axis] = angle_deg;
         let v = self.table.sample(&coords)?;
         Ok([v[self.ch_phase], v[self.ch_perp], v[self.ch_par]])
     }

@@ -16,7 +16,9 @@ use crate::mie::filters::{
 use crate::mie::stage::FilterSettings;
 use crate::mie::{check_domain, size_parameter};
 use crate::optics::water::{SADEGHI_WAVELENGTHS_NM, WaterIndexModel};
-use crate::stage::{Job, ParamDoc, PlanError, Stage, TaskSpec, checks, parse_params};
+use crate::stage::{
+    Job, ParamDoc, PlanError, Stage, TaskSpec, checks, join_f64, parse_params, split_f64,
+};
 use crate::table::phase_contract;
 use crate::table::{Axis, Channel, Schema, TableContent};
 use num_complex::Complex64;
@@ -189,8 +191,9 @@ impl Stage for DebyeStage {
     fn name(&self) -> &'static str {
         "debye"
     }
+    /// 2: axes radius × wavelength × angle, efficiencies kept in f64.
     fn algorithm_version(&self) -> u32 {
-        1
+        2
     }
     fn summary(&self) -> &'static str {
         "Mie phase functions of water drops split into Debye-series orders (p = 0 reflection+diffraction, 1, 2 primary, 3 secondary, ...)"
@@ -259,8 +262,10 @@ impl DebyeJob {
     fn channels_per_angle(&self) -> usize {
         4 + self.p.orders.len()
     }
+    /// f32 values after the angular data: Q_sca and each order's efficiency, as
+    /// [`split_f64`] pairs.
     fn tail(&self) -> usize {
-        1 + self.p.orders.len()
+        2 * (1 + self.p.orders.len())
     }
 }
 
@@ -270,8 +275,8 @@ impl Job for DebyeJob {
     }
     fn tasks(&self) -> Vec<TaskSpec> {
         let mut out = Vec::new();
-        for (l, n) in self.p.wavelengths_nm.iter().zip(&self.indices) {
-            for r in &self.p.radii_um {
+        for r in &self.p.radii_um {
+            for (l, n) in self.p.wavelengths_nm.iter().zip(&self.indices) {
                 out.push(TaskSpec {
                     label: format!("λ={l} nm r={r} µm orders {:?}", self.p.orders),
                     params: serde_json::json!({ "wavelength_nm": l, "n": n, "radius_um": r, "orders": self.p.orders }),
@@ -281,8 +286,8 @@ impl Job for DebyeJob {
         out
     }
     fn run_task(&self, index: usize) -> anyhow::Result<Vec<f32>> {
-        let n_r = self.p.radii_um.len();
-        let (w, e) = (index / n_r, index % n_r);
+        let n_w = self.p.wavelengths_nm.len();
+        let (e, w) = (index / n_w, index % n_w);
         let m = Complex64::new(self.indices[w], 0.0);
         let r = compute_debye_entry(
             self.p.radii_um[e],
@@ -304,16 +309,18 @@ impl Job for DebyeJob {
             ]);
             out.extend(per_order.iter().map(|c| c[j] as f32));
         }
-        out.push(r.q_sca as f32);
-        out.extend(r.order_efficiency.iter().map(|&v| v as f32));
+        out.extend(split_f64(r.q_sca));
+        for &v in &r.order_efficiency {
+            out.extend(split_f64(v));
+        }
         Ok(out)
     }
     fn assemble(&self, chunks: Vec<Vec<f32>>) -> anyhow::Result<TableContent> {
-        let n_r = self.p.radii_um.len();
+        let n_w = self.p.wavelengths_nm.len();
         let n_a = self.settings.output_intervals + 1;
         let per = n_a * self.channels_per_angle();
         anyhow::ensure!(
-            chunks.len() == self.p.wavelengths_nm.len() * n_r,
+            chunks.len() == n_w * self.p.radii_um.len(),
             "wrong number of chunks"
         );
         let mut data = Vec::with_capacity(chunks.len() * per);
@@ -327,15 +334,16 @@ impl Job for DebyeJob {
                 per + self.tail()
             );
             data.extend_from_slice(&c[..per]);
-            if i % n_r == 0 {
+            if i % n_w == 0 {
                 q_sca.push(Vec::new());
                 q_orders.push(Vec::new());
             }
-            q_sca.last_mut().expect("row").push(c[per] as f64);
-            q_orders
-                .last_mut()
-                .expect("row")
-                .push(c[per + 1..].iter().map(|&v| v as f64).collect());
+            let tail: Vec<f64> = c[per..]
+                .chunks_exact(2)
+                .map(|p| join_f64(p[0], p[1]))
+                .collect();
+            q_sca.last_mut().expect("row").push(tail[0]);
+            q_orders.last_mut().expect("row").push(tail[1..].to_vec());
         }
         let mut a = serde_json::Map::new();
         let s = |v: &str| serde_json::Value::from(v);
@@ -356,7 +364,7 @@ impl Job for DebyeJob {
         a.insert("conventions".into(), s("i_perp = |S1|^2, i_par = |S2|^2 of the coherent sum of the chosen orders, over (pi x^2 Q_sca); phase = (i_perp + i_par)/2; dolp = (i_perp - i_par)/(i_perp + i_par); phase_p<k> = (|S1_p|^2 + |S2_p|^2)/2 over (pi x^2 Q_sca)"));
         a.insert("q_sca".into(), serde_json::to_value(q_sca)?);
         a.insert("order_efficiency".into(), serde_json::to_value(q_orders)?);
-        a.insert("scalar_layout".into(), s("q_sca: [wavelength][radius] (Mie); order_efficiency: [wavelength][radius][order] = (2/x^2) sum (2n+1)(|a_n^(p)|^2 + |b_n^(p)|^2), the efficiency of each order alone (p = 0 includes diffraction, about 1)"));
+        a.insert("scalar_layout".into(), s("q_sca: [radius][wavelength] (Mie, f64); order_efficiency: [radius][wavelength][order] = (2/x^2) sum (2n+1)(|a_n^(p)|^2 + |b_n^(p)|^2), the efficiency of each order alone (p = 0 includes diffraction, about 1)"));
         let mut channels = phase_contract::channels(
             "of the coherent sum of the chosen orders, over the full Mie pi x^2 Q_sca",
         );
@@ -374,8 +382,8 @@ impl Job for DebyeJob {
             description: "Lorenz-Mie phase functions of water drops split into Debye-series orders"
                 .into(),
             axes: vec![
-                Axis::values("wavelength", "nm", self.p.wavelengths_nm.clone()),
                 Axis::values("radius", "um", self.p.radii_um.clone()),
+                Axis::values("wavelength", "nm", self.p.wavelengths_nm.clone()),
                 Axis::uniform("scattering_angle", "deg", 0.0, self.p.angle_step_deg, n_a),
             ],
             channels,

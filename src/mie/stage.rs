@@ -1,8 +1,9 @@
 //! The `mie` stage (schema `mie-phase/1`): per-wavelength Lorenz–Mie phase functions of water
 //! drops (monodisperse radii or size distributions), smoothed by the sun's disc and integrated
 //! over the table's angular bins. Follows the phase-function table contract
-//! (`PHASE_CONTRACT.md`): axes `wavelength` (nm) × `radius` (µm) or `distribution` (1) ×
-//! `scattering_angle` (deg); channels `phase`, `i_perp`, `i_par`, `dolp`.
+//! (`docs/consumers.md`): axes `radius` (µm) or `distribution` (1) × `wavelength` (nm) ×
+//! `scattering_angle` (deg); channels `phase`, `i_perp`, `i_par`, `dolp`; per-entry Q_ext, Q_sca,
+//! Q_back, g as f64 arrays `[entry][wavelength]` in the header attributes.
 
 use super::distributions::SizeDistribution;
 use super::filters::{
@@ -10,7 +11,9 @@ use super::filters::{
 };
 use super::{Sphere, size_parameter};
 use crate::optics::water::{SADEGHI_WAVELENGTHS_NM, WaterIndexModel};
-use crate::stage::{Job, ParamDoc, PlanError, Stage, TaskSpec, checks, parse_params};
+use crate::stage::{
+    Job, ParamDoc, PlanError, Stage, TaskSpec, checks, join_f64, parse_params, split_f64,
+};
 use crate::table::phase_contract::{self, CHANNELS};
 use crate::table::{Axis, Schema, TableContent};
 use num_complex::Complex64;
@@ -130,8 +133,9 @@ const PARAMS: &[ParamDoc] = &[
     },
 ];
 
-/// Number of scalar values appended to each task chunk: Q_ext, Q_sca, Q_back, g.
-const TAIL: usize = 4;
+/// Number of f32 values appended to each task chunk: Q_ext, Q_sca, Q_back, g, each as an f32
+/// pair (hi, lo) with hi + lo = the f64 value to ~1e-14 relative (chunks are f32 vectors).
+const TAIL: usize = 8;
 
 /// The entries (second axis) of a job.
 #[derive(Debug, Clone)]
@@ -287,8 +291,9 @@ impl Stage for MieStage {
     fn name(&self) -> &'static str {
         "mie"
     }
+    /// 2: axes radius × wavelength × angle, Q and g kept in f64.
     fn algorithm_version(&self) -> u32 {
-        1
+        2
     }
     fn summary(&self) -> &'static str {
         "Lorenz–Mie phase functions of water drops (radii or size distributions), sun-disc smoothed, bin-integrated"
@@ -402,9 +407,9 @@ impl Job for MieJob {
     }
     fn tasks(&self) -> Vec<TaskSpec> {
         let mut out = Vec::new();
-        for (l, n) in self.p.wavelengths_nm.iter().zip(&self.indices) {
-            for e in 0..self.entries.len() {
-                let d = self.entries.distribution(e);
+        for e in 0..self.entries.len() {
+            let d = self.entries.distribution(e);
+            for (l, n) in self.p.wavelengths_nm.iter().zip(&self.indices) {
                 out.push(TaskSpec {
                     label: format!("λ={l} nm {}", serde_json::to_string(&d).unwrap_or_default()),
                     params: serde_json::json!({ "wavelength_nm": l, "n": n, "entry": d }),
@@ -414,8 +419,8 @@ impl Job for MieJob {
         out
     }
     fn run_task(&self, index: usize) -> anyhow::Result<Vec<f32>> {
-        let e = index % self.entries.len();
-        let w = index / self.entries.len();
+        let n_w = self.p.wavelengths_nm.len();
+        let (e, w) = (index / n_w, index % n_w);
         let m = Complex64::new(self.indices[w], 0.0);
         let sun = self.sun.get_or_init(|| self.settings.sun_operator());
         let r = compute_entry(
@@ -435,15 +440,17 @@ impl Job for MieJob {
                 dolp[j] as f32,
             ]);
         }
-        out.extend([r.q_ext as f32, r.q_sca as f32, r.q_back as f32, r.g as f32]);
+        for q in [r.q_ext, r.q_sca, r.q_back, r.g] {
+            out.extend(split_f64(q));
+        }
         Ok(out)
     }
     fn assemble(&self, chunks: Vec<Vec<f32>>) -> anyhow::Result<TableContent> {
-        let n_e = self.entries.len();
+        let n_w = self.p.wavelengths_nm.len();
         let n_a = self.settings.output_intervals + 1;
         let per = n_a * CHANNELS.len();
         anyhow::ensure!(
-            chunks.len() == self.p.wavelengths_nm.len() * n_e,
+            chunks.len() == n_w * self.entries.len(),
             "wrong number of chunks"
         );
         let mut data = Vec::with_capacity(chunks.len() * per);
@@ -456,11 +463,12 @@ impl Job for MieJob {
                 per + TAIL
             );
             data.extend_from_slice(&c[..per]);
-            if i % n_e == 0 {
+            if i % n_w == 0 {
                 scalars.iter_mut().for_each(|s| s.push(Vec::new()));
             }
             for (k, s) in scalars.iter_mut().enumerate() {
-                s.last_mut().expect("row").push(c[per + k] as f64);
+                let v = join_f64(c[per + 2 * k], c[per + 2 * k + 1]);
+                s.last_mut().expect("row").push(v);
             }
         }
         let mut a = serde_json::Map::new();
@@ -490,13 +498,13 @@ impl Job for MieJob {
         for (k, v) in scalars.into_iter().enumerate() {
             a.insert(names[k].into(), serde_json::to_value(v)?);
         }
-        a.insert("scalar_layout".into(), s("q_ext, q_sca, q_back, g: [wavelength][entry]; ensemble averages <C>/<pi r^2>, g weighted by C_sca"));
+        a.insert("scalar_layout".into(), s("q_ext, q_sca, q_back, g: [entry][wavelength] (f64); ensemble averages <C>/<pi r^2>, g weighted by C_sca"));
         Ok(TableContent {
             schema: Schema::new("mie-phase", 1),
             description: "Lorenz-Mie phase functions of water drops per wavelength".into(),
             axes: vec![
-                Axis::values("wavelength", "nm", self.p.wavelengths_nm.clone()),
                 self.entry_axis(),
+                Axis::values("wavelength", "nm", self.p.wavelengths_nm.clone()),
                 Axis::uniform("scattering_angle", "deg", 0.0, self.p.angle_step_deg, n_a),
             ],
             channels: phase_contract::channels("over pi x^2 Q_sca"),
@@ -536,8 +544,24 @@ mod tests {
             .collect();
         let t = job.assemble(chunks).unwrap();
         assert_eq!(t.data.len(), t.expected_len());
-        assert_eq!(t.axes[0].name, "wavelength");
+        assert_eq!(t.axes[0].name, "radius");
+        assert_eq!(t.axes[1].name, "wavelength");
         assert_eq!(t.axes[2].name, "scattering_angle");
+        // Header Q_sca [entry][wavelength] keeps f64 precision: the 20 µm drop at 650 nm
+        // against a direct evaluation.
+        let q = t.attributes["q_sca"][1][1].as_f64().unwrap();
+        let n = WaterIndexModel::Iapws1997 {
+            temperature_c: 20.0,
+        }
+        .index(650.0)
+        .unwrap();
+        let direct =
+            crate::mie::MieCoefficients::new(size_parameter(20.0, 650.0), Complex64::new(n, 0.0))
+                .unwrap()
+                .efficiencies()
+                .q_sca;
+        assert!((q - direct).abs() <= 1e-12 * direct, "{q} vs {direct}");
+        assert!((q - q as f32 as f64).abs() > 0.0, "stored as f64, not f32");
         let cells = crate::mie::filters::cell_solid_angles(360);
         for row in t.data.chunks(361 * 4) {
             let e: f64 = row
@@ -570,9 +594,9 @@ mod tests {
             .map(|(c, w)| c[0] as f64 * w)
             .sum();
         assert!((e - 1.0).abs() < 1e-5, "integral {e}");
-        let q_sca = chunk[361 * 4 + 1] as f64;
+        let q_sca = join_f64(chunk[361 * 4 + 2], chunk[361 * 4 + 3]);
         assert!(q_sca > 1.8 && q_sca < 2.6, "Q_sca {q_sca}");
-        let g = chunk[361 * 4 + 3] as f64;
+        let g = join_f64(chunk[361 * 4 + 6], chunk[361 * 4 + 7]);
         assert!(g > 0.7 && g < 0.9, "g {g}");
     }
 }

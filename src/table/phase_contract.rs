@@ -1,6 +1,7 @@
 //! The phase-function table contract shared by every stage that tabulates a phase function of
 //! scattering angle (`mie`, `debye`, `raytrace`) and read by every consumer (see
-//! `docs/consumers.md`): wavelength first, scattering angle last, channels `phase`, `i_perp`,
+//! `docs/consumers.md`): a `wavelength` axis, any entry axes (e.g. `radius`), scattering angle
+//! last, channels `phase`, `i_perp`,
 //! `i_par`, `dolp` first, and the attributes below.
 
 use super::Channel;
