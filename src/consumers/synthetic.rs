@@ -65,8 +65,9 @@ fn push_point(data: &mut Vec<f32>, p: f64, d: f64) {
     ]);
 }
 
-/// A `wavelength × radius × scattering_angle` table of Henyey–Greenstein phase functions:
-/// asymmetry `g[k][r]` at wavelength k and radius r, `n_angle` uniform angles over [0, 180].
+/// A `radius × wavelength × scattering_angle` table (the Mie stage's axis order) of
+/// Henyey–Greenstein phase functions: asymmetry `g(k, r)` at wavelength k and radius r,
+/// `n_angle` uniform angles over [0, 180].
 pub fn henyey_greenstein_table(
     wavelengths_nm: &[f64],
     radii_um: &[f64],
@@ -76,8 +77,8 @@ pub fn henyey_greenstein_table(
 ) -> Table {
     let step = 180.0 / (n_angle - 1) as f64;
     let mut data = Vec::new();
-    for k in 0..wavelengths_nm.len() {
-        for r in 0..radii_um.len() {
+    for r in 0..radii_um.len() {
+        for k in 0..wavelengths_nm.len() {
             let gk = g(k, r);
             for j in 0..n_angle {
                 let t = step * j as f64;
@@ -93,8 +94,8 @@ pub fn henyey_greenstein_table(
         schema: Schema::new("synthetic-hg-phase", 1),
         description: "Henyey-Greenstein phase functions (synthetic)".into(),
         axes: vec![
-            Axis::values("wavelength", "nm", wavelengths_nm.to_vec()),
             Axis::values("radius", "um", radii_um.to_vec()),
+            Axis::values("wavelength", "nm", wavelengths_nm.to_vec()),
             Axis::uniform("scattering_angle", "deg", 0.0, step, n_angle),
         ],
         channels: channels(),
