@@ -75,6 +75,7 @@ enum Command {
     /// Hair Dual Scattering table → engine EXR LUT (layout and shader lookup in docs/hair.md).
     HairLut(crate::hair::export::HairLutArgs),
     /// Dual Scattering averages for one hair parameter set, as JSON or CSV.
+    #[command(name = "dual-scattering", visible_alias = "hair-json")]
     HairJson(crate::hair::export::DualScatteringArgs),
     /// Compare a phase-function table with a MiePlot-style reference text file.
     Validate(crate::consumers::mieplot::ValidateArgs),

@@ -334,3 +334,35 @@ fn sharded_build_assembles_and_matches_unsharded() {
         text(&o)
     );
 }
+
+/// `scatterbake dual-scattering` (issue 5's command line): `--absorption R,G,B` in the issue's
+/// comma form; the lossless fibre conserves energy per θ (ā_f + ā_b = 1, an identity of the
+/// model, not of the CLI); a wrong value count is a clean error.
+#[test]
+fn dual_scattering_command_line() {
+    let d = tempfile::tempdir().unwrap();
+    let o = run(
+        &[
+            "dual-scattering",
+            "--absorption",
+            "0,0,0",
+            "--theta-samples",
+            "9",
+            "--format",
+            "json",
+        ],
+        d.path(),
+    );
+    assert!(o.status.success(), "{}", text(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let (a_f, a_b) = (v["a_f"].as_array().unwrap(), v["a_b"].as_array().unwrap());
+    assert_eq!(a_f.len(), 9);
+    for (f, b) in a_f.iter().zip(a_b) {
+        for c in 0..3 {
+            let s = f[c].as_f64().unwrap() + b[c].as_f64().unwrap();
+            assert!((s - 1.0).abs() < 1e-4, "a_f + a_b = {s}");
+        }
+    }
+    let o = run(&["dual-scattering", "--absorption", "0.2,0.3"], d.path());
+    assert_clean_failure(&o, &["--absorption", "three"]);
+}

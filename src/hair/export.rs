@@ -250,14 +250,15 @@ pub struct DualScatteringArgs {
     pub model: ModelArg,
     #[arg(long, default_value_t = 1.55)]
     pub eta: f64,
-    /// σ_a per unit radius for R,G,B (default: 0.2,0.3,0.5, the thesis RSL default).
-    #[arg(long, value_delimiter = ',', num_args = 3)]
+    /// σ_a per unit radius for R,G,B, as `R,G,B` or three values (default: 0.2,0.3,0.5, the
+    /// thesis RSL default).
+    #[arg(long, value_delimiter = ',', num_args = 1..=3)]
     pub absorption: Option<Vec<f64>>,
     /// Eumelanin,pheomelanin concentrations instead of --absorption.
     #[arg(
         long,
         value_delimiter = ',',
-        num_args = 2,
+        num_args = 1..=2,
         conflicts_with = "absorption"
     )]
     pub melanin: Option<Vec<f64>>,
@@ -306,6 +307,19 @@ pub fn dual_params_from_args(
         f => bail!("unknown --fresnel {f} (three-d or bravais)"),
     };
     let physical = args.model == ModelArg::Physical;
+    if let Some(a) = &args.absorption
+        && a.len() != 3
+    {
+        bail!("--absorption needs three values R,G,B (got {})", a.len());
+    }
+    if let Some(m) = &args.melanin
+        && m.len() != 2
+    {
+        bail!(
+            "--melanin needs two values eumelanin,pheomelanin (got {})",
+            m.len()
+        );
+    }
     let (sigma_a_rgb, melanin) = match (&args.absorption, &args.melanin) {
         _ if !physical => (None, None),
         (Some(a), _) => (Some([a[0], a[1], a[2]]), None),
