@@ -186,9 +186,9 @@ fn run_export(a: ExportArgs) -> Result<()> {
             entry: a.entry,
             samples: if a.samples == 4096 { 7201 } else { a.samples },
             sun_diameter_deg: a.sun_diameter_deg,
-            out: a
-                .out
-                .ok_or_else(|| anyhow::anyhow!("--out (.csv or .png) is required for rgb-lut"))?,
+            out: a.out.ok_or_else(|| {
+                anyhow::anyhow!("--out (.exr, .png or .csv) is required for rgb-lut")
+            })?,
         }),
         ExportFormat::Mieplot => mieplot::run_mieplot(&mieplot::MiePlotArgs {
             table: a.file,
