@@ -66,12 +66,7 @@ macro_rules! with_backend {
                     $body?;
                     $root.present().map_err($crate::consumers::figure::perr)?;
                 }
-                $crate::consumers::render::write_png(
-                    out,
-                    size.0 as usize,
-                    size.1 as usize,
-                    &buf,
-                )?;
+                $crate::consumers::render::write_png(out, size.0 as usize, size.1 as usize, &buf)?;
             }
             _ => anyhow::bail!("{}: output must end in .png or .svg", out.display()),
         }
@@ -100,6 +95,11 @@ impl ColourScale {
     /// two decades (then from max(smallest positive, 10⁻⁶·largest) to the largest; zeros get the
     /// lowest colour), linear from min to max otherwise. Non-finite values are ignored.
     pub fn auto(values: impl IntoIterator<Item = f64>) -> Self {
+        Self::auto_with_floor(values, 1e-6)
+    }
+
+    /// [`ColourScale::auto`] with the log scale's floor at `floor`·largest.
+    pub fn auto_with_floor(values: impl IntoIterator<Item = f64>, floor: f64) -> Self {
         let (mut lo, mut hi, mut lo_pos) = (f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY);
         for v in values.into_iter().filter(|v| v.is_finite()) {
             lo = lo.min(v);
@@ -113,7 +113,7 @@ impl ColourScale {
         }
         if lo >= 0.0 && hi > 0.0 && hi / lo_pos > 100.0 {
             ColourScale {
-                lo: lo_pos.max(hi * 1e-6),
+                lo: lo_pos.max(hi * floor),
                 hi,
                 log: true,
             }
@@ -124,11 +124,7 @@ impl ColourScale {
 
     /// The scale's coordinate of `v` (log10 v when logarithmic).
     pub fn transform(&self, v: f64) -> f64 {
-        if self.log {
-            v.max(self.lo).log10()
-        } else {
-            v
-        }
+        if self.log { v.max(self.lo).log10() } else { v }
     }
 
     /// Position of `v` in the scale, clamped to [0, 1] (0.5 for a degenerate scale).
@@ -184,6 +180,33 @@ pub struct LinePanel {
     pub series: Vec<Series>,
     /// Logarithmic y axis (values below 10⁻⁵ of the maximum are clipped).
     pub log_y: bool,
+    /// Where the legend goes.
+    pub legend: Legend,
+}
+
+/// Legend corner of a line panel.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Legend {
+    #[default]
+    UpperRight,
+    UpperLeft,
+    UpperMiddle,
+    LowerRight,
+    LowerLeft,
+    MiddleLeft,
+}
+
+impl Legend {
+    fn position(self) -> SeriesLabelPosition {
+        match self {
+            Legend::UpperRight => SeriesLabelPosition::UpperRight,
+            Legend::UpperLeft => SeriesLabelPosition::UpperLeft,
+            Legend::UpperMiddle => SeriesLabelPosition::UpperMiddle,
+            Legend::LowerRight => SeriesLabelPosition::LowerRight,
+            Legend::LowerLeft => SeriesLabelPosition::LowerLeft,
+            Legend::MiddleLeft => SeriesLabelPosition::MiddleLeft,
+        }
+    }
 }
 
 /// A field over two axes, one value per cell; `xs`, `ys` are cell centres (increasing), cell
@@ -326,13 +349,17 @@ fn draw_heat<DB: DrawingBackend>(
     area: &DrawingArea<DB, Shift>,
     p: &HeatPanel,
     vector: bool,
-) -> anyhow::Result<(Range<i32>, Range<i32>)> {
+) -> anyhow::Result<PixelRect> {
     let (nx, ny) = (p.xs.len(), p.ys.len());
     if nx == 0 || ny == 0 || p.values.len() != nx * ny {
-        anyhow::bail!("heatmap `{}`: {nx} × {ny} cells, {} values", p.title, p.values.len());
+        anyhow::bail!(
+            "heatmap `{}`: {nx} × {ny} cells, {} values",
+            p.title,
+            p.values.len()
+        );
     }
     let (w, _) = area.dim_in_pixel();
-    let bar_w = 85.min(w / 3);
+    let bar_w = 100.min(w / 3);
     let (main, bar) = area.split_horizontally(w - bar_w);
     let (xe, ye) = (cell_edges(&p.xs), cell_edges(&p.ys));
     let mut chart = ChartBuilder::on(&main)
@@ -342,9 +369,13 @@ fn draw_heat<DB: DrawingBackend>(
         .y_label_area_size(52)
         .build_cartesian_2d(xe[0]..xe[nx], ye[0]..ye[ny])
         .map_err(perr)?;
+    let x_labels = ((w - bar_w) / 75).clamp(3, 12) as usize;
     chart
         .configure_mesh()
         .disable_mesh()
+        .x_labels(x_labels)
+        .x_label_formatter(&|v| format_tick(*v))
+        .y_label_formatter(&|v| format_tick(*v))
         .x_desc(&p.x_label)
         .y_desc(&p.y_label)
         .label_style(("sans-serif", LABEL_FONT))
@@ -366,20 +397,25 @@ fn draw_heat<DB: DrawingBackend>(
     )?;
     // Colour bar.
     let (t0, t1) = (p.scale.transform(p.scale.lo), p.scale.transform(p.scale.hi));
-    let (t0, t1) = if t1 > t0 { (t0, t1) } else { (t0 - 0.5, t0 + 0.5) };
+    let (t0, t1) = if t1 > t0 {
+        (t0, t1)
+    } else {
+        (t0 - 0.5, t0 + 0.5)
+    };
     let mut bc = ChartBuilder::on(&bar)
         .margin_top(6 + TITLE_FONT + 6)
         .margin_bottom(6)
-        .margin_right(4)
+        .margin_right(12)
         .x_label_area_size(36)
         .y_label_area_size(0)
-        .right_y_label_area_size(bar_w.saturating_sub(22))
+        .right_y_label_area_size(bar_w.saturating_sub(34))
         .build_cartesian_2d(0f64..1f64, t0..t1)
         .map_err(perr)?;
     bc.configure_mesh()
         .disable_mesh()
         .disable_x_axis()
         .y_labels(6)
+        .y_label_formatter(&|v| format_tick(*v))
         .y_desc(p.scale.label(&p.value_label))
         .label_style(("sans-serif", LABEL_FONT - 1))
         .axis_desc_style(("sans-serif", LABEL_FONT - 1))
@@ -416,6 +452,7 @@ fn draw_lines<DB: DrawingBackend>(
         anyhow::bail!("line panel `{}` has no points", p.title);
     }
     let x1 = if x1 > x0 { x1 } else { x0 + 1.0 };
+    let x_labels = (area.dim_in_pixel().0 / 75).clamp(3, 12) as usize;
     let mut builder = ChartBuilder::on(area);
     builder
         .caption(&p.title, ("sans-serif", TITLE_FONT))
@@ -429,6 +466,8 @@ fn draw_lines<DB: DrawingBackend>(
                 .configure_mesh()
                 .x_desc(&p.x_label)
                 .y_desc(&p.y_label)
+                .x_labels(x_labels)
+                .x_label_formatter(&|v| format_tick(*v))
                 .y_label_formatter($fmt)
                 .label_style(("sans-serif", LABEL_FONT))
                 .axis_desc_style(("sans-serif", LABEL_FONT))
@@ -462,7 +501,7 @@ fn draw_lines<DB: DrawingBackend>(
                     .label_font(("sans-serif", LABEL_FONT - 1))
                     .background_style(WHITE.mix(0.85))
                     .border_style(BLACK.mix(0.4))
-                    .position(SeriesLabelPosition::UpperRight)
+                    .position(p.legend.position())
                     .draw()
                     .map_err(perr)?;
             }
@@ -502,7 +541,7 @@ fn format_tick(v: f64) -> String {
     let a = v.abs();
     if a == 0.0 {
         "0".into()
-    } else if !(1e-3..1e5).contains(&a) {
+    } else if !(1e-4..1e5).contains(&a) {
         format!("{v:.1e}")
     } else {
         let s = format!("{v:.4}");
@@ -511,12 +550,15 @@ fn format_tick(v: f64) -> String {
     }
 }
 
+/// Pixel rectangle (x range, y range) in backend coordinates.
+pub type PixelRect = (Range<i32>, Range<i32>);
+
 /// Draw `fig` on `root`; returns the raster rectangles of its heatmap panels.
 pub fn draw_figure_on<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
     fig: &Figure,
     vector: bool,
-) -> anyhow::Result<Vec<(Range<i32>, Range<i32>)>> {
+) -> anyhow::Result<Vec<PixelRect>> {
     root.fill(&WHITE).map_err(perr)?;
     let body = if fig.title.is_empty() {
         root.clone()
@@ -546,7 +588,7 @@ pub fn draw_figure(fig: &Figure, out: &Path) -> anyhow::Result<()> {
 
 /// Render `fig` into an RGB buffer (for tests and previews); returns the buffer and the
 /// raster rectangles of its heatmap panels.
-pub fn render_rgb(fig: &Figure) -> anyhow::Result<(Vec<u8>, Vec<(Range<i32>, Range<i32>)>)> {
+pub fn render_rgb(fig: &Figure) -> anyhow::Result<(Vec<u8>, Vec<PixelRect>)> {
     ensure_font();
     let (w, h) = fig.size;
     let mut buf = vec![0u8; w as usize * h as usize * 3];
@@ -565,9 +607,13 @@ mod tests {
 
     fn ramp_panel(nx: usize, ny: usize) -> HeatPanel {
         let xs: Vec<f64> = (0..nx).map(|i| -179.75 + 0.5 * i as f64).collect();
-        let ys: Vec<f64> = (0..ny).map(|j| -1.0 + 2.0 * j as f64 / (ny - 1) as f64).collect();
+        let ys: Vec<f64> = (0..ny)
+            .map(|j| -1.0 + 2.0 * j as f64 / (ny - 1) as f64)
+            .collect();
         let values: Vec<f64> = (0..ny)
-            .flat_map(|j| (0..nx).map(move |i| 1e-4 * 10f64.powf(4.0 * (i + j) as f64 / (nx + ny) as f64)))
+            .flat_map(|j| {
+                (0..nx).map(move |i| 1e-4 * 10f64.powf(4.0 * (i + j) as f64 / (nx + ny) as f64))
+            })
             .collect();
         HeatPanel {
             title: "ramp".into(),
@@ -598,7 +644,10 @@ mod tests {
             let (buf, rects) = render_rgb(&fig).unwrap();
             assert_eq!(rects.len(), 2);
             for (xr, yr) in rects {
-                assert!(xr.end - xr.start > 100 && yr.end - yr.start > 100, "{xr:?} {yr:?}");
+                assert!(
+                    xr.end - xr.start > 100 && yr.end - yr.start > 100,
+                    "{xr:?} {yr:?}"
+                );
                 let (mut white, mut distinct) = (0, std::collections::HashSet::new());
                 for y in yr.clone() {
                     for x in xr.clone() {
@@ -618,12 +667,15 @@ mod tests {
                     let o = (y as usize * 1000 + x as usize) * 3;
                     RGBColor(buf[o], buf[o + 1], buf[o + 2])
                 };
-                let lo = ViridisRGB.get_color(0.0);
+                let near = |a: RGBColor, b: RGBColor| {
+                    (a.0 as i32 - b.0 as i32).abs() <= 2
+                        && (a.1 as i32 - b.1 as i32).abs() <= 2
+                        && (a.2 as i32 - b.2 as i32).abs() <= 2
+                };
                 let bl = px(xr.start, yr.end - 1);
-                assert_eq!((bl.0, bl.1, bl.2), (lo.0, lo.1, lo.2));
+                assert!(near(bl, ViridisRGB.get_color(0.0)), "{bl:?}");
                 let tr = px(xr.end - 1, yr.start);
-                let hi = ViridisRGB.get_color(1.0);
-                assert_eq!((tr.0, tr.1, tr.2), (hi.0, hi.1, hi.2));
+                assert!(near(tr, ViridisRGB.get_color(1.0)), "{tr:?}");
             }
         }
     }

@@ -502,6 +502,7 @@ pub fn plot_line(
                 y_label: String::new(),
                 series,
                 log_y: false,
+                legend: Default::default(),
             })],
         },
         out,

@@ -4,7 +4,7 @@
 //! σ = 0 slice, which is all zeros) and returns [`Figure`]s named by a file suffix. What each
 //! figure shows is described in `docs/consumers.md` ("Previews").
 
-use super::figure::{ColourScale, Dash, Figure, HeatPanel, LinePanel, Panel, Series};
+use super::figure::{ColourScale, Dash, Figure, HeatPanel, Legend, LinePanel, Panel, Series};
 use super::plot::{PALETTE, axis_label, short_number};
 use crate::table::Table;
 use anyhow::bail;
@@ -59,7 +59,11 @@ impl<'a> View<'a> {
         let u = match a.unit.as_str() {
             "" | "1" => String::new(),
             "deg" => "°".into(),
-            u => format!(" {u}"),
+            "degC" => " °C".into(),
+            u => match u.strip_prefix("1/") {
+                Some(per) => format!(" per {}", per.replace('_', " ")),
+                None => format!(" {u}"),
+            },
         };
         format!("{shown} = {}{u}", short_number(a.coord(i)))
     }
@@ -148,7 +152,24 @@ fn lines(title: String, x_label: String, y_label: String, s: Vec<Series>, log_y:
         y_label,
         series: s,
         log_y,
+        legend: Legend::UpperRight,
     })
+}
+
+/// `lines` with the legend at `at`.
+fn lines_at(
+    title: String,
+    x_label: String,
+    y_label: String,
+    s: Vec<Series>,
+    log_y: bool,
+    at: Legend,
+) -> Panel {
+    let mut p = lines(title, x_label, y_label, s, log_y);
+    if let Panel::Lines(l) = &mut p {
+        l.legend = at;
+    }
+    p
 }
 
 fn heat(
@@ -191,9 +212,7 @@ fn non_zero(v: &View, axis: usize) -> Vec<usize> {
 /// A middle sample of `axis` among the non-zero ones.
 fn mid_non_zero(v: &View, axis: usize) -> usize {
     let nz = non_zero(v, axis);
-    if nz.is_empty() {
-        v.mid(axis)
-    } else if nz.contains(&v.mid(axis)) {
+    if nz.is_empty() || nz.contains(&v.mid(axis)) {
         v.mid(axis)
     } else {
         nz[nz.len() / 2]
@@ -213,14 +232,13 @@ pub fn medulla_azimuthal(v: &View) -> anyhow::Result<Vec<(&'static str, Figure)>
         i[ha] = h;
         i
     };
-    let bin = v
-        .t
-        .header
-        .attributes
-        .get("bin_width_deg")
-        .and_then(|b| b.as_f64())
-        .map(|b| format!(" per {}° bin", short_number(b)))
-        .unwrap_or_default();
+    let bin =
+        v.t.header
+            .attributes
+            .get("bin_width_deg")
+            .and_then(|b| b.as_f64())
+            .map(|b| format!(" per {}° bin", short_number(b)))
+            .unwrap_or_default();
     let at_sg = format!("{}, {}", v.at_text(sa, s0, "σ"), v.at_text(ga, g0, "g"));
     let xl = v.axis_label(pa, "φ' (0 = straight through)");
     let hs = spread(&non_negative(v, ha, true), 5);
@@ -467,7 +485,7 @@ pub fn fur_farfield(v: &View) -> anyhow::Result<Vec<(&'static str, Figure)>> {
     let grids: Vec<_> = (0..v.len(sa))
         .map(|s| v.grid(&base(s), pa, ra, energy))
         .collect();
-    let scale = ColourScale::auto(grids.iter().flat_map(|g| g.2.iter().copied()));
+    let scale = ColourScale::auto_with_floor(grids.iter().flat_map(|g| g.2.iter().copied()), 1e-4);
     let ti_text = v.at_text(ia, ti, "θ_i");
     let (xl, yl) = (v.axis_label(pa, "φ"), v.axis_label(ra, "θ_r"));
     let cols = if grids.len() > 6 { 5 } else { 3 };
@@ -530,7 +548,8 @@ fn rgb_colour(c: f64) -> RGBColor {
     }
 }
 
-/// `hair-dual/1` per colour: the Dual Scattering quantities vs θ, one curve per RGB channel.
+/// `hair-dual/1` per colour: the Dual Scattering quantities vs θ, one curve per RGB channel
+/// (line style = which quantity; the legend names the colours once per panel).
 fn hair_dual_colour(v: &View) -> anyhow::Result<Vec<(&'static str, Figure)>> {
     let ca = v.ax("colour_channel")?;
     let ta = v.ax("theta")?;
@@ -543,6 +562,8 @@ fn hair_dual_colour(v: &View) -> anyhow::Result<Vec<(&'static str, Figure)>> {
     }
     let xl = v.axis_label(ta, "θ_i (light inclination)");
     let deg = 180.0 / std::f64::consts::PI;
+    // Curves of channel `name` (transformed by `f`) per colour; legend "R", "G", "B" when
+    // `label`.
     let curve = |name: &str, f: &dyn Fn(f64) -> f64, dash: Dash, label: bool| {
         let ch = v.ch(name)?;
         Ok::<Vec<Series>, anyhow::Error>(
@@ -554,13 +575,16 @@ fn hair_dual_colour(v: &View) -> anyhow::Result<Vec<(&'static str, Figure)>> {
                     let rgb = ["R", "G", "B"].get(cc.round() as usize).unwrap_or(&"?");
                     series(
                         if label {
-                            format!("{name} {rgb}")
+                            rgb.to_string()
                         } else {
                             String::new()
                         },
                         rgb_colour(cc),
                         dash,
-                        v.line(&k, ta, ch).into_iter().map(|(x, y)| (x, f(y))).collect(),
+                        v.line(&k, ta, ch)
+                            .into_iter()
+                            .map(|(x, y)| (x, f(y)))
+                            .collect(),
                     )
                 })
                 .collect(),
@@ -569,67 +593,59 @@ fn hair_dual_colour(v: &View) -> anyhow::Result<Vec<(&'static str, Figure)>> {
     let id = |y: f64| y;
     let to_deg = |y: f64| y * deg;
     let sqrt_deg = |y: f64| y.max(0.0).sqrt() * deg;
-    let two = |a: &str, b: &str, f: &dyn Fn(f64) -> f64| -> anyhow::Result<Vec<Series>> {
-        let mut s = curve(a, f, Dash::Solid, true)?;
-        s.extend(curve(b, f, Dash::Dashed, true)?);
+    let group = |names: &[(&str, &dyn Fn(f64) -> f64)]| -> anyhow::Result<Vec<Series>> {
+        let dashes = [Dash::Solid, Dash::Dashed, Dash::Dotted];
+        let mut s = Vec::new();
+        for (k, (name, f)) in names.iter().enumerate() {
+            s.extend(curve(name, *f, dashes[k % 3], k == 0)?);
+        }
         Ok(s)
     };
-    let mut e = curve("E_R", &id, Dash::Solid, true)?;
-    e.extend(curve("E_TT", &id, Dash::Dashed, true)?);
-    e.extend(curve("E_TRT", &id, Dash::Dotted, true)?);
     let panels = vec![
-        lines(
-            "ā_f (solid: forward), ā_b (dashed: backward)".into(),
+        lines_at(
+            "a_f (solid: forward), a_b (dashed: backward)".into(),
             xl.clone(),
             "average attenuation (1)".into(),
-            two("a_f", "a_b", &id)?,
+            group(&[("a_f", &id), ("a_b", &id)])?,
             false,
+            Legend::UpperMiddle,
         ),
         lines(
-            "ᾱ_f (solid), ᾱ_b (dashed): mean longitudinal shifts".into(),
+            "alpha_f (solid), alpha_b (dashed): mean longitudinal shifts".into(),
             xl.clone(),
             "shift (deg)".into(),
-            two("alpha_f", "alpha_b", &to_deg)?,
+            group(&[("alpha_f", &to_deg), ("alpha_b", &to_deg)])?,
             false,
         ),
         lines(
-            "√β̄_f² (solid), √β̄_b² (dashed): mean longitudinal widths".into(),
+            "sqrt(beta_f2) (solid), sqrt(beta_b2) (dashed): mean widths".into(),
             xl.clone(),
             "width (deg)".into(),
-            two("beta_f2", "beta_b2", &sqrt_deg)?,
+            group(&[("beta_f2", &sqrt_deg), ("beta_b2", &sqrt_deg)])?,
             false,
         ),
-        lines(
-            "Ā_b: multiple backscattering attenuation".into(),
+        lines_at(
+            "A_b: multiple backscattering attenuation".into(),
             xl.clone(),
-            "Ā_b (1)".into(),
-            curve("A_b", &id, Dash::Solid, true)?,
+            "A_b (1)".into(),
+            group(&[("A_b", &id)])?,
             false,
+            Legend::UpperMiddle,
         ),
         lines(
-            "Δ̄_b (solid), σ̄_b (dashed): backscattering shift and width".into(),
+            "delta_b (solid), sigma_b = sqrt(sigma_b2) (dashed)".into(),
             xl.clone(),
-            "angle (deg)".into(),
-            two("delta_b", "sigma_b2", &|y: f64| y * deg)
-                .map(|mut s| {
-                    // sigma_b2 is a variance: show its square root.
-                    let n = v.len(ca);
-                    for sr in s.iter_mut().skip(n) {
-                        for p in sr.points.iter_mut() {
-                            p.1 = (p.1 / deg).max(0.0).sqrt() * deg;
-                        }
-                        sr.label = sr.label.replace("sigma_b2", "sigma_b");
-                    }
-                    s
-                })?,
+            "backscattering shift, width (deg)".into(),
+            group(&[("delta_b", &to_deg), ("sigma_b2", &sqrt_deg)])?,
             false,
         ),
-        lines(
+        lines_at(
             "lobe energies E_R (solid), E_TT (dashed), E_TRT (dotted)".into(),
             xl,
             "energy (1)".into(),
-            e,
+            group(&[("E_R", &id), ("E_TT", &id), ("E_TRT", &id)])?,
             false,
+            Legend::UpperMiddle,
         ),
     ];
     Ok(vec![(
@@ -663,7 +679,7 @@ fn hair_dual_lut(v: &View) -> anyhow::Result<Vec<(&'static str, Figure)>> {
     let panels = grids
         .into_iter()
         .map(|(name, r, g)| {
-            let shown = if name == "a_f" { "ā_f" } else { "ā_b" };
+            let shown = name;
             heat(
                 format!("{shown}, {}", v.at_text(ra, r, "roughness")),
                 v.axis_label(ta, "θ_i"),
@@ -723,7 +739,7 @@ pub fn hair_azimuthal(v: &View) -> anyhow::Result<Vec<(&'static str, Figure)>> {
             Dash::Dotted,
             v.line(&idx, pa, v.ch("sum")?),
         ));
-        panels.push(lines(
+        panels.push(lines_at(
             format!(
                 "{}, {}",
                 v.at_text(ua, u, "absorption u"),
@@ -733,6 +749,7 @@ pub fn hair_azimuthal(v: &View) -> anyhow::Result<Vec<(&'static str, Figure)>> {
             "N_p (1/rad)".into(),
             s,
             true,
+            Legend::UpperMiddle,
         ));
     }
     let curves = Figure {
@@ -835,4 +852,136 @@ pub fn water_index(v: &View) -> anyhow::Result<Vec<(&'static str, Figure)>> {
             ],
         },
     )])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::table::{Axis, Channel, Provenance, Schema, TableContent, write_table_atomic};
+
+    /// A small table shaped like `fur-medulla-azimuthal/1` whose σ = 0 slice is all zeros and
+    /// whose |h| = 1 rows are zeros (nothing enters), as in the real tables: energy
+    /// 1 − exp(−2σ√(1−h²)) spread over φ with a forward peak that grows with h and g.
+    fn medulla_like() -> Table {
+        let sigma = vec![0.0, 1.0, 2.0, 4.0];
+        let g = vec![0.0, 0.4, 0.8];
+        let h: Vec<f64> = (0..9).map(|i| -1.0 + 0.25 * i as f64).collect();
+        let nphi = 72;
+        let mut data = Vec::new();
+        for &s in &sigma {
+            for &gg in &g {
+                for &hh in &h {
+                    let total = 1.0 - (-2.0 * s * (1.0 - hh * hh).max(0.0).sqrt()).exp();
+                    let shape: Vec<f64> = (0..nphi)
+                        .map(|k| {
+                            let phi = (-177.5 + 5.0 * k as f64).to_radians();
+                            1.0 + (gg + 0.5 * hh.abs()) * (phi - hh).cos()
+                        })
+                        .collect();
+                    let norm: f64 = shape.iter().sum();
+                    for v in shape {
+                        let e = total * v / norm;
+                        data.extend_from_slice(&[e as f32, (s * (1.0 + v)) as f32, 0.0]);
+                    }
+                }
+            }
+        }
+        let content = TableContent {
+            schema: Schema::new("fur-medulla-azimuthal", 1),
+            description: "test".into(),
+            axes: vec![
+                Axis::values("sigma", "1/medulla_radius", sigma),
+                Axis::values("g", "1", g),
+                Axis::values("h", "1", h),
+                Axis::uniform("phi", "deg", -177.5, 5.0, nphi),
+            ],
+            channels: vec![
+                Channel::new("energy", "1", "e"),
+                Channel::new("path_length", "medulla_radius", "l"),
+                Channel::new("std_error", "1", "s"),
+            ],
+            attributes: serde_json::Map::new(),
+            data,
+        };
+        Table::from_content(content, Provenance::default()).unwrap()
+    }
+
+    fn non_constant(p: &[(f64, f64)]) -> bool {
+        let (lo, hi) = super::super::figure::range_of(p.iter().map(|q| q.1));
+        hi > lo
+    }
+
+    /// The medulla previews never show the empty σ = 0 slice: every heatmap varies, every line
+    /// panel has a varying curve, and no title names σ = 0 (the old default — first sample of
+    /// every axis — drew σ = 0, all zeros).
+    #[test]
+    fn medulla_previews_pick_non_trivial_slices() {
+        let t = medulla_like();
+        let figs = medulla_azimuthal(&View::new(&t, "m")).unwrap();
+        assert_eq!(figs.len(), 2);
+        for (_, f) in &figs {
+            assert!(!f.title.contains("σ = 0,"), "{}", f.title);
+            for p in &f.panels {
+                match p {
+                    Panel::Heat(h) => {
+                        let (lo, hi) = h.range();
+                        assert!(hi > lo, "constant heatmap {}", h.title);
+                        assert!(!h.title.contains("σ = 0,"), "{}", h.title);
+                    }
+                    Panel::Lines(l) => {
+                        assert!(!l.series.is_empty());
+                        assert!(
+                            l.series.iter().any(|s| non_constant(&s.points)),
+                            "all curves constant in {}",
+                            l.title
+                        );
+                        // Every energy curve of the several-h' panel carries energy (no |h| = 1).
+                        if l.title.starts_with("energy vs φ' for several h'") {
+                            for s in &l.series {
+                                assert!(s.points.iter().any(|q| q.1 > 0.0), "{}", s.label);
+                            }
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    /// `previews()` on the file writes the family's figures, and each picture has varied
+    /// content inside its heatmaps (not one flat colour).
+    #[test]
+    fn medulla_preview_files_are_written_and_not_flat() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("med.sbt");
+        write_table_atomic(&mut medulla_like(), &path).unwrap();
+        let out = dir.path().join("prev");
+        let written = super::super::plot::previews(&path, &out).unwrap();
+        assert_eq!(
+            written,
+            vec![out.join("med-profiles.png"), out.join("med-map.png")]
+        );
+        let figs = medulla_azimuthal(&View::new(&Table::open(&path).unwrap(), "med")).unwrap();
+        let (buf, rects) = super::super::figure::render_rgb(&figs[1].1).unwrap();
+        assert_eq!(rects.len(), 2);
+        let w = figs[1].1.size.0 as usize;
+        for (xr, yr) in rects {
+            let mut colours = std::collections::HashSet::new();
+            for y in yr.clone() {
+                for x in xr.clone() {
+                    let o = (y as usize * w + x as usize) * 3;
+                    colours.insert((buf[o], buf[o + 1], buf[o + 2]));
+                }
+            }
+            assert!(colours.len() > 20, "{} colours", colours.len());
+        }
+        for p in written {
+            assert!(std::fs::metadata(p).unwrap().len() > 10_000);
+        }
+    }
+
+    #[test]
+    fn spread_keeps_ends() {
+        assert_eq!(spread(&[1, 2, 3, 4, 5, 6, 7, 8, 9], 5), vec![1, 3, 5, 7, 9]);
+        assert_eq!(spread(&[1, 2], 5), vec![1, 2]);
+    }
 }
