@@ -172,19 +172,37 @@ fn lines_at(
     p
 }
 
+/// Colour scale of a heat panel.
+enum Scale {
+    /// [`ColourScale::auto`] of the panel's values.
+    Auto,
+    /// Linear from 0 to the panel's maximum (Monte Carlo energies: the grazing bins near 0
+    /// would otherwise force a log scale that flattens the lobes).
+    FromZero,
+    Fixed(ColourScale),
+}
+
 fn heat(
     title: String,
     x_label: String,
     y_label: String,
     (xs, ys, values): (Vec<f64>, Vec<f64>, Vec<f64>),
-    scale: Option<ColourScale>,
+    scale: Scale,
     value_label: String,
 ) -> Panel {
+    let scale = match scale {
+        Scale::Auto => ColourScale::auto(values.iter().copied()),
+        Scale::FromZero => {
+            let (_, hi) = super::figure::range_of(values.iter().copied());
+            ColourScale::linear(0.0, hi)
+        }
+        Scale::Fixed(s) => s,
+    };
     Panel::Heat(HeatPanel {
         title,
         x_label,
         y_label,
-        scale: scale.unwrap_or_else(|| ColourScale::auto(values.iter().copied())),
+        scale,
         xs,
         ys,
         values,
@@ -336,7 +354,7 @@ pub fn medulla_azimuthal(v: &View) -> anyhow::Result<Vec<(&'static str, Figure)>
                 xl.clone(),
                 v.axis_label(ha, "h' (entry offset)"),
                 v.grid(&idx, pa, ha, energy),
-                None,
+                Scale::FromZero,
                 "energy".into(),
             ),
             heat(
@@ -344,7 +362,7 @@ pub fn medulla_azimuthal(v: &View) -> anyhow::Result<Vec<(&'static str, Figure)>
                 xl,
                 v.axis_label(ha, "h' (entry offset)"),
                 v.grid(&idx, pa, ha, path),
-                None,
+                Scale::FromZero,
                 v.channel_label(path, "path length"),
             ),
         ],
@@ -445,7 +463,7 @@ pub fn medulla_longitudinal(v: &View) -> anyhow::Result<Vec<(&'static str, Figur
                     xl.clone(),
                     v.axis_label(ia, "θ'_i"),
                     v.grid(&base(s0, g0, 0, l), ra, ia, energy),
-                    None,
+                    Scale::FromZero,
                     "energy per bin".into(),
                 )
             })
@@ -505,7 +523,7 @@ pub fn fur_farfield(v: &View) -> anyhow::Result<Vec<(&'static str, Figure)>> {
                     xl.clone(),
                     yl.clone(),
                     g,
-                    Some(scale),
+                    Scale::Fixed(scale),
                     v.channel_label(energy, "energy"),
                 )
             })
@@ -529,7 +547,7 @@ pub fn fur_farfield(v: &View) -> anyhow::Result<Vec<(&'static str, Figure)>> {
                     xl.clone(),
                     yl.clone(),
                     v.grid(&base(s0), pa, ra, c),
-                    None,
+                    Scale::Auto,
                     v.channel_label(c, &name),
                 )
             })
@@ -685,7 +703,7 @@ fn hair_dual_lut(v: &View) -> anyhow::Result<Vec<(&'static str, Figure)>> {
                 v.axis_label(ta, "θ_i"),
                 v.axis_label(ua, "absorption u = 1 − exp(−2σ_a)"),
                 g,
-                Some(scale),
+                Scale::Fixed(scale),
                 shown.into(),
             )
         })
@@ -776,7 +794,7 @@ pub fn hair_azimuthal(v: &View) -> anyhow::Result<Vec<(&'static str, Figure)>> {
                     xl.clone(),
                     v.axis_label(ta, "θ_d"),
                     v.grid(&idx, pa, ta, v.ch(name)?),
-                    None,
+                    Scale::Auto,
                     format!("N_{name} (1/rad)"),
                 ))
             })
