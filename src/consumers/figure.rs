@@ -362,8 +362,15 @@ fn draw_heat<DB: DrawingBackend>(
     let bar_w = 100.min(w / 3);
     let (main, bar) = area.split_horizontally(w - bar_w);
     let (xe, ye) = (cell_edges(&p.xs), cell_edges(&p.ys));
+    // A constant field would show one colour without meaning: say so in the title.
+    let (lo, hi) = p.range();
+    let title = if lo == hi {
+        format!("{} (constant {})", p.title, format_tick(lo))
+    } else {
+        p.title.clone()
+    };
     let mut chart = ChartBuilder::on(&main)
-        .caption(&p.title, ("sans-serif", TITLE_FONT))
+        .caption(&title, ("sans-serif", TITLE_FONT))
         .margin(6)
         .x_label_area_size(36)
         .y_label_area_size(52)

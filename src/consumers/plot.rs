@@ -11,12 +11,14 @@
 //!   radius column normalised to its own brightest angle (otherwise small drops are invisible);
 //! - `heatmap`: any table with ≥ 2 axes: the last two axes as x/y (e.g. outgoing_azimuth ×
 //!   outgoing_polar: a lat-long image of a 2-D phase function), other axes at the entry
-//!   selection, one channel, log10 colour scale (viridis) when the data are positive and span
-//!   more than two decades;
+//!   selection, one channel, drawn as a gap-free raster ([`super::figure`]) with a colour bar;
+//!   log10 colour scale (viridis) when the data are ≥ 0 and span more than two decades;
 //! - `line`: channels of a 1-D table vs its axis.
 //!
 //! `auto` (and [`previews`]) picks phase + strip (+ lee when there is a radius axis) for phase
-//! tables, heatmap for other tables of ≥ 2 axes and line for 1-D tables.
+//! tables, the family figures of [`super::previews`] for known schemas (fur medulla, fur far
+//! field, hair Dual Scattering, hair azimuthal, water index), and for other schemas a heatmap
+//! (other axes at their middle sample) or a line plot for 1-D tables.
 
 use super::phase::{EntrySelection, PhaseTable};
 use super::render::{THETA_STEP_DEG, xyz_vs_angle};
