@@ -543,10 +543,10 @@ fn draw_lines<DB: DrawingBackend>(
     Ok(())
 }
 
-/// Short tick label.
+/// Short tick label (|v| < 10⁻¹² is 0: tick positions computed as sums leave ±10⁻¹⁷ residues).
 fn format_tick(v: f64) -> String {
     let a = v.abs();
-    if a == 0.0 {
+    if a < 1e-12 {
         "0".into()
     } else if !(1e-4..1e5).contains(&a) {
         format!("{v:.1e}")
@@ -685,6 +685,14 @@ mod tests {
                 assert!(near(tr, ViridisRGB.get_color(1.0)), "{tr:?}");
             }
         }
+    }
+
+    #[test]
+    fn tick_labels_are_short() {
+        assert_eq!(format_tick(-2.2e-16), "0");
+        assert_eq!(format_tick(0.0015), "0.0015");
+        assert_eq!(format_tick(80.0), "80");
+        assert_eq!(format_tick(2.5e-5), "2.5e-5");
     }
 
     #[test]
