@@ -687,6 +687,28 @@ mod tests {
         }
     }
 
+    /// SVG heatmaps are one rectangle per cell (not per pixel): a 180 × 90 field gives at most
+    /// 16 200 cell rectangles plus the colour bar's 256, and the cells tile the plot area.
+    #[test]
+    fn svg_heatmap_is_one_rect_per_cell() {
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("h.svg");
+        let fig = Figure {
+            title: "t".into(),
+            cols: 1,
+            size: (900, 500),
+            panels: vec![Panel::Heat(ramp_panel(180, 90))],
+        };
+        draw_figure(&fig, &out).unwrap();
+        let svg = std::fs::read_to_string(&out).unwrap();
+        let rects = svg.matches("<rect").count();
+        assert!(
+            rects > 180 * 90 / 2 && rects < 180 * 90 + 256 + 50,
+            "{rects} rects"
+        );
+        assert!(svg.len() < 4_000_000, "{} bytes", svg.len());
+    }
+
     #[test]
     fn tick_labels_are_short() {
         assert_eq!(format_tick(-2.2e-16), "0");
