@@ -9,11 +9,13 @@
 //! [`mieplot::MiePlotArgs`], [`mieplot::ValidateArgs`], [`lut::LutArgs`], [`plot::PlotArgs`],
 //! [`render::RenderRainbowArgs`].
 
+pub mod figure;
 pub mod legendre;
 pub mod lut;
 pub mod mieplot;
 pub mod mitsuba;
 pub mod phase;
 pub mod plot;
+pub mod previews;
 pub mod render;
 pub mod synthetic;

@@ -11,12 +11,14 @@
 //!   radius column normalised to its own brightest angle (otherwise small drops are invisible);
 //! - `heatmap`: any table with ≥ 2 axes: the last two axes as x/y (e.g. outgoing_azimuth ×
 //!   outgoing_polar: a lat-long image of a 2-D phase function), other axes at the entry
-//!   selection, one channel, log10 colour scale (viridis) when the data are positive and span
-//!   more than two decades;
+//!   selection, one channel, drawn as a gap-free raster ([`super::figure`]) with a colour bar;
+//!   log10 colour scale (viridis) when the data are ≥ 0 and span more than two decades;
 //! - `line`: channels of a 1-D table vs its axis.
 //!
 //! `auto` (and [`previews`]) picks phase + strip (+ lee when there is a radius axis) for phase
-//! tables, heatmap for other tables of ≥ 2 axes and line for 1-D tables.
+//! tables, the family figures of [`super::previews`] for known schemas (fur medulla, fur far
+//! field, hair Dual Scattering, hair azimuthal, water index), and for other schemas a heatmap
+//! (other axes at their middle sample) or a line plot for 1-D tables.
 
 use super::phase::{EntrySelection, PhaseTable};
 use super::render::{THETA_STEP_DEG, xyz_vs_angle};
@@ -25,52 +27,10 @@ use crate::table::Table;
 use anyhow::{Context, anyhow, bail};
 use plotters::prelude::*;
 use std::path::{Path, PathBuf};
-use std::sync::OnceLock;
 
-static FONT: &[u8] = include_bytes!("../../assets/fonts/DejaVuSans.ttf");
-
-fn ensure_font() {
-    static ONCE: OnceLock<()> = OnceLock::new();
-    ONCE.get_or_init(|| {
-        let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, FONT);
-    });
-}
-
-fn perr<E: std::fmt::Debug>(e: E) -> anyhow::Error {
-    anyhow!("plotting failed: {e:?}")
-}
-
-/// Run `draw` on a PNG or SVG backend chosen by the extension of `out`.
-macro_rules! with_backend {
-    ($out:expr, $size:expr, |$root:ident| $body:expr) => {{
-        ensure_font();
-        let out: &Path = $out;
-        let size: (u32, u32) = $size;
-        match out
-            .extension()
-            .and_then(|e| e.to_str())
-            .map(|e| e.to_ascii_lowercase())
-            .as_deref()
-        {
-            Some("svg") => {
-                let $root = SVGBackend::new(out, size).into_drawing_area();
-                $body?;
-                $root.present().map_err(perr)?;
-            }
-            Some("png") => {
-                let mut buf = vec![0u8; size.0 as usize * size.1 as usize * 3];
-                {
-                    let $root = BitMapBackend::with_buffer(&mut buf, size).into_drawing_area();
-                    $body?;
-                    $root.present().map_err(perr)?;
-                }
-                super::render::write_png(out, size.0 as usize, size.1 as usize, &buf)?;
-            }
-            _ => bail!("{}: output must end in .png or .svg", out.display()),
-        }
-        Ok::<(), anyhow::Error>(())
-    }};
-}
+use super::figure::{
+    ColourScale, Dash, Figure, HeatPanel, LinePanel, Panel, Series, draw_figure, perr, with_backend,
+};
 
 /// Display colour of a monochromatic wavelength: CIE 1931 → linear sRGB, desaturated toward
 /// white until in gamut, scaled to a maximum of 1, sRGB-encoded; darkened toward the ends of
@@ -368,8 +328,57 @@ pub fn plot_lee(
     })
 }
 
-/// Heatmap of one channel over the last two axes (others at the entry selection / first
-/// sample), sampled with the table's lookup formula on a grid of at most 800 × 500 cells.
+/// `name (unit)` of an axis, `name` when dimensionless.
+pub fn axis_label(name: &str, unit: &str) -> String {
+    if unit.is_empty() || unit == "1" {
+        name.to_string()
+    } else {
+        format!("{name} ({unit})")
+    }
+}
+
+/// Shortest readable form of a coordinate (up to 4 significant decimals).
+pub fn short_number(v: f64) -> String {
+    let s = format!("{v:.4}");
+    let s = s.trim_end_matches('0').trim_end_matches('.');
+    if s == "-0" { "0".into() } else { s.into() }
+}
+
+/// `a = 1, b = 2 nm` for the axes of `table` at `coords`, except the axes in `skip`.
+pub fn describe_slice(table: &Table, coords: &[f64], skip: &[usize]) -> String {
+    table
+        .axes()
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| !skip.contains(i))
+        .map(|(i, a)| {
+            let u = if a.unit.is_empty() || a.unit == "1" {
+                String::new()
+            } else {
+                format!(" {}", a.unit)
+            };
+            format!("{} = {}{u}", a.name, short_number(coords[i]))
+        })
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// Cell centres for a heatmap axis: the axis samples, or `max` uniform points over its range
+/// when it has more.
+fn heat_coords(coords: Vec<f64>, max: usize) -> Vec<f64> {
+    if coords.len() <= max {
+        return coords;
+    }
+    let (a, b) = (coords[0], coords[coords.len() - 1]);
+    (0..max)
+        .map(|i| a + (b - a) * i as f64 / (max - 1) as f64)
+        .collect()
+}
+
+/// Heatmap of one channel over the last two axes (x = last, y = the one before), other axes
+/// at the entry selection (first sample when not selected), sampled with the table's lookup
+/// formula at the axis samples (at most 800 × 500 cells: longer axes are resampled uniformly),
+/// drawn as a raster with a colour bar (log10 when the values are ≥ 0 and span > 2 decades).
 pub fn plot_heatmap(
     table: &Table,
     entry: &[EntrySelection],
@@ -385,105 +394,60 @@ pub fn plot_heatmap(
         Some(n) => table.channel_index(n)?,
         None => 0,
     };
-    let (xa, ya) = (&axes[axes.len() - 1], &axes[axes.len() - 2]);
+    let n = axes.len();
     let mut coords: Vec<f64> = axes.iter().map(|a| a.coord(0)).collect();
     for s in entry {
         let i = table.axis_index(&s.axis)?;
         coords[i] = s.value;
     }
-    let (xs, ys) = (xa.coords(), ya.coords());
-    let (x0, x1, y0, y1) = (xs[0], xs[xs.len() - 1], ys[0], ys[ys.len() - 1]);
-    let nx = xs.len().clamp(1, 800);
-    let ny = ys.len().clamp(1, 500);
-    let mut vals = vec![0.0; nx * ny];
-    for j in 0..ny {
-        for i in 0..nx {
-            let mut c = coords.clone();
-            let n = c.len();
-            c[n - 1] = if nx > 1 {
-                x0 + (x1 - x0) * i as f64 / (nx - 1) as f64
-            } else {
-                x0
-            };
-            c[n - 2] = if ny > 1 {
-                y0 + (y1 - y0) * j as f64 / (ny - 1) as f64
-            } else {
-                y0
-            };
-            vals[j * nx + i] = table.sample(&c)?[ch];
+    let panel = heat_panel_sampled(table, &coords, n - 1, n - 2, ch)?;
+    let title = format!(
+        "{}: {}",
+        table.header.schema,
+        describe_slice(table, &coords, &[n - 1, n - 2])
+    );
+    draw_figure(
+        &Figure {
+            title,
+            cols: 1,
+            size,
+            panels: vec![Panel::Heat(panel)],
+        },
+        out,
+    )
+}
+
+/// Heat panel of channel `ch` over axes `xa` × `ya` at `coords` (lookup formula).
+pub fn heat_panel_sampled(
+    table: &Table,
+    coords: &[f64],
+    xa: usize,
+    ya: usize,
+    ch: usize,
+) -> anyhow::Result<HeatPanel> {
+    let axes = table.axes();
+    let xs = heat_coords(axes[xa].coords(), 800);
+    let ys = heat_coords(axes[ya].coords(), 500);
+    let mut values = Vec::with_capacity(xs.len() * ys.len());
+    let mut c = coords.to_vec();
+    for &y in &ys {
+        for &x in &xs {
+            c[xa] = x;
+            c[ya] = y;
+            values.push(table.sample(&c)?[ch]);
         }
     }
-    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
-    for &v in &vals {
-        lo = lo.min(v);
-        hi = hi.max(v);
-    }
-    let log = lo > 0.0 && hi / lo > 100.0;
-    let f = |v: f64| if log { v.log10() } else { v };
-    let (flo, fhi) = (f(lo), f(hi));
-    let cname = table.header.channels[ch].name.clone();
-    let cunit = table.header.channels[ch].unit.clone();
-    let title = format!(
-        "{cname} ({cunit}){}, range {lo:.3e} .. {hi:.3e}",
-        if log { ", log10 colour" } else { "" }
-    );
-    let (dx, dy) = ((x1 - x0) / nx as f64, (y1 - y0) / ny as f64);
-    let (dx, dy) = (
-        if dx > 0.0 { dx } else { 1.0 },
-        if dy > 0.0 { dy } else { 1.0 },
-    );
-    with_backend!(out, size, |root| {
-        root.fill(&WHITE).map_err(perr)?;
-        let mut chart = ChartBuilder::on(&root)
-            .caption(&title, ("sans-serif", 16))
-            .margin(10)
-            .x_label_area_size(40)
-            .y_label_area_size(60)
-            .build_cartesian_2d(x0 - 0.5 * dx..x1 + 0.5 * dx, y0 - 0.5 * dy..y1 + 0.5 * dy)
-            .map_err(perr)?;
-        chart
-            .configure_mesh()
-            .x_desc(format!("{} ({})", xa.name, xa.unit))
-            .y_desc(format!("{} ({})", ya.name, ya.unit))
-            .draw()
-            .map_err(perr)?;
-        let cx = |i: usize| {
-            if nx > 1 {
-                x0 + (x1 - x0) * i as f64 / (nx - 1) as f64
-            } else {
-                x0
-            }
-        };
-        let cy = |j: usize| {
-            if ny > 1 {
-                y0 + (y1 - y0) * j as f64 / (ny - 1) as f64
-            } else {
-                y0
-            }
-        };
-        chart
-            .draw_series(
-                (0..ny)
-                    .flat_map(|j| (0..nx).map(move |i| (i, j)))
-                    .map(|(i, j)| {
-                        let v = vals[j * nx + i];
-                        let t = if fhi > flo {
-                            ((f(v) - flo) / (fhi - flo)) as f32
-                        } else {
-                            0.5
-                        };
-                        let col: RGBColor = ViridisRGB.get_color(t);
-                        Rectangle::new(
-                            [
-                                (cx(i) - 0.5 * dx, cy(j) - 0.5 * dy),
-                                (cx(i) + 0.5 * dx, cy(j) + 0.5 * dy),
-                            ],
-                            col.filled(),
-                        )
-                    }),
-            )
-            .map_err(perr)?;
-        Ok::<(), anyhow::Error>(())
+    let chan = &table.header.channels[ch];
+    let value_label = axis_label(&chan.name, &chan.unit);
+    Ok(HeatPanel {
+        title: value_label.clone(),
+        x_label: axis_label(&axes[xa].name, &axes[xa].unit),
+        y_label: axis_label(&axes[ya].name, &axes[ya].unit),
+        scale: ColourScale::auto(values.iter().copied()),
+        xs,
+        ys,
+        values,
+        value_label,
     })
 }
 
@@ -495,69 +459,75 @@ pub fn plot_line(
     size: (u32, u32),
 ) -> anyhow::Result<()> {
     let axes = table.axes();
-    let xa = &axes[axes.len() - 1];
+    let n = axes.len();
+    let xa = &axes[n - 1];
     let mut coords: Vec<f64> = axes.iter().map(|a| a.coord(0)).collect();
     for s in entry {
         coords[table.axis_index(&s.axis)?] = s.value;
     }
-    let xs = xa.coords();
     let nch = table.header.channels.len();
-    let mut series = vec![Vec::new(); nch];
-    for &x in &xs {
+    let mut points = vec![Vec::new(); nch];
+    for x in xa.coords() {
         let mut c = coords.clone();
-        let n = c.len();
         c[n - 1] = x;
         let v = table.sample(&c)?;
         for k in 0..nch {
-            series[k].push((x, v[k]));
+            points[k].push((x, v[k]));
         }
     }
-    let all = series.iter().flatten().map(|p| p.1);
-    let (lo, hi) = all.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
-        (a.min(v), b.max(v))
-    });
-    let pad = if hi > lo { 0.05 * (hi - lo) } else { 1.0 };
-    let palette = [BLUE, RED, GREEN, MAGENTA, CYAN, BLACK];
-    with_backend!(out, size, |root| {
-        root.fill(&WHITE).map_err(perr)?;
-        let mut chart = ChartBuilder::on(&root)
-            .caption(&table.header.description, ("sans-serif", 16))
-            .margin(10)
-            .x_label_area_size(40)
-            .y_label_area_size(70)
-            .build_cartesian_2d(
-                xs[0]..xs[xs.len() - 1].max(xs[0] + 1e-9),
-                lo - pad..hi + pad,
-            )
-            .map_err(perr)?;
-        chart
-            .configure_mesh()
-            .x_desc(format!("{} ({})", xa.name, xa.unit))
-            .draw()
-            .map_err(perr)?;
-        for (k, s) in series.iter().enumerate() {
-            let col = palette[k % palette.len()];
+    let series = points
+        .into_iter()
+        .enumerate()
+        .map(|(k, pts)| {
             let ch = &table.header.channels[k];
-            chart
-                .draw_series(LineSeries::new(s.clone(), col.stroke_width(2)))
-                .map_err(perr)?
-                .label(format!("{} ({})", ch.name, ch.unit))
-                .legend(move |(x, y)| {
-                    PathElement::new(vec![(x, y), (x + 20, y)], col.stroke_width(2))
-                });
-        }
-        chart
-            .configure_series_labels()
-            .background_style(WHITE.mix(0.8))
-            .border_style(BLACK)
-            .draw()
-            .map_err(perr)?;
-        Ok::<(), anyhow::Error>(())
-    })
+            Series {
+                label: axis_label(&ch.name, &ch.unit),
+                colour: PALETTE[k % PALETTE.len()],
+                dash: Dash::Solid,
+                points: pts,
+            }
+        })
+        .collect();
+    let slice = describe_slice(table, &coords, &[n - 1]);
+    draw_figure(
+        &Figure {
+            title: String::new(),
+            cols: 1,
+            size,
+            panels: vec![Panel::Lines(LinePanel {
+                title: if slice.is_empty() {
+                    format!("{}: {}", table.header.schema, table.header.description)
+                } else {
+                    format!("{}: {slice}", table.header.schema)
+                },
+                x_label: axis_label(&xa.name, &xa.unit),
+                y_label: String::new(),
+                series,
+                log_y: false,
+                legend: Default::default(),
+            })],
+        },
+        out,
+    )
 }
 
+/// Distinguishable line colours.
+pub const PALETTE: [RGBColor; 8] = [
+    RGBColor(31, 119, 180),
+    RGBColor(214, 39, 40),
+    RGBColor(44, 160, 44),
+    RGBColor(148, 103, 189),
+    RGBColor(255, 127, 14),
+    RGBColor(23, 190, 207),
+    RGBColor(140, 86, 75),
+    RGBColor(0, 0, 0),
+];
+
 /// Write the default previews of a table into `out_dir` as `<stem>-<kind>.png`; returns the
-/// files written.
+/// files written. Phase tables (by the phase contract) get phase + strip (+ lee); other tables
+/// get the figures of their schema family (`super::previews`); unknown schemas a heatmap of the
+/// last two axes with every other axis at its middle sample (first non-constant channel), or a
+/// line plot when 1-D.
 pub fn previews(table_path: &Path, out_dir: &Path) -> anyhow::Result<Vec<PathBuf>> {
     std::fs::create_dir_all(out_dir)?;
     let stem = table_path
@@ -568,37 +538,89 @@ pub fn previews(table_path: &Path, out_dir: &Path) -> anyhow::Result<Vec<PathBuf
     let table = Table::open(table_path).map_err(|e| anyhow!(e))?;
     let name = |k: &str| out_dir.join(format!("{stem}-{k}.png"));
     let mut written = Vec::new();
-    match PhaseTable::new(table.clone()) {
-        Ok(pt) => {
-            let p = name("phase");
-            // Three wavelengths, unpolarised: Mie ripple makes 8 polarised curves unreadable.
-            plot_phase(&pt, &[], &[450.0, 550.0, 650.0], false, &p, (1000, 600))?;
-            written.push(p);
-            let p = name("strip");
-            plot_strip(&pt, &[], 0.5, (120.0, 145.0), &p, (1000, 160))?;
-            written.push(p);
-            if pt
-                .entry_axes
-                .iter()
-                .any(|&i| pt.table.axes()[i].name == "radius" && pt.table.axes()[i].len() > 1)
-            {
-                let p = name("lee");
-                plot_lee(&pt, &[], 0.5, (120.0, 145.0), &p, (900, 600))?;
-                written.push(p);
-            }
-        }
-        Err(_) if table.axes().len() >= 2 => {
-            let p = name("heatmap");
-            plot_heatmap(&table, &[], None, &p, (1000, 600))?;
+    if let Ok(pt) = PhaseTable::new(table.clone()) {
+        let p = name("phase");
+        // Three wavelengths, unpolarised: Mie ripple makes 8 polarised curves unreadable.
+        plot_phase(&pt, &[], &[450.0, 550.0, 650.0], false, &p, (1000, 600))?;
+        written.push(p);
+        let p = name("strip");
+        plot_strip(&pt, &[], 0.5, (120.0, 145.0), &p, (1000, 160))?;
+        written.push(p);
+        if pt
+            .entry_axes
+            .iter()
+            .any(|&i| pt.table.axes()[i].name == "radius" && pt.table.axes()[i].len() > 1)
+        {
+            let p = name("lee");
+            plot_lee(&pt, &[], 0.5, (120.0, 145.0), &p, (900, 600))?;
             written.push(p);
         }
-        Err(_) => {
-            let p = name("line");
-            plot_line(&table, &[], &p, (1000, 600))?;
+        return Ok(written);
+    }
+    let view = super::previews::View::new(&table, &stem);
+    let figures = match table.header.schema.name.as_str() {
+        "fur-medulla-azimuthal" => super::previews::medulla_azimuthal(&view)?,
+        "fur-medulla-longitudinal" => super::previews::medulla_longitudinal(&view)?,
+        "fur-farfield" => super::previews::fur_farfield(&view)?,
+        "hair-dual" => super::previews::hair_dual(&view)?,
+        "hair-azimuthal" => super::previews::hair_azimuthal(&view)?,
+        "water-index" => super::previews::water_index(&view)?,
+        // RAYTRACE-PREVIEWS: the arm for `raytrace-phase-2d/1` (lat-long images, code in
+        // src/consumers/plot_raytrace.rs) goes here; until then those tables take the generic
+        // heatmap below.
+        _ => {
+            let p = generic_preview(&table, &name)?;
             written.push(p);
+            return Ok(written);
         }
+    };
+    for (kind, fig) in figures {
+        let p = name(kind);
+        draw_figure(&fig, &p).map_err(|e| anyhow!("{}: {e}", p.display()))?;
+        written.push(p);
     }
     Ok(written)
+}
+
+/// Preview of a table of unknown schema: heatmap of the last two axes at the middle sample of
+/// every other axis, first channel that is not constant there; line plot for 1-D tables.
+fn generic_preview(table: &Table, name: &dyn Fn(&str) -> PathBuf) -> anyhow::Result<PathBuf> {
+    let axes = table.axes();
+    let n = axes.len();
+    let entry: Vec<EntrySelection> = axes[..n.saturating_sub(if n >= 2 { 2 } else { 1 })]
+        .iter()
+        .map(|a| EntrySelection {
+            axis: a.name.clone(),
+            value: a.coord(a.len() / 2),
+        })
+        .collect();
+    if n < 2 {
+        let p = name("line");
+        plot_line(table, &entry, &p, (1000, 600))?;
+        return Ok(p);
+    }
+    let mut coords: Vec<f64> = axes.iter().map(|a| a.coord(0)).collect();
+    for e in &entry {
+        coords[table.axis_index(&e.axis)?] = e.value;
+    }
+    let mut ch = 0;
+    for c in 0..table.header.channels.len() {
+        let hp = heat_panel_sampled(table, &coords, n - 1, n - 2, c)?;
+        let (lo, hi) = hp.range();
+        if hi > lo {
+            ch = c;
+            break;
+        }
+    }
+    let p = name("heatmap");
+    plot_heatmap(
+        table,
+        &entry,
+        Some(&table.header.channels[ch].name),
+        &p,
+        (1000, 600),
+    )?;
+    Ok(p)
 }
 
 /// Plot kind.

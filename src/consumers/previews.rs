@@ -1,0 +1,1005 @@
+//! Default preview figures per table family (schema), used by
+//! [`super::plot::previews`]. Each builder reads the table's stored samples (no interpolation),
+//! picks slices where the family's physics happens (e.g. a medulla at mid σ and g, never the
+//! σ = 0 slice, which is all zeros) and returns [`Figure`]s named by a file suffix. What each
+//! figure shows is described in `docs/consumers.md` ("Previews").
+
+use super::figure::{ColourScale, Dash, Figure, HeatPanel, Legend, LinePanel, Panel, Series};
+use super::plot::{PALETTE, axis_label, short_number};
+use crate::table::Table;
+use anyhow::bail;
+use plotters::prelude::*;
+
+/// A table plus its file stem, with helpers to cut slices out of the stored grid.
+pub struct View<'a> {
+    pub t: &'a Table,
+    pub stem: &'a str,
+}
+
+impl<'a> View<'a> {
+    pub fn new(t: &'a Table, stem: &'a str) -> Self {
+        View { t, stem }
+    }
+
+    pub fn ax(&self, name: &str) -> anyhow::Result<usize> {
+        Ok(self.t.axis_index(name)?)
+    }
+
+    pub fn ch(&self, name: &str) -> anyhow::Result<usize> {
+        Ok(self.t.channel_index(name)?)
+    }
+
+    pub fn coord(&self, axis: usize, i: usize) -> f64 {
+        self.t.axes()[axis].coord(i)
+    }
+
+    pub fn len(&self, axis: usize) -> usize {
+        self.t.axes()[axis].len()
+    }
+
+    /// Index of the sample nearest `v`.
+    pub fn nearest(&self, axis: usize, v: f64) -> usize {
+        (0..self.len(axis))
+            .min_by(|&a, &b| {
+                (self.coord(axis, a) - v)
+                    .abs()
+                    .total_cmp(&(self.coord(axis, b) - v).abs())
+            })
+            .unwrap_or(0)
+    }
+
+    /// The middle sample.
+    pub fn mid(&self, axis: usize) -> usize {
+        self.len(axis) / 2
+    }
+
+    /// `name = value unit` of sample `i` of `axis`, with a display name.
+    pub fn at_text(&self, axis: usize, i: usize, shown: &str) -> String {
+        let a = &self.t.axes()[axis];
+        let u = match a.unit.as_str() {
+            "" | "1" => String::new(),
+            "deg" => "°".into(),
+            "degC" => " °C".into(),
+            u => match u.strip_prefix("1/") {
+                Some(per) => format!(" per {}", per.replace('_', " ")),
+                None => format!(" {u}"),
+            },
+        };
+        format!("{shown} = {}{u}", short_number(a.coord(i)))
+    }
+
+    /// Channel `ch` along `free` with the other axes at `idx` (stored samples).
+    pub fn line(&self, idx: &[usize], free: usize, ch: usize) -> Vec<(f64, f64)> {
+        let mut k = idx.to_vec();
+        (0..self.len(free))
+            .map(|i| {
+                k[free] = i;
+                (self.coord(free, i), self.t.at(&k, ch) as f64)
+            })
+            .collect()
+    }
+
+    /// Channel `ch` over `xa` × `ya` with the other axes at `idx`: (xs, ys, values row-major
+    /// over y then x).
+    pub fn grid(
+        &self,
+        idx: &[usize],
+        xa: usize,
+        ya: usize,
+        ch: usize,
+    ) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
+        let mut k = idx.to_vec();
+        let xs = self.t.axes()[xa].coords();
+        let ys = self.t.axes()[ya].coords();
+        let mut v = Vec::with_capacity(xs.len() * ys.len());
+        for j in 0..ys.len() {
+            for i in 0..xs.len() {
+                k[xa] = i;
+                k[ya] = j;
+                v.push(self.t.at(&k, ch) as f64);
+            }
+        }
+        (xs, ys, v)
+    }
+
+    pub fn axis_label(&self, axis: usize, shown: &str) -> String {
+        axis_label(shown, &self.t.axes()[axis].unit)
+    }
+
+    pub fn channel_label(&self, ch: usize, shown: &str) -> String {
+        axis_label(shown, &self.t.header.channels[ch].unit)
+    }
+
+    pub fn title(&self, what: &str) -> String {
+        format!("{} ({}): {what}", self.stem, self.t.header.schema)
+    }
+}
+
+/// Up to `k` items of `items` at evenly spaced positions (both ends included).
+pub fn spread<T: Copy>(items: &[T], k: usize) -> Vec<T> {
+    let n = items.len();
+    if n <= k {
+        return items.to_vec();
+    }
+    let mut idx: Vec<usize> = (0..k).map(|i| i * (n - 1) / (k - 1).max(1)).collect();
+    idx.dedup();
+    idx.into_iter().map(|i| items[i]).collect()
+}
+
+/// Sequential colour `k` of `n` (viridis from dark purple to green, avoiding the pale end).
+pub fn seq_colour(k: usize, n: usize) -> RGBColor {
+    let t = if n > 1 {
+        0.88 * k as f64 / (n - 1) as f64
+    } else {
+        0.0
+    };
+    ViridisRGB.get_color(t as f32)
+}
+
+fn series(label: String, colour: RGBColor, dash: Dash, points: Vec<(f64, f64)>) -> Series {
+    Series {
+        label,
+        colour,
+        dash,
+        points,
+    }
+}
+
+fn lines(title: String, x_label: String, y_label: String, s: Vec<Series>, log_y: bool) -> Panel {
+    Panel::Lines(LinePanel {
+        title,
+        x_label,
+        y_label,
+        series: s,
+        log_y,
+        legend: Legend::UpperRight,
+    })
+}
+
+/// `lines` with the legend at `at`.
+fn lines_at(
+    title: String,
+    x_label: String,
+    y_label: String,
+    s: Vec<Series>,
+    log_y: bool,
+    at: Legend,
+) -> Panel {
+    let mut p = lines(title, x_label, y_label, s, log_y);
+    if let Panel::Lines(l) = &mut p {
+        l.legend = at;
+    }
+    p
+}
+
+/// Colour scale of a heat panel.
+enum Scale {
+    /// [`ColourScale::auto`] of the panel's values.
+    Auto,
+    /// Linear from 0 to the panel's maximum (Monte Carlo energies: the grazing bins near 0
+    /// would otherwise force a log scale that flattens the lobes).
+    FromZero,
+    Fixed(ColourScale),
+}
+
+fn heat(
+    title: String,
+    x_label: String,
+    y_label: String,
+    (xs, ys, values): (Vec<f64>, Vec<f64>, Vec<f64>),
+    scale: Scale,
+    value_label: String,
+) -> Panel {
+    let scale = match scale {
+        Scale::Auto => ColourScale::auto(values.iter().copied()),
+        Scale::FromZero => {
+            let (_, hi) = super::figure::range_of(values.iter().copied());
+            ColourScale::linear(0.0, hi)
+        }
+        Scale::Fixed(s) => s,
+    };
+    Panel::Heat(HeatPanel {
+        title,
+        x_label,
+        y_label,
+        scale,
+        xs,
+        ys,
+        values,
+        value_label,
+    })
+}
+
+/// Index of the first sample whose coordinate is ≥ 0 (symmetric axes store mirrored rows).
+fn non_negative(v: &View, axis: usize, exclude_abs_one: bool) -> Vec<usize> {
+    (0..v.len(axis))
+        .filter(|&i| {
+            let c = v.coord(axis, i);
+            c >= 0.0 && !(exclude_abs_one && (c.abs() - 1.0).abs() < 1e-9)
+        })
+        .collect()
+}
+
+/// Samples of `axis` with a non-zero coordinate (σ = 0 slices of Monte Carlo tables are empty).
+fn non_zero(v: &View, axis: usize) -> Vec<usize> {
+    (0..v.len(axis))
+        .filter(|&i| v.coord(axis, i) != 0.0)
+        .collect()
+}
+
+/// A middle sample of `axis` among the non-zero ones.
+fn mid_non_zero(v: &View, axis: usize) -> usize {
+    let nz = non_zero(v, axis);
+    if nz.is_empty() || nz.contains(&v.mid(axis)) {
+        v.mid(axis)
+    } else {
+        nz[nz.len() / 2]
+    }
+}
+
+/// `fur-medulla-azimuthal/1`: profile plots and an h' × φ' map.
+pub fn medulla_azimuthal(v: &View) -> anyhow::Result<Vec<(&'static str, Figure)>> {
+    let (sa, ga, ha, pa) = (v.ax("sigma")?, v.ax("g")?, v.ax("h")?, v.ax("phi")?);
+    let (energy, path) = (v.ch("energy")?, v.ch("path_length")?);
+    let (s0, g0) = (mid_non_zero(v, sa), v.mid(ga));
+    let h_half = v.nearest(ha, 0.5);
+    let base = |s: usize, g: usize, h: usize| {
+        let mut i = vec![0; 4];
+        i[sa] = s;
+        i[ga] = g;
+        i[ha] = h;
+        i
+    };
+    let bin =
+        v.t.header
+            .attributes
+            .get("bin_width_deg")
+            .and_then(|b| b.as_f64())
+            .map(|b| format!(" per {}° bin", short_number(b)))
+            .unwrap_or_default();
+    let at_sg = format!("{}, {}", v.at_text(sa, s0, "σ"), v.at_text(ga, g0, "g"));
+    let xl = v.axis_label(pa, "φ' (0 = straight through)");
+    let hs = spread(&non_negative(v, ha, true), 5);
+    let by_h = |ch: usize| -> Vec<Series> {
+        hs.iter()
+            .enumerate()
+            .map(|(k, &h)| {
+                series(
+                    v.at_text(ha, h, "h'"),
+                    seq_colour(k, hs.len()),
+                    Dash::Solid,
+                    v.line(&base(s0, g0, h), pa, ch),
+                )
+            })
+            .collect()
+    };
+    let sigmas = spread(&non_zero(v, sa), 5);
+    let by_sigma: Vec<Series> = sigmas
+        .iter()
+        .enumerate()
+        .map(|(k, &s)| {
+            series(
+                v.at_text(sa, s, "σ"),
+                seq_colour(k, sigmas.len()),
+                Dash::Solid,
+                v.line(&base(s, g0, h_half), pa, energy),
+            )
+        })
+        .collect();
+    let gs = spread(&(0..v.len(ga)).collect::<Vec<_>>(), 5);
+    let by_g: Vec<Series> = gs
+        .iter()
+        .enumerate()
+        .map(|(k, &g)| {
+            series(
+                v.at_text(ga, g, "g"),
+                seq_colour(k, gs.len()),
+                Dash::Solid,
+                v.line(&base(s0, g, h_half), pa, energy),
+            )
+        })
+        .collect();
+    let e_label = format!("scattered energy{bin} (1)");
+    let profiles = Figure {
+        title: v.title("azimuthal profile C^N(φ'; h', σ, g) of the medulla"),
+        cols: 2,
+        size: (1400, 900),
+        panels: vec![
+            lines(
+                format!("energy vs φ' for several h', {at_sg}"),
+                xl.clone(),
+                e_label.clone(),
+                by_h(energy),
+                false,
+            ),
+            lines(
+                format!(
+                    "energy vs φ' for several σ, {}, {}",
+                    v.at_text(ha, h_half, "h'"),
+                    v.at_text(ga, g0, "g")
+                ),
+                xl.clone(),
+                e_label.clone(),
+                by_sigma,
+                false,
+            ),
+            lines(
+                format!(
+                    "energy vs φ' for several g, {}, {}",
+                    v.at_text(sa, s0, "σ"),
+                    v.at_text(ha, h_half, "h'")
+                ),
+                xl.clone(),
+                e_label.clone(),
+                by_g,
+                false,
+            ),
+            lines(
+                format!("mean path length in the medulla, {at_sg}"),
+                xl.clone(),
+                v.channel_label(path, "path length"),
+                by_h(path),
+                false,
+            ),
+        ],
+    };
+    let idx = base(s0, g0, 0);
+    let map = Figure {
+        title: v.title(&format!("entry offset h' × exit azimuth φ', {at_sg}")),
+        cols: 1,
+        size: (1200, 900),
+        panels: vec![
+            heat(
+                format!("scattered energy{bin}, {at_sg}"),
+                xl.clone(),
+                v.axis_label(ha, "h' (entry offset)"),
+                v.grid(&idx, pa, ha, energy),
+                Scale::FromZero,
+                "energy".into(),
+            ),
+            heat(
+                format!("mean in-medulla path length, {at_sg}"),
+                xl,
+                v.axis_label(ha, "h' (entry offset)"),
+                v.grid(&idx, pa, ha, path),
+                Scale::FromZero,
+                v.channel_label(path, "path length"),
+            ),
+        ],
+    };
+    Ok(vec![("profiles", profiles), ("map", map)])
+}
+
+/// `fur-medulla-longitudinal/1`: back and forward lobes vs θ'_r.
+pub fn medulla_longitudinal(v: &View) -> anyhow::Result<Vec<(&'static str, Figure)>> {
+    let (sa, ga, ia, la, ra) = (
+        v.ax("sigma")?,
+        v.ax("g")?,
+        v.ax("theta_i")?,
+        v.ax("lobe")?,
+        v.ax("theta_r")?,
+    );
+    let energy = v.ch("energy")?;
+    let (s0, g0) = (mid_non_zero(v, sa), v.mid(ga));
+    let i_mid = v.nearest(ia, 37.5);
+    let base = |s: usize, g: usize, ti: usize, lobe: usize| {
+        let mut i = vec![0; 5];
+        i[sa] = s;
+        i[ga] = g;
+        i[ia] = ti;
+        i[la] = lobe;
+        i
+    };
+    let lobe_name = |l: usize| if l == 0 { "back lobe" } else { "forward lobe" };
+    let lobe_of = |want: f64| v.nearest(la, want);
+    let at_sg = format!("{}, {}", v.at_text(sa, s0, "σ"), v.at_text(ga, g0, "g"));
+    let xl = v.axis_label(ra, "θ'_r");
+    let yl = v.channel_label(energy, "scattered energy per bin");
+    let tis = spread(&non_negative(v, ia, false), 4);
+    let sigmas = spread(&non_zero(v, sa), 5);
+    let mut panels = Vec::new();
+    for l in [lobe_of(0.0), lobe_of(1.0)] {
+        let s: Vec<Series> = tis
+            .iter()
+            .enumerate()
+            .map(|(k, &ti)| {
+                series(
+                    v.at_text(ia, ti, "θ'_i"),
+                    seq_colour(k, tis.len()),
+                    Dash::Solid,
+                    v.line(&base(s0, g0, ti, l), ra, energy),
+                )
+            })
+            .collect();
+        panels.push(lines(
+            format!("{} for several θ'_i, {at_sg}", lobe_name(l)),
+            xl.clone(),
+            yl.clone(),
+            s,
+            false,
+        ));
+    }
+    for l in [lobe_of(0.0), lobe_of(1.0)] {
+        let s: Vec<Series> = sigmas
+            .iter()
+            .enumerate()
+            .map(|(k, &si)| {
+                series(
+                    v.at_text(sa, si, "σ"),
+                    seq_colour(k, sigmas.len()),
+                    Dash::Solid,
+                    v.line(&base(si, g0, i_mid, l), ra, energy),
+                )
+            })
+            .collect();
+        panels.push(lines(
+            format!(
+                "{} for several σ, {}, {}",
+                lobe_name(l),
+                v.at_text(ia, i_mid, "θ'_i"),
+                v.at_text(ga, g0, "g")
+            ),
+            xl.clone(),
+            yl.clone(),
+            s,
+            false,
+        ));
+    }
+    let lobes = Figure {
+        title: v.title("longitudinal lobes C^M(θ'_r; θ'_i, σ, g) of the medulla slab"),
+        cols: 2,
+        size: (1400, 900),
+        panels,
+    };
+    let map = Figure {
+        title: v.title(&format!("incidence θ'_i × exit θ'_r, {at_sg}")),
+        cols: 2,
+        size: (1400, 600),
+        panels: [lobe_of(0.0), lobe_of(1.0)]
+            .iter()
+            .map(|&l| {
+                heat(
+                    format!("{}, {at_sg}", lobe_name(l)),
+                    xl.clone(),
+                    v.axis_label(ia, "θ'_i"),
+                    v.grid(&base(s0, g0, 0, l), ra, ia, energy),
+                    Scale::FromZero,
+                    "energy per bin".into(),
+                )
+            })
+            .collect(),
+    };
+    Ok(vec![("lobes", lobes), ("map", map)])
+}
+
+/// `fur-farfield/1`: θ_r × φ images per sample, and the components of one sample.
+pub fn fur_farfield(v: &View) -> anyhow::Result<Vec<(&'static str, Figure)>> {
+    let (sa, ia, ra, pa) = (
+        v.ax("sample")?,
+        v.ax("theta_i")?,
+        v.ax("theta_r")?,
+        v.ax("phi")?,
+    );
+    let energy = v.ch("energy")?;
+    let ti = v.nearest(ia, -40.0);
+    let names: Vec<String> = (0..v.len(sa))
+        .map(|i| {
+            v.t.header
+                .attributes
+                .get("samples")
+                .and_then(|s| s.get(i))
+                .and_then(|s| s.get("name"))
+                .and_then(|n| n.as_str())
+                .map(str::to_string)
+                .unwrap_or_else(|| format!("sample {i}"))
+        })
+        .collect();
+    let base = |s: usize| {
+        let mut i = vec![0; 4];
+        i[sa] = s;
+        i[ia] = ti;
+        i
+    };
+    let grids: Vec<_> = (0..v.len(sa))
+        .map(|s| v.grid(&base(s), pa, ra, energy))
+        .collect();
+    let scale = ColourScale::auto_with_floor(grids.iter().flat_map(|g| g.2.iter().copied()), 1e-4);
+    let ti_text = v.at_text(ia, ti, "θ_i");
+    let (xl, yl) = (v.axis_label(pa, "φ"), v.axis_label(ra, "θ_r"));
+    let cols = if grids.len() > 6 { 5 } else { 3 };
+    let rows = grids.len().div_ceil(cols) as u32;
+    let samples = Figure {
+        title: v.title(&format!(
+            "total scattered energy over θ_r × φ per sample, {ti_text}, common colour scale"
+        )),
+        cols,
+        size: (360 * cols as u32, 40 + 340 * rows),
+        panels: grids
+            .into_iter()
+            .enumerate()
+            .map(|(s, g)| {
+                heat(
+                    names[s].clone(),
+                    xl.clone(),
+                    yl.clone(),
+                    g,
+                    Scale::Fixed(scale),
+                    v.channel_label(energy, "energy"),
+                )
+            })
+            .collect(),
+    };
+    let s0 = 0;
+    let chans: Vec<usize> = (0..v.t.header.channels.len()).collect();
+    let components = Figure {
+        title: v.title(&format!(
+            "components of the scattered energy of {}, {ti_text}",
+            names[s0]
+        )),
+        cols: 3,
+        size: (1500, 40 + 380 * chans.len().div_ceil(3) as u32),
+        panels: chans
+            .iter()
+            .map(|&c| {
+                let name = v.t.header.channels[c].name.clone();
+                heat(
+                    name.clone(),
+                    xl.clone(),
+                    yl.clone(),
+                    v.grid(&base(s0), pa, ra, c),
+                    Scale::Auto,
+                    v.channel_label(c, &name),
+                )
+            })
+            .collect(),
+    };
+    Ok(vec![("samples", samples), ("components", components)])
+}
+
+/// Colour of a `colour_channel` sample (0 = R, 1 = G, 2 = B).
+fn rgb_colour(c: f64) -> RGBColor {
+    match c.round() as i64 {
+        0 => RGBColor(210, 30, 30),
+        1 => RGBColor(30, 150, 40),
+        2 => RGBColor(30, 70, 220),
+        _ => RGBColor(0, 0, 0),
+    }
+}
+
+/// `hair-dual/1` per colour: the Dual Scattering quantities vs θ, one curve per RGB channel
+/// (line style = which quantity; the legend names the colours once per panel).
+fn hair_dual_colour(v: &View) -> anyhow::Result<Vec<(&'static str, Figure)>> {
+    let ca = v.ax("colour_channel")?;
+    let ta = v.ax("theta")?;
+    let na = v.t.axes().len();
+    let mut idx = vec![0; na];
+    let mut slice = String::new();
+    if let Ok(r) = v.ax("roughness") {
+        idx[r] = v.mid(r);
+        slice = format!(", {}", v.at_text(r, idx[r], "roughness"));
+    }
+    let xl = v.axis_label(ta, "θ_i (light inclination)");
+    let deg = 180.0 / std::f64::consts::PI;
+    // Curves of channel `name` (transformed by `f`) per colour; legend "R", "G", "B" when
+    // `label`.
+    let curve = |name: &str, f: &dyn Fn(f64) -> f64, dash: Dash, label: bool| {
+        let ch = v.ch(name)?;
+        Ok::<Vec<Series>, anyhow::Error>(
+            (0..v.len(ca))
+                .map(|c| {
+                    let mut k = idx.clone();
+                    k[ca] = c;
+                    let cc = v.coord(ca, c);
+                    let rgb = ["R", "G", "B"].get(cc.round() as usize).unwrap_or(&"?");
+                    series(
+                        if label {
+                            rgb.to_string()
+                        } else {
+                            String::new()
+                        },
+                        rgb_colour(cc),
+                        dash,
+                        v.line(&k, ta, ch)
+                            .into_iter()
+                            .map(|(x, y)| (x, f(y)))
+                            .collect(),
+                    )
+                })
+                .collect(),
+        )
+    };
+    let id = |y: f64| y;
+    let to_deg = |y: f64| y * deg;
+    let sqrt_deg = |y: f64| y.max(0.0).sqrt() * deg;
+    let group = |names: &[(&str, &dyn Fn(f64) -> f64)]| -> anyhow::Result<Vec<Series>> {
+        let dashes = [Dash::Solid, Dash::Dashed, Dash::Dotted];
+        let mut s = Vec::new();
+        for (k, (name, f)) in names.iter().enumerate() {
+            s.extend(curve(name, *f, dashes[k % 3], k == 0)?);
+        }
+        Ok(s)
+    };
+    let panels = vec![
+        lines_at(
+            "a_f (solid: forward), a_b (dashed: backward)".into(),
+            xl.clone(),
+            "average attenuation (1)".into(),
+            group(&[("a_f", &id), ("a_b", &id)])?,
+            false,
+            Legend::UpperMiddle,
+        ),
+        lines(
+            "alpha_f (solid), alpha_b (dashed): mean longitudinal shifts".into(),
+            xl.clone(),
+            "shift (deg)".into(),
+            group(&[("alpha_f", &to_deg), ("alpha_b", &to_deg)])?,
+            false,
+        ),
+        lines(
+            "sqrt(beta_f2) (solid), sqrt(beta_b2) (dashed): mean widths".into(),
+            xl.clone(),
+            "width (deg)".into(),
+            group(&[("beta_f2", &sqrt_deg), ("beta_b2", &sqrt_deg)])?,
+            false,
+        ),
+        lines_at(
+            "A_b: multiple backscattering attenuation".into(),
+            xl.clone(),
+            "A_b (1)".into(),
+            group(&[("A_b", &id)])?,
+            false,
+            Legend::UpperMiddle,
+        ),
+        lines(
+            "delta_b (solid), sigma_b = sqrt(sigma_b2) (dashed)".into(),
+            xl.clone(),
+            "backscattering shift, width (deg)".into(),
+            group(&[("delta_b", &to_deg), ("sigma_b2", &sqrt_deg)])?,
+            false,
+        ),
+        lines_at(
+            "lobe energies E_R (solid), E_TT (dashed), E_TRT (dotted)".into(),
+            xl,
+            "energy (1)".into(),
+            group(&[("E_R", &id), ("E_TT", &id), ("E_TRT", &id)])?,
+            false,
+            Legend::UpperMiddle,
+        ),
+    ];
+    Ok(vec![(
+        "curves",
+        Figure {
+            title: v.title(&format!(
+                "Dual Scattering averages vs light inclination, RGB channels{slice}"
+            )),
+            cols: 3,
+            size: (1650, 900),
+            panels,
+        },
+    )])
+}
+
+/// `hair-dual/1` LUT over roughness × absorption_u × theta: ā_f and ā_b maps.
+fn hair_dual_lut(v: &View) -> anyhow::Result<Vec<(&'static str, Figure)>> {
+    let (ra, ua, ta) = (v.ax("roughness")?, v.ax("absorption_u")?, v.ax("theta")?);
+    let rs = spread(&(0..v.len(ra)).collect::<Vec<_>>(), 3);
+    let mut grids = Vec::new();
+    for name in ["a_f", "a_b"] {
+        let ch = v.ch(name)?;
+        for &r in &rs {
+            let mut idx = vec![0; 3];
+            idx[ra] = r;
+            grids.push((name, r, v.grid(&idx, ta, ua, ch)));
+        }
+    }
+    let (lo, hi) = super::figure::range_of(grids.iter().flat_map(|g| g.2.2.iter().copied()));
+    let scale = ColourScale::linear(lo, hi);
+    let panels = grids
+        .into_iter()
+        .map(|(name, r, g)| {
+            let shown = name;
+            heat(
+                format!("{shown}, {}", v.at_text(ra, r, "roughness")),
+                v.axis_label(ta, "θ_i"),
+                v.axis_label(ua, "absorption u = 1 − exp(−2σ_a)"),
+                g,
+                Scale::Fixed(scale),
+                shown.into(),
+            )
+        })
+        .collect();
+    Ok(vec![(
+        "lut",
+        Figure {
+            title: v.title("Dual Scattering LUT: forward (top) and backward (bottom) attenuation"),
+            cols: rs.len(),
+            size: (520 * rs.len() as u32, 800),
+            panels,
+        },
+    )])
+}
+
+/// `hair-dual/1`: per-colour curves or the LUT maps, by the table's axes.
+pub fn hair_dual(v: &View) -> anyhow::Result<Vec<(&'static str, Figure)>> {
+    if v.ax("colour_channel").is_ok() {
+        hair_dual_colour(v)
+    } else if v.ax("absorption_u").is_ok() && v.ax("roughness").is_ok() {
+        hair_dual_lut(v)
+    } else {
+        bail!("hair-dual table with neither a colour_channel nor an absorption_u axis")
+    }
+}
+
+/// `hair-azimuthal/1`: N_p vs φ at θ = 0 for a few absorptions, and φ × θ maps.
+pub fn hair_azimuthal(v: &View) -> anyhow::Result<Vec<(&'static str, Figure)>> {
+    let (ua, ta, pa) = (v.ax("absorption_u")?, v.ax("theta")?, v.ax("phi")?);
+    let lobes = [("R", PALETTE[0]), ("TT", PALETTE[1]), ("TRT", PALETTE[2])];
+    let t0 = v.nearest(ta, 0.0);
+    let us = spread(&(0..v.len(ua)).collect::<Vec<_>>(), 4);
+    let xl = v.axis_label(pa, "φ (0 = back toward the light)");
+    let mut panels = Vec::new();
+    for &u in &us {
+        let mut idx = vec![0; 3];
+        idx[ua] = u;
+        idx[ta] = t0;
+        let mut s = Vec::new();
+        for (name, col) in lobes {
+            s.push(series(
+                format!("N_{name}"),
+                col,
+                Dash::Solid,
+                v.line(&idx, pa, v.ch(name)?),
+            ));
+        }
+        s.push(series(
+            "sum".into(),
+            RGBColor(0, 0, 0),
+            Dash::Dotted,
+            v.line(&idx, pa, v.ch("sum")?),
+        ));
+        panels.push(lines_at(
+            format!(
+                "{}, {}",
+                v.at_text(ua, u, "absorption u"),
+                v.at_text(ta, t0, "θ_d")
+            ),
+            xl.clone(),
+            "N_p (1/rad)".into(),
+            s,
+            true,
+            Legend::UpperMiddle,
+        ));
+    }
+    let curves = Figure {
+        title: v.title("azimuthal scattering functions N_R, N_TT, N_TRT"),
+        cols: 2,
+        size: (1400, 900),
+        panels,
+    };
+    let u1 = v.nearest(ua, 0.2);
+    let mut idx = vec![0; 3];
+    idx[ua] = u1;
+    let map = Figure {
+        title: v.title(&format!(
+            "N_p over φ × θ_d, {}",
+            v.at_text(ua, u1, "absorption u")
+        )),
+        cols: 3,
+        size: (1650, 520),
+        panels: lobes
+            .iter()
+            .map(|&(name, _)| {
+                Ok(heat(
+                    format!("N_{name}"),
+                    xl.clone(),
+                    v.axis_label(ta, "θ_d"),
+                    v.grid(&idx, pa, ta, v.ch(name)?),
+                    Scale::Auto,
+                    format!("N_{name} (1/rad)"),
+                ))
+            })
+            .collect::<anyhow::Result<_>>()?,
+    };
+    Ok(vec![("lobes", curves), ("map", map)])
+}
+
+/// `water-index/1`: n vs wavelength per temperature, and the difference to the middle one.
+pub fn water_index(v: &View) -> anyhow::Result<Vec<(&'static str, Figure)>> {
+    let (ta, wa) = (v.ax("temperature")?, v.ax("wavelength")?);
+    let n = v.ch("n")?;
+    let nt = v.len(ta);
+    let tref = v.nearest(ta, 20.0);
+    let reference = {
+        let mut i = vec![0; 2];
+        i[ta] = tref;
+        v.line(&i, wa, n)
+    };
+    let colour = |k: usize| {
+        let t = if nt > 1 {
+            k as f64 / (nt - 1) as f64
+        } else {
+            0.0
+        };
+        let l = |a: f64, b: f64| (a + (b - a) * t).round() as u8;
+        RGBColor(l(30.0, 215.0), l(70.0, 40.0), l(210.0, 30.0))
+    };
+    let temp = |k: usize| {
+        let u = &v.t.axes()[ta].unit;
+        let u = if u == "degC" { "°C" } else { u.as_str() };
+        format!("{} {u}", short_number(v.coord(ta, k)))
+    };
+    let mut abs = Vec::new();
+    let mut diff = Vec::new();
+    for k in 0..nt {
+        let mut i = vec![0; 2];
+        i[ta] = k;
+        let l = v.line(&i, wa, n);
+        diff.push(series(
+            temp(k),
+            colour(k),
+            Dash::Solid,
+            l.iter()
+                .zip(&reference)
+                .map(|(a, b)| (a.0, (a.1 - b.1) * 1e3))
+                .collect(),
+        ));
+        abs.push(series(temp(k), colour(k), Dash::Solid, l));
+    }
+    let xl = v.axis_label(wa, "vacuum wavelength");
+    Ok(vec![(
+        "line",
+        Figure {
+            title: v.title("refractive index of liquid water"),
+            cols: 2,
+            size: (1400, 600),
+            panels: vec![
+                lines(
+                    "n vs wavelength, one curve per temperature".into(),
+                    xl.clone(),
+                    "n (1)".into(),
+                    abs,
+                    false,
+                ),
+                lines(
+                    format!("n(T) − n({}) (× 10⁻³)", temp(tref)),
+                    xl,
+                    "Δn × 1000".into(),
+                    diff,
+                    false,
+                ),
+            ],
+        },
+    )])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::table::{Axis, Channel, Provenance, Schema, TableContent, write_table_atomic};
+
+    /// A small table shaped like `fur-medulla-azimuthal/1` whose σ = 0 slice is all zeros and
+    /// whose |h| = 1 rows are zeros (nothing enters), as in the real tables: energy
+    /// 1 − exp(−2σ√(1−h²)) spread over φ with a forward peak that grows with h and g.
+    fn medulla_like() -> Table {
+        let sigma = vec![0.0, 1.0, 2.0, 4.0];
+        let g = vec![0.0, 0.4, 0.8];
+        let h: Vec<f64> = (0..9).map(|i| -1.0 + 0.25 * i as f64).collect();
+        let nphi = 72;
+        let mut data = Vec::new();
+        for &s in &sigma {
+            for &gg in &g {
+                for &hh in &h {
+                    let total = 1.0 - (-2.0 * s * (1.0 - hh * hh).max(0.0).sqrt()).exp();
+                    let shape: Vec<f64> = (0..nphi)
+                        .map(|k| {
+                            let phi = (-177.5 + 5.0 * k as f64).to_radians();
+                            1.0 + (gg + 0.5 * hh.abs()) * (phi - hh).cos()
+                        })
+                        .collect();
+                    let norm: f64 = shape.iter().sum();
+                    for v in shape {
+                        let e = total * v / norm;
+                        data.extend_from_slice(&[e as f32, (s * (1.0 + v)) as f32, 0.0]);
+                    }
+                }
+            }
+        }
+        let content = TableContent {
+            schema: Schema::new("fur-medulla-azimuthal", 1),
+            description: "test".into(),
+            axes: vec![
+                Axis::values("sigma", "1/medulla_radius", sigma),
+                Axis::values("g", "1", g),
+                Axis::values("h", "1", h),
+                Axis::uniform("phi", "deg", -177.5, 5.0, nphi),
+            ],
+            channels: vec![
+                Channel::new("energy", "1", "e"),
+                Channel::new("path_length", "medulla_radius", "l"),
+                Channel::new("std_error", "1", "s"),
+            ],
+            attributes: serde_json::Map::new(),
+            data,
+        };
+        Table::from_content(content, Provenance::default()).unwrap()
+    }
+
+    fn non_constant(p: &[(f64, f64)]) -> bool {
+        let (lo, hi) = super::super::figure::range_of(p.iter().map(|q| q.1));
+        hi > lo
+    }
+
+    /// The medulla previews never show the empty σ = 0 slice: every heatmap varies, every line
+    /// panel has a varying curve, and no title names σ = 0 (the old default — first sample of
+    /// every axis — drew σ = 0, all zeros).
+    #[test]
+    fn medulla_previews_pick_non_trivial_slices() {
+        let t = medulla_like();
+        let figs = medulla_azimuthal(&View::new(&t, "m")).unwrap();
+        assert_eq!(figs.len(), 2);
+        for (_, f) in &figs {
+            assert!(!f.title.contains("σ = 0,"), "{}", f.title);
+            for p in &f.panels {
+                match p {
+                    Panel::Heat(h) => {
+                        let (lo, hi) = h.range();
+                        assert!(hi > lo, "constant heatmap {}", h.title);
+                        assert!(!h.title.contains("σ = 0,"), "{}", h.title);
+                    }
+                    Panel::Lines(l) => {
+                        assert!(!l.series.is_empty());
+                        assert!(
+                            l.series.iter().any(|s| non_constant(&s.points)),
+                            "all curves constant in {}",
+                            l.title
+                        );
+                        // Every energy curve of the several-h' panel carries energy (no |h| = 1).
+                        if l.title.starts_with("energy vs φ' for several h'") {
+                            for s in &l.series {
+                                assert!(s.points.iter().any(|q| q.1 > 0.0), "{}", s.label);
+                            }
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    /// `previews()` on the file writes the family's figures, and each picture has varied
+    /// content inside its heatmaps (not one flat colour).
+    #[test]
+    fn medulla_preview_files_are_written_and_not_flat() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("med.sbt");
+        write_table_atomic(&mut medulla_like(), &path).unwrap();
+        let out = dir.path().join("prev");
+        let written = super::super::plot::previews(&path, &out).unwrap();
+        assert_eq!(
+            written,
+            vec![out.join("med-profiles.png"), out.join("med-map.png")]
+        );
+        let figs = medulla_azimuthal(&View::new(&Table::open(&path).unwrap(), "med")).unwrap();
+        let (buf, rects) = super::super::figure::render_rgb(&figs[1].1).unwrap();
+        assert_eq!(rects.len(), 2);
+        let w = figs[1].1.size.0 as usize;
+        for (xr, yr) in rects {
+            let mut colours = std::collections::HashSet::new();
+            for y in yr.clone() {
+                for x in xr.clone() {
+                    let o = (y as usize * w + x as usize) * 3;
+                    colours.insert((buf[o], buf[o + 1], buf[o + 2]));
+                }
+            }
+            assert!(colours.len() > 20, "{} colours", colours.len());
+        }
+        for p in written {
+            assert!(std::fs::metadata(p).unwrap().len() > 10_000);
+        }
+    }
+
+    #[test]
+    fn spread_keeps_ends() {
+        assert_eq!(spread(&[1, 2, 3, 4, 5, 6, 7, 8, 9], 5), vec![1, 3, 5, 7, 9]);
+        assert_eq!(spread(&[1, 2], 5), vec![1, 2]);
+    }
+}
