@@ -523,6 +523,167 @@ pub const PALETTE: [RGBColor; 8] = [
     RGBColor(0, 0, 0),
 ];
 
+/// MiePlot's "Mie with its Debye components" figure for a table with per-order channels
+/// `phase_p<k>` (the `debye` stage): at one wavelength (nearest to `wavelength_nm`) and entry,
+/// the coherent sum of the tabulated orders (`phase`, black) and each order alone, log scale.
+pub fn plot_debye_components(
+    pt: &PhaseTable,
+    entry: &[EntrySelection],
+    wavelength_nm: f64,
+    out: &Path,
+    size: (u32, u32),
+) -> anyhow::Result<()> {
+    let t = &pt.table;
+    let orders: Vec<(String, usize)> = t
+        .header
+        .channels
+        .iter()
+        .enumerate()
+        .filter(|(_, c)| {
+            c.name
+                .strip_prefix("phase_p")
+                .is_some_and(|k| k.parse::<u32>().is_ok())
+        })
+        .map(|(i, c)| (c.name.clone(), i))
+        .collect();
+    if orders.is_empty() {
+        bail!("table has no per-order channels `phase_p<k>`");
+    }
+    let ch_sum = t.channel_index("phase")?;
+    let entry = pt.resolve_entry(entry)?;
+    let wl = pt.wavelengths_nm();
+    let w = wl
+        .iter()
+        .cloned()
+        .min_by(|a, b| {
+            (a - wavelength_nm)
+                .abs()
+                .total_cmp(&(b - wavelength_nm).abs())
+        })
+        .context("no wavelengths")?;
+    let angles = pt.angles_deg();
+    let mut coords = vec![0.0; t.axes().len()];
+    coords[pt.wavelength_axis] = w;
+    for (&i, e) in pt.entry_axes.iter().zip(&entry) {
+        coords[i] = e.1;
+    }
+    let mut series: Vec<Vec<(f64, f64)>> = vec![Vec::new(); orders.len() + 1];
+    for &a in &angles {
+        coords[pt.angle_axis] = a;
+        let v = t.sample(&coords)?;
+        series[0].push((a, v[ch_sum]));
+        for (k, (_, c)) in orders.iter().enumerate() {
+            series[k + 1].push((a, v[*c]));
+        }
+    }
+    let hi = series.iter().flatten().map(|p| p.1).fold(0.0, f64::max);
+    if hi <= 0.0 {
+        bail!("no positive values to plot on a log scale");
+    }
+    // Floor: a decade below the smallest value of the total; components that fall below it
+    // (outside their geometric zones) leave the plot instead of running along its bottom.
+    let lo = series[0]
+        .iter()
+        .map(|p| p.1)
+        .filter(|&v| v > 0.0)
+        .fold(f64::INFINITY, f64::min)
+        .max(hi * 1e-9)
+        * 0.1;
+    let debye = t.header.schema.name.starts_with("debye");
+    let title = format!(
+        "{}, {}, {w} nm",
+        if debye {
+            "Debye components"
+        } else {
+            "per-order contributions"
+        },
+        super::phase::describe_entry(t, &entry)
+    );
+    let total_label = if debye {
+        "coherent sum of these orders"
+    } else {
+        "phase (all orders, filtered, + diffraction lobe)"
+    };
+    let palette = [
+        RGBColor(0, 114, 178),
+        RGBColor(230, 159, 0),
+        RGBColor(0, 158, 115),
+        RGBColor(213, 94, 0),
+        RGBColor(204, 121, 167),
+        RGBColor(86, 180, 233),
+    ];
+    with_backend!(out, size, |root| {
+        root.fill(&WHITE).map_err(perr)?;
+        let mut chart = ChartBuilder::on(&root)
+            .caption(&title, ("sans-serif", 20))
+            .margin(10)
+            .x_label_area_size(40)
+            .y_label_area_size(70)
+            .build_cartesian_2d(0f64..180f64, (lo * 0.8..hi * 1.25).log_scale())
+            .map_err(perr)?;
+        chart
+            .configure_mesh()
+            .x_desc("scattering angle (deg, 0 = forward)")
+            .y_desc(if debye {
+                "p (1/sr), over the full Mie C_sca"
+            } else {
+                "p (1/sr)"
+            })
+            .y_label_formatter(&|v| format!("{v:.0e}"))
+            .draw()
+            .map_err(perr)?;
+        // The total first (grey, underneath), then each order on top of it.
+        for (k, s) in series.iter().enumerate() {
+            let (col, width, label) = if k == 0 {
+                (RGBColor(110, 110, 110), 1, total_label.to_string())
+            } else {
+                let name = &orders[k - 1].0;
+                let p = &name["phase_p".len()..];
+                let what = match p {
+                    "0" => " (diffraction + external reflection)",
+                    "1" => " (direct transmission)",
+                    "2" => " (primary bow)",
+                    "3" => " (secondary bow)",
+                    _ => "",
+                };
+                (
+                    palette[(k - 1) % palette.len()],
+                    1,
+                    format!("p = {p}{what}"),
+                )
+            };
+            // Contiguous runs above the floor, each its own polyline.
+            let mut runs: Vec<Vec<(f64, f64)>> = vec![Vec::new()];
+            for &(a, v) in s {
+                if v > lo {
+                    runs.last_mut().expect("run").push((a, v));
+                } else if !runs.last().expect("run").is_empty() {
+                    runs.push(Vec::new());
+                }
+            }
+            let mut first = true;
+            for run in runs.into_iter().filter(|r| r.len() > 1) {
+                let drawn = chart
+                    .draw_series(LineSeries::new(run, col.stroke_width(width)))
+                    .map_err(perr)?;
+                if std::mem::take(&mut first) {
+                    drawn.label(label.clone()).legend(move |(x, y)| {
+                        PathElement::new(vec![(x, y), (x + 20, y)], col.stroke_width(2))
+                    });
+                }
+            }
+        }
+        chart
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .position(SeriesLabelPosition::UpperRight)
+            .draw()
+            .map_err(perr)?;
+        Ok::<(), anyhow::Error>(())
+    })
+}
+
 /// Write the default previews of a table into `out_dir` as `<stem>-<kind>.png`; returns the
 /// files written. Phase tables (by the phase contract) get phase + strip (+ lee); other tables
 /// get the figures of their schema family (`super::previews`); unknown schemas a heatmap of the
@@ -553,6 +714,13 @@ pub fn previews(table_path: &Path, out_dir: &Path) -> anyhow::Result<Vec<PathBuf
         {
             let p = name("lee");
             plot_lee(&pt, &[], 0.5, (120.0, 145.0), &p, (900, 600))?;
+            written.push(p);
+        }
+        if pt.table.channel_index("phase_p2").is_ok() {
+            // Per-order channels (Debye or ray orders): MiePlot's "Mie with its Debye
+            // components" figure at 650 nm.
+            let p = name("orders");
+            plot_debye_components(&pt, &[], 650.0, &p, (1000, 600))?;
             written.push(p);
         }
         return Ok(written);
@@ -633,6 +801,9 @@ pub enum PlotKind {
     Lee,
     Heatmap,
     Line,
+    /// Per-order channels `phase_p<k>` (Debye series, ray orders) with their coherent sum, at
+    /// the first `--wavelength-nm` (default 650 nm).
+    Orders,
 }
 
 fn parse_range(s: &str) -> Result<(f64, f64), String> {
@@ -716,6 +887,13 @@ pub fn run_plot(args: &PlotArgs) -> anyhow::Result<()> {
             &args.out,
             size,
         )?,
+        PlotKind::Orders => plot_debye_components(
+            &phase()?,
+            &args.entry,
+            args.wavelength_nm.first().copied().unwrap_or(650.0),
+            &args.out,
+            size,
+        )?,
         PlotKind::Heatmap | PlotKind::Line => {
             let t = Table::open(&args.table)
                 .map_err(|e| anyhow!(e))
@@ -743,5 +921,30 @@ mod tests {
         assert!(r.0 > r.1 && r.0 > r.2, "{r:?}");
         assert!(g.1 > g.0 && g.1 > g.2, "{g:?}");
         assert!(b.2 > b.0 && b.2 > b.1, "{b:?}");
+    }
+
+    /// The Debye-components figure draws a real `debye` table (orders 0–3 of a 20 µm drop) and
+    /// refuses a phase table without per-order channels with a message naming them.
+    #[test]
+    fn debye_components_figure() {
+        let job = crate::stage::plan_from_lines(
+            &crate::debye::stage::DebyeStage,
+            "radii_um = [20.0]\nwavelengths_nm = [650.0]\nangle_step_deg = 0.5\nsun_diameter_deg = 0.0",
+        )
+        .unwrap();
+        let chunks: Vec<Vec<f32>> = (0..job.tasks().len())
+            .map(|i| job.run_task(i).unwrap())
+            .collect();
+        let t = Table::from_content(job.assemble(chunks).unwrap(), Default::default()).unwrap();
+        let d = tempfile::tempdir().unwrap();
+        let out = d.path().join("orders.png");
+        plot_debye_components(&PhaseTable::new(t).unwrap(), &[], 650.0, &out, (600, 400)).unwrap();
+        assert!(std::fs::metadata(&out).unwrap().len() > 1000);
+        let wl: Vec<f64> = vec![450.0, 650.0];
+        let hg =
+            crate::consumers::synthetic::henyey_greenstein_table(&wl, &[1.0], |_, _| 0.5, 181, 0.0);
+        let e = plot_debye_components(&PhaseTable::new(hg).unwrap(), &[], 650.0, &out, (600, 400))
+            .unwrap_err();
+        assert!(e.to_string().contains("phase_p"), "{e}");
     }
 }
