@@ -14,6 +14,8 @@ pub mod lut;
 pub mod mieplot;
 pub mod mitsuba;
 pub mod phase;
+pub mod phase2d;
 pub mod plot;
+pub mod plot_raytrace;
 pub mod render;
 pub mod synthetic;
