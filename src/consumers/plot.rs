@@ -29,14 +29,14 @@ use std::sync::OnceLock;
 
 static FONT: &[u8] = include_bytes!("../../assets/fonts/DejaVuSans.ttf");
 
-fn ensure_font() {
+pub(crate) fn ensure_font() {
     static ONCE: OnceLock<()> = OnceLock::new();
     ONCE.get_or_init(|| {
         let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, FONT);
     });
 }
 
-fn perr<E: std::fmt::Debug>(e: E) -> anyhow::Error {
+pub(crate) fn perr<E: std::fmt::Debug>(e: E) -> anyhow::Error {
     anyhow!("plotting failed: {e:?}")
 }
 
@@ -71,6 +71,7 @@ macro_rules! with_backend {
         Ok::<(), anyhow::Error>(())
     }};
 }
+pub(crate) use with_backend;
 
 /// Display colour of a monochromatic wavelength: CIE 1931 → linear sRGB, desaturated toward
 /// white until in gamut, scaled to a maximum of 1, sRGB-encoded; darkened toward the ends of
@@ -91,7 +92,7 @@ pub fn wavelength_colour(wavelength_nm: f64) -> RGBColor {
 }
 
 /// XYZ → 8-bit sRGB colour after scaling by `scale` (clipped).
-fn xyz_colour(xyz: [f64; 3], scale: f64) -> RGBColor {
+pub(crate) fn xyz_colour(xyz: [f64; 3], scale: f64) -> RGBColor {
     let l = xyz_to_linear_srgb([xyz[0] * scale, xyz[1] * scale, xyz[2] * scale]);
     let e = |c: f64| (srgb_encode(c) * 255.0).round() as u8;
     RGBColor(e(l[0]), e(l[1]), e(l[2]))
@@ -567,6 +568,9 @@ pub fn previews(table_path: &Path, out_dir: &Path) -> anyhow::Result<Vec<PathBuf
         .to_string();
     let table = Table::open(table_path).map_err(|e| anyhow!(e))?;
     let name = |k: &str| out_dir.join(format!("{stem}-{k}.png"));
+    if super::phase2d::is_2d(&table) {
+        return super::plot_raytrace::previews_2d(table, &stem, out_dir);
+    }
     let mut written = Vec::new();
     match PhaseTable::new(table.clone()) {
         Ok(pt) => {
