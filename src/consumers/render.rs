@@ -705,7 +705,10 @@ pub fn run_render_rainbow(args: &RenderRainbowArgs) -> anyhow::Result<()> {
         Source::OneD(pt) => Some(xyz_vs_angle(pt, &args.entry, args.sun_diameter_deg)?),
         Source::TwoD(..) => None,
     };
-    for (name, lo, hi) in [("primary", 36.0, 46.0), ("secondary", 48.0, 56.0)] {
+    // The brightest pixel of the centre column within each window; a 2-D table's bow may lie
+    // outside it (flattened drops move the top of the bow), which the edge note reports.
+    let windows = [("primary", 36.0, 46.0), ("secondary", 48.0, 56.0)];
+    for (name, lo, hi) in windows {
         if let Some(m) = measure_bow(&r, sun_elevation_deg, lo, hi) {
             let table_max = match (&source, &xyz) {
                 (_, Some(xyz)) => table_bow_radius(xyz, lo, hi),
@@ -723,6 +726,9 @@ pub fn run_render_rainbow(args: &RenderRainbowArgs) -> anyhow::Result<()> {
                 table_max,
                 camera.pixel_deg()
             );
+            if m.radius_deg - lo < camera.pixel_deg() || hi - m.radius_deg < camera.pixel_deg() {
+                eprintln!("  (at the edge of the {lo}-{hi} deg window: no {name} maximum inside)");
+            }
         }
     }
     Ok(())
