@@ -627,7 +627,7 @@ pub fn run_render_rainbow(args: &RenderRainbowArgs) -> anyhow::Result<()> {
         .with_context(|| args.table.display().to_string())?;
     // 1-D tables: the phase contract; 2-D ray-traced tables: a slice at the sun elevation.
     enum Source {
-        OneD(PhaseTable),
+        OneD(Box<PhaseTable>),
         TwoD(Box<super::phase2d::PhaseSlice>, String),
     }
     let (source, sun_elevation_deg) = if super::phase2d::is_2d(&table) {
@@ -647,7 +647,10 @@ pub fn run_render_rainbow(args: &RenderRainbowArgs) -> anyhow::Result<()> {
         (Source::TwoD(Box::new(slice), label), e)
     } else {
         let pt = PhaseTable::new(table).with_context(|| args.table.display().to_string())?;
-        (Source::OneD(pt), args.sun_elevation_deg.unwrap_or(25.0))
+        (
+            Source::OneD(Box::new(pt)),
+            args.sun_elevation_deg.unwrap_or(25.0),
+        )
     };
     anyhow::ensure!(
         (-90.0..=90.0).contains(&sun_elevation_deg),
