@@ -7,7 +7,8 @@
 //!
 //! CLI entry points (wired by `cli.rs`): [`mitsuba::MitsubaArgs`], [`legendre::LegendreArgs`],
 //! [`mieplot::MiePlotArgs`], [`mieplot::ValidateArgs`], [`lut::LutArgs`], [`plot::PlotArgs`],
-//! [`render::RenderRainbowArgs`].
+//! [`render::RenderRainbowArgs`], [`plot_raytrace::PlotRaytraceArgs`]. 2-D ray-traced tables
+//! (`raytrace-phase-2d/1`) are read through [`phase2d`].
 
 pub mod legendre;
 pub mod lut;

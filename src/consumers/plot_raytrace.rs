@@ -30,11 +30,16 @@ pub const BOW_DIRECTIONS: [(f64, &str); 3] = [
     (180.0, "phi = 180 (vertical, downwards = bow top)"),
 ];
 
-/// One table of a bows plot: its label and its `phase` slice (every wavelength).
+/// One table of a bows plot: its label, its `phase` slice (every wavelength) and, when the
+/// table has it, its `phase_p2` slice (the primary-bow order alone) for locating the primary.
 pub struct BowInput {
     pub label: String,
     pub slice: PhaseSlice,
+    pub primary_order: Option<PhaseSlice>,
 }
+
+/// Search window (outgoing polar, deg) of the primary-bow maximum in the `phase_p2` channel.
+pub const PRIMARY_SEARCH_DEG: (f64, f64) = (125.0, 165.0);
 
 /// Primary-bow peak positions of one table along one azimuth.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -44,6 +49,9 @@ pub struct BowPeak {
     pub phase_peak_deg: f64,
     /// Outgoing polar angle (deg) of the luminance maximum of the colour strip.
     pub luminance_peak_deg: f64,
+    /// Outgoing polar angle (deg) of the maximum of the primary order alone (`phase_p2`) at
+    /// the plotted wavelength within [`PRIMARY_SEARCH_DEG`], when available.
+    pub order2_peak_deg: Option<f64>,
 }
 
 fn nearest(all: &[f64], x: f64) -> usize {
@@ -154,6 +162,10 @@ pub fn plot_bows(
                 azimuth_deg: phi,
                 phase_peak_deg: peak_polar_deg(&inp.slice, k, phi, plo, phi_hi),
                 luminance_peak_deg: lum_peak,
+                order2_peak_deg: inp.primary_order.as_ref().map(|p2| {
+                    let (a, b) = PRIMARY_SEARCH_DEG;
+                    peak_polar_deg(p2, k, phi, a, b)
+                }),
             });
             cs.push(c);
             ss.push(xyz);
@@ -343,8 +355,13 @@ pub fn previews_2d(
     written.push(p);
     let p = out_dir.join(format!("{stem}-bows.png"));
     let label = format!("a = {}", t2.radius_label(&entry));
+    let primary_order = t2.slice(e, &[], "phase_p2").ok();
     plot_bows(
-        &[BowInput { label, slice }],
+        &[BowInput {
+            label,
+            slice,
+            primary_order,
+        }],
         650.0,
         0.5,
         (120.0, 150.0),
@@ -412,7 +429,12 @@ pub fn run_plot_raytrace(args: &PlotRaytraceArgs) -> anyhow::Result<()> {
         let e = t2.resolve_elevation(args.sun_elevation_deg)?;
         let slice = t2.slice(e, &args.entry, "phase")?;
         let label = format!("a = {}", t2.radius_label(&slice.entry));
-        inputs.push(BowInput { label, slice });
+        let primary_order = t2.slice(e, &args.entry, "phase_p2").ok();
+        inputs.push(BowInput {
+            label,
+            slice,
+            primary_order,
+        });
     }
     match args.kind {
         RaytracePlotKind::Latlong => {
@@ -442,12 +464,15 @@ pub fn run_plot_raytrace(args: &PlotRaytraceArgs) -> anyhow::Result<()> {
             for (inp, ps) in inputs.iter().zip(&peaks) {
                 for p in ps {
                     println!(
-                        "{}\tsun {} deg\tphi {:>5.1} deg\tphase peak {:.2} deg\tluminance peak {:.2} deg",
+                        "{}\tsun {} deg\tphi {:>5.1} deg\tphase peak {:.2} deg\tluminance peak {:.2} deg\tphase_p2 peak {}",
                         inp.label,
                         inp.slice.sun_elevation_deg,
                         p.azimuth_deg,
                         p.phase_peak_deg,
-                        p.luminance_peak_deg
+                        p.luminance_peak_deg,
+                        p.order2_peak_deg
+                            .map(|v| format!("{v:.2} deg"))
+                            .unwrap_or_else(|| "-".into())
                     );
                 }
             }
@@ -486,6 +511,7 @@ mod tests {
             &[BowInput {
                 label: "synthetic".into(),
                 slice: slice.clone(),
+                primary_order: Some(slice.clone()),
             }],
             650.0,
             0.0,
