@@ -147,10 +147,17 @@ impl Phase2dTable {
             .collect())
     }
 
-    /// Radius of the drop (mm) from the entry or the `radius_mm` attribute, for labels.
+    /// Drop radius for labels: the entry's `radius` (in its axis unit) or the table's
+    /// `radius_mm` attribute.
     pub fn radius_label(&self, entry: &[(String, f64)]) -> String {
         if let Some((_, v)) = entry.iter().find(|e| e.0 == "radius") {
-            let unit = &self.table.axes()[self.entry_axes[0]].unit;
+            let unit = self
+                .table
+                .axes()
+                .iter()
+                .find(|a| a.name == "radius")
+                .map(|a| a.unit.as_str())
+                .unwrap_or("");
             return format!("{v} {unit}");
         }
         match self.table.header.attributes.get("radius_mm") {
@@ -369,5 +376,53 @@ mod tests {
                 );
             }
         }
+    }
+
+    #[test]
+    fn radius_entry_axis_is_selected_and_interpolated() {
+        use crate::table::{Axis, Channel, Provenance, Schema, TableContent};
+        // wavelength (1) × radius (2) × sun_elevation (2) × polar (3) × azimuth (4):
+        // phase = radius_um + 10·elevation + polar/1000 + azimuth/1e5.
+        let (radii, elev, polar, az) = ([500.0, 1000.0], [0.0, 20.0], [0.0, 90.0, 180.0], 4);
+        let mut data = vec![];
+        for &r in &radii {
+            for &e in &elev {
+                for &p in &polar {
+                    for i in 0..az {
+                        data.push((r + 10.0 * e + p / 1000.0 + 90.0 * i as f64 / 1e5) as f32);
+                    }
+                }
+            }
+        }
+        let content = TableContent {
+            schema: Schema::new(SCHEMA_2D, 1),
+            description: "test".into(),
+            axes: vec![
+                Axis::values("wavelength", "nm", vec![550.0]),
+                Axis::values("radius", "um", radii.to_vec()),
+                Axis::values("sun_elevation", "deg", elev.to_vec()),
+                Axis::values("outgoing_polar", "deg", polar.to_vec()),
+                Axis::uniform("outgoing_azimuth", "deg", 0.0, 90.0, az),
+            ],
+            channels: vec![Channel::new("phase", "1/sr", "test")],
+            attributes: Default::default(),
+            data,
+        };
+        let t = Phase2dTable::new(Table::from_content(content, Provenance::default()).unwrap())
+            .unwrap();
+        let sel: EntrySelection = "radius=750".parse().unwrap();
+        let s = t.slice(5.0, &[sel], "phase").unwrap();
+        assert_eq!(t.radius_label(&s.entry), "750 um");
+        // Linear in every axis: exact at an off-grid point; azimuth 315° interpolates between
+        // 270° and 360° ≡ 0° (periodic), not clamped at 270°.
+        let v = s.value(0, 45.0, 45.0);
+        assert!(
+            (v - (750.0 + 50.0 + 0.045 + 45.0 / 1e5)).abs() < 1e-3,
+            "{v}"
+        );
+        let v = s.value(0, 90.0, 315.0);
+        assert!((v - (800.0 + 0.09 + 0.5 * 270.0 / 1e5)).abs() < 1e-3, "{v}");
+        let bad: EntrySelection = "size=1".parse().unwrap();
+        assert!(t.slice(5.0, &[bad], "phase").is_err());
     }
 }
