@@ -60,6 +60,9 @@ enum Command {
     Export(ExportArgs),
     /// Plot a table (phase function, rainbow colour strip, Lee diagram, 2-D maps) to PNG/SVG.
     Plot(crate::consumers::plot::PlotArgs),
+    /// Plot 2-D ray-traced tables (raytrace-phase-2d/1): bows near the rainbows per outgoing
+    /// azimuth with colour strips (several tables = several radii), or a lat-long map.
+    PlotRaytrace(crate::consumers::plot_raytrace::PlotRaytraceArgs),
     /// Render a picture through the public table reader API.
     #[command(subcommand)]
     Render(RenderCommand),
@@ -305,6 +308,9 @@ fn run(cmd: Command) -> Result<i32> {
         }
         Command::Export(a) => run_export(a).map(|_| 0),
         Command::Plot(a) => crate::consumers::plot::run_plot(&a).map(|_| 0),
+        Command::PlotRaytrace(a) => {
+            crate::consumers::plot_raytrace::run_plot_raytrace(&a).map(|_| 0)
+        }
         Command::Render(RenderCommand::Rainbow(a)) => {
             crate::consumers::render::run_render_rainbow(&a).map(|_| 0)
         }

@@ -322,3 +322,72 @@ fn previews_of_non_phase_tables() {
         "no bright spot drawn"
     );
 }
+
+/// `render rainbow` and `plot-raytrace` on a 2-D (`raytrace-phase-2d/1`) table: a sphere's
+/// 1-D peak replicated over azimuth renders its ring at the same place as the 1-D table; sun
+/// elevations outside the table's axis are refused with the range; previews are written.
+#[test]
+fn render_and_plot_two_d_tables() {
+    use scatterbake::consumers::plot_raytrace;
+    let dir = tempfile::tempdir().unwrap();
+    let wl: Vec<f64> = (0..5).map(|i| 450.0 + 50.0 * i as f64).collect();
+    let t1 = synthetic::peak_table(&wl, |_| 138.0, 0.3, 1e-4, 1801);
+    let mut t2 = synthetic::lat_long_from_1d(&t1, &[0.0, 20.0], 10.0, |_, _| 1.0);
+    let p2 = dir.path().join("sphere2d.sbt");
+    write_table_atomic(&mut t2, &p2).unwrap();
+    let out = dir.path().join("sky2d.png");
+    let args = |e: &str| {
+        parse::<render::RenderRainbowArgs>(&[
+            "--table",
+            p2.to_str().unwrap(),
+            "--sun-elevation-deg",
+            e,
+            "--width",
+            "300",
+            "--height",
+            "200",
+            "--view-elevation-deg",
+            "5",
+            "--out",
+            out.to_str().unwrap(),
+        ])
+    };
+    let err = render::run_render_rainbow(&args("25"))
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("[0, 20]"), "{err}");
+    render::run_render_rainbow(&args("10")).unwrap();
+    let (w, h, px) = decode_png(&out);
+    assert_eq!((w, h), (300, 200));
+    // Centre column: brightest pixel at elevation 42 − 10 = 32° (0.4°/px).
+    let pix = 120.0 / 300.0;
+    let (jbest, _) = (0..200usize)
+        .map(|j| {
+            let p = &px[(j * 300 + 150) * 3..][..3];
+            (j, p[0] as u32 + p[1] as u32 + p[2] as u32)
+        })
+        .max_by_key(|x| x.1)
+        .unwrap();
+    let elev = 5.0 + (100.0 - jbest as f64 - 0.5) * pix;
+    assert!((elev - 32.0).abs() <= pix, "ring top at elevation {elev}");
+    // Previews (lat-long + bows) and the bows plot of two tables.
+    let prev = dir.path().join("previews");
+    let written = plot::previews(&p2, &prev).unwrap();
+    assert_eq!(written.len(), 2);
+    for f in &written {
+        assert!(decode_png(f).0 > 100);
+    }
+    let bows = dir.path().join("bows.png");
+    plot_raytrace::run_plot_raytrace(&parse(&[
+        p2.to_str().unwrap(),
+        p2.to_str().unwrap(),
+        "--kind",
+        "bows",
+        "--sun-elevation-deg",
+        "20",
+        "--out",
+        bows.to_str().unwrap(),
+    ]))
+    .unwrap();
+    assert!(decode_png(&bows).0 == 1500);
+}

@@ -36,6 +36,10 @@ fn default_and_full_manifests_plan() {
     let full = plan_all("manifests/full/rainbow-raytraced-full.toml");
     assert_eq!(full.len(), 4);
     assert_eq!(full[1].1.tasks().len(), 33 * 4);
+    // Beard–Chuang bow study: 6 radii, 12 wavelengths × 2 sun elevations each.
+    let bows = plan_all("manifests/full/beard-chuang-bows.toml");
+    assert_eq!(bows.len(), 6);
+    assert!(bows.iter().all(|(_, j)| j.tasks().len() == 12 * 2));
 }
 
 #[test]

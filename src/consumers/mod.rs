@@ -7,7 +7,8 @@
 //!
 //! CLI entry points (wired by `cli.rs`): [`mitsuba::MitsubaArgs`], [`legendre::LegendreArgs`],
 //! [`mieplot::MiePlotArgs`], [`mieplot::ValidateArgs`], [`lut::LutArgs`], [`plot::PlotArgs`],
-//! [`render::RenderRainbowArgs`].
+//! [`render::RenderRainbowArgs`], [`plot_raytrace::PlotRaytraceArgs`]. 2-D ray-traced tables
+//! (`raytrace-phase-2d/1`) are read through [`phase2d`].
 
 pub mod figure;
 pub mod legendre;
@@ -15,7 +16,9 @@ pub mod lut;
 pub mod mieplot;
 pub mod mitsuba;
 pub mod phase;
+pub mod phase2d;
 pub mod plot;
+pub mod plot_raytrace;
 pub mod previews;
 pub mod render;
 pub mod synthetic;

@@ -51,7 +51,7 @@ pub fn wavelength_colour(wavelength_nm: f64) -> RGBColor {
 }
 
 /// XYZ → 8-bit sRGB colour after scaling by `scale` (clipped).
-fn xyz_colour(xyz: [f64; 3], scale: f64) -> RGBColor {
+pub(crate) fn xyz_colour(xyz: [f64; 3], scale: f64) -> RGBColor {
     let l = xyz_to_linear_srgb([xyz[0] * scale, xyz[1] * scale, xyz[2] * scale]);
     let e = |c: f64| (srgb_encode(c) * 255.0).round() as u8;
     RGBColor(e(l[0]), e(l[1]), e(l[2]))
@@ -698,6 +698,9 @@ pub fn previews(table_path: &Path, out_dir: &Path) -> anyhow::Result<Vec<PathBuf
         .to_string();
     let table = Table::open(table_path).map_err(|e| anyhow!(e))?;
     let name = |k: &str| out_dir.join(format!("{stem}-{k}.png"));
+    if super::phase2d::is_2d(&table) {
+        return super::plot_raytrace::previews_2d(table, &stem, out_dir);
+    }
     let mut written = Vec::new();
     if let Ok(pt) = PhaseTable::new(table.clone()) {
         let p = name("phase");
@@ -733,9 +736,6 @@ pub fn previews(table_path: &Path, out_dir: &Path) -> anyhow::Result<Vec<PathBuf
         "hair-dual" => super::previews::hair_dual(&view)?,
         "hair-azimuthal" => super::previews::hair_azimuthal(&view)?,
         "water-index" => super::previews::water_index(&view)?,
-        // RAYTRACE-PREVIEWS: the arm for `raytrace-phase-2d/1` (lat-long images, code in
-        // src/consumers/plot_raytrace.rs) goes here; until then those tables take the generic
-        // heatmap below.
         _ => {
             let p = generic_preview(&table, &name)?;
             written.push(p);

@@ -19,7 +19,10 @@
 //! L_λ(d) = E_λ · P̄_λ(Θ) · Σ_i σ_s e^{−σ_t (t_i − t_in)} e^{−σ_t (top − z_i)/sin e} Δt
 //! ```
 //!
-//! with the sun's path to each point leaving the layer through its top. P̄_λ(Θ) is the phase
+//! with the sun's path to each point leaving the rain through the layer top or through the
+//! shower's sunward edge, the vertical plane x = −`rain_near_m` (the sun shines from behind the
+//! camera through clear air; this keeps a horizon sun, e = 0, lighting the rain), whichever is
+//! shorter: `(top − z_i)/sin e` vs `(−rain_near − x_i)/cos e`. P̄_λ(Θ) is the phase
 //! function averaged over the sun disc (angular diameter `sun_diameter_deg`), Θ the angle
 //! between d and the disc centre: the disc is importance-sampled uniformly in solid angle
 //! (cos β uniform on [cos α, 1], stratified in 16 rings × 16 azimuths with rotated offsets).
@@ -36,6 +39,7 @@
 
 use super::phase::{EntrySelection, PhaseTable, describe_entry};
 use crate::optics::colour::{Illuminant1931, SpectralWeights, srgb_encode, xyz_to_linear_srgb};
+use anyhow::Context;
 use rayon::prelude::*;
 use std::path::PathBuf;
 
@@ -58,9 +62,17 @@ pub struct Camera {
     pub view_elevation_deg: f64,
 }
 
-type V3 = [f64; 3];
+/// A 3-D vector (world frame: z up, sun at azimuth 0 in the +x half).
+pub type V3 = [f64; 3];
 fn dot(a: V3, b: V3) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+fn cross(a: V3, b: V3) -> V3 {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
 }
 fn norm(a: V3) -> V3 {
     let l = dot(a, a).sqrt();
@@ -167,13 +179,25 @@ impl Scene {
         if t_out <= t_in {
             return 0.0;
         }
-        let sin_e = self.sun_elevation_deg.to_radians().sin().max(1e-3);
+        let (sin_e, cos_e) = self.sun_elevation_deg.to_radians().sin_cos();
         let dt = (t_out - t_in) / self.steps as f64;
         let mut acc = 0.0;
         for i in 0..self.steps {
             let t = t_in + (i as f64 + 0.5) * dt;
             let z = (h + t * d[2]).clamp(0.0, self.rain_top_m);
-            let tau = sig * (t - t_in) + sig * (self.rain_top_m - z) / sin_e;
+            // Sun path inside the rain: out through the top, or through the shower's sunward
+            // edge x = −rain_near, whichever is shorter.
+            let up = if sin_e > 1e-9 {
+                (self.rain_top_m - z) / sin_e
+            } else {
+                f64::INFINITY
+            };
+            let side = if cos_e > 1e-9 {
+                (-self.rain_near_m - t * d[0]).max(0.0) / cos_e
+            } else {
+                f64::INFINITY
+            };
+            let tau = sig * (t - t_in) + sig * up.min(side);
             acc += sig * (-tau).exp() * dt;
         }
         acc
@@ -183,19 +207,39 @@ impl Scene {
 /// Spacing of the precomputed Θ grid (deg).
 pub const THETA_STEP_DEG: f64 = 0.01;
 
-/// XYZ (per unit sun irradiance, D65 sun, sun disc averaged) as a function of the angle Θ
-/// between view direction and sun centre, on a grid of [`THETA_STEP_DEG`] over [0, 180].
-pub fn xyz_vs_angle(
-    pt: &PhaseTable,
-    entry: &[EntrySelection],
-    sun_diameter_deg: f64,
-) -> anyhow::Result<Vec<[f64; 3]>> {
-    let c = pt.curves(entry)?;
-    let sw = SpectralWeights::new(&c.wavelengths_nm, Illuminant1931::D65);
-    let n = (180.0 / THETA_STEP_DEG).round() as usize + 1;
+/// A phase function as the renderer sees it: light of every table wavelength propagating along
+/// `inc` (unit vector, world frame) scattered into the unit direction `out`. The 1-D tables
+/// depend only on the angle between them; the ray tracer's 2-D tables
+/// ([`super::phase2d::PhaseSlice`]) on the full direction in the drop frame.
+pub trait SkyPhase: Sync {
+    fn wavelengths_nm(&self) -> &[f64];
+    /// Add p_k(inc → out) (1/sr) for every wavelength k to `spec[k]`.
+    fn add_phase(&self, inc: V3, out: V3, spec: &mut [f64]);
+}
+
+/// A 1-D phase function (phase contract) at one entry.
+struct Curves1d(super::phase::PhaseCurves);
+
+impl SkyPhase for Curves1d {
+    fn wavelengths_nm(&self) -> &[f64] {
+        &self.0.wavelengths_nm
+    }
+    fn add_phase(&self, inc: V3, out: V3, spec: &mut [f64]) {
+        let th = dot(inc, out).clamp(-1.0, 1.0).acos().to_degrees();
+        // All wavelengths share the angle grid: locate once, interpolate each.
+        let (j, t) = self.0.locate_angle(th);
+        for (s, p) in spec.iter_mut().zip(&self.0.phase) {
+            *s += p[j] * (1.0 - t) + p[j + 1] * t;
+        }
+    }
+}
+
+/// Sun-disc samples `[sin β, cos β, cos ψ, sin ψ]`: uniform in solid angle within the angular
+/// radius α (cos β uniform on [cos α, 1]), stratified in 16 rings × 16 azimuths with rotated
+/// offsets; one sample at the centre for a point sun.
+pub fn disc_samples(sun_diameter_deg: f64) -> Vec<[f64; 4]> {
     let alpha = 0.5 * sun_diameter_deg.to_radians();
     let (nr, na) = if alpha > 0.0 { (16, 16) } else { (1, 1) };
-    // Disc samples as (β, ψ): uniform in solid angle, stratified.
     let mut disc = Vec::with_capacity(nr * na);
     for a in 0..nr {
         let u = (a as f64 + 0.5) / nr as f64;
@@ -203,32 +247,78 @@ pub fn xyz_vs_angle(
         for b in 0..na {
             let psi =
                 2.0 * std::f64::consts::PI * (b as f64 + 0.5 + 0.5 * (a % 2) as f64) / na as f64;
-            disc.push((beta.sin(), beta.cos(), psi.cos()));
+            disc.push([beta.sin(), beta.cos(), psi.cos(), psi.sin()]);
         }
     }
-    Ok((0..n)
-        .into_par_iter()
+    disc
+}
+
+/// The sun-disc average of the spectral phase function for a view ray `view` (unit, pointing
+/// away from the camera) and the sun centre `sun` (unit, toward the sun): the mean over the
+/// disc samples s′ of p(−s′ → −view), written into `spec` (one value per wavelength).
+pub fn disc_average_spectrum(
+    phase: &dyn SkyPhase,
+    sun: V3,
+    view: V3,
+    disc: &[[f64; 4]],
+    spec: &mut [f64],
+) {
+    spec.iter_mut().for_each(|s| *s = 0.0);
+    // Orthonormal a, b ⊥ sun.
+    let helper = if sun[0].abs() < 0.9 {
+        [1.0, 0.0, 0.0]
+    } else {
+        [0.0, 1.0, 0.0]
+    };
+    let a = norm(cross(helper, sun));
+    let b = cross(sun, a);
+    let out = [-view[0], -view[1], -view[2]];
+    for &[sb, cb, cp, sp] in disc {
+        let inc = [0, 1, 2].map(|c| -(cb * sun[c] + sb * (cp * a[c] + sp * b[c])));
+        phase.add_phase(inc, out, spec);
+    }
+    let n = disc.len() as f64;
+    spec.iter_mut().for_each(|s| *s /= n);
+}
+
+/// XYZ (per unit sun irradiance, D65 sun, sun disc averaged) for each view direction.
+pub fn xyz_along(
+    phase: &dyn SkyPhase,
+    sun: V3,
+    views: &[V3],
+    sun_diameter_deg: f64,
+) -> Vec<[f64; 3]> {
+    let sw = SpectralWeights::new(phase.wavelengths_nm(), Illuminant1931::D65);
+    let disc = disc_samples(sun_diameter_deg);
+    views
+        .par_iter()
+        .map_init(
+            || vec![0.0; phase.wavelengths_nm().len()],
+            |spec, &v| {
+                disc_average_spectrum(phase, sun, v, &disc, spec);
+                sw.xyz(spec)
+            },
+        )
+        .collect()
+}
+
+/// XYZ (per unit sun irradiance, D65 sun, sun disc averaged) as a function of the angle Θ
+/// between view direction and sun centre, on a grid of [`THETA_STEP_DEG`] over [0, 180].
+pub fn xyz_vs_angle(
+    pt: &PhaseTable,
+    entry: &[EntrySelection],
+    sun_diameter_deg: f64,
+) -> anyhow::Result<Vec<[f64; 3]>> {
+    let c = Curves1d(pt.curves(entry)?);
+    let n = (180.0 / THETA_STEP_DEG).round() as usize + 1;
+    // Sun at the pole, view rays at angle Θ from it: the average depends on Θ only.
+    let views: Vec<V3> = (0..n)
         .map(|i| {
-            let big = (i as f64 * THETA_STEP_DEG).to_radians();
-            let (sb, cb) = big.sin_cos();
-            let mut spec = vec![0.0; c.wavelengths_nm.len()];
-            for &(sbeta, cbeta, cpsi) in &disc {
-                let th = (cb * cbeta + sb * sbeta * cpsi)
-                    .clamp(-1.0, 1.0)
-                    .acos()
-                    .to_degrees();
-                // All wavelengths share the angle grid: locate once, interpolate each.
-                let (j, t) = c.locate_angle(th);
-                for (s, p) in spec.iter_mut().zip(&c.phase) {
-                    *s += p[j] * (1.0 - t) + p[j + 1] * t;
-                }
-            }
-            for s in &mut spec {
-                *s /= disc.len() as f64;
-            }
-            sw.xyz(&spec)
+            let (s, c) = (i as f64 * THETA_STEP_DEG).to_radians().sin_cos();
+            [s, 0.0, c]
         })
-        .collect())
+        .collect();
+    Ok(xyz_along(&c, [0.0, 0.0, 1.0], &views, sun_diameter_deg))
 }
 
 /// A rendered image: linear sRGB (before exposure) per pixel, row-major from the top-left.
@@ -237,15 +327,14 @@ pub struct Rendered {
     pub linear_srgb: Vec<[f64; 3]>,
 }
 
-/// Render linear sRGB radiance (unit sun irradiance).
-pub fn render(
-    pt: &PhaseTable,
-    entry: &[EntrySelection],
+/// The shared integrator: for every pixel, the ray-marched single-scattering factor times the
+/// sun-disc averaged XYZ of the phase function for that view direction (`xyz_of_view`), to
+/// linear sRGB.
+pub fn render_with(
     scene: &Scene,
     camera: &Camera,
-) -> anyhow::Result<Rendered> {
-    let xyz = xyz_vs_angle(pt, entry, scene.sun_diameter_deg)?;
-    let s = scene.sun_direction();
+    xyz_of_view: impl Fn(V3) -> [f64; 3] + Sync,
+) -> Rendered {
     let px: Vec<[f64; 3]> = (0..camera.width * camera.height)
         .into_par_iter()
         .map(|p| {
@@ -257,18 +346,91 @@ pub fn render(
             if m == 0.0 {
                 return [0.0; 3];
             }
-            let big = dot(s, d).clamp(-1.0, 1.0).acos().to_degrees();
-            let u = big / THETA_STEP_DEG;
-            let k = (u.floor() as usize).min(xyz.len() - 2);
-            let t = u - k as f64;
-            let v = [0, 1, 2].map(|c| (xyz[k][c] * (1.0 - t) + xyz[k + 1][c] * t) * m);
+            let v = xyz_of_view(d).map(|c| c * m);
             xyz_to_linear_srgb(v)
         })
         .collect();
-    Ok(Rendered {
+    Rendered {
         camera: *camera,
         linear_srgb: px,
-    })
+    }
+}
+
+/// Render linear sRGB radiance (unit sun irradiance) of a 1-D (axisymmetric) phase table: the
+/// disc average depends on the angle to the sun only, so it is precomputed on a Θ grid.
+pub fn render(
+    pt: &PhaseTable,
+    entry: &[EntrySelection],
+    scene: &Scene,
+    camera: &Camera,
+) -> anyhow::Result<Rendered> {
+    let xyz = xyz_vs_angle(pt, entry, scene.sun_diameter_deg)?;
+    let s = scene.sun_direction();
+    Ok(render_with(scene, camera, |d| {
+        let big = dot(s, d).clamp(-1.0, 1.0).acos().to_degrees();
+        let u = big / THETA_STEP_DEG;
+        let k = (u.floor() as usize).min(xyz.len() - 2);
+        let t = u - k as f64;
+        [0, 1, 2].map(|c| xyz[k][c] * (1.0 - t) + xyz[k + 1][c] * t)
+    }))
+}
+
+/// Render a 2-D ray-traced table slice (drops with vertical symmetry axis, sun at the slice's
+/// elevation, which must equal `scene.sun_elevation_deg`): the disc average is evaluated per
+/// pixel with the same disc samples and spectral weights as the 1-D path.
+pub fn render_2d(
+    slice: &super::phase2d::PhaseSlice,
+    scene: &Scene,
+    camera: &Camera,
+) -> anyhow::Result<Rendered> {
+    anyhow::ensure!(
+        (slice.sun_elevation_deg - scene.sun_elevation_deg).abs() < 1e-9,
+        "slice at sun elevation {} deg, scene at {} deg",
+        slice.sun_elevation_deg,
+        scene.sun_elevation_deg
+    );
+    let sw = SpectralWeights::new(&slice.wavelengths_nm, Illuminant1931::D65);
+    let disc = disc_samples(scene.sun_diameter_deg);
+    let s = scene.sun_direction();
+    let nw = slice.wavelengths_nm.len();
+    Ok(render_with(scene, camera, |d| {
+        let mut spec = vec![0.0; nw];
+        disc_average_spectrum(slice, s, d, &disc, &mut spec);
+        sw.xyz(&spec)
+    }))
+}
+
+/// Disc-averaged luminance maximum of a 2-D slice along the vertical plane through the sun and
+/// the antisolar point (the image's centre column): radius (deg from the antisolar point) in
+/// `[lo, hi]` above the antisolar point — what the image measurement should reproduce.
+pub fn table_bow_radius_2d(
+    slice: &super::phase2d::PhaseSlice,
+    sun_diameter_deg: f64,
+    lo_deg: f64,
+    hi_deg: f64,
+) -> f64 {
+    let e = slice.sun_elevation_deg;
+    let n = ((hi_deg - lo_deg) / THETA_STEP_DEG).round() as usize + 1;
+    let radii: Vec<f64> = (0..n).map(|i| lo_deg + i as f64 * THETA_STEP_DEG).collect();
+    let views: Vec<V3> = radii
+        .iter()
+        .map(|r| {
+            let (s, c) = (r - e).to_radians().sin_cos();
+            [-c, 0.0, s]
+        })
+        .collect();
+    let sun = {
+        let (s, c) = e.to_radians().sin_cos();
+        [c, 0.0, s]
+    };
+    let xyz = xyz_along(slice, sun, &views, sun_diameter_deg);
+    let mut best = (f64::NEG_INFINITY, f64::NAN);
+    for (r, v) in radii.iter().zip(&xyz) {
+        if v[1] > best.0 {
+            best = (v[1], *r);
+        }
+    }
+    best.1
 }
 
 /// Exposure that maps the 99.5th percentile of luminance (Y) to 0.9.
@@ -395,13 +557,16 @@ fn parse_rgb(s: &str) -> Result<[u8; 3], String> {
 /// `scatterbake render rainbow`.
 #[derive(Debug, Clone, clap::Args)]
 pub struct RenderRainbowArgs {
-    /// Phase-function table (.sbt) following the phase contract (1-D in scattering angle).
+    /// Phase-function table (.sbt): a 1-D table following the phase contract, or a ray-traced
+    /// 2-D table (`raytrace-phase-2d/1`, drops with vertical symmetry axis).
     #[arg(long)]
     pub table: PathBuf,
     #[arg(long = "entry", value_name = "NAME=VALUE")]
     pub entry: Vec<EntrySelection>,
-    #[arg(long, default_value_t = 25.0)]
-    pub sun_elevation_deg: f64,
+    /// Sun elevation; default 25° for 1-D tables, the table's lowest sun elevation for 2-D
+    /// tables (which refuse elevations outside their sun_elevation axis).
+    #[arg(long)]
+    pub sun_elevation_deg: Option<f64>,
     /// Angular diameter of the sun disc (0 = point sun).
     #[arg(long, default_value_t = 0.5)]
     pub sun_diameter_deg: f64,
@@ -454,14 +619,43 @@ pub fn run_render_rainbow(args: &RenderRainbowArgs) -> anyhow::Result<()> {
         "fov must be positive (and below 179° for a rectilinear lens)"
     );
     anyhow::ensure!(
-        (-90.0..=90.0).contains(&args.sun_elevation_deg),
-        "--sun-elevation-deg must be within −90…90°"
-    );
-    anyhow::ensure!(
         (0.0..=10.0).contains(&args.sun_diameter_deg),
         "--sun-diameter-deg must be within 0…10°"
     );
-    let pt = PhaseTable::open(&args.table)?;
+    let table = crate::table::Table::open(&args.table)
+        .map_err(|e| anyhow::anyhow!(e))
+        .with_context(|| args.table.display().to_string())?;
+    // 1-D tables: the phase contract; 2-D ray-traced tables: a slice at the sun elevation.
+    enum Source {
+        OneD(Box<PhaseTable>),
+        TwoD(Box<super::phase2d::PhaseSlice>, String),
+    }
+    let (source, sun_elevation_deg) = if super::phase2d::is_2d(&table) {
+        let t2 = super::phase2d::Phase2dTable::new(table)
+            .with_context(|| args.table.display().to_string())?;
+        let e = t2.resolve_elevation(args.sun_elevation_deg)?;
+        let slice = t2.slice(e, &args.entry, "phase")?;
+        let label = format!(
+            "2-D table, radius {}, sun elevation {e} deg{}",
+            t2.radius_label(&slice.entry),
+            if args.sun_elevation_deg.is_none() {
+                " (table default)"
+            } else {
+                ""
+            }
+        );
+        (Source::TwoD(Box::new(slice), label), e)
+    } else {
+        let pt = PhaseTable::new(table).with_context(|| args.table.display().to_string())?;
+        (
+            Source::OneD(Box::new(pt)),
+            args.sun_elevation_deg.unwrap_or(25.0),
+        )
+    };
+    anyhow::ensure!(
+        (-90.0..=90.0).contains(&sun_elevation_deg),
+        "--sun-elevation-deg must be within −90…90°"
+    );
     let camera = Camera {
         lens: args.lens,
         width: args.width,
@@ -469,10 +663,10 @@ pub fn run_render_rainbow(args: &RenderRainbowArgs) -> anyhow::Result<()> {
         fov_deg: args.fov_deg,
         view_elevation_deg: args
             .view_elevation_deg
-            .unwrap_or(0.5 * 51.0 - args.sun_elevation_deg),
+            .unwrap_or(0.5 * 51.0 - sun_elevation_deg),
     };
     let scene = Scene {
-        sun_elevation_deg: args.sun_elevation_deg,
+        sun_elevation_deg,
         sun_diameter_deg: args.sun_diameter_deg,
         extinction_per_km: args.extinction_per_km,
         rain_top_m: args.rain_top_m,
@@ -480,37 +674,64 @@ pub fn run_render_rainbow(args: &RenderRainbowArgs) -> anyhow::Result<()> {
         camera_height_m: 1.7,
         steps: args.steps,
     };
-    let r = render(&pt, &args.entry, &scene, &camera)?;
+    let t0 = std::time::Instant::now();
+    let r = match &source {
+        Source::OneD(pt) => render(pt, &args.entry, &scene, &camera)?,
+        Source::TwoD(slice, _) => render_2d(slice, &scene, &camera)?,
+    };
+    let seconds = t0.elapsed().as_secs_f64();
     let exposure = args
         .exposure
         .unwrap_or_else(|| auto_exposure(&r.linear_srgb));
     let rgb = to_srgb8(&r.linear_srgb, exposure, args.intensity, args.background);
     write_png(&args.out, camera.width, camera.height, &rgb)?;
-    let entry = pt.resolve_entry(&args.entry)?;
+    let what = match &source {
+        Source::OneD(pt) => {
+            let entry = pt.resolve_entry(&args.entry)?;
+            describe_entry(&pt.table, &entry)
+        }
+        Source::TwoD(_, label) => label.clone(),
+    };
     eprintln!(
-        "rendered {} ({}x{}, {:?}, fov {} deg, sun {} deg, disc {} deg, {}), exposure {:.4e}",
+        "rendered {} ({}x{}, {:?}, fov {} deg, sun {} deg, disc {} deg, {}) in {seconds:.1} s, exposure {:.4e}",
         args.out.display(),
         camera.width,
         camera.height,
         camera.lens,
         camera.fov_deg,
-        args.sun_elevation_deg,
+        sun_elevation_deg,
         args.sun_diameter_deg,
-        describe_entry(&pt.table, &entry),
+        what,
         exposure
     );
-    let xyz = xyz_vs_angle(&pt, &args.entry, args.sun_diameter_deg)?;
-    for (name, lo, hi) in [("primary", 36.0, 46.0), ("secondary", 48.0, 56.0)] {
-        if let Some(m) = measure_bow(&r, args.sun_elevation_deg, lo, hi) {
+    let xyz = match &source {
+        Source::OneD(pt) => Some(xyz_vs_angle(pt, &args.entry, args.sun_diameter_deg)?),
+        Source::TwoD(..) => None,
+    };
+    // The brightest pixel of the centre column within each window; a 2-D table's bow may lie
+    // outside it (flattened drops move the top of the bow), which the edge note reports.
+    let windows = [("primary", 36.0, 46.0), ("secondary", 48.0, 56.0)];
+    for (name, lo, hi) in windows {
+        if let Some(m) = measure_bow(&r, sun_elevation_deg, lo, hi) {
+            let table_max = match (&source, &xyz) {
+                (_, Some(xyz)) => table_bow_radius(xyz, lo, hi),
+                (Source::TwoD(slice, _), None) => {
+                    table_bow_radius_2d(slice, args.sun_diameter_deg, lo, hi)
+                }
+                _ => f64::NAN,
+            };
             eprintln!(
-                "{name} bow: image radius {:.2} deg (R {:.2}, G {:.2}, B {:.2}), table maximum {:.2} deg, pixel {:.3} deg",
+                "{name} bow (centre column, top of the bow): image radius {:.2} deg (R {:.2}, G {:.2}, B {:.2}), table maximum {:.2} deg, pixel {:.3} deg",
                 m.radius_deg,
                 m.radius_rgb_deg[0],
                 m.radius_rgb_deg[1],
                 m.radius_rgb_deg[2],
-                table_bow_radius(&xyz, lo, hi),
+                table_max,
                 camera.pixel_deg()
             );
+            if m.radius_deg - lo < camera.pixel_deg() || hi - m.radius_deg < camera.pixel_deg() {
+                eprintln!("  (at the edge of the {lo}-{hi} deg window: no {name} maximum inside)");
+            }
         }
     }
     Ok(())
@@ -623,5 +844,163 @@ mod tests {
             sum / n as f64
         };
         assert!(mean(44.0, 48.0) < 0.5 * mean(30.0, 38.0));
+    }
+
+    /// The scene of the 2-D tests: horizon sun (the tables' own elevation), so the bow's sides
+    /// (at the horizon) are in the rain and visible.
+    fn horizon_scene(disc: f64) -> Scene {
+        Scene {
+            sun_elevation_deg: 0.0,
+            ..scene(disc)
+        }
+    }
+
+    fn horizon_cam() -> Camera {
+        Camera {
+            view_elevation_deg: 25.5,
+            ..cam()
+        }
+    }
+
+    fn luminance(p: [f64; 3]) -> f64 {
+        0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2]
+    }
+
+    fn dispersive_1d() -> crate::table::Table {
+        let wl: Vec<f64> = (0..5).map(|i| 450.0 + 50.0 * i as f64).collect();
+        peak_table(&wl, |l| 139.4 - 1.8 * (l - 400.0) / 300.0, 0.25, 1e-3, 3601)
+    }
+
+    fn slice_of(t: crate::table::Table, e: f64) -> crate::consumers::phase2d::PhaseSlice {
+        let t2 = crate::consumers::phase2d::Phase2dTable::new(t).unwrap();
+        t2.slice(t2.resolve_elevation(Some(e)).unwrap(), &[], "phase")
+            .unwrap()
+    }
+
+    #[test]
+    fn sphere_as_2d_table_renders_the_same_bow_as_1d() {
+        let t1 = dispersive_1d();
+        let t2 = crate::consumers::synthetic::lat_long_from_1d(&t1, &[0.0, 10.0], 10.0, |_, _| 1.0);
+        let pt = PhaseTable::new(t1).unwrap();
+        let (sc, cam) = (horizon_scene(0.5), horizon_cam());
+        let r1 = render(&pt, &[], &sc, &cam).unwrap();
+        let r2 = render_2d(&slice_of(t2, 0.0), &sc, &cam).unwrap();
+        let pix = cam.pixel_deg();
+        let m1 = measure_bow(&r1, 0.0, 36.0, 46.0).unwrap();
+        let m2 = measure_bow(&r2, 0.0, 36.0, 46.0).unwrap();
+        let xyz = xyz_vs_angle(&pt, &[], 0.5).unwrap();
+        let t_max = table_bow_radius(&xyz, 36.0, 46.0);
+        assert!(
+            (m1.radius_deg - m2.radius_deg).abs() <= pix,
+            "{m1:?} {m2:?}"
+        );
+        assert!(
+            (m2.radius_deg - t_max).abs() <= pix,
+            "{m2:?} vs table {t_max}"
+        );
+        for c in 0..3 {
+            assert!(
+                (m1.radius_rgb_deg[c] - m2.radius_rgb_deg[c]).abs() <= pix,
+                "{m1:?} {m2:?}"
+            );
+        }
+        // Pixel by pixel: the same radiance (interpolation differences only).
+        let max = r1
+            .linear_srgb
+            .iter()
+            .map(|p| luminance(*p))
+            .fold(0.0, f64::max);
+        for (a, b) in r1.linear_srgb.iter().zip(&r2.linear_srgb) {
+            assert!(
+                (luminance(*a) - luminance(*b)).abs() < 0.02 * max,
+                "{a:?} {b:?}"
+            );
+        }
+        // Elevations outside the table's axis are refused with the range in the message.
+        let t3 = crate::consumers::synthetic::lat_long_from_1d(
+            &dispersive_1d(),
+            &[0.0, 10.0],
+            10.0,
+            |_, _| 1.0,
+        );
+        let t3 = crate::consumers::phase2d::Phase2dTable::new(t3).unwrap();
+        let err = t3.resolve_elevation(Some(25.0)).unwrap_err().to_string();
+        assert!(err.contains("[0, 10]"), "{err}");
+        assert_eq!(t3.resolve_elevation(None).unwrap(), 0.0);
+    }
+
+    #[test]
+    fn azimuth_dependent_table_maps_to_the_sky_as_documented() {
+        use crate::consumers::phase2d::table_angles;
+        let (sc, cam) = (horizon_scene(0.0), horizon_cam());
+        let t1 = dispersive_1d();
+        let r1 = render(&PhaseTable::new(t1.clone()).unwrap(), &[], &sc, &cam).unwrap();
+        let f_sym = |_: f64, phi: f64| 1.0 + 0.8 * phi.to_radians().cos();
+        let f_asym = |_: f64, phi: f64| 1.0 + 0.5 * phi.to_radians().sin();
+        let sym = crate::consumers::synthetic::lat_long_from_1d(&t1, &[0.0], 10.0, f_sym);
+        let asym = crate::consumers::synthetic::lat_long_from_1d(&t1, &[0.0], 10.0, f_asym);
+        let rs = render_2d(&slice_of(sym, 0.0), &sc, &cam).unwrap();
+        let ra = render_2d(&slice_of(asym, 0.0), &sc, &cam).unwrap();
+        let (w, h) = (cam.width, cam.height);
+        let max = r1
+            .linear_srgb
+            .iter()
+            .map(|p| luminance(*p))
+            .fold(0.0, f64::max);
+        let s = sc.sun_direction();
+        let (mut top, mut side, mut n) = (f64::NAN, f64::NAN, 0);
+        for j in 0..h {
+            for i in 0..w {
+                let y1 = luminance(r1.linear_srgb[j * w + i]);
+                if y1 < 0.3 * max {
+                    continue;
+                }
+                n += 1;
+                // Every bright pixel: 2-D / 1-D = the factor at the pixel's outgoing azimuth
+                // (point sun: incident −s, outgoing −d).
+                let d = cam.direction(i, j).unwrap();
+                let (_, phi) = table_angles([-s[0], -s[1], -s[2]], [-d[0], -d[1], -d[2]]);
+                let rs_ = luminance(rs.linear_srgb[j * w + i]) / y1;
+                let ra_ = luminance(ra.linear_srgb[j * w + i]) / y1;
+                assert!(
+                    (rs_ - f_sym(0.0, phi)).abs() < 0.01,
+                    "({i},{j}) φ {phi}: {rs_}"
+                );
+                assert!(
+                    (ra_ - f_asym(0.0, phi)).abs() < 0.01,
+                    "({i},{j}) φ {phi}: {ra_}"
+                );
+                if i == w / 2 {
+                    top = rs_;
+                }
+                if d[2].abs() < 0.03 && d[1] > 0.0 {
+                    side = rs_;
+                }
+            }
+        }
+        assert!(n > 100, "{n} bright pixels");
+        // Top of the bow = light scattered downward (φ = 180°): factor 0.2; its sides (at the
+        // horizon, φ = 90°/270°): factor 1.
+        assert!(
+            (top - 0.2).abs() < 0.02 && (side - 1.0).abs() < 0.03,
+            "{top} {side}"
+        );
+        // φ ↔ −φ symmetric table → left–right mirror-symmetric image; the antisymmetric part
+        // (sin φ) brightens the left half (φ = 90°, outgoing +y, seen looking toward −y).
+        let (mut left, mut right) = (0.0, 0.0);
+        for j in 0..h {
+            for i in 0..w / 2 {
+                let (a, b) = (rs.linear_srgb[j * w + i], rs.linear_srgb[j * w + w - 1 - i]);
+                for c in 0..3 {
+                    assert!(
+                        (a[c] - b[c]).abs() <= 1e-9 * max + 1e-6 * a[c].abs(),
+                        "({i},{j}) {a:?} {b:?}"
+                    );
+                }
+                left += luminance(ra.linear_srgb[j * w + i]);
+                right += luminance(ra.linear_srgb[j * w + w - 1 - i]);
+            }
+        }
+        assert!(left > 1.5 * right, "{left} {right}");
     }
 }

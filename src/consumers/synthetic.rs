@@ -153,3 +153,46 @@ pub fn peak_table(
     };
     Table::from_content(content, Provenance::default()).expect("consistent synthetic table")
 }
+
+/// A ray-traced-style 2-D table (schema `raytrace-phase-2d/1`: wavelength × sun_elevation ×
+/// outgoing_polar × outgoing_azimuth, channel `phase`) made from a 1-D phase table
+/// (wavelength × scattering_angle): p(λ, e, θ, φ) = p_1d(λ, θ) · `factor(θ, φ)` at every
+/// elevation in `elevations_deg`, azimuth samples 0, step, … < 360. With `factor ≡ 1` this is
+/// what the ray tracer writes for a sphere; an azimuth-dependent factor mimics a flattened drop
+/// (normalisation is then not preserved — test use only).
+pub fn lat_long_from_1d(
+    table_1d: &Table,
+    elevations_deg: &[f64],
+    azimuth_step_deg: f64,
+    factor: impl Fn(f64, f64) -> f64,
+) -> Table {
+    let axes = table_1d.axes();
+    let (wl, th) = (&axes[0], &axes[axes.len() - 1]);
+    let ch = table_1d.channel_index("phase").expect("phase channel");
+    let na = (360.0 / azimuth_step_deg).round() as usize;
+    let mut data = Vec::with_capacity(wl.len() * elevations_deg.len() * th.len() * na);
+    for k in 0..wl.len() {
+        for _ in elevations_deg {
+            for j in 0..th.len() {
+                let p = table_1d.at(&[k, j], ch) as f64;
+                for i in 0..na {
+                    data.push((p * factor(th.coord(j), i as f64 * azimuth_step_deg)) as f32);
+                }
+            }
+        }
+    }
+    let content = TableContent {
+        schema: Schema::new("raytrace-phase-2d", 1),
+        description: "1-D phase function replicated over outgoing azimuth (synthetic)".into(),
+        axes: vec![
+            wl.clone(),
+            Axis::values("sun_elevation", "deg", elevations_deg.to_vec()),
+            Axis::values("outgoing_polar", "deg", th.coords()),
+            Axis::uniform("outgoing_azimuth", "deg", 0.0, azimuth_step_deg, na),
+        ],
+        channels: vec![Channel::new("phase", "1/sr", "1-D phase × azimuth factor")],
+        attributes: attributes("lat-long replica"),
+        data,
+    };
+    Table::from_content(content, Provenance::default()).expect("consistent synthetic table")
+}

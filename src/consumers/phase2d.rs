@@ -1,0 +1,428 @@
+//! Consumers' view of the ray tracer's 2-D tables (schema `raytrace-phase-2d/1`, stage
+//! `raytrace` for non-spherical drops): axes wavelength (nm) × sun_elevation (deg) ×
+//! outgoing_polar (deg) × outgoing_azimuth (deg), optionally with further entry axes (e.g. a
+//! `radius`) between wavelength and sun_elevation, channel `phase` (1/sr).
+//!
+//! Frame (the table's `frame` attribute, `docs/raytrace.md`): drop symmetry axis z up, sun at
+//! elevation e in the +x half, incident (propagation) direction d = (−cos e, 0, −sin e);
+//! outgoing_polar = angle between d and the outgoing direction w (0 = forward), outgoing_azimuth
+//! = azimuth of w about d measured from e1 = (−sin e, 0, cos e) (the vertical plane, upwards)
+//! towards e2 = d × e1 = +y. This is also the renderer's world frame (sun at azimuth 0), so a
+//! world direction needs no rotation. For an incident direction that is not in the x–z plane
+//! (sun-disc samples) the frame is the same construction about that direction (e1 = the
+//! component of z perpendicular to d), which is exact because the drops are axisymmetric about
+//! z.
+//!
+//! Values are read only through the public reader API: [`Phase2dTable::slice`] samples the
+//! table with `Table::sample` (multilinear) at the requested sun elevation and entry, on the
+//! table's own polar × azimuth grid; the bilinear interpolation of that slice in (polar,
+//! azimuth) is then identical to the table's multilinear lookup formula, with the azimuth taken
+//! as periodic (the axis covers [0, 360) without repeating 360°).
+
+use super::phase::EntrySelection;
+use super::render::{SkyPhase, V3};
+use crate::table::{Table, TableError};
+use anyhow::{Context, bail};
+use rayon::prelude::*;
+use std::path::Path;
+
+/// Schema name of the ray tracer's 2-D tables.
+pub const SCHEMA_2D: &str = "raytrace-phase-2d";
+
+/// Is this a 2-D ray-traced table?
+pub fn is_2d(table: &Table) -> bool {
+    table.header.schema.name == SCHEMA_2D
+}
+
+/// A `raytrace-phase-2d/1` table with its axes identified.
+pub struct Phase2dTable {
+    pub table: Table,
+    ax_elev: usize,
+    ax_polar: usize,
+    ax_az: usize,
+    /// Entry axes other than wavelength / sun_elevation / polar / azimuth (e.g. radius).
+    pub entry_axes: Vec<usize>,
+}
+
+impl Phase2dTable {
+    /// Open a file and check the layout.
+    pub fn open(path: &Path) -> anyhow::Result<Self> {
+        let table = Table::open(path).map_err(|e: TableError| anyhow::anyhow!(e))?;
+        Self::new(table).with_context(|| format!("{}", path.display()))
+    }
+
+    /// Check a table in memory.
+    pub fn new(table: Table) -> anyhow::Result<Self> {
+        if !is_2d(&table) {
+            bail!(
+                "schema `{}` is not `{SCHEMA_2D}/1`",
+                table.header.schema.name
+            );
+        }
+        let axes = table.axes();
+        let n = axes.len();
+        if n < 4
+            || axes[0].name != "wavelength"
+            || axes[n - 3].name != "sun_elevation"
+            || axes[n - 2].name != "outgoing_polar"
+            || axes[n - 1].name != "outgoing_azimuth"
+        {
+            let names: Vec<&str> = axes.iter().map(|a| a.name.as_str()).collect();
+            bail!(
+                "expected axes wavelength × [entry axes] × sun_elevation × outgoing_polar × \
+                 outgoing_azimuth, found {names:?}"
+            );
+        }
+        table
+            .channel_index("phase")
+            .map_err(|_| anyhow::anyhow!("table has no channel `phase`"))?;
+        let p = axes[n - 2].coords();
+        if p[0] > 1e-9 || p[p.len() - 1] < 180.0 - 1e-9 {
+            bail!("outgoing_polar must cover [0, 180] deg");
+        }
+        let a = axes[n - 1].coords();
+        if a[0].abs() > 1e-9 || a[a.len() - 1] >= 360.0 {
+            bail!("outgoing_azimuth must start at 0 and stay below 360 deg");
+        }
+        Ok(Phase2dTable {
+            ax_elev: n - 3,
+            ax_polar: n - 2,
+            ax_az: n - 1,
+            entry_axes: (1..n - 3).collect(),
+            table,
+        })
+    }
+
+    /// The table's sun elevations (deg).
+    pub fn elevations_deg(&self) -> Vec<f64> {
+        self.table.axes()[self.ax_elev].coords()
+    }
+
+    /// The sun elevation to use: the requested one if it lies within the table's range (error
+    /// naming the range otherwise), or the table's lowest elevation when none is requested.
+    pub fn resolve_elevation(&self, requested: Option<f64>) -> anyhow::Result<f64> {
+        let e = self.elevations_deg();
+        let (lo, hi) = (e[0], e[e.len() - 1]);
+        match requested {
+            None => Ok(lo),
+            Some(x) if x >= lo - 1e-9 && x <= hi + 1e-9 => Ok(x.clamp(lo, hi)),
+            Some(x) => bail!(
+                "sun elevation {x} deg is outside the table's sun_elevation range [{lo}, {hi}] \
+                 deg (table elevations {e:?}); ray-traced tables are only valid at the \
+                 elevations they were traced for"
+            ),
+        }
+    }
+
+    /// Entry values (name, value) for the extra entry axes: requested or the first sample.
+    pub fn resolve_entry(&self, sel: &[EntrySelection]) -> anyhow::Result<Vec<(String, f64)>> {
+        let axes = self.table.axes();
+        for s in sel {
+            if !self.entry_axes.iter().any(|&i| axes[i].name == s.axis) {
+                let names: Vec<&str> = self
+                    .entry_axes
+                    .iter()
+                    .map(|&i| axes[i].name.as_str())
+                    .collect();
+                bail!(
+                    "`{}` is not an entry axis of this table (entry axes: {names:?}; the sun \
+                     elevation is chosen with --sun-elevation-deg)",
+                    s.axis
+                );
+            }
+        }
+        Ok(self
+            .entry_axes
+            .iter()
+            .map(|&i| {
+                let a = &axes[i];
+                let v = sel
+                    .iter()
+                    .rev()
+                    .find(|s| s.axis == a.name)
+                    .map(|s| s.value)
+                    .unwrap_or_else(|| a.coord(0));
+                (a.name.clone(), v)
+            })
+            .collect())
+    }
+
+    /// Drop radius for labels: the entry's `radius` (in its axis unit) or the table's
+    /// `radius_mm` attribute.
+    pub fn radius_label(&self, entry: &[(String, f64)]) -> String {
+        if let Some((_, v)) = entry.iter().find(|e| e.0 == "radius") {
+            let unit = self
+                .table
+                .axes()
+                .iter()
+                .find(|a| a.name == "radius")
+                .map(|a| a.unit.as_str())
+                .unwrap_or("");
+            return format!("{v} {unit}");
+        }
+        match self.table.header.attributes.get("radius_mm") {
+            Some(v) => format!("{v} mm"),
+            None => "?".into(),
+        }
+    }
+
+    /// One channel at `elevation_deg` and the entry, on the table's polar × azimuth grid, every
+    /// wavelength (sampled through `Table::sample`).
+    pub fn slice(
+        &self,
+        elevation_deg: f64,
+        sel: &[EntrySelection],
+        channel: &str,
+    ) -> anyhow::Result<PhaseSlice> {
+        let entry = self.resolve_entry(sel)?;
+        let ch = self.table.channel_index(channel)?;
+        let axes = self.table.axes();
+        let wavelengths_nm = axes[0].coords();
+        let polar_deg = axes[self.ax_polar].coords();
+        let azimuth_deg = axes[self.ax_az].coords();
+        let (np, na) = (polar_deg.len(), azimuth_deg.len());
+        let rows: Vec<(usize, usize)> = (0..wavelengths_nm.len())
+            .flat_map(|k| (0..np).map(move |j| (k, j)))
+            .collect();
+        let values: Vec<f32> = rows
+            .par_iter()
+            .map(|&(k, j)| {
+                let mut c = Vec::with_capacity(axes.len());
+                c.push(wavelengths_nm[k]);
+                c.extend(entry.iter().map(|e| e.1));
+                c.push(elevation_deg);
+                c.push(polar_deg[j]);
+                c.push(0.0);
+                let last = c.len() - 1;
+                (0..na)
+                    .map(|i| {
+                        c[last] = azimuth_deg[i];
+                        self.table.sample(&c).map(|v| v[ch] as f32)
+                    })
+                    .collect::<Result<Vec<f32>, _>>()
+            })
+            .collect::<Result<Vec<Vec<f32>>, _>>()?
+            .into_iter()
+            .flatten()
+            .collect();
+        Ok(PhaseSlice {
+            wavelengths_nm,
+            sun_elevation_deg: elevation_deg,
+            polar_step: uniform_step(&polar_deg),
+            polar_deg,
+            azimuth_deg,
+            values,
+            entry,
+        })
+    }
+}
+
+fn uniform_step(c: &[f64]) -> Option<f64> {
+    let n = c.len();
+    let step = (c[n - 1] - c[0]) / (n - 1) as f64;
+    c.windows(2)
+        .all(|w| (w[1] - w[0] - step).abs() <= 1e-9 * step)
+        .then_some(step)
+}
+
+/// One channel of a 2-D table at one sun elevation and entry: `values[(k·n_polar + j)·n_az + i]`.
+#[derive(Debug, Clone)]
+pub struct PhaseSlice {
+    pub wavelengths_nm: Vec<f64>,
+    pub sun_elevation_deg: f64,
+    pub polar_deg: Vec<f64>,
+    pub azimuth_deg: Vec<f64>,
+    polar_step: Option<f64>,
+    values: Vec<f32>,
+    pub entry: Vec<(String, f64)>,
+}
+
+/// Bracketing index and weight on a sorted grid (clamped at the ends).
+fn locate(c: &[f64], step: Option<f64>, x: f64) -> (usize, f64) {
+    let n = c.len();
+    if x <= c[0] {
+        return (0, 0.0);
+    }
+    if x >= c[n - 1] {
+        return (n - 2, 1.0);
+    }
+    let j = match step {
+        Some(s) => (((x - c[0]) / s) as usize).min(n - 2),
+        None => c.partition_point(|&v| v <= x).clamp(1, n - 1) - 1,
+    };
+    (j, ((x - c[j]) / (c[j + 1] - c[j])).clamp(0.0, 1.0))
+}
+
+impl PhaseSlice {
+    /// Value at wavelength index k, polar and azimuth (deg): bilinear, azimuth periodic.
+    pub fn value(&self, k: usize, polar_deg: f64, azimuth_deg: f64) -> f64 {
+        let w = self.weights(polar_deg, azimuth_deg);
+        self.apply(k, &w)
+    }
+
+    /// Bilinear corner indices (within one wavelength's block) and weights.
+    fn weights(&self, polar_deg: f64, azimuth_deg: f64) -> [(usize, f64); 4] {
+        let (j, tj) = locate(&self.polar_deg, self.polar_step, polar_deg);
+        let na = self.azimuth_deg.len();
+        let a = azimuth_deg.rem_euclid(360.0);
+        let (i0, i1, ti) = if a >= self.azimuth_deg[na - 1] {
+            // Between the last sample and 360° ≡ the first sample.
+            let last = self.azimuth_deg[na - 1];
+            (na - 1, 0, (a - last) / (360.0 - last))
+        } else {
+            let (i, t) = locate(&self.azimuth_deg, None, a);
+            (i, i + 1, t)
+        };
+        [
+            (j * na + i0, (1.0 - tj) * (1.0 - ti)),
+            (j * na + i1, (1.0 - tj) * ti),
+            ((j + 1) * na + i0, tj * (1.0 - ti)),
+            ((j + 1) * na + i1, tj * ti),
+        ]
+    }
+
+    fn apply(&self, k: usize, w: &[(usize, f64); 4]) -> f64 {
+        let base = k * self.polar_deg.len() * self.azimuth_deg.len();
+        w.iter()
+            .map(|&(i, t)| t * f64::from(self.values[base + i]))
+            .sum()
+    }
+}
+
+/// (outgoing_polar, outgoing_azimuth) in deg of the outgoing direction `out` for light
+/// propagating along `inc` (both unit vectors, world frame = drop frame, z up).
+pub fn table_angles(inc: V3, out: V3) -> (f64, f64) {
+    let c = dot(inc, out).clamp(-1.0, 1.0);
+    // e1 = normalize(z − (z·d) d): the vertical direction perpendicular to d, upwards.
+    let mut e1 = [-inc[2] * inc[0], -inc[2] * inc[1], 1.0 - inc[2] * inc[2]];
+    let l = dot(e1, e1).sqrt();
+    if l < 1e-12 {
+        // Sun at the zenith/nadir: the table's e1 = (−sin e, 0, cos e) limit.
+        e1 = [-inc[2].signum(), 0.0, 0.0];
+    } else {
+        e1 = [e1[0] / l, e1[1] / l, e1[2] / l];
+    }
+    let e2 = cross(inc, e1);
+    let az = dot(out, e2)
+        .atan2(dot(out, e1))
+        .to_degrees()
+        .rem_euclid(360.0);
+    (c.acos().to_degrees(), az)
+}
+
+/// Outgoing direction (world frame) at table angles for the sun at `elevation_deg` (azimuth 0).
+pub fn outgoing_direction(elevation_deg: f64, polar_deg: f64, azimuth_deg: f64) -> V3 {
+    let (se, ce) = elevation_deg.to_radians().sin_cos();
+    let d = [-ce, 0.0, -se];
+    let e1 = [-se, 0.0, ce];
+    let e2 = [0.0, 1.0, 0.0];
+    let (st, ct) = polar_deg.to_radians().sin_cos();
+    let (sp, cp) = azimuth_deg.to_radians().sin_cos();
+    [0, 1, 2].map(|c| ct * d[c] + st * (cp * e1[c] + sp * e2[c]))
+}
+
+fn dot(a: V3, b: V3) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+fn cross(a: V3, b: V3) -> V3 {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+
+impl SkyPhase for PhaseSlice {
+    fn wavelengths_nm(&self) -> &[f64] {
+        &self.wavelengths_nm
+    }
+    /// The slice is taken at the disc centre's elevation; each disc sample uses its own
+    /// incident direction and frame (exact for a shift of the sun in azimuth; for a shift in
+    /// elevation of at most the disc radius the table's elevation dependence is neglected).
+    fn add_phase(&self, inc: V3, out: V3, spec: &mut [f64]) {
+        let (p, a) = table_angles(inc, out);
+        let w = self.weights(p, a);
+        for (k, s) in spec.iter_mut().enumerate() {
+            *s += self.apply(k, &w);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn frame_round_trip_and_documented_axes() {
+        for &e in &[0.0, 17.0, 30.0, 60.0] {
+            let (se, ce) = f64::to_radians(e).sin_cos();
+            let d = [-ce, 0.0, -se];
+            // Forward is polar 0; "up" (e1) is azimuth 0; +y is azimuth 90.
+            assert!(table_angles(d, d).0 < 1e-6);
+            let (p, a) = table_angles(d, [-se, 0.0, ce]);
+            assert!((p - 90.0).abs() < 1e-9 && a.abs() < 1e-9, "{p} {a}");
+            let (p, a) = table_angles(d, [0.0, 1.0, 0.0]);
+            assert!(
+                (p - 90.0).abs() < 1e-9 && (a - 90.0).abs() < 1e-9,
+                "{p} {a}"
+            );
+            for &(pp, aa) in &[(138.0, 0.0), (138.0, 95.0), (42.0, 271.0), (179.0, 180.0)] {
+                let w = outgoing_direction(e, pp, aa);
+                let (p, a) = table_angles(d, w);
+                assert!(
+                    (p - pp).abs() < 1e-9 && (a - aa).abs() < 1e-9,
+                    "{e}: {p} {a}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn radius_entry_axis_is_selected_and_interpolated() {
+        use crate::table::{Axis, Channel, Provenance, Schema, TableContent};
+        // wavelength (1) × radius (2) × sun_elevation (2) × polar (3) × azimuth (4):
+        // phase = radius_um + 10·elevation + polar/1000 + azimuth/1e5.
+        let (radii, elev, polar, az) = ([500.0, 1000.0], [0.0, 20.0], [0.0, 90.0, 180.0], 4);
+        let mut data = vec![];
+        for &r in &radii {
+            for &e in &elev {
+                for &p in &polar {
+                    for i in 0..az {
+                        data.push((r + 10.0 * e + p / 1000.0 + 90.0 * i as f64 / 1e5) as f32);
+                    }
+                }
+            }
+        }
+        let content = TableContent {
+            schema: Schema::new(SCHEMA_2D, 1),
+            description: "test".into(),
+            axes: vec![
+                Axis::values("wavelength", "nm", vec![550.0]),
+                Axis::values("radius", "um", radii.to_vec()),
+                Axis::values("sun_elevation", "deg", elev.to_vec()),
+                Axis::values("outgoing_polar", "deg", polar.to_vec()),
+                Axis::uniform("outgoing_azimuth", "deg", 0.0, 90.0, az),
+            ],
+            channels: vec![Channel::new("phase", "1/sr", "test")],
+            attributes: Default::default(),
+            data,
+        };
+        let t = Phase2dTable::new(Table::from_content(content, Provenance::default()).unwrap())
+            .unwrap();
+        let sel: EntrySelection = "radius=750".parse().unwrap();
+        let s = t.slice(5.0, &[sel], "phase").unwrap();
+        assert_eq!(t.radius_label(&s.entry), "750 um");
+        // Linear in every axis: exact at an off-grid point; azimuth 315° interpolates between
+        // 270° and 360° ≡ 0° (periodic), not clamped at 270°.
+        let v = s.value(0, 45.0, 45.0);
+        assert!(
+            (v - (750.0 + 50.0 + 0.045 + 45.0 / 1e5)).abs() < 1e-3,
+            "{v}"
+        );
+        let v = s.value(0, 90.0, 315.0);
+        assert!((v - (800.0 + 0.09 + 0.5 * 270.0 / 1e5)).abs() < 1e-3, "{v}");
+        let bad: EntrySelection = "size=1".parse().unwrap();
+        assert!(t.slice(5.0, &[bad], "phase").is_err());
+    }
+}
