@@ -487,6 +487,34 @@ pub struct BowMeasurement {
     pub radius_rgb_deg: [f64; 3],
 }
 
+/// Mean luminance (linear sRGB Y) of the centre column of an equidistant fisheye render over
+/// radii `[lo_deg, hi_deg]` from the antisolar point (same lens mapping as [`measure_bow`]);
+/// `None` for other lenses or when no pixel falls in the range.
+pub fn column_mean_luminance(
+    r: &Rendered,
+    sun_elevation_deg: f64,
+    lo_deg: f64,
+    hi_deg: f64,
+) -> Option<f64> {
+    let cam = &r.camera;
+    if cam.lens != Lens::Fisheye {
+        return None;
+    }
+    let pix = cam.pixel_deg();
+    let (mut sum, mut n) = (0.0, 0usize);
+    for j in 0..cam.height {
+        let radius = cam.view_elevation_deg
+            + (cam.height as f64 / 2.0 - j as f64 - 0.5) * pix
+            + sun_elevation_deg;
+        if (lo_deg..=hi_deg).contains(&radius) {
+            let q = r.linear_srgb[j * cam.width + cam.width / 2];
+            sum += 0.2126 * q[0] + 0.7152 * q[1] + 0.0722 * q[2];
+            n += 1;
+        }
+    }
+    (n > 0).then(|| sum / n as f64)
+}
+
 /// Measure a bow in `[lo_deg, hi_deg]` from the antisolar point along the centre column of an
 /// equidistant fisheye render, using only the lens definition (centre column elevation =
 /// view elevation + (H/2 − j − ½)·pixel) — independent of the renderer's ray generation.
@@ -711,8 +739,10 @@ pub fn run_render_rainbow(args: &RenderRainbowArgs) -> anyhow::Result<()> {
     // The brightest pixel of the centre column within each window; a 2-D table's bow may lie
     // outside it (flattened drops move the top of the bow), which the edge note reports.
     let windows = [("primary", 36.0, 46.0), ("secondary", 48.0, 56.0)];
-    for (name, lo, hi) in windows {
+    let mut radii = [f64::NAN; 2];
+    for (w, (name, lo, hi)) in windows.into_iter().enumerate() {
         if let Some(m) = measure_bow(&r, sun_elevation_deg, lo, hi) {
+            radii[w] = m.radius_deg;
             let table_max = match (&source, &xyz) {
                 (_, Some(xyz)) => table_bow_radius(xyz, lo, hi),
                 (Source::TwoD(slice, _), None) => {
@@ -732,6 +762,24 @@ pub fn run_render_rainbow(args: &RenderRainbowArgs) -> anyhow::Result<()> {
             if m.radius_deg - lo < camera.pixel_deg() || hi - m.radius_deg < camera.pixel_deg() {
                 eprintln!("  (at the edge of the {lo}-{hi} deg window: no {name} maximum inside)");
             }
+        }
+    }
+    // Alexander's dark band: between the bows (1° clear of each maximum) against the sky
+    // inside the primary (from 10° to 2° inside its maximum), centre column.
+    if radii.iter().all(|r| r.is_finite()) && radii[1] - radii[0] > 3.0 {
+        let band = column_mean_luminance(&r, sun_elevation_deg, radii[0] + 1.0, radii[1] - 1.0);
+        let inside = column_mean_luminance(&r, sun_elevation_deg, radii[0] - 10.0, radii[0] - 2.0);
+        if let (Some(b), Some(i)) = (band, inside) {
+            eprintln!(
+                "Alexander's dark band ({:.1}-{:.1} deg): mean luminance {:.3e} = {:.2} x the sky inside the primary ({:.1}-{:.1} deg, {:.3e})",
+                radii[0] + 1.0,
+                radii[1] - 1.0,
+                b,
+                b / i,
+                radii[0] - 10.0,
+                radii[0] - 2.0,
+                i
+            );
         }
     }
     Ok(())
@@ -828,21 +876,7 @@ mod tests {
         assert!((p.radius_rgb_deg[0] - 42.2).abs() < 2.0 * pix, "{p:?}");
         assert!((s.radius_rgb_deg[0] - 50.3).abs() < 2.0 * pix, "{s:?}");
         // Alexander's dark band: mean luminance at radii 44–48° below that at 30–38°.
-        let cam = cam();
-        let mean = |lo: f64, hi: f64| {
-            let (mut sum, mut n) = (0.0, 0);
-            for j in 0..cam.height {
-                let rad = cam.view_elevation_deg
-                    + (cam.height as f64 / 2.0 - j as f64 - 0.5) * pix
-                    + 25.0;
-                if rad >= lo && rad <= hi {
-                    let q = r.linear_srgb[j * cam.width + cam.width / 2];
-                    sum += 0.2126 * q[0] + 0.7152 * q[1] + 0.0722 * q[2];
-                    n += 1;
-                }
-            }
-            sum / n as f64
-        };
+        let mean = |lo: f64, hi: f64| column_mean_luminance(&r, 25.0, lo, hi).unwrap();
         assert!(mean(44.0, 48.0) < 0.5 * mean(30.0, 38.0));
     }
 
