@@ -135,6 +135,13 @@ struct ExportArgs {
     /// Highest Legendre order (legendre).
     #[arg(long, default_value_t = 64)]
     order: usize,
+    /// Delta-M truncation of the Legendre moments (legendre).
+    #[arg(long)]
+    delta_m: bool,
+    /// Report the Legendre truncation error over θ ≥ this angle in deg (legendre; default 0,
+    /// or 5 with --delta-m).
+    #[arg(long)]
+    error_from_deg: Option<f64>,
     /// What to export for Mitsuba (mitsuba).
     #[arg(long, value_enum, default_value = "rgb")]
     mode: crate::consumers::mitsuba::MitsubaMode,
@@ -181,6 +188,8 @@ fn run_export(a: ExportArgs) -> Result<()> {
             table: a.file,
             entry: a.entry,
             order: a.order,
+            delta_m: a.delta_m,
+            error_from_deg: a.error_from_deg,
             wavelength_nm: a.wavelength_nm,
             out: a.out,
         }),

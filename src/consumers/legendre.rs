@@ -17,6 +17,13 @@
 //! - `max_rel_error = max_j |p_L(θ_j) − p(θ_j)| / p(θ_j)`;
 //! - `l1_error = 2π ∫ |p_L − p| sin θ dθ` (trapezoid rule on the stored grid): the fraction of
 //!   scattered power the truncated series misplaces.
+//!
+//! **Delta-M** (Wiscombe 1977, `--delta-m`), the truncation radiative-transfer codes use for
+//! strongly forward-peaked functions such as raindrops: with `f = χ_{L+1}` the forward-peak
+//! fraction, `p ≈ f·δ(1 − μ)/(2π) + (1 − f)·p*_L` with `χ*_l = (χ_l − f)/(1 − f)`. The errors
+//! of `(1 − f)·p*_L` are reported over θ ≥ `--error-from-deg` (default 5° with delta-M: the δ
+//! replaces the peak, so the error inside it is not meaningful), and `f` is printed (the
+//! power the δ carries: scale the scattering coefficient by 1 − f, as DISORT does).
 
 use crate::optics::quadrature::gauss_legendre;
 use std::f64::consts::PI;
@@ -85,13 +92,53 @@ pub struct TruncationError {
 
 /// Truncation error of `chi` against the stored samples.
 pub fn truncation_error(angles_deg: &[f64], phase: &[f64], chi: &[f64]) -> TruncationError {
+    truncation_error_from(angles_deg, phase, chi, 1.0, 0.0)
+}
+
+/// Delta-M truncation of a moment set (see module doc).
+#[derive(Debug, Clone, PartialEq)]
+pub struct DeltaM {
+    /// Forward-peak fraction f = χ_{L+1}.
+    pub f: f64,
+    /// χ*_0..χ*_L = (χ_l − f)/(1 − f).
+    pub chi_star: Vec<f64>,
+}
+
+/// Delta-M moments of order L from the full moments `chi` = χ_0..χ_{L+1}.
+pub fn delta_m(chi: &[f64]) -> anyhow::Result<DeltaM> {
+    anyhow::ensure!(chi.len() >= 2, "delta-M needs moments up to L + 1");
+    let l = chi.len() - 2;
+    let f = chi[l + 1];
+    anyhow::ensure!(
+        f < 1.0 - 1e-12,
+        "delta-M: f = chi_{} = {f} is not below 1",
+        l + 1
+    );
+    Ok(DeltaM {
+        f,
+        chi_star: chi[..=l].iter().map(|c| (c - f) / (1.0 - f)).collect(),
+    })
+}
+
+/// Truncation error of `scale · p_L` (p_L from `chi`) against the stored samples at angles
+/// ≥ `from_deg` (`scale` = 1 − f for delta-M).
+pub fn truncation_error_from(
+    angles_deg: &[f64],
+    phase: &[f64],
+    chi: &[f64],
+    scale: f64,
+    from_deg: f64,
+) -> TruncationError {
     let mut max_rel = 0.0;
     let mut at = 0.0;
     let diff: Vec<f64> = angles_deg
         .iter()
         .zip(phase)
         .map(|(&t, &p)| {
-            let r = reconstruct(chi, t.to_radians().cos());
+            if t < from_deg {
+                return 0.0;
+            }
+            let r = scale * reconstruct(chi, t.to_radians().cos());
             let d = (r - p).abs();
             let rel = if p > 0.0 { d / p } else { f64::INFINITY };
             if rel > max_rel {
@@ -123,6 +170,12 @@ pub struct LegendreArgs {
     /// Highest Legendre order L (moments χ_0..χ_L).
     #[arg(long, default_value_t = 64)]
     pub order: usize,
+    /// Delta-M truncation (Wiscombe 1977): write χ*_l and report f = χ_{L+1}.
+    #[arg(long)]
+    pub delta_m: bool,
+    /// Report the truncation error over θ ≥ this angle (deg); default 0, or 5 with --delta-m.
+    #[arg(long)]
+    pub error_from_deg: Option<f64>,
     /// Only this wavelength (nearest table wavelength); default: every wavelength as a column.
     #[arg(long)]
     pub wavelength_nm: Option<f64>,
@@ -153,19 +206,45 @@ pub fn run_legendre(args: &LegendreArgs) -> anyhow::Result<()> {
         s,
         "# convention: chi_l = 2 pi int_-1^1 p(mu) P_l(mu) dmu (chi_0 = 1, chi_1 = g); p_L(mu) = sum_l (2l+1)/(4 pi) chi_l P_l(mu)"
     );
+    let from_deg = args
+        .error_from_deg
+        .unwrap_or(if args.delta_m { 5.0 } else { 0.0 });
+    anyhow::ensure!(
+        (0.0..180.0).contains(&from_deg),
+        "--error-from-deg must be within [0, 180)"
+    );
+    if args.delta_m {
+        let _ = writeln!(
+            s,
+            "# delta-M (Wiscombe 1977): p = f delta(1 - mu)/(2 pi) + (1 - f) p*_L, columns are chi*_l = (chi_l - f)/(1 - f), f = chi_(L+1) per wavelength below; scale the scattering coefficient by (1 - f)"
+        );
+    }
     let mut cols = Vec::new();
     for &k in &ks {
-        let chi = moments(&c.angles_deg, &c.phase[k], args.order);
-        let e = truncation_error(&c.angles_deg, &c.phase[k], &chi);
+        let full = moments(&c.angles_deg, &c.phase[k], args.order + 1);
+        let (chi, f) = if args.delta_m {
+            let d = delta_m(&full)?;
+            (d.chi_star, Some(d.f))
+        } else {
+            (full[..=args.order].to_vec(), None)
+        };
+        let e = truncation_error_from(
+            &c.angles_deg,
+            &c.phase[k],
+            &chi,
+            1.0 - f.unwrap_or(0.0),
+            from_deg,
+        );
         let line = format!(
-            "wavelength_nm {}: order {}, max_rel_error {:.3e} (at {} deg), l1_error {:.3e}, chi_0 {:.6}, g {:.6}",
+            "wavelength_nm {}: order {}{}, over theta >= {from_deg} deg: max_rel_error {:.3e} (at {} deg), l1_error {:.3e}, chi_0 {:.6}, g {:.6}",
             c.wavelengths_nm[k],
             args.order,
+            f.map(|f| format!(", delta-M f {f:.6}")).unwrap_or_default(),
             e.max_rel_error,
             e.max_rel_error_at_deg,
             e.l1_error,
-            chi[0],
-            chi.get(1).copied().unwrap_or(0.0)
+            full[0],
+            full.get(1).copied().unwrap_or(0.0)
         );
         eprintln!("{line}");
         let _ = writeln!(s, "# truncation: {line}");
@@ -239,6 +318,30 @@ mod tests {
         );
         assert!(e32.max_rel_error < 1e-5, "{e32:?}");
         assert!(e8.l1_error > e32.l1_error * 100.0);
+    }
+
+    /// Delta-M of HG: χ*_l = (g^l − g^(L+1))/(1 − g^(L+1)) (from the exact χ_l = g^l), and
+    /// away from the forward peak (θ ≥ 20°) the delta-M series of order 16 is closer to HG(0.9)
+    /// than the plain truncation of the same order.
+    #[test]
+    fn delta_m_of_henyey_greenstein() {
+        let g: f64 = 0.9;
+        let (a, p) = hg_grid(g, 18001);
+        let full = moments(&a, &p, 17);
+        let d = delta_m(&full).unwrap();
+        let f = g.powi(17);
+        assert!((d.f - f).abs() < 1e-4, "f {} vs {f}", d.f);
+        for (l, c) in d.chi_star.iter().enumerate() {
+            let exact = (g.powi(l as i32) - f) / (1.0 - f);
+            assert!((c - exact).abs() < 2e-4, "l={l}: {c} vs {exact}");
+        }
+        let plain = truncation_error_from(&a, &p, &full[..=16], 1.0, 20.0);
+        let dm = truncation_error_from(&a, &p, &d.chi_star, 1.0 - d.f, 20.0);
+        assert!(
+            dm.max_rel_error < 0.5 * plain.max_rel_error,
+            "delta-M {dm:?} vs plain {plain:?}"
+        );
+        assert!(delta_m(&[1.0, 1.0]).is_err());
     }
 
     #[test]
