@@ -139,34 +139,7 @@ impl PhaseTable {
     /// Resolve an entry selection: for every entry axis the requested value, or its first
     /// sample when not selected. Unknown axis names are an error.
     pub fn resolve_entry(&self, sel: &[EntrySelection]) -> anyhow::Result<Vec<(String, f64)>> {
-        let axes = self.table.axes();
-        for s in sel {
-            if !self.entry_axes.iter().any(|&i| axes[i].name == s.axis) {
-                let names: Vec<&str> = self
-                    .entry_axes
-                    .iter()
-                    .map(|&i| axes[i].name.as_str())
-                    .collect();
-                bail!(
-                    "`{}` is not an entry axis of this table (entry axes: {names:?})",
-                    s.axis
-                );
-            }
-        }
-        Ok(self
-            .entry_axes
-            .iter()
-            .map(|&i| {
-                let a = &axes[i];
-                let v = sel
-                    .iter()
-                    .rev()
-                    .find(|s| s.axis == a.name)
-                    .map(|s| s.value)
-                    .unwrap_or_else(|| a.coord(0));
-                (a.name.clone(), v)
-            })
-            .collect())
+        resolve_entry_axes(&self.table, &self.entry_axes, sel, "")
     }
 
     /// Interpolated (phase, i_perp, i_par) at wavelength, entry values and angle (table lookup
@@ -265,6 +238,40 @@ impl PhaseCurves {
         }
         crate::optics::interp::interp1(&self.angles_deg, &self.phase[k], angle_deg)
     }
+}
+
+/// Entry values `(axis name, value)` of `entry_axes` of `table`: the selected value, or the
+/// axis' first sample when not selected; an unknown axis name is an error listing the entry
+/// axes (`hint` is appended to the message).
+pub fn resolve_entry_axes(
+    table: &Table,
+    entry_axes: &[usize],
+    sel: &[EntrySelection],
+    hint: &str,
+) -> anyhow::Result<Vec<(String, f64)>> {
+    let axes = table.axes();
+    for s in sel {
+        if !entry_axes.iter().any(|&i| axes[i].name == s.axis) {
+            let names: Vec<&str> = entry_axes.iter().map(|&i| axes[i].name.as_str()).collect();
+            bail!(
+                "`{}` is not an entry axis of this table (entry axes: {names:?}){hint}",
+                s.axis
+            );
+        }
+    }
+    Ok(entry_axes
+        .iter()
+        .map(|&i| {
+            let a = &axes[i];
+            let v = sel
+                .iter()
+                .rev()
+                .find(|s| s.axis == a.name)
+                .map(|s| s.value)
+                .unwrap_or_else(|| a.coord(0));
+            (a.name.clone(), v)
+        })
+        .collect())
 }
 
 /// Human-readable description of a selected entry, e.g. `radius=500 um`.

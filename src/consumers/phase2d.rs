@@ -21,6 +21,7 @@
 
 use super::phase::EntrySelection;
 use super::render::{SkyPhase, V3};
+use crate::optics::vec3::{cross, dot};
 use crate::table::{Table, TableError};
 use anyhow::{Context, bail};
 use rayon::prelude::*;
@@ -116,35 +117,12 @@ impl Phase2dTable {
 
     /// Entry values (name, value) for the extra entry axes: requested or the first sample.
     pub fn resolve_entry(&self, sel: &[EntrySelection]) -> anyhow::Result<Vec<(String, f64)>> {
-        let axes = self.table.axes();
-        for s in sel {
-            if !self.entry_axes.iter().any(|&i| axes[i].name == s.axis) {
-                let names: Vec<&str> = self
-                    .entry_axes
-                    .iter()
-                    .map(|&i| axes[i].name.as_str())
-                    .collect();
-                bail!(
-                    "`{}` is not an entry axis of this table (entry axes: {names:?}; the sun \
-                     elevation is chosen with --sun-elevation-deg)",
-                    s.axis
-                );
-            }
-        }
-        Ok(self
-            .entry_axes
-            .iter()
-            .map(|&i| {
-                let a = &axes[i];
-                let v = sel
-                    .iter()
-                    .rev()
-                    .find(|s| s.axis == a.name)
-                    .map(|s| s.value)
-                    .unwrap_or_else(|| a.coord(0));
-                (a.name.clone(), v)
-            })
-            .collect())
+        super::phase::resolve_entry_axes(
+            &self.table,
+            &self.entry_axes,
+            sel,
+            "; the sun elevation is chosen with --sun-elevation-deg",
+        )
     }
 
     /// Drop radius for labels: the entry's `radius` (in its axis unit) or the table's
@@ -319,18 +297,6 @@ pub fn outgoing_direction(elevation_deg: f64, polar_deg: f64, azimuth_deg: f64) 
     let (st, ct) = polar_deg.to_radians().sin_cos();
     let (sp, cp) = azimuth_deg.to_radians().sin_cos();
     [0, 1, 2].map(|c| ct * d[c] + st * (cp * e1[c] + sp * e2[c]))
-}
-
-fn dot(a: V3, b: V3) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-fn cross(a: V3, b: V3) -> V3 {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
 }
 
 impl SkyPhase for PhaseSlice {

@@ -39,6 +39,7 @@
 
 use super::phase::{EntrySelection, PhaseTable, describe_entry};
 use crate::optics::colour::{Illuminant1931, SpectralWeights, srgb_encode, xyz_to_linear_srgb};
+use crate::optics::vec3::{cross, dot};
 use anyhow::Context;
 use rayon::prelude::*;
 use std::path::PathBuf;
@@ -64,16 +65,6 @@ pub struct Camera {
 
 /// A 3-D vector (world frame: z up, sun at azimuth 0 in the +x half).
 pub type V3 = [f64; 3];
-fn dot(a: V3, b: V3) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-fn cross(a: V3, b: V3) -> V3 {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
 fn norm(a: V3) -> V3 {
     let l = dot(a, a).sqrt();
     [a[0] / l, a[1] / l, a[2] / l]

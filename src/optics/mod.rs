@@ -12,4 +12,5 @@ pub mod fresnel;
 pub mod henyey_greenstein;
 pub mod interp;
 pub mod quadrature;
+pub mod vec3;
 pub mod water;
