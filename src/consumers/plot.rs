@@ -604,14 +604,6 @@ pub fn plot_debye_components(
     } else {
         "phase (all orders, filtered, + diffraction lobe)"
     };
-    let palette = [
-        RGBColor(0, 114, 178),
-        RGBColor(230, 159, 0),
-        RGBColor(0, 158, 115),
-        RGBColor(213, 94, 0),
-        RGBColor(204, 121, 167),
-        RGBColor(86, 180, 233),
-    ];
     with_backend!(out, size, |root| {
         root.fill(&WHITE).map_err(perr)?;
         let mut chart = ChartBuilder::on(&root)
@@ -647,7 +639,7 @@ pub fn plot_debye_components(
                     _ => "",
                 };
                 (
-                    palette[(k - 1) % palette.len()],
+                    PALETTE[(k - 1) % PALETTE.len()],
                     1,
                     format!("p = {p}{what}"),
                 )
