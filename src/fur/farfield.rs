@@ -14,7 +14,99 @@
 use super::chief_ray::{CoaxialFiber, Path};
 use super::medulla::{Estimator, Geometry, McSettings, normalise_lobes, simulate};
 use crate::optics::fresnel::fresnel_reflectance_unpolarized;
+use crate::table::Table;
 use std::f64::consts::{FRAC_PI_2, PI};
+
+/// Where the far field takes its medulla profiles from.
+#[derive(Clone, Copy)]
+pub enum MedullaSource<'a> {
+    /// The expected-value Monte Carlo ([`simulate`]) at the sample's own σ and g.
+    Simulate,
+    /// Multilinear lookup ([`Table::sample`]) in shipped `fur-medulla-azimuthal/1` and
+    /// `fur-medulla-longitudinal/1` tables (channels `energy` and `pdf`). σ, g, h' and θ'_i
+    /// must lie inside the tables' axes (no extrapolation, no clamping).
+    Tables {
+        azimuthal: &'a Table,
+        longitudinal: &'a Table,
+    },
+}
+
+/// `value` inside the coordinate range of axis `name` of `table` (a clear error otherwise).
+fn check_axis_range(table: &Table, name: &str, value: f64) -> anyhow::Result<()> {
+    let i = table.axis_index(name)?;
+    let c = table.axes()[i].coords();
+    let (lo, hi) = (c[0].min(c[c.len() - 1]), c[0].max(c[c.len() - 1]));
+    anyhow::ensure!(
+        value >= lo - 1e-9 && value <= hi + 1e-9,
+        "{}: {name} = {value} is outside the table's range [{lo}, {hi}]; use the on-the-fly \
+         Monte Carlo or a table whose grid covers it",
+        table.header.schema.name
+    );
+    Ok(())
+}
+
+/// Lobe-normalised longitudinal densities (both lobes, `bins` values: lobe 0 = back then lobe
+/// 1 = forward, θ'_r cells over [−90°, 90°) each) at medulla σ (per medulla radius, already
+/// divided by cos θ_t), g and internal inclination `theta_i_med_rad`.
+pub fn longitudinal_lobe_pdf(
+    source: MedullaSource<'_>,
+    sigma: f64,
+    g: f64,
+    theta_i_med_rad: f64,
+    set: &FarFieldSettings,
+) -> anyhow::Result<Vec<f64>> {
+    match source {
+        MedullaSource::Simulate => {
+            let mc = McSettings {
+                photons: set.photons,
+                seed: set.seed,
+                estimator: Estimator::Expected,
+                bins: set.medulla_bins,
+                max_order: None,
+            };
+            let prof = simulate(
+                sigma,
+                g,
+                Geometry::Longitudinal {
+                    theta_i_rad: theta_i_med_rad,
+                },
+                &mc,
+            );
+            Ok(normalise_lobes(&prof.energy).0)
+        }
+        MedullaSource::Tables { longitudinal, .. } => {
+            let t = longitudinal;
+            anyhow::ensure!(
+                t.header.schema.name == "fur-medulla-longitudinal",
+                "expected a fur-medulla-longitudinal table, got {}",
+                t.header.schema.name
+            );
+            let ti = theta_i_med_rad.to_degrees();
+            check_axis_range(t, "sigma", sigma)?;
+            check_axis_range(t, "g", g)?;
+            check_axis_range(t, "theta_i", ti)?;
+            let ch = t.channel_index("pdf")?;
+            let half = set.medulla_bins / 2;
+            let dw = 180.0 / half as f64;
+            let mut pdf = Vec::with_capacity(set.medulla_bins);
+            for lobe in 0..2 {
+                for k in 0..half {
+                    let tr = -90.0 + (k as f64 + 0.5) * dw;
+                    pdf.push(t.sample(&[sigma, g, ti, lobe as f64, tr])?[ch].max(0.0));
+                }
+            }
+            // Renormalise each lobe on this grid (∫ pdf dθ = 1 per lobe with energy).
+            let dw_rad = dw.to_radians();
+            for lobe in pdf.chunks_mut(half) {
+                let tot: f64 = lobe.iter().sum::<f64>() * dw_rad;
+                if tot > 0.0 {
+                    lobe.iter_mut().for_each(|v| *v /= tot);
+                }
+            }
+            Ok(pdf)
+        }
+    }
+}
 
 /// One fitted fur sample (Tseng 2015, Table 4.2), in the thesis's units.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -173,7 +265,7 @@ impl MedullaShapes {
             bins: set.medulla_bins,
             max_order: None,
         };
-        let mut shapes: Vec<Vec<f64>> = rows
+        let shapes: Vec<Vec<f64>> = rows
             .iter()
             .map(|&h| {
                 let p = simulate(sigma, g, Geometry::Azimuthal { h }, &mc);
@@ -185,6 +277,52 @@ impl MedullaShapes {
                 }
             })
             .collect();
+        Self::finish(rows, shapes, set)
+    }
+
+    /// The rows looked up in a `fur-medulla-azimuthal/1` table (channel `energy`, multilinear
+    /// in σ, g, h' and φ'; bins at this profile's own `medulla_bins` cell centres), normalised
+    /// per row like [`Self::compute`].
+    pub fn from_table(
+        azimuthal: &Table,
+        sigma: f64,
+        g: f64,
+        set: &FarFieldSettings,
+    ) -> anyhow::Result<Self> {
+        let t = azimuthal;
+        anyhow::ensure!(
+            t.header.schema.name == "fur-medulla-azimuthal",
+            "expected a fur-medulla-azimuthal table, got {}",
+            t.header.schema.name
+        );
+        check_axis_range(t, "sigma", sigma)?;
+        check_axis_range(t, "g", g)?;
+        check_axis_range(t, "h", 0.0)?;
+        check_axis_range(t, "h", 1.0)?;
+        let ch = t.channel_index("energy")?;
+        let n = set.medulla_rows.max(2);
+        let b = set.medulla_bins;
+        let rows: Vec<f64> = (0..n).map(|j| j as f64 / (n - 1) as f64).collect();
+        let mut shapes = Vec::with_capacity(n);
+        for &h in &rows {
+            let mut row = Vec::with_capacity(b);
+            for k in 0..b {
+                let phi = -180.0 + (k as f64 + 0.5) * 360.0 / b as f64;
+                row.push(t.sample(&[sigma, g, h, phi])?[ch].max(0.0));
+            }
+            let tot: f64 = row.iter().sum();
+            shapes.push(if tot > 0.0 {
+                row.iter().map(|e| e / tot).collect()
+            } else {
+                Vec::new()
+            });
+        }
+        Ok(Self::finish(rows, shapes, set))
+    }
+
+    /// Fill empty rows and symmetrise h' = 0 (shared by both constructors).
+    fn finish(rows: Vec<f64>, mut shapes: Vec<Vec<f64>>, set: &FarFieldSettings) -> Self {
+        let n = rows.len();
         // Rows without energy (h' = 1, σ = 0) take the shape of the nearest row with energy
         // (their energy weight 1 − A_tt is 0 or → 0 there anyway).
         for j in (0..n).rev() {
@@ -383,6 +521,19 @@ pub fn far_field(
     shapes: &MedullaShapes,
     set: &FarFieldSettings,
 ) -> FarField {
+    far_field_with(s, theta_i_rad, shapes, set, MedullaSource::Simulate)
+        .expect("the on-the-fly Monte Carlo cannot fail")
+}
+
+/// [`far_field`] with the longitudinal medulla lobes from `source` (the azimuthal `shapes`
+/// come from [`MedullaShapes::compute`] or [`MedullaShapes::from_table`]).
+pub fn far_field_with(
+    s: &FurSample,
+    theta_i_rad: f64,
+    shapes: &MedullaShapes,
+    set: &FarFieldSettings,
+    source: MedullaSource<'_>,
+) -> anyhow::Result<FarField> {
     let (nt, np) = (set.theta_r_cells, set.phi_cells);
     let (alpha, beta) = (s.alpha_deg.to_radians(), s.beta_deg.to_radians());
     let sin_ti = theta_i_rad.sin();
@@ -503,22 +654,13 @@ pub fn far_field(
     }
     // Scattered longitudinal lobes M^s (Eq. 5.11) with μ computed numerically (decision 11).
     let theta_i_med = (sin_ti / s.eta_m).asin();
-    let mc = McSettings {
-        photons: set.photons,
-        seed: set.seed,
-        estimator: Estimator::Expected,
-        bins: set.medulla_bins,
-        max_order: None,
-    };
-    let prof = simulate(
+    let pdf = longitudinal_lobe_pdf(
+        source,
         medulla_sigma(s, set.sigma_scaling) / cos_tm,
         s.g,
-        Geometry::Longitudinal {
-            theta_i_rad: theta_i_med,
-        },
-        &mc,
-    );
-    let (pdf, _) = normalise_lobes(&prof.energy);
+        theta_i_med,
+        set,
+    )?;
     let half = set.medulla_bins / 2;
     let lobe_pdf = |lobe: usize, tr: f64| -> f64 {
         let x = (tr + FRAC_PI_2) / dw - 0.5;
@@ -554,11 +696,11 @@ pub fn far_field(
             comps[4][i * np + j] += ((1.0 - wf) * ms[0][i] + wf * ms[1][i]) * nsd;
         }
     }
-    FarField {
+    Ok(FarField {
         theta_r_cells: nt,
         phi_cells: np,
         components: comps,
-    }
+    })
 }
 
 #[cfg(test)]

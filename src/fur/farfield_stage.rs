@@ -8,13 +8,15 @@
 //! (rad⁻²) per unit intercepted incident power. One task per sample.
 
 use super::farfield::{
-    COMPONENTS, FarFieldSettings, FurSample, MedullaShapes, SigmaScaling, TABLE_4_2, far_field,
-    isotropic_fraction, medulla_sigma,
+    COMPONENTS, FarFieldSettings, FurSample, MedullaShapes, MedullaSource, SigmaScaling, TABLE_4_2,
+    far_field_with, isotropic_fraction, medulla_sigma,
 };
 use crate::stage::{Job, ParamDoc, PlanError, Stage, TaskSpec, parse_params};
+use crate::table::Table;
 use crate::table::{Axis, Channel, Schema, TableContent};
 use serde::{Deserialize, Serialize};
 use serde_json::json;
+use std::sync::Arc;
 
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -39,6 +41,18 @@ struct Params {
     seed: u64,
     #[serde(default)]
     medulla_sigma_scaling: SigmaScaling,
+    /// Take the medulla profiles from shipped tables instead of the on-the-fly Monte Carlo.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    medulla_tables: Option<MedullaTablePaths>,
+}
+
+/// Paths (relative to the working directory of the build) of the medulla tables a far field
+/// looks its profiles up in.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct MedullaTablePaths {
+    azimuthal: String,
+    longitudinal: String,
 }
 
 fn default_samples() -> Vec<String> {
@@ -121,6 +135,12 @@ const PARAMS: &[ParamDoc] = &[
         default: "kappa_half",
         description: "σ_ms → table σ per medulla radius: kappa_half (σκ/2, σ per diameter), kappa (σκ), thesis_over_kappa (σ/κ)",
     },
+    ParamDoc {
+        name: "medulla_tables",
+        kind: "table { azimuthal = path, longitudinal = path }",
+        default: "none (Monte Carlo on the fly)",
+        description: "look the medulla profiles up in fur-medulla-azimuthal/1 and fur-medulla-longitudinal/1 tables (their grids must cover every sample's σ, g and θ'_i); the tables' payload digests enter the content key",
+    },
 ];
 
 /// The `fur-farfield` stage.
@@ -186,13 +206,74 @@ impl Stage for FurFarFieldStage {
         if p.photons == 0 || p.photons > 100_000_000 {
             return Err(PlanError::invalid("photons", "must be in 1..=1e8"));
         }
-        Ok(Box::new(FarFieldJob { p, samples }))
+        let tables = match &p.medulla_tables {
+            None => None,
+            Some(paths) => {
+                let open = |path: &str, schema: &str| -> Result<Table, PlanError> {
+                    let t = Table::open(path).map_err(|e| {
+                        PlanError::invalid("medulla_tables", format!("{path}: {e}"))
+                    })?;
+                    if t.header.schema.name != schema {
+                        return Err(PlanError::invalid(
+                            "medulla_tables",
+                            format!(
+                                "{path}: schema {} (expected {schema})",
+                                t.header.schema.name
+                            ),
+                        ));
+                    }
+                    Ok(t)
+                };
+                let tables = Arc::new((
+                    open(&paths.azimuthal, "fur-medulla-azimuthal")?,
+                    open(&paths.longitudinal, "fur-medulla-longitudinal")?,
+                ));
+                // Every lookup must be inside the tables' grids: check them at plan time.
+                let set = FarFieldJob {
+                    p: p.clone(),
+                    samples: samples.clone(),
+                    tables: Some(tables.clone()),
+                }
+                .settings();
+                for s in &samples {
+                    let source = MedullaSource::Tables {
+                        azimuthal: &tables.0,
+                        longitudinal: &tables.1,
+                    };
+                    let sigma = medulla_sigma(s, p.medulla_sigma_scaling);
+                    MedullaShapes::from_table(&tables.0, sigma, s.g, &set).map_err(|e| {
+                        PlanError::invalid("medulla_tables", format!("sample {}: {e:#}", s.name))
+                    })?;
+                    for &ti in &p.theta_i_deg {
+                        let sin_ti = ti.to_radians().sin();
+                        let cos_tm = (1.0 - (sin_ti / s.eta_m).powi(2)).sqrt();
+                        super::farfield::longitudinal_lobe_pdf(
+                            source,
+                            sigma / cos_tm,
+                            s.g,
+                            (sin_ti / s.eta_m).asin(),
+                            &set,
+                        )
+                        .map_err(|e| {
+                            PlanError::invalid(
+                                "medulla_tables",
+                                format!("sample {} at theta_i {ti}: {e:#}", s.name),
+                            )
+                        })?;
+                    }
+                }
+                Some(tables)
+            }
+        };
+        Ok(Box::new(FarFieldJob { p, samples, tables }))
     }
 }
 
 struct FarFieldJob {
     p: Params,
     samples: Vec<FurSample>,
+    /// (azimuthal, longitudinal) medulla tables when `medulla_tables` is given.
+    tables: Option<Arc<(Table, Table)>>,
 }
 
 impl FarFieldJob {
@@ -217,7 +298,15 @@ const CHANNELS: usize = 1 + COMPONENTS.len();
 
 impl Job for FarFieldJob {
     fn parameters(&self) -> serde_json::Value {
-        serde_json::to_value(&self.p).expect("params serialise")
+        let mut v = serde_json::to_value(&self.p).expect("params serialise");
+        if let Some(t) = &self.tables {
+            // The content of the looked-up tables is part of the result.
+            v["medulla_table_sha256"] = json!([
+                t.0.header.payload.sha256_uncompressed,
+                t.1.header.payload.sha256_uncompressed
+            ]);
+        }
+        v
     }
     fn tasks(&self) -> Vec<TaskSpec> {
         self.samples
@@ -231,11 +320,23 @@ impl Job for FarFieldJob {
     fn run_task(&self, index: usize) -> anyhow::Result<Vec<f32>> {
         let s = &self.samples[index];
         let set = self.settings();
-        let shapes =
-            MedullaShapes::compute(medulla_sigma(s, self.p.medulla_sigma_scaling), s.g, &set);
+        let sigma = medulla_sigma(s, self.p.medulla_sigma_scaling);
+        let (shapes, source) = match &self.tables {
+            None => (
+                MedullaShapes::compute(sigma, s.g, &set),
+                MedullaSource::Simulate,
+            ),
+            Some(t) => (
+                MedullaShapes::from_table(&t.0, sigma, s.g, &set)?,
+                MedullaSource::Tables {
+                    azimuthal: &t.0,
+                    longitudinal: &t.1,
+                },
+            ),
+        };
         let mut out = Vec::with_capacity(self.chunk_len());
         for &ti in &self.p.theta_i_deg {
-            let ff = far_field(s, ti.to_radians(), &shapes, &set);
+            let ff = far_field_with(s, ti.to_radians(), &shapes, &set, source)?;
             for i in 0..set.theta_r_cells {
                 for j in 0..set.phi_cells {
                     let k = i * set.phi_cells + j;
@@ -275,12 +376,22 @@ impl Job for FarFieldJob {
             }
         }
         let mut a = serde_json::Map::new();
-        a.insert("model".into(), "practical shading model of Tseng 2015 ch. 5 / App. A (coaxial cylinder): unscattered Gaussian lobes of R, TT, TRT, TrT, TttT, TtrtT, TrRrT, TttRttT (chief-ray exit azimuths, Stokes-pile cuticle Fresnel, medulla-interface Fresnel, cortex absorption, medulla extinction) plus medulla-scattered lobes of the TttT, TtrtT and TttRttT chords shaped by 2-D medulla Monte Carlo profiles (C^N, C^M) computed on the fly, averaged over the fibre width (h uniform on (-1, 1)). Decisions: docs/fur.md, far-field section".into());
+        a.insert("model".into(), "practical shading model of Tseng 2015 ch. 5 / App. A (coaxial cylinder): unscattered Gaussian lobes of R, TT, TRT, TrT, TttT, TtrtT, TrRrT, TttRttT (chief-ray exit azimuths, Stokes-pile cuticle Fresnel, medulla-interface Fresnel, cortex absorption, medulla extinction) plus medulla-scattered lobes of the TttT, TtrtT and TttRttT chords shaped by 2-D medulla Monte Carlo profiles (C^N, C^M; on the fly or from medulla tables, see medulla_profiles), averaged over the fibre width (h uniform on (-1, 1)). Decisions: docs/fur.md, far-field section".into());
         a.insert("value_convention".into(), "every channel is the exiting energy per unit theta_r per unit phi (1/rad^2) per unit incident power intercepted by the fibre, AVERAGED over the cell (lobes integrated analytically over the cell, medulla bins split linearly between phi cells): sum over cells of value * dtheta_r * dphi = energy carried. Longitudinal lobes are normalised with int M dtheta_r = 1 (no cos weight). The thesis BCSDF S of Eq. 5.1 is sum_p M_p N_p / cos^2 theta_i with N_p the per-h azimuthal energy density; this table holds the h-average of sum_p M_p N_p, i.e. cos^2 theta_i * S averaged over h".into());
         a.insert("angle_convention".into(), "theta from the fibre's normal plane, root at +90 deg (thesis convention, theta flipped w.r.t. Marschner 2003; the specular cone is theta_r = -theta_i); phi = phi_r - phi_i, 0 = back towards the light, +/-180 = forward; theta_r cells over [-90, 90], phi cells over [-180, 180), axis coordinates are cell centres".into());
         a.insert("units_convention".into(), format!("Table 4.2 sigma_ca is per fibre DIAMETER; internally fibre radius 1: cortex coefficient sigma_ca/2 per radius. Medulla table coefficient per unit medulla radius: medulla_sigma_scaling = {:?} (KappaHalf: sigma_ms*kappa/2, sigma_ms per diameter, the fur-medulla tables' convention; Kappa: sigma_ms*kappa; ThesisOverKappa: sigma_ms/kappa as printed in Eq. 5.10). Both coefficients divided by cos theta_t (longitudinal refraction into cortex / medulla) for the azimuthal projection", self.p.medulla_sigma_scaling).into());
         a.insert("components".into(), "energy = r + tt + trt + medulla_paths + scattered; r, tt, trt: classic unscattered lobes (tt and trt only where the chief ray misses the medulla, |h| >= kappa*eta_c'); medulla_paths: unscattered TrT, TttT, TtrtT, TrRrT, TttRttT; scattered: medulla-scattered light (App. A mix with the isotropic fraction lambda)".into());
-        a.insert("medulla_profiles".into(), format!("azimuthal C^N rows h' = j/{} (j = 0..{}), mirrored for h' < 0, linear in |h'|, normalised to unit sum (energy from the analytic 1 - exp(-sigma chord)); longitudinal C^M per theta_i at theta'_i = asin(sin theta_i / eta_m); expected-value estimator, {} photons, {} bins, seed {}", self.p.medulla_rows - 1, self.p.medulla_rows - 1, self.p.photons, self.p.medulla_bins, self.p.seed).into());
+        let source = match &self.p.medulla_tables {
+            None => format!(
+                "expected-value Monte Carlo on the fly, {} photons, {} bins, seed {}",
+                self.p.photons, self.p.medulla_bins, self.p.seed
+            ),
+            Some(t) => format!(
+                "multilinear lookup (sigma, g, h' or theta'_i, exit angle) in the tables {} and {} at {} bins",
+                t.azimuthal, t.longitudinal, self.p.medulla_bins
+            ),
+        };
+        a.insert("medulla_profiles".into(), format!("azimuthal C^N rows h' = j/{} (j = 0..{}), mirrored for h' < 0, linear in |h'|, normalised to unit sum (energy from the analytic 1 - exp(-sigma chord)); longitudinal C^M per theta_i at theta'_i = asin(sin theta_i / eta_m); source: {source}", self.p.medulla_rows - 1, self.p.medulla_rows - 1).into());
         a.insert("omitted".into(), "paths beyond the eight listed (e.g. TRRT) are omitted as in the thesis; for a lossless fibre without medulla they carry 1/2 int F^2 (1 - F) dh of the energy (tested)".into());
         let samples: Vec<serde_json::Value> = self
             .samples
@@ -385,5 +496,83 @@ mod tests {
         assert!(plan_str("{ theta_i_deg = [0.0], photons = 10, phi_cells = 7 }").is_err());
         assert!(plan_str("{ theta_i_deg = [0.0], photons = 10, bogus = 1 }").is_err());
         assert!(plan_str("{ theta_i_deg = [0.0], photons = 10 }").is_ok());
+    }
+
+    /// Build a small medulla table of `stage` into `dir` and return its path.
+    fn medulla_table(stage: &dyn Stage, lines: &str, dir: &std::path::Path, name: &str) -> String {
+        let job = crate::stage::plan_from_lines(stage, lines).unwrap();
+        let chunks: Vec<Vec<f32>> = (0..job.tasks().len())
+            .map(|i| job.run_task(i).unwrap())
+            .collect();
+        let mut t = Table::from_content(job.assemble(chunks).unwrap(), Default::default()).unwrap();
+        let path = dir.join(name);
+        crate::table::write_table_atomic(&mut t, &path).unwrap();
+        path.display().to_string()
+    }
+
+    /// `medulla_tables`: the far field of the raccoon (σ = 1.02, g = 0.35 per medulla radius)
+    /// from medulla tables covering σ ∈ [0.5, 1.5], g ∈ [0.2, 0.4] agrees with the on-the-fly
+    /// Monte Carlo: the same component energies (the energy comes from the analytic extinction,
+    /// the tables only shape it) and a scattered distribution within the interpolation + noise
+    /// error; samples outside the tables' grid are refused at plan time, naming the key.
+    #[test]
+    fn far_field_from_medulla_tables_matches_on_the_fly() {
+        use crate::fur::stage::{FurMedullaAzimuthalStage, FurMedullaLongitudinalStage};
+        let d = tempfile::tempdir().unwrap();
+        let az = medulla_table(
+            &FurMedullaAzimuthalStage,
+            "sigma = [0.5, 1.0, 1.5]\ng = [0.2, 0.4]\nh = { start = -1.0, stop = 1.0, count = 9 }\nbins = 120\nphotons = 4000\nseed = 7",
+            d.path(),
+            "az.sbt",
+        );
+        let lo = medulla_table(
+            &FurMedullaLongitudinalStage,
+            "sigma = [0.5, 1.0, 1.5]\ng = [0.2, 0.4]\ntheta_i_deg = [-40.0, -30.0, -20.0]\nbins = 120\nphotons = 4000\nseed = 7",
+            d.path(),
+            "lo.sbt",
+        );
+        let common = "samples = [\"raccoon\"], theta_i_deg = [-40.0], theta_r_cells = 30, phi_cells = 60, h_samples = 100, medulla_rows = 5, medulla_bins = 120, photons = 4000, seed = 3";
+        let run = |extra: &str| {
+            let job = plan_str(&format!("{{ {common}{extra} }}")).unwrap();
+            let chunk = job.run_task(0).unwrap();
+            (job.parameters(), chunk)
+        };
+        let (p_fly, fly) = run("");
+        let (p_tab, tab) = run(&format!(
+            ", medulla_tables = {{ azimuthal = \"{az}\", longitudinal = \"{lo}\" }}"
+        ));
+        assert!(
+            p_tab["medulla_table_sha256"].is_array() && p_fly.get("medulla_table_sha256").is_none()
+        );
+        // Channel 5 = scattered; 1..=4 are the unscattered lobes (identical by construction).
+        let comp =
+            |v: &[f32], c: usize| -> Vec<f64> { v.chunks(CHANNELS).map(|r| r[c] as f64).collect() };
+        for c in 1..=4 {
+            assert_eq!(
+                comp(&fly, c),
+                comp(&tab, c),
+                "channel {c} must not depend on the source"
+            );
+        }
+        let (a, b) = (comp(&fly, 5), comp(&tab, 5));
+        let (ea, eb): (f64, f64) = (a.iter().sum(), b.iter().sum());
+        assert!(
+            (ea / eb - 1.0).abs() < 1e-3,
+            "scattered energy {ea} vs {eb}"
+        );
+        let l1: f64 = a.iter().zip(&b).map(|(x, y)| (x - y).abs()).sum::<f64>() / ea;
+        println!("raccoon scattered lobe, tables vs on the fly: relative L1 {l1:.4}");
+        assert!(l1 < 0.03, "relative L1 {l1}");
+        // Cat at σ = 2.58·0.85/2 = 1.10 is inside, but g = 0.62 is not: refused at plan time.
+        let e = match plan_str(&format!(
+            "{{ samples = [\"cat\"], theta_i_deg = [-40.0], photons = 10, medulla_tables = {{ azimuthal = \"{az}\", longitudinal = \"{lo}\" }} }}"
+        )) {
+            Err(e) => e.to_string(),
+            Ok(_) => panic!("cat's g = 0.62 is outside the tables' g range"),
+        };
+        assert!(
+            e.contains("medulla_tables") && e.contains("g = 0.62"),
+            "{e}"
+        );
     }
 }
