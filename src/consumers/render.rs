@@ -38,7 +38,9 @@
 //! equidistant one because bow radii can then be read off linearly.
 
 use super::phase::{EntrySelection, PhaseTable, describe_entry};
-use crate::optics::colour::{Illuminant1931, SpectralWeights, srgb_encode, xyz_to_linear_srgb};
+use crate::optics::colour::{
+    Illuminant1931, SpectralWeights, linear_srgb_luminance, srgb_encode, xyz_to_linear_srgb,
+};
 use crate::optics::vec3::{cross, dot};
 use anyhow::Context;
 use rayon::prelude::*;
@@ -428,7 +430,7 @@ pub fn table_bow_radius_2d(
 pub fn auto_exposure(img: &[[f64; 3]]) -> f64 {
     let mut y: Vec<f64> = img
         .iter()
-        .map(|p| 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2])
+        .map(|&p| linear_srgb_luminance(p))
         .filter(|v| *v > 0.0)
         .collect();
     if y.is_empty() {
@@ -478,6 +480,31 @@ pub struct BowMeasurement {
     pub radius_rgb_deg: [f64; 3],
 }
 
+/// The centre column of an equidistant fisheye render as (radius from the antisolar point in
+/// deg, linear sRGB) per pixel row, from the lens definition alone (centre column elevation =
+/// view elevation + (H/2 − j − ½)·pixel), independent of the renderer's ray generation; `None`
+/// for other lenses. When the width is even the column centre sits half a pixel off the
+/// azimuth-180° axis; the angular offset is below 0.25 px, negligible.
+fn centre_column(r: &Rendered, sun_elevation_deg: f64) -> Option<Vec<(f64, [f64; 3])>> {
+    let cam = &r.camera;
+    if cam.lens != Lens::Fisheye {
+        return None;
+    }
+    let pix = cam.pixel_deg();
+    Some(
+        (0..cam.height)
+            .map(|j| {
+                let elev =
+                    cam.view_elevation_deg + (cam.height as f64 / 2.0 - j as f64 - 0.5) * pix;
+                (
+                    elev + sun_elevation_deg,
+                    r.linear_srgb[j * cam.width + cam.width / 2],
+                )
+            })
+            .collect(),
+    )
+}
+
 /// Mean luminance (linear sRGB Y) of the centre column of an equidistant fisheye render over
 /// radii `[lo_deg, hi_deg]` from the antisolar point (same lens mapping as [`measure_bow`]);
 /// `None` for other lenses or when no pixel falls in the range.
@@ -487,19 +514,10 @@ pub fn column_mean_luminance(
     lo_deg: f64,
     hi_deg: f64,
 ) -> Option<f64> {
-    let cam = &r.camera;
-    if cam.lens != Lens::Fisheye {
-        return None;
-    }
-    let pix = cam.pixel_deg();
     let (mut sum, mut n) = (0.0, 0usize);
-    for j in 0..cam.height {
-        let radius = cam.view_elevation_deg
-            + (cam.height as f64 / 2.0 - j as f64 - 0.5) * pix
-            + sun_elevation_deg;
+    for (radius, q) in centre_column(r, sun_elevation_deg)? {
         if (lo_deg..=hi_deg).contains(&radius) {
-            let q = r.linear_srgb[j * cam.width + cam.width / 2];
-            sum += 0.2126 * q[0] + 0.7152 * q[1] + 0.0722 * q[2];
+            sum += linear_srgb_luminance(q);
             n += 1;
         }
     }
@@ -507,36 +525,20 @@ pub fn column_mean_luminance(
 }
 
 /// Measure a bow in `[lo_deg, hi_deg]` from the antisolar point along the centre column of an
-/// equidistant fisheye render, using only the lens definition (centre column elevation =
-/// view elevation + (H/2 − j − ½)·pixel) — independent of the renderer's ray generation.
+/// equidistant fisheye render (see [`centre_column`]): radius of the luminance maximum and of
+/// each sRGB channel's maximum.
 pub fn measure_bow(
     r: &Rendered,
     sun_elevation_deg: f64,
     lo_deg: f64,
     hi_deg: f64,
 ) -> Option<BowMeasurement> {
-    let cam = &r.camera;
-    if cam.lens != Lens::Fisheye {
-        return None;
-    }
-    let pix = cam.pixel_deg();
-    let col = cam.width / 2;
     let mut best = [(f64::NEG_INFINITY, f64::NAN); 4];
-    for j in 0..cam.height {
-        let elev = cam.view_elevation_deg + (cam.height as f64 / 2.0 - j as f64 - 0.5) * pix;
-        // Centre column at azimuth 180° when the width is even the column centre sits half a
-        // pixel off axis; the angular offset is below 0.25 px, negligible.
-        let radius = elev + sun_elevation_deg;
+    for (radius, p) in centre_column(r, sun_elevation_deg)? {
         if radius < lo_deg || radius > hi_deg {
             continue;
         }
-        let p = r.linear_srgb[j * cam.width + col];
-        let vals = [
-            0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2],
-            p[0],
-            p[1],
-            p[2],
-        ];
+        let vals = [linear_srgb_luminance(p), p[0], p[1], p[2]];
         for c in 0..4 {
             if vals[c] > best[c].0 {
                 best[c] = (vals[c], radius);
@@ -888,7 +890,7 @@ mod tests {
     }
 
     fn luminance(p: [f64; 3]) -> f64 {
-        0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2]
+        linear_srgb_luminance(p)
     }
 
     fn dispersive_1d() -> crate::table::Table {

@@ -57,13 +57,7 @@ pub fn longitudinal_lobe_pdf(
 ) -> anyhow::Result<Vec<f64>> {
     match source {
         MedullaSource::Simulate => {
-            let mc = McSettings {
-                photons: set.photons,
-                seed: set.seed,
-                estimator: Estimator::Expected,
-                bins: set.medulla_bins,
-                max_order: None,
-            };
+            let mc = set.monte_carlo();
             let prof = simulate(
                 sigma,
                 g,
@@ -221,6 +215,19 @@ pub struct FarFieldSettings {
     pub sigma_scaling: SigmaScaling,
 }
 
+impl FarFieldSettings {
+    /// The medulla Monte Carlo settings of the on-the-fly profiles (expected-value estimator).
+    pub fn monte_carlo(&self) -> McSettings {
+        McSettings {
+            photons: self.photons,
+            seed: self.seed,
+            estimator: Estimator::Expected,
+            bins: self.medulla_bins,
+            max_order: None,
+        }
+    }
+}
+
 /// How Table 4.2's σ_ms maps onto the medulla tables' coefficient per unit medulla radius
 /// (digest §9 item 1).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
@@ -258,13 +265,7 @@ impl MedullaShapes {
     pub fn compute(sigma: f64, g: f64, set: &FarFieldSettings) -> Self {
         let n = set.medulla_rows.max(2);
         let rows: Vec<f64> = (0..n).map(|j| j as f64 / (n - 1) as f64).collect();
-        let mc = McSettings {
-            photons: set.photons,
-            seed: set.seed,
-            estimator: Estimator::Expected,
-            bins: set.medulla_bins,
-            max_order: None,
-        };
+        let mc = set.monte_carlo();
         let shapes: Vec<Vec<f64>> = rows
             .iter()
             .map(|&h| {

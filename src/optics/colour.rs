@@ -182,6 +182,11 @@ impl SpectralWeights {
     }
 }
 
+/// Relative luminance Y of a linear sRGB triple (IEC 61966-2-1 primaries, D65 white = 1).
+pub fn linear_srgb_luminance(rgb: [f64; 3]) -> f64 {
+    0.2126 * rgb[0] + 0.7152 * rgb[1] + 0.0722 * rgb[2]
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
