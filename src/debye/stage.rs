@@ -1,6 +1,6 @@
 //! The `debye` stage (schema `debye-phase/1`): Lorenz–Mie phase functions of monodisperse water
 //! drops split into Debye-series orders. Follows the phase-function table contract
-//! (`PHASE_CONTRACT.md`): axes `wavelength` (nm) × `radius` (µm) × `scattering_angle` (deg);
+//! (`docs/consumers.md`): axes `radius` (µm) × `wavelength` (nm) × `scattering_angle` (deg);
 //! channels `phase`, `i_perp`, `i_par`, `dolp` of the coherent sum of the chosen orders, then
 //! `phase_p<k>` for each chosen order alone.
 //!
