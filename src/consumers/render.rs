@@ -554,6 +554,51 @@ pub fn measure_bow(
     })
 }
 
+/// Radii of the prominent local maxima of `(radius, value)` samples (sorted by radius) in
+/// `[lo_deg, hi_deg]`, by topographic prominence: from a local maximum, walk left and right
+/// until a higher sample (or the window's end); the higher of the two lowest values met is its
+/// floor, and the maximum counts when it exceeds the floor by the factor `1 + prominence` (so
+/// the Mie ripple and pixel noise on a fringe do not count as fringes). Used to locate
+/// supernumerary fringes.
+pub fn prominent_maxima(
+    samples: &[(f64, f64)],
+    lo_deg: f64,
+    hi_deg: f64,
+    prominence: f64,
+) -> Vec<f64> {
+    let v: Vec<(f64, f64)> = samples
+        .iter()
+        .copied()
+        .filter(|(r, _)| (lo_deg..=hi_deg).contains(r))
+        .collect();
+    let n = v.len();
+    let mut out = Vec::new();
+    for i in 1..n.saturating_sub(1) {
+        let y = v[i].1;
+        if !(y > v[i - 1].1 && y >= v[i + 1].1) {
+            continue;
+        }
+        let mut left = f64::INFINITY;
+        for p in v[..i].iter().rev() {
+            if p.1 > y {
+                break;
+            }
+            left = left.min(p.1);
+        }
+        let mut right = f64::INFINITY;
+        for p in &v[i + 1..] {
+            if p.1 > y {
+                break;
+            }
+            right = right.min(p.1);
+        }
+        if y > (1.0 + prominence) * left.max(right).min(y) && left.max(right).is_finite() {
+            out.push(v[i].0);
+        }
+    }
+    out
+}
+
 /// Radius (deg from the antisolar point, 180° − θ) of the luminance maximum of the
 /// disc-averaged table in `[lo, hi]` — what the image measurement should reproduce.
 pub fn table_bow_radius(xyz: &[[f64; 3]], lo_deg: f64, hi_deg: f64) -> f64 {
@@ -756,6 +801,35 @@ pub fn run_render_rainbow(args: &RenderRainbowArgs) -> anyhow::Result<()> {
                 eprintln!("  (at the edge of the {lo}-{hi} deg window: no {name} maximum inside)");
             }
         }
+    }
+    // Supernumerary fringes inside the primary (up to 5° inside its maximum), image column vs
+    // the disc-averaged table luminance (1-D tables).
+    if let (Some(xyz), true) = (&xyz, radii[0].is_finite()) {
+        let (lo, hi) = (radii[0] - 5.0, radii[0] - 0.3);
+        let mut column: Vec<(f64, f64)> = centre_column(&r, sun_elevation_deg)
+            .unwrap_or_default()
+            .into_iter()
+            .map(|(radius, p)| (radius, linear_srgb_luminance(p)))
+            .collect();
+        column.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let mut table: Vec<(f64, f64)> = xyz
+            .iter()
+            .enumerate()
+            .map(|(i, v)| (180.0 - i as f64 * THETA_STEP_DEG, v[1]))
+            .collect();
+        table.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let fmt = |v: Vec<f64>| {
+            v.iter()
+                .rev()
+                .map(|x| format!("{x:.2}"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        eprintln!(
+            "supernumerary maxima inside the primary ({lo:.1}-{hi:.1} deg, outermost first): image [{}], table [{}]",
+            fmt(prominent_maxima(&column, lo, hi, 0.02)),
+            fmt(prominent_maxima(&table, lo, hi, 0.02))
+        );
     }
     // Alexander's dark band: between the bows (1° clear of each maximum) against the sky
     // inside the primary (from 10° to 2° inside its maximum), centre column.
@@ -1029,5 +1103,24 @@ mod tests {
             }
         }
         assert!(left > 1.5 * right, "{left} {right}");
+    }
+
+    /// Fringe finder: the maxima of a cosine fringe pattern are found, a 0.5 % ripple on top
+    /// is not counted, and the window is respected.
+    #[test]
+    fn prominent_maxima_find_fringes_not_ripple() {
+        let samples: Vec<(f64, f64)> = (0..=1000)
+            .map(|i| {
+                let r = 30.0 + 0.01 * i as f64;
+                let fringe = 1.5 + (2.0 * std::f64::consts::PI * (r - 30.0) / 2.0).cos();
+                let ripple = 1.0 + 0.005 * (2.0 * std::f64::consts::PI * r / 0.07).sin();
+                (r, fringe * ripple)
+            })
+            .collect();
+        let m = prominent_maxima(&samples, 31.0, 39.0, 0.02);
+        assert_eq!(m.len(), 4, "{m:?}");
+        for (k, r) in m.iter().enumerate() {
+            assert!((r - (32.0 + 2.0 * k as f64)).abs() < 0.05, "{m:?}");
+        }
     }
 }
