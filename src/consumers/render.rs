@@ -799,6 +799,8 @@ pub fn run_render_rainbow(args: &RenderRainbowArgs) -> anyhow::Result<()> {
             );
             if m.radius_deg - lo < camera.pixel_deg() || hi - m.radius_deg < camera.pixel_deg() {
                 eprintln!("  (at the edge of the {lo}-{hi} deg window: no {name} maximum inside)");
+                // Not a bow: keep it out of the band and fringe reports below.
+                radii[w] = f64::NAN;
             }
         }
     }
