@@ -104,41 +104,13 @@ pub fn tt_svd(data: &[f64], dims: &[usize], rel_tol: f64, max_rank: usize) -> Te
         let a = DMatrix::from_column_slice(ncols, m, &c);
         let (u, rest, rk) = if m <= ncols {
             // Gram of rows: C Cᵀ = Aᵀ A (m × m).
-            let g = a.transpose() * &a;
-            let eig = SymmetricEigen::new(g);
-            let order = sorted_desc(eig.eigenvalues.as_slice());
-            let rk = choose_rank(
-                &order
-                    .iter()
-                    .map(|&i| eig.eigenvalues[i])
-                    .collect::<Vec<_>>(),
-                delta2,
-                max_rank,
-            );
             // U: m × rk (orthonormal columns); rest = Uᵀ C (rk × ncols).
-            let mut u = DMatrix::zeros(m, rk);
-            for (j, &i) in order.iter().take(rk).enumerate() {
-                u.set_column(j, &eig.eigenvectors.column(i));
-            }
+            let (u, rk) = leading_eigenvectors(a.transpose() * &a, delta2, max_rank);
             let rest = a * &u; // ncols × rk = (Uᵀ C)ᵀ
             (u, rest, rk)
         } else {
             // Gram of columns: Cᵀ C = A Aᵀ (ncols × ncols).
-            let g = &a * a.transpose();
-            let eig = SymmetricEigen::new(g);
-            let order = sorted_desc(eig.eigenvalues.as_slice());
-            let rk = choose_rank(
-                &order
-                    .iter()
-                    .map(|&i| eig.eigenvalues[i])
-                    .collect::<Vec<_>>(),
-                delta2,
-                max_rank,
-            );
-            let mut v = DMatrix::zeros(ncols, rk);
-            for (j, &i) in order.iter().take(rk).enumerate() {
-                v.set_column(j, &eig.eigenvectors.column(i));
-            }
+            let (v, rk) = leading_eigenvectors(&a * a.transpose(), delta2, max_rank);
             // C ≈ (C V) Vᵀ: core = C V (m × rk), rest = Vᵀ (rk × ncols).
             let u = a.transpose() * &v;
             (u, v, rk)
@@ -169,6 +141,21 @@ pub fn tt_svd(data: &[f64], dims: &[usize], rel_tol: f64, max_rank: usize) -> Te
         ranks,
         cores,
     }
+}
+
+/// Eigenvectors of the symmetric Gram matrix `g` for its largest eigenvalues, as columns, with
+/// the rank chosen by [`choose_rank`] (truncation error δ², at most `max_rank`).
+fn leading_eigenvectors(g: DMatrix<f64>, delta2: f64, max_rank: usize) -> (DMatrix<f64>, usize) {
+    let n = g.nrows();
+    let eig = SymmetricEigen::new(g);
+    let order = sorted_desc(eig.eigenvalues.as_slice());
+    let desc: Vec<f64> = order.iter().map(|&i| eig.eigenvalues[i]).collect();
+    let rk = choose_rank(&desc, delta2, max_rank);
+    let mut vecs = DMatrix::zeros(n, rk);
+    for (j, &i) in order.iter().take(rk).enumerate() {
+        vecs.set_column(j, &eig.eigenvectors.column(i));
+    }
+    (vecs, rk)
 }
 
 fn sorted_desc(v: &[f64]) -> Vec<usize> {
