@@ -9,7 +9,7 @@
 //! - [`export`]: CSV/JSON/EXR exporters; [`cli`]: the command-line interface.
 
 pub mod catalog;
-pub mod cli;
+
 pub mod consumers;
 pub mod debye;
 pub mod export;

@@ -55,7 +55,7 @@ pub struct BowPeak {
     pub order2_peak_deg: Option<f64>,
 }
 
-fn nearest(all: &[f64], x: f64) -> usize {
+pub fn nearest(all: &[f64], x: f64) -> usize {
     (0..all.len())
         .min_by(|&a, &b| (all[a] - x).abs().total_cmp(&(all[b] - x).abs()))
         .unwrap()
@@ -373,115 +373,8 @@ pub fn previews_2d(
     Ok(written)
 }
 
-/// What to draw.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub enum RaytracePlotKind {
-    Bows,
-    Latlong,
-}
 
-/// `scatterbake plot-raytrace`: plots of 2-D ray-traced tables (one or several, e.g. one per
-/// drop radius).
-#[derive(Debug, Clone, clap::Args)]
-pub struct PlotRaytraceArgs {
-    /// 2-D tables (`raytrace-phase-2d/1`); the bows plot draws one curve/strip per table.
-    #[arg(required = true)]
-    pub tables: Vec<PathBuf>,
-    #[arg(long, value_enum, default_value = "bows")]
-    pub kind: RaytracePlotKind,
-    /// Entry selection for extra entry axes (e.g. radius=1000); `--sun-elevation-deg` selects
-    /// the elevation.
-    #[arg(long = "entry", value_name = "NAME=VALUE")]
-    pub entry: Vec<EntrySelection>,
-    /// Sun elevation (default: each table's lowest).
-    #[arg(long)]
-    pub sun_elevation_deg: Option<f64>,
-    /// Wavelength of the phase curves / the lat-long map (nearest table wavelength).
-    #[arg(long, default_value_t = 650.0)]
-    pub wavelength_nm: f64,
-    #[arg(long, default_value_t = 0.5)]
-    pub sun_diameter_deg: f64,
-    /// Polar-angle range of the bows plot, LO,HI in deg.
-    #[arg(long, default_value = "120,150")]
-    pub polar_range: String,
-    #[arg(long, default_value_t = 1500)]
-    pub width: u32,
-    #[arg(long)]
-    pub height: Option<u32>,
-    /// Output .png or .svg.
-    #[arg(long)]
-    pub out: PathBuf,
-}
 
-/// Run `scatterbake plot-raytrace`; prints the bow peaks (bows).
-pub fn run_plot_raytrace(args: &PlotRaytraceArgs) -> anyhow::Result<()> {
-    let (a, b) = args
-        .polar_range
-        .split_once(',')
-        .ok_or_else(|| anyhow!("--polar-range: expected LO,HI"))?;
-    let range: (f64, f64) = (a.trim().parse()?, b.trim().parse()?);
-    anyhow::ensure!(
-        0.0 <= range.0 && range.0 < range.1 && range.1 <= 180.0,
-        "--polar-range: need 0 <= LO < HI <= 180"
-    );
-    let mut inputs = vec![];
-    for path in &args.tables {
-        let t2 = Phase2dTable::open(path)?;
-        let e = t2.resolve_elevation(args.sun_elevation_deg)?;
-        let slice = t2.slice(e, &args.entry, "phase")?;
-        let label = format!("a = {}", t2.radius_label(&slice.entry));
-        let primary_order = t2.slice(e, &args.entry, "phase_p2").ok();
-        inputs.push(BowInput {
-            label,
-            slice,
-            primary_order,
-        });
-    }
-    match args.kind {
-        RaytracePlotKind::Latlong => {
-            let s = &inputs[0].slice;
-            let k = nearest(&s.wavelengths_nm, args.wavelength_nm);
-            let prefix = format!("{}: ", inputs[0].label);
-            plot_latlong(
-                s,
-                k,
-                &prefix,
-                &args.out,
-                (args.width, args.height.unwrap_or(args.width * 3 / 5)),
-            )?;
-        }
-        RaytracePlotKind::Bows => {
-            let h = args
-                .height
-                .unwrap_or(600 + 30 * inputs.len() as u32 + 60 + 30);
-            let peaks = plot_bows(
-                &inputs,
-                args.wavelength_nm,
-                args.sun_diameter_deg,
-                range,
-                &args.out,
-                (args.width, h),
-            )?;
-            for (inp, ps) in inputs.iter().zip(&peaks) {
-                for p in ps {
-                    println!(
-                        "{}\tsun {} deg\tphi {:>5.1} deg\tphase peak {:.2} deg\tluminance peak {:.2} deg\tphase_p2 peak {}",
-                        inp.label,
-                        inp.slice.sun_elevation_deg,
-                        p.azimuth_deg,
-                        p.phase_peak_deg,
-                        p.luminance_peak_deg,
-                        p.order2_peak_deg
-                            .map(|v| format!("{v:.2} deg"))
-                            .unwrap_or_else(|| "-".into())
-                    );
-                }
-            }
-        }
-    }
-    eprintln!("wrote {}", args.out.display());
-    Ok(())
-}
 
 #[cfg(test)]
 mod tests {

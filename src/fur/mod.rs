@@ -10,7 +10,6 @@
 //! - [`tt`]: tensor-train (TT-SVD) compression and reconstruction of a table channel.
 
 pub mod chief_ray;
-pub mod cli;
 pub mod farfield;
 pub mod farfield_stage;
 pub mod medulla;

@@ -19,7 +19,6 @@
 //! [`stage`] (the `mie` stage) and [`cli`] (the `scatterbake mie` query).
 
 pub mod angular;
-pub mod cli;
 pub mod coefficients;
 pub mod distributions;
 pub mod filters;

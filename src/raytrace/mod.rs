@@ -8,7 +8,6 @@
 //! - [`post`]: the Gaussian diffraction filter and the forward Fraunhofer lobe;
 //! - [`stage`]: the `raytrace` stage (schemas `raytrace-phase/1` and `raytrace-phase-2d/1`).
 
-pub mod cli;
 pub mod post;
 pub mod shape;
 pub mod sphere1d;

@@ -1,10 +1,11 @@
-//! The consumer commands through their clap `Args` + `run_*` entry points, on tables written
+//! Tests of the consumer commands through their clap `Args` + `run_*` entry points, on tables written
 //! by the Rust writer: MiePlot export → validate round trip (zero error), Legendre export
 //! reconstructs to the reported truncation error, Mitsuba snippet, plots and the renderer write
 //! decodable images of the requested size that show what they should.
 
+use crate::commands::{legendre, mieplot, mitsuba, plot, plot_raytrace, render};
 use clap::Parser;
-use scatterbake::consumers::{legendre, mieplot, mitsuba, plot, render, synthetic};
+use scatterbake::consumers::synthetic;
 use scatterbake::table::write_table_atomic;
 use std::path::{Path, PathBuf};
 
@@ -58,11 +59,11 @@ fn mieplot_export_then_validate_is_exact() {
         os,
     ]))
     .unwrap();
-    let r = mieplot::read_mieplot_file(&out).unwrap();
+    let r = scatterbake::consumers::mieplot::read_mieplot_file(&out).unwrap();
     assert_eq!(r.angle_deg.len(), 1801);
     assert_eq!(r.wavelength_nm, Some(550.0));
     let pt = scatterbake::consumers::phase::PhaseTable::open(&t).unwrap();
-    let rep = mieplot::compare(&pt, &["radius=500".parse().unwrap()], 550.0, &r, false).unwrap();
+    let rep = scatterbake::consumers::mieplot::compare(&pt, &["radius=500".parse().unwrap()], 550.0, &r, false).unwrap();
     assert_eq!(rep.max_rel_error, [0.0; 3], "{rep:?}");
     // validate with zero tolerance passes for the right entry and fails for another.
     mieplot::run_validate(&parse(&[
@@ -133,7 +134,7 @@ fn legendre_export_reconstructs_to_reported_error() {
         let t = j as f64 * 0.1;
         let mu = t.to_radians().cos();
         let exact = synthetic::henyey_greenstein(0.75, mu) as f32 as f64;
-        worst = worst.max((legendre::reconstruct(&chi, mu) - exact).abs() / exact);
+        worst = worst.max((scatterbake::consumers::legendre::reconstruct(&chi, mu) - exact).abs() / exact);
     }
     assert!(
         (worst - reported).abs() < 1e-3 * reported + 1e-6,
@@ -201,7 +202,7 @@ fn plots_and_render_write_images_that_show_the_data() {
     let (w, h, px) = decode_png(&dir.path().join("phase.png"));
     assert_eq!((w, h), (640, 400));
     // The 650 nm curve is drawn in its own (red) colour.
-    let red = plot::wavelength_colour(650.0);
+    let red = scatterbake::consumers::plot::wavelength_colour(650.0);
     assert!(
         px.chunks(3).any(|p| p == [red.0, red.1, red.2]),
         "no pixel in the 650 nm colour"
@@ -311,9 +312,9 @@ fn previews_of_non_phase_tables() {
     )
     .unwrap();
     let out = dir.path().join("prev");
-    let w1 = plot::previews(&p1, &out).unwrap();
+    let w1 = scatterbake::consumers::plot::previews(&p1, &out).unwrap();
     assert_eq!(w1, vec![out.join("index-line.png")]);
-    let w2 = plot::previews(&p2, &out).unwrap();
+    let w2 = scatterbake::consumers::plot::previews(&p2, &out).unwrap();
     assert_eq!(w2, vec![out.join("latlong-heatmap.png")]);
     // The heatmap's brightest colour (viridis top, yellow) appears: the spot is drawn.
     let (_, _, px) = decode_png(&w2[0]);
@@ -328,7 +329,6 @@ fn previews_of_non_phase_tables() {
 /// elevations outside the table's axis are refused with the range; previews are written.
 #[test]
 fn render_and_plot_two_d_tables() {
-    use scatterbake::consumers::plot_raytrace;
     let dir = tempfile::tempdir().unwrap();
     let wl: Vec<f64> = (0..5).map(|i| 450.0 + 50.0 * i as f64).collect();
     let t1 = synthetic::peak_table(&wl, |_| 138.0, 0.3, 1e-4, 1801);
@@ -372,7 +372,7 @@ fn render_and_plot_two_d_tables() {
     assert!((elev - 32.0).abs() <= pix, "ring top at elevation {elev}");
     // Previews (lat-long + bows) and the bows plot of two tables.
     let prev = dir.path().join("previews");
-    let written = plot::previews(&p2, &prev).unwrap();
+    let written = scatterbake::consumers::plot::previews(&p2, &prev).unwrap();
     assert_eq!(written.len(), 2);
     for f in &written {
         assert!(decode_png(f).0 > 100);

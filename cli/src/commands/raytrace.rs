@@ -5,8 +5,10 @@
 //! non-spherical drops the same columns averaged over the outgoing azimuth about the incident
 //! direction (a 2-D trace at the requested sun elevation, 5° azimuth steps).
 
-use super::stage::{RaytraceJob, RaytraceParams};
-use crate::stage::Job;
+use scatterbake::raytrace::stage::{RaytraceJob, RaytraceParams};
+use scatterbake::stage::Job;
+#[allow(unused_imports)]
+use scatterbake::table::Table;
 use anyhow::{Context, bail};
 
 /// Arguments of `scatterbake raytrace`.
@@ -78,7 +80,7 @@ pub fn raytrace_columns(args: &RaytraceArgs) -> anyhow::Result<RaytraceColumns> 
     };
     let job = RaytraceJob::new(params).map_err(|e| anyhow::anyhow!("{e}"))?;
     let chunk = job.run_task(0)?;
-    let nch = super::channel_names(3).len();
+    let nch = scatterbake::raytrace::channel_names(3).len();
     let n_polar = (180.0 / step).round() as usize + 1;
     let n_az = if sphere { 1 } else { 72 };
     let (mut ang, mut ip, mut ipar, mut ph) = (vec![], vec![], vec![], vec![]);

@@ -1,8 +1,13 @@
-//! Command-line interface (`scatterbake …`). Every failure prints `error: …` naming the
-//! problem and where, and exits non-zero; nothing panics on bad input.
+//! The `scatterbake` command line. Argument parsing (clap) and error reporting (anyhow) live
+//! here only; every command calls library functions of the `scatterbake` crate that take and
+//! return plain structs. Every failure prints `error: …` naming the problem and where, and exits
+//! non-zero; nothing panics on bad input.
 
-use crate::pipeline::{BuildOptions, Shard, build};
-use crate::table::{AxisPoints, Table};
+mod commands;
+
+
+use scatterbake::pipeline::{BuildOptions, Shard, build};
+use scatterbake::table::{AxisPoints, Table};
 use anyhow::{Context, Result, bail};
 use clap::{Parser, Subcommand};
 use std::path::PathBuf;
@@ -59,29 +64,29 @@ enum Command {
     /// Export a table: csv|json|exr (any table) or mitsuba|legendre|mieplot (phase functions).
     Export(ExportArgs),
     /// Plot a table (phase function, rainbow colour strip, Lee diagram, 2-D maps) to PNG/SVG.
-    Plot(crate::consumers::plot::PlotArgs),
+    Plot(crate::commands::plot::PlotArgs),
     /// Plot 2-D ray-traced tables (raytrace-phase-2d/1): bows near the rainbows per outgoing
     /// azimuth with colour strips (several tables = several radii), or a lat-long map.
-    PlotRaytrace(crate::consumers::plot_raytrace::PlotRaytraceArgs),
+    PlotRaytrace(crate::commands::plot_raytrace::PlotRaytraceArgs),
     /// Render a picture through the public table reader API.
     #[command(subcommand)]
     Render(RenderCommand),
     /// Lorenz–Mie scattering of one sphere (MiePlot-style columns); `--debye-orders` selects
     /// Debye-series terms.
-    Mie(crate::debye::cli::DebyeArgs),
+    Mie(crate::commands::debye::DebyeArgs),
     /// Patch-based wave-optics ray tracing of one drop (sphere or Beard–Chuang) at one wavelength.
-    Raytrace(crate::raytrace::cli::RaytraceArgs),
+    Raytrace(crate::commands::raytrace::RaytraceArgs),
     /// Airy theory of the primary or secondary rainbow (same columns as `mie`).
-    Airy(crate::debye::cli::AiryArgs),
+    Airy(crate::commands::debye::AiryArgs),
     /// Fur medulla scattering profile for one (σ, g, entry) by Monte Carlo, as CSV or JSON.
-    Medulla(crate::fur::cli::MedullaArgs),
+    Medulla(crate::commands::medulla::MedullaArgs),
     /// Hair Dual Scattering table → engine EXR LUT (layout and shader lookup in docs/hair.md).
-    HairLut(crate::hair::export::HairLutArgs),
+    HairLut(crate::commands::hair::HairLutArgs),
     /// Dual Scattering averages for one hair parameter set, as JSON or CSV.
     #[command(name = "dual-scattering", visible_alias = "hair-json")]
-    HairJson(crate::hair::export::DualScatteringArgs),
+    HairJson(crate::commands::hair::DualScatteringArgs),
     /// Compare a phase-function table with a MiePlot-style reference text file.
-    Validate(crate::consumers::mieplot::ValidateArgs),
+    Validate(crate::commands::mieplot::ValidateArgs),
     /// List stages with their parameters and defaults.
     Stages,
     /// Rebuild DIR/index.json from the tables in DIR (after sharded builds).
@@ -95,7 +100,7 @@ enum Command {
 #[derive(Subcommand, Debug)]
 enum RenderCommand {
     /// Spectral single-scattering rainbow in a rain volume, sun importance-sampled as a disc.
-    Rainbow(crate::consumers::render::RenderRainbowArgs),
+    Rainbow(crate::commands::render::RenderRainbowArgs),
 }
 
 /// Every export format.
@@ -128,7 +133,7 @@ struct ExportArgs {
     out: Option<PathBuf>,
     /// Entry selection NAME=VALUE per entry axis (phase formats; default: first sample of each).
     #[arg(long = "entry", value_name = "NAME=VALUE")]
-    entry: Vec<crate::consumers::phase::EntrySelection>,
+    entry: Vec<scatterbake::consumers::phase::EntrySelection>,
     /// Wavelength in nm (phase formats).
     #[arg(long)]
     wavelength_nm: Option<f64>,
@@ -143,8 +148,8 @@ struct ExportArgs {
     #[arg(long)]
     error_from_deg: Option<f64>,
     /// What to export for Mitsuba (mitsuba).
-    #[arg(long, value_enum, default_value = "rgb")]
-    mode: crate::consumers::mitsuba::MitsubaMode,
+    #[arg(long, default_value = "rgb", value_parser = crate::commands::named::<scatterbake::consumers::mitsuba::MitsubaMode>(&scatterbake::consumers::mitsuba::MitsubaMode::NAMES))]
+    mode: scatterbake::consumers::mitsuba::MitsubaMode,
     /// Number of tabphase values, uniform in cos θ (mitsuba).
     #[arg(long, default_value_t = 4096)]
     samples: usize,
@@ -157,8 +162,8 @@ struct ExportArgs {
 }
 
 fn run_export(a: ExportArgs) -> Result<()> {
-    use crate::consumers::{legendre, mieplot, mitsuba};
-    use crate::export::GenericFormat;
+    use crate::commands::{legendre, mieplot, mitsuba};
+    use scatterbake::export::GenericFormat;
     let generic = match a.format {
         ExportFormat::Csv => Some(GenericFormat::Csv),
         ExportFormat::Json => Some(GenericFormat::Json),
@@ -170,7 +175,7 @@ fn run_export(a: ExportArgs) -> Result<()> {
             .out
             .ok_or_else(|| anyhow::anyhow!("--out is required for --format csv|json|exr"))?;
         let t = Table::open(&a.file)?;
-        crate::export::export(&t, format, &out)?;
+        scatterbake::export::export(&t, format, &out)?;
         println!("wrote {}", out.display());
         return Ok(());
     }
@@ -193,7 +198,7 @@ fn run_export(a: ExportArgs) -> Result<()> {
             wavelength_nm: a.wavelength_nm,
             out: a.out,
         }),
-        ExportFormat::RgbLut => crate::consumers::lut::run_lut(&crate::consumers::lut::LutArgs {
+        ExportFormat::RgbLut => crate::commands::lut::run_lut(&crate::commands::lut::LutArgs {
             table: a.file,
             entry: a.entry,
             samples: if a.samples == 4096 { 7201 } else { a.samples },
@@ -213,7 +218,7 @@ fn run_export(a: ExportArgs) -> Result<()> {
 }
 
 /// Entry point; returns the process exit code.
-pub fn main() -> i32 {
+fn run_cli() -> i32 {
     let cli = match Cli::try_parse() {
         Ok(c) => c,
         Err(e) => {
@@ -242,7 +247,7 @@ fn run(cmd: Command) -> Result<i32> {
             no_previews,
         } => {
             let manifests = if manifests.is_empty() {
-                crate::manifest::default_manifests(std::path::Path::new("manifests")).context(
+                scatterbake::manifest::default_manifests(std::path::Path::new("manifests")).context(
                     "listing manifests/ (run from the repository root or name manifests)",
                 )?
             } else {
@@ -316,22 +321,22 @@ fn run(cmd: Command) -> Result<i32> {
             }
         }
         Command::Export(a) => run_export(a).map(|_| 0),
-        Command::Plot(a) => crate::consumers::plot::run_plot(&a).map(|_| 0),
+        Command::Plot(a) => crate::commands::plot::run_plot(&a).map(|_| 0),
         Command::PlotRaytrace(a) => {
-            crate::consumers::plot_raytrace::run_plot_raytrace(&a).map(|_| 0)
+            crate::commands::plot_raytrace::run_plot_raytrace(&a).map(|_| 0)
         }
         Command::Render(RenderCommand::Rainbow(a)) => {
-            crate::consumers::render::run_render_rainbow(&a).map(|_| 0)
+            crate::commands::render::run_render_rainbow(&a).map(|_| 0)
         }
-        Command::Mie(a) => crate::debye::cli::run_debye(&a).map(|_| 0),
-        Command::Raytrace(a) => crate::raytrace::cli::run_raytrace(&a).map(|_| 0),
-        Command::Airy(a) => crate::debye::cli::run_airy(&a).map(|_| 0),
-        Command::Medulla(a) => crate::fur::cli::run_medulla(&a).map(|_| 0),
-        Command::HairLut(a) => crate::hair::export::run_hair_lut(&a).map(|_| 0),
-        Command::HairJson(a) => crate::hair::export::run_dual_scattering(&a).map(|_| 0),
-        Command::Validate(a) => crate::consumers::mieplot::run_validate(&a).map(|_| 0),
+        Command::Mie(a) => crate::commands::debye::run_debye(&a).map(|_| 0),
+        Command::Raytrace(a) => crate::commands::raytrace::run_raytrace(&a).map(|_| 0),
+        Command::Airy(a) => crate::commands::debye::run_airy(&a).map(|_| 0),
+        Command::Medulla(a) => crate::commands::medulla::run_medulla(&a).map(|_| 0),
+        Command::HairLut(a) => crate::commands::hair::run_hair_lut(&a).map(|_| 0),
+        Command::HairJson(a) => crate::commands::hair::run_dual_scattering(&a).map(|_| 0),
+        Command::Validate(a) => crate::commands::mieplot::run_validate(&a).map(|_| 0),
         Command::Stages => {
-            for s in crate::stages::registry() {
+            for s in scatterbake::stages::registry() {
                 println!(
                     "{} (algorithm v{}): {}",
                     s.name(),
@@ -347,7 +352,7 @@ fn run(cmd: Command) -> Result<i32> {
             Ok(0)
         }
         Command::Catalog { dir } => {
-            let c = crate::catalog::rebuild(&dir)?;
+            let c = scatterbake::catalog::rebuild(&dir)?;
             println!(
                 "{}: {} table(s), {} invalid",
                 dir.join("index.json").display(),
@@ -425,4 +430,8 @@ fn print_summary(file: &std::path::Path, t: &Table) -> Result<()> {
     println!("  digest:      {}", p.parameters_digest);
     println!("  created:     {}", p.created_utc);
     Ok(())
+}
+
+fn main() {
+    std::process::exit(run_cli());
 }

@@ -12,11 +12,13 @@
 //! column `phase_p<k>` per order. For `airy` the normalisation uses `Q_sca = 2` (the large-x
 //! limit), stated in the header.
 
-use super::airy::{AiryRainbow, airy_rainbow};
-use super::{DebyeCoefficients, OrderSet};
-use crate::mie::cli::{MieArgs, MieFormat, MieQuery};
-use crate::mie::size_parameter;
-use crate::optics::water::WaterIndexModel;
+use scatterbake::debye::airy::{AiryRainbow, airy_rainbow};
+use scatterbake::debye::{DebyeCoefficients, OrderSet};
+use crate::commands::mie::{MieArgs, MieFormat, MieQuery};
+use scatterbake::mie::size_parameter;
+use scatterbake::optics::water::WaterIndexModel;
+#[allow(unused_imports)]
+use scatterbake::table::Table;
 use anyhow::{Context, bail};
 use std::fmt::Write as _;
 use std::path::PathBuf;
@@ -141,10 +143,10 @@ pub fn solve_debye(args: &DebyeArgs) -> anyhow::Result<Option<CurveReport>> {
     let Some(orders) = &args.debye_orders else {
         return Ok(None);
     };
-    if orders.is_empty() || orders.iter().any(|&p| p > super::stage::MAX_ORDER) {
+    if orders.is_empty() || orders.iter().any(|&p| p > scatterbake::debye::stage::MAX_ORDER) {
         bail!(
             "--debye-orders needs orders in 0..={}",
-            super::stage::MAX_ORDER
+            scatterbake::debye::stage::MAX_ORDER
         );
     }
     let q = MieQuery::solve(&args.mie)?;
@@ -191,7 +193,7 @@ pub fn solve_debye(args: &DebyeArgs) -> anyhow::Result<Option<CurveReport>> {
 pub fn run_debye(args: &DebyeArgs) -> anyhow::Result<()> {
     match solve_debye(args)? {
         Some(r) => r.print(args.mie.format, args.mie.csv.as_ref()),
-        None => crate::mie::cli::run_mie(&args.mie),
+        None => crate::commands::mie::run_mie(&args.mie),
     }
 }
 

@@ -1,7 +1,7 @@
 //! `scatterbake medulla`: one medulla profile on the command line (issue 6 item 7). The lead
 //! wires [`MedullaArgs`] / [`run_medulla`] into the CLI.
 
-use super::medulla::{Estimator, Geometry, McSettings, simulate};
+use scatterbake::fur::medulla::{Estimator, Geometry, McSettings, simulate};
 use serde_json::json;
 use std::io::Write;
 

@@ -1,0 +1,132 @@
+//! `scatterbake` glue for [`scatterbake::consumers::lut`].
+
+#[allow(unused_imports)]
+use scatterbake::consumers::lut::*;
+use scatterbake::consumers::phase::{EntrySelection, PhaseTable, describe_entry};
+#[allow(unused_imports)]
+use scatterbake::table::Table;
+use anyhow::{Context, anyhow, bail};
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+/// `scatterbake export --format rgb-lut`.
+#[derive(Debug, Clone, clap::Args)]
+pub struct LutArgs {
+    /// Phase-function table (.sbt) following the phase contract.
+    pub table: PathBuf,
+    #[arg(long = "entry", value_name = "NAME=VALUE")]
+    pub entry: Vec<EntrySelection>,
+    /// Number of rows (uniform in angle over [0, 180] deg).
+    #[arg(long, default_value_t = 7201)]
+    pub samples: usize,
+    #[arg(long, default_value_t = 0.5)]
+    pub sun_diameter_deg: f64,
+    /// Output `.exr` (float, recommended), `.csv` or `.png` (16-bit, log10-encoded).
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+/// Run the LUT export.
+pub fn run_lut(args: &LutArgs) -> anyhow::Result<()> {
+    anyhow::ensure!(args.samples >= 2, "--samples must be at least 2");
+    anyhow::ensure!(
+        (0.0..=10.0).contains(&args.sun_diameter_deg),
+        "--sun-diameter-deg must be within 0…10°"
+    );
+    let pt = PhaseTable::open(&args.table)?;
+    let lut = rgb_lut(&pt, &args.entry, args.sun_diameter_deg, args.samples)?;
+    match args.out.extension().and_then(|e| e.to_str()) {
+        Some("csv") => {
+            let mut s = String::from("angle_deg,r,g,b\n");
+            for (k, v) in lut.iter().enumerate() {
+                let a = 180.0 * k as f64 / (args.samples - 1) as f64;
+                let _ = writeln!(s, "{a},{:e},{:e},{:e}", v[0], v[1], v[2]);
+            }
+            std::fs::write(&args.out, s)?;
+        }
+        Some("png") => {
+            let (codes, l0, l1) = log_encode(&lut);
+            let f = std::io::BufWriter::new(std::fs::File::create(&args.out)?);
+            let mut enc = png::Encoder::new(f, args.samples as u32, 1);
+            enc.set_color(png::ColorType::Rgb);
+            enc.set_depth(png::BitDepth::Sixteen);
+            enc.add_text_chunk("scatterbake_encoding".into(), "log10".into())?;
+            enc.add_text_chunk("scatterbake_log10_min".into(), format!("{l0:e}"))?;
+            enc.add_text_chunk("scatterbake_log10_max".into(), format!("{l1:e}"))?;
+            let mut w = enc.write_header()?;
+            let bytes: Vec<u8> = codes.iter().flat_map(|c| c.to_be_bytes()).collect();
+            w.write_image_data(&bytes)?;
+            w.finish()?;
+            eprintln!(
+                "PNG log10 encoding: rgb = 10^({l0:.6} + v·{:.6}) for v = code/65535 > 0, else 0 (linear sRGB per unit sun irradiance, 1/sr)",
+                l1 - l0
+            );
+        }
+        Some("exr") => {
+            let entry = pt.resolve_entry(&args.entry)?;
+            let t = lut_table(
+                &lut,
+                &args.table.display().to_string(),
+                &scatterbake::consumers::phase::describe_entry(&pt.table, &entry),
+            )?;
+            scatterbake::export::export(&t, scatterbake::export::GenericFormat::Exr, &args.out)?;
+        }
+        _ => anyhow::bail!(
+            "{}: output must end in .exr, .csv or .png",
+            args.out.display()
+        ),
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use scatterbake::consumers::synthetic::henyey_greenstein_table;
+
+    /// The written PNG, decoded with the png crate and the documented formula, equals the LUT
+    /// to 0.03 % everywhere (HG g = 0.9 spans almost 4 decades).
+    #[test]
+    fn png_file_decodes_to_the_lut() {
+        let wl: Vec<f64> = (0..33).map(|i| 380.0 + 10.0 * i as f64).collect();
+        let mut t = henyey_greenstein_table(&wl, &[1.0], |_, _| 0.9, 1801, 0.0);
+        let d = tempfile::tempdir().unwrap();
+        let table_path = d.path().join("hg.sbt");
+        scatterbake::table::write_table_atomic(&mut t, &table_path).unwrap();
+        let out = d.path().join("lut.png");
+        let args = LutArgs {
+            table: table_path.clone(),
+            entry: vec![],
+            samples: 721,
+            sun_diameter_deg: 0.0,
+            out: out.clone(),
+        };
+        run_lut(&args).unwrap();
+        let pt = PhaseTable::open(&table_path).unwrap();
+        let lut = rgb_lut(&pt, &[], 0.0, 721).unwrap();
+        let dec = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(&out).unwrap()));
+        let mut reader = dec.read_info().unwrap();
+        let text = |k: &str| -> f64 {
+            reader
+                .info()
+                .uncompressed_latin1_text
+                .iter()
+                .find(|c| c.keyword == k)
+                .unwrap()
+                .text
+                .parse()
+                .unwrap()
+        };
+        let (l0, l1) = (text("scatterbake_log10_min"), text("scatterbake_log10_max"));
+        let mut buf = vec![0; reader.output_buffer_size().unwrap()];
+        reader.next_frame(&mut buf).unwrap();
+        let lo = lut.iter().flatten().cloned().fold(f64::INFINITY, f64::min);
+        let hi = lut.iter().flatten().cloned().fold(0.0, f64::max);
+        assert!(hi / lo > 5e3, "test needs a wide range: {lo} .. {hi}");
+        for (k, v) in lut.iter().flatten().enumerate() {
+            let code = u16::from_be_bytes([buf[2 * k], buf[2 * k + 1]]);
+            let got = log_decode(code, l0, l1);
+            assert!((got / v - 1.0).abs() < 3e-4, "{k}: {got} vs {v}");
+        }
+    }
+}

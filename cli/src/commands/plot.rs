@@ -1,0 +1,127 @@
+//! `scatterbake` glue for [`scatterbake::consumers::plot`].
+
+#[allow(unused_imports)]
+use scatterbake::consumers::plot::*;
+use scatterbake::consumers::phase::{EntrySelection, PhaseTable, describe_entry};
+#[allow(unused_imports)]
+use scatterbake::table::Table;
+use anyhow::{Context, anyhow, bail};
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+fn parse_range(s: &str) -> Result<(f64, f64), String> {
+    let (a, b) = s
+        .split_once(',')
+        .ok_or_else(|| format!("`{s}`: expected LO,HI"))?;
+    let (a, b): (f64, f64) = (
+        a.trim().parse().map_err(|e| format!("{e}"))?,
+        b.trim().parse().map_err(|e| format!("{e}"))?,
+    );
+    if !(0.0..=180.0).contains(&a) || !(0.0..=180.0).contains(&b) || a >= b {
+        return Err(format!("`{s}`: need 0 <= LO < HI <= 180"));
+    }
+    Ok((a, b))
+}
+
+/// `scatterbake plot`.
+#[derive(Debug, Clone, clap::Args)]
+pub struct PlotArgs {
+    /// Table (.sbt).
+    pub table: PathBuf,
+    #[arg(long, value_enum, default_value = "auto")]
+    pub kind: PlotKind,
+    #[arg(long = "entry", value_name = "NAME=VALUE")]
+    pub entry: Vec<EntrySelection>,
+    /// Channel for heatmaps (default: the first).
+    #[arg(long)]
+    pub channel: Option<String>,
+    /// Wavelengths to draw in phase plots (default: up to 8 spread over the table).
+    #[arg(long = "wavelength-nm")]
+    pub wavelength_nm: Vec<f64>,
+    /// Also draw i_perp (dashed) and i_par (dotted) in phase plots.
+    #[arg(long)]
+    pub polarised: bool,
+    /// Scattering-angle range of strips and Lee diagrams, LO,HI in deg.
+    #[arg(long, default_value = "120,145", value_parser = parse_range)]
+    pub angle_range: (f64, f64),
+    #[arg(long, default_value_t = 0.5)]
+    pub sun_diameter_deg: f64,
+    #[arg(long, default_value_t = 1000)]
+    pub width: u32,
+    #[arg(long, default_value_t = 600)]
+    pub height: u32,
+    /// Output .png or .svg (a directory for --kind auto).
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+/// Run `scatterbake plot`.
+pub fn run_plot(args: &PlotArgs) -> anyhow::Result<()> {
+    let size = (args.width, args.height);
+    let phase = || PhaseTable::open(&args.table);
+    match args.kind {
+        PlotKind::Auto => {
+            for p in previews(&args.table, &args.out)? {
+                eprintln!("wrote {}", p.display());
+            }
+            return Ok(());
+        }
+        PlotKind::Phase => plot_phase(
+            &phase()?,
+            &args.entry,
+            &args.wavelength_nm,
+            args.polarised,
+            &args.out,
+            size,
+        )?,
+        PlotKind::Strip => plot_strip(
+            &phase()?,
+            &args.entry,
+            args.sun_diameter_deg,
+            args.angle_range,
+            &args.out,
+            size,
+        )?,
+        PlotKind::Lee => plot_lee(
+            &phase()?,
+            &args.entry,
+            args.sun_diameter_deg,
+            args.angle_range,
+            &args.out,
+            size,
+        )?,
+        PlotKind::Orders => plot_debye_components(
+            &phase()?,
+            &args.entry,
+            args.wavelength_nm.first().copied().unwrap_or(650.0),
+            &args.out,
+            size,
+        )?,
+        PlotKind::Heatmap | PlotKind::Line => {
+            let t = Table::open(&args.table)
+                .map_err(|e| anyhow!(e))
+                .with_context(|| args.table.display().to_string())?;
+            if args.kind == PlotKind::Heatmap {
+                plot_heatmap(&t, &args.entry, args.channel.as_deref(), &args.out, size)?
+            } else {
+                plot_line(&t, &args.entry, &args.out, size)?
+            }
+        }
+    }
+    eprintln!("wrote {}", args.out.display());
+    Ok(())
+}
+/// Plot kind.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum PlotKind {
+    /// Every default preview of the table into the directory `--out`.
+    Auto,
+    Phase,
+    Strip,
+    Lee,
+    Heatmap,
+    Line,
+    /// Per-order channels `phase_p<k>` (Debye series, ray orders) with their coherent sum, at
+    /// the first `--wavelength-nm` (default 650 nm).
+    Orders,
+}
