@@ -94,8 +94,6 @@ pub struct BuildOptions {
     pub shard: Option<Shard>,
     pub force: bool,
     pub quiet: bool,
-    /// Also draw preview pictures of each written table into `<out>/previews/`.
-    pub previews: bool,
 }
 
 /// What a build did.
@@ -361,13 +359,6 @@ pub fn build(opts: &BuildOptions) -> Result<BuildReport> {
         let mut table = Table::from_content(content, provenance(&s.planned, &s.key))?;
         let path = table_path(&opts.out_dir, &s.planned.name);
         write_table_atomic(&mut table, &path)?;
-        if opts.previews {
-            // Pictures are a convenience: a failure is reported, the table stays valid.
-            if let Err(e) = crate::consumers::plot::previews(&path, &opts.out_dir.join("previews"))
-            {
-                eprintln!("warning: previews of {}: {e:#}", s.planned.name);
-            }
-        }
         let _ = std::fs::remove_dir_all(&s.work_dir);
         written.lock().expect("lock").push(s.planned.name.clone());
         Ok(())

@@ -271,8 +271,10 @@ fn run(cmd: Command) -> Result<i32> {
                 shard,
                 force,
                 quiet,
-                previews: !no_previews,
             })?;
+            if !no_previews {
+                draw_previews(&out, &report.tables_written);
+            }
             println!(
                 "built {} table(s), {} up to date, {} pending other shards; tasks: {} computed, {} reused from checkpoints; {:.1} s; catalog {}",
                 report.tables_written.len(),
@@ -363,6 +365,17 @@ fn run(cmd: Command) -> Result<i32> {
                 eprintln!("invalid: {f}: {why}");
             }
             Ok(if c.invalid.is_empty() { 0 } else { 1 })
+        }
+    }
+}
+
+/// Preview pictures of freshly written tables into `OUT/previews/`. Pictures are a
+/// convenience: a failure is reported and the table stays valid.
+fn draw_previews(out: &std::path::Path, tables: &[String]) {
+    for name in tables {
+        let path = scatterbake::pipeline::table_path(out, name);
+        if let Err(e) = scatterbake::consumers::plot::previews(&path, &out.join("previews")) {
+            eprintln!("warning: previews of {name}: {e:#}");
         }
     }
 }

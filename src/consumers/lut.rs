@@ -32,8 +32,6 @@ use super::phase::{EntrySelection, PhaseTable};
 use super::render::{THETA_STEP_DEG, xyz_vs_angle};
 use crate::optics::colour::xyz_to_linear_srgb;
 use crate::table::{Axis, Channel, Provenance, Schema, Table, TableContent};
-use std::fmt::Write as _;
-use std::path::PathBuf;
 
 /// Decades below the maximum that the log-encoded PNG LUT represents.
 pub const LOG_DECADES: f64 = 8.0;

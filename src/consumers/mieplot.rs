@@ -21,10 +21,10 @@
 //! intensities are not normalised like ours: `validate --rescale` fits one scale factor
 //! (least squares on the unpolarised column) before comparing.
 
-use super::phase::{EntrySelection, PhaseTable, describe_entry};
+use super::phase::{EntrySelection, PhaseTable};
 use anyhow::{Context, bail};
 use std::fmt::Write as _;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 /// A MiePlot-style table in memory.
 #[derive(Debug, Clone, PartialEq, Default)]

@@ -32,11 +32,10 @@
 //! is again normalised to 1. Colour-matching lobes make some w_ck negative, so p_c can dip
 //! below 0 where the spectrum is very uneven; such values are clamped to 0 and counted.
 
-use super::phase::{EntrySelection, PhaseCurves, PhaseTable, describe_entry};
+use super::phase::PhaseCurves;
 use crate::optics::colour::{Illuminant1931, SpectralWeights, xyz_to_linear_srgb};
 use std::f64::consts::PI;
 use std::fmt::Write as _;
-use std::path::PathBuf;
 
 /// The μ grid of a tabphase list of `n` values (ascending from −1 to +1).
 pub fn mu_grid(n: usize) -> Vec<f64> {
@@ -373,6 +372,7 @@ pub fn xml_snippet(lists: &[NamedList], source: &str) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::consumers::phase::PhaseTable;
     use crate::consumers::synthetic::{henyey_greenstein, henyey_greenstein_table};
 
     #[test]

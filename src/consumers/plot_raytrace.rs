@@ -14,11 +14,10 @@
 //!   gaps between cells).
 
 use super::figure::{perr, with_backend};
-use super::phase::EntrySelection;
 use super::phase2d::{Phase2dTable, PhaseSlice, outgoing_direction};
 use super::plot::xyz_colour;
 use super::render::{THETA_STEP_DEG, V3, xyz_along};
-use anyhow::{anyhow, bail};
+use anyhow::bail;
 use plotters::coord::ReverseCoordTranslate;
 use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;

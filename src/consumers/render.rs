@@ -37,14 +37,12 @@
 //! `fov_deg` across the width) — the thesis does not say which fisheye mapping; we choose the
 //! equidistant one because bow radii can then be read off linearly.
 
-use super::phase::{EntrySelection, PhaseTable, describe_entry};
+use super::phase::{EntrySelection, PhaseTable};
 use crate::optics::colour::{
     Illuminant1931, SpectralWeights, linear_srgb_luminance, srgb_encode, xyz_to_linear_srgb,
 };
 use crate::optics::vec3::{cross, dot};
-use anyhow::Context;
 use rayon::prelude::*;
-use std::path::PathBuf;
 
 /// Camera lens model.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -2,16 +2,13 @@
 //! (`scatterbake hair-lut`, `scatterbake dual-scattering` a.k.a. `hair-json`). Layouts and the
 //! shader lookup formula: `docs/hair.md`. I/O happens only in the `run_*` functions.
 
-use super::artist::ArtistParams;
 use super::dual::DUAL_CHANNELS;
-use super::fiber::FresnelModel;
-use super::stage::{DUAL_TABLE_CHANNELS, HairDualJob, HairDualParams, HairModel};
+use super::stage::DUAL_TABLE_CHANNELS;
 use crate::stage::Job;
 use crate::table::{Table, TableContent};
 use anyhow::{Context, bail, ensure};
 use rayon::prelude::*;
 use serde_json::{Value, json};
-use std::path::PathBuf;
 
 /// A `hair-dual` table laid out as an engine texture: `width` = absorption (or colour) samples,
 /// `height` = θ samples × roughness layers (layer `r` occupies rows `r·n_theta .. (r+1)·n_theta`,
@@ -213,6 +210,7 @@ pub fn content_of(table: Table) -> TableContent {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::hair::stage::HairDualParams;
     use crate::hair::stage::HairDualJob;
 
     fn params(toml_src: &str) -> HairDualParams {

@@ -3,12 +3,10 @@
 #[allow(unused_imports)]
 use scatterbake::hair::export::*;
 use scatterbake::hair::{artist::ArtistParams, fiber::FresnelModel, stage::{HairDualJob, HairDualParams, HairModel}};
-use scatterbake::consumers::phase::{EntrySelection, PhaseTable, describe_entry};
 #[allow(unused_imports)]
 use scatterbake::table::Table;
-use anyhow::{Context, anyhow, bail};
-use std::fmt::Write as _;
-use std::path::{Path, PathBuf};
+use anyhow::{Context, bail};
+use std::path::PathBuf;
 
 /// `scatterbake hair-lut --table T.sbt --out X.exr`.
 #[derive(clap::Args, Debug, Clone)]
@@ -101,8 +99,6 @@ pub struct DualScatteringArgs {
     pub out: Option<PathBuf>,
 }
 
-/// Alias matching the lead's brief (`scatterbake hair-json`).
-pub type HairJsonArgs = DualScatteringArgs;
 
 /// The `hair-dual` parameters corresponding to the CLI arguments (pure).
 pub fn dual_params_from_args(
@@ -187,10 +183,6 @@ pub fn run_dual_scattering(args: &DualScatteringArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Alias of [`run_dual_scattering`].
-pub fn run_hair_json(args: &HairJsonArgs) -> anyhow::Result<()> {
-    run_dual_scattering(args)
-}
 
 #[cfg(test)]
 mod tests {

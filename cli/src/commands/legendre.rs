@@ -2,12 +2,8 @@
 
 #[allow(unused_imports)]
 use scatterbake::consumers::legendre::*;
-use scatterbake::consumers::phase::{EntrySelection, PhaseTable, describe_entry};
 #[allow(unused_imports)]
 use scatterbake::table::Table;
-use anyhow::{Context, anyhow, bail};
-use std::fmt::Write as _;
-use std::path::{Path, PathBuf};
 
 /// `scatterbake export --format legendre`.
 #[derive(Debug, Clone, clap::Args)]

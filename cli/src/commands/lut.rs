@@ -2,12 +2,11 @@
 
 #[allow(unused_imports)]
 use scatterbake::consumers::lut::*;
-use scatterbake::consumers::phase::{EntrySelection, PhaseTable, describe_entry};
+use scatterbake::consumers::phase::{EntrySelection, PhaseTable};
 #[allow(unused_imports)]
 use scatterbake::table::Table;
-use anyhow::{Context, anyhow, bail};
 use std::fmt::Write as _;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 /// `scatterbake export --format rgb-lut`.
 #[derive(Debug, Clone, clap::Args)]

@@ -5,9 +5,8 @@ use scatterbake::consumers::mieplot::*;
 use scatterbake::consumers::phase::{EntrySelection, PhaseTable, describe_entry};
 #[allow(unused_imports)]
 use scatterbake::table::Table;
-use anyhow::{Context, anyhow, bail};
-use std::fmt::Write as _;
-use std::path::{Path, PathBuf};
+use anyhow::{Context, bail};
+use std::path::PathBuf;
 
 /// `scatterbake export --format mieplot`.
 #[derive(Debug, Clone, clap::Args)]

@@ -5,9 +5,8 @@ use scatterbake::consumers::mitsuba::*;
 use scatterbake::consumers::phase::{EntrySelection, PhaseTable, describe_entry};
 #[allow(unused_imports)]
 use scatterbake::table::Table;
-use anyhow::{Context, anyhow, bail};
 use std::fmt::Write as _;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 /// `scatterbake export --format mitsuba`.
 #[derive(Debug, Clone, clap::Args)]

@@ -2,12 +2,11 @@
 
 #[allow(unused_imports)]
 use scatterbake::consumers::plot::*;
-use scatterbake::consumers::phase::{EntrySelection, PhaseTable, describe_entry};
+use scatterbake::consumers::phase::{EntrySelection, PhaseTable};
 #[allow(unused_imports)]
 use scatterbake::table::Table;
-use anyhow::{Context, anyhow, bail};
-use std::fmt::Write as _;
-use std::path::{Path, PathBuf};
+use anyhow::{Context, anyhow};
+use std::path::PathBuf;
 
 fn parse_range(s: &str) -> Result<(f64, f64), String> {
     let (a, b) = s

@@ -3,12 +3,11 @@
 #[allow(unused_imports)]
 use scatterbake::consumers::plot_raytrace::*;
 use scatterbake::consumers::phase2d::Phase2dTable;
-use scatterbake::consumers::phase::{EntrySelection, PhaseTable, describe_entry};
+use scatterbake::consumers::phase::EntrySelection;
 #[allow(unused_imports)]
 use scatterbake::table::Table;
-use anyhow::{Context, anyhow, bail};
-use std::fmt::Write as _;
-use std::path::{Path, PathBuf};
+use anyhow::anyhow;
+use std::path::PathBuf;
 
 /// `scatterbake plot-raytrace`: plots of 2-D ray-traced tables (one or several, e.g. one per
 /// drop radius).

@@ -6,9 +6,8 @@ use scatterbake::optics::colour::linear_srgb_luminance;
 use scatterbake::consumers::phase::{EntrySelection, PhaseTable, describe_entry};
 #[allow(unused_imports)]
 use scatterbake::table::Table;
-use anyhow::{Context, anyhow, bail};
-use std::fmt::Write as _;
-use std::path::{Path, PathBuf};
+use anyhow::Context;
+use std::path::PathBuf;
 
 fn parse_rgb(s: &str) -> Result<[u8; 3], String> {
     let v: Vec<u8> = s
