@@ -10,10 +10,10 @@ use criterion::{Criterion, criterion_group, criterion_main};
 use scatterbake::hair::dual::{
     HQuadrature, LobeShape, PhysicalFiber, combine, dual_scattering_physical,
 };
-use scatterbake::hair::export::run_job_in_memory;
 use scatterbake::hair::fiber::{FresnelModel, LOBES, azimuthal_pointwise};
-use scatterbake::hair::stage::{HairDualJob, HairDualParams};
 use scatterbake::optics::quadrature::gauss_legendre_interval;
+use scatterbake::stages::hair::{HairDualJob, HairDualParams};
+use scatterbake::stages::run_in_memory;
 use std::hint::black_box;
 
 fn full_sweep(c: &mut Criterion) {
@@ -29,7 +29,7 @@ fn full_sweep(c: &mut Criterion) {
     let mut g = c.benchmark_group("hair_dual");
     g.sample_size(10);
     g.bench_function("full_sweep_lut_64x64x16", |b| {
-        b.iter(|| black_box(run_job_in_memory(&job).unwrap()))
+        b.iter(|| black_box(run_in_memory(&job).unwrap()))
     });
     g.finish();
 }

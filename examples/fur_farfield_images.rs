@@ -4,7 +4,7 @@
 //! One PNG per sample at the given θ_i: the `energy` channel over θ_r ∈ [−80°, 80°] × φ, floored
 //! at 1e-3 of the image maximum so that the helper's log10 colour map spans three decades.
 //! Also prints per-sample component energies and forward-window figures.
-use scatterbake::consumers::plot::plot_heatmap;
+use scatterbake::consumers::plot::tables::plot_heatmap;
 use scatterbake::table::{Axis, Channel, Provenance, Schema, Table, TableContent};
 
 fn main() -> anyhow::Result<()> {

@@ -1,25 +1,32 @@
 //! scatterbake: precomputed light-scattering tables for renderers.
 //!
-//! Architecture (one module per concept):
-//! - [`table`]: the `.sbt` table file format (writer, reader, verifier, lookup API);
-//! - [`optics`]: primitives shared by every stage (Fresnel, water index, colour, quadrature,
-//!   interpolation);
-//! - [`stage`]: the stage/job interface; [`stages`]: the registry of stages;
-//! - [`manifest`], [`pipeline`], [`catalog`]: manifests → tasks → tables (I/O, rayon, resume);
-//! - [`export`]: CSV/JSON/EXR exporters; [`cli`]: the command-line interface.
+//! The modules follow the data flow; each depends only on those listed before it:
+//! 1. [`table`]: the `.sbt` table file format (writer, reader, verifier, lookup API);
+//! 2. [`optics`]: primitives shared by every stage (Fresnel, water index, colour, Henyey–
+//!    Greenstein, quadrature, interpolation, vectors);
+//! 3. physics, pure and free of I/O: [`mie`] (Lorenz–Mie), [`debye`] (Debye series, Airy
+//!    theory), [`raytrace`] (patch-based wave-optics ray tracing of raindrops), [`hair`]
+//!    (fibre lobes, Dual Scattering), [`fur`] (medulla transport, far field);
+//! 4. [`stages`] (manifest parameters → jobs), [`manifest`], [`pipeline`] and [`catalog`]
+//!    (manifests → tasks → tables: I/O, parallelism, resume, progress);
+//! 5. [`consumers`]: reading, exporting, plotting and rendering tables.
+//!
+//! The command line is a separate crate (`cli/`, binary `scatterbake`); this library never sees
+//! its argument parser.
 
-pub mod catalog;
+pub mod table;
 
-pub mod consumers;
+pub mod optics;
+
 pub mod debye;
-pub mod export;
 pub mod fur;
 pub mod hair;
-pub mod manifest;
 pub mod mie;
-pub mod optics;
-pub mod pipeline;
 pub mod raytrace;
-pub mod stage;
+
+pub mod catalog;
+pub mod manifest;
+pub mod pipeline;
 pub mod stages;
-pub mod table;
+
+pub mod consumers;

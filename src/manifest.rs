@@ -13,7 +13,7 @@
 //! Every problem (syntax, unknown key, wrong type, out-of-range value, unknown stage, duplicate
 //! table name) is reported as `FILE:LINE:COLUMN: key `K`: message`.
 
-use crate::stage::{Job, PlanError, Stage};
+use crate::stages::{Job, PlanError, Stage};
 use serde_spanned::Spanned;
 use std::ops::Range;
 use std::path::{Path, PathBuf};

@@ -2,7 +2,7 @@
 //! `cargo test --release --test mie_stage -- --ignored --nocapture`) the default manifest's
 //! full job runs with every row normalised, reporting its wall time.
 
-use scatterbake::stage::Job;
+use scatterbake::stages::Job;
 
 fn plan_manifest(path: &str) -> Vec<Box<dyn Job>> {
     let text = std::fs::read_to_string(format!("{}/{path}", env!("CARGO_MANIFEST_DIR"))).unwrap();

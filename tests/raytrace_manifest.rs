@@ -4,7 +4,7 @@
 
 use scatterbake::stages;
 
-fn plan_all(path: &str) -> Vec<(String, Box<dyn scatterbake::stage::Job>)> {
+fn plan_all(path: &str) -> Vec<(String, Box<dyn scatterbake::stages::Job>)> {
     let text = std::fs::read_to_string(path).expect("manifest");
     let doc: toml::Table = toml::from_str(&text).expect("toml");
     let tables = doc["table"].as_array().expect("[[table]]");

@@ -5,11 +5,10 @@
 
 mod commands;
 
-
-use scatterbake::pipeline::{BuildOptions, Shard, build};
-use scatterbake::table::{AxisPoints, Table};
 use anyhow::{Context, Result, bail};
 use clap::{Parser, Subcommand};
+use scatterbake::pipeline::{BuildOptions, Shard, build};
+use scatterbake::table::{AxisPoints, Table};
 use std::path::PathBuf;
 
 #[derive(Parser, Debug)]
@@ -133,7 +132,7 @@ struct ExportArgs {
     out: Option<PathBuf>,
     /// Entry selection NAME=VALUE per entry axis (phase formats; default: first sample of each).
     #[arg(long = "entry", value_name = "NAME=VALUE")]
-    entry: Vec<scatterbake::consumers::phase::EntrySelection>,
+    entry: Vec<scatterbake::consumers::read::phase::EntrySelection>,
     /// Wavelength in nm (phase formats).
     #[arg(long)]
     wavelength_nm: Option<f64>,
@@ -148,8 +147,8 @@ struct ExportArgs {
     #[arg(long)]
     error_from_deg: Option<f64>,
     /// What to export for Mitsuba (mitsuba).
-    #[arg(long, default_value = "rgb", value_parser = crate::commands::named::<scatterbake::consumers::mitsuba::MitsubaMode>(&scatterbake::consumers::mitsuba::MitsubaMode::NAMES))]
-    mode: scatterbake::consumers::mitsuba::MitsubaMode,
+    #[arg(long, default_value = "rgb", value_parser = crate::commands::named::<scatterbake::consumers::export::mitsuba::MitsubaMode>(&scatterbake::consumers::export::mitsuba::MitsubaMode::NAMES))]
+    mode: scatterbake::consumers::export::mitsuba::MitsubaMode,
     /// Number of tabphase values, uniform in cos θ (mitsuba).
     #[arg(long, default_value_t = 4096)]
     samples: usize,
@@ -163,7 +162,7 @@ struct ExportArgs {
 
 fn run_export(a: ExportArgs) -> Result<()> {
     use crate::commands::{legendre, mieplot, mitsuba};
-    use scatterbake::export::GenericFormat;
+    use scatterbake::consumers::export::generic::GenericFormat;
     let generic = match a.format {
         ExportFormat::Csv => Some(GenericFormat::Csv),
         ExportFormat::Json => Some(GenericFormat::Json),
@@ -175,7 +174,7 @@ fn run_export(a: ExportArgs) -> Result<()> {
             .out
             .ok_or_else(|| anyhow::anyhow!("--out is required for --format csv|json|exr"))?;
         let t = Table::open(&a.file)?;
-        scatterbake::export::export(&t, format, &out)?;
+        scatterbake::consumers::export::generic::export(&t, format, &out)?;
         println!("wrote {}", out.display());
         return Ok(());
     }
@@ -247,9 +246,10 @@ fn run(cmd: Command) -> Result<i32> {
             no_previews,
         } => {
             let manifests = if manifests.is_empty() {
-                scatterbake::manifest::default_manifests(std::path::Path::new("manifests")).context(
-                    "listing manifests/ (run from the repository root or name manifests)",
-                )?
+                scatterbake::manifest::default_manifests(std::path::Path::new("manifests"))
+                    .context(
+                        "listing manifests/ (run from the repository root or name manifests)",
+                    )?
             } else {
                 manifests
             };
@@ -374,7 +374,9 @@ fn run(cmd: Command) -> Result<i32> {
 fn draw_previews(out: &std::path::Path, tables: &[String]) {
     for name in tables {
         let path = scatterbake::pipeline::table_path(out, name);
-        if let Err(e) = scatterbake::consumers::plot::previews(&path, &out.join("previews")) {
+        if let Err(e) =
+            scatterbake::consumers::plot::previews::previews(&path, &out.join("previews"))
+        {
             eprintln!("warning: previews of {name}: {e:#}");
         }
     }

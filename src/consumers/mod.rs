@@ -1,24 +1,23 @@
-//! Consumers of phase-function tables: renderer exports (Mitsuba 3 `tabphase`, Legendre
-//! moments, MiePlot-style text, an RGB lookup texture), a reference rainbow renderer and plots
-//! (the C ABI for other languages is the `capi/` crate, `libscatterbake_table`; the Python
-//! reader is `python/scatterbake_table.py`). Everything reads tables through the public reader API
-//! ([`crate::table::Table::open`], [`crate::table::Table::sample`]) and the phase contract
-//! (`docs/consumers.md`).
+//! Consumers of tables, by what they do; dependencies point one way, from `read` outward:
 //!
-//! CLI entry points (wired by `cli.rs`): [`mitsuba::MitsubaArgs`], [`legendre::LegendreArgs`],
-//! [`mieplot::MiePlotArgs`], [`mieplot::ValidateArgs`], [`lut::LutArgs`], [`plot::PlotArgs`],
-//! [`render::RenderRainbowArgs`], [`plot_raytrace::PlotRaytraceArgs`]. 2-D ray-traced tables
-//! (`raytrace-phase-2d/1`) are read through [`phase2d`].
+//! - [`read`]: phase-function tables through the phase contract (`docs/consumers.md`): 1-D
+//!   curves per entry ([`read::phase`]), 2-D ray-traced tables ([`read::phase2d`]) and their
+//!   colour under sunlight ([`read::spectrum`]);
+//! - [`export`]: files other programs read — CSV/JSON/EXR of any table ([`export::generic`]),
+//!   Mitsuba 3 `tabphase`, Legendre moments, MiePlot-style text, RGB lookup textures, hair LUTs;
+//! - [`plot`]: figures of tables (phase functions, colour strips, Lee diagrams, heatmaps,
+//!   previews per table family);
+//! - [`render`]: a reference spectral renderer of rainbows in a rain volume;
+//! - [`image`]: PNG writing shared by `plot` and `render`.
+//!
+//! Everything reads tables through the public reader API ([`crate::table::Table::open`],
+//! [`crate::table::Table::sample`]). The C ABI for other languages is the `capi/` crate and
+//! the Python reader `python/scatterbake_table.py`.
 
-pub mod figure;
-pub mod legendre;
-pub mod lut;
-pub mod mieplot;
-pub mod mitsuba;
-pub mod phase;
-pub mod phase2d;
+pub mod export;
+pub mod image;
 pub mod plot;
-pub mod plot_raytrace;
-pub mod previews;
+pub mod read;
 pub mod render;
+#[cfg(any(test, feature = "fixtures"))]
 pub mod synthetic;

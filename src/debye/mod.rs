@@ -53,7 +53,6 @@
 //! x = 100, 1000, 10⁴ (figures in `docs/debye.md`).
 
 pub mod airy;
-pub mod stage;
 
 use crate::mie::coefficients::MieCoefficients;
 use crate::mie::filters::PolarisedPhase;

@@ -11,8 +11,6 @@
 
 pub mod chief_ray;
 pub mod farfield;
-pub mod farfield_stage;
 pub mod medulla;
 pub mod rng;
-pub mod stage;
 pub mod tt;

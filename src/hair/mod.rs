@@ -13,8 +13,6 @@
 
 pub mod artist;
 pub mod dual;
-pub mod export;
 pub mod fiber;
 pub mod longitudinal;
 pub mod melanin;
-pub mod stage;

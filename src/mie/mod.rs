@@ -23,7 +23,6 @@ pub mod coefficients;
 pub mod distributions;
 pub mod filters;
 pub mod riccati;
-pub mod stage;
 
 pub use angular::{AngularSeries, MirroredAmplitudes, amplitudes, amplitudes_mirrored};
 pub use coefficients::{Efficiencies, MieCoefficients};

@@ -1,6 +1,9 @@
 //! Small 3-D vector helpers on `[f64; 3]` (dot, cross, norm, …), shared by the ray tracer and
 //! the consumers' renderers.
 
+/// A 3-vector (direction or point), world or drop frame as the caller states.
+pub type V3 = [f64; 3];
+
 #[inline]
 pub fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]

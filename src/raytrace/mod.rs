@@ -11,7 +11,6 @@
 pub mod post;
 pub mod shape;
 pub mod sphere1d;
-pub mod stage;
 pub mod tracer;
 
 /// Channel names of every ray-traced phase table, in order: the contract's four, then the

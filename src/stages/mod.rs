@@ -1,22 +1,30 @@
-//! Registry of computation stages. Each stage lives in its own module; this file only lists
-//! them.
+//! Computation stages: the adapters between manifests and the physics. A stage turns a
+//! manifest entry's `[table.params]` into a [`Job`] (independent pure tasks plus an assemble
+//! step); the pipeline runs jobs. Each stage lives in its own module; this file lists them.
 
+pub mod debye;
+pub mod fur_farfield;
+pub mod fur_medulla;
+pub mod hair;
+pub mod mie;
+pub mod raytrace;
+mod stage;
 pub mod water_index;
 
-use crate::stage::Stage;
+pub use stage::*;
 
 /// All stages known to this build, in the order `scatterbake stages` lists them.
 pub fn registry() -> Vec<Box<dyn Stage>> {
     vec![
         Box::new(water_index::WaterIndexStage),
-        Box::new(crate::hair::stage::HairDualStage),
-        Box::new(crate::hair::stage::HairAzimuthalStage),
-        Box::new(crate::mie::stage::MieStage),
-        Box::new(crate::debye::stage::DebyeStage),
-        Box::new(crate::fur::stage::FurMedullaAzimuthalStage),
-        Box::new(crate::fur::stage::FurMedullaLongitudinalStage),
-        Box::new(crate::raytrace::stage::RaytraceStage),
-        Box::new(crate::fur::farfield_stage::FurFarFieldStage),
+        Box::new(crate::stages::hair::HairDualStage),
+        Box::new(crate::stages::hair::HairAzimuthalStage),
+        Box::new(crate::stages::mie::MieStage),
+        Box::new(crate::stages::debye::DebyeStage),
+        Box::new(crate::stages::fur_medulla::FurMedullaAzimuthalStage),
+        Box::new(crate::stages::fur_medulla::FurMedullaLongitudinalStage),
+        Box::new(crate::stages::raytrace::RaytraceStage),
+        Box::new(crate::stages::fur_farfield::FurFarFieldStage),
     ]
 }
 

@@ -3,7 +3,7 @@
 //! serves as the reference table for the index used by the scattering stages.
 
 use crate::optics::water::{WaterIndexModel, water_density_kell_kg_m3};
-use crate::stage::{Job, ParamDoc, PlanError, Stage, TaskSpec, parse_params};
+use crate::stages::{Job, ParamDoc, PlanError, Stage, TaskSpec, parse_params};
 use crate::table::{Axis, Channel, Schema, TableContent};
 use serde::{Deserialize, Serialize};
 

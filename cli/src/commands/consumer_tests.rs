@@ -59,11 +59,18 @@ fn mieplot_export_then_validate_is_exact() {
         os,
     ]))
     .unwrap();
-    let r = scatterbake::consumers::mieplot::read_mieplot_file(&out).unwrap();
+    let r = scatterbake::consumers::export::mieplot::read_mieplot_file(&out).unwrap();
     assert_eq!(r.angle_deg.len(), 1801);
     assert_eq!(r.wavelength_nm, Some(550.0));
-    let pt = scatterbake::consumers::phase::PhaseTable::open(&t).unwrap();
-    let rep = scatterbake::consumers::mieplot::compare(&pt, &["radius=500".parse().unwrap()], 550.0, &r, false).unwrap();
+    let pt = scatterbake::consumers::read::phase::PhaseTable::open(&t).unwrap();
+    let rep = scatterbake::consumers::export::mieplot::compare(
+        &pt,
+        &["radius=500".parse().unwrap()],
+        550.0,
+        &r,
+        false,
+    )
+    .unwrap();
     assert_eq!(rep.max_rel_error, [0.0; 3], "{rep:?}");
     // validate with zero tolerance passes for the right entry and fails for another.
     mieplot::run_validate(&parse(&[
@@ -134,7 +141,9 @@ fn legendre_export_reconstructs_to_reported_error() {
         let t = j as f64 * 0.1;
         let mu = t.to_radians().cos();
         let exact = synthetic::henyey_greenstein(0.75, mu) as f32 as f64;
-        worst = worst.max((scatterbake::consumers::legendre::reconstruct(&chi, mu) - exact).abs() / exact);
+        worst = worst.max(
+            (scatterbake::consumers::export::legendre::reconstruct(&chi, mu) - exact).abs() / exact,
+        );
     }
     assert!(
         (worst - reported).abs() < 1e-3 * reported + 1e-6,
@@ -202,7 +211,7 @@ fn plots_and_render_write_images_that_show_the_data() {
     let (w, h, px) = decode_png(&dir.path().join("phase.png"));
     assert_eq!((w, h), (640, 400));
     // The 650 nm curve is drawn in its own (red) colour.
-    let red = scatterbake::consumers::plot::wavelength_colour(650.0);
+    let red = scatterbake::consumers::plot::style::wavelength_colour(650.0);
     assert!(
         px.chunks(3).any(|p| p == [red.0, red.1, red.2]),
         "no pixel in the 650 nm colour"
@@ -312,9 +321,9 @@ fn previews_of_non_phase_tables() {
     )
     .unwrap();
     let out = dir.path().join("prev");
-    let w1 = scatterbake::consumers::plot::previews(&p1, &out).unwrap();
+    let w1 = scatterbake::consumers::plot::previews::previews(&p1, &out).unwrap();
     assert_eq!(w1, vec![out.join("index-line.png")]);
-    let w2 = scatterbake::consumers::plot::previews(&p2, &out).unwrap();
+    let w2 = scatterbake::consumers::plot::previews::previews(&p2, &out).unwrap();
     assert_eq!(w2, vec![out.join("latlong-heatmap.png")]);
     // The heatmap's brightest colour (viridis top, yellow) appears: the spot is drawn.
     let (_, _, px) = decode_png(&w2[0]);
@@ -372,7 +381,7 @@ fn render_and_plot_two_d_tables() {
     assert!((elev - 32.0).abs() <= pix, "ring top at elevation {elev}");
     // Previews (lat-long + bows) and the bows plot of two tables.
     let prev = dir.path().join("previews");
-    let written = scatterbake::consumers::plot::previews(&p2, &prev).unwrap();
+    let written = scatterbake::consumers::plot::previews::previews(&p2, &prev).unwrap();
     assert_eq!(written.len(), 2);
     for f in &written {
         assert!(decode_png(f).0 > 100);

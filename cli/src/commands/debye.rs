@@ -12,14 +12,14 @@
 //! column `phase_p<k>` per order. For `airy` the normalisation uses `Q_sca = 2` (the large-x
 //! limit), stated in the header.
 
+use crate::commands::mie::{MieArgs, MieFormat, MieQuery};
+use anyhow::{Context, bail};
 use scatterbake::debye::airy::{AiryRainbow, airy_rainbow};
 use scatterbake::debye::{DebyeCoefficients, OrderSet};
-use crate::commands::mie::{MieArgs, MieFormat, MieQuery};
 use scatterbake::mie::size_parameter;
 use scatterbake::optics::water::WaterIndexModel;
 #[allow(unused_imports)]
 use scatterbake::table::Table;
-use anyhow::{Context, bail};
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
@@ -143,10 +143,14 @@ pub fn solve_debye(args: &DebyeArgs) -> anyhow::Result<Option<CurveReport>> {
     let Some(orders) = &args.debye_orders else {
         return Ok(None);
     };
-    if orders.is_empty() || orders.iter().any(|&p| p > scatterbake::debye::stage::MAX_ORDER) {
+    if orders.is_empty()
+        || orders
+            .iter()
+            .any(|&p| p > scatterbake::stages::debye::MAX_ORDER)
+    {
         bail!(
             "--debye-orders needs orders in 0..={}",
-            scatterbake::debye::stage::MAX_ORDER
+            scatterbake::stages::debye::MAX_ORDER
         );
     }
     let q = MieQuery::solve(&args.mie)?;

@@ -1,11 +1,12 @@
 //! `scatterbake` glue for [`scatterbake::hair::export`].
 
+use anyhow::{Context, bail};
 #[allow(unused_imports)]
-use scatterbake::hair::export::*;
-use scatterbake::hair::{artist::ArtistParams, fiber::FresnelModel, stage::{HairDualJob, HairDualParams, HairModel}};
+use scatterbake::consumers::export::hair_lut::*;
+use scatterbake::hair::{artist::ArtistParams, fiber::FresnelModel};
+use scatterbake::stages::hair::{HairDualJob, HairDualParams, HairModel};
 #[allow(unused_imports)]
 use scatterbake::table::Table;
-use anyhow::{Context, bail};
 use std::path::PathBuf;
 
 /// `scatterbake hair-lut --table T.sbt --out X.exr`.
@@ -99,7 +100,6 @@ pub struct DualScatteringArgs {
     pub out: Option<PathBuf>,
 }
 
-
 /// The `hair-dual` parameters corresponding to the CLI arguments (pure).
 pub fn dual_params_from_args(
     args: &DualScatteringArgs,
@@ -170,7 +170,7 @@ pub fn run_dual_scattering(args: &DualScatteringArgs) -> anyhow::Result<()> {
         };
         let params = dual_params_from_args(args, artist)?;
         let job = HairDualJob::new(params).map_err(|e| anyhow::anyhow!("{e}"))?;
-        run_job_in_memory(&job)?
+        scatterbake::stages::run_in_memory(&job)?
     };
     let text = match args.format {
         FormatArg::Json => serde_json::to_string_pretty(&dual_json(&t)?)?,
@@ -182,7 +182,6 @@ pub fn run_dual_scattering(args: &DualScatteringArgs) -> anyhow::Result<()> {
     }
     Ok(())
 }
-
 
 #[cfg(test)]
 mod tests {
@@ -199,7 +198,7 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let write = |src: &str, name: &str| {
             let job = HairDualJob::new(params(src)).unwrap();
-            let content = run_job_in_memory(&job).unwrap();
+            let content = scatterbake::stages::run_in_memory(&job).unwrap();
             let mut table = Table::from_content(content, Provenance::default()).unwrap();
             let path = dir.path().join(name);
             write_table_atomic(&mut table, &path).unwrap();
@@ -238,7 +237,8 @@ mod tests {
             out: Some(json_path.clone()),
         };
         run_dual_scattering(&args).unwrap();
-        let j: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json_path).unwrap()).unwrap();
+        let j: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&json_path).unwrap()).unwrap();
         assert_eq!(j["theta_deg"][2].as_f64().unwrap(), 0.0);
         // The LUT table is not a one-colour table: the JSON export refuses it.
         args.table = Some(lut);
@@ -265,7 +265,7 @@ mod tests {
             out: None,
         };
         let job = HairDualJob::new(dual_params_from_args(&args, None).unwrap()).unwrap();
-        let t = run_job_in_memory(&job).unwrap();
+        let t = scatterbake::stages::run_in_memory(&job).unwrap();
         let j = dual_json(&t).unwrap();
         assert_eq!(j["theta_deg"].as_array().unwrap().len(), 9);
         assert_eq!(j["a_f"][4].as_array().unwrap().len(), 3);

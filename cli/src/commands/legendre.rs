@@ -1,7 +1,7 @@
-//! `scatterbake` glue for [`scatterbake::consumers::legendre`].
+//! `scatterbake` glue for [`scatterbake::consumers::export::legendre`].
 
 #[allow(unused_imports)]
-use scatterbake::consumers::legendre::*;
+use scatterbake::consumers::export::legendre::*;
 #[allow(unused_imports)]
 use scatterbake::table::Table;
 
@@ -11,7 +11,7 @@ pub struct LegendreArgs {
     /// Phase-function table (.sbt) following the phase contract.
     pub table: std::path::PathBuf,
     #[arg(long = "entry", value_name = "NAME=VALUE")]
-    pub entry: Vec<scatterbake::consumers::phase::EntrySelection>,
+    pub entry: Vec<scatterbake::consumers::read::phase::EntrySelection>,
     /// Highest Legendre order L (moments χ_0..χ_L).
     #[arg(long, default_value_t = 64)]
     pub order: usize,
@@ -33,7 +33,7 @@ pub struct LegendreArgs {
 /// the truncation error per wavelength), then rows `l  χ_l(λ_1)  χ_l(λ_2) ...`.
 pub fn run_legendre(args: &LegendreArgs) -> anyhow::Result<()> {
     use std::fmt::Write as _;
-    let pt = scatterbake::consumers::phase::PhaseTable::open(&args.table)?;
+    let pt = scatterbake::consumers::read::phase::PhaseTable::open(&args.table)?;
     let c = pt.curves(&args.entry)?;
     let ks: Vec<usize> = match args.wavelength_nm {
         Some(w) => vec![c.nearest_wavelength(w)],
@@ -45,7 +45,7 @@ pub fn run_legendre(args: &LegendreArgs) -> anyhow::Result<()> {
     let _ = writeln!(
         s,
         "# entry: {}",
-        scatterbake::consumers::phase::describe_entry(&pt.table, &c.entry)
+        scatterbake::consumers::read::phase::describe_entry(&pt.table, &c.entry)
     );
     let _ = writeln!(
         s,

@@ -1,8 +1,8 @@
-//! `scatterbake` glue for [`scatterbake::consumers::lut`].
+//! `scatterbake` glue for [`scatterbake::consumers::export::lut`].
 
 #[allow(unused_imports)]
-use scatterbake::consumers::lut::*;
-use scatterbake::consumers::phase::{EntrySelection, PhaseTable};
+use scatterbake::consumers::export::lut::*;
+use scatterbake::consumers::read::phase::{EntrySelection, PhaseTable};
 #[allow(unused_imports)]
 use scatterbake::table::Table;
 use std::fmt::Write as _;
@@ -66,9 +66,13 @@ pub fn run_lut(args: &LutArgs) -> anyhow::Result<()> {
             let t = lut_table(
                 &lut,
                 &args.table.display().to_string(),
-                &scatterbake::consumers::phase::describe_entry(&pt.table, &entry),
+                &scatterbake::consumers::read::phase::describe_entry(&pt.table, &entry),
             )?;
-            scatterbake::export::export(&t, scatterbake::export::GenericFormat::Exr, &args.out)?;
+            scatterbake::consumers::export::generic::export(
+                &t,
+                scatterbake::consumers::export::generic::GenericFormat::Exr,
+                &args.out,
+            )?;
         }
         _ => anyhow::bail!(
             "{}: output must end in .exr, .csv or .png",

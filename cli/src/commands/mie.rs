@@ -9,12 +9,12 @@
 //! Intensities are raw Bohren–Huffman `|S|²` (dimensionless); `phase` is normalised to
 //! `∫_{4π} p dΩ = 1` (1/sr).
 
+use anyhow::{Context, bail};
+use num_complex::Complex64;
 use scatterbake::mie::{Sphere, size_parameter};
 use scatterbake::optics::water::WaterIndexModel;
 #[allow(unused_imports)]
 use scatterbake::table::Table;
-use anyhow::{Context, bail};
-use num_complex::Complex64;
 use std::fmt::Write as _;
 use std::path::PathBuf;
 

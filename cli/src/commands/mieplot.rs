@@ -1,11 +1,11 @@
-//! `scatterbake` glue for [`scatterbake::consumers::mieplot`].
+//! `scatterbake` glue for [`scatterbake::consumers::export::mieplot`].
 
+use anyhow::{Context, bail};
 #[allow(unused_imports)]
-use scatterbake::consumers::mieplot::*;
-use scatterbake::consumers::phase::{EntrySelection, PhaseTable, describe_entry};
+use scatterbake::consumers::export::mieplot::*;
+use scatterbake::consumers::read::phase::{EntrySelection, PhaseTable, describe_entry};
 #[allow(unused_imports)]
 use scatterbake::table::Table;
-use anyhow::{Context, bail};
 use std::path::PathBuf;
 
 /// `scatterbake export --format mieplot`.

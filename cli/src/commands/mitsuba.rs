@@ -1,8 +1,8 @@
-//! `scatterbake` glue for [`scatterbake::consumers::mitsuba`].
+//! `scatterbake` glue for [`scatterbake::consumers::export::mitsuba`].
 
 #[allow(unused_imports)]
-use scatterbake::consumers::mitsuba::*;
-use scatterbake::consumers::phase::{EntrySelection, PhaseTable, describe_entry};
+use scatterbake::consumers::export::mitsuba::*;
+use scatterbake::consumers::read::phase::{EntrySelection, PhaseTable, describe_entry};
 #[allow(unused_imports)]
 use scatterbake::table::Table;
 use std::fmt::Write as _;

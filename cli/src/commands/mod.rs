@@ -2,16 +2,16 @@
 //! calls the library.
 
 pub mod debye;
-pub mod medulla;
-pub mod mie;
-pub mod raytrace;
 pub mod hair;
 pub mod legendre;
 pub mod lut;
+pub mod medulla;
+pub mod mie;
 pub mod mieplot;
 pub mod mitsuba;
 pub mod plot;
 pub mod plot_raytrace;
+pub mod raytrace;
 pub mod render;
 
 /// A clap value parser for a library enum that names its variants (`NAMES`) and parses them

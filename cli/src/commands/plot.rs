@@ -1,11 +1,12 @@
-//! `scatterbake` glue for [`scatterbake::consumers::plot`].
+//! `scatterbake` glue for [`scatterbake::consumers::plot::tables`].
 
+use anyhow::{Context, anyhow};
+use scatterbake::consumers::plot::previews::previews;
 #[allow(unused_imports)]
-use scatterbake::consumers::plot::*;
-use scatterbake::consumers::phase::{EntrySelection, PhaseTable};
+use scatterbake::consumers::plot::tables::*;
+use scatterbake::consumers::read::phase::{EntrySelection, PhaseTable};
 #[allow(unused_imports)]
 use scatterbake::table::Table;
-use anyhow::{Context, anyhow};
 use std::path::PathBuf;
 
 fn parse_range(s: &str) -> Result<(f64, f64), String> {

@@ -1,12 +1,12 @@
-//! `scatterbake` glue for [`scatterbake::consumers::plot_raytrace`].
+//! `scatterbake` glue for [`scatterbake::consumers::plot::raytrace`].
 
+use anyhow::anyhow;
 #[allow(unused_imports)]
-use scatterbake::consumers::plot_raytrace::*;
-use scatterbake::consumers::phase2d::Phase2dTable;
-use scatterbake::consumers::phase::EntrySelection;
+use scatterbake::consumers::plot::raytrace::*;
+use scatterbake::consumers::read::phase::EntrySelection;
+use scatterbake::consumers::read::phase2d::Phase2dTable;
 #[allow(unused_imports)]
 use scatterbake::table::Table;
-use anyhow::anyhow;
 use std::path::PathBuf;
 
 /// `scatterbake plot-raytrace`: plots of 2-D ray-traced tables (one or several, e.g. one per

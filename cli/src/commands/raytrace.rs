@@ -5,11 +5,11 @@
 //! non-spherical drops the same columns averaged over the outgoing azimuth about the incident
 //! direction (a 2-D trace at the requested sun elevation, 5° azimuth steps).
 
-use scatterbake::raytrace::stage::{RaytraceJob, RaytraceParams};
-use scatterbake::stage::Job;
+use anyhow::{Context, bail};
+use scatterbake::stages::Job;
+use scatterbake::stages::raytrace::{RaytraceJob, RaytraceParams};
 #[allow(unused_imports)]
 use scatterbake::table::Table;
-use anyhow::{Context, bail};
 
 /// Arguments of `scatterbake raytrace`.
 #[derive(clap::Args, Debug, Clone)]

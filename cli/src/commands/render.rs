@@ -1,12 +1,14 @@
-//! `scatterbake` glue for [`scatterbake::consumers::render`].
+//! `scatterbake` glue for [`scatterbake::consumers::render::rainbow`].
 
+use anyhow::Context;
+use scatterbake::consumers::image::write_png;
+use scatterbake::consumers::read::phase::{EntrySelection, PhaseTable, describe_entry};
+use scatterbake::consumers::read::spectrum::{THETA_STEP_DEG, xyz_vs_angle};
 #[allow(unused_imports)]
-use scatterbake::consumers::render::*;
+use scatterbake::consumers::render::rainbow::*;
 use scatterbake::optics::colour::linear_srgb_luminance;
-use scatterbake::consumers::phase::{EntrySelection, PhaseTable, describe_entry};
 #[allow(unused_imports)]
 use scatterbake::table::Table;
-use anyhow::Context;
 use std::path::PathBuf;
 
 fn parse_rgb(s: &str) -> Result<[u8; 3], String> {
@@ -91,10 +93,13 @@ pub fn run_render_rainbow(args: &RenderRainbowArgs) -> anyhow::Result<()> {
     // 1-D tables: the phase contract; 2-D ray-traced tables: a slice at the sun elevation.
     enum Source {
         OneD(Box<PhaseTable>),
-        TwoD(Box<scatterbake::consumers::phase2d::PhaseSlice>, String),
+        TwoD(
+            Box<scatterbake::consumers::read::phase2d::PhaseSlice>,
+            String,
+        ),
     }
-    let (source, sun_elevation_deg) = if scatterbake::consumers::phase2d::is_2d(&table) {
-        let t2 = scatterbake::consumers::phase2d::Phase2dTable::new(table)
+    let (source, sun_elevation_deg) = if scatterbake::consumers::read::phase2d::is_2d(&table) {
+        let t2 = scatterbake::consumers::read::phase2d::Phase2dTable::new(table)
             .with_context(|| args.table.display().to_string())?;
         let e = t2.resolve_elevation(args.sun_elevation_deg)?;
         let slice = t2.slice(e, &args.entry, "phase")?;
@@ -181,7 +186,7 @@ pub fn run_render_rainbow(args: &RenderRainbowArgs) -> anyhow::Result<()> {
             let table_max = match (&source, &xyz) {
                 (_, Some(xyz)) => table_bow_radius(xyz, lo, hi),
                 (Source::TwoD(slice, _), None) => {
-                    table_bow_radius_2d(slice, args.sun_diameter_deg, lo, hi)
+                    table_bow_radius_2d(slice.as_ref(), args.sun_diameter_deg, lo, hi)
                 }
                 _ => f64::NAN,
             };

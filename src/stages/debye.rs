@@ -9,14 +9,14 @@
 //! integrates to its share of the scattered energy (plus cross-order interference terms).
 //! Filters as in the `mie` stage: cell averages on a fine grid, uniform sun disc, bin averages.
 
-use super::{DebyeCoefficients, OrderSet};
+use crate::debye::{DebyeCoefficients, OrderSet};
 use crate::mie::filters::{
     FINE_CELL_POINTS, PolarisedPhase, SunDiscOperator, fine_intervals, resample_bins,
 };
-use crate::mie::stage::FilterSettings;
 use crate::mie::{check_domain, size_parameter};
 use crate::optics::water::{SADEGHI_WAVELENGTHS_NM, WaterIndexModel};
-use crate::stage::{
+use crate::stages::mie::FilterSettings;
+use crate::stages::{
     Job, ParamDoc, PlanError, Stage, TaskSpec, checks, join_f64, parse_params, split_f64,
 };
 use crate::table::phase_contract;
@@ -398,7 +398,7 @@ mod tests {
     use super::*;
 
     fn plan(toml_lines: &str) -> Result<Box<dyn Job>, PlanError> {
-        crate::stage::plan_from_lines(&DebyeStage, toml_lines)
+        crate::stages::plan_from_lines(&DebyeStage, toml_lines)
     }
 
     #[test]

@@ -19,7 +19,7 @@ use std::ops::Range;
 use std::path::Path;
 use std::sync::OnceLock;
 
-static FONT: &[u8] = include_bytes!("../../assets/fonts/DejaVuSans.ttf");
+static FONT: &[u8] = include_bytes!("../../../assets/fonts/DejaVuSans.ttf");
 
 /// Register the bundled DejaVu Sans as `sans-serif` (once).
 pub fn ensure_font() {
@@ -38,11 +38,11 @@ pub fn perr<E: std::fmt::Debug>(e: E) -> anyhow::Error {
 /// `|root, vector| body` also binds `vector: bool` (true for SVG).
 macro_rules! with_backend {
     ($out:expr, $size:expr, |$root:ident| $body:expr) => {
-        $crate::consumers::figure::with_backend!($out, $size, |$root, _vector| $body)
+        $crate::consumers::plot::figure::with_backend!($out, $size, |$root, _vector| $body)
     };
     ($out:expr, $size:expr, |$root:ident, $vector:ident| $body:expr) => {{
         use plotters::prelude::IntoDrawingArea as _;
-        $crate::consumers::figure::ensure_font();
+        $crate::consumers::plot::figure::ensure_font();
         let out: &std::path::Path = $out;
         let size: (u32, u32) = $size;
         match out
@@ -55,7 +55,9 @@ macro_rules! with_backend {
                 let $vector = true;
                 let $root = plotters::prelude::SVGBackend::new(out, size).into_drawing_area();
                 $body?;
-                $root.present().map_err($crate::consumers::figure::perr)?;
+                $root
+                    .present()
+                    .map_err($crate::consumers::plot::figure::perr)?;
             }
             Some("png") => {
                 let $vector = false;
@@ -64,9 +66,11 @@ macro_rules! with_backend {
                     let $root = plotters::prelude::BitMapBackend::with_buffer(&mut buf, size)
                         .into_drawing_area();
                     $body?;
-                    $root.present().map_err($crate::consumers::figure::perr)?;
+                    $root
+                        .present()
+                        .map_err($crate::consumers::plot::figure::perr)?;
                 }
-                $crate::consumers::render::write_png(out, size.0 as usize, size.1 as usize, &buf)?;
+                $crate::consumers::image::write_png(out, size.0 as usize, size.1 as usize, &buf)?;
             }
             _ => anyhow::bail!("{}: output must end in .png or .svg", out.display()),
         }

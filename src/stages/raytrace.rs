@@ -2,12 +2,12 @@
 //!
 //! - `shape = "sphere"`: schema `raytrace-phase/1`, axes wavelength (nm) × radius (µm) ×
 //!   scattering_angle (deg, uniform over [0, 180]); computed by the exact 1-D
-//!   geometric-optics-plus-phase path ([`super::sphere1d`]), which the general 2-D tracer is
+//!   geometric-optics-plus-phase path ([`crate::raytrace::sphere1d`]), which the general 2-D tracer is
 //!   validated against (tests/raytrace_validation.rs).
 //! - `shape = "beard-chuang"` or `"profile"`: schema `raytrace-phase-2d/1`, axes wavelength (nm)
 //!   × sun_elevation (deg) × outgoing_polar (deg from the incident direction, 0 = forward) ×
 //!   outgoing_azimuth (deg, 0..360, from the vertical plane containing the incident direction,
-//!   towards +y; see [`super::tracer`] for the frame); computed by the 2-D patch tracer.
+//!   towards +y; see [`crate::raytrace::tracer`] for the frame); computed by the 2-D patch tracer.
 //!
 //! Channels (both schemas): phase, i_perp, i_par, dolp, phase_p0..phase_pN (per order,
 //! filtered), phase_unfiltered, i_perp_unfiltered, i_par_unfiltered; all in 1/sr normalised
@@ -15,15 +15,15 @@
 //! lobe of the projected area A), so that ∫_{4π} p dΩ = 1 up to the flux of triangles discarded
 //! at the silhouette (reported in the attributes).
 
-use super::post::{
+use crate::optics::water::{SADEGHI_WAVELENGTHS_NM, WaterIndexModel};
+use crate::raytrace::post::{
     DEFAULT_CAUSTIC_WINDOW_SIGMAS, bin_edges, caustic_weight, filter_sigma_deg,
     fraunhofer_bin_average, gaussian_blur,
 };
-use super::shape::{CosineSeries, DropShape};
-use super::sphere1d::{DiffractionModel, Phase1dOptions, SphereGo, sphere_phase_1d};
-use super::tracer::{DirectionGrid, TraceConfig, trace_fields};
-use crate::optics::water::{SADEGHI_WAVELENGTHS_NM, WaterIndexModel};
-use crate::stage::{Job, ParamDoc, PlanError, Stage, TaskSpec, checks, parse_params};
+use crate::raytrace::shape::{CosineSeries, DropShape};
+use crate::raytrace::sphere1d::{DiffractionModel, Phase1dOptions, SphereGo, sphere_phase_1d};
+use crate::raytrace::tracer::{DirectionGrid, TraceConfig, trace_fields};
+use crate::stages::{Job, ParamDoc, PlanError, Stage, TaskSpec, checks, parse_params};
 use crate::table::phase_contract;
 use crate::table::{Axis, Channel, Schema, TableContent};
 use serde::{Deserialize, Serialize};
@@ -378,7 +378,7 @@ impl RaytraceJob {
     }
 
     fn channels(&self) -> Vec<Channel> {
-        super::channel_names(self.p.max_order)
+        crate::raytrace::channel_names(self.p.max_order)
             .into_iter()
             .map(|n| {
                 let (unit, meaning) = match n.as_str() {
@@ -711,7 +711,7 @@ mod tests {
     use super::*;
 
     fn plan(toml_lines: &str) -> Result<Box<dyn Job>, PlanError> {
-        crate::stage::plan_from_lines(&RaytraceStage, toml_lines)
+        crate::stages::plan_from_lines(&RaytraceStage, toml_lines)
     }
 
     #[test]

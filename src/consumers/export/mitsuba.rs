@@ -32,7 +32,7 @@
 //! is again normalised to 1. Colour-matching lobes make some w_ck negative, so p_c can dip
 //! below 0 where the spectrum is very uneven; such values are clamped to 0 and counted.
 
-use super::phase::PhaseCurves;
+use crate::consumers::read::phase::PhaseCurves;
 use crate::optics::colour::{Illuminant1931, SpectralWeights, xyz_to_linear_srgb};
 use std::f64::consts::PI;
 use std::fmt::Write as _;
@@ -226,7 +226,10 @@ impl std::str::FromStr for MitsubaMode {
             "spectral" => Ok(Self::Spectral),
             "wavelength" => Ok(Self::Wavelength),
             "luminance" => Ok(Self::Luminance),
-            _ => Err(format!("unknown Mitsuba mode `{s}` (one of {:?})", Self::NAMES)),
+            _ => Err(format!(
+                "unknown Mitsuba mode `{s}` (one of {:?})",
+                Self::NAMES
+            )),
         }
     }
 }
@@ -367,12 +370,10 @@ pub fn xml_snippet(lists: &[NamedList], source: &str) -> String {
     s
 }
 
-
-
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::consumers::phase::PhaseTable;
+    use crate::consumers::read::phase::PhaseTable;
     use crate::consumers::synthetic::{henyey_greenstein, henyey_greenstein_table};
 
     #[test]
@@ -421,7 +422,7 @@ mod tests {
         // function, computed independently by Gauss–Legendre in legendre.rs; ≈ 1.003 here as
         // peak_table normalises with the trapezoid rule); point samples over-count the peak by
         // orders of magnitude.
-        let chi0 = crate::consumers::legendre::moments(&c.angles_deg, &c.phase[0], 0)[0];
+        let chi0 = crate::consumers::export::legendre::moments(&c.angles_deg, &c.phase[0], 0)[0];
         assert!(
             (q_avg.normalisation_ratio / chi0 - 1.0).abs() < 1e-6,
             "{q_avg:?} vs {chi0}"

@@ -5,13 +5,13 @@
 //! `scattering_angle` (deg); channels `phase`, `i_perp`, `i_par`, `dolp`; per-entry Q_ext, Q_sca,
 //! Q_back, g as f64 arrays `[entry][wavelength]` in the header attributes.
 
-use super::distributions::SizeDistribution;
-use super::filters::{
+use crate::mie::distributions::SizeDistribution;
+use crate::mie::filters::{
     FINE_CELL_POINTS, PolarisedPhase, SunDiscOperator, fine_intervals, gaussian_blur, resample_bins,
 };
-use super::{Sphere, size_parameter};
+use crate::mie::{Sphere, size_parameter};
 use crate::optics::water::{SADEGHI_WAVELENGTHS_NM, WaterIndexModel};
-use crate::stage::{
+use crate::stages::{
     Job, ParamDoc, PlanError, Stage, TaskSpec, checks, join_f64, parse_params, split_f64,
 };
 use crate::table::phase_contract::{self, CHANNELS};
@@ -219,10 +219,10 @@ pub fn compute_entry(
     m: Complex64,
     settings: &FilterSettings,
     sun: &SunDiscOperator,
-) -> Result<EntryResult, super::MieError> {
+) -> Result<EntryResult, crate::mie::MieError> {
     let (radii, weights) = distribution.quadrature(settings.radius_points);
     let mid = settings.intermediate_intervals();
-    let per_radius: Vec<Result<(PolarisedPhase, [f64; 5]), super::MieError>> = radii
+    let per_radius: Vec<Result<(PolarisedPhase, [f64; 5]), crate::mie::MieError>> = radii
         .par_iter()
         .zip(&weights)
         .map(|(&r, &w)| {
@@ -359,7 +359,7 @@ fn plan_job(p: MieParams) -> Result<MieJob, PlanError> {
         for (l, n) in p.wavelengths_nm.iter().zip(&indices) {
             for r in [lo, hi] {
                 let x = size_parameter(r, *l);
-                super::check_domain(x, Complex64::new(*n, 0.0)).map_err(|err| {
+                crate::mie::check_domain(x, Complex64::new(*n, 0.0)).map_err(|err| {
                     PlanError::invalid(
                         if p.radii_um.is_some() {
                             "radii_um"
@@ -519,7 +519,7 @@ mod tests {
     use super::*;
 
     fn plan(toml_lines: &str) -> Result<Box<dyn Job>, PlanError> {
-        crate::stage::plan_from_lines(&MieStage, toml_lines)
+        crate::stages::plan_from_lines(&MieStage, toml_lines)
     }
 
     #[test]

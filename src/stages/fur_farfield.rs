@@ -1,5 +1,5 @@
 //! Stage `fur-farfield` (schema `fur-farfield/1`): far-field profiles of the practical fur
-//! shading model ([`super::farfield`]) for the fitted samples of Tseng 2015 Table 4.2.
+//! shading model ([`crate::fur::farfield`]) for the fitted samples of Tseng 2015 Table 4.2.
 //!
 //! Axes (row-major, channel innermost): `sample` (index into the attribute `samples`) ×
 //! `theta_i` (deg) × `theta_r` (deg, cell centres over [−90, 90]) × `phi` (deg, cell centres over
@@ -7,11 +7,11 @@
 //! `medulla_paths`, `scattered`, each the cell-averaged exiting energy per unit θ_r per unit φ
 //! (rad⁻²) per unit intercepted incident power. One task per sample.
 
-use super::farfield::{
+use crate::fur::farfield::{
     COMPONENTS, FarFieldSettings, FurSample, MedullaShapes, MedullaSource, SigmaScaling, TABLE_4_2,
     far_field_with, isotropic_fraction, medulla_sigma,
 };
-use crate::stage::{Job, ParamDoc, PlanError, Stage, TaskSpec, parse_params};
+use crate::stages::{Job, ParamDoc, PlanError, Stage, TaskSpec, parse_params};
 use crate::table::Table;
 use crate::table::{Axis, Channel, Schema, TableContent};
 use serde::{Deserialize, Serialize};
@@ -247,7 +247,7 @@ impl Stage for FurFarFieldStage {
                     for &ti in &p.theta_i_deg {
                         let sin_ti = ti.to_radians().sin();
                         let cos_tm = (1.0 - (sin_ti / s.eta_m).powi(2)).sqrt();
-                        super::farfield::longitudinal_lobe_pdf(
+                        crate::fur::farfield::longitudinal_lobe_pdf(
                             source,
                             sigma / cos_tm,
                             s.g,
@@ -500,7 +500,7 @@ mod tests {
 
     /// Build a small medulla table of `stage` into `dir` and return its path.
     fn medulla_table(stage: &dyn Stage, lines: &str, dir: &std::path::Path, name: &str) -> String {
-        let job = crate::stage::plan_from_lines(stage, lines).unwrap();
+        let job = crate::stages::plan_from_lines(stage, lines).unwrap();
         let chunks: Vec<Vec<f32>> = (0..job.tasks().len())
             .map(|i| job.run_task(i).unwrap())
             .collect();
@@ -517,7 +517,7 @@ mod tests {
     /// error; samples outside the tables' grid are refused at plan time, naming the key.
     #[test]
     fn far_field_from_medulla_tables_matches_on_the_fly() {
-        use crate::fur::stage::{FurMedullaAzimuthalStage, FurMedullaLongitudinalStage};
+        use crate::stages::fur_medulla::{FurMedullaAzimuthalStage, FurMedullaLongitudinalStage};
         let d = tempfile::tempdir().unwrap();
         let az = medulla_table(
             &FurMedullaAzimuthalStage,

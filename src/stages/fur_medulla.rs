@@ -5,7 +5,7 @@
 //! parameters, so results do not depend on thread count or sharding). When the entry grid is
 //! mirror-symmetric, rows with a negative entry are the exact mirror of the positive row
 //! (C^N(φ'; −h') = C^N(−φ'; h'), C^M(θ'_r; −θ'_i) = C^M(−θ'_r; θ'_i)); the symmetry itself is
-//! tested on independent runs in [`super::medulla`].
+//! tested on independent runs in [`crate::fur::medulla`].
 //!
 //! Table layouts (row-major, channel innermost):
 //! - azimuthal `fur-medulla-azimuthal/1`: axes `sigma` × `g` × `h` × `phi` (bins),
@@ -17,8 +17,8 @@
 //! Per-entry scalars (ballistic and scattered fractions, their standard errors, lobe energies)
 //! are stored in the attributes as flat row-major arrays over (sigma, g, entry).
 
-use super::medulla::{Estimator, Geometry, McSettings, Profile, normalise_lobes, simulate};
-use crate::stage::{Job, ParamDoc, PlanError, Stage, TaskSpec, parse_params};
+use crate::fur::medulla::{Estimator, Geometry, McSettings, Profile, normalise_lobes, simulate};
+use crate::stages::{Job, ParamDoc, PlanError, Stage, TaskSpec, parse_params};
 use crate::table::{Axis, Channel, Schema, TableContent};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};

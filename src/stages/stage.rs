@@ -72,6 +72,18 @@ pub trait Job: Send + Sync {
     fn assemble(&self, chunks: Vec<Vec<f32>>) -> anyhow::Result<TableContent>;
 }
 
+/// Run a planned job in memory, tasks in parallel (rayon), without checkpoints or files: the
+/// runner for tests, examples and library users who want a table's content directly. The
+/// pipeline's resumable runner gives identical content.
+pub fn run_in_memory(job: &dyn Job) -> anyhow::Result<TableContent> {
+    use rayon::prelude::*;
+    let chunks = (0..job.tasks().len())
+        .into_par_iter()
+        .map(|i| job.run_task(i))
+        .collect::<anyhow::Result<Vec<_>>>()?;
+    job.assemble(chunks)
+}
+
 /// A computation stage, registered in [`crate::stages::registry`].
 pub trait Stage: Send + Sync {
     /// Stage name used in manifests (`stage = "..."`).

@@ -21,7 +21,7 @@
 //! intensities are not normalised like ours: `validate --rescale` fits one scale factor
 //! (least squares on the unpolarised column) before comparing.
 
-use super::phase::{EntrySelection, PhaseTable};
+use crate::consumers::read::phase::{EntrySelection, PhaseTable};
 use anyhow::{Context, bail};
 use std::fmt::Write as _;
 use std::path::Path;
@@ -128,8 +128,6 @@ pub fn from_table(
     }
     Ok(d)
 }
-
-
 
 /// Result of comparing a reference file against a table.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -251,8 +249,6 @@ pub fn compare(
         secondary_max_deg: both(115.0, 132.0, false),
     })
 }
-
-
 
 /// Read a MiePlot-style file from disk.
 pub fn read_mieplot_file(path: &Path) -> anyhow::Result<MiePlotData> {

@@ -14,9 +14,10 @@
 //!   gaps between cells).
 
 use super::figure::{perr, with_backend};
-use super::phase2d::{Phase2dTable, PhaseSlice, outgoing_direction};
-use super::plot::xyz_colour;
-use super::render::{THETA_STEP_DEG, V3, xyz_along};
+use super::style::xyz_colour;
+use crate::consumers::read::phase2d::{Phase2dTable, PhaseSlice, outgoing_direction};
+use crate::consumers::read::spectrum::{THETA_STEP_DEG, xyz_along};
+use crate::optics::vec3::V3;
 use anyhow::bail;
 use plotters::coord::ReverseCoordTranslate;
 use plotters::coord::types::RangedCoordf64;
@@ -371,9 +372,6 @@ pub fn previews_2d(
     written.push(p);
     Ok(written)
 }
-
-
-
 
 #[cfg(test)]
 mod tests {

@@ -19,8 +19,9 @@
 //! azimuth) is then identical to the table's multilinear lookup formula, with the azimuth taken
 //! as periodic (the axis covers [0, 360) without repeating 360°).
 
-use super::phase::EntrySelection;
-use super::render::{SkyPhase, V3};
+use super::spectrum::SkyPhase;
+use crate::consumers::read::phase::EntrySelection;
+use crate::optics::vec3::V3;
 use crate::optics::vec3::{cross, dot};
 use crate::table::{Table, TableError};
 use anyhow::{Context, bail};
@@ -117,7 +118,7 @@ impl Phase2dTable {
 
     /// Entry values (name, value) for the extra entry axes: requested or the first sample.
     pub fn resolve_entry(&self, sel: &[EntrySelection]) -> anyhow::Result<Vec<(String, f64)>> {
-        super::phase::resolve_entry_axes(
+        crate::consumers::read::phase::resolve_entry_axes(
             &self.table,
             &self.entry_axes,
             sel,

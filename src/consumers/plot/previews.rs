@@ -1,14 +1,129 @@
 //! Default preview figures per table family (schema), used by
-//! [`super::plot::previews`]. Each builder reads the table's stored samples (no interpolation),
+//! [`crate::consumers::plot::tables::previews`]. Each builder reads the table's stored samples (no interpolation),
 //! picks slices where the family's physics happens (e.g. a medulla at mid σ and g, never the
 //! σ = 0 slice, which is all zeros) and returns [`Figure`]s named by a file suffix. What each
 //! figure shows is described in `docs/consumers.md` ("Previews").
 
+use super::figure::draw_figure;
 use super::figure::{ColourScale, Dash, Figure, HeatPanel, Legend, LinePanel, Panel, Series};
-use super::plot::{PALETTE, axis_label, short_number};
+use super::style::{PALETTE, axis_label, short_number};
+use super::tables::{
+    heat_panel_sampled, plot_debye_components, plot_heatmap, plot_lee, plot_line, plot_phase,
+    plot_strip,
+};
+use crate::consumers::read::phase::{EntrySelection, PhaseTable};
 use crate::table::Table;
+use anyhow::anyhow;
 use anyhow::bail;
 use plotters::prelude::*;
+use std::path::{Path, PathBuf};
+
+/// Write the default previews of a table into `out_dir` as `<stem>-<kind>.png`; returns the
+/// files written. Phase tables (by the phase contract) get phase + strip (+ lee); other tables
+/// get the figures of their schema family (`super::previews`); unknown schemas a heatmap of the
+/// last two axes with every other axis at its middle sample (first non-constant channel), or a
+/// line plot when 1-D.
+pub fn previews(table_path: &Path, out_dir: &Path) -> anyhow::Result<Vec<PathBuf>> {
+    std::fs::create_dir_all(out_dir)?;
+    let stem = table_path
+        .file_stem()
+        .and_then(|s| s.to_str())
+        .unwrap_or("table")
+        .to_string();
+    let table = Table::open(table_path).map_err(|e| anyhow!(e))?;
+    let name = |k: &str| out_dir.join(format!("{stem}-{k}.png"));
+    if crate::consumers::read::phase2d::is_2d(&table) {
+        return super::raytrace::previews_2d(table, &stem, out_dir);
+    }
+    let mut written = Vec::new();
+    if let Ok(pt) = PhaseTable::new(table.clone()) {
+        let p = name("phase");
+        // Three wavelengths, unpolarised: Mie ripple makes 8 polarised curves unreadable.
+        plot_phase(&pt, &[], &[450.0, 550.0, 650.0], false, &p, (1000, 600))?;
+        written.push(p);
+        let p = name("strip");
+        plot_strip(&pt, &[], 0.5, (120.0, 145.0), &p, (1000, 160))?;
+        written.push(p);
+        if pt
+            .entry_axes
+            .iter()
+            .any(|&i| pt.table.axes()[i].name == "radius" && pt.table.axes()[i].len() > 1)
+        {
+            let p = name("lee");
+            plot_lee(&pt, &[], 0.5, (120.0, 145.0), &p, (900, 600))?;
+            written.push(p);
+        }
+        if pt.table.channel_index("phase_p2").is_ok() {
+            // Per-order channels (Debye or ray orders): MiePlot's "Mie with its Debye
+            // components" figure at 650 nm.
+            let p = name("orders");
+            plot_debye_components(&pt, &[], 650.0, &p, (1000, 600))?;
+            written.push(p);
+        }
+        return Ok(written);
+    }
+    let view = View::new(&table, &stem);
+    let figures = match table.header.schema.name.as_str() {
+        "fur-medulla-azimuthal" => medulla_azimuthal(&view)?,
+        "fur-medulla-longitudinal" => medulla_longitudinal(&view)?,
+        "fur-farfield" => fur_farfield(&view)?,
+        "hair-dual" => hair_dual(&view)?,
+        "hair-azimuthal" => hair_azimuthal(&view)?,
+        "water-index" => water_index(&view)?,
+        _ => {
+            let p = generic_preview(&table, &name)?;
+            written.push(p);
+            return Ok(written);
+        }
+    };
+    for (kind, fig) in figures {
+        let p = name(kind);
+        draw_figure(&fig, &p).map_err(|e| anyhow!("{}: {e}", p.display()))?;
+        written.push(p);
+    }
+    Ok(written)
+}
+
+/// Preview of a table of unknown schema: heatmap of the last two axes at the middle sample of
+/// every other axis, first channel that is not constant there; line plot for 1-D tables.
+fn generic_preview(table: &Table, name: &dyn Fn(&str) -> PathBuf) -> anyhow::Result<PathBuf> {
+    let axes = table.axes();
+    let n = axes.len();
+    let entry: Vec<EntrySelection> = axes[..n.saturating_sub(if n >= 2 { 2 } else { 1 })]
+        .iter()
+        .map(|a| EntrySelection {
+            axis: a.name.clone(),
+            value: a.coord(a.len() / 2),
+        })
+        .collect();
+    if n < 2 {
+        let p = name("line");
+        plot_line(table, &entry, &p, (1000, 600))?;
+        return Ok(p);
+    }
+    let mut coords: Vec<f64> = axes.iter().map(|a| a.coord(0)).collect();
+    for e in &entry {
+        coords[table.axis_index(&e.axis)?] = e.value;
+    }
+    let mut ch = 0;
+    for c in 0..table.header.channels.len() {
+        let hp = heat_panel_sampled(table, &coords, n - 1, n - 2, c)?;
+        let (lo, hi) = hp.range();
+        if hi > lo {
+            ch = c;
+            break;
+        }
+    }
+    let p = name("heatmap");
+    plot_heatmap(
+        table,
+        &entry,
+        Some(&table.header.channels[ch].name),
+        &p,
+        (1000, 600),
+    )?;
+    Ok(p)
+}
 
 /// A table plus its file stem, with helpers to cut slices out of the stored grid.
 pub struct View<'a> {
@@ -973,7 +1088,7 @@ mod tests {
         let path = dir.path().join("med.sbt");
         write_table_atomic(&mut medulla_like(), &path).unwrap();
         let out = dir.path().join("prev");
-        let written = super::super::plot::previews(&path, &out).unwrap();
+        let written = super::previews(&path, &out).unwrap();
         assert_eq!(
             written,
             vec![out.join("med-profiles.png"), out.join("med-map.png")]

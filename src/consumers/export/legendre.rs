@@ -160,8 +160,6 @@ pub fn truncation_error_from(
     }
 }
 
-
-
 #[cfg(test)]
 mod tests {
     use super::*;

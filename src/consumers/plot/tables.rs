@@ -20,42 +20,17 @@
 //! field, hair Dual Scattering, hair azimuthal, water index), and for other schemas a heatmap
 //! (other axes at their middle sample) or a line plot for 1-D tables.
 
-use super::phase::{EntrySelection, PhaseTable};
-use super::render::{THETA_STEP_DEG, xyz_vs_angle};
-use crate::optics::colour::{cie1931_xyz_bar, srgb_encode, xyz_to_linear_srgb};
+use super::style::{PALETTE, axis_label, short_number, wavelength_colour, xyz_colour};
+use crate::consumers::read::phase::{EntrySelection, PhaseTable};
+use crate::consumers::read::spectrum::{THETA_STEP_DEG, xyz_vs_angle};
 use crate::table::Table;
 use anyhow::{Context, anyhow, bail};
 use plotters::prelude::*;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use super::figure::{
     ColourScale, Dash, Figure, HeatPanel, LinePanel, Panel, Series, draw_figure, perr, with_backend,
 };
-
-/// Display colour of a monochromatic wavelength: CIE 1931 → linear sRGB, desaturated toward
-/// white until in gamut, scaled to a maximum of 1, sRGB-encoded; darkened toward the ends of
-/// the visible range where the eye's response fades.
-pub fn wavelength_colour(wavelength_nm: f64) -> RGBColor {
-    let xyz = cie1931_xyz_bar(wavelength_nm.clamp(380.0, 780.0));
-    let mut rgb = xyz_to_linear_srgb(xyz);
-    let min = rgb.iter().cloned().fold(f64::INFINITY, f64::min);
-    if min < 0.0 {
-        for c in &mut rgb {
-            *c -= min;
-        }
-    }
-    let max = rgb.iter().cloned().fold(0.0, f64::max).max(1e-12);
-    let fade = (xyz[1] / 0.2).clamp(0.35, 1.0);
-    let e = |c: f64| (srgb_encode(c / max * fade) * 255.0).round() as u8;
-    RGBColor(e(rgb[0]), e(rgb[1]), e(rgb[2]))
-}
-
-/// XYZ → 8-bit sRGB colour after scaling by `scale` (clipped).
-pub(crate) fn xyz_colour(xyz: [f64; 3], scale: f64) -> RGBColor {
-    let l = xyz_to_linear_srgb([xyz[0] * scale, xyz[1] * scale, xyz[2] * scale]);
-    let e = |c: f64| (srgb_encode(c) * 255.0).round() as u8;
-    RGBColor(e(l[0]), e(l[1]), e(l[2]))
-}
 
 /// Which wavelengths to draw: the requested ones (nearest), or up to 8 spread over the table.
 fn pick_wavelengths(all: &[f64], wanted: &[f64]) -> Vec<usize> {
@@ -114,7 +89,7 @@ pub fn plot_phase(
     lo = lo.max(hi * 1e-12);
     let title = format!(
         "phase function, {}",
-        super::phase::describe_entry(&pt.table, &c.entry)
+        crate::consumers::read::phase::describe_entry(&pt.table, &c.entry)
     );
     with_backend!(out, size, |root| {
         root.fill(&WHITE).map_err(perr)?;
@@ -203,7 +178,7 @@ pub fn plot_strip(
     let e = pt.resolve_entry(entry)?;
     let title = format!(
         "rainbow colours vs scattering angle (D65 sun, {sun_diameter_deg} deg disc), {}",
-        super::phase::describe_entry(&pt.table, &e)
+        crate::consumers::read::phase::describe_entry(&pt.table, &e)
     );
     with_backend!(out, size, |root| {
         root.fill(&WHITE).map_err(perr)?;
@@ -326,22 +301,6 @@ pub fn plot_lee(
         }
         Ok::<(), anyhow::Error>(())
     })
-}
-
-/// `name (unit)` of an axis, `name` when dimensionless.
-pub fn axis_label(name: &str, unit: &str) -> String {
-    if unit.is_empty() || unit == "1" {
-        name.to_string()
-    } else {
-        format!("{name} ({unit})")
-    }
-}
-
-/// Shortest readable form of a coordinate (up to 4 significant decimals).
-pub fn short_number(v: f64) -> String {
-    let s = format!("{v:.4}");
-    let s = s.trim_end_matches('0').trim_end_matches('.');
-    if s == "-0" { "0".into() } else { s.into() }
 }
 
 /// `a = 1, b = 2 nm` for the axes of `table` at `coords`, except the axes in `skip`.
@@ -511,18 +470,6 @@ pub fn plot_line(
     )
 }
 
-/// Distinguishable line colours.
-pub const PALETTE: [RGBColor; 8] = [
-    RGBColor(31, 119, 180),
-    RGBColor(214, 39, 40),
-    RGBColor(44, 160, 44),
-    RGBColor(148, 103, 189),
-    RGBColor(255, 127, 14),
-    RGBColor(23, 190, 207),
-    RGBColor(140, 86, 75),
-    RGBColor(0, 0, 0),
-];
-
 /// MiePlot's "Mie with its Debye components" figure for a table with per-order channels
 /// `phase_p<k>` (the `debye` stage): at one wavelength (nearest to `wavelength_nm`) and entry,
 /// the coherent sum of the tabulated orders (`phase`, black) and each order alone, log scale.
@@ -597,7 +544,7 @@ pub fn plot_debye_components(
         } else {
             "per-order contributions"
         },
-        super::phase::describe_entry(t, &entry)
+        crate::consumers::read::phase::describe_entry(t, &entry)
     );
     let total_label = if debye {
         "coherent sum of these orders"
@@ -676,117 +623,6 @@ pub fn plot_debye_components(
     })
 }
 
-/// Write the default previews of a table into `out_dir` as `<stem>-<kind>.png`; returns the
-/// files written. Phase tables (by the phase contract) get phase + strip (+ lee); other tables
-/// get the figures of their schema family (`super::previews`); unknown schemas a heatmap of the
-/// last two axes with every other axis at its middle sample (first non-constant channel), or a
-/// line plot when 1-D.
-pub fn previews(table_path: &Path, out_dir: &Path) -> anyhow::Result<Vec<PathBuf>> {
-    std::fs::create_dir_all(out_dir)?;
-    let stem = table_path
-        .file_stem()
-        .and_then(|s| s.to_str())
-        .unwrap_or("table")
-        .to_string();
-    let table = Table::open(table_path).map_err(|e| anyhow!(e))?;
-    let name = |k: &str| out_dir.join(format!("{stem}-{k}.png"));
-    if super::phase2d::is_2d(&table) {
-        return super::plot_raytrace::previews_2d(table, &stem, out_dir);
-    }
-    let mut written = Vec::new();
-    if let Ok(pt) = PhaseTable::new(table.clone()) {
-        let p = name("phase");
-        // Three wavelengths, unpolarised: Mie ripple makes 8 polarised curves unreadable.
-        plot_phase(&pt, &[], &[450.0, 550.0, 650.0], false, &p, (1000, 600))?;
-        written.push(p);
-        let p = name("strip");
-        plot_strip(&pt, &[], 0.5, (120.0, 145.0), &p, (1000, 160))?;
-        written.push(p);
-        if pt
-            .entry_axes
-            .iter()
-            .any(|&i| pt.table.axes()[i].name == "radius" && pt.table.axes()[i].len() > 1)
-        {
-            let p = name("lee");
-            plot_lee(&pt, &[], 0.5, (120.0, 145.0), &p, (900, 600))?;
-            written.push(p);
-        }
-        if pt.table.channel_index("phase_p2").is_ok() {
-            // Per-order channels (Debye or ray orders): MiePlot's "Mie with its Debye
-            // components" figure at 650 nm.
-            let p = name("orders");
-            plot_debye_components(&pt, &[], 650.0, &p, (1000, 600))?;
-            written.push(p);
-        }
-        return Ok(written);
-    }
-    let view = super::previews::View::new(&table, &stem);
-    let figures = match table.header.schema.name.as_str() {
-        "fur-medulla-azimuthal" => super::previews::medulla_azimuthal(&view)?,
-        "fur-medulla-longitudinal" => super::previews::medulla_longitudinal(&view)?,
-        "fur-farfield" => super::previews::fur_farfield(&view)?,
-        "hair-dual" => super::previews::hair_dual(&view)?,
-        "hair-azimuthal" => super::previews::hair_azimuthal(&view)?,
-        "water-index" => super::previews::water_index(&view)?,
-        _ => {
-            let p = generic_preview(&table, &name)?;
-            written.push(p);
-            return Ok(written);
-        }
-    };
-    for (kind, fig) in figures {
-        let p = name(kind);
-        draw_figure(&fig, &p).map_err(|e| anyhow!("{}: {e}", p.display()))?;
-        written.push(p);
-    }
-    Ok(written)
-}
-
-/// Preview of a table of unknown schema: heatmap of the last two axes at the middle sample of
-/// every other axis, first channel that is not constant there; line plot for 1-D tables.
-fn generic_preview(table: &Table, name: &dyn Fn(&str) -> PathBuf) -> anyhow::Result<PathBuf> {
-    let axes = table.axes();
-    let n = axes.len();
-    let entry: Vec<EntrySelection> = axes[..n.saturating_sub(if n >= 2 { 2 } else { 1 })]
-        .iter()
-        .map(|a| EntrySelection {
-            axis: a.name.clone(),
-            value: a.coord(a.len() / 2),
-        })
-        .collect();
-    if n < 2 {
-        let p = name("line");
-        plot_line(table, &entry, &p, (1000, 600))?;
-        return Ok(p);
-    }
-    let mut coords: Vec<f64> = axes.iter().map(|a| a.coord(0)).collect();
-    for e in &entry {
-        coords[table.axis_index(&e.axis)?] = e.value;
-    }
-    let mut ch = 0;
-    for c in 0..table.header.channels.len() {
-        let hp = heat_panel_sampled(table, &coords, n - 1, n - 2, c)?;
-        let (lo, hi) = hp.range();
-        if hi > lo {
-            ch = c;
-            break;
-        }
-    }
-    let p = name("heatmap");
-    plot_heatmap(
-        table,
-        &entry,
-        Some(&table.header.channels[ch].name),
-        &p,
-        (1000, 600),
-    )?;
-    Ok(p)
-}
-
-
-
-
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -805,8 +641,8 @@ mod tests {
     /// refuses a phase table without per-order channels with a message naming them.
     #[test]
     fn debye_components_figure() {
-        let job = crate::stage::plan_from_lines(
-            &crate::debye::stage::DebyeStage,
+        let job = crate::stages::plan_from_lines(
+            &crate::stages::debye::DebyeStage,
             "radii_um = [20.0]\nwavelengths_nm = [650.0]\nangle_step_deg = 0.5\nsun_diameter_deg = 0.0",
         )
         .unwrap();

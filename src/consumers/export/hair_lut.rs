@@ -2,12 +2,11 @@
 //! (`scatterbake hair-lut`, `scatterbake dual-scattering` a.k.a. `hair-json`). Layouts and the
 //! shader lookup formula: `docs/hair.md`. I/O happens only in the `run_*` functions.
 
-use super::dual::DUAL_CHANNELS;
-use super::stage::DUAL_TABLE_CHANNELS;
-use crate::stage::Job;
+use crate::hair::dual::DUAL_CHANNELS;
+
+use crate::stages::hair::DUAL_TABLE_CHANNELS;
 use crate::table::{Table, TableContent};
 use anyhow::{Context, bail, ensure};
-use rayon::prelude::*;
 use serde_json::{Value, json};
 
 /// A `hair-dual` table laid out as an engine texture: `width` = absorption (or colour) samples,
@@ -180,15 +179,6 @@ pub fn dual_csv(t: &TableContent) -> anyhow::Result<String> {
     Ok(s)
 }
 
-/// Run a planned job in memory (rayon over tasks).
-pub fn run_job_in_memory(job: &dyn Job) -> anyhow::Result<TableContent> {
-    let n = job.tasks().len();
-    let chunks: anyhow::Result<Vec<Vec<f32>>> =
-        (0..n).into_par_iter().map(|i| job.run_task(i)).collect();
-    job.assemble(chunks?)
-}
-
-
 pub fn content_of(table: Table) -> TableContent {
     TableContent {
         schema: table.header.schema,
@@ -200,18 +190,11 @@ pub fn content_of(table: Table) -> TableContent {
     }
 }
 
-
-
-
-
-
-
-
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::hair::stage::HairDualParams;
-    use crate::hair::stage::HairDualJob;
+    use crate::stages::hair::HairDualJob;
+    use crate::stages::hair::HairDualParams;
 
     fn params(toml_src: &str) -> HairDualParams {
         toml::from_str(toml_src).unwrap()
@@ -223,7 +206,7 @@ mod tests {
             "roughness_deg = [4.0, 9.0]\nabsorption_count = 6\ntheta_count = 7",
         ))
         .unwrap();
-        let t = run_job_in_memory(&job).unwrap();
+        let t = crate::stages::run_in_memory(&job).unwrap();
         let layout = dual_lut_layout(&t).unwrap();
         assert_eq!((layout.width, layout.height), (6, 14));
         let dir = tempfile::tempdir().unwrap();
@@ -245,5 +228,4 @@ mod tests {
         let cell = ((6 + 3) * 7 + 5) * DUAL_TABLE_CHANNELS + 6;
         assert_eq!(tex, t.data[cell]);
     }
-
 }

@@ -28,8 +28,8 @@
 //!   `scatterbake_log10_max` (with `scatterbake_encoding = log10`). Step: 8/65535 decades
 //!   = 0.028 % relative.
 
-use super::phase::{EntrySelection, PhaseTable};
-use super::render::{THETA_STEP_DEG, xyz_vs_angle};
+use crate::consumers::read::phase::{EntrySelection, PhaseTable};
+use crate::consumers::read::spectrum::{THETA_STEP_DEG, xyz_vs_angle};
 use crate::optics::colour::xyz_to_linear_srgb;
 use crate::table::{Axis, Channel, Provenance, Schema, Table, TableContent};
 
@@ -116,8 +116,6 @@ pub fn rgb_lut(
         .collect())
 }
 
-
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -170,7 +168,12 @@ mod tests {
         let t = lut_table(&lut, "x.sbt", "radius=1 um").unwrap();
         let d = tempfile::tempdir().unwrap();
         let path = d.path().join("lut.exr");
-        crate::export::export(&t, crate::export::GenericFormat::Exr, &path).unwrap();
+        crate::consumers::export::generic::export(
+            &t,
+            crate::consumers::export::generic::GenericFormat::Exr,
+            &path,
+        )
+        .unwrap();
         let img = exr::prelude::read_all_flat_layers_from_file(&path).unwrap();
         let layer = &img.layer_data[0];
         assert_eq!(layer.size.0, 181);
@@ -184,5 +187,4 @@ mod tests {
             assert_eq!(v, lut[k][0] as f32);
         }
     }
-
 }

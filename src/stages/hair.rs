@@ -1,11 +1,11 @@
 //! Stages `hair-dual` (Dual Scattering averages, schema `hair-dual/1`) and `hair-azimuthal`
 //! (azimuthal functions `N_p(θ, φ)`, schema `hair-azimuthal/1`). See `docs/hair.md`.
 
-use super::artist::{ArtistModel, ArtistParams};
-use super::dual::{DUAL_CHANNELS, HQuadrature, LobeShape, PhysicalFiber, combine};
-use super::fiber::{FiberSlice, FresnelModel, LOBE_NAMES, LOBES};
-use super::melanin::{sigma_a_from_absorption_u, sigma_a_from_melanin};
-use crate::stage::{Job, ParamDoc, PlanError, Stage, TaskSpec, parse_params};
+use crate::hair::artist::{ArtistModel, ArtistParams};
+use crate::hair::dual::{DUAL_CHANNELS, HQuadrature, LobeShape, PhysicalFiber, combine};
+use crate::hair::fiber::{FiberSlice, FresnelModel, LOBE_NAMES, LOBES};
+use crate::hair::melanin::{sigma_a_from_absorption_u, sigma_a_from_melanin};
+use crate::stages::{Job, ParamDoc, PlanError, Stage, TaskSpec, parse_params};
 use crate::table::{Axis, Channel, Schema, TableContent};
 use serde::{Deserialize, Serialize};
 use serde_json::{Map, Value, json};
@@ -853,7 +853,7 @@ impl HairAzimuthalJob {
     }
     fn row(&self, theta_rad: f64, panel_scale: f64) -> Vec<f64> {
         let w = self.params.azimuthal_width_deg.to_radians();
-        let quad = super::fiber::OffsetQuadrature::new(
+        let quad = crate::hair::fiber::OffsetQuadrature::new(
             (0.05f64).min(0.5 * w) / panel_scale,
             self.params.quadrature_order,
             &[],
@@ -1102,7 +1102,7 @@ mod manifest_tests {
 }
 
 /// Build every table of the default manifest in memory and print time and quadrature figures.
-/// Run: `cargo test --release --lib hair::stage::manifest_report -- --ignored --nocapture`.
+/// Run: `cargo test --release --lib stages::hair::manifest_report -- --ignored --nocapture`.
 #[cfg(test)]
 mod manifest_report {
     use super::*;
@@ -1125,7 +1125,7 @@ mod manifest_report {
                 .plan(toml::de::ValueDeserializer::parse(&inline).unwrap())
                 .unwrap();
             let t0 = std::time::Instant::now();
-            let t = crate::hair::export::run_job_in_memory(job.as_ref()).unwrap();
+            let t = crate::stages::run_in_memory(job.as_ref()).unwrap();
             println!(
                 "{}: {} values in {:.2} s; quadrature {}",
                 entry["name"].as_str().unwrap(),

@@ -37,11 +37,14 @@
 //! `fov_deg` across the width) — the thesis does not say which fisheye mapping; we choose the
 //! equidistant one because bow radii can then be read off linearly.
 
-use super::phase::{EntrySelection, PhaseTable};
+use crate::consumers::read::phase::{EntrySelection, PhaseTable};
+use crate::consumers::read::spectrum::{
+    THETA_STEP_DEG, disc_average_spectrum, disc_samples, xyz_along, xyz_vs_angle,
+};
 use crate::optics::colour::{
     Illuminant1931, SpectralWeights, linear_srgb_luminance, srgb_encode, xyz_to_linear_srgb,
 };
-use crate::optics::vec3::{cross, dot};
+use crate::optics::vec3::{V3, dot, normalize};
 use rayon::prelude::*;
 
 /// Camera lens model.
@@ -79,13 +82,6 @@ pub struct Camera {
     pub view_elevation_deg: f64,
 }
 
-/// A 3-D vector (world frame: z up, sun at azimuth 0 in the +x half).
-pub type V3 = [f64; 3];
-fn norm(a: V3) -> V3 {
-    let l = dot(a, a).sqrt();
-    [a[0] / l, a[1] / l, a[2] / l]
-}
-
 impl Camera {
     fn basis(&self) -> (V3, V3, V3) {
         let p = self.view_elevation_deg.to_radians();
@@ -96,7 +92,7 @@ impl Camera {
             r[2] * f[0] - r[0] * f[2],
             r[0] * f[1] - r[1] * f[0],
         ];
-        (f, r, norm(u))
+        (f, r, normalize(u))
     }
 
     /// World direction through the centre of pixel (i, j) (j = 0 at the top), or `None` outside
@@ -110,7 +106,7 @@ impl Camera {
         match self.lens {
             Lens::Rectilinear => {
                 let t = half.tan();
-                Some(norm([
+                Some(normalize([
                     f[0] + t * (x * r[0] + y * u[0]),
                     f[1] + t * (x * r[1] + y * u[1]),
                     f[2] + t * (x * r[2] + y * u[2]),
@@ -211,123 +207,6 @@ impl Scene {
     }
 }
 
-/// Spacing of the precomputed Θ grid (deg).
-pub const THETA_STEP_DEG: f64 = 0.01;
-
-/// A phase function as the renderer sees it: light of every table wavelength propagating along
-/// `inc` (unit vector, world frame) scattered into the unit direction `out`. The 1-D tables
-/// depend only on the angle between them; the ray tracer's 2-D tables
-/// ([`super::phase2d::PhaseSlice`]) on the full direction in the drop frame.
-pub trait SkyPhase: Sync {
-    fn wavelengths_nm(&self) -> &[f64];
-    /// Add p_k(inc → out) (1/sr) for every wavelength k to `spec[k]`.
-    fn add_phase(&self, inc: V3, out: V3, spec: &mut [f64]);
-}
-
-/// A 1-D phase function (phase contract) at one entry.
-struct Curves1d(super::phase::PhaseCurves);
-
-impl SkyPhase for Curves1d {
-    fn wavelengths_nm(&self) -> &[f64] {
-        &self.0.wavelengths_nm
-    }
-    fn add_phase(&self, inc: V3, out: V3, spec: &mut [f64]) {
-        let th = dot(inc, out).clamp(-1.0, 1.0).acos().to_degrees();
-        // All wavelengths share the angle grid: locate once, interpolate each.
-        let (j, t) = self.0.locate_angle(th);
-        for (s, p) in spec.iter_mut().zip(&self.0.phase) {
-            *s += p[j] * (1.0 - t) + p[j + 1] * t;
-        }
-    }
-}
-
-/// Sun-disc samples `[sin β, cos β, cos ψ, sin ψ]`: uniform in solid angle within the angular
-/// radius α (cos β uniform on [cos α, 1]), stratified in 16 rings × 16 azimuths with rotated
-/// offsets; one sample at the centre for a point sun.
-pub fn disc_samples(sun_diameter_deg: f64) -> Vec<[f64; 4]> {
-    let alpha = 0.5 * sun_diameter_deg.to_radians();
-    let (nr, na) = if alpha > 0.0 { (16, 16) } else { (1, 1) };
-    let mut disc = Vec::with_capacity(nr * na);
-    for a in 0..nr {
-        let u = (a as f64 + 0.5) / nr as f64;
-        let beta = (1.0 - u * (1.0 - alpha.cos())).acos();
-        for b in 0..na {
-            let psi =
-                2.0 * std::f64::consts::PI * (b as f64 + 0.5 + 0.5 * (a % 2) as f64) / na as f64;
-            disc.push([beta.sin(), beta.cos(), psi.cos(), psi.sin()]);
-        }
-    }
-    disc
-}
-
-/// The sun-disc average of the spectral phase function for a view ray `view` (unit, pointing
-/// away from the camera) and the sun centre `sun` (unit, toward the sun): the mean over the
-/// disc samples s′ of p(−s′ → −view), written into `spec` (one value per wavelength).
-pub fn disc_average_spectrum(
-    phase: &dyn SkyPhase,
-    sun: V3,
-    view: V3,
-    disc: &[[f64; 4]],
-    spec: &mut [f64],
-) {
-    spec.iter_mut().for_each(|s| *s = 0.0);
-    // Orthonormal a, b ⊥ sun.
-    let helper = if sun[0].abs() < 0.9 {
-        [1.0, 0.0, 0.0]
-    } else {
-        [0.0, 1.0, 0.0]
-    };
-    let a = norm(cross(helper, sun));
-    let b = cross(sun, a);
-    let out = [-view[0], -view[1], -view[2]];
-    for &[sb, cb, cp, sp] in disc {
-        let inc = [0, 1, 2].map(|c| -(cb * sun[c] + sb * (cp * a[c] + sp * b[c])));
-        phase.add_phase(inc, out, spec);
-    }
-    let n = disc.len() as f64;
-    spec.iter_mut().for_each(|s| *s /= n);
-}
-
-/// XYZ (per unit sun irradiance, D65 sun, sun disc averaged) for each view direction.
-pub fn xyz_along(
-    phase: &dyn SkyPhase,
-    sun: V3,
-    views: &[V3],
-    sun_diameter_deg: f64,
-) -> Vec<[f64; 3]> {
-    let sw = SpectralWeights::new(phase.wavelengths_nm(), Illuminant1931::D65);
-    let disc = disc_samples(sun_diameter_deg);
-    views
-        .par_iter()
-        .map_init(
-            || vec![0.0; phase.wavelengths_nm().len()],
-            |spec, &v| {
-                disc_average_spectrum(phase, sun, v, &disc, spec);
-                sw.xyz(spec)
-            },
-        )
-        .collect()
-}
-
-/// XYZ (per unit sun irradiance, D65 sun, sun disc averaged) as a function of the angle Θ
-/// between view direction and sun centre, on a grid of [`THETA_STEP_DEG`] over [0, 180].
-pub fn xyz_vs_angle(
-    pt: &PhaseTable,
-    entry: &[EntrySelection],
-    sun_diameter_deg: f64,
-) -> anyhow::Result<Vec<[f64; 3]>> {
-    let c = Curves1d(pt.curves(entry)?);
-    let n = (180.0 / THETA_STEP_DEG).round() as usize + 1;
-    // Sun at the pole, view rays at angle Θ from it: the average depends on Θ only.
-    let views: Vec<V3> = (0..n)
-        .map(|i| {
-            let (s, c) = (i as f64 * THETA_STEP_DEG).to_radians().sin_cos();
-            [s, 0.0, c]
-        })
-        .collect();
-    Ok(xyz_along(&c, [0.0, 0.0, 1.0], &views, sun_diameter_deg))
-}
-
 /// A rendered image: linear sRGB (before exposure) per pixel, row-major from the top-left.
 pub struct Rendered {
     pub camera: Camera,
@@ -386,7 +265,7 @@ pub fn render(
 /// elevation, which must equal `scene.sun_elevation_deg`): the disc average is evaluated per
 /// pixel with the same disc samples and spectral weights as the 1-D path.
 pub fn render_2d(
-    slice: &super::phase2d::PhaseSlice,
+    slice: &crate::consumers::read::phase2d::PhaseSlice,
     scene: &Scene,
     camera: &Camera,
 ) -> anyhow::Result<Rendered> {
@@ -411,7 +290,7 @@ pub fn render_2d(
 /// the antisolar point (the image's centre column): radius (deg from the antisolar point) in
 /// `[lo, hi]` above the antisolar point — what the image measurement should reproduce.
 pub fn table_bow_radius_2d(
-    slice: &super::phase2d::PhaseSlice,
+    slice: &crate::consumers::read::phase2d::PhaseSlice,
     sun_diameter_deg: f64,
     lo_deg: f64,
     hi_deg: f64,
@@ -465,24 +344,6 @@ pub fn to_srgb8(img: &[[f64; 3]], exposure: f64, intensity: f64, background: [u8
             })
         })
         .collect()
-}
-
-/// Write 8-bit RGB as PNG.
-pub fn write_png(
-    path: &std::path::Path,
-    width: usize,
-    height: usize,
-    rgb: &[u8],
-) -> anyhow::Result<()> {
-    let f = std::io::BufWriter::new(std::fs::File::create(path)?);
-    let mut enc = png::Encoder::new(f, width as u32, height as u32);
-    enc.set_color(png::ColorType::Rgb);
-    enc.set_depth(png::BitDepth::Eight);
-    enc.set_source_srgb(png::SrgbRenderingIntent::Perceptual);
-    let mut w = enc.write_header()?;
-    w.write_image_data(rgb)?;
-    w.finish()?;
-    Ok(())
 }
 
 /// Bow measurement along the image column through the antisolar point (fisheye only, where
@@ -626,9 +487,6 @@ pub fn table_bow_radius(xyz: &[[f64; 3]], lo_deg: f64, hi_deg: f64) -> f64 {
     best.1
 }
 
-
-
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -749,8 +607,8 @@ mod tests {
         peak_table(&wl, |l| 139.4 - 1.8 * (l - 400.0) / 300.0, 0.25, 1e-3, 3601)
     }
 
-    fn slice_of(t: crate::table::Table, e: f64) -> crate::consumers::phase2d::PhaseSlice {
-        let t2 = crate::consumers::phase2d::Phase2dTable::new(t).unwrap();
+    fn slice_of(t: crate::table::Table, e: f64) -> crate::consumers::read::phase2d::PhaseSlice {
+        let t2 = crate::consumers::read::phase2d::Phase2dTable::new(t).unwrap();
         t2.slice(t2.resolve_elevation(Some(e)).unwrap(), &[], "phase")
             .unwrap()
     }
@@ -801,7 +659,7 @@ mod tests {
             10.0,
             |_, _| 1.0,
         );
-        let t3 = crate::consumers::phase2d::Phase2dTable::new(t3).unwrap();
+        let t3 = crate::consumers::read::phase2d::Phase2dTable::new(t3).unwrap();
         let err = t3.resolve_elevation(Some(25.0)).unwrap_err().to_string();
         assert!(err.contains("[0, 10]"), "{err}");
         assert_eq!(t3.resolve_elevation(None).unwrap(), 0.0);
@@ -809,7 +667,7 @@ mod tests {
 
     #[test]
     fn azimuth_dependent_table_maps_to_the_sky_as_documented() {
-        use crate::consumers::phase2d::table_angles;
+        use crate::consumers::read::phase2d::table_angles;
         let (sc, cam) = (horizon_scene(0.0), horizon_cam());
         let t1 = dispersive_1d();
         let r1 = render(&PhaseTable::new(t1.clone()).unwrap(), &[], &sc, &cam).unwrap();

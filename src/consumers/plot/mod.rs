@@ -1,0 +1,7 @@
+//! Figures of tables (`scatterbake plot`, `plot-raytrace`, and the previews of a build).
+
+pub mod figure;
+pub mod previews;
+pub mod raytrace;
+pub mod style;
+pub mod tables;

@@ -1,0 +1,3 @@
+//! Reference renderers that read tables through the public API.
+
+pub mod rainbow;
