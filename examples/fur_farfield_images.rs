@@ -2,7 +2,7 @@
 //! `cargo run --release -- build manifests/fur-farfield.toml --out /tmp/ff`, then
 //! `cargo run --release --example fur_farfield_images -- /tmp/ff/fur-farfield.sbt docs/images/fur -40`
 //! One PNG per sample at the given θ_i: the `energy` channel over θ_r ∈ [−80°, 80°] × φ, floored
-//! at 1e-3 of the image maximum so that the helper's log10 colour map spans three decades.
+//! at 1e-3 of the image maximum so that `plot_heatmap`'s log10 colour map spans three decades.
 //! Also prints per-sample component energies and forward-window figures.
 use scatterbake::consumers::plot::tables::plot_heatmap;
 use scatterbake::table::{Axis, Channel, Provenance, Schema, Table, TableContent};

@@ -166,7 +166,7 @@ fn strongly_absorbing_sphere_is_p0() {
     );
 }
 
-/// Energy shares of p = 0..3 against geometric optics (digest §6: n = 1.333, p=0 6.64 %,
+/// Energy shares of p = 0..3 against geometric optics (n = 1.333, p=0 6.64 %,
 /// p=1 88.37 %, p=2 4.06 %, p=3 0.61 % of the silhouette flux). The Debye p = 0 term holds
 /// diffraction (efficiency 1) and reflection; reflection alone is compared through the
 /// `−½R22` coefficients of the partial waves that hit the sphere, `n + ½ ≤ x`.
@@ -249,7 +249,7 @@ pub fn local_maxima(angles: &[f64], v: &[f64]) -> Vec<f64> {
     out
 }
 
-/// Maxima of the full Mie ⊥ intensity (smoothed by the digest's Gaussian σ = 0.04° to remove
+/// Maxima of the full Mie ⊥ intensity (smoothed by a Gaussian of σ = 0.04° to remove
 /// the p = 0/p = 2 ripple) vs the p = 2 term alone, 0.4 mm at 650 nm, n = 1.331.
 #[test]
 fn primary_bow_p2_vs_mie() {
@@ -270,11 +270,11 @@ fn primary_bow_p2_vs_mie() {
         &pd[..4],
         &pm[..pm.len().min(4)]
     );
-    // digest §5 (miepython, same smoothing): 138.03, 138.91, 139.53, 140.05
+    // miepython 3.3.0 (same smoothing): 138.03, 138.91, 139.53, 140.05
     for (k, v) in [138.03, 138.91, 139.53, 140.05].iter().enumerate() {
         assert!(
             (pm[k] - v).abs() < 0.015,
-            "Mie max {k}: {} vs digest {v}",
+            "Mie max {k}: {} vs miepython {v}",
             pm[k]
         );
         assert!(
@@ -376,7 +376,7 @@ fn write_components_csv() {
         "# Mie and Debye components p=0..3, radius 100 um, 650 nm, n = {n} (IAPWS R9-97, 20 C), x = {x}; phase functions s11/(pi x^2 Q_sca) of the full sphere (1/sr), point values\n"
     );
     std::fs::write(path, header + &c.to_csv()).unwrap();
-    // the primary bow of p = 2 sits near the Mie primary (digest: 100 µm primary ≈ 138.6° at 650 nm)
+    // the primary bow of p = 2 sits near the Mie primary (100 µm primary ≈ 138.6° at 650 nm)
     let k2 = (2000..3000)
         .max_by(|&a, &b| c.components[2][a].total_cmp(&c.components[2][b]))
         .unwrap();
@@ -434,10 +434,10 @@ fn default_manifest_runs() {
 }
 
 /// The p = 3 term near the secondary bow, 0.4 mm at 650 nm, n = 1.331: its ⊥ maxima against the
-/// digest's smoothed-Mie secondary (§5: main ≈ 128.9°, supernumeraries 127.35°, 126.28°,
-/// 125.27°, miepython).
+/// smoothed-Mie secondary of miepython 3.3.0 (main ≈ 128.9°, supernumeraries 127.35°, 126.28°,
+/// 125.27°).
 #[test]
-fn secondary_bow_p3_vs_digest_mie() {
+fn secondary_bow_p3_vs_smoothed_mie() {
     let x = scatterbake::mie::size_parameter(400.0, 650.0);
     let d = DebyeCoefficients::new(x, Complex64::new(1.331, 0.0)).unwrap();
     let angles: Vec<f64> = (0..=5000).map(|k| 124.5 + k as f64 * 0.001).collect();

@@ -1,6 +1,6 @@
 //! Lorenz–Mie against independent references: arbitrary-precision values (mpmath, 40 digits;
-//! `tests/data/mie_*.json`, from the project's reference set), the `scatrs` crate, and the
-//! rainbow digest's miepython figures.
+//! `tests/data/mie_*.json`, from the project's reference set), the `scatrs` crate, and
+//! rainbow maxima computed independently with miepython 3.3.0.
 //!
 //! Fast tests run by default; the x = 25000 reference and the scatrs grid up to 2e4 are
 //! `#[ignore]`d: `cargo test --release --test mie_reference -- --ignored --nocapture`.
@@ -223,12 +223,12 @@ fn convergence_and_energy_beyond_scatrs() {
     }
 }
 
-/// Digest §5 (miepython, Table 3.2 index n = 1.331): 0.4 mm at 650 nm has Q_sca = 2.0077,
+/// miepython 3.3.0 (Table 3.2 index n = 1.331): 0.4 mm at 650 nm has Q_sca = 2.0077,
 /// g = 0.8837, and after a Gaussian of σ = 0.04° the perpendicular component peaks at 138.03°
 /// (primary) with supernumeraries at 138.91° and 139.53°, and the secondary near 128.9°;
 /// there p = 0.087 sr⁻¹ and DoLP = 0.92; Alexander's band (130–136°) has mean p 1.1e-3.
 #[test]
-fn digest_rainbow_maxima_0_4mm_650nm() {
+fn miepython_rainbow_maxima_0_4mm_650nm() {
     let x = scatterbake::mie::size_parameter(400.0, 650.0);
     let s = Sphere::new(x, Complex64::new(1.331, 0.0)).unwrap();
     assert!(
@@ -266,7 +266,7 @@ fn digest_rainbow_maxima_0_4mm_650nm() {
         "primary {primary:.3}°, supernumeraries {sup1:.3}°, {sup2:.3}°, secondary {secondary:.3}°"
     );
     assert!((primary - 138.03).abs() <= 0.02, "primary {primary}");
-    // digest: p_unpol at the main maximum 0.087 sr⁻¹, DoLP 0.92, Alexander band mean p 1.1e-3
+    // miepython: p_unpol at the main maximum 0.087 sr⁻¹, DoLP 0.92, Alexander band mean p 1.1e-3
     let k = ((primary - 120.0) / step).round() as usize;
     let norm = s.phase_normalisation();
     let p_max = 0.5 * (smooth[k] + smooth_par[k]) / norm;

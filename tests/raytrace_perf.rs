@@ -47,8 +47,8 @@ fn thesis_resolution_timing() {
     }
 }
 
-/// The seed's full configuration for one wavelength: 3000² rays onto 14401 × 1800 directions
-/// (needs ≈ 3.3 GB of accumulators): `cargo test --release --test raytrace_perf full -- --ignored --nocapture`.
+/// The full configuration of Sadeghi 2012 for one wavelength: 3000² rays onto 14401 × 1800
+/// directions (needs ≈ 3.3 GB of accumulators): `cargo test --release --test raytrace_perf full -- --ignored --nocapture`.
 #[test]
 #[ignore]
 fn full_thesis_grid_one_wavelength() {
@@ -73,7 +73,7 @@ fn full_thesis_grid_one_wavelength() {
         let f = pool.install(|| trace_fields(&shape, &cfg, grid));
         let el = t.elapsed().as_secs_f64();
         println!(
-            "sphere 0.4 mm: 3000² rays, 14401 × 1800 directions, {threads} thread(s): {el:.1} s; ×33 wavelengths = {:.1} min; seed 350 min → ratio {:.1}",
+            "sphere 0.4 mm: 3000² rays, 14401 × 1800 directions, {threads} thread(s): {el:.1} s; ×33 wavelengths = {:.1} min; thesis 350 min → ratio {:.1}",
             33.0 * el / 60.0,
             350.0 * 60.0 / (33.0 * el)
         );

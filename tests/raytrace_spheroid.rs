@@ -101,7 +101,7 @@ fn traced_primary_max_deg(shape: &DropShape, n: f64) -> (f64, f64) {
 #[test]
 fn oblate_spheroid_bow_in_the_vertical_plane_matches_the_ellipse_descartes_angle() {
     let n = 1.331;
-    let q = 0.927; // axis ratio of a 1 mm Beard–Chuang drop (digest §4)
+    let q = 0.927; // axis ratio of a 1 mm Beard–Chuang drop (Beard & Chuang 1987)
     let geo_sphere = ellipse_primary_bow_deg(1.0, n);
     assert!(
         (geo_sphere - 137.63).abs() < 0.01,

@@ -1,6 +1,6 @@
 //! Validation of the ray tracer against independent references: the scatrs Lorenz–Mie code
-//! (dev-dependency, an independent implementation), the design digest's own Mie numbers
-//! (miepython 3.3.0, digest §5) and the 1-D geometric-optics-plus-phase path.
+//! (dev-dependency, an independent implementation), reference maxima computed independently
+//! with miepython 3.3.0, and the 1-D geometric-optics-plus-phase path.
 //!
 //! The slow report (`cargo test --test raytrace_validation -- --ignored --nocapture`) prints
 //! the accuracy figures quoted in docs/raytrace.md.
@@ -88,7 +88,7 @@ fn go_iperp(go: &SphereGo, angles: &[f64]) -> Vec<f64> {
     ch[5 + go.max_order + 1].clone() // i_perp_unfiltered
 }
 
-/// Digest §5 (miepython) and scatrs agree: 0.4 mm, 650 nm, n = 1.331 (Table 3.2): primary main
+/// miepython 3.3.0 and scatrs agree: 0.4 mm, 650 nm, n = 1.331 (Table 3.2): primary main
 /// maximum 138.03°, supernumeraries 138.91, 139.53, 140.05, 140.52°; Q_sca = 2.0077. The 1-D
 /// GO+phase path reproduces the supernumeraries of scatrs within 0.02°.
 #[test]
@@ -100,9 +100,9 @@ fn sphere_1d_matches_scatrs_mie_at_0_4_mm() {
     assert!((q - 2.0077).abs() < 5e-4, "Q_sca {q}");
     let sig = 0.04 / step;
     let mie_max = maxima(&ang, &smooth(&mp, sig), 137.0, 141.0);
-    let digest = [138.03, 138.91, 139.53, 140.05, 140.52];
-    for (m, d) in mie_max.iter().zip(digest) {
-        assert!((m - d).abs() < 0.011, "scatrs {m} vs digest {d}");
+    let miepython = [138.03, 138.91, 139.53, 140.05, 140.52];
+    for (m, d) in mie_max.iter().zip(miepython) {
+        assert!((m - d).abs() < 0.011, "scatrs {m} vs miepython {d}");
     }
     let go = SphereGo::new(a, lambda, n, 3);
     let gp = go_iperp(&go, &ang);
@@ -114,7 +114,7 @@ fn sphere_1d_matches_scatrs_mie_at_0_4_mm() {
     assert!(go_max.len() >= 4);
 }
 
-/// Secondary-bow supernumeraries: digest §5 Mie (0.4 mm, 650 nm) 127.35, 126.28, 125.27°.
+/// Secondary-bow supernumeraries: miepython (0.4 mm, 650 nm) 127.35, 126.28, 125.27°.
 #[test]
 fn sphere_1d_secondary_supernumeraries_match_mie() {
     let (a, lambda, n) = (400.0, 650.0, 1.331);
@@ -136,7 +136,7 @@ fn sphere_1d_secondary_supernumeraries_match_mie() {
             .copied()
             .min_by(|x, y| (x - want).abs().total_cmp(&(y - want).abs()))
             .unwrap();
-        assert!((m - want).abs() < 0.05, "Mie {m} vs digest {want}");
+        assert!((m - want).abs() < 0.05, "Mie {m} vs miepython {want}");
         assert!((g - m).abs() < 0.05, "GO {g} vs Mie {m}");
     }
 }
@@ -602,7 +602,7 @@ fn stage_vs_mie_opts(a_mm: f64, opts: Phase1dOptions) -> StageVsMie {
     let (ch, _) = sphere_phase_1d(&go, &ang, opts);
     let (mp, mpar, _) = mie(a, lambda, n, &ang);
     let mphase: Vec<f64> = mp.iter().zip(&mpar).map(|(x, y)| 0.5 * (x + y)).collect();
-    // Fine cross-order ripple removed from Mie as in the digest: σ = 0.04°·(0.4 mm/a).
+    // Fine cross-order ripple removed from Mie as in the miepython reference: σ = 0.04°·(0.4 mm/a).
     let sig = 0.04 * (0.4 / a_mm) / step;
     let mie_s = smooth(&mp, sig);
     let go_u = smooth(&ch[5 + go.max_order + 1], sig);
@@ -784,8 +784,9 @@ fn report_curves() {
 }
 
 /// Reciprocity for an oriented Beard–Chuang drop, p(ω_in → ω_out) = p(−ω_out → −ω_in)
-/// (digest §7 [A]). In the vertical plane, sun elevation e with the outgoing ray rising at
-/// elevation e' is the reverse of sun elevation e' with the outgoing ray rising at e; both have
+/// (decision RT-22 in docs/decisions.md: the form of reciprocity that holds for oriented drops).
+/// In the vertical plane, sun elevation e with the outgoing ray rising at elevation e' is the
+/// reverse of sun elevation e' with the outgoing ray rising at e; both have
 /// polar angle θ = 180° − |e − e'| and azimuths 0° (first; the ray rises relative to e1) and
 /// 180° (second). Here e = 0°,
 /// e' = 40° → θ = 140°, inside the primary bow. Compared as means over θ ∈ [139°, 141°] (patch

@@ -1,6 +1,6 @@
-//! Order-by-order validation of the ray tracer against the Debye series (issue 8 item 4,
-//! issue 4): the Debye term `p` of the Lorenz–Mie solution is the exact wave-optics field of the
-//! rays that cross the sphere `p` times, so each ray-traced order must match it on its own.
+//! Order-by-order validation of the ray tracer against the Debye series: the Debye term `p` of
+//! the Lorenz–Mie solution is the exact wave-optics field of the rays that cross the sphere `p`
+//! times, so each ray-traced order must match it on its own.
 //!
 //! Conventions shared by both sides (stated once, used everywhere below):
 //! - water index from the same model on both sides: `sadeghi-table-3.2` at 650 nm (n = 1.331);

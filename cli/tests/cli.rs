@@ -335,9 +335,9 @@ fn sharded_build_assembles_and_matches_unsharded() {
     );
 }
 
-/// `scatterbake dual-scattering` (issue 5's command line): `--absorption R,G,B` in the issue's
-/// comma form; the lossless fibre conserves energy per θ (ā_f + ā_b = 1, an identity of the
-/// model, not of the CLI); a wrong value count is a clean error.
+/// `scatterbake dual-scattering`: `--absorption R,G,B` in comma form; the lossless fibre
+/// conserves energy per θ (ā_f + ā_b = 1, an identity of the model, not of the CLI); a wrong
+/// value count is a clean error.
 #[test]
 fn dual_scattering_command_line() {
     let d = tempfile::tempdir().unwrap();

@@ -140,8 +140,9 @@ pub const AIRY_MAXIMA_Z: [f64; 5] = [
 mod tests {
     use super::*;
 
-    /// Rainbow angles against the digest's geometric values (η = 1.3314 → 137.69°, η = 1.3445
-    /// → 139.57° primary; 129.53°/126.14° secondary) and Descartes' formula.
+    /// Rainbow angles for the two indices quoted by Sadeghi 2012 (η = 1.3314 and 1.3445; the
+    /// thesis gives 137.7°/139.6° primary, 129.5°/126.1° secondary), against two-decimal values
+    /// computed independently (137.69°, 139.57°; 129.53°, 126.14°) and Descartes' formula.
     #[test]
     fn geometric_rainbow_angles() {
         let cases = [

@@ -1,5 +1,5 @@
 //! Chief-ray geometry of the coaxial (double) cylinder in the azimuthal cross-section
-//! (Tseng 2015 §5, digest §4.2–4.3): exit azimuths Φ_p(h) and chord lengths of the unscattered
+//! (Tseng 2015 §5; Yan et al. 2015): exit azimuths Φ_p(h) and chord lengths of the unscattered
 //! paths. A building block of the far-field fur profiles ([`super::farfield`]).
 //!
 //! Fiber radius 1, medulla radius `kappa`, cortex index `eta_c`, medulla index `eta_m`, ray
@@ -56,7 +56,8 @@ impl CoaxialFiber {
         }
     }
 
-    /// Exit azimuth Φ_p(h) (closed forms of digest §4.3); `None` when the path does not exist.
+    /// Exit azimuth Φ_p(h) in closed form (sum of the deviations Γ of the path's events at the
+    /// cuticle and medulla interfaces); `None` when the path does not exist.
     pub fn exit_azimuth(&self, path: Path, h: f64) -> Option<f64> {
         if !self.exists(path, h) {
             return None;
@@ -108,8 +109,8 @@ mod tests {
     };
 
     #[test]
-    fn digest_test_vectors() {
-        // Digest §4.3 (η_c = 1.43, η_m = 1.35, κ = 0.5).
+    fn closed_form_reference_vectors() {
+        // Independent evaluation of the closed forms (η_c = 1.43, η_m = 1.35, κ = 0.5).
         for (p, h, phi) in [
             (Path::TT, 0.8, 2.474424),
             (Path::TRT, 0.8, 0.520252),
@@ -123,7 +124,7 @@ mod tests {
             let got = FIBER.exit_azimuth(p, h).unwrap();
             assert!((got - phi).abs() < 2e-6, "{p:?} h={h}: {got} vs {phi}");
         }
-        // The digest's lengths carry ~2e-5 rounding (e.g. L_m(0.25) = 2·sqrt(0.25 − (0.25/1.35)²)
+        // The reference lengths carry ~2e-5 rounding (e.g. L_m(0.25) = 2·sqrt(0.25 − (0.25/1.35)²)
         // = 0.928884 exactly, printed 0.92890).
         assert!((FIBER.cortex_pass(0.25) - 0.51615).abs() < 3e-5);
         assert!((FIBER.medulla_chord(0.25) - 0.92890).abs() < 3e-5);

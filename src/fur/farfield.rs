@@ -1,5 +1,5 @@
 //! Far-field fur scattering profiles of the practical shading model (Tseng 2015 ch. 5 and
-//! App. A; digest `seed-fur-medulla.md` §4): unscattered Gaussian lobes of the eight chief-ray
+//! App. A; Yan et al. 2015): unscattered Gaussian lobes of the eight chief-ray
 //! paths of the coaxial cylinder plus the medulla-scattered lobes looked up from medulla
 //! profiles computed on the fly with [`super::medulla::simulate`], averaged over the fibre width.
 //!
@@ -9,7 +9,8 @@
 //! between neighbouring φ cells), so Σ_cells value·Δθ_r·Δφ is exactly the energy carried by the
 //! modelled paths. Angles: θ from the fibre's normal plane (thesis convention, θ flipped w.r.t.
 //! Marschner; the specular cone is θ_r = −θ_i), φ = φ_r − φ_i with 0 = back towards the light and
-//! ±180° = forward. Decisions on the digest's [A] points are in `docs/fur.md` (far-field section).
+//! ±180° = forward. Decisions on the points the thesis leaves open (FUR-1f, FUR-11 … FUR-19) are
+//! in `docs/decisions.md` (fur far field).
 
 use super::chief_ray::{CoaxialFiber, Path};
 use super::medulla::{Estimator, Geometry, McSettings, normalise_lobes, simulate};
@@ -178,10 +179,12 @@ pub const TABLE_4_2: [FurSample; 10] = [
     ),
 ];
 
-/// Index of the cuticle plates of the Stokes pile (thesis §4.1: exocuticle index 1.55).
+/// Index of the cuticle plates of the Stokes pile (Tseng 2015 §4.1: exocuticle index 1.55;
+/// decision FUR-14).
 pub const CUTICLE_ETA: f64 = 1.55;
 
-/// Stokes pile of `layers` plates (digest §6 closed form, l = 0.5 is one bare interface):
+/// Stokes pile of `layers` plates (Tseng 2015 App. B, eqs. B.1–B.3 in closed form; l = 0.5 is
+/// one bare interface):
 /// F(θ; l) = 2lF/(1 + (2l − 1)F), F the unpolarised single-interface reflectance at index
 /// [`CUTICLE_ETA`], `cos_theta` the incidence cosine.
 pub fn cuticle_reflectance(cos_theta: f64, layers: f64) -> f64 {
@@ -229,12 +232,12 @@ impl FarFieldSettings {
 }
 
 /// How Table 4.2's σ_ms maps onto the medulla tables' coefficient per unit medulla radius
-/// (digest §9 item 1).
+/// (decisions FUR-1, FUR-1f in `docs/decisions.md`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum SigmaScaling {
     /// σ_ms per fibre diameter (Table 4.2's unit) → σ_ms·κ/2 (optical depth preserved; the
-    /// medulla tables' convention, docs/fur.md decision 1). Default.
+    /// medulla tables' convention, decision FUR-1). Default.
     #[default]
     KappaHalf,
     /// σ_ms read as per fibre radius → σ_ms·κ (the 2017 follow-up's code).
@@ -428,7 +431,7 @@ fn gauss_cdf(x: f64) -> f64 {
 }
 
 /// Cell masses of a Gaussian (mean `mu`, std `sd`) over θ_r cells of [−π/2, π/2], renormalised
-/// to 1 on that interval (∫ M dθ_r = 1, docs/fur.md decision 12).
+/// to 1 on that interval (∫ M dθ_r = 1, decision FUR-12 in docs/decisions.md).
 fn longitudinal_cells(mu: f64, sd: f64, cells: usize) -> Vec<f64> {
     let dt = PI / cells as f64;
     let m: Vec<f64> = (0..cells)
@@ -507,7 +510,7 @@ const PATHS: [Path; 8] = [
 ];
 
 /// Fraction λ of medulla-scattered light sent isotropically (App. A): light reflected back at
-/// the medulla and cuticle interfaces, evaluated at **normal** incidence (decision 15).
+/// the medulla and cuticle interfaces, evaluated at **normal** incidence (decision FUR-15).
 pub fn isotropic_fraction(s: &FurSample) -> f64 {
     let fm = fresnel_reflectance_unpolarized(s.eta_m / s.eta_c, 1.0);
     1.0 - (1.0 - fm) * (1.0 - cuticle_reflectance(1.0, s.layers))
@@ -653,7 +656,7 @@ pub fn far_field_with(
             }
         }
     }
-    // Scattered longitudinal lobes M^s (Eq. 5.11) with μ computed numerically (decision 11).
+    // Scattered longitudinal lobes M^s (Eq. 5.11) with μ computed numerically (decision FUR-11).
     let theta_i_med = (sin_ti / s.eta_m).asin();
     let pdf = longitudinal_lobe_pdf(
         source,
@@ -728,7 +731,8 @@ mod tests {
 
     #[test]
     fn stokes_pile_matches_published_values() {
-        // Digest §6: F(0°; l) at η = 1.55; l = 0.5 is one bare interface.
+        // F(0°; l) = 2lF/(1 + (2l − 1)F) at η = 1.55 (App. B closed form, evaluated
+        // independently); l = 0.5 is one bare interface.
         for (l, f) in [(0.5, 0.046521), (1.0, 0.088905), (1.51, 0.128424)] {
             assert!((cuticle_reflectance(1.0, l) - f).abs() < 2e-6, "l={l}");
         }
@@ -819,8 +823,9 @@ mod tests {
         far_field(&s, ti_deg.to_radians(), &shapes, &set)
     }
 
-    /// Digest §8 item 11 / §3.1: the cat (κη_m ≥ 1) has no classic TT or TRT at any θ_i; its
-    /// forward unscattered light is only the through-medulla TttT lobe.
+    /// The measured cat profile has no TT (Tseng 2015): with Table 4.2's parameters κη_m ≥ 1, so
+    /// the cat has no classic TT or TRT at any θ_i; its forward unscattered light is only the
+    /// through-medulla TttT lobe.
     #[test]
     fn cat_has_no_tt_and_no_trt() {
         for ti in [0.0, -40.0] {
@@ -856,7 +861,7 @@ mod tests {
         }
     }
 
-    /// Digest §8 item 11: light leaking through the medulla makes a forward glow near
+    /// Measured profiles (Tseng 2015): light leaking through the medulla makes a forward glow near
     /// (θ_r, φ) = (−θ_i, 180°) (mouse, red fox at θ_i = −40°): the scattered forward column
     /// peaks within 15° of θ_r = 40°, and the scattered energy is spread over both halves.
     #[test]
@@ -882,7 +887,7 @@ mod tests {
     }
 
     /// The cat's forward unscattered light is the through-medulla TttT lobe, whose strength is
-    /// set by the σ mapping (digest §9 item 1): under the thesis's σ_ms/κ lookup it nearly
+    /// set by the σ mapping (decision FUR-1f): under the thesis's σ_ms/κ lookup it nearly
     /// vanishes (the measured "no TT"), under σ_ms·κ/2 it stays comparable to the raccoon's
     /// forward unscattered light. Forward window |φ| > 150°, θ_i = −40°.
     #[test]

@@ -1,5 +1,6 @@
 //! Fur: medulla scattering tables of the coaxial-cylinder fur model (Tseng 2015; Yan et al.
-//! 2015) and their compact low-rank form. Conventions and decisions: `docs/fur.md`.
+//! 2015) and their compact low-rank form. Conventions: `docs/fur.md`;
+//! decisions (FUR-n): `docs/decisions.md`.
 //!
 //! - [`medulla`]: 2-D volumetric Monte Carlo (planar Henyey–Greenstein, no absorption,
 //!   index-matched boundary) for the azimuthal C^N and longitudinal C^M families, with a

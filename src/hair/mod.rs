@@ -1,7 +1,8 @@
 //! Hair fibre scattering tables: single-scattering lobes of a dielectric fibre and the Dual
 //! Scattering averages (Zinke et al. 2008) for the physically based and the artist-friendly
-//! (Sadeghi et al. 2010) fibre models. Conventions, validated domain, accuracy and every [A]
-//! decision: `docs/hair.md`.
+//! (Sadeghi et al. 2010) fibre models. Conventions, validated domain and accuracy:
+//! `docs/hair.md`; decisions on points the sources leave open (labels FIB-n, DS-n):
+//! `docs/decisions.md`.
 //!
 //! - [`fiber`]: smooth/rough dielectric cylinder, Bravais indices, Fresnel, absorption, `N_p`;
 //! - [`longitudinal`]: longitudinal lobes `M_p` and their energy normalisation;

@@ -154,7 +154,7 @@ mod tests {
     use super::*;
 
     /// Bohren & Huffman (1983) Appendix A test case, x = 5.2128, m = 1.55: Q_sca = 3.10543 and
-    /// Q_back = 2.92534 (also reproduced by miepython, digest §5). BH printed these from a
+    /// Q_back = 2.92534 (also reproduced by miepython 3.3.0). BH printed these from a
     /// single-precision program; we agree to 1.4e-5 and 4.3e-5 relative (and with scatrs to 1e-12).
     #[test]
     fn bohren_huffman_test_case() {

@@ -3,8 +3,8 @@
 //! Every distribution is a number density `n(r)` (per unit radius, arbitrary scale) on a
 //! finite support `[r_lo, r_hi]`; [`SizeDistribution::quadrature`] returns radii and weights
 //! `w_k ≈ n(r_k) dr` from a Gauss–Legendre rule in `ln r`. The ensemble phase function mixes
-//! the normalised single-sphere phase functions with weights `w_k · C_sca(r_k)` (digest [A]
-//! #15: number density × scattering cross-section).
+//! the normalised single-sphere phase functions with weights `w_k · C_sca(r_k)` (number density
+//! × scattering cross-section; decision MIE-2 in `docs/decisions.md`).
 
 use serde::{Deserialize, Serialize};
 

@@ -365,9 +365,10 @@ fn sun_disc_rows(m: usize, diameter_deg: f64) -> Vec<(usize, Vec<f64>)> {
 }
 
 /// 1-D Gaussian blur in θ with standard deviation `sigma_deg` (truncated at 5σ, rows
-/// normalised, edges not reflected). This is the thesis' "diffraction" post-filter used by the
-/// digest's Mie reference values; it is not energy-conserving on the sphere (no `sin θ`
-/// weight) and is off unless requested.
+/// normalised, edges not reflected). This is the "diffraction" post-filter of Sadeghi 2012
+/// (§3.4.4), also used to smooth the miepython reference maxima (σ = 0.04°); it is not
+/// energy-conserving on the sphere (no `sin θ` weight) and is off unless requested
+/// (decision MIE-7 in `docs/decisions.md`).
 pub fn gaussian_blur(curve: &PolarisedPhase, sigma_deg: f64) -> PolarisedPhase {
     if sigma_deg <= 0.0 {
         return curve.clone();

@@ -111,7 +111,7 @@ pub fn srgb_encode(linear: f64) -> f64 {
 pub struct SpectralWeights {
     /// Wavelengths of the samples (nm), strictly increasing.
     pub wavelengths_nm: Vec<f64>,
-    /// XYZ weight of each sample: XYZ = Σ_k weights[k] · value_k.
+    /// XYZ weight of each sample: XYZ = Σ_k `weights[k]` · value_k.
     pub weights: Vec<[f64; 3]>,
 }
 

@@ -13,7 +13,7 @@
 //!
 //! Both give the real index relative to vacuum; the absorption index of water in 380–700 nm is
 //! below 3.5e-8 (Pope & Fry 1997) and is ignored (k = 0). The outside medium is taken as 1.0
-//! (the Table 3.2 values then act as relative indices; design decision #16).
+//! (the Table 3.2 values then act as relative indices; decision MIE-3 in `docs/decisions.md`).
 
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
@@ -204,8 +204,9 @@ mod tests {
     }
 
     #[test]
-    fn iapws_twenty_celsius_matches_digest() {
-        // Digest §3: IAPWS at 20 °C gives 1.34356 at 400 nm and 1.33468 at 550 nm.
+    fn iapws_twenty_celsius_matches_reference_values() {
+        // IAPWS R9-97 at 20 °C (independent evaluation of the release's formula): 1.34356 at
+        // 400 nm and 1.33468 at 550 nm.
         let m = WaterIndexModel::default();
         assert!((m.index(400.0).unwrap() - 1.34356).abs() < 2e-5);
         assert!((m.index(550.0).unwrap() - 1.33468).abs() < 2e-5);

@@ -1,6 +1,6 @@
-//! Patch-based wave-optics ray tracer for raindrops (Sadeghi et al., thesis chapter 3; design
-//! digest `seed-rainbow.md`). See `docs/raytrace.md` for the algorithm, conventions, decisions
-//! and measured accuracy.
+//! Patch-based wave-optics ray tracer for raindrops (Sadeghi 2012, PhD thesis, ch. 3; Sadeghi et
+//! al. 2012). See `docs/raytrace.md` for the algorithm, conventions and measured accuracy, and
+//! `docs/decisions.md` (RT-1 … RT-22) for the decisions on points the thesis leaves open.
 //!
 //! - [`shape`]: spheres, Beard–Chuang cosine-series drops, tabulated axisymmetric profiles;
 //! - [`tracer`]: the general 2-D patch tracer (any shape, any sun elevation);

@@ -2,13 +2,13 @@
 //!
 //! - The Gaussian "diffraction" filter of the thesis (§3.4.4, Table 3.3): a 1-D blur in the
 //!   scattering (polar) angle with σ(a) from Table 3.3 for the primary region and 2σ for the
-//!   secondary region. Decisions (digest §8 #9): the split between the two regions is the
-//!   Alexander-band midpoint (mean of the geometric primary and secondary bow angles at the
-//!   wavelength); σ is interpolated linearly in radius inside 0.1–1.0 mm and continued by Airy
-//!   scaling σ ∝ a^(−2/3) outside; no wavelength scaling; the filter acts on the coherent
+//!   secondary region. Decisions (RT-9 in `docs/decisions.md`): the split between the two
+//!   regions is the Alexander-band midpoint (mean of the geometric primary and secondary bow
+//!   angles at the wavelength); σ is interpolated linearly in radius inside 0.1–1.0 mm and
+//!   continued by Airy scaling σ ∝ a^(−2/3) outside; no wavelength scaling; the filter acts on the coherent
 //!   intensity (and on each order's intensity for the per-order channels); Gaussian weights are
 //!   renormalised over the samples available near 0° and 180°.
-//! - The forward Fraunhofer diffraction lobe of the silhouette (digest §8 #10):
+//! - The forward Fraunhofer diffraction lobe of the silhouette (decision RT-10):
 //!   `dσ/dΩ = a² J₁(x sin θ)² / sin² θ` (x = 2πa/λ), unpolarised, for θ < 90°. It is tabulated as
 //!   the exact average over each table bin (from Rayleigh's encircled-energy formula
 //!   `πa² [1 − J₀²(x sin θ) − J₁²(x sin θ)]`), so the unresolved lobe still carries its πa² of

@@ -2,11 +2,12 @@
 //!
 //! Frame: the drop centre is the origin, its symmetry (fall) axis is `z` pointing up. The polar
 //! angle θ of the profile is measured from the **downward** pole (`−z`, towards the oncoming air;
-//! digest §8 #12): `cos θ = −z/|p|`. `a` is the radius of the equal-volume sphere.
+//! decision RT-12 in `docs/decisions.md`): `cos θ = −z/|p|`. `a` is the radius of the
+//! equal-volume sphere.
 //!
 //! Since `cos nθ = T_n(cos θ)` (Chebyshev polynomials), `r` and `r′/sin θ` are polynomials of
 //! `cos θ = −z/|p|`: no trigonometry is evaluated and the normal is analytic and smooth at the
-//! poles (digest §8 #13: analytic implicit surface, never facets).
+//! poles (decision RT-13: analytic implicit surface, never facets).
 //!
 //! Intersection: spheres analytically; cosine-series drops by bracketing the implicit function
 //! `g(p) = |p| − r(θ(p))` along the chord through the bounding sphere (uniform samples, then the
@@ -55,7 +56,7 @@ pub const BEARD_CHUANG_TABLE_3_1: [(f64, [f64; 8]); 6] = [
 
 /// Beard–Chuang coefficients at equivalent radius `radius_mm`: linear in `a` between the rows
 /// of Table 3.1; a ≤ 0.4 mm is a sphere (thesis parity); a > 3 mm is clamped to the 3 mm row
-/// (digest §8 #12).
+/// (decision RT-12).
 pub fn beard_chuang_coefficients(radius_mm: f64) -> [f64; 8] {
     let t = &BEARD_CHUANG_TABLE_3_1;
     if radius_mm <= t[0].0 {
@@ -523,9 +524,10 @@ mod tests {
     use super::*;
 
     #[test]
-    fn beard_chuang_volume_and_axis_ratios_match_digest() {
-        // Digest §4: volume conserved to 1e-4; axis ratios 0.9273 / 0.8529 / 0.7766 / 0.7059 /
-        // 0.6404 at 1.0 / 1.5 / 2.0 / 2.5 / 3.0 mm; r(0)/a and r(π)/a.
+    fn beard_chuang_volume_and_axis_ratios_match_references() {
+        // Beard & Chuang 1987 (Table 3.1 of Sadeghi 2012), evaluated independently: volume
+        // conserved to 1e-4; axis ratios 0.9273 / 0.8529 / 0.7766 / 0.7059 / 0.6404 at
+        // 1.0 / 1.5 / 2.0 / 2.5 / 3.0 mm; r(0)/a and r(π)/a.
         let rows = [
             (1.0, 0.9273, 0.9293, 0.9695),
             (1.5, 0.8529, 0.8606, 0.9336),
@@ -550,7 +552,8 @@ mod tests {
             assert!((s.r_at(0.0) / (a * 1e3) - r0).abs() < 1e-4);
             assert!((s.r_at(PI) / (a * 1e3) - rpi).abs() < 1e-4);
         }
-        // Interpolation: c(0.5) = c(1.0)/6 (digest §4).
+        // Interpolation linear in a between the sphere at 0.4 mm and the 1 mm row:
+        // c(0.5) = c(1.0)/6.
         let c = beard_chuang_coefficients(0.5);
         assert!((c[2] - (-0.0376 / 6.0)).abs() < 1e-12);
         assert_eq!(beard_chuang_coefficients(0.3), [0.0; 8]);

@@ -1,4 +1,5 @@
-//! Fast exact 1-D geometric-optics-plus-phase path for spheres (design digest §5).
+//! Fast exact 1-D geometric-optics-plus-phase path for spheres (van de Hulst 1957, ch. 12–13;
+//! the two-branch phasor sum of Airy theory).
 //!
 //! For a sphere of radius `a` and relative index `n`, order `p` (p = 0 external reflection,
 //! p ≥ 1 two refractions and `p − 1` internal reflections) leaves at deviation
@@ -12,10 +13,10 @@
 //! ```
 //!
 //! so that `|E|²` is the differential scattering cross-section dσ/dΩ (µm²/sr when `a` is in µm).
-//! The focal-line term uses the corrected rule of digest §2.9 (`dl/di = a sin i · dD/di`, the
-//! longer-path branch is π/2 behind); the literal thesis rule is off by half a fringe for the
-//! primary bow. Per-order constant phases (axial focal lines) are ignored, as in the thesis: they
-//! only shift the fine cross-order ripple, which the diffraction filter removes.
+//! The focal-line term puts the longer-path branch π/2 behind (`dl/di = a sin i · dD/di`;
+//! decision RT-1 in `docs/decisions.md`); the literal rule of Sadeghi 2012 is off by half a
+//! fringe for the primary bow. Per-order constant phases (axial focal lines) are ignored, as in
+//! the thesis: they only shift the fine cross-order ripple, which the diffraction filter removes.
 //!
 //! Axial caustics (θ = 0° for p = 1, 3, …; θ = 180° for p = 2, …) are singular like 1/sin θ;
 //! callers evaluate pole samples a fraction of a bin away from the pole (see
@@ -631,9 +632,10 @@ mod tests {
     use super::*;
 
     #[test]
-    fn energy_shares_match_digest() {
-        // Digest §6 test 2: n = 1.333, p = 0 6.64 %, p = 1 88.37 %, p = 2 4.06 %, p = 3 0.61 %,
-        // left over 0.32 %.
+    fn energy_shares_match_geometric_optics_references() {
+        // Shares of the silhouette flux for n = 1.333 (Fresnel products averaged over the
+        // silhouette, computed independently): p = 0 6.64 %, p = 1 88.37 %, p = 2 4.06 %,
+        // p = 3 0.61 %, left over 0.32 %.
         let go = SphereGo::new(400.0, 650.0, 1.333, 3);
         let f: Vec<f64> = (0..=3).map(|p| go.energy_fraction(p)).collect();
         let want = [0.0664, 0.8837, 0.0406, 0.0061];
@@ -650,8 +652,8 @@ mod tests {
     }
 
     #[test]
-    fn descartes_angles_match_digest() {
-        // Digest §3 table: n = 1.331 → 137.630° primary, 129.635° secondary.
+    fn descartes_angles_match_references() {
+        // Descartes' rainbow angles for n = 1.331: 137.630° primary, 129.635° secondary.
         let go = SphereGo::new(400.0, 650.0, 1.331, 3);
         let p = go.rainbow_angle_rad(2).unwrap().to_degrees();
         let s = go.rainbow_angle_rad(3).unwrap().to_degrees();

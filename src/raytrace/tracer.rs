@@ -1,4 +1,5 @@
-//! The patch-based wave-optics ray tracer (thesis §3.4, digest §2).
+//! The patch-based wave-optics ray tracer (Sadeghi 2012, §3.4). Labels RT-n refer to the
+//! decisions in `docs/decisions.md`.
 //!
 //! **Frame.** Drop axis `z` up; sun at elevation `e` in the `+x` half-space, so the incident
 //! propagation direction is `d = (−cos e, 0, −sin e)`. Outgoing directions are given by the polar
@@ -7,8 +8,8 @@
 //! `e2 = y`: `r = cos θ d + sin θ (cos φ e1 + sin φ e2)`; `(e1, e2, d)` is right-handed.
 //!
 //! **Steps.** A regular `N×N` grid of parallel rays covers the silhouette bounding box centred
-//! on the projected drop centre (decision #11); each ray carries two 3-D complex field vectors
-//! (inputs polarised along `e1` and `e2`, unit amplitude; decision #5/#6) and its optical path
+//! on the projected drop centre (RT-11); each ray carries two 3-D complex field vectors
+//! (inputs polarised along `e1` and `e2`, unit amplitude; RT-5, RT-6) and its optical path
 //! from the emitting plane at distance `D` from the centre. At each surface hit the fields are
 //! split into s/p components of the plane of incidence (`s = d × N`, `p = s × k` for every
 //! wave) and multiplied by the shared complex Fresnel amplitudes (Born–Wolf signs), with
@@ -17,14 +18,15 @@
 //! `D·ω` perpendicular to the outgoing direction `ω`.
 //!
 //! **Patches.** Grid-adjacent outgoing rays of one order form cells, split into two triangles
-//! (decision #7: folded patches and caustics are handled by using each triangle's |solid angle|).
+//! (RT-7: folded patches and caustics are handled by using each triangle's |solid angle|).
 //! Triangles with a missing corner (silhouette miss, total internal reflection) are discarded
-//! (decision #8; the discarded flux is reported). For every table direction `r` covered by a
+//! (RT-8; the discarded flux is reported). For every table direction `r` covered by a
 //! triangle, the corner fields and paths are interpolated with the gnomonic (spherical
 //! barycentric) weights, which equal linear interpolation over the emitting-plane triangle in the
 //! limit, and the contribution `sqrt(a/s) · E(r) · exp(i(k l(r) − (π/2) f))` is summed
-//! coherently. `f = [∇l · ∇b > 0]` on the triangle (b = u² + v²), the corrected focal-line rule of
-//! digest §2.9. The point-in-triangle test uses exact orientation determinants, so adjacent
+//! coherently. `f = [∇l · ∇b > 0]` on the triangle (b = u² + v²): the longer-path branch is π/2
+//! behind (RT-1; the literal focal-line rule of the thesis is half a fringe off for the primary
+//! bow). The point-in-triangle test uses exact orientation determinants, so adjacent
 //! triangles partition the sphere without gaps or double counting.
 //!
 //! **Acceleration / parallelism.** Rays are traced in bands of grid rows (rayon over rows);
@@ -76,7 +78,7 @@ impl DirectionGrid {
 pub struct FieldGrid {
     pub grid: DirectionGrid,
     pub orders: usize,
-    /// Row-major [polar][azimuth][order][4].
+    /// Row-major `[polar][azimuth][order][4]`.
     pub data: Vec<Complex32>,
     /// Flux per order that left the drop (µm², ray-based: Σ cell area × |ε|²).
     pub order_cross_section_um2: Vec<f64>,
@@ -537,7 +539,7 @@ pub fn trace_fields(shape: &DropShape, cfg: &TraceConfig, grid: DirectionGrid) -
 
                                 edges,
                                 ties,
-                                // Solid-angle floor (decision #7): slivers folded across a
+                                // Solid-angle floor (RT-7): slivers folded across a
                                 // caustic (|Ω| → 0) are point-sampled by the table; their weight
                                 // is capped at sqrt(a / (½Δθ²)) so a single pixel cannot carry
                                 // more than the patch's flux (expected flux is conserved or

@@ -652,14 +652,14 @@ impl Job for HairDualJob {
                 HairModel::Artist => "artist",
             }),
         );
-        attributes.insert("theta".into(), "light inclination θ_i from the normal plane ([A1]); +90° = along the tangent toward the tip; look the tables up with θ_i".into());
-        attributes.insert("tangent".into(), "fibre tangent points root → tip; α > 0 shifts toward the tip; R is shifted toward the root (α_R < 0) ([A23])".into());
-        attributes.insert("azimuth".into(), "relative azimuth φ = φ_o − φ_i; φ = 0 back toward the light; forward half-space |φ| ≥ π/2, backward |φ| < π/2 ([A21])".into());
-        attributes.insert("energy_measure".into(), "a_H(θ_i) = ∫_{−π/2}^{π/2} ∫_{H} f_s(θ_i, θ_o, φ) cos²θ_o dφ dθ_o (power per unit curve irradiance, Zinke & Weber eq. 33/36), relative azimuth, no extra incident-azimuth average ([A3])".into());
-        attributes.insert("averages".into(), "ᾱ, β̄² are energy-weighted means of the lobe α_p and β_p² (variances, [A7]); ā is clamped before the closed forms".into());
+        attributes.insert("theta".into(), "light inclination θ_i from the normal plane (docs/decisions.md DS-1); +90° = along the tangent toward the tip; look the tables up with θ_i".into());
+        attributes.insert("tangent".into(), "fibre tangent points root → tip; α > 0 shifts toward the tip; R is shifted toward the root (α_R < 0) (docs/decisions.md DS-23)".into());
+        attributes.insert("azimuth".into(), "relative azimuth φ = φ_o − φ_i; φ = 0 back toward the light; forward half-space |φ| ≥ π/2, backward |φ| < π/2 (docs/decisions.md DS-21)".into());
+        attributes.insert("energy_measure".into(), "a_H(θ_i) = ∫_{−π/2}^{π/2} ∫_{H} f_s(θ_i, θ_o, φ) cos²θ_o dφ dθ_o (power per unit curve irradiance, Zinke & Weber eq. 33/36), relative azimuth, no extra incident-azimuth average (docs/decisions.md DS-3)".into());
+        attributes.insert("averages".into(), "ᾱ, β̄² are energy-weighted means of the lobe α_p and β_p² (variances, docs/decisions.md DS-7); ā is clamped before the closed forms".into());
         attributes.insert("a_clamp".into(), json!(self.params.clamp));
         attributes.insert("d_b".into(), json!(self.params.d_b));
-        attributes.insert("closed_forms".into(), "ZYWK08 originals: (1 − ā_f²)³ in Ā_b ([A5]), sqrt(2β̄_f² + 3β̄_b²) in σ̄_b ([A6a]), widths in its denominator kept verbatim ([A6b,c]), σ̄_b stored squared ([A6d])".into());
+        attributes.insert("closed_forms".into(), "ZYWK08 originals: (1 − ā_f²)³ in Ā_b, sqrt(2β̄_f² + 3β̄_b²) in σ̄_b, widths in its denominator kept verbatim, σ̄_b stored squared (docs/decisions.md DS-5, DS-6)".into());
         attributes.insert(
             "angles".into(),
             "radians inside the data; axis coordinates in degrees".into(),
@@ -667,10 +667,10 @@ impl Job for HairDualJob {
         if let Some(m) = &self.artist {
             attributes.insert("artist_params".into(), serde_json::to_value(&m.params)?);
             attributes.insert("normalisation_k".into(), json!(m.k));
-            attributes.insert("normalisation".into(), "eq. 4.17 with one scalar K = max over RGB of the energy of f'_s at θ_i = 0 under the energy measure, glints included (G_angle averaged uniformly over its range) ([A4], [A14])".into());
+            attributes.insert("normalisation".into(), "eq. 4.17 with one scalar K = max over RGB of the energy of f'_s at θ_i = 0 under the energy measure, glints included (G_angle averaged uniformly over its range) (docs/decisions.md DS-4, DS-14)".into());
             attributes.insert(
                 "longitudinal".into(),
-                "unit-height g'(θ_h − α_X, β_X²)/cos²θ_d, cos²θ_d ≥ 1e-3 ([A9], [A18])".into(),
+                "unit-height g'(θ_h − α_X, β_X²)/cos²θ_d, cos²θ_d ≥ 1e-3 (docs/decisions.md DS-9, DS-18)".into(),
             );
         } else {
             attributes.insert("eta".into(), json!(self.params.eta));

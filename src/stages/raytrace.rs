@@ -594,7 +594,7 @@ impl Job for RaytraceJob {
         ));
         at.insert("max_order".into(), self.p.max_order.into());
         at.insert("cross_section_normalization".into(), "p = (dσ/dΩ)/σ with σ = σ_GO (flux of the traced orders) + A (Fraunhofer forward lobe of the projected area A, added to i_perp and i_par as the exact bin average of a²J1(x sinθ)²/sin²θ)".into());
-        at.insert("focal_line_rule".into(), "corrected rule of design digest §2.9: phase exp(i(k l − (π/2) f)), f = [dl/db > 0], b = u² + v²".into());
+        at.insert("focal_line_rule".into(), "longer-path branch π/2 behind (docs/decisions.md RT-1): phase exp(i(k l − (π/2) f)), f = [dl/db > 0], b = u² + v²".into());
         let model = self.diffraction_model();
         let filter_text = match model {
             DiffractionModel::AiryUniform => "airy-uniform: uniform caustic (Airy) approximation of each order's rainbow (two-branch CUA on the bright side, Airy continuation on the dark side); GO elsewhere".to_string(),
@@ -622,7 +622,7 @@ impl Job for RaytraceJob {
                 serde_json::json!({"what": "bin-sum of phase over 4π per entry", "values": ints}),
             );
             at.insert("angular_resampling".into(), format!("point samples of the GO+phase field on an internal grid of step ≤ λ/(10a); filtered channels are Gaussian averages of it; the forward lobe is the exact average over each {}° bin", self.p.angle_step_deg).into());
-            at.insert("method".into(), "exact 1-D geometric optics plus phase for spheres (design digest §5), validated against the 2-D patch tracer and Lorenz–Mie (docs/raytrace.md)".into());
+            at.insert("method".into(), "exact 1-D geometric optics plus phase for spheres (two-branch phasor sum of Airy theory), validated against the 2-D patch tracer and Lorenz–Mie (docs/raytrace.md)".into());
             at.insert("validated_domain".into(), "spheres of radius 0.1–1 mm in 380–700 nm (x ≳ 1000): supernumerary positions within 0.02° (primary) and 0.05° (secondary) of Lorenz–Mie; not valid within ~1° of 0° (forward lobe only approximate) and near 180° (glory, axial caustic clamped at a quarter bin)".into());
             let axes = vec![
                 Axis::values("wavelength", "nm", self.p.wavelength_nm.clone()),
@@ -659,11 +659,12 @@ impl Job for RaytraceJob {
                 }
             }
             ints.push(s);
-            // [A] normalisation of 2-D tables: the bin-sum deviates from 1 by the flux of
-            // discarded silhouette triangles (−0.1…−0.5 %) and, for strongly flattened drops,
-            // by point-sampled cusp caustics (+3.9 % at 3 mm, sun 0°); every intensity channel
-            // (all but `dolp`) is divided by it, so ∫ p dΩ = 1 exactly on the table grid as the
-            // issue requires, and the factor is kept in `integral_check`.
+            // Renormalisation of 2-D tables (decision RT-21 in docs/decisions.md): the bin-sum
+            // deviates from 1 by the flux of discarded silhouette triangles (−0.1…−0.5 %) and,
+            // for strongly flattened drops, by point-sampled cusp caustics (+3.9 % at 3 mm,
+            // sun 0°); every intensity channel (all but `dolp`) is divided by it, so ∫ p dΩ = 1
+            // exactly on the table grid, as the phase-function contract requires, and the
+            // factor is kept in `integral_check`.
             anyhow::ensure!(s > 0.0 && s.is_finite(), "entry {e}: ∫ p dΩ = {s}");
             for v in data[base..base + np * na * nch].chunks_mut(nch) {
                 for (c, x) in v.iter_mut().enumerate() {
@@ -684,7 +685,7 @@ impl Job for RaytraceJob {
             at.insert("profile_fit_rms_relative".into(), res.into());
         }
         at.insert("forward_lobe".into(), "Fraunhofer lobe of the equal-projected-area disc (azimuthally symmetric approximation for non-circular silhouettes)".into());
-        at.insert("method".into(), "patch-based wave-optics ray tracer (Sadeghi 2011, ch. 3) with 3-D complex field vectors, spherical-triangle patches, coherent sums; see docs/raytrace.md".into());
+        at.insert("method".into(), "patch-based wave-optics ray tracer (Sadeghi 2012, ch. 3) with 3-D complex field vectors, spherical-triangle patches, coherent sums; see docs/raytrace.md".into());
         at.insert("validated_domain".into(), "validated on spheres (0.4 mm, 650 nm) against the exact 1-D path and Lorenz–Mie; Beard–Chuang results checked for volume, axis ratios, symmetry and energy; accuracy depends on rays_per_side (docs/raytrace.md)".into());
         let axes = vec![
             Axis::values("wavelength", "nm", self.p.wavelength_nm.clone()),
@@ -740,7 +741,7 @@ mod tests {
             .unwrap();
         // Traced orders (99.7 %) + lobe; bin-summed on the table grid.
         assert!((integral - 1.0).abs() < 0.01, "∫p = {integral}");
-        // Filtered primary maximum: digest Mie 138.03° (0.4 mm, 650 nm); the Gaussian filter
+        // Filtered primary maximum: Lorenz–Mie 138.03° (0.4 mm, 650 nm); the Gaussian filter
         // of Table 3.3 places it within 0.15°.
         let nch = t.channels.len();
         let (mut best, mut at) = (0.0, 0.0);
@@ -752,7 +753,7 @@ mod tests {
             }
         }
         assert!((at - 138.03).abs() < 0.15, "primary max at {at}");
-        // Mie p_unpol at the main max ≈ 0.087 sr⁻¹ (digest §5); GO + filter within 25 %.
+        // Mie p_unpol at the main max ≈ 0.087 sr⁻¹ (miepython); GO + filter within 25 %.
         let phase_at = t.data[((at / 0.05).round() as usize) * nch] as f64;
         assert!((phase_at / 0.087 - 1.0).abs() < 0.25, "p(max) = {phase_at}");
     }
