@@ -448,5 +448,29 @@ fn print_summary(file: &std::path::Path, t: &Table) -> Result<()> {
 }
 
 fn main() {
-    std::process::exit(run_cli());
+    // A reader that stops early (`scatterbake stages | head -1`) closes our stdout; `println!`
+    // then panics with "failed printing to stdout: Broken pipe". That is not an error of ours:
+    // exit 0 without a message, as `head`'s other producers do.
+    let default_hook = std::panic::take_hook();
+    std::panic::set_hook(Box::new(move |info| {
+        if !is_broken_pipe(info.payload()) {
+            default_hook(info);
+        }
+    }));
+    let code = match std::panic::catch_unwind(run_cli) {
+        Ok(code) => code,
+        Err(payload) if is_broken_pipe(payload.as_ref()) => 0,
+        Err(_) => 101,
+    };
+    std::process::exit(code);
+}
+
+/// Whether a panic payload is the standard library's "stdout closed by the reader" panic.
+fn is_broken_pipe(payload: &(dyn std::any::Any + Send)) -> bool {
+    let message = payload
+        .downcast_ref::<String>()
+        .map(String::as_str)
+        .or_else(|| payload.downcast_ref::<&str>().copied())
+        .unwrap_or("");
+    message.starts_with("failed printing to stdout") && message.contains("Broken pipe")
 }

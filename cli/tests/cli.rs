@@ -366,3 +366,26 @@ fn dual_scattering_command_line() {
     let o = run(&["dual-scattering", "--absorption", "0.2,0.3"], d.path());
     assert_clean_failure(&o, &["--absorption", "three"]);
 }
+
+/// A reader that closes the pipe early (`scatterbake stages | head -1`) ends the command
+/// quietly with exit code 0: no panic message, no "Broken pipe" error.
+#[test]
+fn closed_stdout_exits_quietly() {
+    for args in [
+        &["stages"][..],
+        &["mie", "--radius-um", "400", "--wavelength-nm", "650"],
+    ] {
+        let mut child = bin()
+            .args(args)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("spawn scatterbake");
+        // Close the read end before the command writes: its first write fails with EPIPE.
+        drop(child.stdout.take());
+        let out = child.wait_with_output().expect("wait");
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(0), "{args:?}: {stderr}");
+        assert!(!stderr.contains("panicked"), "{args:?}: {stderr}");
+    }
+}
