@@ -5,9 +5,10 @@
 //! - [`medulla`]: 2-D volumetric Monte Carlo (planar Henyey–Greenstein, no absorption,
 //!   index-matched boundary) for the azimuthal C^N and longitudinal C^M families, with a
 //!   next-event (expected-value) estimator and a plain histogram estimator.
-//! - [`stage`]: the `fur-medulla-azimuthal` and `fur-medulla-longitudinal` stages.
-//! - [`farfield`], [`farfield_stage`]: far-field profiles of the practical shading model for the
-//!   Table 4.2 samples (stage `fur-farfield`).
+//! - [`farfield`]: far-field profiles of the practical shading model for the Table 4.2 samples.
+//!
+//! Their stages (`fur-medulla-azimuthal`, `fur-medulla-longitudinal`, `fur-farfield`) are
+//! [`crate::stages::fur_medulla`] and [`crate::stages::fur_farfield`].
 //! - [`tt`]: tensor-train (TT-SVD) compression and reconstruction of a table channel.
 
 pub mod chief_ray;

@@ -1,6 +1,5 @@
 //! `scatterbake mie ... --debye-orders 2,3` and `scatterbake airy ...`: one sphere, printed in
-//! the columns of `scatterbake mie` (the lead wires [`DebyeArgs`]/[`run_debye`] and
-//! [`AiryArgs`]/[`run_airy`] into the command line).
+//! the columns of `scatterbake mie`.
 //!
 //! ```text
 //! scatterbake mie <mie args> --debye-orders 2,3 [--debye-per-order]

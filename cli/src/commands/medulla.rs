@@ -1,5 +1,5 @@
-//! `scatterbake medulla`: one medulla profile on the command line (issue 6 item 7). The lead
-//! wires [`MedullaArgs`] / [`run_medulla`] into the CLI.
+//! `scatterbake medulla`: one medulla profile (Monte Carlo with next-event estimation) for one
+//! (σ, g, entry), as CSV or JSON.
 
 use scatterbake::fur::medulla::{Estimator, Geometry, McSettings, simulate};
 use serde_json::json;

@@ -1,5 +1,4 @@
-//! `scatterbake mie`: one sphere, printed as a MiePlot-style table, CSV or JSON (the lead
-//! wires [`MieArgs`] and [`run_mie`] into the command line).
+//! `scatterbake mie`: one sphere, printed as a MiePlot-style table, CSV or JSON.
 //!
 //! ```text
 //! scatterbake mie (--radius-um R --wavelength-nm L | --x X) [--n 1.333 --k 0 |
@@ -273,7 +272,7 @@ impl MieQuery {
         s
     }
 
-    /// JSON object (issue 3 §5 layout).
+    /// JSON object: inputs, efficiencies and one array per column.
     pub fn to_json(&self) -> serde_json::Value {
         let e = self.sphere.efficiencies;
         let rows: Vec<_> = self.rows().collect();

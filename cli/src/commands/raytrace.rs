@@ -1,4 +1,4 @@
-//! `scatterbake raytrace` single-query command (wired into the CLI by the lead).
+//! `scatterbake raytrace`: one drop at one wavelength.
 //!
 //! Prints, for spheres, the columns `angles_deg, i_perp, i_par, phase` of the 1-D ray-traced
 //! phase function (contract normalisation: ∫ p dΩ = 1, `phase = (i_perp + i_par)/2`); for

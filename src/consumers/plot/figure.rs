@@ -222,7 +222,7 @@ pub struct HeatPanel {
     pub y_label: String,
     pub xs: Vec<f64>,
     pub ys: Vec<f64>,
-    /// Row-major `values[j * xs.len() + i]` at (xs[i], ys[j]).
+    /// Row-major `values[j * xs.len() + i]` at (`xs[i]`, `ys[j]`).
     pub values: Vec<f64>,
     pub scale: ColourScale,
     /// Name and unit of the value, for the colour bar.

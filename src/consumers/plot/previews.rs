@@ -1,5 +1,5 @@
 //! Default preview figures per table family (schema), used by
-//! [`crate::consumers::plot::tables::previews`]. Each builder reads the table's stored samples (no interpolation),
+//! [`previews`]. Each builder reads the table's stored samples (no interpolation),
 //! picks slices where the family's physics happens (e.g. a medulla at mid σ and g, never the
 //! σ = 0 slice, which is all zeros) and returns [`Figure`]s named by a file suffix. What each
 //! figure shows is described in `docs/consumers.md` ("Previews").

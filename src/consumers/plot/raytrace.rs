@@ -1,4 +1,4 @@
-//! Plots of the ray tracer's 2-D tables (`raytrace-phase-2d/1`, see [`super::phase2d`] for the
+//! Plots of the ray tracer's 2-D tables (`raytrace-phase-2d/1`, see [`crate::consumers::read::phase2d`] for the
 //! frame), `scatterbake plot-raytrace` and the build previews of such tables:
 //!
 //! - `bows`: the phase function (log scale) at one wavelength (default 650 nm) vs outgoing polar

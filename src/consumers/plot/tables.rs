@@ -15,7 +15,7 @@
 //!   log10 colour scale (viridis) when the data are ≥ 0 and span more than two decades;
 //! - `line`: channels of a 1-D table vs its axis.
 //!
-//! `auto` (and [`previews`]) picks phase + strip (+ lee when there is a radius axis) for phase
+//! `auto` (and [`super::previews::previews`]) picks phase + strip (+ lee when there is a radius axis) for phase
 //! tables, the family figures of [`super::previews`] for known schemas (fur medulla, fur far
 //! field, hair Dual Scattering, hair azimuthal, water index), and for other schemas a heatmap
 //! (other axes at their middle sample) or a line plot for 1-D tables.

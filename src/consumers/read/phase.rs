@@ -211,7 +211,7 @@ impl PhaseCurves {
     }
 
     /// Cell `(j, t)` of `angle_deg` on the angle grid (clamped), for interpolating several
-    /// wavelengths at one angle: value = v[j] (1 − t) + v[j + 1] t. Needs ≥ 2 angles.
+    /// wavelengths at one angle: value = `v[j] (1 − t) + v[j + 1] t`. Needs ≥ 2 angles.
     pub fn locate_angle(&self, angle_deg: f64) -> (usize, f64) {
         match self.uniform_step {
             Some(step) => crate::optics::interp::locate_uniform(
