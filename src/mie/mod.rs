@@ -15,8 +15,8 @@
 //!
 //! Layout: [`riccati`] (Riccati–Bessel functions and log-derivatives, reusable by a Debye
 //! series), [`coefficients`] (`a_n`, `b_n`, efficiencies), [`angular`] (the vectorised
-//! `S_1`/`S_2` kernel), [`filters`] (size distributions, sun disc, bin resampling),
-//! the `mie` stage is [`crate::stages::mie`].
+//! `S_1`/`S_2` kernel) and [`filters`] (size distributions, sun disc, bin resampling); the `mie`
+//! stage is [`crate::stages::mie`].
 
 pub mod angular;
 pub mod coefficients;
