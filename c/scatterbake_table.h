@@ -3,10 +3,11 @@
  *
  * The functions are exported by the C dynamic library of the workspace crate `capi/`
  * (`cargo build -p scatterbake-capi --release` produces target/release/libscatterbake_table.so,
- * .dylib or scatterbake_table.dll). Link with -lscatterbake_table. The library does all the verification (magic, format version: newer
- * majors are refused, SHA-256 of the header and of the compressed and uncompressed payload,
- * sizes) with the same code as the Rust reader, so a table that opens here is bit-identical to
- * what the Rust writer wrote.
+ * .dylib or scatterbake_table.dll). Link with -lscatterbake_table. The library does all the
+ * verification (magic, format version: newer majors are refused with an error naming the
+ * version, newer minors are read and header fields it does not know are ignored; SHA-256 of the
+ * header and of the compressed and uncompressed payload, sizes) with the same code as the Rust
+ * reader, so a table that opens here is bit-identical to what the Rust writer wrote.
  *
  * Data layout: row-major float32, axes in header order, channel index innermost:
  *     value(i_0, ..., i_{n-1}, c) = data[((i_0 * len_1 + i_1) * ... + i_{n-1}) * n_channels + c]
@@ -31,7 +32,8 @@ sbt_table *sbt_open(const char *path, char *err, size_t err_len);
 /* Free a table (NULL is ignored). */
 void sbt_close(sbt_table *t);
 
-/* The verified JSON header (schema, axes, channels, attributes, provenance, payload). */
+/* The verified JSON header (schema, axes, channels, attributes, provenance, payload), as this
+ * library version understands it: fields added by a newer minor version are not included. */
 const char *sbt_header_json(const sbt_table *t);
 
 size_t sbt_num_axes(const sbt_table *t);

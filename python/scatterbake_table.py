@@ -11,9 +11,10 @@
 Byte layout (see docs/table-format.md): magic ``SBTABLE\\0`` (8 bytes), format major and minor
 (u16 LE each), flags (u32 LE), header length H (u64 LE), SHA-256 of bytes [0, 24) + header,
 the UTF-8 JSON header, then one zstd frame of ``header.payload.compressed_bytes`` bytes holding
-the row-major float32 little-endian samples. The reader refuses newer major versions, checks
-the header checksum, the SHA-256 of the compressed and of the uncompressed payload, the sizes,
-and that nothing follows the payload.
+the row-major float32 little-endian samples. The reader refuses newer major versions (naming
+the version), reads any minor version of format 1 and ignores header fields it does not know
+(newer minors only add fields), checks the header checksum, the SHA-256 of the compressed and
+of the uncompressed payload, the sizes, and that nothing follows the payload.
 """
 
 from __future__ import annotations

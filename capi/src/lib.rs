@@ -100,7 +100,8 @@ fn ptr_or_null(v: Option<&CString>) -> *const c_char {
     v.map(|s| s.as_ptr()).unwrap_or(std::ptr::null())
 }
 
-/// The verified JSON header (NUL-terminated).
+/// The verified JSON header (NUL-terminated), re-serialised: fields a newer minor version adds
+/// are not included.
 ///
 /// # Safety
 /// `t` must be NULL or a live handle.

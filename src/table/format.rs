@@ -22,7 +22,8 @@ use std::path::{Path, PathBuf};
 pub const MAGIC: [u8; 8] = *b"SBTABLE\0";
 /// Format major version written by this build. Readers refuse a newer major.
 pub const FORMAT_MAJOR: u16 = 1;
-/// Format minor version written by this build. Readers accept any minor of a known major.
+/// Format minor version written by this build. Readers accept any minor of a known major and
+/// ignore the header fields a newer minor adds.
 pub const FORMAT_MINOR: u16 = 0;
 const PREAMBLE: usize = 56;
 /// Upper bound on a header, so a corrupt length cannot make us allocate absurdly.
@@ -314,11 +315,46 @@ fn parse_header(bytes: &[u8], path: &Path) -> Result<Header, TableError> {
             path: path.into(),
             message: e.to_string(),
         })?;
+    // Fields of a newer minor are ignored; a file of a minor this reader implements has exactly
+    // the fields of that version.
+    let newer_minor = minor > FORMAT_MINOR;
+    if !newer_minor {
+        reject_unknown_fields(header_bytes, major, minor).map_err(|message| {
+            TableError::BadHeader {
+                path: path.into(),
+                message,
+            }
+        })?;
+    }
     validate_header(&header).map_err(|message| TableError::BadHeader {
         path: path.into(),
         message,
     })?;
     Ok(header)
+}
+
+/// Top-level header fields of format 1.0 (the fields of [`Header`]).
+const HEADER_FIELDS: [&str; 8] = [
+    "schema",
+    "description",
+    "axes",
+    "channels",
+    "layout",
+    "attributes",
+    "provenance",
+    "payload",
+];
+
+fn reject_unknown_fields(header_bytes: &[u8], major: u16, minor: u16) -> Result<(), String> {
+    let fields: std::collections::BTreeMap<String, serde::de::IgnoredAny> =
+        serde_json::from_slice(header_bytes).map_err(|e| e.to_string())?;
+    match fields.keys().find(|k| !HEADER_FIELDS.contains(&k.as_str())) {
+        Some(k) => Err(format!(
+            "unknown field `{k}` in a format {major}.{minor} header (only a newer minor version \
+             may add fields)"
+        )),
+        None => Ok(()),
+    }
 }
 
 fn validate_header(h: &Header) -> Result<(), String> {

@@ -174,9 +174,10 @@ pub struct Table {
     pub data: Vec<f32>,
 }
 
-/// The JSON header of a `.sbt` file (see the spec for every field).
+/// The JSON header of a `.sbt` file (see the spec for every field). Fields this version does
+/// not know are ignored when deserialising; the reader rejects unknown top-level fields only in
+/// files of a minor version it implements (`docs/table-format.md`, "Versioning rules").
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
 pub struct Header {
     pub schema: Schema,
     pub description: String,
