@@ -227,7 +227,8 @@ fn compare(
     let (maxima_debye, maxima_ray) = if p >= 2 {
         (
             bow_maxima(angles, &dg, p, bow, 5),
-            bow_maxima(angles, &rg, p, bow, 8),
+            // More than Debye's: noise maxima of the 2-D curve (see nearest_supernumerary_dev).
+            bow_maxima(angles, &rg, p, bow, 12),
         )
     } else {
         (vec![], vec![])
@@ -364,6 +365,23 @@ fn maxima_devs(f: &OrderFigures, p: usize, a_mm: f64) -> (f64, f64) {
     )
 }
 
+/// Largest distance from each of the first four Debye supernumeraries of order `p` to the
+/// nearest ray-traced maximum: the 2-D tracer's curve at 400² rays carries noise maxima between
+/// the supernumeraries (e.g. two maxima 0.12° apart near 127.4° for p = 3), which would shift a
+/// pairing by rank.
+fn nearest_supernumerary_dev(f: &OrderFigures, p: usize, a_mm: f64) -> f64 {
+    let (bow, gap) = (bow_deg(p), gap_deg(a_mm));
+    supernumeraries(&f.maxima_debye, p, bow, gap, 4)
+        .iter()
+        .map(|d| {
+            f.maxima_ray
+                .iter()
+                .map(|r| (r - d).abs())
+                .fold(f64::INFINITY, f64::min)
+        })
+        .fold(0.0, f64::max)
+}
+
 /// Fast subset: 0.1 and 0.4 mm, all four orders, 1-D path (unfiltered GO and Airy-uniform)
 /// against Debye; the 2-D patch tracer at 0.4 mm with 400² rays. Tolerances are the measured
 /// figures (docs/raytrace.md) with a margin of ≥ 2×.
@@ -429,7 +447,7 @@ fn ray_orders_match_debye_terms() {
     assert!(f2[1].l2_disc < 0.02, "2-D p=1 L2 {}", f2[1].l2_disc);
     // p = 3 converges more slowly with the ray count (0.129° at 400², 0.049° at 800²).
     for (p, tol) in [(2, 0.03), (3, 0.25)] {
-        let (_, sup) = maxima_devs(&f2[p], p, 0.4);
+        let sup = nearest_supernumerary_dev(&f2[p], p, 0.4);
         assert!(sup <= tol, "2-D p={p} supernumeraries Δ {sup}");
     }
 }

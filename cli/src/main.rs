@@ -64,7 +64,7 @@ enum Command {
     Export(ExportArgs),
     /// Plot a table (phase function, rainbow colour strip, Lee diagram, 2-D maps) to PNG/SVG.
     Plot(crate::commands::plot::PlotArgs),
-    /// Plot 2-D ray-traced tables (raytrace-phase-2d/1): bows near the rainbows per outgoing
+    /// Plot 2-D ray-traced tables (raytrace-phase-2d): bows near the rainbows per outgoing
     /// azimuth with colour strips (several tables = several radii), or a lat-long map.
     PlotRaytrace(crate::commands::plot_raytrace::PlotRaytraceArgs),
     /// Render a picture through the public table reader API.
@@ -115,7 +115,7 @@ enum ExportFormat {
     Mitsuba,
     /// Legendre moments with truncation error (phase-function tables).
     Legendre,
-    /// MiePlot-style text table: angle, i_perp, i_par, unpolarised (phase-function tables).
+    /// MiePlot-style text table: angle, i_perp, i_par, phase (phase-function tables).
     Mieplot,
     /// Sun-disc-convolved linear-sRGB lookup vs angle, `.csv` or `.png` (phase-function tables).
     RgbLut,

@@ -7,7 +7,7 @@
 //! - [`sphere1d`]: the fast exact 1-D geometric-optics-plus-phase path for spheres;
 //! - [`post`]: the Gaussian diffraction filter and the forward Fraunhofer lobe;
 //!
-//! The `raytrace` stage (schemas `raytrace-phase/1` and `raytrace-phase-2d/1`) is
+//! The `raytrace` stage (schemas `raytrace-phase/2` and `raytrace-phase-2d/2`) is
 //! [`crate::stages::raytrace`].
 
 pub mod post;

@@ -191,9 +191,10 @@ impl Stage for DebyeStage {
     fn name(&self) -> &'static str {
         "debye"
     }
-    /// 2: axes radius × wavelength × angle, efficiencies kept in f64.
+    /// 2: axes radius × wavelength × angle, efficiencies kept in f64. 3: `sadeghi-table-3.2`
+    /// corrected at 580–650 nm; attribute `sun_diameter_deg`.
     fn algorithm_version(&self) -> u32 {
-        2
+        3
     }
     fn summary(&self) -> &'static str {
         "Mie phase functions of water drops split into Debye-series orders (p = 0 reflection+diffraction, 1, 2 primary, 3 secondary, ...)"

@@ -666,8 +666,8 @@ impl Job for HairDualJob {
         );
         if let Some(m) = &self.artist {
             attributes.insert("artist_params".into(), serde_json::to_value(&m.params)?);
-            attributes.insert("normalisation_k".into(), json!(m.k));
-            attributes.insert("normalisation".into(), "eq. 4.17 with one scalar K = max over RGB of the energy of f'_s at θ_i = 0 under the energy measure, glints included (G_angle averaged uniformly over its range) (docs/decisions.md DS-4, DS-14)".into());
+            attributes.insert("normalization_k".into(), json!(m.k));
+            attributes.insert("normalization".into(), "eq. 4.17 with one scalar K = max over RGB of the energy of f'_s at θ_i = 0 under the energy measure, glints included (G_angle averaged uniformly over its range) (docs/decisions.md DS-4, DS-14)".into());
             attributes.insert(
                 "longitudinal".into(),
                 "unit-height g'(θ_h − α_X, β_X²)/cos²θ_d, cos²θ_d ≥ 1e-3 (docs/decisions.md DS-9, DS-18)".into(),

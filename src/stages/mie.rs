@@ -291,9 +291,10 @@ impl Stage for MieStage {
     fn name(&self) -> &'static str {
         "mie"
     }
-    /// 2: axes radius × wavelength × angle, Q and g kept in f64.
+    /// 2: axes radius × wavelength × angle, Q and g kept in f64. 3: `sadeghi-table-3.2`
+    /// corrected at 580–650 nm; attribute `sun_diameter_deg`.
     fn algorithm_version(&self) -> u32 {
-        2
+        3
     }
     fn summary(&self) -> &'static str {
         "Lorenz–Mie phase functions of water drops (radii or size distributions), sun-disc smoothed, bin-integrated"

@@ -3,6 +3,13 @@
 //! `docs/consumers.md`): a `wavelength` axis, any entry axes (e.g. `radius`), scattering angle
 //! last, channels `phase`, `i_perp`,
 //! `i_par`, `dolp` first, and the attributes below.
+//!
+//! One meaning of the channels in every such table (and in every command's output): `i_perp`
+//! and `i_par` are the perpendicular and parallel components of the normalised phase function
+//! (1/sr), `i_perp = |S1|²/(π x² Q_sca)` and `i_par = |S2|²/(π x² Q_sca)` for a sphere
+//! (Bohren & Huffman amplitudes), in general (dσ/dΩ)_⊥,∥ / σ_sca; `phase = (i_perp + i_par)/2`
+//! with ∫_{4π} phase dΩ = 1; `dolp = (i_perp − i_par)/(i_perp + i_par)`. Raw |S1|², |S2|²
+//! (dimensionless) are never called `i_perp`/`i_par`: commands print them as `s1_sq`, `s2_sq`.
 
 use super::Channel;
 use crate::optics::water::WaterIndexModel;
@@ -35,11 +42,12 @@ pub fn channels(normalisation: &str) -> Vec<Channel> {
 }
 
 /// The attributes every phase-function table states: `normalization`, `angle_convention`,
-/// `water_index_model` (and `temperature_c` for IAPWS), `medium`, `sun_disc_diameter_deg`.
+/// `water_index_model` (and `temperature_c` for IAPWS), `medium`, `sun_diameter_deg` (the
+/// name of the manifest key).
 pub fn attributes(
     normalization: &str,
     model: &WaterIndexModel,
-    sun_disc_diameter_deg: f64,
+    sun_diameter_deg: f64,
 ) -> Map<String, Value> {
     let mut a = Map::new();
     a.insert("normalization".into(), normalization.into());
@@ -55,6 +63,6 @@ pub fn attributes(
         "medium".into(),
         "water drops in air (outside index 1.0)".into(),
     );
-    a.insert("sun_disc_diameter_deg".into(), sun_disc_diameter_deg.into());
+    a.insert("sun_diameter_deg".into(), sun_diameter_deg.into());
     a
 }

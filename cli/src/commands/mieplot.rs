@@ -49,7 +49,7 @@ pub fn run_mieplot(args: &MiePlotArgs) -> anyhow::Result<()> {
 pub struct ValidateArgs {
     /// Phase-function table (.sbt).
     pub table: PathBuf,
-    /// MiePlot-style reference text file (angle, i_perp, i_par[, unpolarised]).
+    /// MiePlot-style reference text file (angle, i_perp, i_par[, phase]).
     #[arg(long)]
     pub reference: PathBuf,
     #[arg(long = "entry", value_name = "NAME=VALUE")]
@@ -77,7 +77,7 @@ pub fn run_validate(args: &ValidateArgs) -> anyhow::Result<()> {
     })?;
     let rep = compare(&pt, &args.entry, wl, &r, args.rescale)?;
     println!(
-        "{} vs {} at {wl} nm: {} rows, scale {:.6e}, max rel. error i_perp {:.3e}, i_par {:.3e}, unpolarised {:.3e} (worst at {} deg)",
+        "{} vs {} at {wl} nm: {} rows, scale {:.6e}, max rel. error i_perp {:.3e}, i_par {:.3e}, phase {:.3e} (worst at {} deg)",
         args.table.display(),
         args.reference.display(),
         rep.rows,
@@ -88,7 +88,7 @@ pub fn run_validate(args: &ValidateArgs) -> anyhow::Result<()> {
         rep.worst_angle_deg
     );
     println!(
-        "  rms rel. error i_perp {:.3e}, i_par {:.3e}, unpolarised {:.3e}; correlation {:.9}",
+        "  rms rel. error i_perp {:.3e}, i_par {:.3e}, phase {:.3e}; correlation {:.9}",
         rep.rms_rel_error[0], rep.rms_rel_error[1], rep.rms_rel_error[2], rep.correlation
     );
     let show = |name: &str, m: Option<(f64, f64)>| match m {

@@ -13,7 +13,7 @@ use std::path::PathBuf;
 /// drop radius).
 #[derive(Debug, Clone, clap::Args)]
 pub struct PlotRaytraceArgs {
-    /// 2-D tables (`raytrace-phase-2d/1`); the bows plot draws one curve/strip per table.
+    /// 2-D tables (`raytrace-phase-2d`); the bows plot draws one curve/strip per table.
     #[arg(required = true)]
     pub tables: Vec<PathBuf>,
     #[arg(long, value_enum, default_value = "bows")]

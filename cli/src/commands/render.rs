@@ -23,7 +23,7 @@ fn parse_rgb(s: &str) -> Result<[u8; 3], String> {
 #[derive(Debug, Clone, clap::Args)]
 pub struct RenderRainbowArgs {
     /// Phase-function table (.sbt): a 1-D table following the phase contract, or a ray-traced
-    /// 2-D table (`raytrace-phase-2d/1`, drops with vertical symmetry axis).
+    /// 2-D table (`raytrace-phase-2d`, drops with vertical symmetry axis).
     #[arg(long)]
     pub table: PathBuf,
     #[arg(long = "entry", value_name = "NAME=VALUE")]

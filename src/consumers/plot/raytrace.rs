@@ -1,5 +1,6 @@
-//! Plots of the ray tracer's 2-D tables (`raytrace-phase-2d/1`, see [`crate::consumers::read::phase2d`] for the
-//! frame), `scatterbake plot-raytrace` and the build previews of such tables:
+//! Plots of the ray tracer's 2-D tables (`raytrace-phase-2d`, versions 1 and 2, see
+//! [`crate::consumers::read::phase2d`] for the frame), `scatterbake plot-raytrace` and the build previews of
+//! such tables:
 //!
 //! - `bows`: the phase function (log scale) at one wavelength (default 650 nm) vs outgoing polar
 //!   angle in 120°–150° along three outgoing azimuths — φ = 0° (vertical plane, upwards),

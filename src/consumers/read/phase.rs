@@ -4,6 +4,11 @@
 //! by `--entry name=value`; channels
 //! `phase`, `i_perp`, `i_par` (1/sr, ∫_{4π} p dΩ = 1) and `dolp`.
 //!
+//! The axis order does not matter, so `raytrace-phase/1` tables (wavelength × radius ×
+//! scattering_angle) are read as well as `raytrace-phase/2` (radius × wavelength ×
+//! scattering_angle, the order of `mie-phase` and `debye-phase`); the channels mean the same in
+//! both. Other `raytrace-phase` versions are refused with a message naming the version.
+//!
 //! Everything here goes through the public reader API ([`Table::open`], [`Table::sample`]).
 
 use crate::table::{Table, TableError};
@@ -75,6 +80,14 @@ impl PhaseTable {
 
     /// Check a table in memory against the contract.
     pub fn new(table: Table) -> anyhow::Result<Self> {
+        let schema = &table.header.schema;
+        if schema.name == "raytrace-phase" && !(1..=2).contains(&schema.version) {
+            bail!(
+                "`raytrace-phase/{}` is not a version this reader knows (it reads \
+                 raytrace-phase/1 and raytrace-phase/2)",
+                schema.version
+            );
+        }
         let axes = table.axes();
         if axes.len() < 2 {
             bail!("a phase-function table needs at least the axes wavelength and scattering_angle");
@@ -290,4 +303,82 @@ pub fn describe_entry(table: &Table, entry: &[(String, f64)]) -> String {
         })
         .collect::<Vec<_>>()
         .join(", ")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::table::{Axis, Channel, Provenance, Schema, TableContent};
+
+    /// A raytrace-phase table with phase = radius_um + wavelength_nm/1000 + angle/1e4 (and
+    /// i_perp = 2 phase, i_par = 0), axes in version 1 or version 2 order.
+    fn raytrace_table(version: u32) -> Table {
+        let (radii, wl) = ([400.0, 800.0], [450.0, 650.0]);
+        let angles = Axis::uniform("scattering_angle", "deg", 0.0, 90.0, 3);
+        let value = |r: f64, w: f64, j: usize| r + w / 1000.0 + 90.0 * j as f64 / 1e4;
+        let mut data = vec![];
+        let mut push = |r: f64, w: f64| {
+            for j in 0..3 {
+                let p = value(r, w, j) as f32;
+                data.extend([p, 2.0 * p, 0.0, 1.0]);
+            }
+        };
+        let axes = if version == 1 {
+            for &w in &wl {
+                for &r in &radii {
+                    push(r, w);
+                }
+            }
+            vec![
+                Axis::values("wavelength", "nm", wl.to_vec()),
+                Axis::values("radius", "um", radii.to_vec()),
+                angles,
+            ]
+        } else {
+            for &r in &radii {
+                for &w in &wl {
+                    push(r, w);
+                }
+            }
+            vec![
+                Axis::values("radius", "um", radii.to_vec()),
+                Axis::values("wavelength", "nm", wl.to_vec()),
+                angles,
+            ]
+        };
+        let content = TableContent {
+            schema: Schema::new("raytrace-phase", version),
+            description: "test".into(),
+            axes,
+            channels: ["phase", "i_perp", "i_par", "dolp"]
+                .iter()
+                .map(|n| Channel::new(n, "1", "test"))
+                .collect(),
+            attributes: Default::default(),
+            data,
+        };
+        Table::from_content(content, Provenance::default()).unwrap()
+    }
+
+    #[test]
+    fn both_raytrace_versions_read_alike_and_others_are_refused() {
+        let sel: Vec<EntrySelection> = vec!["radius=800".parse().unwrap()];
+        let v1 = PhaseTable::new(raytrace_table(1))
+            .unwrap()
+            .curves(&sel)
+            .unwrap();
+        let v2 = PhaseTable::new(raytrace_table(2))
+            .unwrap()
+            .curves(&sel)
+            .unwrap();
+        assert_eq!(v1.wavelengths_nm, vec![450.0, 650.0]);
+        assert_eq!(v1.phase, v2.phase);
+        assert_eq!(v1.i_perp, v2.i_perp);
+        assert_eq!(v2.phase[1][2], (800.0 + 0.65 + 0.018) as f32 as f64);
+        let e = PhaseTable::new(raytrace_table(3))
+            .err()
+            .unwrap()
+            .to_string();
+        assert!(e.contains("raytrace-phase/3"), "{e}");
+    }
 }
