@@ -710,7 +710,7 @@ pub fn far_field_with(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::optics::quadrature::gauss_legendre_interval;
+    use crate::math::quadrature::gauss_legendre_interval;
 
     fn settings() -> FarFieldSettings {
         FarFieldSettings {

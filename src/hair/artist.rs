@@ -21,7 +21,7 @@ use super::dual::{
     average_backscatter_variance,
 };
 use super::longitudinal::{gaussian_unit_height, lobe_energy};
-use crate::optics::quadrature::gauss_legendre;
+use crate::math::quadrature::gauss_legendre;
 use serde::{Deserialize, Serialize};
 use std::f64::consts::{FRAC_PI_2, PI};
 

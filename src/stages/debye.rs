@@ -16,10 +16,10 @@ use crate::mie::filters::{
 use crate::mie::{check_domain, size_parameter};
 use crate::optics::water::{SADEGHI_WAVELENGTHS_NM, WaterIndexModel};
 use crate::stages::mie::FilterSettings;
+use crate::stages::phase_contract;
 use crate::stages::{
     Job, ParamDoc, PlanError, Stage, TaskSpec, checks, join_f64, parse_params, split_f64,
 };
-use crate::table::phase_contract;
 use crate::table::{Axis, Channel, Schema, TableContent};
 use num_complex::Complex64;
 use serde::{Deserialize, Serialize};

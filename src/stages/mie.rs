@@ -11,10 +11,10 @@ use crate::mie::filters::{
 };
 use crate::mie::{Sphere, size_parameter};
 use crate::optics::water::{SADEGHI_WAVELENGTHS_NM, WaterIndexModel};
+use crate::stages::phase_contract::{self, CHANNELS};
 use crate::stages::{
     Job, ParamDoc, PlanError, Stage, TaskSpec, checks, join_f64, parse_params, split_f64,
 };
-use crate::table::phase_contract::{self, CHANNELS};
 use crate::table::{Axis, Schema, TableContent};
 use num_complex::Complex64;
 use rayon::prelude::*;

@@ -7,6 +7,7 @@ pub mod fur_farfield;
 pub mod fur_medulla;
 pub mod hair;
 pub mod mie;
+pub mod phase_contract;
 pub mod raytrace;
 mod stage;
 pub mod water_index;

@@ -33,8 +33,8 @@ use crate::raytrace::post::{
 use crate::raytrace::shape::{CosineSeries, DropShape};
 use crate::raytrace::sphere1d::{DiffractionModel, Phase1dOptions, SphereGo, sphere_phase_1d};
 use crate::raytrace::tracer::{DirectionGrid, TraceConfig, trace_fields};
+use crate::stages::phase_contract;
 use crate::stages::{Job, ParamDoc, PlanError, Stage, TaskSpec, checks, parse_params};
-use crate::table::phase_contract;
 use crate::table::{Axis, Channel, Schema, TableContent};
 use serde::{Deserialize, Serialize};
 use std::f64::consts::PI;

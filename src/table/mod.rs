@@ -5,7 +5,6 @@
 //! checksums of the header and of the payload (compressed and uncompressed).
 
 pub mod format;
-pub mod phase_contract;
 mod sample;
 
 pub use format::{

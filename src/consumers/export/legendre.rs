@@ -25,7 +25,7 @@
 //! replaces the peak, so the error inside it is not meaningful), and `f` is printed (the
 //! power the δ carries: scale the scattering coefficient by 1 − f, as DISORT does).
 
-use crate::optics::quadrature::gauss_legendre;
+use crate::math::quadrature::gauss_legendre;
 use std::f64::consts::PI;
 
 /// P_0..P_L at `x` by the three-term recurrence.

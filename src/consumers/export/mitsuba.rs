@@ -134,11 +134,7 @@ pub fn tabphase_point_values(angles_deg: &[f64], phase: &[f64], n: usize) -> Vec
     mu_grid(n)
         .into_iter()
         .map(|mu| {
-            crate::optics::interp::interp1(
-                angles_deg,
-                phase,
-                mu.clamp(-1.0, 1.0).acos().to_degrees(),
-            )
+            crate::math::interp::interp1(angles_deg, phase, mu.clamp(-1.0, 1.0).acos().to_degrees())
         })
         .collect()
 }
@@ -149,7 +145,7 @@ pub fn mitsuba_eval(values: &[f64], mu: f64) -> f64 {
     let n = values.len();
     let h = 2.0 / (n - 1) as f64;
     let integral: f64 = values.windows(2).map(|w| 0.5 * (w[0] + w[1]) * h).sum();
-    let v = crate::optics::interp::interp1_uniform(values, -1.0, h, mu);
+    let v = crate::math::interp::interp1_uniform(values, -1.0, h, mu);
     v / integral / (2.0 * PI)
 }
 

@@ -18,7 +18,7 @@ use super::figure::{perr, with_backend};
 use super::style::xyz_colour;
 use crate::consumers::read::phase2d::{Phase2dTable, PhaseSlice, outgoing_direction};
 use crate::consumers::read::spectrum::{THETA_STEP_DEG, xyz_along};
-use crate::optics::vec3::V3;
+use crate::math::vec3::V3;
 use anyhow::bail;
 use plotters::coord::ReverseCoordTranslate;
 use plotters::coord::types::RangedCoordf64;

@@ -227,13 +227,13 @@ impl PhaseCurves {
     /// wavelengths at one angle: value = `v[j] (1 − t) + v[j + 1] t`. Needs ≥ 2 angles.
     pub fn locate_angle(&self, angle_deg: f64) -> (usize, f64) {
         match self.uniform_step {
-            Some(step) => crate::optics::interp::locate_uniform(
+            Some(step) => crate::math::interp::locate_uniform(
                 self.angles_deg[0],
                 step,
                 self.angles_deg.len(),
                 angle_deg,
             ),
-            None => crate::optics::interp::locate(&self.angles_deg, angle_deg),
+            None => crate::math::interp::locate(&self.angles_deg, angle_deg),
         }
     }
 
@@ -242,14 +242,14 @@ impl PhaseCurves {
     pub fn phase_at(&self, k: usize, angle_deg: f64) -> f64 {
         // Fast path for uniform grids (the contract's preferred layout); same formula.
         if let Some(step) = self.uniform_step {
-            return crate::optics::interp::interp1_uniform(
+            return crate::math::interp::interp1_uniform(
                 &self.phase[k],
                 self.angles_deg[0],
                 step,
                 angle_deg,
             );
         }
-        crate::optics::interp::interp1(&self.angles_deg, &self.phase[k], angle_deg)
+        crate::math::interp::interp1(&self.angles_deg, &self.phase[k], angle_deg)
     }
 }
 

@@ -27,8 +27,8 @@
 
 use super::spectrum::SkyPhase;
 use crate::consumers::read::phase::EntrySelection;
-use crate::optics::vec3::V3;
-use crate::optics::vec3::{cross, dot};
+use crate::math::vec3::V3;
+use crate::math::vec3::{cross, dot};
 use crate::table::{Table, TableError};
 use anyhow::{Context, bail};
 use rayon::prelude::*;

@@ -5,8 +5,8 @@
 //! renderer.
 
 use crate::consumers::read::phase::{EntrySelection, PhaseTable};
+use crate::math::vec3::{V3, cross, dot, normalize};
 use crate::optics::colour::{Illuminant1931, SpectralWeights};
-use crate::optics::vec3::{V3, cross, dot, normalize};
 use rayon::prelude::*;
 
 /// Spacing of the precomputed Θ grid (deg).

@@ -41,10 +41,10 @@ use crate::consumers::read::phase::{EntrySelection, PhaseTable};
 use crate::consumers::read::spectrum::{
     THETA_STEP_DEG, disc_average_spectrum, disc_samples, xyz_along, xyz_vs_angle,
 };
+use crate::math::vec3::{V3, dot, normalize};
 use crate::optics::colour::{
     Illuminant1931, SpectralWeights, linear_srgb_luminance, srgb_encode, xyz_to_linear_srgb,
 };
-use crate::optics::vec3::{V3, dot, normalize};
 use rayon::prelude::*;
 
 /// Camera lens model.

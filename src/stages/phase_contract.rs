@@ -11,8 +11,8 @@
 //! with ∫_{4π} phase dΩ = 1; `dolp = (i_perp − i_par)/(i_perp + i_par)`. Raw |S1|², |S2|²
 //! (dimensionless) are never called `i_perp`/`i_par`: commands print them as `s1_sq`, `s2_sq`.
 
-use super::Channel;
 use crate::optics::water::WaterIndexModel;
+use crate::table::Channel;
 use serde_json::{Map, Value};
 
 /// Names of the four leading channels of every phase-function table.
