@@ -1,6 +1,9 @@
 //! scatterbake: precomputed light-scattering tables for renderers.
 //!
 //! The modules follow the data flow; each depends only on those listed before it:
+//! 0. [`error`]: error pieces every layer shares (I/O failures with their path, cause chains);
+//!    each layer has its own error type ([`table::TableError`], [`stages::PlanError`],
+//!    [`stages::JobError`], [`pipeline::PipelineError`], [`consumers::ConsumerError`], …);
 //! 1. [`table`]: the `.sbt` table file format (writer, reader, verifier, lookup API);
 //! 2. [`optics`]: primitives shared by every stage (Fresnel, water index, colour, Henyey–
 //!    Greenstein, quadrature, interpolation, vectors);
@@ -13,6 +16,8 @@
 //!
 //! The command line is a separate crate (`cli/`, binary `scatterbake`); this library never sees
 //! its argument parser.
+
+pub mod error;
 
 pub mod table;
 

@@ -9,8 +9,8 @@
 //! - [`dual`]: Dual Scattering averages and closed forms;
 //! - [`artist`]: the artist-friendly model with the scalar normalisation of thesis eq. 4.17;
 //! - [`melanin`]: eumelanin/pheomelanin concentration → `σ_a`;
-//! - [`stage`]: the `hair-azimuthal` and `hair-dual` stages;
-//! - [`export`]: EXR LUT and JSON exports, CLI argument structs.
+//! - [`crate::stages::hair`]: the `hair-azimuthal` and `hair-dual` stages;
+//! - [`crate::consumers::export::hair_lut`]: EXR LUT and JSON exports.
 
 pub mod artist;
 pub mod dual;

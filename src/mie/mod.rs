@@ -16,7 +16,7 @@
 //! Layout: [`riccati`] (Riccati–Bessel functions and log-derivatives, reusable by a Debye
 //! series), [`coefficients`] (`a_n`, `b_n`, efficiencies), [`angular`] (the vectorised
 //! `S_1`/`S_2` kernel), [`filters`] (size distributions, sun disc, bin resampling),
-//! [`stage`] (the `mie` stage) and [`cli`] (the `scatterbake mie` query).
+//! [`crate::stages::mie`] (the `mie` stage); the `scatterbake mie` query is in the command line.
 
 pub mod angular;
 pub mod coefficients;

@@ -6,7 +6,7 @@
 //! - [`tracer`]: the general 2-D patch tracer (any shape, any sun elevation);
 //! - [`sphere1d`]: the fast exact 1-D geometric-optics-plus-phase path for spheres;
 //! - [`post`]: the Gaussian diffraction filter and the forward Fraunhofer lobe;
-//! - [`stage`]: the `raytrace` stage (schemas `raytrace-phase/1` and `raytrace-phase-2d/1`).
+//! - [`crate::stages::raytrace`]: the `raytrace` stage (schemas `raytrace-phase/1` and `raytrace-phase-2d/1`).
 
 pub mod post;
 pub mod shape;

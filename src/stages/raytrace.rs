@@ -23,175 +23,56 @@ use crate::raytrace::post::{
 use crate::raytrace::shape::{CosineSeries, DropShape};
 use crate::raytrace::sphere1d::{DiffractionModel, Phase1dOptions, SphereGo, sphere_phase_1d};
 use crate::raytrace::tracer::{DirectionGrid, TraceConfig, trace_fields};
-use crate::stages::{Job, ParamDoc, PlanError, Stage, TaskSpec, checks, parse_params};
+use crate::stages::{Job, JobError, PlanError, StageSpec, TaskSpec, checks, stage_params};
 use crate::table::phase_contract;
 use crate::table::{Axis, Channel, Schema, TableContent};
-use serde::{Deserialize, Serialize};
 use std::f64::consts::PI;
 
 /// The stage.
 pub struct RaytraceStage;
 
-fn default_wavelengths() -> Vec<f64> {
-    SADEGHI_WAVELENGTHS_NM.to_vec()
+stage_params! {
+    /// Parameters of `[table.params]`.
+    pub struct RaytraceParams {
+        /// `sphere`, `beard-chuang` or `profile`.
+        pub shape: String = required, "string",
+            "sphere (1-D table, exact GO+phase path) | beard-chuang | profile (2-D tables, patch tracer)";
+        /// Equal-volume radii (mm); spheres accept a list, 2-D shapes exactly one.
+        pub radius_mm: Vec<f64> = required, "list of float, mm",
+            "equal-volume radii, 0.01–5 mm; exactly one for 2-D shapes";
+        pub wavelength_nm: Vec<f64> = default(SADEGHI_WAVELENGTHS_NM.to_vec()),
+            "list of float, nm", "vacuum wavelengths, strictly increasing";
+        pub water_index_model: String = default("sadeghi-table-3.2".into()),
+            "string", "sadeghi-table-3.2 (thesis parity) or iapws1997";
+        pub temperature_c: Option<f64> = optional("20"),
+            "float, °C", "temperature for iapws1997";
+        pub max_order: usize = default(3), "integer",
+            "highest order p traced (0 reflection, 1 transmission, 2 primary, 3 secondary, ...), 1–8";
+        /// Scattering-angle step (deg) of 1-D sphere tables.
+        pub angle_step_deg: f64 = default(0.05), "float, deg",
+            "scattering-angle step of 1-D sphere tables (divides 180)";
+        pub sun_elevation_deg: Vec<f64> = default(vec![0.0]), "list of float, deg",
+            "sun elevations above the horizon (drop axis vertical), 0–90, 2-D shapes";
+        pub rays: usize = default(600), "integer",
+            "rays per side of the square ray grid (2-D shapes; the thesis used 3000)";
+        pub polar_step_deg: f64 = default(0.1), "float, deg",
+            "outgoing polar step (divides 180), 2-D shapes";
+        pub azimuth_step_deg: f64 = default(5.0), "float, deg",
+            "outgoing azimuth step (divides 360), 2-D shapes";
+        pub diffraction_filter: bool = default(true), "bool",
+            "apply the Table 3.3 Gaussian filter to the main channels (unfiltered channels are always written)";
+        /// Diffraction model of the main channels: `airy-uniform` (spheres only, default for
+        /// spheres) or `gaussian` (thesis Table 3.3 filter, windowed around the caustics; the only
+        /// choice for 2-D shapes).
+        pub diffraction_model: Option<DiffractionModel> =
+            optional("airy-uniform (sphere) / gaussian (2-D)"), "string",
+            "airy-uniform: uniform caustic (Airy) approximation at each rainbow (spheres); gaussian: thesis Table 3.3 Gaussian filter windowed around the caustics";
+        pub profile_theta_deg: Option<Vec<f64>> = optional("none"), "list of float, deg",
+            "shape = profile: polar angles from the downward pole";
+        pub profile_r: Option<Vec<f64>> = optional("none"), "list of float",
+            "shape = profile: radii at profile_theta_deg (any unit; rescaled to radius_mm equal volume)";
+    }
 }
-fn default_model() -> String {
-    "sadeghi-table-3.2".into()
-}
-fn default_max_order() -> usize {
-    3
-}
-fn default_angle_step() -> f64 {
-    0.05
-}
-fn default_elevations() -> Vec<f64> {
-    vec![0.0]
-}
-fn default_rays() -> usize {
-    600
-}
-fn default_polar_step() -> f64 {
-    0.1
-}
-fn default_azimuth_step() -> f64 {
-    5.0
-}
-fn default_true() -> bool {
-    true
-}
-
-/// Parameters of `[table.params]`.
-#[derive(Debug, Clone, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct RaytraceParams {
-    /// `sphere`, `beard-chuang` or `profile`.
-    pub shape: String,
-    /// Equal-volume radii (mm); spheres accept a list, 2-D shapes exactly one.
-    pub radius_mm: Vec<f64>,
-    #[serde(default = "default_wavelengths")]
-    pub wavelength_nm: Vec<f64>,
-    #[serde(default = "default_model")]
-    pub water_index_model: String,
-    #[serde(default)]
-    pub temperature_c: Option<f64>,
-    #[serde(default = "default_max_order")]
-    pub max_order: usize,
-    /// Scattering-angle step (deg) of 1-D sphere tables.
-    #[serde(default = "default_angle_step")]
-    pub angle_step_deg: f64,
-    #[serde(default = "default_elevations")]
-    pub sun_elevation_deg: Vec<f64>,
-    #[serde(default = "default_rays")]
-    pub rays: usize,
-    #[serde(default = "default_polar_step")]
-    pub polar_step_deg: f64,
-    #[serde(default = "default_azimuth_step")]
-    pub azimuth_step_deg: f64,
-    #[serde(default = "default_true")]
-    pub diffraction_filter: bool,
-    /// Diffraction model of the main channels: `airy-uniform` (spheres only, default for
-    /// spheres) or `gaussian` (thesis Table 3.3 filter, windowed around the caustics; the only
-    /// choice for 2-D shapes).
-    #[serde(default)]
-    pub diffraction_model: Option<DiffractionModel>,
-    #[serde(default)]
-    pub profile_theta_deg: Option<Vec<f64>>,
-    #[serde(default)]
-    pub profile_r: Option<Vec<f64>>,
-}
-
-const PARAMS: &[ParamDoc] = &[
-    ParamDoc {
-        name: "shape",
-        kind: "string",
-        default: "required",
-        description: "sphere (1-D table, exact GO+phase path) | beard-chuang | profile (2-D tables, patch tracer)",
-    },
-    ParamDoc {
-        name: "radius_mm",
-        kind: "list of float, mm",
-        default: "required",
-        description: "equal-volume radii, 0.01–5 mm; exactly one for 2-D shapes",
-    },
-    ParamDoc {
-        name: "wavelength_nm",
-        kind: "list of float, nm",
-        default: "380..700 step 10 (33)",
-        description: "vacuum wavelengths, strictly increasing",
-    },
-    ParamDoc {
-        name: "water_index_model",
-        kind: "string",
-        default: "sadeghi-table-3.2",
-        description: "sadeghi-table-3.2 (thesis parity) or iapws1997",
-    },
-    ParamDoc {
-        name: "temperature_c",
-        kind: "float, °C",
-        default: "20",
-        description: "temperature for iapws1997",
-    },
-    ParamDoc {
-        name: "max_order",
-        kind: "integer",
-        default: "3",
-        description: "highest order p traced (0 reflection, 1 transmission, 2 primary, 3 secondary, ...), 1–8",
-    },
-    ParamDoc {
-        name: "angle_step_deg",
-        kind: "float, deg",
-        default: "0.05",
-        description: "scattering-angle step of 1-D sphere tables (divides 180)",
-    },
-    ParamDoc {
-        name: "sun_elevation_deg",
-        kind: "list of float, deg",
-        default: "[0]",
-        description: "sun elevations above the horizon (drop axis vertical), 0–90, 2-D shapes",
-    },
-    ParamDoc {
-        name: "rays",
-        kind: "integer",
-        default: "600",
-        description: "rays per side of the square ray grid (2-D shapes; the thesis used 3000)",
-    },
-    ParamDoc {
-        name: "polar_step_deg",
-        kind: "float, deg",
-        default: "0.1",
-        description: "outgoing polar step (divides 180), 2-D shapes",
-    },
-    ParamDoc {
-        name: "azimuth_step_deg",
-        kind: "float, deg",
-        default: "5",
-        description: "outgoing azimuth step (divides 360), 2-D shapes",
-    },
-    ParamDoc {
-        name: "diffraction_filter",
-        kind: "bool",
-        default: "true",
-        description: "apply the Table 3.3 Gaussian filter to the main channels (unfiltered channels are always written)",
-    },
-    ParamDoc {
-        name: "diffraction_model",
-        kind: "string",
-        default: "airy-uniform (sphere) / gaussian (2-D)",
-        description: "airy-uniform: uniform caustic (Airy) approximation at each rainbow (spheres); gaussian: thesis Table 3.3 Gaussian filter windowed around the caustics",
-    },
-    ParamDoc {
-        name: "profile_theta_deg",
-        kind: "list of float, deg",
-        default: "none",
-        description: "shape = profile: polar angles from the downward pole",
-    },
-    ParamDoc {
-        name: "profile_r",
-        kind: "list of float",
-        default: "none",
-        description: "shape = profile: radii at profile_theta_deg (any unit; rescaled to radius_mm equal volume)",
-    },
-];
 
 fn divides(total: f64, step: f64) -> Option<usize> {
     if step.is_nan() || step <= 0.0 {
@@ -205,22 +86,14 @@ fn divides(total: f64, step: f64) -> Option<usize> {
     }
 }
 
-impl Stage for RaytraceStage {
-    fn name(&self) -> &'static str {
-        "raytrace"
-    }
+impl StageSpec for RaytraceStage {
+    const NAME: &'static str = "raytrace";
     /// 2: 2-D tables renormalised to ∫ p dΩ = 1 on their grid.
-    fn algorithm_version(&self) -> u32 {
-        2
-    }
-    fn summary(&self) -> &'static str {
-        "wave-optics patch ray tracer: phase functions of spherical and Beard–Chuang raindrops"
-    }
-    fn parameters(&self) -> &'static [ParamDoc] {
-        PARAMS
-    }
-    fn plan(&self, params: toml::de::ValueDeserializer<'_>) -> Result<Box<dyn Job>, PlanError> {
-        let p: RaytraceParams = parse_params(params)?;
+    const VERSION: u32 = 2;
+    const SUMMARY: &'static str =
+        "wave-optics patch ray tracer: phase functions of spherical and Beard–Chuang raindrops";
+    type Params = RaytraceParams;
+    fn plan_params(&self, p: RaytraceParams) -> Result<Box<dyn Job>, PlanError> {
         Ok(Box::new(RaytraceJob::new(p)?))
     }
 }
@@ -398,7 +271,7 @@ impl RaytraceJob {
 
     /// Run the 2-D tracer for one (wavelength, elevation): values [polar][azimuth][channel].
     #[allow(clippy::needless_range_loop)]
-    fn run_2d(&self, lambda: f64, elevation_deg: f64) -> anyhow::Result<Vec<f32>> {
+    fn run_2d(&self, lambda: f64, elevation_deg: f64) -> Result<Vec<f32>, JobError> {
         let shape = self.shape.as_ref().expect("2-D job has a shape");
         let n = self.model.index(lambda)?;
         let grid = self.direction_grid();
@@ -554,7 +427,7 @@ impl Job for RaytraceJob {
             .collect()
     }
 
-    fn run_task(&self, index: usize) -> anyhow::Result<Vec<f32>> {
+    fn run_task(&self, index: usize) -> Result<Vec<f32>, JobError> {
         let (l, s) = self.task_pairs()[index];
         if self.two_d {
             return self.run_2d(l, s);
@@ -582,7 +455,7 @@ impl Job for RaytraceJob {
         Ok(out)
     }
 
-    fn assemble(&self, chunks: Vec<Vec<f32>>) -> anyhow::Result<TableContent> {
+    fn assemble(&self, chunks: Vec<Vec<f32>>) -> Result<TableContent, JobError> {
         let data: Vec<f32> = chunks.into_iter().flatten().collect();
         let channels = self.channels();
         let nch = channels.len();
@@ -665,7 +538,12 @@ impl Job for RaytraceJob {
             // sun 0°); every intensity channel (all but `dolp`) is divided by it, so ∫ p dΩ = 1
             // exactly on the table grid, as the phase-function contract requires, and the
             // factor is kept in `integral_check`.
-            anyhow::ensure!(s > 0.0 && s.is_finite(), "entry {e}: ∫ p dΩ = {s}");
+            if !(s > 0.0 && s.is_finite()) {
+                return Err(JobError::NotNormalisable {
+                    entry: e,
+                    integral: s,
+                });
+            }
             for v in data[base..base + np * na * nch].chunks_mut(nch) {
                 for (c, x) in v.iter_mut().enumerate() {
                     if c != 3 {
@@ -717,12 +595,18 @@ mod tests {
 
     #[test]
     fn rejects_bad_parameters() {
-        assert!(plan("shape = \"cube\"\nradius_mm = [1.0]").is_err());
-        assert!(plan("shape = \"sphere\"\nradius_mm = [0.4]\nangle_step_deg = 0.07").is_err());
-        assert!(plan("shape = \"beard-chuang\"\nradius_mm = [1.0, 2.0]").is_err());
-        assert!(plan("shape = \"sphere\"\nradius_mm = [0.4]\nwavelength_nm = [300.0]").is_err());
-        assert!(plan("shape = \"sphere\"\nradius_mm = [0.4]\nunknown = 1").is_err());
-        assert!(plan("shape = \"profile\"\nradius_mm = [1.0]").is_err());
+        crate::stages::assert_planning(
+            &RaytraceStage,
+            &[
+                "shape = \"cube\"\nradius_mm = [1.0]",
+                "shape = \"sphere\"\nradius_mm = [0.4]\nangle_step_deg = 0.07",
+                "shape = \"beard-chuang\"\nradius_mm = [1.0, 2.0]",
+                "shape = \"sphere\"\nradius_mm = [0.4]\nwavelength_nm = [300.0]",
+                "shape = \"sphere\"\nradius_mm = [0.4]\nunknown = 1",
+                "shape = \"profile\"\nradius_mm = [1.0]",
+            ],
+            &[],
+        );
     }
 
     #[test]
@@ -731,10 +615,7 @@ mod tests {
             "shape = \"sphere\"\nradius_mm = [0.4]\nwavelength_nm = [650.0]\nangle_step_deg = 0.05",
         )
         .unwrap();
-        let chunks: Vec<Vec<f32>> = (0..job.tasks().len())
-            .map(|i| job.run_task(i).unwrap())
-            .collect();
-        let t = job.assemble(chunks).unwrap();
+        let t = crate::stages::run_in_memory(job.as_ref()).unwrap();
         assert_eq!(t.data.len(), t.expected_len());
         let integral = t.attributes["integral_check"]["values"][0]
             .as_f64()
@@ -766,10 +647,7 @@ mod tests {
             "shape = \"beard-chuang\"\nradius_mm = [2.0]\nwavelength_nm = [550.0]\nsun_elevation_deg = [0.0]\nrays = 80\npolar_step_deg = 0.5\nazimuth_step_deg = 30.0",
         )
         .unwrap();
-        let chunks: Vec<Vec<f32>> = (0..job.tasks().len())
-            .map(|i| job.run_task(i).unwrap())
-            .collect();
-        let t = job.assemble(chunks).unwrap();
+        let t = crate::stages::run_in_memory(job.as_ref()).unwrap();
         let raw = t.attributes["integral_check"]["values"][0]
             .as_f64()
             .unwrap();
