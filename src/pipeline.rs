@@ -580,3 +580,55 @@ fn update_catalog(out_dir: &Path) -> Result<(), PipelineError> {
     crate::catalog::rebuild(out_dir)?;
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::error::error_chain;
+
+    #[test]
+    fn shard_errors_name_the_problem_and_the_source() {
+        assert_eq!(
+            Shard::parse(" 1 / 4").unwrap(),
+            Shard { index: 1, count: 4 }
+        );
+        let e = Shard::parse("x/4").unwrap_err();
+        assert_eq!(
+            error_chain(&e),
+            "--shard: `x` is not a number: invalid digit found in string"
+        );
+        assert!(matches!(
+            Shard::parse("4/4"),
+            Err(ShardError::OutOfRange { index: 4, count: 4 })
+        ));
+        assert!(matches!(Shard::parse("4"), Err(ShardError::Syntax(_))));
+    }
+
+    #[test]
+    fn failed_build_lists_each_task_with_its_cause_chain() {
+        let task = PipelineError::Task {
+            table: "w".into(),
+            index: 3,
+            label: "T=20 °C".into(),
+            source: Box::new(PipelineError::Job(JobError::ChunkCount {
+                expected: 2,
+                got: 1,
+            })),
+        };
+        let finish = PipelineError::Finish {
+            table: "m".into(),
+            source: Box::new(
+                IoError::doing("writing checkpoint", Path::new("out/.work/m/k.chunk"))(
+                    std::io::Error::other("disk full"),
+                )
+                .into(),
+            ),
+        };
+        let e = PipelineError::Failed(vec![task, finish]);
+        assert_eq!(
+            e.to_string(),
+            "2 task(s) failed:\n  w task 3 (T=20 °C): expected 2 chunks (one per task), got 1\n  \
+             m: writing checkpoint out/.work/m/k.chunk: disk full"
+        );
+    }
+}

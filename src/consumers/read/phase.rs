@@ -313,3 +313,55 @@ pub fn describe_entry(table: &Table, entry: &[(String, f64)]) -> String {
         .collect::<Vec<_>>()
         .join(", ")
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::consumers::synthetic::henyey_greenstein_table;
+
+    #[test]
+    fn unknown_entry_axis_lists_the_entry_axes_with_their_ranges() {
+        let pt = PhaseTable::new(henyey_greenstein_table(
+            &[550.0],
+            &[100.0, 500.0],
+            |_, _| 0.5,
+            181,
+            0.0,
+        ))
+        .unwrap();
+        let e = pt
+            .resolve_entry(&["diameter=3".parse().unwrap()])
+            .unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "`diameter` is not an entry axis of this table (entry axes: radius [100, 500] um)"
+        );
+    }
+
+    #[test]
+    fn layout_errors_of_a_file_name_the_file() {
+        use crate::table::{Axis, Channel, Schema, TableContent, write_table_atomic};
+        let d = tempfile::tempdir().unwrap();
+        let path = d.path().join("flat.sbt");
+        let content = TableContent {
+            schema: Schema::new("flat", 1),
+            description: String::new(),
+            axes: vec![Axis::values("x", "1", vec![0.0, 1.0])],
+            channels: vec![Channel::new("v", "1", "value")],
+            attributes: Default::default(),
+            data: vec![0.0, 1.0],
+        };
+        let mut t = Table::from_content(content, Default::default()).unwrap();
+        write_table_atomic(&mut t, &path).unwrap();
+        let e = PhaseTable::open(&path).err().expect("not a phase table");
+        let chain = crate::error::error_chain(&e);
+        assert!(
+            chain.starts_with(&format!("{}: ", path.display())),
+            "{chain}"
+        );
+        assert!(
+            chain.contains("needs at least the axes wavelength"),
+            "{chain}"
+        );
+    }
+}
