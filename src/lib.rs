@@ -2,6 +2,9 @@
 //!
 //! The modules follow the data flow; each depends only on those listed before it:
 //! 0. [`math`]: numerical primitives (interpolation, quadrature, 3-vectors);
+//!    [`error`]: error pieces every layer shares (I/O failures with their path, cause chains);
+//!    each layer has its own error type ([`table::TableError`], [`stages::PlanError`],
+//!    [`stages::JobError`], [`pipeline::PipelineError`], [`consumers::ConsumerError`], …);
 //! 1. [`table`]: the `.sbt` table file format (writer, reader, verifier, lookup API);
 //! 2. [`optics`]: optics primitives shared by every stage (Fresnel, water index, colour,
 //!    Henyey–Greenstein, Airy function);
@@ -16,6 +19,8 @@
 //! its argument parser.
 
 pub mod math;
+
+pub mod error;
 
 pub mod table;
 

@@ -377,7 +377,7 @@ fn draw_previews(out: &std::path::Path, tables: &[String]) {
         if let Err(e) =
             scatterbake::consumers::plot::previews::previews(&path, &out.join("previews"))
         {
-            eprintln!("warning: previews of {name}: {e:#}");
+            eprintln!("warning: previews of {name}: {:#}", anyhow::Error::from(e));
         }
     }
 }

@@ -28,6 +28,7 @@
 //!   `scatterbake_log10_max` (with `scatterbake_encoding = log10`). Step: 8/65535 decades
 //!   = 0.028 % relative.
 
+use crate::consumers::ConsumerError;
 use crate::consumers::read::phase::{EntrySelection, PhaseTable};
 use crate::consumers::read::spectrum::{THETA_STEP_DEG, xyz_vs_angle};
 use crate::optics::colour::xyz_to_linear_srgb;
@@ -71,7 +72,7 @@ pub fn log_decode(code: u16, l0: f64, l1: f64) -> f64 {
 }
 
 /// The LUT as a 1-D table (axis `scattering_angle`, channels `R`, `G`, `B`) for the EXR writer.
-pub fn lut_table(lut: &[[f64; 3]], source: &str, entry: &str) -> anyhow::Result<Table> {
+pub fn lut_table(lut: &[[f64; 3]], source: &str, entry: &str) -> Result<Table, ConsumerError> {
     let n = lut.len();
     let mut attributes = serde_json::Map::new();
     attributes.insert("source_table".into(), source.into());
@@ -103,7 +104,7 @@ pub fn rgb_lut(
     entry: &[EntrySelection],
     sun_diameter_deg: f64,
     n: usize,
-) -> anyhow::Result<Vec<[f64; 3]>> {
+) -> Result<Vec<[f64; 3]>, ConsumerError> {
     let xyz = xyz_vs_angle(pt, entry, sun_diameter_deg)?;
     Ok((0..n)
         .map(|k| {

@@ -32,6 +32,7 @@
 //! is again normalised to 1. Colour-matching lobes make some w_ck negative, so p_c can dip
 //! below 0 where the spectrum is very uneven; such values are clamped to 0 and counted.
 
+use crate::consumers::ConsumerError;
 use crate::consumers::read::phase::PhaseCurves;
 use crate::optics::colour::{Illuminant1931, SpectralWeights, xyz_to_linear_srgb};
 use std::f64::consts::PI;
@@ -253,7 +254,7 @@ pub fn build_lists(
     mode: MitsubaMode,
     wavelength_nm: Option<f64>,
     n: usize,
-) -> anyhow::Result<Vec<NamedList>> {
+) -> Result<Vec<NamedList>, ConsumerError> {
     let mk = |id: String, label: String, curve: Vec<f64>| {
         let mut values = tabphase_values(&c.angles_deg, &curve, n);
         let clamped = values.iter().filter(|v| **v < 0.0).count();
@@ -285,7 +286,7 @@ pub fn build_lists(
             .collect(),
         MitsubaMode::Wavelength => {
             let wl = wavelength_nm
-                .ok_or_else(|| anyhow::anyhow!("--mode wavelength needs --wavelength-nm"))?;
+                .ok_or_else(|| ConsumerError::invalid("--mode wavelength needs --wavelength-nm"))?;
             let k = c.nearest_wavelength(wl);
             let w = c.wavelengths_nm[k];
             vec![mk(

@@ -16,10 +16,10 @@
 
 use super::figure::{perr, with_backend};
 use super::style::xyz_colour;
+use crate::consumers::ConsumerError;
 use crate::consumers::read::phase2d::{Phase2dTable, PhaseSlice, outgoing_direction};
 use crate::consumers::read::spectrum::{THETA_STEP_DEG, xyz_along};
 use crate::math::vec3::V3;
-use anyhow::bail;
 use plotters::coord::ReverseCoordTranslate;
 use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
@@ -95,11 +95,11 @@ pub fn strip_xyz(
 }
 
 /// Fill the plotting area of a chart pixel by pixel with `colour(x, y)` (data coordinates).
-fn raster<DB: DrawingBackend>(
+fn raster<DB: DrawingBackend<ErrorType: 'static>>(
     root: &DrawingArea<DB, plotters::coord::Shift>,
     chart: &ChartContext<'_, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>,
     colour: impl Fn(f64, f64) -> RGBColor,
-) -> anyhow::Result<()> {
+) -> Result<(), ConsumerError> {
     let (xr, yr) = chart.plotting_area().get_pixel_range();
     let spec = chart.as_coord_spec();
     for py in yr.clone() {
@@ -120,9 +120,9 @@ pub fn plot_bows(
     range: (f64, f64),
     out: &Path,
     size: (u32, u32),
-) -> anyhow::Result<Vec<Vec<BowPeak>>> {
+) -> Result<Vec<Vec<BowPeak>>, ConsumerError> {
     if inputs.is_empty() {
-        bail!("no tables to plot");
+        return Err(ConsumerError::invalid("no tables to plot"));
     }
     let n_strip = ((range.1 - range.0) / THETA_STEP_DEG).round() as usize + 1;
     let polar: Vec<f64> = (0..n_strip)
@@ -177,7 +177,9 @@ pub fn plot_bows(
         peaks.push(ps);
     }
     if !(hi > 0.0) {
-        bail!("no positive phase values in {range:?}");
+        return Err(ConsumerError::invalid(format!(
+            "no positive phase values in {range:?}"
+        )));
     }
     let lo = lo.max(hi * 1e-8);
     let k0 = nearest(&inputs[0].slice.wavelengths_nm, wavelength_nm);
@@ -277,7 +279,7 @@ pub fn plot_bows(
                 xyz_colour(strips[i][d][j], scales[i])
             })?;
         }
-        Ok::<(), anyhow::Error>(())
+        Ok::<(), ConsumerError>(())
     })?;
     Ok(peaks)
 }
@@ -289,7 +291,7 @@ pub fn plot_latlong(
     title_prefix: &str,
     out: &Path,
     size: (u32, u32),
-) -> anyhow::Result<()> {
+) -> Result<(), ConsumerError> {
     // Colour scale: log10 between the 1st and 99th percentiles of the positive grid values
     // (the forward lobe, 10⁵ 1/sr, would otherwise leave everything else dark).
     let mut logs: Vec<f64> = slice
@@ -301,7 +303,7 @@ pub fn plot_latlong(
         .map(f64::log10)
         .collect();
     if logs.is_empty() {
-        bail!("no positive phase values");
+        return Err(ConsumerError::invalid("no positive phase values"));
     }
     logs.sort_by(|a, b| a.total_cmp(b));
     let pct = |q: f64| logs[((logs.len() - 1) as f64 * q).round() as usize];
@@ -335,7 +337,7 @@ pub fn plot_latlong(
             .y_desc("outgoing polar (deg; 0 = forward)")
             .draw()
             .map_err(perr)?;
-        Ok::<(), anyhow::Error>(())
+        Ok::<(), ConsumerError>(())
     })
 }
 
@@ -345,7 +347,7 @@ pub fn previews_2d(
     table: crate::table::Table,
     stem: &str,
     out_dir: &Path,
-) -> anyhow::Result<Vec<PathBuf>> {
+) -> Result<Vec<PathBuf>, ConsumerError> {
     let t2 = Phase2dTable::new(table)?;
     let e = t2.resolve_elevation(None)?;
     let slice = t2.slice(e, &[], "phase")?;

@@ -21,10 +21,10 @@
 //! (other axes at their middle sample) or a line plot for 1-D tables.
 
 use super::style::{PALETTE, axis_label, short_number, wavelength_colour, xyz_colour};
+use crate::consumers::ConsumerError;
 use crate::consumers::read::phase::{EntrySelection, PhaseTable};
 use crate::consumers::read::spectrum::{THETA_STEP_DEG, xyz_vs_angle};
 use crate::table::Table;
-use anyhow::{Context, anyhow, bail};
 use plotters::prelude::*;
 use std::path::Path;
 
@@ -63,7 +63,7 @@ pub fn plot_phase(
     polarised: bool,
     out: &Path,
     size: (u32, u32),
-) -> anyhow::Result<()> {
+) -> Result<(), ConsumerError> {
     let c = pt.curves(entry)?;
     let ks = pick_wavelengths(&c.wavelengths_nm, wavelengths);
     let mut lo = f64::INFINITY;
@@ -84,7 +84,9 @@ pub fn plot_phase(
         }
     }
     if hi.is_nan() || hi <= 0.0 {
-        bail!("no positive values to plot on a log scale");
+        return Err(ConsumerError::invalid(
+            "no positive values to plot on a log scale",
+        ));
     }
     lo = lo.max(hi * 1e-12);
     let title = format!(
@@ -157,7 +159,7 @@ pub fn plot_phase(
             ))
             .map_err(perr)?;
         }
-        Ok::<(), anyhow::Error>(())
+        Ok::<(), ConsumerError>(())
     })
 }
 
@@ -169,7 +171,7 @@ pub fn plot_strip(
     range: (f64, f64),
     out: &Path,
     size: (u32, u32),
-) -> anyhow::Result<()> {
+) -> Result<(), ConsumerError> {
     let xyz = xyz_vs_angle(pt, entry, sun_diameter_deg)?;
     let idx = |a: f64| ((a / THETA_STEP_DEG).round() as usize).min(xyz.len() - 1);
     let (i0, i1) = (idx(range.0), idx(range.1));
@@ -205,7 +207,7 @@ pub fn plot_strip(
                 Rectangle::new([(a, 0.0), (a + step, 1.0)], xyz_colour(v, scale).filled())
             }))
             .map_err(perr)?;
-        Ok::<(), anyhow::Error>(())
+        Ok::<(), ConsumerError>(())
     })
 }
 
@@ -217,17 +219,19 @@ pub fn plot_lee(
     range: (f64, f64),
     out: &Path,
     size: (u32, u32),
-) -> anyhow::Result<()> {
+) -> Result<(), ConsumerError> {
     let axes = pt.table.axes();
     let ai = pt
         .entry_axes
         .iter()
         .copied()
         .find(|&i| axes[i].name == "radius")
-        .ok_or_else(|| anyhow!("a Lee diagram needs an entry axis `radius`"))?;
+        .ok_or_else(|| ConsumerError::layout("a Lee diagram needs an entry axis `radius`"))?;
     let radii = axes[ai].coords();
     if radii.len() < 2 {
-        bail!("a Lee diagram needs at least two radii");
+        return Err(ConsumerError::layout(
+            "a Lee diagram needs at least two radii",
+        ));
     }
     let unit = axes[ai].unit.clone();
     let mut cols = Vec::new();
@@ -299,7 +303,7 @@ pub fn plot_lee(
                 }))
                 .map_err(perr)?;
         }
-        Ok::<(), anyhow::Error>(())
+        Ok::<(), ConsumerError>(())
     })
 }
 
@@ -344,10 +348,10 @@ pub fn plot_heatmap(
     channel: Option<&str>,
     out: &Path,
     size: (u32, u32),
-) -> anyhow::Result<()> {
+) -> Result<(), ConsumerError> {
     let axes = table.axes();
     if axes.len() < 2 {
-        bail!("a heatmap needs at least two axes");
+        return Err(ConsumerError::layout("a heatmap needs at least two axes"));
     }
     let ch = match channel {
         Some(n) => table.channel_index(n)?,
@@ -383,7 +387,7 @@ pub fn heat_panel_sampled(
     xa: usize,
     ya: usize,
     ch: usize,
-) -> anyhow::Result<HeatPanel> {
+) -> Result<HeatPanel, ConsumerError> {
     let axes = table.axes();
     let xs = heat_coords(axes[xa].coords(), 800);
     let ys = heat_coords(axes[ya].coords(), 500);
@@ -416,7 +420,7 @@ pub fn plot_line(
     entry: &[EntrySelection],
     out: &Path,
     size: (u32, u32),
-) -> anyhow::Result<()> {
+) -> Result<(), ConsumerError> {
     let axes = table.axes();
     let n = axes.len();
     let xa = &axes[n - 1];
@@ -479,7 +483,7 @@ pub fn plot_debye_components(
     wavelength_nm: f64,
     out: &Path,
     size: (u32, u32),
-) -> anyhow::Result<()> {
+) -> Result<(), ConsumerError> {
     let t = &pt.table;
     let orders: Vec<(String, usize)> = t
         .header
@@ -494,7 +498,9 @@ pub fn plot_debye_components(
         .map(|(i, c)| (c.name.clone(), i))
         .collect();
     if orders.is_empty() {
-        bail!("table has no per-order channels `phase_p<k>`");
+        return Err(ConsumerError::layout(
+            "table has no per-order channels `phase_p<k>`",
+        ));
     }
     let ch_sum = t.channel_index("phase")?;
     let entry = pt.resolve_entry(entry)?;
@@ -507,7 +513,7 @@ pub fn plot_debye_components(
                 .abs()
                 .total_cmp(&(b - wavelength_nm).abs())
         })
-        .context("no wavelengths")?;
+        .ok_or_else(|| ConsumerError::layout("the table has no wavelengths"))?;
     let angles = pt.angles_deg();
     let mut coords = vec![0.0; t.axes().len()];
     coords[pt.wavelength_axis] = w;
@@ -525,7 +531,9 @@ pub fn plot_debye_components(
     }
     let hi = series.iter().flatten().map(|p| p.1).fold(0.0, f64::max);
     if hi <= 0.0 {
-        bail!("no positive values to plot on a log scale");
+        return Err(ConsumerError::invalid(
+            "no positive values to plot on a log scale",
+        ));
     }
     // Floor: a decade below the smallest value of the total; components that fall below it
     // (outside their geometric zones) leave the plot instead of running along its bottom.
@@ -619,7 +627,7 @@ pub fn plot_debye_components(
             .position(SeriesLabelPosition::UpperRight)
             .draw()
             .map_err(perr)?;
-        Ok::<(), anyhow::Error>(())
+        Ok::<(), ConsumerError>(())
     })
 }
 
