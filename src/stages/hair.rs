@@ -1,7 +1,7 @@
 //! Stages `hair-dual` (Dual Scattering averages, schema `hair-dual/1`) and `hair-azimuthal`
 //! (azimuthal functions `N_p(θ, φ)`, schema `hair-azimuthal/1`). See `docs/hair.md`.
 
-use crate::hair::artist::{ArtistModel, ArtistParams};
+use crate::hair::artist::{ArtistModel, ArtistNormalisation, ArtistParams};
 use crate::hair::dual::{DUAL_CHANNELS, HQuadrature, LobeShape, PhysicalFiber, combine};
 use crate::hair::fiber::{FiberSlice, FresnelModel, LOBE_NAMES, LOBES};
 use crate::hair::melanin::{sigma_a_from_absorption_u, sigma_a_from_melanin};
@@ -246,7 +246,7 @@ hair_params! {
     /// Parameters of `hair-dual`.
     pub struct HairDualParams {
         pub model: HairModel = default(HairModel::Physical), "string",
-            "physical (Marschner/Zinke fibre) or artist (Sadeghi 2010, eq. 4.17 scalar normalisation)";
+            "physical (Marschner/Zinke fibre) or artist (Sadeghi 2010, eq. 4.17 scalar normalisation per θ_i; artist.normalisation = \"normal-incidence\" for one constant)";
         /// Cuticle tilt α (deg): α_R = −α, α_TT = α/2, α_TRT = 3α/2.
         pub cuticle_tilt_deg: f64 = default(5.0), "float, deg",
             "cuticle tilt α: α_R = −α, α_TT = α/2, α_TRT = 3α/2 (0–15°)";
@@ -274,7 +274,8 @@ hair_params! {
 
 impl StageSpec for HairDualStage {
     const NAME: &'static str = "hair-dual";
-    const VERSION: u32 = 1;
+    /// 2: the artist model's eq. 4.17 normalisation is taken per light inclination.
+    const VERSION: u32 = 2;
     const SUMMARY: &'static str = "Dual Scattering hair averages (ā, ᾱ, β̄², Ā_b, Δ̄_b, σ̄_b², N^G) over roughness × absorption × light inclination";
     type Params = HairDualParams;
     fn plan_params(&self, p: HairDualParams) -> Result<Box<dyn Job>, PlanError> {
@@ -575,7 +576,10 @@ impl ThetaRows for HairDualJob {
         if let Some(m) = &self.artist {
             attributes.insert("artist_params".into(), serde_json::to_value(&m.params)?);
             attributes.insert("normalization_k".into(), json!(m.k));
-            attributes.insert("normalization".into(), "eq. 4.17 with one scalar K = max over RGB of the energy of f'_s at θ_i = 0 under the energy measure, glints included (G_angle averaged uniformly over its range) (docs/decisions.md DS-4, DS-14)".into());
+            attributes.insert("normalization".into(), match m.params.normalisation {
+                ArtistNormalisation::PerInclination => "per-inclination: eq. 4.17 with one scalar per θ_i, K(θ_i) = max over RGB of the energy of f'_s at θ_i under the energy measure, glints included (G_angle averaged uniformly over its range), so ā_f + ā_b ≤ 1 for every θ_i and channel, = 1 for the brightest; normalization_k is K(0) (docs/decisions.md DS-4, DS-14)",
+                ArtistNormalisation::NormalIncidence => "normal-incidence: eq. 4.17 with one scalar K = normalization_k = max over RGB of the energy of f'_s at θ_i = 0 under the energy measure, glints included (G_angle averaged uniformly over its range); ā_f + ā_b exceeds 1 toward grazing light (docs/decisions.md DS-4, DS-14)",
+            }.into());
             attributes.insert(
                 "longitudinal".into(),
                 "unit-height g'(θ_h − α_X, β_X²)/cos²θ_d, cos²θ_d ≥ 1e-3 (docs/decisions.md DS-9, DS-18)".into(),
