@@ -166,7 +166,7 @@ impl Texture {
     fn build(size: [usize; 3], f: impl Fn([f64; 3]) -> [f64; 4]) -> Result<Self, EngineLutError> {
         let is_2d = size[2] == 1;
         for (k, &n) in size.iter().enumerate() {
-            if !(2..=1024).contains(&n) && !(k == 2 && is_2d) {
+            if !((2..=1024).contains(&n) || k == 2 && is_2d) {
                 return Err(EngineLutError::BadSize(size));
             }
         }
