@@ -589,10 +589,6 @@ impl Job for RaytraceJob {
 mod tests {
     use super::*;
 
-    fn plan(toml_lines: &str) -> Result<Box<dyn Job>, PlanError> {
-        crate::stages::plan_from_lines(&RaytraceStage, toml_lines)
-    }
-
     #[test]
     fn rejects_bad_parameters() {
         crate::stages::assert_planning(
@@ -611,11 +607,10 @@ mod tests {
 
     #[test]
     fn sphere_table_is_normalised_and_peaks_near_mie() {
-        let job = plan(
+        let t = crate::stages::table_from_lines(
+            &RaytraceStage,
             "shape = \"sphere\"\nradius_mm = [0.4]\nwavelength_nm = [650.0]\nangle_step_deg = 0.05",
-        )
-        .unwrap();
-        let t = crate::stages::run_in_memory(job.as_ref()).unwrap();
+        );
         assert_eq!(t.data.len(), t.expected_len());
         let integral = t.attributes["integral_check"]["values"][0]
             .as_f64()
@@ -643,11 +638,10 @@ mod tests {
     /// the raw bin-sum is recorded, and phase = (i_perp + i_par)/2 survives the scaling.
     #[test]
     fn two_d_table_integrates_to_one() {
-        let job = plan(
+        let t = crate::stages::table_from_lines(
+            &RaytraceStage,
             "shape = \"beard-chuang\"\nradius_mm = [2.0]\nwavelength_nm = [550.0]\nsun_elevation_deg = [0.0]\nrays = 80\npolar_step_deg = 0.5\nazimuth_step_deg = 30.0",
-        )
-        .unwrap();
-        let t = crate::stages::run_in_memory(job.as_ref()).unwrap();
+        );
         let raw = t.attributes["integral_check"]["values"][0]
             .as_f64()
             .unwrap();
