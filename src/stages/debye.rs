@@ -109,28 +109,24 @@ impl StageSpec for DebyeStage {
     const SUMMARY: &'static str = "Mie phase functions of water drops split into Debye-series orders (p = 0 reflection+diffraction, 1, 2 primary, 3 secondary, ...)";
     type Params = DebyeParams;
     fn plan_params(&self, p: DebyeParams) -> Result<Box<dyn Job>, PlanError> {
-        Ok(Box::new(plan_job(p)?))
+        checks::increasing("wavelengths_nm", &p.wavelengths_nm, true)?;
+        checks::increasing("radii_um", &p.radii_um, true)?;
+        let mut sorted = p.orders.clone();
+        sorted.sort_unstable();
+        sorted.dedup();
+        if p.orders.is_empty()
+            || sorted.len() != p.orders.len()
+            || sorted.iter().any(|&o| o > MAX_ORDER)
+        {
+            return Err(PlanError::invalid(
+                "orders",
+                format!("must be a non-empty list of distinct orders 0..={MAX_ORDER}"),
+            ));
+        }
+        let filter = FilteredPhase::plan(p.filter_keys(0.0, RADIUS_POINTS_UNUSED))?;
+        filter.check_domain("radii_um", &p.radii_um)?;
+        Ok(Box::new(DebyeJob { p, filter }))
     }
-}
-
-fn plan_job(p: DebyeParams) -> Result<DebyeJob, PlanError> {
-    checks::increasing("wavelengths_nm", &p.wavelengths_nm, true)?;
-    checks::increasing("radii_um", &p.radii_um, true)?;
-    let mut sorted = p.orders.clone();
-    sorted.sort_unstable();
-    sorted.dedup();
-    if p.orders.is_empty()
-        || sorted.len() != p.orders.len()
-        || sorted.iter().any(|&o| o > MAX_ORDER)
-    {
-        return Err(PlanError::invalid(
-            "orders",
-            format!("must be a non-empty list of distinct orders 0..={MAX_ORDER}"),
-        ));
-    }
-    let filter = FilteredPhase::plan(p.filter_keys(0.0, RADIUS_POINTS_UNUSED))?;
-    filter.check_domain("radii_um", &p.radii_um)?;
-    Ok(DebyeJob { p, filter })
 }
 
 impl Job for DebyeJob {
@@ -216,11 +212,6 @@ impl Job for DebyeJob {
 mod tests {
     use super::*;
     use crate::stages::common::bin_integrals;
-    use crate::stages::plan_from_lines;
-
-    fn plan(toml_lines: &str) -> Result<Box<dyn Job>, PlanError> {
-        plan_from_lines(&DebyeStage, toml_lines)
-    }
 
     #[test]
     fn rejects_bad_params() {
@@ -243,8 +234,13 @@ mod tests {
     #[test]
     fn small_job_orders_add_up() {
         let all: Vec<String> = (0..=60).map(|p| p.to_string()).collect();
-        let job = plan(&format!("radii_um = [20.0]\nwavelengths_nm = [650.0]\nangle_step_deg = 0.5\nsun_diameter_deg = 0.0\norders = [{}]", all.join(", "))).unwrap();
-        let t = crate::stages::run_in_memory(job.as_ref()).unwrap();
+        let t = crate::stages::table_from_lines(
+            &DebyeStage,
+            &format!(
+                "radii_um = [20.0]\nwavelengths_nm = [650.0]\nangle_step_deg = 0.5\nsun_diameter_deg = 0.0\norders = [{}]",
+                all.join(", ")
+            ),
+        );
         assert_eq!(t.data.len(), t.expected_len());
         assert_eq!(t.channels[4].name, "phase_p0");
         let nc = t.channels.len();
@@ -272,8 +268,12 @@ mod tests {
     #[test]
     fn sun_disc_preserves_order_energy() {
         let run = |sun: f64| {
-            let job = plan(&format!("radii_um = [50.0]\nwavelengths_nm = [550.0]\nangle_step_deg = 0.25\nsun_diameter_deg = {sun}\norders = [0, 2]")).unwrap();
-            let t = crate::stages::run_in_memory(job.as_ref()).unwrap();
+            let t = crate::stages::table_from_lines(
+                &DebyeStage,
+                &format!(
+                    "radii_um = [50.0]\nwavelengths_nm = [550.0]\nangle_step_deg = 0.25\nsun_diameter_deg = {sun}\norders = [0, 2]"
+                ),
+            );
             let cells = crate::mie::filters::cell_solid_angles(720);
             let nc = t.channels.len();
             (0..nc)

@@ -772,21 +772,14 @@ impl ThetaRows for HairAzimuthalJob {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::stages::plan_from_lines as plan;
-
-    fn run(job: &dyn Job) -> TableContent {
-        crate::stages::run_in_memory(job).unwrap()
-    }
+    use crate::stages::table_from_lines as build;
 
     #[test]
     fn dual_sweep_is_consistent_and_lossless_column_conserves_energy() {
-        let job = plan(
+        let t = build(
             &HairDualStage,
             "roughness_deg = [3.0, 10.0]\nabsorption_count = 5\ntheta_count = 9",
-        )
-        .unwrap();
-        let t = run(job.as_ref());
-        assert_eq!(t.data.len(), t.expected_len());
+        );
         assert_eq!(t.axes.len(), 3);
         // absorption_u = 0 (lossless): a_f + a_b = Σ E = 1 for every θ and roughness.
         for ir in 0..2 {
@@ -826,29 +819,19 @@ mod tests {
 
     #[test]
     fn dual_artist_and_melanin_tables_build() {
-        let t = run(plan(&HairDualStage, "model = \"artist\"\ntheta_count = 5")
-            .unwrap()
-            .as_ref());
+        let t = build(&HairDualStage, "model = \"artist\"\ntheta_count = 5");
         assert_eq!(t.axes[0].name, "colour_channel");
-        assert_eq!(t.data.len(), t.expected_len());
-        let t = run(
-            plan(&HairDualStage, "melanin = [0.3, 0.0]\ntheta_count = 5")
-                .unwrap()
-                .as_ref(),
-        );
+        let t = build(&HairDualStage, "melanin = [0.3, 0.0]\ntheta_count = 5");
         assert_eq!(t.axes[1].name, "colour_channel");
         assert_eq!(t.attributes["sigma_a_rgb"][2].as_f64().unwrap(), 0.3 * 1.37);
     }
 
     #[test]
     fn azimuthal_table_is_normalised() {
-        let job = plan(
+        let t = build(
             &HairAzimuthalStage,
             "sigma_a = [0.0, 0.5]\ntheta_count = 4\nphi_count = 721\nazimuthal_width_deg = 3.0",
-        )
-        .unwrap();
-        let t = run(job.as_ref());
-        assert_eq!(t.data.len(), t.expected_len());
+        );
         // σ_a = 0: ∫_{−π}^{π} sum dφ = 1 (trapezoid over [0, π], doubled).
         let np = 721;
         let step = std::f64::consts::PI / 720.0;

@@ -204,41 +204,37 @@ impl StageSpec for MieStage {
     const SUMMARY: &'static str = "Lorenz–Mie phase functions of water drops (radii or size distributions), sun-disc smoothed, bin-integrated";
     type Params = MieParams;
     fn plan_params(&self, p: MieParams) -> Result<Box<dyn Job>, PlanError> {
-        Ok(Box::new(plan_job(p)?))
-    }
-}
-
-fn plan_job(p: MieParams) -> Result<MieJob, PlanError> {
-    let filter = FilteredPhase::plan(p.filter_keys(p.gaussian_sigma_deg, p.radius_points))?;
-    let (entries, entries_key) = match (&p.radii_um, &p.distributions) {
-        (Some(r), None) => {
-            checks::increasing("radii_um", r, true)?;
-            (Entries::Radii(r.clone()), "radii_um")
-        }
-        (None, Some(d)) => {
-            if d.is_empty() {
-                return Err(PlanError::invalid("distributions", "must not be empty"));
+        let filter = FilteredPhase::plan(p.filter_keys(p.gaussian_sigma_deg, p.radius_points))?;
+        let (entries, entries_key) = match (&p.radii_um, &p.distributions) {
+            (Some(r), None) => {
+                checks::increasing("radii_um", r, true)?;
+                (Entries::Radii(r.clone()), "radii_um")
             }
-            for (i, dist) in d.iter().enumerate() {
-                dist.validate()
-                    .map_err(|m| PlanError::invalid(&format!("distributions[{i}]"), m))?;
+            (None, Some(d)) => {
+                if d.is_empty() {
+                    return Err(PlanError::invalid("distributions", "must not be empty"));
+                }
+                for (i, dist) in d.iter().enumerate() {
+                    dist.validate()
+                        .map_err(|m| PlanError::invalid(&format!("distributions[{i}]"), m))?;
+                }
+                (Entries::Distributions(d.clone()), "distributions")
             }
-            (Entries::Distributions(d.clone()), "distributions")
+            _ => {
+                return Err(PlanError::invalid(
+                    "radii_um",
+                    "give exactly one of `radii_um` and `distributions`",
+                ));
+            }
+        };
+        // every wavelength with the radii at the ends of each entry's support must be inside the
+        // validated Mie domain
+        for e in 0..entries.len() {
+            let (lo, hi) = entries.distribution(e).support_um();
+            filter.check_domain(entries_key, &[lo, hi])?;
         }
-        _ => {
-            return Err(PlanError::invalid(
-                "radii_um",
-                "give exactly one of `radii_um` and `distributions`",
-            ));
-        }
-    };
-    // every wavelength with the radii at the ends of each entry's support must be inside the
-    // validated Mie domain
-    for e in 0..entries.len() {
-        let (lo, hi) = entries.distribution(e).support_um();
-        filter.check_domain(entries_key, &[lo, hi])?;
+        Ok(Box::new(MieJob { p, entries, filter }))
     }
-    Ok(MieJob { p, entries, filter })
 }
 
 impl MieJob {
@@ -327,10 +323,6 @@ mod tests {
     use crate::stages::join_f64;
     use crate::stages::plan_from_lines;
 
-    fn plan(toml_lines: &str) -> Result<Box<dyn Job>, PlanError> {
-        plan_from_lines(&MieStage, toml_lines)
-    }
-
     #[test]
     fn rejects_bad_params() {
         crate::stages::assert_planning(
@@ -351,10 +343,10 @@ mod tests {
     /// output bins after sun disc and bin integration.
     #[test]
     fn small_job_is_normalised() {
-        let job =
-            plan("radii_um = [2.0, 20.0]\nwavelengths_nm = [450.0, 650.0]\nangle_step_deg = 0.5")
-                .unwrap();
-        let t = crate::stages::run_in_memory(job.as_ref()).unwrap();
+        let t = crate::stages::table_from_lines(
+            &MieStage,
+            "radii_um = [2.0, 20.0]\nwavelengths_nm = [450.0, 650.0]\nangle_step_deg = 0.5",
+        );
         assert_eq!(t.data.len(), t.expected_len());
         assert_eq!(t.axes[0].name, "radius");
         assert_eq!(t.axes[1].name, "wavelength");
@@ -390,7 +382,8 @@ mod tests {
     /// single-sphere values at the ends of the support (weights n(r) dr · π r²).
     #[test]
     fn distribution_entry_is_normalised() {
-        let job = plan(
+        let job = plan_from_lines(
+            &MieStage,
             "distributions = [{ kind = \"gamma\", effective_radius_um = 3.0, effective_variance = 0.1 }]\nwavelengths_nm = [550.0]\nangle_step_deg = 0.5\nradius_points = 8",
         )
         .unwrap();

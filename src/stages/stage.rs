@@ -449,6 +449,17 @@ pub fn plan_from_lines(stage: &dyn Stage, toml_lines: &str) -> Result<Box<dyn Jo
     stage.plan(toml::de::ValueDeserializer::parse(&inline).expect("test TOML parses"))
 }
 
+/// Test helper: plan `stage` from parameter lines (see [`plan_from_lines`]) and run the job in
+/// memory; checks that the table has as many values as its axes and channels call for.
+#[cfg(test)]
+pub fn table_from_lines(stage: &dyn Stage, toml_lines: &str) -> TableContent {
+    let job = plan_from_lines(stage, toml_lines)
+        .unwrap_or_else(|e| panic!("{} rejected {toml_lines:?}: {e}", stage.name()));
+    let t = run_in_memory(job.as_ref()).unwrap_or_else(|e| panic!("{}", error_chain(&e)));
+    assert_eq!(t.data.len(), t.expected_len(), "{}", stage.name());
+    t
+}
+
 /// Test helper: every parameter set of `rejected` fails to plan on `stage` and every one of
 /// `accepted` plans (each in the form of [`plan_from_lines`]).
 #[cfg(test)]

@@ -427,28 +427,20 @@ mod tests {
 
     #[test]
     fn layout_errors_of_a_file_name_the_file() {
-        use crate::table::{Axis, Channel, Schema, TableContent, write_table_atomic};
+        use crate::consumers::synthetic::{lat_long_from_1d, peak_table};
         let d = tempfile::tempdir().unwrap();
-        let path = d.path().join("flat.sbt");
-        let content = TableContent {
-            schema: Schema::new("flat", 1),
-            description: String::new(),
-            axes: vec![Axis::values("x", "1", vec![0.0, 1.0])],
-            channels: vec![Channel::new("v", "1", "value")],
-            attributes: Default::default(),
-            data: vec![0.0, 1.0],
-        };
-        let mut t = Table::from_content(content, Default::default()).unwrap();
-        write_table_atomic(&mut t, &path).unwrap();
-        let e = PhaseTable::open(&path).err().expect("not a phase table");
+        let path = d.path().join("latlong.sbt");
+        let one_d = peak_table(&[550.0], |_| 138.0, 0.3, 1e-3, 181);
+        let mut t = lat_long_from_1d(&one_d, &[0.0], 90.0, |_, _| 1.0);
+        crate::table::write_table_atomic(&mut t, &path).unwrap();
+        let e = PhaseTable::open(&path)
+            .err()
+            .expect("a 2-D table is not a 1-D phase table");
         let chain = crate::error::error_chain(&e);
         assert!(
             chain.starts_with(&format!("{}: ", path.display())),
             "{chain}"
         );
-        assert!(
-            chain.contains("needs at least the axes wavelength"),
-            "{chain}"
-        );
+        assert!(chain.contains("2-D tables"), "{chain}");
     }
 }
