@@ -660,6 +660,10 @@ impl Job for RaytraceJob {
 mod tests {
     use super::*;
 
+    fn plan(toml_lines: &str) -> Result<Box<dyn Job>, PlanError> {
+        crate::stages::plan_from_lines(&RaytraceStage, toml_lines)
+    }
+
     #[test]
     fn rejects_bad_parameters() {
         assert!(plan("shape = \"cube\"\nradii_um = [1000.0]").is_err());
