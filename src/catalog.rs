@@ -46,6 +46,7 @@ pub struct Catalog {
 /// Rebuild `<dir>/index.json` from the `.sbt` files in `dir`. Returns the catalog.
 pub fn rebuild(dir: &Path) -> Result<Catalog> {
     std::fs::create_dir_all(dir)?;
+    crate::workdir::check_out_dir(dir)?;
     let lock_path = dir.join(".lock");
     let lock = std::fs::OpenOptions::new()
         .create(true)

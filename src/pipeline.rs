@@ -68,6 +68,11 @@ impl Shard {
     /// Indexed Job (`JOB_COMPLETION_INDEX` with `SCATTERBAKE_SHARD_COUNT` giving N).
     pub fn from_env() -> Result<Option<Shard>> {
         let get = |k: &str| std::env::var(k).ok().filter(|v| !v.is_empty());
+        if let (Some(i), None) = (get("SLURM_ARRAY_TASK_ID"), get("SLURM_ARRAY_TASK_COUNT")) {
+            bail!(
+                "SLURM_ARRAY_TASK_ID is set ({i}) but SLURM_ARRAY_TASK_COUNT is not: pass --shard I/N"
+            );
+        }
         if let (Some(i), Some(n)) = (get("SLURM_ARRAY_TASK_ID"), get("SLURM_ARRAY_TASK_COUNT")) {
             return Shard::parse(&format!("{i}/{n}"))
                 .map(Some)
@@ -151,14 +156,6 @@ struct Checkpoint {
     values: Vec<f32>,
 }
 
-fn values_sha(values: &[f32]) -> String {
-    let mut h = Sha256::new();
-    for v in values {
-        h.update(v.to_le_bytes());
-    }
-    hex::encode(h.finalize())
-}
-
 fn bincode_config() -> bincode::config::Configuration {
     bincode::config::standard()
 }
@@ -167,17 +164,36 @@ fn read_checkpoint(path: &Path, key: &str) -> Option<Vec<f32>> {
     let bytes = std::fs::read(path).ok()?;
     let (c, used): (Checkpoint, usize) =
         bincode::serde::decode_from_slice(&bytes, bincode_config()).ok()?;
-    (used == bytes.len() && c.key == key && values_sha(&c.values) == c.sha256).then_some(c.values)
+    (used == bytes.len()
+        && c.key == key
+        && crate::workdir::checkpoint_hash(key, &c.values) == c.sha256)
+        .then_some(c.values)
 }
 
 fn write_checkpoint(path: &Path, key: &str, values: &[f32]) -> Result<()> {
     let c = Checkpoint {
         key: key.to_string(),
-        sha256: values_sha(values),
+        sha256: crate::workdir::checkpoint_hash(key, values),
         values: values.to_vec(),
     };
     let bytes = bincode::serde::encode_to_vec(&c, bincode_config())?;
-    write_atomic(path, &bytes).with_context(|| format!("writing checkpoint {}", path.display()))
+    write_checkpoint_bytes(path, &bytes)
+        .with_context(|| format!("writing checkpoint {}", path.display()))
+}
+
+/// Write a checkpoint atomically, retrying when a concurrent build that finished the table
+/// removed its work directory in between (the directory is recreated).
+fn write_checkpoint_bytes(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    let mut attempt = 0;
+    loop {
+        if let Some(dir) = path.parent() {
+            crate::workdir::refuse_symlink(dir).map_err(std::io::Error::other)?;
+        }
+        match write_atomic(path, bytes) {
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound && attempt < 8 => attempt += 1,
+            r => return r,
+        }
+    }
 }
 
 /// Creation time for provenance: `SOURCE_DATE_EPOCH` when set (reproducible builds), else now.
@@ -246,6 +262,38 @@ fn test_delay() -> Option<std::time::Duration> {
         .map(std::time::Duration::from_millis)
 }
 
+/// Under the lock on `<out>/.lock`, assemble every table this build did not write whose
+/// checkpoints are now all present (written by other shards or concurrent builds), unless
+/// another build already wrote it: whichever shard finishes last assembles every complete table.
+fn assemble_completed(
+    states: &[TableState],
+    finish_table: &(dyn Fn(&TableState) -> Result<()> + Sync),
+    written: &Mutex<Vec<String>>,
+    errors: &Mutex<Vec<String>>,
+    out_dir: &Path,
+) -> Result<()> {
+    let _lock = crate::workdir::lock_out_dir(out_dir)?;
+    for s in states {
+        if written.lock().expect("lock").contains(&s.planned.name) {
+            continue;
+        }
+        if up_to_date(&table_path(out_dir, &s.planned.name), &s.key) {
+            continue;
+        }
+        let complete = s
+            .task_keys
+            .iter()
+            .all(|k| read_checkpoint(&s.work_dir.join(format!("{k}.chunk")), k).is_some());
+        if complete && let Err(e) = finish_table(s) {
+            errors
+                .lock()
+                .expect("lock")
+                .push(format!("{}: {e:#}", s.planned.name));
+        }
+    }
+    Ok(())
+}
+
 /// Run a build.
 pub fn build(opts: &BuildOptions) -> Result<BuildReport> {
     let mut planned = Vec::new();
@@ -264,6 +312,7 @@ pub fn build(opts: &BuildOptions) -> Result<BuildReport> {
     }
     std::fs::create_dir_all(&opts.out_dir)
         .with_context(|| format!("creating output directory {}", opts.out_dir.display()))?;
+    crate::workdir::check_out_dir(&opts.out_dir)?;
 
     let mut report = BuildReport::default();
     let mut states = Vec::new();
@@ -282,6 +331,7 @@ pub fn build(opts: &BuildOptions) -> Result<BuildReport> {
             .collect::<Vec<_>>();
         let task_labels = tasks.into_iter().map(|s| s.label).collect();
         let work_dir = opts.out_dir.join(".work").join(&t.name);
+        crate::workdir::refuse_symlink(&work_dir)?;
         states.push(TableState {
             remaining: AtomicUsize::new(task_keys.len()),
             planned: t,
@@ -311,7 +361,7 @@ pub fn build(opts: &BuildOptions) -> Result<BuildReport> {
     }
     if opts.force {
         for s in &states {
-            let _ = std::fs::remove_dir_all(&s.work_dir);
+            crate::workdir::remove_table_work_dir(&s.work_dir)?;
         }
     }
 
@@ -359,7 +409,7 @@ pub fn build(opts: &BuildOptions) -> Result<BuildReport> {
         let mut table = Table::from_content(content, provenance(&s.planned, &s.key))?;
         let path = table_path(&opts.out_dir, &s.planned.name);
         write_table_atomic(&mut table, &path)?;
-        let _ = std::fs::remove_dir_all(&s.work_dir);
+        crate::workdir::remove_table_work_dir(&s.work_dir)?;
         written.lock().expect("lock").push(s.planned.name.clone());
         Ok(())
     };
@@ -411,6 +461,7 @@ pub fn build(opts: &BuildOptions) -> Result<BuildReport> {
         });
     });
     bar.finish_and_clear();
+    assemble_completed(&states, &finish_table, &written, &errors, &opts.out_dir)?;
 
     report.tasks_computed = computed.load(Ordering::SeqCst);
     report.tables_written = written.into_inner().expect("lock");
