@@ -18,6 +18,9 @@ pub enum CatalogError {
     /// The header of a table that verified a moment before (the error names the file).
     #[error(transparent)]
     Table(#[from] TableError),
+    /// A symlinked catalog, lock or work path in the output directory.
+    #[error(transparent)]
+    Workdir(#[from] crate::workdir::WorkdirError),
     /// The catalog does not encode as JSON.
     #[error("encoding the catalog {}", path.display())]
     Json {
@@ -67,6 +70,7 @@ pub struct Catalog {
 /// Rebuild `<dir>/index.json` from the `.sbt` files in `dir`. Returns the catalog.
 pub fn rebuild(dir: &Path) -> Result<Catalog, CatalogError> {
     std::fs::create_dir_all(dir).map_err(IoError::doing("creating the catalog directory", dir))?;
+    crate::workdir::check_out_dir(dir).map_err(CatalogError::from)?;
     let lock_path = dir.join(".lock");
     let lock = std::fs::OpenOptions::new()
         .create(true)

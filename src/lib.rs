@@ -36,5 +36,6 @@ pub mod catalog;
 pub mod manifest;
 pub mod pipeline;
 pub mod stages;
+pub mod workdir;
 
 pub mod consumers;

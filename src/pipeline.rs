@@ -41,6 +41,8 @@ pub const WORK_DIR: &str = ".work";
 /// File extension of a task checkpoint, `<task-key>.chunk`.
 pub const CHECKPOINT_EXTENSION: &str = "chunk";
 /// Thread count that lets rayon choose (one per CPU), used when `--jobs` is not given.
+/// Attempts at writing a checkpoint whose work directory a concurrent build removed.
+const CHECKPOINT_RETRIES: usize = 8;
 const DEFAULT_THREADS: usize = 0;
 /// Progress bar layout of a build.
 const PROGRESS_TEMPLATE: &str =
@@ -63,6 +65,9 @@ pub enum ShardError {
         "JOB_COMPLETION_INDEX is set but SCATTERBAKE_SHARD_COUNT (the Job's completions) is not"
     )]
     MissingCount,
+    /// A Slurm array task id without the array size.
+    #[error("SLURM_ARRAY_TASK_ID is set ({0}) but SLURM_ARRAY_TASK_COUNT is not: pass --shard I/N")]
+    SlurmMissingCount(String),
     /// A shard taken from environment variables (named) that does not parse.
     #[error("from {variables}")]
     Environment {
@@ -75,6 +80,9 @@ pub enum ShardError {
 /// Why a build failed.
 #[derive(Debug, thiserror::Error)]
 pub enum PipelineError {
+    /// A symlinked work, lock or catalog path, or a lock that cannot be taken.
+    #[error(transparent)]
+    Workdir(#[from] crate::workdir::WorkdirError),
     /// A manifest that does not read or plan (the error gives FILE:LINE:COLUMN).
     #[error(transparent)]
     Manifest(#[from] ManifestError),
@@ -161,6 +169,9 @@ impl Shard {
     /// Indexed Job (`JOB_COMPLETION_INDEX` with `SCATTERBAKE_SHARD_COUNT` giving N).
     pub fn from_env() -> Result<Option<Shard>, ShardError> {
         let get = |k: &str| std::env::var(k).ok().filter(|v| !v.is_empty());
+        if let (Some(i), None) = (get("SLURM_ARRAY_TASK_ID"), get("SLURM_ARRAY_TASK_COUNT")) {
+            return Err(ShardError::SlurmMissingCount(i));
+        }
         let parse = |i: String, n: String, variables: &'static str| {
             Shard::parse(&format!("{i}/{n}"))
                 .map(Some)
@@ -246,14 +257,6 @@ struct Checkpoint {
     values: Vec<f32>,
 }
 
-fn values_sha(values: &[f32]) -> String {
-    let mut h = Sha256::new();
-    for v in values {
-        h.update(v.to_le_bytes());
-    }
-    hex::encode(h.finalize())
-}
-
 fn bincode_config() -> bincode::config::Configuration {
     bincode::config::standard()
 }
@@ -262,13 +265,16 @@ fn read_checkpoint(path: &Path, key: &str) -> Option<Vec<f32>> {
     let bytes = std::fs::read(path).ok()?;
     let (c, used): (Checkpoint, usize) =
         bincode::serde::decode_from_slice(&bytes, bincode_config()).ok()?;
-    (used == bytes.len() && c.key == key && values_sha(&c.values) == c.sha256).then_some(c.values)
+    (used == bytes.len()
+        && c.key == key
+        && crate::workdir::checkpoint_hash(key, &c.values) == c.sha256)
+        .then_some(c.values)
 }
 
 fn write_checkpoint(path: &Path, key: &str, values: &[f32]) -> Result<(), PipelineError> {
     let c = Checkpoint {
         key: key.to_string(),
-        sha256: values_sha(values),
+        sha256: crate::workdir::checkpoint_hash(key, values),
         values: values.to_vec(),
     };
     let bytes = bincode::serde::encode_to_vec(&c, bincode_config()).map_err(|source| {
@@ -277,8 +283,25 @@ fn write_checkpoint(path: &Path, key: &str, values: &[f32]) -> Result<(), Pipeli
             source,
         }
     })?;
-    write_atomic(path, &bytes).map_err(IoError::doing("writing checkpoint", path))?;
+    write_checkpoint_bytes(path, &bytes).map_err(IoError::doing("writing checkpoint", path))?;
     Ok(())
+}
+
+/// Write a checkpoint atomically, retrying when a concurrent build that finished the table
+/// removed its work directory in between (the directory is recreated).
+fn write_checkpoint_bytes(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    let mut attempt = 0;
+    loop {
+        if let Some(dir) = path.parent() {
+            crate::workdir::refuse_symlink(dir).map_err(std::io::Error::other)?;
+        }
+        match write_atomic(path, bytes) {
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound && attempt < CHECKPOINT_RETRIES => {
+                attempt += 1
+            }
+            r => return r,
+        }
+    }
 }
 
 /// Creation time for provenance: `SOURCE_DATE_EPOCH` when set (reproducible builds), else now.
@@ -356,15 +379,42 @@ fn test_delay() -> Option<std::time::Duration> {
         .map(std::time::Duration::from_millis)
 }
 
+/// Under the lock on `<out>/.lock`, assemble every table this build did not write whose
+/// checkpoints are now all present (written by other shards or concurrent builds), unless
+/// another build already wrote it: whichever shard finishes last assembles every complete table.
+fn assemble_completed(
+    states: &[TableState],
+    finish: &(dyn Fn(&TableState) + Sync),
+    written: &Mutex<Vec<String>>,
+    out_dir: &Path,
+) -> Result<(), PipelineError> {
+    let _lock = crate::workdir::lock_out_dir(out_dir)?;
+    for s in states {
+        if written.lock().expect("lock").contains(&s.planned.name) {
+            continue;
+        }
+        if up_to_date(&table_path(out_dir, &s.planned.name), &s.key) {
+            continue;
+        }
+        let complete = (0..s.task_keys.len())
+            .all(|k| read_checkpoint(&s.checkpoint(k), &s.task_keys[k]).is_some());
+        if complete {
+            finish(s);
+        }
+    }
+    Ok(())
+}
+
 /// Run a build: plan, load checkpoints, run the pending tasks (assembling each table when its
 /// last task is done), rebuild the catalog.
 pub fn build(opts: &BuildOptions) -> Result<BuildReport, PipelineError> {
     let planned = plan_manifests(&opts.manifests)?;
     std::fs::create_dir_all(&opts.out_dir)
         .map_err(IoError::doing("creating output directory", &opts.out_dir))?;
+    crate::workdir::check_out_dir(&opts.out_dir)?;
     let mut report = BuildReport::default();
-    let states = plan_tables(planned, opts, &mut report);
-    let pending = load_checkpoints(&states, opts, &mut report);
+    let states = plan_tables(planned, opts, &mut report)?;
+    let pending = load_checkpoints(&states, opts, &mut report)?;
     let run = run_tasks(&states, &pending, opts)?;
     report.tasks_computed = run.computed;
     report.tables_written = run.written;
@@ -405,7 +455,7 @@ fn plan_tables(
     planned: Vec<PlannedTable>,
     opts: &BuildOptions,
     report: &mut BuildReport,
-) -> Vec<TableState> {
+) -> Result<Vec<TableState>, PipelineError> {
     let mut states = Vec::new();
     for t in planned {
         let key = table_key(&t);
@@ -422,6 +472,7 @@ fn plan_tables(
             .collect::<Vec<_>>();
         let task_labels = tasks.into_iter().map(|s| s.label).collect();
         let work_dir = opts.out_dir.join(WORK_DIR).join(&t.name);
+        crate::workdir::refuse_symlink(&work_dir)?;
         states.push(TableState {
             remaining: AtomicUsize::new(task_keys.len()),
             planned: t,
@@ -431,7 +482,7 @@ fn plan_tables(
             work_dir,
         });
     }
-    states
+    Ok(states)
 }
 
 /// Count the tasks with a valid checkpoint as done (none with `--force`, which also removes
@@ -441,7 +492,7 @@ fn load_checkpoints(
     states: &[TableState],
     opts: &BuildOptions,
     report: &mut BuildReport,
-) -> Vec<(usize, usize)> {
+) -> Result<Vec<(usize, usize)>, PipelineError> {
     let mut pending = Vec::new();
     let mut global = 0usize;
     for (ti, s) in states.iter().enumerate() {
@@ -459,10 +510,10 @@ fn load_checkpoints(
     }
     if opts.force {
         for s in states {
-            let _ = std::fs::remove_dir_all(&s.work_dir);
+            crate::workdir::remove_table_work_dir(&s.work_dir)?;
         }
     }
-    pending
+    Ok(pending)
 }
 
 /// What [`run_tasks`] did.
@@ -531,6 +582,7 @@ fn run_tasks(
         });
     });
     bar.finish_and_clear();
+    assemble_completed(states, &finish, &written, &opts.out_dir)?;
     Ok(TaskRun {
         computed: computed.load(Ordering::SeqCst),
         written: written.into_inner().expect("lock"),
@@ -569,7 +621,7 @@ fn finish_table(s: &TableState, out_dir: &Path) -> Result<(), PipelineError> {
     }
     let mut table = Table::from_content(content, provenance(&s.planned, &s.key))?;
     write_table_atomic(&mut table, &table_path(out_dir, &s.planned.name))?;
-    let _ = std::fs::remove_dir_all(&s.work_dir);
+    crate::workdir::remove_table_work_dir(&s.work_dir)?;
     Ok(())
 }
 
