@@ -22,6 +22,15 @@ pub struct HairLutArgs {
 
 /// Runner of `hair-lut`.
 pub fn run_hair_lut(args: &HairLutArgs) -> anyhow::Result<()> {
+    // The writer produces OpenEXR only: refuse any other extension before reading the table.
+    anyhow::ensure!(
+        args.out
+            .extension()
+            .and_then(|e| e.to_str())
+            .is_some_and(|e| e.eq_ignore_ascii_case("exr")),
+        "{}: hair-lut writes OpenEXR; the output must end in .exr",
+        args.out.display()
+    );
     let t = content_of(Table::open(&args.table)?);
     let layout = dual_lut_layout(&t)?;
     write_dual_lut_exr(&layout, &args.out)?;
@@ -214,6 +223,14 @@ mod tests {
             out: exr_path.clone(),
         })
         .unwrap();
+        let err = run_hair_lut(&HairLutArgs {
+            table: lut.clone(),
+            out: dir.path().join("hair.png"),
+        })
+        .unwrap_err()
+        .to_string();
+        assert!(err.contains("must end in .exr"), "{err}");
+        assert!(!dir.path().join("hair.png").exists());
         let img = exr::prelude::read_all_flat_layers_from_file(&exr_path).unwrap();
         assert_eq!(img.layer_data[0].size.0, 4);
         assert_eq!(img.layer_data[0].size.1, 10);
