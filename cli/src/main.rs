@@ -162,9 +162,10 @@ struct ExportArgs {
     /// Also write the plain tabphase value lists here (mitsuba).
     #[arg(long)]
     values_out: Option<PathBuf>,
-    /// Sun disc angular diameter in degrees (rgb-lut).
-    #[arg(long, default_value_t = 0.5)]
-    sun_diameter_deg: f64,
+    /// Sun disc angular diameter in degrees (rgb-lut). Default: the disc the table already
+    /// averaged over (attribute `sun_diameter_deg`), 0.5 for a point-sun table.
+    #[arg(long)]
+    sun_diameter_deg: Option<f64>,
 }
 
 fn run_export(a: ExportArgs) -> Result<()> {

@@ -7,6 +7,9 @@ use std::path::{Path, PathBuf};
 /// Why reading, exporting, plotting or rendering a table failed.
 #[derive(Debug, thiserror::Error)]
 pub enum ConsumerError {
+    /// An operator (sun disc) or axis selection the table cannot honour.
+    #[error(transparent)]
+    Operator(#[from] crate::consumers::read::operators::OperatorError),
     /// A table file that does not open or verify (the error names the file).
     #[error(transparent)]
     Table(#[from] TableError),

@@ -624,6 +624,10 @@ impl Job for RaytraceJob {
         }
         at.insert("integral_check".into(), serde_json::json!({"what": "bin-sum of phase over 4π per entry before renormalisation (below 1 by the flux of triangles discarded at the silhouette, above 1 where cusp caustics are point-sampled); every channel but dolp was divided by it, so the stored table integrates to 1 on its grid", "values": ints}));
         at.insert("angular_resampling".into(), "point samples of the coherent patch sum at the grid directions; filtered channels are Gaussian averages along the polar angle per azimuth column; the forward lobe is the exact average over each polar bin".into());
+        at.insert(
+            phase_contract::INTERPOLABLE_AXES.into(),
+            serde_json::json!(["wavelength", "outgoing_polar", "outgoing_azimuth"]),
+        );
         at.insert("frame".into(), "drop axis vertical (z up); sun at elevation e in the +x half-space, incident direction d = (−cos e, 0, −sin e); outgoing_polar = angle from d; outgoing_azimuth about d from e1 = (−sin e, 0, cos e) (vertical plane, upwards) towards e2 = +y".into());
         at.insert("shape".into(), self.p.shape.clone().into());
         at.insert("radius_um".into(), self.p.radii_um[0].into());

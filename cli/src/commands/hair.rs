@@ -47,6 +47,28 @@ pub enum EngineArg {
 /// Runner of `hair-lut`.
 pub fn run_hair_lut(args: &HairLutArgs) -> anyhow::Result<()> {
     use scatterbake::consumers::export::hair_engine_lut as eng;
+    // The output's extension must be the format written, checked before reading the table.
+    let wanted = if args.engine == EngineArg::Exr {
+        "exr"
+    } else {
+        "dds"
+    };
+    anyhow::ensure!(
+        args.out
+            .extension()
+            .and_then(|e| e.to_str())
+            .is_some_and(|e| e.eq_ignore_ascii_case(wanted)),
+        "{}: hair-lut --engine {} writes {}; the output must end in .{wanted}",
+        args.out.display(),
+        if args.engine == EngineArg::Exr {
+            "exr"
+        } else if args.engine == EngineArg::Unreal {
+            "unreal"
+        } else {
+            "hdrp"
+        },
+        if wanted == "exr" { "OpenEXR" } else { "DDS" },
+    );
     let t = content_of(Table::open(&args.table)?);
     let size = |default: [usize; 3]| {
         args.size
@@ -327,6 +349,18 @@ mod tests {
             std::fs::read(&dds_path).unwrap().len(),
             148 + 16 * 4 * 5 * 6
         );
+        let err = run_hair_lut(&HairLutArgs {
+            table: lut.clone(),
+            out: dir.path().join("hair.png"),
+            engine: EngineArg::Exr,
+            size: None,
+            out_azimuthal: None,
+            ng_roughness_deg: None,
+        })
+        .unwrap_err()
+        .to_string();
+        assert!(err.contains("must end in .exr"), "{err}");
+        assert!(!dir.path().join("hair.png").exists());
         let img = exr::prelude::read_all_flat_layers_from_file(&exr_path).unwrap();
         assert_eq!(img.layer_data[0].size.0, 4);
         assert_eq!(img.layer_data[0].size.1, 10);

@@ -42,7 +42,7 @@ pub fn previews(table_path: &Path, out_dir: &Path) -> Result<Vec<PathBuf>, Consu
         plot_phase(&pt, &[], &[450.0, 550.0, 650.0], false, &p, (1000, 600))?;
         written.push(p);
         let p = name("strip");
-        plot_strip(&pt, &[], 0.5, (120.0, 145.0), &p, (1000, 160))?;
+        plot_strip(&pt, &[], None, (120.0, 145.0), &p, (1000, 160))?;
         written.push(p);
         if pt
             .entry_axes
@@ -50,7 +50,7 @@ pub fn previews(table_path: &Path, out_dir: &Path) -> Result<Vec<PathBuf>, Consu
             .any(|&i| pt.table.axes()[i].name == "radius" && pt.table.axes()[i].len() > 1)
         {
             let p = name("lee");
-            plot_lee(&pt, &[], 0.5, (120.0, 145.0), &p, (900, 600))?;
+            plot_lee(&pt, &[], None, (120.0, 145.0), &p, (900, 600))?;
             written.push(p);
         }
         if pt.table.channel_index("phase_p2").is_ok() {

@@ -17,6 +17,7 @@
 use super::figure::{perr, with_backend};
 use super::style::xyz_colour;
 use crate::consumers::ConsumerError;
+use crate::consumers::read::operators::SunDisc;
 use crate::consumers::read::phase2d::{Phase2dTable, PhaseSlice, outgoing_direction};
 use crate::consumers::read::spectrum::{THETA_STEP_DEG, xyz_along};
 use crate::math::vec3::V3;
@@ -112,11 +113,12 @@ fn raster<DB: DrawingBackend<ErrorType: 'static>>(
     Ok(())
 }
 
-/// The bows figure (see the module doc); returns the peaks per input and direction.
+/// The bows figure (see the module doc); returns the peaks per input and direction. The colour
+/// strips convolve `disc.extra_deg`, the disc the tables have not applied ([`SunDisc::plan`]).
 pub fn plot_bows(
     inputs: &[BowInput],
     wavelength_nm: f64,
-    sun_diameter_deg: f64,
+    disc: &SunDisc,
     range: (f64, f64),
     out: &Path,
     size: (u32, u32),
@@ -148,7 +150,7 @@ pub fn plot_bows(
                     hi = hi.max(v);
                 }
             }
-            let xyz = strip_xyz(&inp.slice, phi, &polar, sun_diameter_deg);
+            let xyz = strip_xyz(&inp.slice, phi, &polar, disc.extra_deg);
             // Primary bow: brightest angle in 133°–146° (between Alexander's band and the
             // bright inside; the geometric primary of water is at 137.5°–138.5°).
             let (plo, phi_hi) = (133.0f64.max(range.0), 146.0f64.min(range.1));
@@ -195,8 +197,8 @@ pub fn plot_bows(
     with_backend!(out, size, |root| {
         root.fill(&WHITE).map_err(perr)?;
         let title = format!(
-            "phase at {wl_label} nm (log) and D65 colour strips ({sun_diameter_deg} deg sun), sun elevation {} deg",
-            inputs[0].slice.sun_elevation_deg
+            "phase at {wl_label} nm (log) and D65 colour strips ({} deg sun), sun elevation {} deg",
+            disc.target_deg, inputs[0].slice.sun_elevation_deg
         );
         let (head, body) = root.split_vertically(30);
         head.draw(&Text::new(title, (10, 8), ("sans-serif", 18)))
@@ -360,6 +362,7 @@ pub fn previews_2d(
     let p = out_dir.join(format!("{stem}-bows.png"));
     let label = format!("a = {}", t2.radius_label(&entry));
     let primary_order = t2.slice(e, &[], "phase_p2").ok();
+    let disc = SunDisc::plan(&t2.table, None)?;
     plot_bows(
         &[BowInput {
             label,
@@ -367,7 +370,7 @@ pub fn previews_2d(
             primary_order,
         }],
         650.0,
-        0.5,
+        &disc,
         (120.0, 150.0),
         &p,
         (1500, 700),
@@ -408,7 +411,7 @@ mod tests {
                 primary_order: Some(slice.clone()),
             }],
             650.0,
-            0.0,
+            &SunDisc::from_applied(0.0, true, Some(0.0)).unwrap(),
             (120.0, 150.0),
             &out,
             (900, 500),

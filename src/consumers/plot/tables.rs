@@ -22,6 +22,7 @@
 
 use super::style::{PALETTE, axis_label, short_number, wavelength_colour, xyz_colour};
 use crate::consumers::ConsumerError;
+use crate::consumers::read::operators::SunDisc;
 use crate::consumers::read::phase::{EntrySelection, PhaseTable};
 use crate::consumers::read::spectrum::{THETA_STEP_DEG, xyz_vs_angle};
 use crate::table::Table;
@@ -163,23 +164,36 @@ pub fn plot_phase(
     })
 }
 
-/// Colour strip vs scattering angle over `[lo, hi]`.
+/// The colours of a strip or Lee-diagram column: XYZ vs angle ([`xyz_vs_angle`]) with the sun
+/// disc `disc` planned for the table, convolving only what the table has not applied.
+pub fn strip_xyz(
+    pt: &PhaseTable,
+    entry: &[EntrySelection],
+    disc: &SunDisc,
+) -> Result<Vec<[f64; 3]>, ConsumerError> {
+    xyz_vs_angle(pt, entry, disc.extra_deg)
+}
+
+/// Colour strip vs scattering angle over `[lo, hi]`; the sun disc is planned from the table
+/// and `sun_diameter_deg` ([`SunDisc::plan`]: `None` keeps the table's own) and returned.
 pub fn plot_strip(
     pt: &PhaseTable,
     entry: &[EntrySelection],
-    sun_diameter_deg: f64,
+    sun_diameter_deg: Option<f64>,
     range: (f64, f64),
     out: &Path,
     size: (u32, u32),
-) -> Result<(), ConsumerError> {
-    let xyz = xyz_vs_angle(pt, entry, sun_diameter_deg)?;
+) -> Result<SunDisc, ConsumerError> {
+    let disc = SunDisc::plan(&pt.table, sun_diameter_deg)?;
+    let xyz = strip_xyz(pt, entry, &disc)?;
     let idx = |a: f64| ((a / THETA_STEP_DEG).round() as usize).min(xyz.len() - 1);
     let (i0, i1) = (idx(range.0), idx(range.1));
     let ymax = xyz[i0..=i1].iter().map(|v| v[1]).fold(0.0, f64::max);
     let scale = if ymax > 0.0 { 1.0 / ymax } else { 1.0 };
     let e = pt.resolve_entry(entry)?;
     let title = format!(
-        "rainbow colours vs scattering angle (D65 sun, {sun_diameter_deg} deg disc), {}",
+        "rainbow colours vs scattering angle (D65 sun, {} deg disc), {}",
+        disc.target_deg,
         crate::consumers::read::phase::describe_entry(&pt.table, &e)
     );
     with_backend!(out, size, |root| {
@@ -208,18 +222,20 @@ pub fn plot_strip(
             }))
             .map_err(perr)?;
         Ok::<(), ConsumerError>(())
-    })
+    })?;
+    Ok(disc)
 }
 
-/// Lee diagram over the entry axis `radius`.
+/// Lee diagram over the entry axis `radius`; the sun disc as in [`plot_strip`].
 pub fn plot_lee(
     pt: &PhaseTable,
     entry: &[EntrySelection],
-    sun_diameter_deg: f64,
+    sun_diameter_deg: Option<f64>,
     range: (f64, f64),
     out: &Path,
     size: (u32, u32),
-) -> Result<(), ConsumerError> {
+) -> Result<SunDisc, ConsumerError> {
+    let disc = SunDisc::plan(&pt.table, sun_diameter_deg)?;
     let axes = pt.table.axes();
     let ai = pt
         .entry_axes
@@ -245,7 +261,7 @@ pub fn plot_lee(
             axis: "radius".into(),
             value: r,
         });
-        cols.push(xyz_vs_angle(pt, &sel, sun_diameter_deg)?);
+        cols.push(strip_xyz(pt, &sel, &disc)?);
     }
     let idx = |a: f64| ((a / THETA_STEP_DEG).round() as usize).min(cols[0].len() - 1);
     let log_x = radii[0] > 0.0 && radii[radii.len() - 1] / radii[0] > 20.0;
@@ -304,7 +320,8 @@ pub fn plot_lee(
                 .map_err(perr)?;
         }
         Ok::<(), ConsumerError>(())
-    })
+    })?;
+    Ok(disc)
 }
 
 /// `a = 1, b = 2 nm` for the axes of `table` at `coords`, except the axes in `skip`.

@@ -260,7 +260,9 @@ impl PhaseCurves {
 
 /// Entry values `(axis name, value)` of `entry_axes` of `table`: the selected value, or the
 /// axis' first sample when not selected; an unknown axis name is an error listing the entry
-/// axes with their ranges (`hint` is appended to the message).
+/// axes (`hint` is appended to the message). A selected value must lie within its axis, and on
+/// an axis the table does not declare interpolable it must be a stored sample
+/// ([`super::operators::resolve_axis_value`]).
 pub fn resolve_entry_axes(
     table: &Table,
     entry_axes: &[usize],
@@ -294,19 +296,17 @@ pub fn resolve_entry_axes(
             });
         }
     }
-    Ok(entry_axes
+    entry_axes
         .iter()
         .map(|&i| {
             let a = &axes[i];
-            let v = sel
-                .iter()
-                .rev()
-                .find(|s| s.axis == a.name)
-                .map(|s| s.value)
-                .unwrap_or_else(|| a.coord(0));
-            (a.name.clone(), v)
+            let v = match sel.iter().rev().find(|s| s.axis == a.name) {
+                Some(s) => super::operators::resolve_axis_value(table, i, s.value)?,
+                None => a.coord(0),
+            };
+            Ok((a.name.clone(), v))
         })
-        .collect())
+        .collect()
 }
 
 /// Human-readable description of a selected entry, e.g. `radius=500 um`.

@@ -127,26 +127,22 @@ impl Phase2dTable {
         self.table.axes()[self.ax_elev].coords()
     }
 
-    /// The sun elevation to use: the requested one if it lies within the table's range (error
-    /// naming the range otherwise), or the table's lowest elevation when none is requested.
+    /// The sun elevation to use: the table's lowest elevation when none is requested, else the
+    /// requested one, which must lie within the table's range and, unless the table declares
+    /// `sun_elevation` interpolable, be one of its elevations (errors name the range or the
+    /// nearest elevation).
     pub fn resolve_elevation(&self, requested: Option<f64>) -> Result<f64, ConsumerError> {
         let e = self.elevations_deg();
-        let (lo, hi) = (e[0], e[e.len() - 1]);
         match requested {
-            None => Ok(lo),
-            Some(x) if x >= lo - 1e-9 && x <= hi + 1e-9 => Ok(x.clamp(lo, hi)),
-            Some(x) => Err(ConsumerError::OutOfRange {
-                what: "sun elevation",
-                axis: "sun_elevation".into(),
-                value: x,
-                lo,
-                hi,
-                unit: "deg".into(),
-                note: format!(
-                    " (table elevations {e:?}); ray-traced tables are only valid at the \
-                     elevations they were traced for"
-                ),
-            }),
+            None => Ok(e[0]),
+            Some(x) => {
+                super::operators::resolve_axis_value(&self.table, self.ax_elev, x).map_err(|e| {
+                    ConsumerError::invalid(format!(
+                        "{e}; ray-traced tables are only valid at the sun elevations they were \
+                         traced for (--sun-elevation-deg)"
+                    ))
+                })
+            }
         }
     }
 
@@ -191,6 +187,7 @@ impl Phase2dTable {
         channel: &str,
     ) -> Result<PhaseSlice, ConsumerError> {
         let entry = self.resolve_entry(sel)?;
+        let elevation_deg = self.resolve_elevation(Some(elevation_deg))?;
         let ch = self.table.channel_index(channel)?;
         let axes = self.table.axes();
         let wavelengths_nm = axes[self.ax_wavelength].coords();
@@ -382,7 +379,8 @@ mod tests {
         }
     }
 
-    /// A version 1 layout (wavelength × radius × sun_elevation × …) is still read.
+    /// A version 1 layout (wavelength × radius × sun_elevation × …) is still read; radius and
+    /// sun elevation are interpolated only when the table declares them interpolable.
     #[test]
     fn radius_entry_axis_is_selected_and_interpolated() {
         use crate::table::{Axis, Channel, Provenance, Schema, TableContent};
@@ -413,9 +411,27 @@ mod tests {
             attributes: Default::default(),
             data,
         };
+        let coarse =
+            Phase2dTable::new(Table::from_content(content.clone(), Provenance::default()).unwrap())
+                .unwrap();
+        let sel: EntrySelection = "radius=750".parse().unwrap();
+        let e = coarse.slice(0.0, &[sel.clone()], "phase").err().unwrap();
+        assert!(e.to_string().contains("nearest is 500 um"), "{e}");
+        let e = coarse.slice(5.0, &[], "phase").err().unwrap();
+        assert!(e.to_string().contains("nearest is 0 deg"), "{e}");
+        let mut content = content;
+        content.attributes.insert(
+            "interpolable_axes".into(),
+            serde_json::json!([
+                "wavelength",
+                "radius",
+                "sun_elevation",
+                "outgoing_polar",
+                "outgoing_azimuth"
+            ]),
+        );
         let t = Phase2dTable::new(Table::from_content(content, Provenance::default()).unwrap())
             .unwrap();
-        let sel: EntrySelection = "radius=750".parse().unwrap();
         let s = t.slice(5.0, &[sel], "phase").unwrap();
         assert_eq!(t.radius_label(&s.entry), "750 um");
         // Linear in every axis: exact at an off-grid point; azimuth 315° interpolates between
