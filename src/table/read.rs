@@ -202,9 +202,10 @@ fn parse_header_json(bytes: &[u8], major: u16, minor: u16) -> Result<Header, Str
     let Some(keys) = top else {
         return Err("the header is not a JSON object".into());
     };
-    if minor <= FORMAT_MINOR
-        && let Some(k) = keys.iter().find(|k| !HEADER_FIELDS.contains(&k.as_str()))
-    {
+    // Fields of a newer minor are ignored; a file of a minor this reader implements has exactly
+    // the fields of that version.
+    let newer_minor = minor > FORMAT_MINOR;
+    if !newer_minor && let Some(k) = keys.iter().find(|k| !HEADER_FIELDS.contains(&k.as_str())) {
         return Err(format!(
             "unknown field `{k}` in a format {major}.{minor} header (only a newer minor version \
              may add fields)"
@@ -624,7 +625,7 @@ fn read_table(
 fn open_file(path: &Path) -> Result<(std::fs::File, Option<u64>), TableError> {
     let f = std::fs::File::open(path).map_err(io_err(path))?;
     let meta = f.metadata().map_err(io_err(path))?;
-    let len = meta.is_file().then(|| meta.len());
+    let len = meta.is_file().then_some(meta.len());
     Ok((f, len))
 }
 
