@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 pub enum ConsumerError {
     /// An operator (sun disc) or axis selection the table cannot honour.
     #[error(transparent)]
-    Operator(#[from] crate::consumers::read::operators::OperatorError),
+    Operator(Box<crate::consumers::read::operators::OperatorError>),
     /// A table file that does not open or verify (the error names the file).
     #[error(transparent)]
     Table(#[from] TableError),
@@ -107,5 +107,11 @@ impl ConsumerError {
             path: path.to_path_buf(),
             source: Box::new(self),
         }
+    }
+}
+
+impl From<crate::consumers::read::operators::OperatorError> for ConsumerError {
+    fn from(e: crate::consumers::read::operators::OperatorError) -> Self {
+        ConsumerError::Operator(Box::new(e))
     }
 }

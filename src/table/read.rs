@@ -202,10 +202,10 @@ fn parse_header_json(bytes: &[u8], major: u16, minor: u16) -> Result<Header, Str
     let Some(keys) = top else {
         return Err("the header is not a JSON object".into());
     };
-    // `<=` stays right when FORMAT_MINOR grows past 0.
-    #[allow(clippy::absurd_extreme_comparisons)]
-    let known_minor = minor <= FORMAT_MINOR;
-    if known_minor && let Some(k) = keys.iter().find(|k| !HEADER_FIELDS.contains(&k.as_str())) {
+    // Fields of a newer minor are ignored; a file of a minor this reader implements has exactly
+    // the fields of that version.
+    let newer_minor = minor > FORMAT_MINOR;
+    if !newer_minor && let Some(k) = keys.iter().find(|k| !HEADER_FIELDS.contains(&k.as_str())) {
         return Err(format!(
             "unknown field `{k}` in a format {major}.{minor} header (only a newer minor version \
              may add fields)"

@@ -13,6 +13,10 @@
 //! a stored sample ([`resolve_axis_value`]): a value between samples is refused with the
 //! nearest sample named, a value outside the axis is refused with the axis range.
 
+// The errors carry the axis samples so that the message can name the nearest one; they are
+// built only on the refusal path.
+#![allow(clippy::result_large_err)]
+
 use crate::table::Table;
 
 /// Diameter of the real sun's disc (deg) shown when a table states no disc and the consumer
@@ -219,7 +223,7 @@ pub fn resolve_axis_value(table: &Table, axis: usize, value: f64) -> Result<f64,
         });
     }
     let declared = interpolable_axes(table);
-    if declared.iter().any(|n| *n == a.name) {
+    if declared.contains(&a.name) {
         return Ok(value.clamp(lo, hi));
     }
     let nearest = c

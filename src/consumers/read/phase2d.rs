@@ -415,7 +415,10 @@ mod tests {
             Phase2dTable::new(Table::from_content(content.clone(), Provenance::default()).unwrap())
                 .unwrap();
         let sel: EntrySelection = "radius=750".parse().unwrap();
-        let e = coarse.slice(0.0, &[sel.clone()], "phase").err().unwrap();
+        let e = coarse
+            .slice(0.0, std::slice::from_ref(&sel), "phase")
+            .err()
+            .unwrap();
         assert!(e.to_string().contains("nearest is 500 um"), "{e}");
         let e = coarse.slice(5.0, &[], "phase").err().unwrap();
         assert!(e.to_string().contains("nearest is 0 deg"), "{e}");
