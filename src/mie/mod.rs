@@ -19,6 +19,7 @@
 //! [`stage`] (the `mie` stage) and [`cli`] (the `scatterbake mie` query).
 
 pub mod angular;
+pub mod coated;
 pub mod coefficients;
 pub mod distributions;
 pub mod filters;
