@@ -16,7 +16,8 @@
 //!   `m` and accurate relative to itself for weak absorption;
 //! - `Q_ext = Q_sca + Q_abs` (the optical-theorem sum `(2/x²) Σ (2n+1) Re(a_n + b_n)` is kept as
 //!   [`Efficiencies::q_ext_series`] for consistency checks);
-//! - `Q_back = |Σ (2n+1)(−1)^n (a_n − b_n)|²/x²`;
+//! - `Q_back = |Σ (2n+1)(−1)^n (a_n − b_n)|²/x²` (radar convention, `= 4|S_1(180°)|²/x²`;
+//!   the per-steradian value of MiePlot is `Q_back/(4π)`, [`Efficiencies::q_back_per_sr`]);
 //! - `g = (4/(x² Q_sca)) Σ [n(n+2)/(n+1) Re(a_n a*_{n+1} + b_n b*_{n+1})
 //!   + (2n+1)/(n(n+1)) Re(a_n b*_n)]`.
 
@@ -48,12 +49,21 @@ pub struct Efficiencies {
     pub q_sca: f64,
     /// Absorption efficiency (exactly 0 for real `m`).
     pub q_abs: f64,
-    /// Backscattering efficiency `4|S_1(180°)|²/x²`.
+    /// Backscattering efficiency in the radar convention, `4π (dC_sca/dΩ)(180°)/(π r²) =
+    /// 4|S_1(180°)|²/x²` (see [`Efficiencies::q_back_per_sr`] for MiePlot's, `4π` smaller).
     pub q_back: f64,
     /// Asymmetry parameter `⟨cos θ⟩`.
     pub g: f64,
     /// Optical-theorem series `(2/x²) Σ (2n+1) Re(a_n + b_n)` (equals `q_ext` analytically).
     pub q_ext_series: f64,
+}
+
+impl Efficiencies {
+    /// Backscattering per steradian (MiePlot's convention): `Q_back/(4π) = |S_1(180°)|²/(π x²)`.
+    /// [`Efficiencies::q_back`] is the radar convention, `4π` larger.
+    pub fn q_back_per_sr(&self) -> f64 {
+        self.q_back / (4.0 * std::f64::consts::PI)
+    }
 }
 
 impl MieCoefficients {

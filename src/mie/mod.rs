@@ -9,9 +9,15 @@
 //! `p = s11/(π x² Q_sca)`, so that `∫_{4π} p dΩ = 1`.
 //!
 //! Validated domain ([`VALIDATED_DOMAIN`], enforced by [`MieCoefficients::new`]):
-//! `10⁻³ ≤ x ≤ 10⁵`, `1.05 ≤ Re m ≤ 2.5`, `0 ≤ Im m ≤ 1`. See `docs/mie.md` for the evidence
-//! (arbitrary-precision references at x = 2000 and 25000, `scatrs` up to 2·10⁴, convergence and
-//! energy checks up to 10⁵) and the accuracy figures.
+//! `10⁻³ ≤ x ≤ 10⁵`, `0.05 ≤ Re m ≤ 10`, `0 ≤ Im m ≤ 10`, `|m − 1| ≥ 10⁻⁵` and `|m| x ≤ 1.5·10⁵`
+//! (bubbles and ice in water, metals such as gold and silver, high-index semiconductors,
+//! water and glass). Evidence in `docs/mie.md`: 40-digit references on 15 indices ×
+//! x = 10⁻³ … 10⁴ (`tests/mie_wide.rs`), the earlier references at x = 2000 and 25000, `scatrs`
+//! up to 2·10⁴, convergence and energy checks up to 10⁵.
+//!
+//! Units: `x` and the angles are dimensionless and in degrees; efficiencies are cross-sections
+//! over `π r²`; `S_1`, `S_2` are dimensionless. A sphere in a medium of index `n_medium`
+//! ([`in_medium`]) takes the relative index `m/n_medium` and the wavelength in the medium.
 //!
 //! Layout: [`riccati`] (Riccati–Bessel functions and log-derivatives, reusable by a Debye
 //! series), [`coefficients`] (`a_n`, `b_n`, efficiencies), [`angular`] (the vectorised
@@ -90,15 +96,23 @@ impl ValidatedDomain {
     }
 }
 
-/// The validated domain of the homogeneous-sphere solution (see the module doc and
-/// `docs/mie.md` for the evidence).
+/// The validated domain of the homogeneous-sphere solution: `10⁻³ ≤ x ≤ 10⁵`,
+/// `0.05 ≤ Re m ≤ 10`, `0 ≤ Im m ≤ 10`, `|m − 1| ≥ 10⁻⁵`, `|m| x ≤ 1.5·10⁵`.
+///
+/// Upper x: a 5 mm drop at 380 nm has x ≈ 8.3·10⁴. `|m| x ≤ 1.5·10⁵` is the largest inside size
+/// parameter of the 40-digit references (m = 10 + 10i at x = 10⁴), so a high-index or metal
+/// sphere reaches x = 10⁵ only when `|m| ≤ 1.5` (water, bubbles). Lower x: below 10⁻³ the
+/// phase function is Rayleigh to 10⁻⁶. `|m − 1| ≥ 10⁻⁵`: the smallest contrast of the
+/// references; at `m = 1` the phase function is 0/0. The algorithm itself (downward `D_n`
+/// from `max(n_stop, |mx|) + 10 M^{1/3} + 100`, the `r_n` numerators of
+/// [`coefficients`]) needs no regime switch inside this domain.
 pub const VALIDATED_DOMAIN: ValidatedDomain = ValidatedDomain {
     x_min: 1e-3,
     x_max: 1e5,
     m_re_min: 0.05,
     m_re_max: 10.0,
     m_im_max: 10.0,
-    mx_max: f64::INFINITY,
+    mx_max: 1.5e5,
     m_minus_one_min: 1e-5,
 };
 
@@ -135,9 +149,32 @@ pub fn check_domain(x: f64, m: Complex64) -> Result<(), MieError> {
     VALIDATED_DOMAIN.check(x, m)
 }
 
+/// [`VALIDATED_DOMAIN`] in words (for table headers).
+pub const VALIDATED_DOMAIN_TEXT: &str = "1e-3 <= x <= 1e5, 0.05 <= Re m <= 10, 0 <= Im m <= 10, |m - 1| >= 1e-5, |m| x <= 1.5e5; vs 40-digit references S1, S2 <= 3e-9 relative where |S|^2 >= 1e-12 of its maximum, Q_ext, Q_sca, g <= 3e-11, Q_back <= 6e-9 (see docs/mie.md)";
+
+/// The two backscattering conventions, as labelled wherever both are printed.
+pub const Q_BACK_CONVENTIONS: &str = "q_back: radar convention, 4 pi (dC_sca/dOmega at 180 deg) / (pi r^2) = |sum_n (2n+1) (-1)^n (a_n - b_n)|^2 / x^2 = 4 |S1(180)|^2 / x^2; q_back_per_sr: per steradian (MiePlot), (dC_sca/dOmega at 180 deg) / (pi r^2) = q_back / (4 pi) = |S1(180)|^2 / (pi x^2)";
+
 /// Size parameter `2π r/λ` from a radius in µm and a wavelength in nm (outside index 1).
 pub fn size_parameter(radius_um: f64, wavelength_nm: f64) -> f64 {
     2.0 * std::f64::consts::PI * radius_um * 1e3 / wavelength_nm
+}
+
+/// A sphere of absolute index `index` (`n + ik`, `k ≥ 0`) in a non-absorbing medium of real
+/// index `n_medium`, lit at the vacuum wavelength `wavelength_nm`: returns the size parameter
+/// `x = 2π r n_medium/λ` (the wavelength in the medium is `λ/n_medium`) and the relative index
+/// `m = index/n_medium` that the Lorenz–Mie solution takes. `S_1`, `S_2`, the efficiencies and
+/// the phase function are then those of the medium (Bohren & Huffman 1983, §4.1).
+pub fn in_medium(
+    radius_um: f64,
+    wavelength_nm: f64,
+    index: Complex64,
+    n_medium: f64,
+) -> (f64, Complex64) {
+    (
+        size_parameter(radius_um, wavelength_nm / n_medium),
+        index / n_medium,
+    )
 }
 
 /// One solved sphere: coefficients, efficiencies and the prepared angular series.

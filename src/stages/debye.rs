@@ -358,7 +358,7 @@ impl Job for DebyeJob {
             s("uniform disc (no limb darkening), exact 2-D average on the sphere"),
         );
         a.insert("angular_resampling".into(), s("each value is the solid-angle average over its bin [theta - step/2, theta + step/2] (clipped at 0 and 180 deg) of the single-sphere curve, computed as cell averages with 6 Gauss points per cell of at most 180/n_stop deg; no point sampling"));
-        a.insert("validated_domain".into(), s("1e-3 <= x <= 1e5, 1.05 <= Re m <= 2.5, 0 <= Im m <= 1 (the Mie domain); closed-form sum over all orders equals Mie to <= 5e-12 relative in s11 at x = 100, 1000, 1e4 (see docs/debye.md)"));
+        a.insert("validated_domain".into(), s("1e-3 <= x <= 1e5, 1.05 <= Re m <= 2.5, 0 <= Im m <= 1 (debye::VALIDATED_DOMAIN); closed-form sum over all orders equals Mie to <= 5e-12 relative in s11 at x = 100, 1000, 1e4 (see docs/debye.md)"));
         a.insert("debye_orders".into(), serde_json::to_value(&self.p.orders)?);
         a.insert("debye_convention".into(), s("Bohren & Huffman exp(-i omega t); a_n = 1/2 (1 - R22) for p = 0 (diffraction + external reflection), a_n = -1/2 T21 T12 R11^(p-1) for p >= 1 (p chords through the drop); p = 2 primary bow, p = 3 secondary"));
         a.insert("conventions".into(), s("i_perp = |S1|^2, i_par = |S2|^2 of the coherent sum of the chosen orders, over (pi x^2 Q_sca); phase = (i_perp + i_par)/2; dolp = (i_perp - i_par)/(i_perp + i_par); phase_p<k> = (|S1_p|^2 + |S2_p|^2)/2 over (pi x^2 Q_sca)"));

@@ -55,6 +55,17 @@ pub struct MieParams {
     /// Gauss–Legendre points in ln r for distributions.
     #[serde(default = "default_radius_points")]
     pub radius_points: usize,
+    /// Refractive index of the medium around the drops: the drop index and the vacuum
+    /// wavelength are divided by it (left out of the content key when 1).
+    #[serde(default = "default_n_medium", skip_serializing_if = "is_vacuum")]
+    pub n_medium: f64,
+}
+
+fn default_n_medium() -> f64 {
+    1.0
+}
+fn is_vacuum(n: &f64) -> bool {
+    *n == 1.0
 }
 
 fn default_wavelengths() -> Vec<f64> {
@@ -124,6 +135,12 @@ const PARAMS: &[ParamDoc] = &[
         kind: "float, deg",
         default: "0",
         description: "optional extra Gaussian blur in angle",
+    },
+    ParamDoc {
+        name: "n_medium",
+        kind: "float",
+        default: "1",
+        description: "real index of the surrounding medium (1–3): relative index n_water/n_medium, size parameter 2π r n_medium/λ",
     },
     ParamDoc {
         name: "radius_points",
@@ -291,9 +308,10 @@ impl Stage for MieStage {
     fn name(&self) -> &'static str {
         "mie"
     }
-    /// 2: axes radius × wavelength × angle, Q and g kept in f64.
+    /// 3: `q_back_per_sr` and the Q_back conventions in the header, `n_medium`
+    /// (2: axes radius × wavelength × angle, Q and g kept in f64).
     fn algorithm_version(&self) -> u32 {
-        2
+        3
     }
     fn summary(&self) -> &'static str {
         "Lorenz–Mie phase functions of water drops (radii or size distributions), sun-disc smoothed, bin-integrated"
@@ -353,13 +371,17 @@ fn plan_job(p: MieParams) -> Result<MieJob, PlanError> {
     if !(4..=512).contains(&p.radius_points) {
         return Err(PlanError::invalid("radius_points", "must be within 4–512"));
     }
+    if !(1.0..=3.0).contains(&p.n_medium) {
+        return Err(PlanError::invalid("n_medium", "must be within 1–3"));
+    }
     // every (wavelength, radius) must be inside the validated Mie domain
     for e in 0..entries.len() {
         let (lo, hi) = entries.distribution(e).support_um();
         for (l, n) in p.wavelengths_nm.iter().zip(&indices) {
             for r in [lo, hi] {
-                let x = size_parameter(r, *l);
-                crate::mie::check_domain(x, Complex64::new(*n, 0.0)).map_err(|err| {
+                let x = size_parameter(r, *l / p.n_medium);
+                let m = Complex64::new(*n / p.n_medium, 0.0);
+                crate::mie::check_domain(x, m).map_err(|err| {
                     PlanError::invalid(
                         if p.radii_um.is_some() {
                             "radii_um"
@@ -421,11 +443,11 @@ impl Job for MieJob {
     fn run_task(&self, index: usize) -> anyhow::Result<Vec<f32>> {
         let n_w = self.p.wavelengths_nm.len();
         let (e, w) = (index / n_w, index % n_w);
-        let m = Complex64::new(self.indices[w], 0.0);
+        let m = Complex64::new(self.indices[w] / self.p.n_medium, 0.0);
         let sun = self.sun.get_or_init(|| self.settings.sun_operator());
         let r = compute_entry(
             &self.entries.distribution(e),
-            self.p.wavelengths_nm[w],
+            self.p.wavelengths_nm[w] / self.p.n_medium,
             m,
             &self.settings,
             sun,
@@ -488,17 +510,35 @@ impl Job for MieJob {
             self.p.gaussian_sigma_deg.into(),
         );
         a.insert("angular_resampling".into(), s("each value is the solid-angle average over its bin [theta - step/2, theta + step/2] (clipped at 0 and 180 deg) of the single-sphere curve, computed as cell averages with 6 Gauss points per cell of at most 180/n_stop deg; no point sampling"));
-        a.insert("validated_domain".into(), s("1e-3 <= x <= 1e5, 1.05 <= Re m <= 2.5, 0 <= Im m <= 1; s11 vs arbitrary-precision references <= 1e-8 relative (see docs/mie.md)"));
+        a.insert(
+            "validated_domain".into(),
+            s(crate::mie::VALIDATED_DOMAIN_TEXT),
+        );
+        a.insert("n_medium".into(), self.p.n_medium.into());
+        a.insert("medium".into(), s("relative index m = n_water / n_medium; size parameter x = 2 pi r n_medium / wavelength (wavelength axis in vacuum)"));
         a.insert("conventions".into(), s("Bohren & Huffman: exp(-i omega t), m = n + ik; i_perp = |S1|^2, i_par = |S2|^2 over (pi x^2 Q_sca); phase = (i_perp + i_par)/2; dolp = (i_perp - i_par)/(i_perp + i_par)"));
         a.insert("size_distribution_weighting".into(), s("normalised phase functions mixed with weights n(r) dr * C_sca(r); Gauss-Legendre in ln r"));
         if let Entries::Distributions(d) = &self.entries {
             a.insert("distributions".into(), serde_json::to_value(d)?);
         }
+        let per_sr: Vec<Vec<f64>> = scalars[2]
+            .iter()
+            .map(|row| {
+                row.iter()
+                    .map(|q| q / (4.0 * std::f64::consts::PI))
+                    .collect()
+            })
+            .collect();
         let names = ["q_ext", "q_sca", "q_back", "g"];
         for (k, v) in scalars.into_iter().enumerate() {
             a.insert(names[k].into(), serde_json::to_value(v)?);
         }
-        a.insert("scalar_layout".into(), s("q_ext, q_sca, q_back, g: [entry][wavelength] (f64); ensemble averages <C>/<pi r^2>, g weighted by C_sca"));
+        a.insert("q_back_per_sr".into(), serde_json::to_value(per_sr)?);
+        a.insert(
+            "q_back_convention".into(),
+            s(crate::mie::Q_BACK_CONVENTIONS),
+        );
+        a.insert("scalar_layout".into(), s("q_ext, q_sca, q_back, q_back_per_sr, g: [entry][wavelength] (f64); ensemble averages <C>/<pi r^2>, g weighted by C_sca"));
         Ok(TableContent {
             schema: Schema::new("mie-phase", 1),
             description: "Lorenz-Mie phase functions of water drops per wavelength".into(),
@@ -576,6 +616,43 @@ mod tests {
                     .all(|c| (c[0] - 0.5 * (c[1] + c[2])).abs() <= 1e-6 * c[0].abs())
             );
         }
+    }
+
+    /// `n_medium`: the entry equals the sphere of relative index n/n_medium at the wavelength
+    /// in the medium; the header carries both Q_back conventions.
+    #[test]
+    fn medium_index_and_q_back_conventions() {
+        let job = plan(
+            "radii_um = [3.0]\nwavelengths_nm = [550.0]\nangle_step_deg = 1.0\nn_medium = 1.333\nsun_diameter_deg = 0",
+        )
+        .unwrap();
+        assert!(job.parameters()["n_medium"].as_f64() == Some(1.333));
+        let t = job.assemble(vec![job.run_task(0).unwrap()]).unwrap();
+        let n = WaterIndexModel::Iapws1997 {
+            temperature_c: 20.0,
+        }
+        .index(550.0)
+        .unwrap();
+        let (x, m) = crate::mie::in_medium(3.0, 550.0, Complex64::new(n, 0.0), 1.333);
+        let e = crate::mie::MieCoefficients::new(x, m)
+            .unwrap()
+            .efficiencies();
+        let q = t.attributes["q_sca"][0][0].as_f64().unwrap();
+        assert!((q - e.q_sca).abs() <= 1e-12 * e.q_sca, "{q} vs {}", e.q_sca);
+        let qb = t.attributes["q_back"][0][0].as_f64().unwrap();
+        let qb_sr = t.attributes["q_back_per_sr"][0][0].as_f64().unwrap();
+        assert!((qb - e.q_back).abs() <= 1e-12 * e.q_back);
+        assert!((qb_sr - e.q_back_per_sr()).abs() <= 1e-12 * qb_sr);
+        assert!(
+            t.attributes["q_back_convention"]
+                .as_str()
+                .unwrap()
+                .contains("radar")
+        );
+        // vacuum (the default) leaves the content key's parameters unchanged
+        let plain = plan("radii_um = [3.0]").unwrap();
+        assert!(plain.parameters().get("n_medium").is_none());
+        assert!(plan("radii_um = [3.0]\nn_medium = 0.5").is_err());
     }
 
     /// A size distribution entry: normalised, and its ensemble Q_sca lies between the

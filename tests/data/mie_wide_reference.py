@@ -7,6 +7,7 @@ Regenerate (from the repository root; needs mpmath, miepython and scattnlay from
     python3 tests/data/mie_wide_reference.py            # writes tests/data/mie_wide_reference.json
     python3 tests/data/mie_wide_reference.py --large    # also the x = 1e5 cases (slow, ~1 h)
     python3 tests/data/mie_wide_reference.py --only-large   # only tests/data/mie_wide_reference_x1e5.json
+    (``--large-labels`` selects the indices computed at x = 1e5; default bubble,water)
 
 Three independent evaluations of every case:
 
@@ -268,6 +269,8 @@ def main():
     ap.add_argument("--dps", type=int, default=40)
     ap.add_argument("--large", action="store_true", help="also x = 1e5 (slow)")
     ap.add_argument("--only-large", action="store_true", help="only the x = 1e5 file")
+    ap.add_argument("--large-labels", default="bubble,water",
+                    help="comma-separated labels of LARGE to compute at x = 1e5")
     ap.add_argument("--out", default=None)
     args = ap.parse_args()
     import os
@@ -295,7 +298,7 @@ def main():
             json.dump(result, f, separators=(",", ":"))
     if args.large or args.only_large:
         large = []
-        for label, m in LARGE:
+        for label, m in [c for c in LARGE if c[0] in args.large_labels.split(",")]:
             c = case(label, 1e5, m, args.dps, None)
             print(f"{label:>22} x=1e5 done", file=sys.stderr, flush=True)
             large.append(c)
