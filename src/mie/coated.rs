@@ -82,7 +82,7 @@ impl CoatedSphere {
     /// Checks the sphere against [`COATED_VALIDATED_DOMAIN`] and `0 ≤ x_c ≤ x`.
     pub fn check(&self) -> Result<(), CoatedError> {
         let (xc, x) = (self.core_size_parameter, self.size_parameter);
-        if !(xc >= 0.0 && xc <= x) {
+        if !(0.0..=x).contains(&xc) {
             return Err(CoatedError::CoreLargerThanShell { core: xc, shell: x });
         }
         COATED_VALIDATED_DOMAIN
@@ -129,6 +129,7 @@ fn xi_log_derivative(z: Complex64, d1: &[Complex64], out: &mut Vec<Complex64>) {
     let mut p = -0.5 * exp_m1(2.0 * i * z);
     out.push(d1[0] + i / p);
     let inv_z = 1.0 / z;
+    #[allow(clippy::needless_range_loop)] // n is the order and indexes two arrays
     for n in 1..d1.len() {
         let nz = inv_z * n as f64;
         p *= (nz - out[n - 1]) / (d1[n] + nz);
@@ -159,6 +160,7 @@ pub fn coated_with_order(sphere: &CoatedSphere, n_stop: usize) -> MieCoefficient
     let mut ha = Vec::with_capacity(n_stop);
     let mut hb = Vec::with_capacity(n_stop);
     let (inv_z1, inv_z2) = (1.0 / z1, 1.0 / z2);
+    #[allow(clippy::needless_range_loop)] // n is the order and indexes five arrays
     for n in 1..=n_stop {
         let nf = n as f64;
         let r1 = (d3_z1[n] + nf * inv_z1) / (d1_z1[n] + nf * inv_z1);

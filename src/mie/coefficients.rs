@@ -144,6 +144,7 @@ impl MieCoefficients {
         let mut q_abs = 0.0;
         let inv_x = 1.0 / x;
         let inv_m = 1.0 / m;
+        #[allow(clippy::needless_range_loop)] // n indexes several arrays and is the order
         for n in 1..=n_stop {
             let nx = n as f64 * inv_x;
             let psi = rb.psi[n];

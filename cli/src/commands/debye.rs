@@ -154,6 +154,12 @@ pub fn solve_debye(args: &DebyeArgs) -> anyhow::Result<Option<CurveReport>> {
         );
     }
     let q = MieQuery::solve(&args.mie)?;
+    if q.core.is_some() {
+        bail!("--debye-orders is for homogeneous spheres (no --core-index)");
+    }
+    scatterbake::debye::VALIDATED_DOMAIN
+        .check(q.x, q.m)
+        .context("Debye series")?;
     let d = DebyeCoefficients::from_mie(q.sphere.coefficients.clone());
     let (s1, s2) = d.amplitudes_deg(&OrderSet::Orders(orders.clone()), &q.angles_deg);
     let norm = d.mie_normalisation();

@@ -3,14 +3,19 @@
 //!
 //! ```text
 //! scatterbake mie (--radius-um R --wavelength-nm L | --x X) [--n 1.333 --k 0 |
-//!     --water-index-model iapws1997 --temperature-c 20] [--angles-step-deg 0.1 |
-//!     --angles-deg 0,90,180] [--format table|csv|json] [--csv FILE]
+//!     --water-index-model iapws1997 --temperature-c 20] [--n-medium 1]
+//!     [--core-radius-um RC | --core-x XC] [--core-index N+Ki]
+//!     [--angles-step-deg 0.1 | --angles-deg 0,90,180] [--format table|csv|json] [--csv FILE]
 //! ```
 //! Intensities are raw Bohren–Huffman `|S|²` (dimensionless); `phase` is normalised to
-//! `∫_{4π} p dΩ = 1` (1/sr).
+//! `∫_{4π} p dΩ = 1` (1/sr). Indices are absolute and divided by `--n-medium`; a radius and
+//! vacuum wavelength give `x = 2π r n_medium/λ`, while `--x` is taken as the size parameter in
+//! the medium. With a core, the sphere index is the shell's. Q_back is printed in both
+//! conventions, each labelled: radar `4|S1(180°)|²/x²` and per steradian (MiePlot) `/4π`.
 
 use anyhow::{Context, bail};
 use num_complex::Complex64;
+use scatterbake::mie::coated::{CoatedSphere, coated_coefficients};
 use scatterbake::mie::{Sphere, size_parameter};
 use scatterbake::optics::water::WaterIndexModel;
 #[allow(unused_imports)]
@@ -135,6 +140,19 @@ pub struct MieArgs {
     /// Water temperature (°C) for iapws1997.
     #[arg(long, default_value_t = 20.0)]
     pub temperature_c: f64,
+    /// Real refractive index of the surrounding medium; the sphere's (and core's) index and
+    /// the vacuum wavelength are divided by it.
+    #[arg(long, default_value_t = 1.0)]
+    pub n_medium: f64,
+    /// Coated sphere: core radius in µm (with --radius-um, the outer radius).
+    #[arg(long, requires = "radius_um", conflicts_with = "core_x")]
+    pub core_radius_um: Option<f64>,
+    /// Coated sphere: core size parameter (with --x, the outer one).
+    #[arg(long, requires = "x")]
+    pub core_x: Option<f64>,
+    /// Coated sphere: absolute core index `N+Ki` (the sphere index is then the shell's).
+    #[arg(long, value_parser = parse_complex_index)]
+    pub core_index: Option<(f64, f64)>,
     /// Uniform angle step from 0 to 180° (degrees).
     #[arg(long, default_value_t = 0.1)]
     pub angles_step_deg: f64,
@@ -156,7 +174,12 @@ pub struct MieArgs {
 #[derive(Debug, Clone)]
 pub struct MieQuery {
     pub x: f64,
+    /// Index relative to the medium (the shell's for a coated sphere).
     pub m: Complex64,
+    /// Medium index.
+    pub n_medium: f64,
+    /// Coated sphere: core size parameter and relative core index.
+    pub core: Option<(f64, Complex64)>,
     pub sphere: Sphere,
     pub angles_deg: Vec<f64>,
     pub i_perp: Vec<f64>,
@@ -166,9 +189,13 @@ pub struct MieQuery {
 impl MieQuery {
     /// Solves the query described by `args` (no I/O).
     pub fn solve(args: &MieArgs) -> anyhow::Result<Self> {
+        let n_medium = args.n_medium;
+        if !(n_medium.is_finite() && (0.05..=10.0).contains(&n_medium)) {
+            bail!("--n-medium {n_medium} must be within 0.05–10");
+        }
         let (x, wavelength) = match (args.x, args.radius_um, args.wavelength_nm) {
             (Some(x), None, _) => (x, args.wavelength_nm),
-            (None, Some(r), Some(l)) => (size_parameter(r, l), Some(l)),
+            (None, Some(r), Some(l)) => (size_parameter(r, l / n_medium), Some(l)),
             _ => bail!("give either --x, or --radius-um with --wavelength-nm"),
         };
         let (n_arg, k) = match args.index {
@@ -183,8 +210,29 @@ impl MieQuery {
             }
             (None, None) => bail!("--x needs --n (no wavelength to evaluate the water index)"),
         };
-        let m = Complex64::new(n, k);
-        let sphere = Sphere::new(x, m).context("Mie query")?;
+        let m = Complex64::new(n, k) / n_medium;
+        let core_x = match (args.core_x, args.core_radius_um, args.radius_um) {
+            (Some(xc), _, _) => Some(xc),
+            (None, Some(rc), Some(r)) => Some(x * rc / r),
+            _ => None,
+        };
+        let core = match (core_x, args.core_index) {
+            (Some(xc), Some((cn, ck))) => Some((xc, Complex64::new(cn, ck) / n_medium)),
+            (None, None) => None,
+            _ => bail!("a coated sphere needs --core-index and one of --core-radius-um, --core-x"),
+        };
+        let sphere = match core {
+            None => Sphere::new(x, m).context("Mie query")?,
+            Some((xc, mc)) => Sphere::from_coefficients(
+                coated_coefficients(&CoatedSphere {
+                    core_size_parameter: xc,
+                    size_parameter: x,
+                    core_index: mc,
+                    shell_index: m,
+                })
+                .context("coated-sphere query")?,
+            ),
+        };
         let angles_deg = match (&args.angles_deg, args.angles) {
             (None, Some((start, stop, step))) => {
                 let count = ((stop - start) / step + 1e-9).floor() as usize + 1;
@@ -214,6 +262,8 @@ impl MieQuery {
         Ok(MieQuery {
             x,
             m,
+            n_medium,
+            core,
             angles_deg,
             i_perp: s1.iter().map(|v| v.norm_sqr()).collect(),
             i_par: s2.iter().map(|v| v.norm_sqr()).collect(),
@@ -246,17 +296,29 @@ impl MieQuery {
         let mut s = String::new();
         let _ = writeln!(
             s,
-            "# Lorenz-Mie (Bohren & Huffman conventions), x = {}, m = {} + {}i",
-            self.x, self.m.re, self.m.im
+            "# Lorenz-Mie (Bohren & Huffman conventions), x = {}, m = {} + {}i (relative to n_medium = {})",
+            self.x, self.m.re, self.m.im, self.n_medium
+        );
+        if let Some((xc, mc)) = self.core {
+            let _ = writeln!(
+                s,
+                "# coated sphere: core x_c = {xc}, m_core = {} + {}i; shell m = {} + {}i",
+                mc.re, mc.im, self.m.re, self.m.im
+            );
+        }
+        let _ = writeln!(
+            s,
+            "# Q_ext = {:.10}  Q_sca = {:.10}  g = {:.10}  n_stop = {}",
+            e.q_ext,
+            e.q_sca,
+            e.g,
+            self.sphere.coefficients.n_stop()
         );
         let _ = writeln!(
             s,
-            "# Q_ext = {:.10}  Q_sca = {:.10}  Q_back = {:.10}  g = {:.10}  n_stop = {}",
-            e.q_ext,
-            e.q_sca,
+            "# Q_back (radar, 4|S1(180)|^2/x^2) = {:.10}  Q_back (per sr, MiePlot, |S1(180)|^2/(pi x^2)) = {:.10}",
             e.q_back,
-            e.g,
-            self.sphere.coefficients.n_stop()
+            e.q_back_per_sr()
         );
         let _ = writeln!(
             s,
@@ -280,7 +342,11 @@ impl MieQuery {
         serde_json::json!({
             "x": self.x,
             "m": [self.m.re, self.m.im],
-            "qext": e.q_ext, "qsca": e.q_sca, "qback": e.q_back, "g": e.g,
+            "n_medium": self.n_medium,
+            "core": self.core.map(|(xc, mc)| serde_json::json!({ "x": xc, "m": [mc.re, mc.im] })),
+            "qext": e.q_ext, "qsca": e.q_sca, "g": e.g,
+            "qback": e.q_back, "qback_per_sr": e.q_back_per_sr(),
+            "qback_convention": scatterbake::mie::Q_BACK_CONVENTIONS.replace("q_back_per_sr", "qback_per_sr").replace("q_back", "qback"),
             "angles_deg": self.angles_deg,
             "s11": rows.iter().map(|r| r.3).collect::<Vec<_>>(),
             "i_perp": self.i_perp,
@@ -340,5 +406,81 @@ mod tests {
         assert_eq!(q.to_csv().lines().count(), 6);
         let bad = Cli::parse_from(["t", "--x", "5", "--angles-step-deg", "0.1"]);
         assert!(MieQuery::solve(&bad.args).is_err());
+    }
+
+    /// `--n-medium` divides index and wavelength; both Q_back conventions are printed and
+    /// labelled; a core makes a coated sphere (equal indices: the homogeneous one).
+    #[test]
+    fn medium_coated_and_q_back_conventions() {
+        let solve = |argv: &[&str]| MieQuery::solve(&Cli::parse_from(argv).args).unwrap();
+        let q = solve(&[
+            "t",
+            "--radius-um",
+            "1",
+            "--wavelength-nm",
+            "500",
+            "--n",
+            "1.0",
+            "--n-medium",
+            "1.333",
+            "--angles-deg",
+            "0,180",
+        ]);
+        let (x, m) = scatterbake::mie::in_medium(1.0, 500.0, Complex64::new(1.0, 0.0), 1.333);
+        assert!((q.x - x).abs() < 1e-12 && (q.m - m).norm() < 1e-15);
+        assert!(q.m.re < 1.0, "an air bubble in water has m < 1");
+        let j = q.to_json();
+        let (qb, qb_sr) = (
+            j["qback"].as_f64().unwrap(),
+            j["qback_per_sr"].as_f64().unwrap(),
+        );
+        assert!((qb / qb_sr - 4.0 * std::f64::consts::PI).abs() < 1e-12);
+        assert!(j["qback_convention"].as_str().unwrap().contains("radar"));
+        let t = q.to_table();
+        assert!(t.contains("Q_back (radar") && t.contains("Q_back (per sr, MiePlot"));
+        let plain = solve(&[
+            "t",
+            "--x",
+            "10",
+            "--index",
+            "1.5+0.01i",
+            "--angles-deg",
+            "0,90",
+        ]);
+        let coated = solve(&[
+            "t",
+            "--x",
+            "10",
+            "--index",
+            "1.5+0.01i",
+            "--core-x",
+            "4",
+            "--core-index",
+            "1.5+0.01i",
+            "--angles-deg",
+            "0,90",
+        ]);
+        assert!(coated.core.is_some());
+        let (a, b) = (plain.to_json(), coated.to_json());
+        for k in ["qext", "qsca", "qback", "g"] {
+            let (u, v) = (a[k].as_f64().unwrap(), b[k].as_f64().unwrap());
+            assert!((u - v).abs() <= 1e-12 * u.abs(), "{k}: {u} vs {v}");
+        }
+        let soot = solve(&[
+            "t",
+            "--radius-um",
+            "1",
+            "--wavelength-nm",
+            "550",
+            "--core-radius-um",
+            "0.5",
+            "--core-index",
+            "1.75+0.43i",
+            "--angles-deg",
+            "0",
+        ]);
+        assert!((soot.core.unwrap().0 - soot.x / 2.0).abs() < 1e-12);
+        let incomplete = Cli::parse_from(["t", "--x", "10", "--n", "1.5", "--core-x", "4"]);
+        assert!(MieQuery::solve(&incomplete.args).is_err());
     }
 }
