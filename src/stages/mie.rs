@@ -291,7 +291,10 @@ impl Job for MieJob {
             "gaussian_sigma_deg".into(),
             self.p.gaussian_sigma_deg.into(),
         );
-        a.insert("validated_domain".into(), s("1e-3 <= x <= 1e5, 1.05 <= Re m <= 2.5, 0 <= Im m <= 1; s11 vs arbitrary-precision references <= 1e-8 relative (see docs/mie.md)"));
+        a.insert(
+            "validated_domain".into(),
+            s(crate::mie::VALIDATED_DOMAIN_TEXT),
+        );
         a.insert("conventions".into(), s("Bohren & Huffman: exp(-i omega t), m = n + ik; i_perp = |S1|^2, i_par = |S2|^2 over (pi x^2 Q_sca); phase = (i_perp + i_par)/2; dolp = (i_perp - i_par)/(i_perp + i_par)"));
         a.insert("size_distribution_weighting".into(), s("normalised phase functions mixed with weights n(r) dr * C_sca(r); Gauss-Legendre in ln r"));
         if let Entries::Distributions(d) = &self.entries {
@@ -303,7 +306,21 @@ impl Job for MieJob {
                 serde_json::to_value(scalar_arrays(&tails, k))?,
             );
         }
-        a.insert("scalar_layout".into(), s("q_ext, q_sca, q_back, g: [entry][wavelength] (f64); ensemble averages <C>/<pi r^2>, g weighted by C_sca"));
+        // MiePlot's per-steradian Q_back is the radar-convention one over 4π.
+        let per_sr: Vec<Vec<f64>> = scalar_arrays(&tails, 2)
+            .iter()
+            .map(|row| {
+                row.iter()
+                    .map(|q| q / (4.0 * std::f64::consts::PI))
+                    .collect()
+            })
+            .collect();
+        a.insert("q_back_per_sr".into(), serde_json::to_value(per_sr)?);
+        a.insert(
+            "q_back_convention".into(),
+            s(crate::mie::Q_BACK_CONVENTIONS),
+        );
+        a.insert("scalar_layout".into(), s("q_ext, q_sca, q_back, q_back_per_sr, g: [entry][wavelength] (f64); ensemble averages <C>/<pi r^2>, g weighted by C_sca"));
         Ok(TableContent {
             schema: Schema::new("mie-phase", 1),
             description: "Lorenz-Mie phase functions of water drops per wavelength".into(),
