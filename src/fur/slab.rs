@@ -155,6 +155,22 @@ pub fn solve_slab(
     out
 }
 
+/// σ → 0 limit of the longitudinal profile's shape (any scale): single scattering uniformly
+/// along the entry chord with every escape probability → 1, i.e. the phase function integrated
+/// over each exit bin (back lobe, then forward lobe). Used for the lobe pdf/cdf at σ = 0.
+pub fn limit_shape(g: f64, theta_i_rad: f64, bins: usize) -> Vec<f64> {
+    let half = bins / 2;
+    let bw = PI / half as f64;
+    let from = -theta_i_rad;
+    let mut e = vec![0.0; bins];
+    for j in 0..half {
+        let (lo, hi) = (-FRAC_PI_2 + j as f64 * bw, -FRAC_PI_2 + (j + 1) as f64 * bw);
+        e[j] = cell_probability(from, PI - hi, PI - lo, g);
+        e[half + j] = cell_probability(from, lo, hi, g);
+    }
+    e
+}
+
 /// Angular grid, phase matrices and beam sources of one g.
 struct Discretisation {
     /// Direction cells per half circle.
