@@ -499,12 +499,12 @@ mod tests {
         ];
         let t = Phase2dTable::new(table_2d(2, axes.clone(), data.clone())).unwrap();
         let sel: EntrySelection = "radius=800".parse().unwrap();
-        let s = t.slice(10.0, &[sel], "phase").unwrap();
+        let s = t.slice(20.0, &[sel], "phase").unwrap();
         assert_eq!(s.wavelengths_nm, wl.to_vec());
         assert_eq!(t.radius_label(&s.entry), "800 um");
         for (k, w) in wl.iter().enumerate() {
             let v = s.value(k, 90.0, 90.0);
-            let want = 800.0 + w / 1000.0 + 100.0 + 0.09 + 90.0 / 1e5;
+            let want = 800.0 + w / 1000.0 + 200.0 + 0.09 + 90.0 / 1e5;
             assert!((v - want).abs() < 1e-3, "{v} vs {want}");
         }
         let e = Phase2dTable::new(table_2d(3, axes, data))
