@@ -33,7 +33,14 @@ pub fn refuse_symlink(path: &Path) -> Result<(), WorkdirError> {
     match std::fs::symlink_metadata(path) {
         Ok(m) if m.file_type().is_symlink() => Err(WorkdirError::Symlink { path: path.into() }),
         Ok(_) => Ok(()),
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(()),
+        Err(e)
+            if matches!(
+                e.kind(),
+                std::io::ErrorKind::NotFound | std::io::ErrorKind::DirectoryNotEmpty
+            ) =>
+        {
+            Ok(())
+        }
         Err(source) => Err(WorkdirError::Io {
             path: path.into(),
             source,
@@ -50,7 +57,9 @@ pub fn check_out_dir(out: &Path) -> Result<(), WorkdirError> {
 }
 
 /// Remove a table's work directory `<out>/.work/<table>` (missing is fine), refusing when it or
-/// `.work` is a symbolic link.
+/// `.work` is a symbolic link. A concurrent build may write a checkpoint into it while it is
+/// being removed ("directory not empty"): the table is already written, so the directory is
+/// left for the next build to clean up.
 pub fn remove_table_work_dir(work_dir: &Path) -> Result<(), WorkdirError> {
     if let Some(parent) = work_dir.parent() {
         refuse_symlink(parent)?;
@@ -58,7 +67,14 @@ pub fn remove_table_work_dir(work_dir: &Path) -> Result<(), WorkdirError> {
     refuse_symlink(work_dir)?;
     match std::fs::remove_dir_all(work_dir) {
         Ok(()) => Ok(()),
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(()),
+        Err(e)
+            if matches!(
+                e.kind(),
+                std::io::ErrorKind::NotFound | std::io::ErrorKind::DirectoryNotEmpty
+            ) =>
+        {
+            Ok(())
+        }
         Err(source) => Err(WorkdirError::Io {
             path: work_dir.into(),
             source,
