@@ -264,7 +264,7 @@ fn gold_agrees_with_mieplot() {
 /// Inputs outside the validated domain are refused with the bound in the message.
 #[test]
 fn wide_domain_edges() {
-    use scatterbake::mie::{MieError, VALIDATED_DOMAIN, check_domain};
+    use scatterbake::mie::{MieError, check_domain};
     let ok = [
         (1e-3, Complex64::new(0.05, 0.0)),
         (1e5, Complex64::new(0.75, 0.0)),
