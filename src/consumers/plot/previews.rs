@@ -748,61 +748,70 @@ impl DualPlotted {
     }
 }
 
-/// The panels of [`hair_dual_colour`]: title, y label, channels (solid, dashed, dotted) and
-/// whether the legend goes to the upper middle.
-const HAIR_DUAL_PANELS: [(&str, &str, &[(&str, DualPlotted)], bool); 6] = [
-    (
-        "a_f (solid: forward), a_b (dashed: backward)",
-        "average attenuation (1)",
-        &[
+/// One panel of [`hair_dual_colour`].
+struct DualPanel {
+    title: &'static str,
+    y_label: &'static str,
+    /// Channels drawn solid, dashed, dotted.
+    channels: &'static [(&'static str, DualPlotted)],
+    /// Legend at the upper middle (else upper right).
+    upper_middle: bool,
+}
+
+/// The panels of [`hair_dual_colour`].
+const HAIR_DUAL_PANELS: [DualPanel; 6] = [
+    DualPanel {
+        title: "a_f (solid: forward), a_b (dashed: backward)",
+        y_label: "average attenuation (1)",
+        channels: &[
             ("a_f", DualPlotted::AsStored),
             ("a_b", DualPlotted::AsStored),
         ],
-        true,
-    ),
-    (
-        "alpha_f (solid), alpha_b (dashed): mean longitudinal shifts",
-        "shift (deg)",
-        &[
+        upper_middle: true,
+    },
+    DualPanel {
+        title: "alpha_f (solid), alpha_b (dashed): mean longitudinal shifts",
+        y_label: "shift (deg)",
+        channels: &[
             ("alpha_f", DualPlotted::Degrees),
             ("alpha_b", DualPlotted::Degrees),
         ],
-        false,
-    ),
-    (
-        "sqrt(beta_f2) (solid), sqrt(beta_b2) (dashed): mean widths",
-        "width (deg)",
-        &[
+        upper_middle: false,
+    },
+    DualPanel {
+        title: "sqrt(beta_f2) (solid), sqrt(beta_b2) (dashed): mean widths",
+        y_label: "width (deg)",
+        channels: &[
             ("beta_f2", DualPlotted::SqrtDegrees),
             ("beta_b2", DualPlotted::SqrtDegrees),
         ],
-        false,
-    ),
-    (
-        "A_b: multiple backscattering attenuation",
-        "A_b (1)",
-        &[("A_b", DualPlotted::AsStored)],
-        true,
-    ),
-    (
-        "delta_b (solid), sigma_b = sqrt(sigma_b2) (dashed)",
-        "backscattering shift, width (deg)",
-        &[
+        upper_middle: false,
+    },
+    DualPanel {
+        title: "A_b: multiple backscattering attenuation",
+        y_label: "A_b (1)",
+        channels: &[("A_b", DualPlotted::AsStored)],
+        upper_middle: true,
+    },
+    DualPanel {
+        title: "delta_b (solid), sigma_b = sqrt(sigma_b2) (dashed)",
+        y_label: "backscattering shift, width (deg)",
+        channels: &[
             ("delta_b", DualPlotted::Degrees),
             ("sigma_b2", DualPlotted::SqrtDegrees),
         ],
-        false,
-    ),
-    (
-        "lobe energies E_R (solid), E_TT (dashed), E_TRT (dotted)",
-        "energy (1)",
-        &[
+        upper_middle: false,
+    },
+    DualPanel {
+        title: "lobe energies E_R (solid), E_TT (dashed), E_TRT (dotted)",
+        y_label: "energy (1)",
+        channels: &[
             ("E_R", DualPlotted::AsStored),
             ("E_TT", DualPlotted::AsStored),
             ("E_TRT", DualPlotted::AsStored),
         ],
-        true,
-    ),
+        upper_middle: true,
+    },
 ];
 
 /// Curves of a per-colour `hair-dual` table along θ at a fixed index of the other axes.
@@ -875,14 +884,14 @@ fn hair_dual_colour(v: &View) -> Result<Vec<(&'static str, Figure)>, ConsumerErr
     let xl = v.axis_label(rgb.theta_axis, "θ_i (light inclination)");
     let panels = HAIR_DUAL_PANELS
         .iter()
-        .map(|&(title, y_label, names, upper_middle)| {
+        .map(|p| {
             Ok(lines_at(
-                title.into(),
+                p.title.into(),
                 xl.clone(),
-                y_label.into(),
-                rgb.group(names)?,
+                p.y_label.into(),
+                rgb.group(p.channels)?,
                 false,
-                if upper_middle {
+                if p.upper_middle {
                     Legend::UpperMiddle
                 } else {
                     Legend::UpperRight
