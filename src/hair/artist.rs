@@ -23,10 +23,7 @@
 //! `f_s^scatter = Σ_X M'^G_X N^G_X` uses `f'^norm` as the thesis requires;
 //! [`bare_forward_average`] gives the bare constants.
 
-use super::dual::{
-    DualScattering, average_backscatter_attenuation, average_backscatter_shift,
-    average_backscatter_variance,
-};
+use super::dual::{DualScattering, from_lobe_energies};
 use super::longitudinal::{gaussian_unit_height, lobe_energy};
 use crate::math::quadrature::gauss_legendre;
 use serde::{Deserialize, Serialize};
@@ -313,35 +310,8 @@ impl ArtistModel {
             let w = self.params.weights(c);
             let eb: [f64; 3] = std::array::from_fn(|x| w[x] * l[x] * self.hemi[x].0 / k);
             let ef: [f64; 3] = std::array::from_fn(|x| w[x] * l[x] * self.hemi[x].1 / k);
-            let mean = |e: &[f64; 3], v: &dyn Fn(usize) -> f64| {
-                let s: f64 = e.iter().sum();
-                if s <= 0.0 {
-                    (0..3).map(v).sum::<f64>() / 3.0
-                } else {
-                    (0..3).map(|x| e[x] * v(x)).sum::<f64>() / s
-                }
-            };
-            let a_f = ef.iter().sum::<f64>().min(clamp);
-            let a_b = eb.iter().sum::<f64>().min(clamp);
-            let alpha_f = mean(&ef, &|x| alpha[x]);
-            let alpha_b = mean(&eb, &|x| alpha[x]);
-            let beta_f2 = mean(&ef, &|x| beta[x] * beta[x]);
-            let beta_b2 = mean(&eb, &|x| beta[x] * beta[x]);
             let ng: [f64; 3] = std::array::from_fn(|x| w[x] / k * self.hemi[x].1 / PI);
-            let ds = DualScattering {
-                a_f,
-                a_b,
-                alpha_f,
-                alpha_b,
-                beta_f2,
-                beta_b2,
-                big_a_b: average_backscatter_attenuation(a_f, a_b),
-                delta_b: average_backscatter_shift(a_f, a_b, alpha_f, alpha_b),
-                sigma_b2: average_backscatter_variance(a_f, a_b, beta_f2, beta_b2, d_b),
-                n_g_r: ng[0],
-                n_g_tt: ng[1],
-                n_g_trt: ng[2],
-            };
+            let ds = from_lobe_energies(&eb, &ef, &alpha, &beta, ng, d_b, clamp);
             (ds, std::array::from_fn(|x| eb[x] + ef[x]))
         })
     }
