@@ -137,13 +137,12 @@ fn c_header_lookup_matches_the_table_and_rsl_holds_the_same_arrays() {
             .collect();
         assert_eq!(nums.len(), 3 * theta.len(), "{name}");
         for (i, chunk) in nums.chunks(3).enumerate() {
-            for c in 0..3 {
+            for (c, got) in chunk.iter().enumerate() {
                 // serde_json reads decimal text to within an ulp, not always exactly.
                 let want = channel(name, c)[i];
                 assert!(
-                    (chunk[c] - want).abs() <= 4.0 * f64::EPSILON * want.abs(),
-                    "{name}[{i}][{c}]: {} vs {want}",
-                    chunk[c]
+                    (got - want).abs() <= 4.0 * f64::EPSILON * want.abs(),
+                    "{name}[{i}][{c}]: {got} vs {want}"
                 );
             }
         }
