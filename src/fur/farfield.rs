@@ -628,14 +628,10 @@ impl FarFieldGeometry {
             cos_i,
             sca,
             sigma_med,
-            lambda,
-            a_exit,
             ..
         } = *self;
         let mut n_u: Vec<Vec<f64>> = vec![vec![0.0; np]; 8];
         let mut n_s = vec![0.0; np];
-        let nb = shapes.bins;
-        let dw = 2.0 * PI / nb as f64;
         let nh = set.h_samples;
         let dg = PI / nh as f64;
         for ih in 0..nh {
@@ -665,58 +661,136 @@ impl FarFieldGeometry {
                 let Some(phi) = fiber.exit_azimuth(p, h) else {
                     continue;
                 };
-                let a = match p {
-                    Path::R => f_o,
-                    Path::TT => t_o * t_o * a_cc,
-                    Path::TRT => t_o * t_o * f_o * a_cc * a_cc,
-                    Path::TrT => t_o * t_o * a_c * a_c * f_m,
-                    Path::TttT => t_o * t_o * a_c * a_c * t_m * t_m * a_tt,
-                    Path::TtrtT => t_o * t_o * a_c * a_c * t_m * t_m * f_m * a_tt * a_tt,
-                    Path::TrRrT => t_o * t_o * a_c.powi(4) * f_m * f_m * f_o,
-                    Path::TttRttT => t_o * t_o * a_c.powi(4) * t_m.powi(4) * f_o * a_tt * a_tt,
-                };
+                let a = PathFactors {
+                    f_o,
+                    t_o,
+                    f_m,
+                    t_m,
+                    a_c,
+                    a_cc,
+                    a_tt,
+                }
+                .attenuation(p);
                 if a > 0.0 {
                     let sd = beta * lobe_params(p).2.sqrt();
                     add_wrapped_gaussian(&mut n_u[k], phi, sd, w * a);
                 }
             }
-            // Medulla-scattered lobes (Eq. 5.8/5.9, App. A): energy entering the scattering chord
-            // × (1 − A_tt) × exit cortex attenuation, shaped by C^N around the chord's entry
-            // direction (exit refraction ignored), a fraction λ spread uniformly.
+            // Medulla-scattered lobes (Eq. 5.8/5.9, App. A).
             if fiber.exists(Path::TttT, h) && a_tt < 1.0 {
-                let gi_ = h.asin();
-                let gi2 = (h / (fiber.eta_c * fiber.kappa)).asin();
-                let gt2 = hp.clamp(-1.0, 1.0).asin();
-                let delta = (gt - gi_) + (gt2 - gi2); // T then t deflection
-                let into = t_o * a_c * t_m;
-                // (energy into the chord, propagation direction entering it)
-                let chords = [
-                    (into, delta),
-                    (into * a_tt * f_m, delta + 2.0 * gt2 - PI),
-                    (
-                        into * a_tt * t_m * a_c * f_o * a_c * t_m,
-                        delta + 2.0 * (gt2 - gi2) + (2.0 * gt - PI) + (gt2 - gi2),
-                    ),
-                ];
-                let shape = shapes.at(hp);
-                for (e_in, psi_in) in chords {
-                    let e = w * e_in * (1.0 - a_tt) * a_exit;
-                    if e <= 0.0 {
-                        continue;
-                    }
-                    for (kb, &sh) in shape.iter().enumerate() {
-                        if sh > 0.0 {
-                            let phi_prime = -PI + (kb as f64 + 0.5) * dw;
-                            deposit(&mut n_s, psi_in + phi_prime - PI, e * (1.0 - lambda) * sh);
-                        }
-                    }
-                    let u = e * lambda / np as f64;
-                    n_s.iter_mut().for_each(|v| *v += u);
-                }
+                let f = PathFactors {
+                    f_o,
+                    t_o,
+                    f_m,
+                    t_m,
+                    a_c,
+                    a_cc,
+                    a_tt,
+                };
+                self.deposit_medulla_scattering(h, gt, hp, w, f, shapes, &mut n_s);
             }
         }
 
         (n_u, n_s)
+    }
+
+    /// Deposit the light scattered in the medulla from entry offset `h` (h-weight `w`) into the
+    /// azimuthal profile `n_s`: the energy entering each of the three medulla chords × (1 − A_tt)
+    /// × the exit cortex attenuation, shaped by C^N around the chord's entry direction (exit
+    /// refraction ignored), a fraction λ spread uniformly. `gt` is the cortex refraction angle,
+    /// `hp` the offset on the medulla.
+    #[allow(clippy::too_many_arguments)]
+    fn deposit_medulla_scattering(
+        &self,
+        h: f64,
+        gt: f64,
+        hp: f64,
+        w: f64,
+        f: PathFactors,
+        shapes: &MedullaShapes,
+        n_s: &mut [f64],
+    ) {
+        let PathFactors {
+            f_o,
+            t_o,
+            f_m,
+            t_m,
+            a_c,
+            a_tt,
+            ..
+        } = f;
+        let (fiber, lambda, a_exit) = (self.fiber, self.lambda, self.a_exit);
+        let np = n_s.len();
+        let dw = 2.0 * PI / shapes.bins as f64;
+        let gi_ = h.asin();
+        let gi2 = (h / (fiber.eta_c * fiber.kappa)).asin();
+        let gt2 = hp.clamp(-1.0, 1.0).asin();
+        let delta = (gt - gi_) + (gt2 - gi2); // T then t deflection
+        let into = t_o * a_c * t_m;
+        // (energy into the chord, propagation direction entering it)
+        let chords = [
+            (into, delta),
+            (into * a_tt * f_m, delta + 2.0 * gt2 - PI),
+            (
+                into * a_tt * t_m * a_c * f_o * a_c * t_m,
+                delta + 2.0 * (gt2 - gi2) + (2.0 * gt - PI) + (gt2 - gi2),
+            ),
+        ];
+        let shape = shapes.at(hp);
+        for (e_in, psi_in) in chords {
+            let e = w * e_in * (1.0 - a_tt) * a_exit;
+            if e <= 0.0 {
+                continue;
+            }
+            for (kb, &sh) in shape.iter().enumerate() {
+                if sh > 0.0 {
+                    let phi_prime = -PI + (kb as f64 + 0.5) * dw;
+                    deposit(n_s, psi_in + phi_prime - PI, e * (1.0 - lambda) * sh);
+                }
+            }
+            let u = e * lambda / np as f64;
+            n_s.iter_mut().for_each(|v| *v += u);
+        }
+    }
+}
+
+/// Interface and attenuation factors of one entry offset h.
+#[derive(Clone, Copy)]
+struct PathFactors {
+    /// Cuticle reflectance and transmittance.
+    f_o: f64,
+    t_o: f64,
+    /// Cortex–medulla reflectance and transmittance.
+    f_m: f64,
+    t_m: f64,
+    /// Cortex attenuation to the medulla, across the cortex-only chord, and through the medulla.
+    a_c: f64,
+    a_cc: f64,
+    a_tt: f64,
+}
+
+impl PathFactors {
+    /// Energy fraction that leaves along unscattered path `p`.
+    fn attenuation(&self, p: Path) -> f64 {
+        let PathFactors {
+            f_o,
+            t_o,
+            f_m,
+            t_m,
+            a_c,
+            a_cc,
+            a_tt,
+        } = *self;
+        match p {
+            Path::R => f_o,
+            Path::TT => t_o * t_o * a_cc,
+            Path::TRT => t_o * t_o * f_o * a_cc * a_cc,
+            Path::TrT => t_o * t_o * a_c * a_c * f_m,
+            Path::TttT => t_o * t_o * a_c * a_c * t_m * t_m * a_tt,
+            Path::TtrtT => t_o * t_o * a_c * a_c * t_m * t_m * f_m * a_tt * a_tt,
+            Path::TrRrT => t_o * t_o * a_c.powi(4) * f_m * f_m * f_o,
+            Path::TttRttT => t_o * t_o * a_c.powi(4) * t_m.powi(4) * f_o * a_tt * a_tt,
+        }
     }
 }
 

@@ -238,18 +238,31 @@ pub fn dual_shader_tables(
             .and_then(|v| v.as_str())
             .unwrap_or("?")
     );
-    let list = |v: &[f64]| {
-        v.iter()
-            .map(|x| format!("{x:e}"))
-            .collect::<Vec<_>>()
-            .join(", ")
-    };
+    write_shader_grid(&mut s, &theta, language);
+    write_shader_arrays(&mut s, &j, n, language);
+    write_shader_lookup(&mut s, &theta, language);
+    Ok(s)
+}
+
+/// The number list of a shader array initialiser.
+fn shader_list(v: &[f64]) -> String {
+    v.iter()
+        .map(|x| format!("{x:e}"))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// The angle grid `ds_theta_deg` (and, in C, `DS_N` and `<math.h>`).
+fn write_shader_grid(s: &mut String, theta: &[f64], language: ShaderLanguage) {
+    use std::fmt::Write as _;
+    let n = theta.len();
+    let list = shader_list;
     match language {
         ShaderLanguage::Rsl => {
             let _ = writeln!(
                 s,
                 "uniform float ds_theta_deg[{n}] = {{ {} }};",
-                list(&theta)
+                list(theta)
             );
         }
         ShaderLanguage::C => {
@@ -258,10 +271,15 @@ pub fn dual_shader_tables(
             let _ = writeln!(
                 s,
                 "static const double ds_theta_deg[DS_N] = {{ {} }};",
-                list(&theta)
+                list(theta)
             );
         }
     }
+}
+
+/// One RGB array per Dual Scattering quantity, from the JSON export `j` with `n` angles.
+fn write_shader_arrays(s: &mut String, j: &Value, n: usize, language: ShaderLanguage) {
+    use std::fmt::Write as _;
     for name in DUAL_CHANNELS {
         let rows: Vec<[f64; 3]> = (0..n)
             .map(|i| std::array::from_fn(|c| j[name][i][c].as_f64().unwrap_or(f64::NAN)))
@@ -287,6 +305,12 @@ pub fn dual_shader_tables(
             }
         }
     }
+}
+
+/// The Gaussian `g` and the linear lookup `ds_lookup` on the uniform grid `theta` (deg).
+fn write_shader_lookup(s: &mut String, theta: &[f64], language: ShaderLanguage) {
+    use std::fmt::Write as _;
+    let n = theta.len();
     let (first, step) = (theta[0], (theta[n - 1] - theta[0]) / (n - 1) as f64);
     match language {
         ShaderLanguage::Rsl => {
@@ -317,7 +341,6 @@ pub fn dual_shader_tables(
             );
         }
     }
-    Ok(s)
 }
 
 pub fn content_of(table: Table) -> TableContent {

@@ -247,6 +247,35 @@ pub fn plot_strip(
     Ok(disc)
 }
 
+/// The colour column (XYZ vs angle) of every radius, in parallel, the other entry axes at
+/// `entry`.
+fn lee_columns(
+    pt: &PhaseTable,
+    entry: &[EntrySelection],
+    radii: &[f64],
+    disc: &SunDisc,
+    progress: &dyn Progress,
+) -> Result<Vec<Vec<[f64; 3]>>, ConsumerError> {
+    progress.start(radii.len() as u64, "radii");
+    radii
+        .par_iter()
+        .map(|&r| {
+            let mut sel: Vec<EntrySelection> = entry
+                .iter()
+                .filter(|e| e.axis != "radius")
+                .cloned()
+                .collect();
+            sel.push(EntrySelection {
+                axis: "radius".into(),
+                value: r,
+            });
+            let col = strip_xyz(pt, &sel, disc);
+            progress.advance(1);
+            col
+        })
+        .collect()
+}
+
 /// Lee diagram over the entry axis `radius`; the sun disc as in [`plot_strip`].
 pub fn plot_lee(
     pt: &PhaseTable,
@@ -272,25 +301,7 @@ pub fn plot_lee(
         ));
     }
     let unit = axes[ai].unit.clone();
-    // One colour column per radius, in parallel.
-    progress.start(radii.len() as u64, "radii");
-    let cols = radii
-        .par_iter()
-        .map(|&r| {
-            let mut sel: Vec<EntrySelection> = entry
-                .iter()
-                .filter(|e| e.axis != "radius")
-                .cloned()
-                .collect();
-            sel.push(EntrySelection {
-                axis: "radius".into(),
-                value: r,
-            });
-            let col = strip_xyz(pt, &sel, &disc);
-            progress.advance(1);
-            col
-        })
-        .collect::<Result<Vec<_>, ConsumerError>>()?;
+    let cols = lee_columns(pt, entry, &radii, &disc, progress)?;
     let idx = |a: f64| ((a / THETA_STEP_DEG).round() as usize).min(cols[0].len() - 1);
     let log_x = radii[0] > 0.0 && radii[radii.len() - 1] / radii[0] > 20.0;
     let fx = |r: f64| if log_x { r.log10() } else { r };
