@@ -31,7 +31,9 @@ fn main() -> anyhow::Result<()> {
         println!("  {d:?}: {s:.3} s (Q_sca {:.6}, g {:.6})", r.q_sca, r.g);
         Ok(s)
     };
-    println!("wavelength {wavelength_nm} nm, {radius_points} radius nodes, 0.05 deg bins, sun 0.5 deg");
+    println!(
+        "wavelength {wavelength_nm} nm, {radius_points} radius nodes, 0.05 deg bins, sun 0.5 deg"
+    );
     let one = time(&SizeDistribution::Monodisperse { radius_um: 1000.0 })?;
     let rain = time(&SizeDistribution::MarshallPalmer {
         rain_rate_mm_h: 5.0,
