@@ -261,6 +261,43 @@ fn gold_agrees_with_mieplot() {
     assert!(worst_mp <= 1e-13, "mpmath {worst_mp}");
 }
 
+/// The same MiePlot intensities as a MiePlot-style text file (`tests/data/mieplot_gold_x10.txt`,
+/// tab-separated with title lines and a header naming the columns), read by the `validate`
+/// reader and compared with `compare_curves`: within 1e-9, a large-absorbing-x case, inside the
+/// BHMIE drift envelope.
+#[test]
+fn mieplot_text_file_of_gold_is_read_and_agrees() {
+    use scatterbake::consumers::export::mieplot::{
+        ColumnRole, bhmie_drift_envelope, compare_curves, is_large_absorbing, read_mieplot_layout,
+    };
+    let text = std::fs::read_to_string(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/mieplot_gold_x10.txt"),
+    )
+    .unwrap();
+    let (r, layout) = read_mieplot_layout(&text).unwrap();
+    assert!(layout.named);
+    assert_eq!(
+        layout.columns,
+        vec![
+            ColumnRole::Angle,
+            ColumnRole::Perpendicular,
+            ColumnRole::Parallel
+        ]
+    );
+    let m = Complex64::new(0.1425812, 3.6813284);
+    let s = Sphere::new(10.0, m).unwrap();
+    let (s1, s2) = s.amplitudes_deg(&r.angle_deg);
+    let perp: Vec<f64> = s1.iter().map(|v| v.norm_sqr()).collect();
+    let par: Vec<f64> = s2.iter().map(|v| v.norm_sqr()).collect();
+    let mean: Vec<f64> = perp.iter().zip(&par).map(|(a, b)| 0.5 * (a + b)).collect();
+    let c = compare_curves(&r, [&perp, &par, &mean], false).unwrap();
+    println!("gold x = 10 from the MiePlot text file: {c:?}");
+    assert_eq!(c.rows, 10);
+    assert!(c.max_rel_difference.iter().all(|e| *e <= 1e-9), "{c:?}");
+    assert!(is_large_absorbing(10.0, m.im));
+    assert!(c.max_rel_difference[0] <= bhmie_drift_envelope(10.0));
+}
+
 /// Inputs outside the validated domain are refused with the bound in the message.
 #[test]
 fn wide_domain_edges() {

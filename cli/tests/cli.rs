@@ -566,3 +566,172 @@ fn verify_refuses_non_table_files_from_the_magic() {
     let o = run(&["verify", "/dev/zero"], d.path());
     assert_clean_failure(&o, &["/dev/zero", "bad magic"]);
 }
+
+/// `mie --n-medium`: a sphere in a medium is the sphere of relative index and size parameter in
+/// the medium; a coated sphere from the command line; both Q_back conventions in every format.
+#[test]
+fn mie_in_a_medium_coated_and_both_backscatter_conventions() {
+    let d = tempfile::tempdir().unwrap();
+    let json = |args: &[&str]| -> serde_json::Value {
+        let o = run(args, d.path());
+        assert!(o.status.success(), "{}", text(&o));
+        serde_json::from_slice(&o.stdout).unwrap()
+    };
+    let medium = json(&[
+        "mie",
+        "--radius-um",
+        "1",
+        "--wavelength-nm",
+        "500",
+        "--index",
+        "1.5+0.01i",
+        "--n-medium",
+        "1.25",
+        "--angles-deg",
+        "0,180",
+        "--format",
+        "json",
+    ]);
+    let x = 2.0 * std::f64::consts::PI * 1.25 / 0.5;
+    let relative = json(&[
+        "mie",
+        "--x",
+        &x.to_string(),
+        "--index",
+        "1.2+0.008i",
+        "--angles-deg",
+        "0,180",
+        "--format",
+        "json",
+    ]);
+    for key in ["qext", "qsca", "qback", "g"] {
+        let (a, b) = (
+            medium[key].as_f64().unwrap(),
+            relative[key].as_f64().unwrap(),
+        );
+        assert!((a - b).abs() <= 1e-12 * b.abs(), "{key}: {a} vs {b}");
+    }
+    assert_eq!(medium["n_medium"].as_f64(), Some(1.25));
+    let (qb, per_sr) = (
+        medium["qback"].as_f64().unwrap(),
+        medium["qback_per_sr"].as_f64().unwrap(),
+    );
+    assert!((qb / per_sr / (4.0 * std::f64::consts::PI) - 1.0).abs() < 1e-12);
+    for format in ["table", "csv"] {
+        let o = run(
+            &[
+                "mie",
+                "--x",
+                "50",
+                "--core-x",
+                "10",
+                "--index",
+                "1.33",
+                "--core-index",
+                "1.95+0.79i",
+                "--angle-step-deg",
+                "30",
+                "--format",
+                format,
+            ],
+            d.path(),
+        );
+        let t = text(&o);
+        assert!(o.status.success(), "{t}");
+        for needle in [
+            "coated sphere: core x_c = 10",
+            "Q_back = ",
+            "radar",
+            "Q_back_per_sr = ",
+            "MiePlot",
+        ] {
+            assert!(t.contains(needle), "{format} output lacks `{needle}`: {t}");
+        }
+    }
+    assert_clean_failure(
+        &run(
+            &[
+                "mie",
+                "--x",
+                "50",
+                "--core-x",
+                "60",
+                "--index",
+                "1.33",
+                "--core-index",
+                "2",
+            ],
+            d.path(),
+        ),
+        &["core size parameter"],
+    );
+    assert_clean_failure(
+        &run(
+            &[
+                "mie",
+                "--x",
+                "50",
+                "--core-x",
+                "10",
+                "--index",
+                "1.33",
+                "--core-index",
+                "2",
+                "--debye-orders",
+                "2",
+            ],
+            d.path(),
+        ),
+        &["homogeneous spheres only"],
+    );
+}
+
+/// `validate` reads a MiePlot text file (title lines, a tab-separated header naming the
+/// columns) and compares one sphere computed on the spot: MiePlot's gold intensities agree to
+/// 1e-9; another index is reported as a real difference and fails the tolerance.
+#[test]
+fn validate_reads_a_mieplot_file_for_one_sphere() {
+    let d = tempfile::tempdir().unwrap();
+    let reference =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/data/mieplot_gold_x10.txt");
+    let reference = reference.to_str().unwrap();
+    let ok = run(
+        &[
+            "validate",
+            "--reference",
+            reference,
+            "--x",
+            "10",
+            "--index",
+            "0.1425812+3.6813284i",
+            "--tolerance",
+            "1e-9",
+        ],
+        d.path(),
+    );
+    let t = text(&ok);
+    assert!(ok.status.success(), "{t}");
+    assert!(
+        t.contains("10 rows") && t.contains("named by the header"),
+        "{t}"
+    );
+    assert!(
+        t.contains("large absorbing x") && t.contains("agreement"),
+        "{t}"
+    );
+    let off = run(
+        &[
+            "validate",
+            "--reference",
+            reference,
+            "--x",
+            "10",
+            "--index",
+            "0.15+3.68i",
+            "--tolerance",
+            "1e-9",
+        ],
+        d.path(),
+    );
+    assert_clean_failure(&off, &["REAL DIFFERENCE", "exceeds tolerance"]);
+}

@@ -98,12 +98,25 @@ impl MieCoefficients {
         let inv_m = 1.0 / m;
         Self::assemble(&rb, m, &dz[1..=n_stop], &dz[1..=n_stop], |n| {
             let n1 = (n + 1) as f64;
-            let r_x = 1.0 / (rb.log_derivative[n + 1] + n1 * inv_x);
+            let psi = rb.psi[n];
             let r_mx = 1.0 / (dz[n + 1] + n1 * inv_mx);
-            (
-                n1 * one_minus_m2_over_m2x + r_x - r_mx * inv_m,
-                r_x - m * r_mx,
-            )
+            let t_x = rb.log_derivative[n + 1] + n1 * inv_x;
+            if (rb.log_derivative[n + 1].abs() + n1 * inv_x) <= 100.0 * t_x.abs() {
+                // r_n(x) and r_n(mx) come from the same recurrence, so their difference keeps
+                // its accuracy as m → 1.
+                let r_x = 1.0 / t_x;
+                (
+                    psi * (n1 * one_minus_m2_over_m2x + r_x - r_mx * inv_m),
+                    psi * (r_x - m * r_mx),
+                )
+            } else {
+                // ψ_n near a zero: r_n(x) = ψ_{n+1}/ψ_n is a large quotient of a small
+                // difference; ψ_n r_n(x) = ψ_{n+1} is taken directly.
+                (
+                    psi * (n1 * one_minus_m2_over_m2x - r_mx * inv_m) + rb.psi[n + 1],
+                    rb.psi[n + 1] - m * r_mx * psi,
+                )
+            }
         })
     }
 
@@ -121,13 +134,17 @@ impl MieCoefficients {
         hb: &[Complex64],
     ) -> Self {
         let inv_m = 1.0 / m;
-        let dx = &outside.log_derivative;
+        let inv_x = 1.0 / outside.x;
         Self::assemble(outside, m, ha, hb, |n| {
-            (ha[n - 1] * inv_m - dx[n], hb[n - 1] * m - dx[n])
+            // ψ_n D_n(x) = ψ_n' = ψ_{n−1} − (n/x) ψ_n (no D_n(x), large near zeros of ψ_n).
+            let psi = outside.psi[n];
+            let dpsi = outside.psi_prev(n) - n as f64 * inv_x * psi;
+            (ha[n - 1] * inv_m * psi - dpsi, hb[n - 1] * m * psi - dpsi)
         })
     }
 
-    /// Shared assembly; `numerators(n)` returns `(H^a_n/m − D_n(x), m H^b_n − D_n(x))`.
+    /// Shared assembly; `numerators(n)` returns `ψ_n (H^a_n/m − D_n(x))` and
+    /// `ψ_n (m H^b_n − D_n(x))`.
     fn assemble(
         rb: &RiccatiBessel,
         m: Complex64,
@@ -147,7 +164,6 @@ impl MieCoefficients {
         #[allow(clippy::needless_range_loop)] // n indexes several arrays and is the order
         for n in 1..=n_stop {
             let nx = n as f64 * inv_x;
-            let psi = rb.psi[n];
             let xi = rb.xi(n);
             let xi_prev = Complex64::new(rb.psi_prev(n), -rb.chi_prev(n));
             let d_over_m = ha[n - 1] * inv_m;
@@ -155,8 +171,8 @@ impl MieCoefficients {
             let den_a = (d_over_m + nx) * xi - xi_prev;
             let den_b = (m_d + nx) * xi - xi_prev;
             let (num_a, num_b) = numerators(n);
-            let an = num_a * psi / den_a;
-            let bn = num_b * psi / den_b;
+            let an = num_a / den_a;
+            let bn = num_b / den_b;
             a.push(an);
             b.push(bn);
             q_abs -=
@@ -265,6 +281,56 @@ mod tests {
             }
             // Rayleigh: g → 0 (it is O(x²)).
             assert!(e.g.abs() < 1e-5);
+        }
+    }
+
+    /// Size parameters at multiples of π (ψ_0 = sin x ≈ 0 there) against the 40-digit
+    /// evaluation of `tests/data/mie_wide_reference.py` (`mie_mpmath`, x the f64 value of kπ):
+    /// before the ψ_n fix x = 5π gave Q_ext = 10.18.
+    #[test]
+    fn multiples_of_pi() {
+        let pi = std::f64::consts::PI;
+        let m = Complex64::new(1.2, 0.008);
+        for (x, reference) in [
+            (
+                pi,
+                [
+                    0.7746512788767365,
+                    0.6914075063661926,
+                    0.019177973646263908,
+                    0.8079309680205506,
+                ],
+            ),
+            (
+                2.0 * pi,
+                [
+                    2.4836957160209194,
+                    2.3142072386891646,
+                    0.061978493512926745,
+                    0.9175921171734479,
+                ],
+            ),
+            (
+                5.0 * pi,
+                [
+                    2.295614942870707,
+                    1.9114029146989053,
+                    0.021897429767055828,
+                    0.8835029292017205,
+                ],
+            ),
+        ] {
+            let e = MieCoefficients::new(x, m).unwrap().efficiencies();
+            for (got, want) in [e.q_ext, e.q_sca, e.q_back, e.g].iter().zip(reference) {
+                assert!(
+                    ((got - want) / want).abs() < 1e-12,
+                    "x = {x}: {got} vs {want}"
+                );
+            }
+            let near = MieCoefficients::new(x * (1.0 + 1e-12), m)
+                .unwrap()
+                .efficiencies();
+            assert!(((near.q_ext - e.q_ext) / e.q_ext).abs() < 1e-10, "x = {x}");
         }
     }
 }

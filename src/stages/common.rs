@@ -4,7 +4,7 @@
 //! attributes that describe the filters) and the Mie-domain check at plan time.
 
 use crate::mie::filters::{PolarisedPhase, SunDiscOperator};
-use crate::mie::{check_domain, size_parameter};
+use crate::mie::{check_domain, in_medium};
 use crate::optics::water::WaterIndexModel;
 use crate::stages::mie::FilterSettings;
 use crate::stages::phase_contract;
@@ -135,12 +135,19 @@ impl FilteredPhase {
         })
     }
 
-    /// Every radius at every wavelength must lie in the validated Mie domain; the error names
+    /// Every radius at every wavelength must lie in the validated Mie domain, with the drops in
+    /// a medium of index `n_medium` (1 = vacuum, [`crate::mie::in_medium`]); the error names
     /// `key`.
-    pub fn check_domain(&self, key: &str, radii_um: &[f64]) -> Result<(), PlanError> {
+    pub fn check_domain(
+        &self,
+        key: &str,
+        radii_um: &[f64],
+        n_medium: f64,
+    ) -> Result<(), PlanError> {
         for &r in radii_um {
             for (l, n) in self.wavelengths_nm.iter().zip(&self.indices) {
-                check_domain(size_parameter(r, *l), Complex64::new(*n, 0.0)).map_err(|err| {
+                let (x, m) = in_medium(r, *l, Complex64::new(*n, 0.0), n_medium);
+                check_domain(x, m).map_err(|err| {
                     PlanError::invalid(key, format!("radius {r} µm at {l} nm: {err}"))
                 })?;
             }

@@ -124,7 +124,7 @@ impl StageSpec for DebyeStage {
             ));
         }
         let filter = FilteredPhase::plan(p.filter_keys(0.0, RADIUS_POINTS_UNUSED))?;
-        filter.check_domain("radii_um", &p.radii_um)?;
+        filter.check_domain("radii_um", &p.radii_um, 1.0)?;
         Ok(Box::new(DebyeJob { p, filter }))
     }
 }

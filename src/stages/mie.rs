@@ -39,7 +39,17 @@ filtered_phase_params! {
         /// Gauss–Legendre points in ln r for distributions.
         pub radius_points: usize = default(24),
             "integer", "Gauss–Legendre nodes in ln r per distribution";
+        /// Real refractive index of the (non-absorbing) medium around the drops; the water
+        /// index and the vacuum wavelength are divided by it. Left out of the content key when 1.
+        #[serde(skip_serializing_if = "is_vacuum")]
+        pub n_medium: f64 = default(1.0),
+            "float", "index of the medium around the drops (1–3); m = n_water/n_medium, x = 2 pi r n_medium/lambda";
     }
+}
+
+/// `n_medium == 1` (the default, left out of the parameters and so of the content key).
+fn is_vacuum(n_medium: &f64) -> bool {
+    *n_medium == 1.0
 }
 
 /// The f64 scalars at the end of each task chunk (as f32 pairs, see
@@ -131,6 +141,8 @@ impl FilterSettings {
 /// fine grid of cell averages, resampled to the intermediate grid, mixed with weights
 /// `n(r) dr · C_sca(r)`, convolved with the sun's disc, optionally blurred, and integrated
 /// over the output bins. `sun` must be [`FilterSettings::sun_operator`] of `settings`.
+/// `wavelength_nm` is the wavelength in the medium around the drops and `m` the index relative
+/// to it (see [`crate::mie::in_medium`]).
 pub fn compute_entry(
     distribution: &SizeDistribution,
     wavelength_nm: f64,
@@ -199,12 +211,13 @@ struct MieJob {
 impl StageSpec for MieStage {
     const NAME: &'static str = "mie";
     /// 2: axes radius × wavelength × angle, Q and g kept in f64. 3: `sadeghi-table-3.2`
-    /// corrected at 580–650 nm; attribute `sun_diameter_deg`.
-    const VERSION: u32 = 3;
+    /// corrected at 580–650 nm; attribute `sun_diameter_deg`. 4: key and attribute `n_medium`.
+    const VERSION: u32 = 4;
     const SUMMARY: &'static str = "Lorenz–Mie phase functions of water drops (radii or size distributions), sun-disc smoothed, bin-integrated";
     type Params = MieParams;
     fn plan_params(&self, p: MieParams) -> Result<Box<dyn Job>, PlanError> {
         let filter = FilteredPhase::plan(p.filter_keys(p.gaussian_sigma_deg, p.radius_points))?;
+        checks::within("n_medium", p.n_medium, 1.0, 3.0, "")?;
         let (entries, entries_key) = match (&p.radii_um, &p.distributions) {
             (Some(r), None) => {
                 checks::increasing("radii_um", r, true)?;
@@ -231,7 +244,7 @@ impl StageSpec for MieStage {
         // validated Mie domain
         for e in 0..entries.len() {
             let (lo, hi) = entries.distribution(e).support_um();
-            filter.check_domain(entries_key, &[lo, hi])?;
+            filter.check_domain(entries_key, &[lo, hi], p.n_medium)?;
         }
         Ok(Box::new(MieJob { p, entries, filter }))
     }
@@ -265,10 +278,11 @@ impl Job for MieJob {
     }
     fn run_task(&self, index: usize) -> Result<Vec<f32>, JobError> {
         let (e, wavelength_nm, m) = self.filter.task(index);
+        let n_medium = self.p.n_medium;
         let r = compute_entry(
             &self.entries.distribution(e),
-            wavelength_nm,
-            m,
+            wavelength_nm / n_medium,
+            m / n_medium,
             &self.filter.settings,
             self.filter.sun(),
         )?;
@@ -291,6 +305,10 @@ impl Job for MieJob {
             "gaussian_sigma_deg".into(),
             self.p.gaussian_sigma_deg.into(),
         );
+        a.insert("n_medium".into(), self.p.n_medium.into());
+        if self.p.n_medium != 1.0 {
+            a.insert("medium".into(), s(&format!("water drops in a non-absorbing medium of index n_medium = {}: relative index refractive_index_real/n_medium, wavelength in the medium wavelength_nm/n_medium; Q, g and the phase function are those in the medium", self.p.n_medium)));
+        }
         a.insert(
             "validated_domain".into(),
             s(crate::mie::VALIDATED_DOMAIN_TEXT),
@@ -351,6 +369,8 @@ mod tests {
                 "wavelengths_nm = [550.0]",
                 "radii_um = [10.0]\nunknown = 1",
                 "radii_um = [10.0]\nwater_index_model = \"sadeghi-table-3.2\"\nwavelengths_nm = [750.0]",
+                "radii_um = [10.0]\nn_medium = 0.5",
+                "radii_um = [10.0]\nn_medium = 3.5",
             ],
             &["radii_um = [10.0]"],
         );
@@ -412,5 +432,40 @@ mod tests {
         assert!(q_sca > 1.8 && q_sca < 2.6, "Q_sca {q_sca}");
         let g = join_f64(chunk[361 * 4 + 6], chunk[361 * 4 + 7]);
         assert!(g > 0.7 && g < 0.9, "g {g}");
+    }
+
+    /// Drops in a medium (`n_medium`): the header Q_sca is the sphere of relative index
+    /// n_water/n_medium and size parameter 2π r n_medium/λ; the key is recorded in the header
+    /// and kept out of the parameters (and so of the content key) when 1.
+    #[test]
+    fn medium_index_divides_index_and_wavelength() {
+        let lines = "radii_um = [2.0]\nwavelengths_nm = [650.0]\nangle_step_deg = 1.0";
+        let t = crate::stages::table_from_lines(&MieStage, &format!("{lines}\nn_medium = 1.2"));
+        assert_eq!(t.attributes["n_medium"].as_f64(), Some(1.2));
+        assert!(t.attributes["medium"].as_str().unwrap().contains("1.2"));
+        let n = WaterIndexModel::default().index(650.0).unwrap();
+        let (x, m) = crate::mie::in_medium(2.0, 650.0, Complex64::new(n, 0.0), 1.2);
+        assert!((x - size_parameter(2.0, 650.0) * 1.2).abs() < 1e-12 * x);
+        let direct = Sphere::new(x, m).unwrap().efficiencies.q_sca;
+        let q = t.attributes["q_sca"][0][0].as_f64().unwrap();
+        assert!((q - direct).abs() <= 1e-12 * direct, "{q} vs {direct}");
+        let vacuum = crate::stages::table_from_lines(&MieStage, lines);
+        let q1 = vacuum.attributes["q_sca"][0][0].as_f64().unwrap();
+        assert!(
+            (q1 - q).abs() > 1e-3,
+            "the medium changes Q_sca: {q1} vs {q}"
+        );
+        assert_eq!(vacuum.attributes["n_medium"].as_f64(), Some(1.0));
+        // n_medium = 1 is not in the parameters (tables built before the key keep their key).
+        let job = plan_from_lines(&MieStage, lines).unwrap();
+        assert!(job.parameters().get("n_medium").is_none());
+        let job = plan_from_lines(&MieStage, &format!("{lines}\nn_medium = 1.2")).unwrap();
+        assert_eq!(job.parameters()["n_medium"].as_f64(), Some(1.2));
+        // A drop matched to its medium is refused at plan time, naming the key.
+        let err = plan_from_lines(&MieStage, &format!("{lines}\nn_medium = {n}"))
+            .err()
+            .unwrap()
+            .to_string();
+        assert!(err.contains("radii_um"), "{err}");
     }
 }

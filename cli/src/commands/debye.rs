@@ -70,9 +70,14 @@ impl CurveReport {
             .collect()
     }
 
-    /// CSV with a header row (the `mie` columns, then the extra columns).
+    /// CSV: the header lines as `#` comments, then a header row (the `mie` columns, then the
+    /// extra columns) and the rows.
     pub fn to_csv(&self) -> String {
-        let mut s = String::from(CURVE_CSV_COLUMNS);
+        let mut s = String::new();
+        for h in &self.header {
+            let _ = writeln!(s, "# {h}");
+        }
+        s.push_str(CURVE_CSV_COLUMNS);
         for (name, _) in &self.extra {
             s.push(',');
             s.push_str(name);
@@ -152,6 +157,9 @@ pub fn solve_debye(args: &DebyeArgs) -> anyhow::Result<Option<CurveReport>> {
         );
     }
     let q = MieQuery::solve(&args.mie)?;
+    if q.core.is_some() {
+        bail!("--debye-orders treats homogeneous spheres only (no --core-x/--core-radius-um)");
+    }
     let d = DebyeCoefficients::from_mie(q.sphere.coefficients.clone());
     let (s1, s2) = d.amplitudes_deg(&OrderSet::Orders(orders.clone()), &q.angles_deg);
     let norm = d.mie_normalisation();
@@ -180,6 +188,7 @@ pub fn solve_debye(args: &DebyeArgs) -> anyhow::Result<Option<CurveReport>> {
                 e.q_sca,
                 d.n_stop()
             ),
+            crate::commands::mie::q_back_line(e.q_back) + " (full sphere)",
             "i_perp = |S1|^2/(pi x^2 Q_sca), i_par = |S2|^2/(pi x^2 Q_sca) of the coherent sum of the orders (1/sr); s1_sq = |S1|^2, s2_sq = |S2|^2 (dimensionless) in --format csv|json"
                 .into(),
         ],
@@ -358,8 +367,8 @@ mod tests {
         let r = solve_debye(&cli.args).unwrap().unwrap();
         assert_eq!(r.extra.len(), 2);
         assert!(
-            r.to_csv().starts_with(
-                "angle_deg,s1_sq,s2_sq,s11,i_perp,i_par,phase,dolp,phase_p2,phase_p3\n"
+            r.to_csv().contains(
+                "\nangle_deg,s1_sq,s2_sq,s11,i_perp,i_par,phase,dolp,phase_p2,phase_p3\n"
             )
         );
         assert!(r.to_json()["phase_p3"].as_array().unwrap().len() == 2);

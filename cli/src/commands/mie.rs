@@ -2,9 +2,17 @@
 //!
 //! ```text
 //! scatterbake mie (--radius-um R --wavelength-nm L | --x X) [--index N+Ki | --n N --k K |
-//!     --water-index-model iapws1997 --temperature-c 20] [--angle-step-deg 0.1 |
+//!     --water-index-model iapws1997 --temperature-c 20] [--n-medium 1.333]
+//!     [(--core-radius-um RC | --core-x XC) --core-index N+Ki] [--angle-step-deg 0.1 |
 //!     --angles START:STOP:STEP | --angles-deg 0,90,180] [--format table|csv|json] [--csv FILE]
 //! ```
+//! The index options give the sphere's own (absolute) index; `--n-medium` (default 1) is the
+//! real index of the non-absorbing medium around it: the relative index is `index/n_medium` and,
+//! from `--radius-um/--wavelength-nm` (vacuum wavelength), `x = 2π r n_medium/λ`; a given `--x`
+//! is the size parameter in the medium. A core (`--core-radius-um` with `--radius-um`, or
+//! `--core-x`, and `--core-index`) makes a coated sphere whose shell is the material of the index
+//! options. Every output states both backscattering conventions: `Q_back` (radar, `4|S1(180°)|²/x²`)
+//! and `Q_back_per_sr` (MiePlot's, per steradian, `Q_back/4π`).
 //! Columns (the vocabulary of every phase-function table, `docs/vocabulary.md`): `i_perp`,
 //! `i_par` = |S1|², |S2|² over π x² Q_sca (1/sr), `phase = (i_perp + i_par)/2` with
 //! `∫_{4π} phase dΩ = 1`, `dolp = (i_perp − i_par)/(i_perp + i_par)`; the raw Bohren–Huffman
@@ -13,7 +21,8 @@
 
 use anyhow::{Context, bail};
 use num_complex::Complex64;
-use scatterbake::mie::{Sphere, size_parameter};
+use scatterbake::mie::coated::{CoatedSphere, coated_coefficients};
+use scatterbake::mie::{Q_BACK_CONVENTIONS, Sphere, size_parameter};
 use scatterbake::optics::water::WaterIndexModel;
 #[allow(unused_imports)]
 use scatterbake::table::Table;
@@ -276,6 +285,21 @@ pub struct MieArgs {
     pub x: Option<f64>,
     #[command(flatten)]
     pub refractive: IndexArgs,
+    /// Real refractive index of the non-absorbing medium around the sphere (1 = vacuum): the
+    /// relative index is index/n_medium and --wavelength-nm is divided by it (same as the
+    /// manifest key `n_medium`).
+    #[arg(long, default_value_t = 1.0)]
+    pub n_medium: f64,
+    /// Core radius in µm of a coated sphere (with --radius-um, --wavelength-nm, --core-index);
+    /// the shell is the material of --index/--n/--k/water.
+    #[arg(long, conflicts_with = "core_x", requires = "core_index")]
+    pub core_radius_um: Option<f64>,
+    /// Core size parameter of a coated sphere (≤ the outer size parameter; with --core-index).
+    #[arg(long, requires = "core_index")]
+    pub core_x: Option<f64>,
+    /// Absolute complex index `N+Ki` of the core of a coated sphere.
+    #[arg(long, value_parser = parse_complex_index)]
+    pub core_index: Option<(f64, f64)>,
     /// Uniform angle step from 0 to 180° (degrees).
     #[arg(long, default_value_t = 0.1)]
     pub angle_step_deg: f64,
@@ -293,11 +317,28 @@ pub struct MieArgs {
     pub csv: Option<PathBuf>,
 }
 
+/// The core of a coated sphere in a query.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CoreQuery {
+    /// Core size parameter (in the medium).
+    pub x: f64,
+    /// Core index relative to the medium.
+    pub m: Complex64,
+}
+
 /// Result of one query (for printing and tests).
 #[derive(Debug, Clone)]
 pub struct MieQuery {
+    /// Size parameter in the medium (outer size parameter of a coated sphere).
     pub x: f64,
+    /// Index relative to the medium (of the shell, for a coated sphere).
     pub m: Complex64,
+    /// Index of the medium.
+    pub n_medium: f64,
+    /// The sphere's own index (`m · n_medium`).
+    pub index: Complex64,
+    /// The core of a coated sphere.
+    pub core: Option<CoreQuery>,
     pub sphere: Sphere,
     pub angles_deg: Vec<f64>,
     /// |S1|² (dimensionless).
@@ -309,14 +350,50 @@ pub struct MieQuery {
 impl MieQuery {
     /// Solves the query described by `args` (no I/O).
     pub fn solve(args: &MieArgs) -> anyhow::Result<Self> {
+        let n_medium = args.n_medium;
+        if !(n_medium > 0.0 && n_medium.is_finite()) {
+            bail!("--n-medium {n_medium} must be a positive real index");
+        }
         let (x, wavelength) = match (args.x, args.radius_um, args.wavelength_nm) {
             (Some(x), None, _) => (x, args.wavelength_nm),
-            (None, Some(r), Some(l)) => (size_parameter(r, l), Some(l)),
+            (None, Some(r), Some(l)) => (size_parameter(r, l / n_medium), Some(l)),
             _ => bail!("give either --x, or --radius-um with --wavelength-nm"),
         };
         let (n, k) = args.refractive.resolve(wavelength)?;
-        let m = Complex64::new(n, k);
-        let sphere = Sphere::new(x, m).context("Mie query")?;
+        let index = Complex64::new(n, k);
+        let m = index / n_medium;
+        let core = match (args.core_radius_um, args.core_x, args.core_index) {
+            (None, None, None) => None,
+            (None, None, Some(_)) => bail!("--core-index needs --core-radius-um or --core-x"),
+            (_, _, None) => bail!("--core-radius-um and --core-x need --core-index"),
+            (Some(rc), _, Some((cn, ck))) => {
+                let (Some(_), Some(l)) = (args.radius_um, args.wavelength_nm) else {
+                    bail!(
+                        "--core-radius-um needs --radius-um and --wavelength-nm (with --x use --core-x)"
+                    );
+                };
+                Some(CoreQuery {
+                    x: size_parameter(rc, l / n_medium),
+                    m: Complex64::new(cn, ck) / n_medium,
+                })
+            }
+            (None, Some(xc), Some((cn, ck))) => Some(CoreQuery {
+                x: xc,
+                m: Complex64::new(cn, ck) / n_medium,
+            }),
+        };
+        let sphere = match core {
+            None => Sphere::new(x, m).context("Mie query")?,
+            Some(c) => Sphere::from_coefficients(
+                coated_coefficients(&CoatedSphere {
+                    core_size_parameter: c.x,
+                    size_parameter: x,
+                    core_index: c.m,
+                    shell_index: m,
+                })
+                .context("coated-sphere query")?,
+            ),
+        };
         let angles_deg = match (&args.angles_deg, args.angles) {
             (None, Some((start, stop, step))) => {
                 let count = ((stop - start) / step + 1e-9).floor() as usize + 1;
@@ -346,6 +423,9 @@ impl MieQuery {
         Ok(MieQuery {
             x,
             m,
+            n_medium,
+            index,
+            core,
             angles_deg,
             s1_sq: s1.iter().map(|v| v.norm_sqr()).collect(),
             s2_sq: s2.iter().map(|v| v.norm_sqr()).collect(),
@@ -361,9 +441,48 @@ impl MieQuery {
             .collect()
     }
 
-    /// CSV with a header row.
+    /// The `#` header lines (without `# `) of the table and CSV outputs: the sphere, the
+    /// efficiencies with both backscattering conventions, and the normalisation.
+    pub fn header_lines(&self) -> Vec<String> {
+        let e = self.sphere.efficiencies;
+        let mut h = vec![format!(
+            "Lorenz-Mie (Bohren & Huffman conventions), x = {}, m = {} + {}i (relative to the medium)",
+            self.x, self.m.re, self.m.im
+        )];
+        if self.n_medium != 1.0 {
+            h.push(format!(
+                "medium index n_medium = {}; sphere index {} + {}i; x = 2 pi r n_medium / lambda_vacuum",
+                self.n_medium, self.index.re, self.index.im
+            ));
+        }
+        if let Some(c) = self.core {
+            h.push(format!(
+                "coated sphere: core x_c = {}, m_core = {} + {}i; shell m = {} + {}i (relative indices)",
+                c.x, c.m.re, c.m.im, self.m.re, self.m.im
+            ));
+        }
+        h.push(format!(
+            "Q_ext = {:.10}  Q_sca = {:.10}  g = {:.10}  n_stop = {}",
+            e.q_ext,
+            e.q_sca,
+            e.g,
+            self.sphere.coefficients.n_stop()
+        ));
+        h.push(q_back_line(e.q_back));
+        h.push(format!(
+            "i_perp = |S1|^2/(pi x^2 Q_sca), i_par = |S2|^2/(pi x^2 Q_sca), phase = (i_perp + i_par)/2 (1/sr, integral over 4pi of phase = 1); pi x^2 Q_sca = {:.10e}",
+            self.sphere.phase_normalisation()
+        ));
+        h
+    }
+
+    /// CSV: the header lines as `#` comments, then a header row and the rows.
     pub fn to_csv(&self) -> String {
-        let mut s = format!("{CURVE_CSV_COLUMNS}\n");
+        let mut s = String::new();
+        for h in self.header_lines() {
+            let _ = writeln!(s, "# {h}");
+        }
+        let _ = writeln!(s, "{CURVE_CSV_COLUMNS}");
         for r in self.rows() {
             let _ = writeln!(s, "{}", r.csv());
         }
@@ -372,27 +491,10 @@ impl MieQuery {
 
     /// MiePlot-style table with the efficiencies in a `#` header.
     pub fn to_table(&self) -> String {
-        let e = self.sphere.efficiencies;
         let mut s = String::new();
-        let _ = writeln!(
-            s,
-            "# Lorenz-Mie (Bohren & Huffman conventions), x = {}, m = {} + {}i",
-            self.x, self.m.re, self.m.im
-        );
-        let _ = writeln!(
-            s,
-            "# Q_ext = {:.10}  Q_sca = {:.10}  Q_back = {:.10}  g = {:.10}  n_stop = {}",
-            e.q_ext,
-            e.q_sca,
-            e.q_back,
-            e.g,
-            self.sphere.coefficients.n_stop()
-        );
-        let _ = writeln!(
-            s,
-            "# i_perp = |S1|^2/(pi x^2 Q_sca), i_par = |S2|^2/(pi x^2 Q_sca), phase = (i_perp + i_par)/2 (1/sr, integral over 4pi of phase = 1); pi x^2 Q_sca = {:.10e}",
-            self.sphere.phase_normalisation()
-        );
+        for h in self.header_lines() {
+            let _ = writeln!(s, "# {h}");
+        }
         let _ = writeln!(s, "{CURVE_TABLE_COLUMNS}");
         for r in self.rows() {
             let _ = writeln!(s, "{}", r.table());
@@ -400,19 +502,44 @@ impl MieQuery {
         s
     }
 
-    /// JSON object: `x`, `m` = [n, k], efficiencies, then the columns of [`curve_json`].
+    /// JSON object: `x`, `m` = [n, k] (relative), `n_medium`, `index` = [n, k] (the sphere's
+    /// own), `core` = {x, m} of a coated sphere, the efficiencies (`qback` radar,
+    /// `qback_per_sr` MiePlot's, `qback_convention` in words), then the columns of
+    /// [`curve_json`].
     pub fn to_json(&self) -> serde_json::Value {
         let e = self.sphere.efficiencies;
         let mut o = serde_json::Map::new();
         o.insert("x".into(), self.x.into());
         o.insert("m".into(), serde_json::json!([self.m.re, self.m.im]));
+        o.insert("n_medium".into(), self.n_medium.into());
+        o.insert(
+            "index".into(),
+            serde_json::json!([self.index.re, self.index.im]),
+        );
+        if let Some(c) = self.core {
+            o.insert(
+                "core".into(),
+                serde_json::json!({ "x": c.x, "m": [c.m.re, c.m.im] }),
+            );
+        }
         o.insert("qext".into(), e.q_ext.into());
         o.insert("qsca".into(), e.q_sca.into());
         o.insert("qback".into(), e.q_back.into());
+        o.insert("qback_per_sr".into(), e.q_back_per_sr().into());
+        o.insert("qback_convention".into(), Q_BACK_CONVENTIONS.into());
         o.insert("g".into(), e.g.into());
         o.extend(curve_json(&self.rows()));
         serde_json::Value::Object(o)
     }
+}
+
+/// The header line stating both backscattering efficiencies with their conventions.
+pub fn q_back_line(q_back: f64) -> String {
+    format!(
+        "Q_back = {:.10} (radar convention: 4 pi (dC_sca/dOmega at 180 deg)/(pi r^2) = 4 |S1(180)|^2/x^2)  Q_back_per_sr = {:.10e} (MiePlot, per steradian: Q_back/(4 pi) = |S1(180)|^2/(pi x^2))",
+        q_back,
+        q_back / (4.0 * std::f64::consts::PI)
+    )
 }
 
 /// Runs `scatterbake mie` (prints to stdout; writes `--csv` if given).
@@ -461,7 +588,10 @@ mod tests {
         assert_eq!(q.angles_deg, vec![0.0, 45.0, 90.0, 135.0, 180.0]);
         assert!((q.m.re - 1.3352).abs() < 2e-3);
         assert!(q.to_table().contains("Q_sca"));
-        assert_eq!(q.to_csv().lines().count(), 6);
+        assert_eq!(
+            q.to_csv().lines().filter(|l| !l.starts_with('#')).count(),
+            6
+        );
         let bad = Cli::parse_from(["t", "--x", "5", "--angle-step-deg", "0.1"]);
         assert!(MieQuery::solve(&bad.args).is_err());
     }
@@ -509,7 +639,7 @@ mod tests {
         assert!((integral - 1.0).abs() < 1e-3, "∫ phase dΩ = {integral}");
         assert!(
             q.to_csv()
-                .starts_with("angle_deg,s1_sq,s2_sq,s11,i_perp,i_par,phase,dolp\n")
+                .contains("\nangle_deg,s1_sq,s2_sq,s11,i_perp,i_par,phase,dolp\n")
         );
         // The water index is the default, a --k alone adds absorption to it.
         let cli = Cli::parse_from([
@@ -524,5 +654,163 @@ mod tests {
         let q = MieQuery::solve(&cli.args).unwrap();
         let iapws = WaterIndexModel::default().index(650.0).unwrap();
         assert_eq!((q.m.re, q.m.im), (iapws, 0.01));
+    }
+
+    /// `--n-medium`: a sphere of index N in a medium n_medium is the sphere of relative index
+    /// N/n_medium at the wavelength in the medium; both Q_back conventions are in every output.
+    #[test]
+    fn medium_index_and_both_backscatter_conventions() {
+        let q = |extra: &[&str]| {
+            let mut a = vec!["t", "--radius-um", "1", "--wavelength-nm", "500"];
+            a.extend(extra);
+            MieQuery::solve(&Cli::parse_from(a).args).unwrap()
+        };
+        let medium = q(&[
+            "--index",
+            "1.5+0.01i",
+            "--n-medium",
+            "1.25",
+            "--angles-deg",
+            "0,180",
+        ]);
+        let x = size_parameter(1.0, 500.0 / 1.25);
+        let direct = Sphere::new(x, Complex64::new(1.2, 0.008)).unwrap();
+        assert!((medium.x - x).abs() < 1e-12 * x);
+        assert!((medium.m - Complex64::new(1.2, 0.008)).norm() < 1e-15);
+        assert_eq!(medium.sphere.efficiencies, direct.efficiencies);
+        let vacuum = q(&["--index", "1.5+0.01i", "--angles-deg", "0,180"]);
+        assert!((vacuum.sphere.efficiencies.q_sca - direct.efficiencies.q_sca).abs() > 1e-3);
+        let j = medium.to_json();
+        assert_eq!(j["n_medium"].as_f64(), Some(1.25));
+        assert_eq!(j["index"][0].as_f64(), Some(1.5));
+        let qb = j["qback"].as_f64().unwrap();
+        let per_sr = j["qback_per_sr"].as_f64().unwrap();
+        assert!((qb / per_sr - 4.0 * std::f64::consts::PI).abs() < 1e-12);
+        // Q_back_per_sr = |S1(180°)|²/(π x²): MiePlot's per-steradian value.
+        assert!((per_sr - medium.s1_sq[1] / (std::f64::consts::PI * x * x)).abs() < 1e-12 * per_sr);
+        assert!(j["qback_convention"].as_str().unwrap().contains("MiePlot"));
+        for text in [medium.to_table(), medium.to_csv()] {
+            assert!(
+                text.contains("Q_back = ") && text.contains("radar"),
+                "{text}"
+            );
+            assert!(
+                text.contains("Q_back_per_sr = ") && text.contains("MiePlot"),
+                "{text}"
+            );
+            assert!(text.contains("n_medium = 1.25"), "{text}");
+        }
+        let bad = Cli::parse_from(["t", "--x", "5", "--n", "1.5", "--n-medium", "0"]);
+        assert!(MieQuery::solve(&bad.args).is_err());
+    }
+
+    /// A coated sphere from the command line is the library's coated solution; a core of the
+    /// shell's own index is the homogeneous sphere.
+    #[test]
+    fn coated_sphere_options() {
+        let solve = |a: &[&str]| MieQuery::solve(&Cli::parse_from(a).args);
+        let q = solve(&[
+            "t",
+            "--x",
+            "50",
+            "--core-x",
+            "10",
+            "--index",
+            "1.33",
+            "--core-index",
+            "1.95+0.79i",
+            "--angles-deg",
+            "0,90,180",
+        ])
+        .unwrap();
+        let c = scatterbake::mie::coated::coated_coefficients(&CoatedSphere {
+            core_size_parameter: 10.0,
+            size_parameter: 50.0,
+            core_index: Complex64::new(1.95, 0.79),
+            shell_index: Complex64::new(1.33, 0.0),
+        })
+        .unwrap();
+        assert_eq!(q.sphere.efficiencies, c.efficiencies());
+        assert!(q.to_table().contains("coated sphere: core x_c = 10"));
+        assert_eq!(q.to_json()["core"]["x"].as_f64(), Some(10.0));
+        let same = solve(&[
+            "t",
+            "--x",
+            "50",
+            "--core-x",
+            "10",
+            "--index",
+            "1.5",
+            "--core-index",
+            "1.5",
+            "--angles-deg",
+            "0,90,180",
+        ])
+        .unwrap();
+        let homogeneous = solve(&[
+            "t",
+            "--x",
+            "50",
+            "--index",
+            "1.5",
+            "--angles-deg",
+            "0,90,180",
+        ])
+        .unwrap();
+        for (a, b) in same.s1_sq.iter().zip(&homogeneous.s1_sq) {
+            assert!((a - b).abs() < 1e-11 * b, "{a} vs {b}");
+        }
+        // With radii: core radius and the medium's wavelength.
+        let r = solve(&[
+            "t",
+            "--radius-um",
+            "2",
+            "--wavelength-nm",
+            "600",
+            "--core-radius-um",
+            "1",
+            "--core-index",
+            "1.0",
+            "--n",
+            "1.31",
+            "--n-medium",
+            "1.333",
+            "--angles-deg",
+            "0",
+        ])
+        .unwrap();
+        let core = r.core.unwrap();
+        assert!((core.x - size_parameter(1.0, 600.0 / 1.333)).abs() < 1e-12);
+        assert!((core.m.re - 1.0 / 1.333).abs() < 1e-15);
+        // Errors: a core larger than the sphere, a core radius without radii, no core index.
+        assert!(
+            solve(&[
+                "t",
+                "--x",
+                "5",
+                "--core-x",
+                "6",
+                "--n",
+                "1.5",
+                "--core-index",
+                "2"
+            ])
+            .is_err()
+        );
+        assert!(
+            solve(&[
+                "t",
+                "--x",
+                "5",
+                "--core-radius-um",
+                "1",
+                "--n",
+                "1.5",
+                "--core-index",
+                "2"
+            ])
+            .is_err()
+        );
+        assert!(Cli::try_parse_from(["t", "--x", "5", "--core-x", "1", "--n", "1.5"]).is_err());
     }
 }

@@ -65,11 +65,107 @@ pub fn write_mieplot(d: &MiePlotData, comments: &[String]) -> String {
     s
 }
 
+/// What [`read_mieplot_layout`] recognised in a file.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct MiePlotLayout {
+    /// Text lines before and between the data rows (titles, parameters, column headers).
+    pub header: Vec<String>,
+    /// Column roles of the data rows, from a header line naming them (e.g. `Angle`,
+    /// `Intensity (perpendicular)`, `Intensity (parallel)`, `Unpolarised`) or by position.
+    pub columns: Vec<ColumnRole>,
+    /// Whether the columns were named by a header line (otherwise: by position).
+    pub named: bool,
+    /// Whether numbers used a decimal comma (fields separated by tabs or semicolons).
+    pub decimal_comma: bool,
+}
+
+/// The meaning of a column of a MiePlot-style file.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ColumnRole {
+    /// Scattering angle (deg).
+    Angle,
+    /// Perpendicular component (|S1|² in MiePlot, `i_perp` in ours).
+    Perpendicular,
+    /// Parallel component (|S2|² in MiePlot, `i_par` in ours).
+    Parallel,
+    /// Unpolarised (the mean of the two).
+    Unpolarised,
+    /// Anything else (ignored).
+    Other,
+}
+
+impl ColumnRole {
+    /// Role of a column from its header text (case-insensitive).
+    fn from_label(label: &str) -> ColumnRole {
+        let l = label.to_lowercase();
+        let has = |w: &[&str]| w.iter().any(|k| l.contains(k));
+        if l.contains("s11") {
+            ColumnRole::Unpolarised
+        } else if has(&["perp", "s1", "i1", "ortho"]) {
+            ColumnRole::Perpendicular
+        } else if has(&["paral", "_par", "s2", "i2"]) {
+            ColumnRole::Parallel
+        } else if has(&[
+            "unpol", "natural", "phase", "s11", "average", "mean", "total",
+        ]) {
+            ColumnRole::Unpolarised
+        } else if has(&["angle", "theta", "deg"]) {
+            ColumnRole::Angle
+        } else {
+            ColumnRole::Other
+        }
+    }
+}
+
+/// Fields of a line: split at tabs or semicolons when the line has any (then a comma inside a
+/// field is a decimal comma), else at commas, else at white space; quotes are removed.
+fn split_fields(line: &str) -> (Vec<String>, bool) {
+    let clean = |f: &str| f.trim().trim_matches('"').trim().to_string();
+    let fields: Vec<String>;
+    let mut comma_decimal = false;
+    if line.contains('\t') || line.contains(';') {
+        fields = line.split(['\t', ';']).map(clean).collect();
+        comma_decimal = fields.iter().any(|f| {
+            f.contains(',') && !f.contains('.') && f.replace(',', ".").parse::<f64>().is_ok()
+        });
+    } else if line.contains(',') {
+        fields = line.split(',').map(clean).collect();
+    } else {
+        fields = line.split_whitespace().map(clean).collect();
+    }
+    (
+        fields.into_iter().filter(|f| !f.is_empty()).collect(),
+        comma_decimal,
+    )
+}
+
 /// Parse a MiePlot-style table (see the module doc for what is accepted).
 pub fn read_mieplot(text: &str) -> Result<MiePlotData, ConsumerError> {
+    read_mieplot_layout(text).map(|(d, _)| d)
+}
+
+/// Parse a MiePlot-style table and report what was recognised.
+///
+/// Accepted: our own export (`#` comments, a `# wavelength_nm:` line, `angle i_perp i_par phase`),
+/// and text saved by MiePlot or similar programs: any lines whose first field is not a number
+/// (titles, parameters, column headers) are kept as header text; fields are separated by tabs,
+/// semicolons, commas or white space (with tabs or semicolons a comma may be the decimal
+/// separator); quotes around fields are removed. Columns are identified by the last header line
+/// before the data with as many fields as a data row whose labels name an angle and both
+/// polarisations (`Angle`, `Intensity (perpendicular)`, `Intensity (parallel)`, `Unpolarised`,
+/// `S1`, `S2`, `i_perp`, `i_par`, `phase`, … in any order); without such a line, by position:
+/// angle, perpendicular, parallel and optionally the unpolarised value (else the mean of the
+/// two).
+pub fn read_mieplot_layout(text: &str) -> Result<(MiePlotData, MiePlotLayout), ConsumerError> {
     let mut d = MiePlotData::default();
+    let mut layout = MiePlotLayout::default();
+    let mut labels: Vec<String> = Vec::new();
+    let mut roles: Option<Vec<ColumnRole>> = None;
     for (ln, line) in text.lines().enumerate() {
         let line = line.trim();
+        if line.is_empty() {
+            continue;
+        }
         if let Some(rest) = line.strip_prefix('#') {
             if let Some(v) = rest.trim().strip_prefix("wavelength_nm:") {
                 d.wavelength_nm = Some(v.trim().parse().map_err(|e| ConsumerError::Parse {
@@ -78,21 +174,35 @@ pub fn read_mieplot(text: &str) -> Result<MiePlotData, ConsumerError> {
                     source: Some(e),
                 })?);
             }
+            layout.header.push(line.to_string());
+            let (f, _) = split_fields(rest.trim());
+            if f.len() >= 3 {
+                labels = f;
+            }
             continue;
         }
-        let fields: Vec<&str> = line
-            .split(|c: char| c.is_whitespace() || c == ',' || c == ';')
-            .filter(|f| !f.is_empty())
-            .collect();
+        let (fields, comma) = split_fields(line);
+        let number = |f: &str| {
+            if comma {
+                f.replace(',', ".").parse::<f64>()
+            } else {
+                f.parse::<f64>()
+            }
+        };
         let Some(first) = fields.first() else {
             continue;
         };
-        if first.parse::<f64>().is_err() {
-            continue; // header or title line
+        if number(first).is_err() {
+            layout.header.push(line.to_string());
+            if fields.len() >= 3 {
+                labels = fields;
+            }
+            continue;
         }
+        layout.decimal_comma |= comma;
         let nums: Vec<f64> = fields
             .iter()
-            .map(|f| f.parse::<f64>())
+            .map(|f| number(f))
             .collect::<Result<_, _>>()
             .map_err(|e| ConsumerError::Parse {
                 line: ln + 1,
@@ -106,19 +216,156 @@ pub fn read_mieplot(text: &str) -> Result<MiePlotData, ConsumerError> {
                 source: None,
             });
         }
-        d.angle_deg.push(nums[0]);
-        d.i_perp.push(nums[1]);
-        d.i_par.push(nums[2]);
-        d.phase.push(if nums.len() >= 4 {
-            nums[3]
-        } else {
-            0.5 * (nums[1] + nums[2])
+        let roles = roles.get_or_insert_with(|| {
+            let named: Vec<ColumnRole> = labels.iter().map(|l| ColumnRole::from_label(l)).collect();
+            let has = |r| named.contains(&r);
+            if named.len() == nums.len()
+                && has(ColumnRole::Perpendicular)
+                && has(ColumnRole::Parallel)
+            {
+                layout.named = true;
+                let angle = has(ColumnRole::Angle);
+                let mut named = named;
+                if !angle {
+                    named[0] = ColumnRole::Angle;
+                }
+                named
+            } else {
+                let mut r = vec![
+                    ColumnRole::Angle,
+                    ColumnRole::Perpendicular,
+                    ColumnRole::Parallel,
+                ];
+                if nums.len() >= 4 {
+                    r.push(ColumnRole::Unpolarised);
+                }
+                r.resize(nums.len(), ColumnRole::Other);
+                r
+            }
         });
+        if nums.len() < roles.len() {
+            return Err(ConsumerError::Parse {
+                line: ln + 1,
+                message: "row has fewer fields than the columns of the first row",
+                source: None,
+            });
+        }
+        let get = |role: ColumnRole| {
+            roles
+                .iter()
+                .position(|r| *r == role)
+                .and_then(|i| nums.get(i).copied())
+        };
+        let (Some(a), Some(p), Some(q)) = (
+            get(ColumnRole::Angle),
+            get(ColumnRole::Perpendicular),
+            get(ColumnRole::Parallel),
+        ) else {
+            return Err(ConsumerError::Parse {
+                line: ln + 1,
+                message: "row is shorter than the header's columns",
+                source: None,
+            });
+        };
+        d.angle_deg.push(a);
+        d.i_perp.push(p);
+        d.i_par.push(q);
+        d.phase
+            .push(get(ColumnRole::Unpolarised).unwrap_or(0.5 * (p + q)));
     }
     if d.angle_deg.is_empty() {
         return Err(ConsumerError::invalid("no data rows found"));
     }
-    Ok(d)
+    layout.columns = roles.unwrap_or_default();
+    Ok((d, layout))
+}
+
+/// Comparison of reference columns with model values at the reference's angles.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CurveComparison {
+    pub rows: usize,
+    /// Scale applied to the reference (1 unless rescaled).
+    pub scale: f64,
+    /// max |model − ref| / |ref| per column (perpendicular, parallel, unpolarised).
+    pub max_rel_difference: [f64; 3],
+    /// Angle (deg) of the largest difference over the three columns.
+    pub worst_angle_deg: f64,
+    /// RMS relative difference per column.
+    pub rms_rel_difference: [f64; 3],
+}
+
+/// Compares `reference` with model values `[perpendicular, parallel, unpolarised]` at its
+/// angles (pure). With `rescale`, one least-squares factor on the unpolarised column is applied
+/// to the reference first (for references in other units).
+pub fn compare_curves(
+    reference: &MiePlotData,
+    model: [&[f64]; 3],
+    rescale: bool,
+) -> Result<CurveComparison, ConsumerError> {
+    let n = reference.angle_deg.len();
+    if model.iter().any(|c| c.len() != n) || n == 0 {
+        return Err(ConsumerError::invalid(format!(
+            "model has {}/{}/{} values for {n} reference angles",
+            model[0].len(),
+            model[1].len(),
+            model[2].len()
+        )));
+    }
+    let refs = [&reference.i_perp, &reference.i_par, &reference.phase];
+    let scale = if rescale {
+        let num: f64 = model[2].iter().zip(refs[2]).map(|(v, u)| v * u).sum();
+        let den: f64 = refs[2].iter().map(|u| u * u).sum();
+        if !(den > 0.0) {
+            return Err(ConsumerError::invalid(
+                "cannot rescale: the reference is all zero",
+            ));
+        }
+        num / den
+    } else {
+        1.0
+    };
+    let mut max = [0.0f64; 3];
+    let mut sq = [0.0f64; 3];
+    let mut worst = (0.0, reference.angle_deg[0]);
+    for j in 0..n {
+        for c in 0..3 {
+            let rf = refs[c][j] * scale;
+            let e = if rf == model[c][j] {
+                0.0
+            } else {
+                (model[c][j] - rf).abs() / rf.abs().max(f64::MIN_POSITIVE)
+            };
+            max[c] = max[c].max(e);
+            sq[c] += e * e;
+            if e > worst.0 {
+                worst = (e, reference.angle_deg[j]);
+            }
+        }
+    }
+    Ok(CurveComparison {
+        rows: n,
+        scale,
+        max_rel_difference: max,
+        worst_angle_deg: worst.1,
+        rms_rel_difference: sq.map(|s| (s / n as f64).sqrt()),
+    })
+}
+
+/// Largest relative difference in |S1|², |S2|² to expect from a double-precision BHMIE
+/// (Bohren & Huffman 1983, Appendix A; the algorithm behind MiePlot) at size parameter `x`:
+/// `3·10⁻⁹ · max(1, x/10)^{1.5}`. Measured envelope: a transcription of BHMIE against 40-digit
+/// references for 15 indices × x = 1 … 10⁴ (`docs/mie.md`) stays below it except near `m = 1`
+/// (`|m − 1| ≤ 10⁻³`, where |S|² is ill-conditioned) and for real `m > 1` at x ≥ 10 with
+/// BHMIE's original start order of the `D_n` recurrence (`max(x_stop, |mx|) + 15`, too small
+/// there: up to O(1), Du 2004).
+pub fn bhmie_drift_envelope(x: f64) -> f64 {
+    3e-9 * (x / 10.0).max(1.0).powf(1.5)
+}
+
+/// A "large absorbing" sphere for [`bhmie_drift_envelope`]: `Im(m) x ≥ 10` and `x ≥ 10`, where
+/// the measured BHMIE differences reach 1e-9 … 1.5e-6 (x = 10 … 10⁴).
+pub fn is_large_absorbing(x: f64, m_im: f64) -> bool {
+    x >= 10.0 && m_im * x >= 10.0
 }
 
 /// MiePlot-style data of one entry and wavelength of a phase table, on the table's angles.
@@ -326,5 +573,56 @@ mod tests {
         assert!((fit.scale - 1e-3).abs() < 1e-10, "{fit:?}");
         // Unpolarised = mean of the f32-rounded i_perp, i_par: agreement to f32 precision.
         assert!(fit.max_rel_error.iter().all(|e| *e < 1e-6), "{fit:?}");
+    }
+
+    /// Columns named by a header line are used in any order; tabs or semicolons with decimal
+    /// commas and quoted labels are read; without names, columns go by position.
+    #[test]
+    fn named_columns_decimal_commas_and_positions() {
+        let text = "Title line, with commas, and more\n\"Angle\";\"Parallel\";\"Unpolarised\";\"Perpendicular\"\n0;2,5;3,0;3,5\n90;1,0;1,5;2,0\n";
+        let (d, layout) = read_mieplot_layout(text).unwrap();
+        assert!(layout.named && layout.decimal_comma, "{layout:?}");
+        assert_eq!(
+            layout.columns,
+            vec![
+                ColumnRole::Angle,
+                ColumnRole::Parallel,
+                ColumnRole::Unpolarised,
+                ColumnRole::Perpendicular
+            ]
+        );
+        assert_eq!(d.angle_deg, vec![0.0, 90.0]);
+        assert_eq!(d.i_perp, vec![3.5, 2.0]);
+        assert_eq!(d.i_par, vec![2.5, 1.0]);
+        assert_eq!(d.phase, vec![3.0, 1.5]);
+        assert_eq!(layout.header.len(), 2);
+        // Positional: angle, perpendicular, parallel (phase = mean).
+        let (d, layout) = read_mieplot_layout("1 4 2\n2 6 4\n").unwrap();
+        assert!(!layout.named);
+        assert_eq!((d.i_perp[1], d.i_par[1], d.phase[1]), (6.0, 4.0, 5.0));
+        // A short row under a 4-column header is an error naming the line.
+        let err = read_mieplot("Angle\tS1\tS2\tS11\n0\t1\t2\t1.5\n1\t1\t2\n").unwrap_err();
+        assert!(err.to_string().contains('3'), "{err}");
+    }
+
+    #[test]
+    fn curve_comparison_and_drift_envelope() {
+        let r = MiePlotData {
+            wavelength_nm: None,
+            angle_deg: vec![0.0, 90.0],
+            i_perp: vec![2.0, 4.0],
+            i_par: vec![2.0, 2.0],
+            phase: vec![2.0, 3.0],
+        };
+        let c = compare_curves(&r, [&[2.0, 4.4], &[2.0, 2.0], &[2.0, 3.0]], false).unwrap();
+        assert!((c.max_rel_difference[0] - 0.1).abs() < 1e-12);
+        assert_eq!(c.max_rel_difference[1], 0.0);
+        assert_eq!(c.worst_angle_deg, 90.0);
+        let doubled = compare_curves(&r, [&[4.0, 8.0], &[4.0, 4.0], &[4.0, 6.0]], true).unwrap();
+        assert!((doubled.scale - 2.0).abs() < 1e-12 && doubled.max_rel_difference[2] < 1e-12);
+        assert!(compare_curves(&r, [&[1.0], &[1.0], &[1.0]], false).is_err());
+        assert_eq!(bhmie_drift_envelope(1.0), 3e-9);
+        assert!((bhmie_drift_envelope(1000.0) - 3e-6).abs() < 1e-15);
+        assert!(is_large_absorbing(10.0, 3.68) && !is_large_absorbing(1000.0, 0.0));
     }
 }
