@@ -205,7 +205,7 @@ pub struct BuildOptions {
 /// What a build did.
 #[derive(Debug, Default, Clone, PartialEq, Eq)]
 pub struct BuildReport {
-    /// Tables already up to date.
+    /// Tables already up to date, or written meanwhile by another shard or concurrent build.
     pub tables_up_to_date: Vec<String>,
     /// Tables written by this build.
     pub tables_written: Vec<String>,
@@ -419,8 +419,15 @@ pub fn build(opts: &BuildOptions) -> Result<BuildReport, PipelineError> {
     report.tasks_computed = run.computed;
     report.tables_written = run.written;
     report.tables_written.sort();
+    // A table this build did not write is up to date when another shard or concurrent build
+    // wrote it meanwhile, else pending.
     for s in &states {
-        if !report.tables_written.contains(&s.planned.name) {
+        if report.tables_written.contains(&s.planned.name) {
+            continue;
+        }
+        if up_to_date(&table_path(&opts.out_dir, &s.planned.name), &s.key) {
+            report.tables_up_to_date.push(s.planned.name.clone());
+        } else {
             report.tables_pending.push(s.planned.name.clone());
         }
     }
