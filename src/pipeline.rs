@@ -428,11 +428,10 @@ impl TableState {
     /// checkpoint is noted in `ctx`.
     fn read(&self, task: usize, ctx: &Context) -> Option<Vec<f32>> {
         let path = self.checkpoint(task);
-        read_checkpoint(&path, &self.task_keys[task], &ctx.secret)
-            .unwrap_or_else(|why| {
-                ctx.reject(&path, why);
-                None
-            })
+        read_checkpoint(&path, &self.task_keys[task], &ctx.secret).unwrap_or_else(|why| {
+            ctx.reject(&path, why);
+            None
+        })
     }
 }
 
@@ -779,7 +778,12 @@ fn finish_table(s: &TableState, out_dir: &Path, ctx: &Context) -> Result<(), Pip
 /// Compute task `task` of a table and write its checkpoint.
 fn recompute(s: &TableState, task: usize, ctx: &Context) -> Result<Vec<f32>, PipelineError> {
     let values = s.planned.job.run_task(task)?;
-    write_checkpoint(&s.checkpoint(task), &s.task_keys[task], &ctx.secret, &values)?;
+    write_checkpoint(
+        &s.checkpoint(task),
+        &s.task_keys[task],
+        &ctx.secret,
+        &values,
+    )?;
     Ok(values)
 }
 

@@ -235,7 +235,10 @@ mod tests {
             checkpoint_hash(&k, "a", &[1.0, 3.0])
         );
         let other = CheckpointKey::from_bytes([2; 32]);
-        assert_ne!(checkpoint_hash(&k, "a", &v), checkpoint_hash(&other, "a", &v));
+        assert_ne!(
+            checkpoint_hash(&k, "a", &v),
+            checkpoint_hash(&other, "a", &v)
+        );
     }
 
     #[test]
@@ -269,6 +272,9 @@ mod tests {
         assert_eq!(mode & 0o077, 0, "readable by others: {mode:o}");
         std::fs::write(d.path().join(CHECKPOINT_KEY_FILE), b"short").unwrap();
         let e = checkpoint_key(d.path()).unwrap_err();
-        assert!(e.to_string().contains("must be 32 bytes, this file has 5"), "{e}");
+        assert!(
+            e.to_string().contains("must be 32 bytes, this file has 5"),
+            "{e}"
+        );
     }
 }

@@ -7,7 +7,9 @@ use std::process::Command;
 fn a_36_gb_water_index_grid_is_refused_at_plan_time() {
     let d = tempfile::tempdir().unwrap();
     // 10 000 temperatures × ~900 000 wavelengths × 4 bytes ≈ 36 GB (33.5 GiB).
-    let temps: Vec<String> = (0..10_000).map(|i| format!("{}", i as f64 * 0.01)).collect();
+    let temps: Vec<String> = (0..10_000)
+        .map(|i| format!("{}", i as f64 * 0.01))
+        .collect();
     let m = d.path().join("huge.toml");
     std::fs::write(
         &m,
