@@ -23,8 +23,8 @@ fn job_array_assembles_every_table_identical_to_an_unsharded_build() {
     let repo = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
     let found = Command::new("sh")
         .args(["-c", "command -v sbatch"])
-        .status()
-        .is_ok_and(|s| s.success());
+        .output()
+        .is_ok_and(|o| o.status.success());
     assert!(
         found,
         "Slurm is not installed (no sbatch on PATH): apt-get install -y slurmctld slurmd \
