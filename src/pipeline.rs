@@ -411,6 +411,8 @@ fn up_to_date(path: &Path, key: &str) -> bool {
 struct TableState {
     planned: PlannedTable,
     key: String,
+    /// Global index of the table's first task, over every planned table (up to date or not).
+    first_global: usize,
     task_keys: Vec<String>,
     task_labels: Vec<String>,
     work_dir: PathBuf,
@@ -569,14 +571,19 @@ fn plan_tables(
     report: &mut BuildReport,
 ) -> Result<Vec<TableState>, PipelineError> {
     let mut states = Vec::new();
+    // Global task indices count the tasks of every planned table, up to date or not, so that
+    // every shard divides the same list even when another shard has written a table meanwhile.
+    let mut next_global = 0usize;
     for t in planned {
         let key = table_key(&t);
         let path = table_path(&opts.out_dir, &t.name);
+        let tasks = t.job.tasks();
+        let first_global = next_global;
+        next_global += tasks.len();
         if !opts.force && up_to_date(&path, &key) {
             report.tables_up_to_date.push(t.name.clone());
             continue;
         }
-        let tasks = t.job.tasks();
         let task_keys = tasks
             .iter()
             .enumerate()
@@ -586,6 +593,7 @@ fn plan_tables(
         let work_dir = opts.out_dir.join(WORK_DIR).join(&t.name);
         crate::workdir::refuse_symlink(&work_dir)?;
         states.push(TableState {
+            first_global,
             remaining: AtomicUsize::new(task_keys.len()),
             planned: t,
             key,
@@ -608,11 +616,10 @@ fn load_checkpoints(
     ctx: &Context,
 ) -> Result<Vec<(usize, usize)>, PipelineError> {
     let mut pending = Vec::new();
-    let mut global = 0usize;
     for (ti, s) in states.iter().enumerate() {
         for (k, key) in s.task_keys.iter().enumerate() {
+            let global = s.first_global + k;
             let mine = opts.shard.is_none_or(|sh| global % sh.count == sh.index);
-            global += 1;
             let found = if opts.force {
                 Ok(None)
             } else {
