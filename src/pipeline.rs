@@ -16,9 +16,12 @@
 //!   make the creation time identical too). When its last task finishes, a table is assembled,
 //!   written atomically, and its checkpoints are removed.
 //! - **Sharding.** `--shard I/N` (or `SLURM_ARRAY_TASK_ID`/`SLURM_ARRAY_TASK_COUNT`, or
-//!   `JOB_COMPLETION_INDEX` with a count) computes only global tasks `k` with `k mod N = I`.
-//!   Whichever shard finds all checkpoints of a table present assembles it; `scatterbake
-//!   catalog` (or a plain `build`) afterwards assembles anything left and rebuilds the catalog.
+//!   `JOB_COMPLETION_INDEX` with a count) computes only global tasks `k` with `k mod N = I`,
+//!   `k` counting the tasks of every planned table (also those already up to date, so shards
+//!   that start after a table was written agree on the numbering). Every shard, before it
+//!   exits, assembles under the lock each table whose checkpoints are all present, so the last
+//!   shard leaves every table built and the catalog current; a plain `build` afterwards
+//!   computes only what a failed shard left.
 //! - **Concurrency.** Two builds on one output directory are safe by per-task atomicity:
 //!   checkpoints and tables are written by rename of a complete temporary file, contents are
 //!   deterministic, a missing checkpoint at assembly time is recomputed, and the catalog is
