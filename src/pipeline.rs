@@ -7,15 +7,21 @@
 //!   A table whose file exists, verifies, and carries the same key is skipped (`--force`
 //!   recomputes).
 //! - **Resume.** Each finished task is written atomically as a checkpoint
-//!   `<out>/.work/<table>/<task-key>.chunk` (bincode: key, SHA-256, values). A rerun reuses valid
-//!   checkpoints, so killing a build at any moment loses at most the tasks in flight, and the
+//!   `<out>/.work/<table>/<task-key>.chunk` (bincode: task key, HMAC-SHA-256 of the task key and
+//!   values under the directory's secret `<out>/.checkpoint-key`, values). A rerun reuses valid
+//!   checkpoints; a checkpoint that is truncated, belongs to another task, fails its keyed hash
+//!   (edited, forged, or copied from another directory) or has the wrong number of values is
+//!   named in the report and its task recomputed. So killing a build at any moment loses at most the tasks in flight, and the
 //!   tables produced are byte-identical to an uninterrupted build (set `SOURCE_DATE_EPOCH` to
 //!   make the creation time identical too). When its last task finishes, a table is assembled,
 //!   written atomically, and its checkpoints are removed.
 //! - **Sharding.** `--shard I/N` (or `SLURM_ARRAY_TASK_ID`/`SLURM_ARRAY_TASK_COUNT`, or
-//!   `JOB_COMPLETION_INDEX` with a count) computes only global tasks `k` with `k mod N = I`.
-//!   Whichever shard finds all checkpoints of a table present assembles it; `scatterbake
-//!   catalog` (or a plain `build`) afterwards assembles anything left and rebuilds the catalog.
+//!   `JOB_COMPLETION_INDEX` with a count) computes only global tasks `k` with `k mod N = I`,
+//!   `k` counting the tasks of every planned table (also those already up to date, so shards
+//!   that start after a table was written agree on the numbering). Every shard, before it
+//!   exits, assembles under the lock each table whose checkpoints are all present, so the last
+//!   shard leaves every table built and the catalog current; a plain `build` afterwards
+//!   computes only what a failed shard left.
 //! - **Concurrency.** Two builds on one output directory are safe by per-task atomicity:
 //!   checkpoints and tables are written by rename of a complete temporary file, contents are
 //!   deterministic, a missing checkpoint at assembly time is recomputed, and the catalog is
@@ -27,6 +33,7 @@ use crate::manifest::{ManifestError, PlannedTable, load_manifest};
 use crate::stages::JobError;
 use crate::table::format::write_atomic;
 use crate::table::{Provenance, Table, TableError, write_table_atomic};
+use crate::workdir::CheckpointKey;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -40,6 +47,8 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 pub const WORK_DIR: &str = ".work";
 /// File extension of a task checkpoint, `<task-key>.chunk`.
 pub const CHECKPOINT_EXTENSION: &str = "chunk";
+/// Bytes per GiB, for messages.
+const GIB: f64 = (1u64 << 30) as f64;
 /// Thread count that lets rayon choose (one per CPU), used when `--jobs` is not given.
 /// Attempts at writing a checkpoint whose work directory a concurrent build removed.
 const CHECKPOINT_RETRIES: usize = 8;
@@ -129,6 +138,21 @@ pub enum PipelineError {
     },
     #[error(transparent)]
     Catalog(#[from] CatalogError),
+    /// A planned table larger than the reader accepts, refused before any task runs.
+    #[error(
+        "table `{name}` ({}) would hold {bytes} bytes of values ({:.1} GiB), more than the \
+         reader's limit of {limit} bytes ({:.1} GiB): reduce its grid or split it into several \
+         tables",
+        manifest.display(),
+        *bytes as f64 / GIB,
+        *limit as f64 / GIB
+    )]
+    TableTooLarge {
+        name: String,
+        manifest: PathBuf,
+        bytes: u64,
+        limit: u64,
+    },
     /// Every task or table that failed (each with its cause chain); the others were built.
     #[error("{} task(s) failed:\n  {}", .0.len(), .0.iter().map(|e| error_chain(e)).collect::<Vec<_>>().join("\n  "))]
     Failed(Vec<PipelineError>),
@@ -205,7 +229,7 @@ pub struct BuildOptions {
 /// What a build did.
 #[derive(Debug, Default, Clone, PartialEq, Eq)]
 pub struct BuildReport {
-    /// Tables already up to date.
+    /// Tables already up to date, or written meanwhile by another shard or concurrent build.
     pub tables_up_to_date: Vec<String>,
     /// Tables written by this build.
     pub tables_written: Vec<String>,
@@ -215,6 +239,8 @@ pub struct BuildReport {
     pub tasks_computed: usize,
     /// Tasks reused from checkpoints.
     pub tasks_reused: usize,
+    /// Checkpoints not used (each `PATH: why`); their tasks were recomputed.
+    pub checkpoints_rejected: Vec<String>,
 }
 
 fn sha256_hex(bytes: &[u8]) -> String {
@@ -252,7 +278,9 @@ fn task_key(table_key: &str, index: usize, params: &serde_json::Value) -> String
 
 #[derive(Serialize, Deserialize)]
 struct Checkpoint {
+    /// Task key.
     key: String,
+    /// HMAC-SHA-256 (hex) of the task key and values under the directory's secret.
     sha256: String,
     values: Vec<f32>,
 }
@@ -261,20 +289,51 @@ fn bincode_config() -> bincode::config::Configuration {
     bincode::config::standard()
 }
 
-fn read_checkpoint(path: &Path, key: &str) -> Option<Vec<f32>> {
-    let bytes = std::fs::read(path).ok()?;
+/// Read the checkpoint of task `task_key` at `path`: `Ok(None)` when there is none, `Err(why)`
+/// when the file exists but must not be used (truncated, trailing bytes, another task's, or
+/// a keyed hash that does not match: edited, forged, or written under another secret).
+pub fn read_checkpoint(
+    path: &Path,
+    task_key: &str,
+    secret: &CheckpointKey,
+) -> Result<Option<Vec<f32>>, String> {
+    let bytes = match std::fs::read(path) {
+        Ok(b) => b,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
+        Err(e) => return Err(format!("unreadable ({e})")),
+    };
     let (c, used): (Checkpoint, usize) =
-        bincode::serde::decode_from_slice(&bytes, bincode_config()).ok()?;
-    (used == bytes.len()
-        && c.key == key
-        && crate::workdir::checkpoint_hash(key, &c.values) == c.sha256)
-        .then_some(c.values)
+        bincode::serde::decode_from_slice(&bytes, bincode_config())
+            .map_err(|e| format!("truncated or not a checkpoint ({} bytes: {e})", bytes.len()))?;
+    if used != bytes.len() {
+        return Err(format!(
+            "wrong length: {} bytes, the checkpoint ends at byte {used}",
+            bytes.len()
+        ));
+    }
+    if c.key != task_key {
+        return Err("belongs to another task".into());
+    }
+    if crate::workdir::checkpoint_hash(secret, task_key, &c.values) != c.sha256 {
+        return Err(
+            "its keyed hash does not match its values (edited, or written under another \
+             checkpoint secret)"
+                .into(),
+        );
+    }
+    Ok(Some(c.values))
 }
 
-fn write_checkpoint(path: &Path, key: &str, values: &[f32]) -> Result<(), PipelineError> {
+/// Write the checkpoint of task `task_key` (values and their keyed hash) atomically at `path`.
+pub fn write_checkpoint(
+    path: &Path,
+    task_key: &str,
+    secret: &CheckpointKey,
+    values: &[f32],
+) -> Result<(), PipelineError> {
     let c = Checkpoint {
-        key: key.to_string(),
-        sha256: crate::workdir::checkpoint_hash(key, values),
+        key: task_key.to_string(),
+        sha256: crate::workdir::checkpoint_hash(secret, task_key, values),
         values: values.to_vec(),
     };
     let bytes = bincode::serde::encode_to_vec(&c, bincode_config()).map_err(|source| {
@@ -355,6 +414,8 @@ fn up_to_date(path: &Path, key: &str) -> bool {
 struct TableState {
     planned: PlannedTable,
     key: String,
+    /// Global index of the table's first task, over every planned table (up to date or not).
+    first_global: usize,
     task_keys: Vec<String>,
     task_labels: Vec<String>,
     work_dir: PathBuf,
@@ -366,6 +427,40 @@ impl TableState {
     fn checkpoint(&self, task: usize) -> PathBuf {
         self.work_dir
             .join(format!("{}.{CHECKPOINT_EXTENSION}", self.task_keys[task]))
+    }
+
+    /// The values of task `task` from its checkpoint, when there is a usable one; an unusable
+    /// checkpoint is noted in `ctx`.
+    fn read(&self, task: usize, ctx: &Context) -> Option<Vec<f32>> {
+        let path = self.checkpoint(task);
+        read_checkpoint(&path, &self.task_keys[task], &ctx.secret).unwrap_or_else(|why| {
+            ctx.reject(&path, why);
+            None
+        })
+    }
+}
+
+/// What every step of one build shares: the checkpoint secret of the output directory and the
+/// checkpoints found unusable (path → why, each reported once).
+struct Context {
+    secret: CheckpointKey,
+    rejected: Mutex<std::collections::BTreeMap<PathBuf, String>>,
+}
+
+impl Context {
+    fn reject(&self, path: &Path, why: String) {
+        self.rejected
+            .lock()
+            .expect("lock")
+            .entry(path.to_path_buf())
+            .or_insert(why);
+    }
+
+    fn rejected(self) -> Vec<String> {
+        let map = self.rejected.into_inner().expect("lock");
+        map.into_iter()
+            .map(|(p, why)| format!("{}: {why}; not used, its task is recomputed", p.display()))
+            .collect()
     }
 }
 
@@ -387,6 +482,7 @@ fn assemble_completed(
     finish: &(dyn Fn(&TableState) + Sync),
     written: &Mutex<Vec<String>>,
     out_dir: &Path,
+    ctx: &Context,
 ) -> Result<(), PipelineError> {
     let _lock = crate::workdir::lock_out_dir(out_dir)?;
     for s in states {
@@ -396,8 +492,7 @@ fn assemble_completed(
         if up_to_date(&table_path(out_dir, &s.planned.name), &s.key) {
             continue;
         }
-        let complete = (0..s.task_keys.len())
-            .all(|k| read_checkpoint(&s.checkpoint(k), &s.task_keys[k]).is_some());
+        let complete = (0..s.task_keys.len()).all(|k| s.read(k, ctx).is_some());
         if complete {
             finish(s);
         }
@@ -412,15 +507,27 @@ pub fn build(opts: &BuildOptions) -> Result<BuildReport, PipelineError> {
     std::fs::create_dir_all(&opts.out_dir)
         .map_err(IoError::doing("creating output directory", &opts.out_dir))?;
     crate::workdir::check_out_dir(&opts.out_dir)?;
+    let ctx = Context {
+        secret: crate::workdir::checkpoint_key(&opts.out_dir)?,
+        rejected: Mutex::default(),
+    };
     let mut report = BuildReport::default();
     let states = plan_tables(planned, opts, &mut report)?;
-    let pending = load_checkpoints(&states, opts, &mut report)?;
-    let run = run_tasks(&states, &pending, opts)?;
+    let pending = load_checkpoints(&states, opts, &mut report, &ctx)?;
+    let run = run_tasks(&states, &pending, opts, &ctx)?;
+    report.checkpoints_rejected = ctx.rejected();
     report.tasks_computed = run.computed;
     report.tables_written = run.written;
     report.tables_written.sort();
+    // A table this build did not write is up to date when another shard or concurrent build
+    // wrote it meanwhile, else pending.
     for s in &states {
-        if !report.tables_written.contains(&s.planned.name) {
+        if report.tables_written.contains(&s.planned.name) {
+            continue;
+        }
+        if up_to_date(&table_path(&opts.out_dir, &s.planned.name), &s.key) {
+            report.tables_up_to_date.push(s.planned.name.clone());
+        } else {
             report.tables_pending.push(s.planned.name.clone());
         }
     }
@@ -431,11 +538,21 @@ pub fn build(opts: &BuildOptions) -> Result<BuildReport, PipelineError> {
     Ok(report)
 }
 
-/// Plan every table of the manifests; a table name may appear only once across them.
+/// Plan every table of the manifests; a table name may appear only once across them, and a
+/// table whose size is known at plan time must fit the reader's default limit.
 fn plan_manifests(manifests: &[PathBuf]) -> Result<Vec<PlannedTable>, PipelineError> {
+    let limit = crate::table::ReadLimits::default().max_payload_bytes;
     let mut planned: Vec<PlannedTable> = Vec::new();
     for m in manifests {
         for t in load_manifest(m)? {
+            if let Some(bytes) = t.job.payload_bytes().filter(|&b| b > limit) {
+                return Err(PipelineError::TableTooLarge {
+                    name: t.name,
+                    manifest: t.manifest,
+                    bytes,
+                    limit,
+                });
+            }
             if let Some(prev) = planned.iter().find(|p| p.name == t.name) {
                 return Err(PipelineError::DuplicateTable {
                     name: t.name,
@@ -457,14 +574,19 @@ fn plan_tables(
     report: &mut BuildReport,
 ) -> Result<Vec<TableState>, PipelineError> {
     let mut states = Vec::new();
+    // Global task indices count the tasks of every planned table, up to date or not, so that
+    // every shard divides the same list even when another shard has written a table meanwhile.
+    let mut next_global = 0usize;
     for t in planned {
         let key = table_key(&t);
         let path = table_path(&opts.out_dir, &t.name);
+        let tasks = t.job.tasks();
+        let first_global = next_global;
+        next_global += tasks.len();
         if !opts.force && up_to_date(&path, &key) {
             report.tables_up_to_date.push(t.name.clone());
             continue;
         }
-        let tasks = t.job.tasks();
         let task_keys = tasks
             .iter()
             .enumerate()
@@ -474,6 +596,7 @@ fn plan_tables(
         let work_dir = opts.out_dir.join(WORK_DIR).join(&t.name);
         crate::workdir::refuse_symlink(&work_dir)?;
         states.push(TableState {
+            first_global,
             remaining: AtomicUsize::new(task_keys.len()),
             planned: t,
             key,
@@ -487,24 +610,35 @@ fn plan_tables(
 
 /// Count the tasks with a valid checkpoint as done (none with `--force`, which also removes
 /// the old checkpoints) and return the other tasks of this shard, as (table, task) in the
-/// deterministic global order the shards divide by index.
+/// deterministic global order the shards divide by index. A task whose checkpoint exists but
+/// is unusable is recomputed by whichever shard finds it (results are deterministic).
 fn load_checkpoints(
     states: &[TableState],
     opts: &BuildOptions,
     report: &mut BuildReport,
+    ctx: &Context,
 ) -> Result<Vec<(usize, usize)>, PipelineError> {
     let mut pending = Vec::new();
-    let mut global = 0usize;
     for (ti, s) in states.iter().enumerate() {
         for (k, key) in s.task_keys.iter().enumerate() {
+            let global = s.first_global + k;
             let mine = opts.shard.is_none_or(|sh| global % sh.count == sh.index);
-            global += 1;
-            let done = !opts.force && read_checkpoint(&s.checkpoint(k), key).is_some();
-            if done {
-                report.tasks_reused += 1;
-                s.remaining.fetch_sub(1, Ordering::SeqCst);
-            } else if mine {
-                pending.push((ti, k));
+            let found = if opts.force {
+                Ok(None)
+            } else {
+                read_checkpoint(&s.checkpoint(k), key, &ctx.secret)
+            };
+            match found {
+                Ok(Some(_)) => {
+                    report.tasks_reused += 1;
+                    s.remaining.fetch_sub(1, Ordering::SeqCst);
+                }
+                Ok(None) if !mine => {}
+                Ok(None) => pending.push((ti, k)),
+                Err(why) => {
+                    ctx.reject(&s.checkpoint(k), why);
+                    pending.push((ti, k));
+                }
             }
         }
     }
@@ -530,6 +664,7 @@ fn run_tasks(
     states: &[TableState],
     pending: &[(usize, usize)],
     opts: &BuildOptions,
+    ctx: &Context,
 ) -> Result<TaskRun, PipelineError> {
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(opts.jobs.unwrap_or(DEFAULT_THREADS))
@@ -540,7 +675,7 @@ fn run_tasks(
     let written = Mutex::new(Vec::<String>::new());
     let computed = AtomicUsize::new(0);
     let delay = test_delay();
-    let finish = |s: &TableState| match finish_table(s, &opts.out_dir) {
+    let finish = |s: &TableState| match finish_table(s, &opts.out_dir, ctx) {
         Ok(()) => written.lock().expect("lock").push(s.planned.name.clone()),
         Err(e) => errors.lock().expect("lock").push(PipelineError::Finish {
             table: s.planned.name.clone(),
@@ -559,7 +694,9 @@ fn run_tasks(
                 .job
                 .run_task(k)
                 .map_err(PipelineError::from)
-                .and_then(|values| write_checkpoint(&s.checkpoint(k), &s.task_keys[k], &values));
+                .and_then(|values| {
+                    write_checkpoint(&s.checkpoint(k), &s.task_keys[k], &ctx.secret, &values)
+                });
             if let Some(d) = delay {
                 std::thread::sleep(d);
             }
@@ -582,7 +719,7 @@ fn run_tasks(
         });
     });
     bar.finish_and_clear();
-    assemble_completed(states, &finish, &written, &opts.out_dir)?;
+    assemble_completed(states, &finish, &written, &opts.out_dir, ctx)?;
     Ok(TaskRun {
         computed: computed.load(Ordering::SeqCst),
         written: written.into_inner().expect("lock"),
@@ -602,18 +739,41 @@ fn progress_bar(tasks: usize, quiet: bool) -> ProgressBar {
 }
 
 /// Assemble a table whose tasks are all done from its checkpoints (recomputing any that a
-/// concurrent build removed or that is corrupt), write it atomically into `out_dir` and remove
-/// its checkpoints.
-fn finish_table(s: &TableState, out_dir: &Path) -> Result<(), PipelineError> {
-    let chunks = (0..s.task_keys.len())
-        .map(
-            |i| match read_checkpoint(&s.checkpoint(i), &s.task_keys[i]) {
-                Some(v) => Ok(v),
-                None => s.planned.job.run_task(i),
-            },
-        )
-        .collect::<Result<Vec<_>, _>>()?;
-    let mut content = s.planned.job.assemble(chunks)?;
+/// concurrent build removed or that is unusable), write it atomically into `out_dir` and remove
+/// its checkpoints. A checkpoint whose number of values the stage refuses (e.g. written by a
+/// build with another layout) is named in the report and its task recomputed.
+fn finish_table(s: &TableState, out_dir: &Path, ctx: &Context) -> Result<(), PipelineError> {
+    // Each pass reads every checkpoint; a task without a usable one is computed and its
+    // checkpoint written. A pass ends with another pass only when the stage refused a chunk
+    // read from a checkpoint, which is then replaced: at most one extra pass per task.
+    let mut replaced = vec![false; s.task_keys.len()];
+    let mut content = loop {
+        let mut from_checkpoint = vec![false; s.task_keys.len()];
+        let chunks = (0..s.task_keys.len())
+            .map(|i| match s.read(i, ctx) {
+                Some(v) => {
+                    from_checkpoint[i] = true;
+                    Ok(v)
+                }
+                None => recompute(s, i, ctx),
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        match s.planned.job.assemble(chunks) {
+            Err(JobError::ChunkLength {
+                index,
+                got,
+                expected,
+            }) if from_checkpoint.get(index) == Some(&true) && !replaced[index] => {
+                ctx.reject(
+                    &s.checkpoint(index),
+                    format!("wrong length: {got} values, the table needs {expected}"),
+                );
+                replaced[index] = true;
+                recompute(s, index, ctx)?;
+            }
+            r => break r?,
+        }
+    };
     if let Some(d) = &s.planned.description {
         content
             .attributes
@@ -623,6 +783,18 @@ fn finish_table(s: &TableState, out_dir: &Path) -> Result<(), PipelineError> {
     write_table_atomic(&mut table, &table_path(out_dir, &s.planned.name))?;
     crate::workdir::remove_table_work_dir(&s.work_dir)?;
     Ok(())
+}
+
+/// Compute task `task` of a table and write its checkpoint.
+fn recompute(s: &TableState, task: usize, ctx: &Context) -> Result<Vec<f32>, PipelineError> {
+    let values = s.planned.job.run_task(task)?;
+    write_checkpoint(
+        &s.checkpoint(task),
+        &s.task_keys[task],
+        &ctx.secret,
+        &values,
+    )?;
+    Ok(values)
 }
 
 /// Remove the work directory if no table uses it any more (ignoring failure: another build

@@ -4,9 +4,12 @@
 //! - A build writes and deletes only inside `--out`: each of those paths (and `.work/<table>`)
 //!   is refused when it is a symbolic link, since a link would make `remove_dir_all` or a write
 //!   act on a directory elsewhere.
-//! - Checkpoints carry a hash bound to their task key (SHA-256 over the key, a separator and
-//!   the values), so a checkpoint whose values were changed and whose plain SHA-256 was
-//!   recomputed, or a checkpoint copied from another task, does not verify.
+//! - Checkpoints carry a keyed hash (HMAC-SHA-256) of their task key and values under a secret
+//!   of the output directory, `<out>/.checkpoint-key` (32 random bytes, mode 0600, created by
+//!   the first build; `SCATTERBAKE_CHECKPOINT_KEY_FILE` names another file, e.g. one outside a
+//!   shared directory). A checkpoint whose values were changed and whose hash was recomputed
+//!   without the secret, one copied from another task, and one copied from another output
+//!   directory do not verify: they are recomputed, not used.
 //! - The exclusive lock on `<out>/.lock` serialises assembly of complete tables and the catalog
 //!   rewrite between concurrent builds and shards.
 
@@ -21,6 +24,11 @@ pub enum WorkdirError {
          inside its output directory)"
     )]
     Symlink { path: PathBuf },
+    #[error(
+        "{path}: a checkpoint key must be 32 bytes, this file has {len} (remove it: the \
+         checkpoints are then recomputed)"
+    )]
+    CheckpointKey { path: PathBuf, len: usize },
     #[error("{path}: {source}")]
     Io {
         path: PathBuf,
@@ -49,9 +57,10 @@ fn gone_is_fine(e: std::io::Error, path: &Path) -> Result<(), WorkdirError> {
     }
 }
 
-/// Refuse symbolic links at the build's own paths of `out`: `.work`, `.lock`, `index.json`.
+/// Refuse symbolic links at the build's own paths of `out`: `.work`, `.lock`, `index.json`,
+/// `.checkpoint-key`.
 pub fn check_out_dir(out: &Path) -> Result<(), WorkdirError> {
-    for name in [".work", ".lock", "index.json"] {
+    for name in [".work", ".lock", "index.json", CHECKPOINT_KEY_FILE] {
         refuse_symlink(&out.join(name))?;
     }
     Ok(())
@@ -69,16 +78,106 @@ pub fn remove_table_work_dir(work_dir: &Path) -> Result<(), WorkdirError> {
     std::fs::remove_dir_all(work_dir).or_else(|e| gone_is_fine(e, work_dir))
 }
 
-/// Hash of a checkpoint's values bound to its task key.
-pub fn checkpoint_hash(task_key: &str, values: &[f32]) -> String {
-    let mut h = Sha256::new();
-    h.update(b"scatterbake checkpoint\0");
-    h.update(task_key.as_bytes());
-    h.update([0u8]);
-    for v in values {
-        h.update(v.to_le_bytes());
+/// File of the checkpoint secret in an output directory.
+pub const CHECKPOINT_KEY_FILE: &str = ".checkpoint-key";
+/// Environment variable naming the checkpoint secret file instead of `<out>/.checkpoint-key`.
+pub const CHECKPOINT_KEY_ENV: &str = "SCATTERBAKE_CHECKPOINT_KEY_FILE";
+/// Length of the checkpoint secret (bytes).
+const CHECKPOINT_KEY_BYTES: usize = 32;
+/// Block length of SHA-256 (bytes), for HMAC.
+const SHA256_BLOCK: usize = 64;
+
+/// The secret that keys the checkpoint hashes of one output directory.
+#[derive(Clone, PartialEq, Eq)]
+pub struct CheckpointKey([u8; CHECKPOINT_KEY_BYTES]);
+
+impl std::fmt::Debug for CheckpointKey {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("CheckpointKey(..)")
     }
-    hex::encode(h.finalize())
+}
+
+impl CheckpointKey {
+    /// A key from its bytes.
+    pub fn from_bytes(bytes: [u8; CHECKPOINT_KEY_BYTES]) -> Self {
+        CheckpointKey(bytes)
+    }
+}
+
+/// The checkpoint secret of `out`: read from `$SCATTERBAKE_CHECKPOINT_KEY_FILE` or
+/// `<out>/.checkpoint-key`, or created there (32 bytes from the operating system's random
+/// source, mode 0600) when missing. Concurrent builds agree on one key: the file is published
+/// by a hard link that fails when another build created it first.
+pub fn checkpoint_key(out: &Path) -> Result<CheckpointKey, WorkdirError> {
+    let path = std::env::var_os(CHECKPOINT_KEY_ENV)
+        .filter(|v| !v.is_empty())
+        .map(PathBuf::from)
+        .unwrap_or_else(|| out.join(CHECKPOINT_KEY_FILE));
+    refuse_symlink(&path)?;
+    let io = |source| WorkdirError::Io {
+        path: path.clone(),
+        source,
+    };
+    match std::fs::read(&path) {
+        Ok(bytes) => return key_from_file(&path, &bytes),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
+        Err(e) => return Err(io(e)),
+    }
+    let dir = path.parent().unwrap_or(Path::new("."));
+    let mut tmp = tempfile::Builder::new()
+        .prefix(".checkpoint-key.")
+        .tempfile_in(dir)
+        .map_err(io)?;
+    let mut secret = [0u8; CHECKPOINT_KEY_BYTES];
+    random_bytes(&mut secret).map_err(io)?;
+    {
+        use std::io::Write;
+        tmp.write_all(&secret).map_err(io)?;
+        tmp.as_file().sync_all().map_err(io)?;
+    }
+    // `tempfile` creates the file with mode 0600 on Unix.
+    match std::fs::hard_link(tmp.path(), &path) {
+        Ok(()) => Ok(CheckpointKey(secret)),
+        Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {
+            let bytes = std::fs::read(&path).map_err(io)?;
+            key_from_file(&path, &bytes)
+        }
+        Err(e) => Err(io(e)),
+    }
+}
+
+fn key_from_file(path: &Path, bytes: &[u8]) -> Result<CheckpointKey, WorkdirError> {
+    let secret: [u8; CHECKPOINT_KEY_BYTES] =
+        bytes.try_into().map_err(|_| WorkdirError::CheckpointKey {
+            path: path.into(),
+            len: bytes.len(),
+        })?;
+    Ok(CheckpointKey(secret))
+}
+
+/// Fill `buf` from the operating system's random source.
+fn random_bytes(buf: &mut [u8]) -> std::io::Result<()> {
+    use std::io::Read;
+    std::fs::File::open("/dev/urandom")?.read_exact(buf)
+}
+
+/// Keyed hash (HMAC-SHA-256, RFC 2104) of a checkpoint's values, bound to its task key.
+pub fn checkpoint_hash(key: &CheckpointKey, task_key: &str, values: &[f32]) -> String {
+    let mut block = [0u8; SHA256_BLOCK];
+    block[..CHECKPOINT_KEY_BYTES].copy_from_slice(&key.0);
+    let pad = |byte: u8| block.map(|b| b ^ byte);
+    let mut inner = Sha256::new();
+    inner.update(pad(0x36));
+    inner.update(b"scatterbake checkpoint\0");
+    inner.update(task_key.as_bytes());
+    inner.update([0u8]);
+    for v in values {
+        inner.update(v.to_le_bytes());
+    }
+    let mut outer = Sha256::new();
+    outer.update(pad(0x5c));
+    outer.update(inner.finalize());
+    hex::encode(outer.finalize())
 }
 
 /// An exclusive lock on `<out>/.lock`, released on drop.
@@ -127,9 +226,55 @@ mod tests {
     }
 
     #[test]
-    fn checkpoint_hash_is_bound_to_the_key() {
+    fn checkpoint_hash_is_bound_to_the_secret_the_task_and_the_values() {
+        let k = CheckpointKey::from_bytes([1; 32]);
         let v = [1.0f32, 2.0];
-        assert_ne!(checkpoint_hash("a", &v), checkpoint_hash("b", &v));
-        assert_ne!(checkpoint_hash("a", &v), checkpoint_hash("a", &[1.0, 3.0]));
+        assert_ne!(checkpoint_hash(&k, "a", &v), checkpoint_hash(&k, "b", &v));
+        assert_ne!(
+            checkpoint_hash(&k, "a", &v),
+            checkpoint_hash(&k, "a", &[1.0, 3.0])
+        );
+        let other = CheckpointKey::from_bytes([2; 32]);
+        assert_ne!(
+            checkpoint_hash(&k, "a", &v),
+            checkpoint_hash(&other, "a", &v)
+        );
+    }
+
+    #[test]
+    fn checkpoint_hash_is_hmac_sha256() {
+        // HMAC (RFC 2104) written out from its definition for a 32-byte key.
+        let k = CheckpointKey::from_bytes([0x0b; 32]);
+        let mut msg = b"scatterbake checkpoint\0t\0".to_vec();
+        msg.extend(1.5f32.to_le_bytes());
+        let mut ipad = vec![0x36u8 ^ 0x0b; 32];
+        ipad.extend([0x36u8; 32]);
+        let mut opad = vec![0x5cu8 ^ 0x0b; 32];
+        opad.extend([0x5cu8; 32]);
+        let inner = Sha256::digest([ipad, msg].concat());
+        let outer = Sha256::digest([opad, inner.to_vec()].concat());
+        assert_eq!(checkpoint_hash(&k, "t", &[1.5]), hex::encode(outer));
+    }
+
+    #[test]
+    fn checkpoint_key_is_created_once_and_shared() {
+        let d = tempfile::tempdir().unwrap();
+        let a = checkpoint_key(d.path()).unwrap();
+        let b = checkpoint_key(d.path()).unwrap();
+        assert_eq!(a, b);
+        let bytes = std::fs::read(d.path().join(CHECKPOINT_KEY_FILE)).unwrap();
+        assert_eq!(bytes.len(), 32);
+        use std::os::unix::fs::PermissionsExt;
+        let mode = std::fs::metadata(d.path().join(CHECKPOINT_KEY_FILE))
+            .unwrap()
+            .permissions()
+            .mode();
+        assert_eq!(mode & 0o077, 0, "readable by others: {mode:o}");
+        std::fs::write(d.path().join(CHECKPOINT_KEY_FILE), b"short").unwrap();
+        let e = checkpoint_key(d.path()).unwrap_err();
+        assert!(
+            e.to_string().contains("must be 32 bytes, this file has 5"),
+            "{e}"
+        );
     }
 }

@@ -127,6 +127,12 @@ pub trait Job: Send + Sync {
     fn run_task(&self, index: usize) -> Result<Vec<f32>, JobError>;
     /// Assemble the chunks (in task order) into the table.
     fn assemble(&self, chunks: Vec<Vec<f32>>) -> Result<TableContent, JobError>;
+    /// Uncompressed size of the table's values in bytes, known before any task runs (`None`:
+    /// the stage does not say; `Some(u64::MAX)` when the count overflows). The pipeline refuses
+    /// at plan time a table the reader would refuse (`ReadLimits::max_payload_bytes`).
+    fn payload_bytes(&self) -> Option<u64> {
+        None
+    }
 }
 
 /// Run a planned job in memory, tasks in parallel (rayon), without checkpoints or files: the

@@ -3,7 +3,7 @@
 //! serves as the reference table for the index used by the scattering stages.
 
 use crate::optics::water::{WaterIndexModel, water_density_kell_kg_m3};
-use crate::stages::{Job, JobError, PlanError, StageSpec, TaskSpec, stage_params};
+use crate::stages::{Job, JobError, PlanError, StageSpec, TaskSpec, check_chunks, stage_params};
 use crate::table::{Axis, Channel, Schema, TableContent};
 
 /// The stage.
@@ -100,8 +100,18 @@ impl Job for WaterIndexJob {
             .map(|&l| Ok(model.index(l)? as f32))
             .collect()
     }
+    /// Temperatures × wavelengths × one channel of f32.
+    fn payload_bytes(&self) -> Option<u64> {
+        Some(
+            (self.p.temperature_c.len() as u64)
+                .checked_mul(self.count as u64)
+                .and_then(|v| v.checked_mul(4))
+                .unwrap_or(u64::MAX),
+        )
+    }
     fn assemble(&self, chunks: Vec<Vec<f32>>) -> Result<TableContent, JobError> {
         // chunks are per temperature; the table is temperature × wavelength.
+        check_chunks(&chunks, self.p.temperature_c.len(), self.count)?;
         let data: Vec<f32> = chunks.into_iter().flatten().collect();
         let mut attributes = serde_json::Map::new();
         attributes.insert(

@@ -49,6 +49,9 @@ pub fn run_build(a: BuildArgs) -> Result<i32> {
         force: a.force,
         quiet: a.quiet,
     })?;
+    for c in &report.checkpoints_rejected {
+        eprintln!("warning: checkpoint {c}");
+    }
     if !a.no_previews {
         draw_previews(&a.out, &report.tables_written);
     }

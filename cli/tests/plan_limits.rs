@@ -1,0 +1,46 @@
+//! A table larger than the reader accepts is refused when the build is planned, before any task
+//! runs or any file is written.
+
+use std::process::Command;
+
+#[test]
+fn a_36_gb_water_index_grid_is_refused_at_plan_time() {
+    let d = tempfile::tempdir().unwrap();
+    // 10 000 temperatures × ~900 000 wavelengths × 4 bytes ≈ 36 GB (33.5 GiB).
+    let temps: Vec<String> = (0..10_000)
+        .map(|i| format!("{}", i as f64 * 0.01))
+        .collect();
+    let m = d.path().join("huge.toml");
+    std::fs::write(
+        &m,
+        format!(
+            "[[table]]\nname = \"water-huge\"\nstage = \"water-index\"\n[table.params]\n\
+             wavelength_nm = [200.0, 1100.0, 0.001]\ntemperature_c = [{}]\n",
+            temps.join(", ")
+        ),
+    )
+    .unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_scatterbake"))
+        .args(["build", m.to_str().unwrap(), "--out", "out", "-q"])
+        .current_dir(d.path())
+        .env_remove("SLURM_ARRAY_TASK_ID")
+        .env_remove("JOB_COMPLETION_INDEX")
+        .output()
+        .unwrap();
+    let t = format!(
+        "{}{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert!(!o.status.success(), "{t}");
+    assert!(!t.contains("panicked"), "{t}");
+    for part in [
+        "table `water-huge`",
+        "huge.toml",
+        "bytes of values (33.5 GiB)",
+        "reader's limit of 4294967296 bytes",
+    ] {
+        assert!(t.contains(part), "missing `{part}`: {t}");
+    }
+    assert!(!d.path().join("out").exists(), "nothing is written");
+}
