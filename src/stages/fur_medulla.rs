@@ -25,6 +25,8 @@ use serde::{Deserialize, Serialize};
 use serde_json::json;
 use std::f64::consts::PI;
 
+#[path = "fur_medulla_adaptive.rs"]
+mod adaptive_job;
 #[path = "fur_medulla_slab.rs"]
 mod slab_job;
 
@@ -127,9 +129,12 @@ struct Params {
     /// `None` in a manifest = the family's default (resolved in `plan`).
     #[serde(default)]
     method: Option<Method>,
-    /// Monte Carlo only (0 = not given).
+    /// Monte Carlo: paths per entry; adaptive: the cap per entry (0 = not given).
     #[serde(default)]
     photons: u64,
+    /// Adaptive only: target relative standard error on bins above 1e-3 of the maximum.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    target_rel_error: Option<f64>,
     #[serde(default)]
     seed: u64,
     #[serde(default)]
@@ -146,6 +151,10 @@ fn default_bins() -> usize {
 pub enum Method {
     /// 2-D Monte Carlo ([`crate::fur::medulla`]); both families; needs `photons`.
     MonteCarlo,
+    /// Closed-form single scattering plus next-event Monte Carlo of the higher orders, run
+    /// until `target_rel_error` or `photons` ([`crate::fur::medulla_fast`]); azimuthal only
+    /// (the default there).
+    Adaptive,
     /// Adding–doubling on the circle of directions ([`crate::fur::slab`]); longitudinal only,
     /// deterministic (the default there).
     AddingDoubling,
@@ -177,10 +186,22 @@ const PARAMS_AZ: &[ParamDoc] = &[
         description: "exit-direction bins over [−π, π), even",
     },
     ParamDoc {
+        name: "method",
+        kind: "string",
+        default: "adaptive",
+        description: "`adaptive` (closed-form single scattering, next-event Monte Carlo of the higher orders until the target error, batch error bars) or `monte-carlo` (fixed photons)",
+    },
+    ParamDoc {
         name: "photons",
         kind: "integer",
         default: "required",
-        description: "paths per entry",
+        description: "monte-carlo: paths per entry; adaptive: the cap per entry",
+    },
+    ParamDoc {
+        name: "target_rel_error",
+        kind: "float",
+        default: "0.01",
+        description: "adaptive only: stop an entry once every bin above 1e-3 of its maximum has this relative standard error",
     },
     ParamDoc {
         name: "seed",
@@ -192,7 +213,7 @@ const PARAMS_AZ: &[ParamDoc] = &[
         name: "estimator",
         kind: "string",
         default: "expected",
-        description: "`expected` (next-event, default) or `histogram`",
+        description: "monte-carlo only: `expected` (next-event, default) or `histogram`",
     },
 ];
 
@@ -270,10 +291,30 @@ fn plan(
                 "adding-doubling is a slab solver: longitudinal stage only",
             ));
         }
-        (Family::Azimuthal, _) => Method::MonteCarlo,
+        (Family::Longitudinal, Some(Method::Adaptive)) => {
+            return Err(PlanError::invalid(
+                "method",
+                "adaptive is the disc estimator: azimuthal stage only",
+            ));
+        }
+        (Family::Azimuthal, m) => m.unwrap_or(Method::Adaptive),
         (Family::Longitudinal, m) => m.unwrap_or(Method::AddingDoubling),
     };
     p.method = Some(method);
+    match (method, p.target_rel_error) {
+        (Method::Adaptive, None) => p.target_rel_error = Some(0.01),
+        (Method::Adaptive, Some(t)) if !(t > 0.0 && t < 1.0) => {
+            return Err(PlanError::invalid("target_rel_error", "must be in (0, 1)"));
+        }
+        (Method::Adaptive, Some(_)) => {}
+        (_, Some(_)) => {
+            return Err(PlanError::invalid(
+                "target_rel_error",
+                "only for method = \"adaptive\"",
+            ));
+        }
+        (_, None) => {}
+    }
     let sigma = p.sigma.points();
     let g = p.g.points();
     check_grid("sigma", &sigma, 0.0, 200.0, false, false)?;
@@ -330,16 +371,20 @@ fn plan(
     if p.photons == 0 || p.photons > 1_000_000_000 {
         return Err(PlanError::invalid(
             "photons",
-            "must be in 1..=1e9 (required for method = \"monte-carlo\")",
+            "must be in 1..=1e9 (required for the Monte Carlo methods)",
         ));
     }
-    Ok(Box::new(MedullaJob {
+    let job = MedullaJob {
         family,
         p,
         sigma,
         g,
         entries,
-    }))
+    };
+    if method == Method::Adaptive {
+        return Ok(Box::new(adaptive_job::AdaptiveJob::new(job)));
+    }
+    Ok(Box::new(job))
 }
 
 impl Stage for FurMedullaAzimuthalStage {
@@ -347,10 +392,10 @@ impl Stage for FurMedullaAzimuthalStage {
         "fur-medulla-azimuthal"
     }
     fn algorithm_version(&self) -> u32 {
-        1
+        2
     }
     fn summary(&self) -> &'static str {
-        "fur medulla azimuthal scattering C^N(φ'; h', σ, g): 2-D Monte Carlo in the unit disc"
+        "fur medulla azimuthal scattering C^N(φ'; h', σ, g): 2-D transport in the unit disc (adaptive or fixed-photon Monte Carlo)"
     }
     fn parameters(&self) -> &'static [ParamDoc] {
         PARAMS_AZ
