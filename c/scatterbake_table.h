@@ -3,10 +3,11 @@
  *
  * The functions are exported by the C dynamic library of the workspace crate `capi/`
  * (`cargo build -p scatterbake-capi --release` produces target/release/libscatterbake_table.so,
- * .dylib or scatterbake_table.dll). Link with -lscatterbake_table. The library does all the verification (magic, format version: newer
- * majors are refused, SHA-256 of the header and of the compressed and uncompressed payload,
- * sizes) with the same code as the Rust reader, so a table that opens here is bit-identical to
- * what the Rust writer wrote.
+ * .dylib or scatterbake_table.dll). Link with -lscatterbake_table. The library does all the
+ * verification (magic, format version: newer majors are refused with an error naming the
+ * version, newer minors are read and header fields it does not know are ignored; SHA-256 of the
+ * header and of the compressed and uncompressed payload, sizes) with the same code as the Rust
+ * reader, so a table that opens here is bit-identical to what the Rust writer wrote.
  *
  * Data layout: row-major float32, axes in header order, channel index innermost:
  *     value(i_0, ..., i_{n-1}, c) = data[((i_0 * len_1 + i_1) * ... + i_{n-1}) * n_channels + c]
@@ -14,11 +15,14 @@
  * coordinates outside an axis to its end points (no extrapolation).
  *
  * All returned pointers stay valid until sbt_close(). Out-of-range indices return 0 or NULL.
+ * No call aborts the host process: an internal error is caught and reported as a failure
+ * (NULL with a message from sbt_open, 0 / NULL / -1 from the other calls).
  */
 #ifndef SCATTERBAKE_TABLE_H
 #define SCATTERBAKE_TABLE_H
 
 #include <stddef.h>
+#include <stdint.h>
 
 #ifdef __cplusplus
 extern "C" {
@@ -26,12 +30,16 @@ extern "C" {
 
 typedef struct SbtTable sbt_table;
 
-/* Open and fully verify a table. NULL on failure, with a message in err (if not NULL). */
+/* Open and fully verify a table (every structural rule of docs/table-format.md; uncompressed
+ * payload at most 4 GiB). NULL on failure, with a message in err (if not NULL). */
 sbt_table *sbt_open(const char *path, char *err, size_t err_len);
+/* Like sbt_open with another payload limit in bytes (0 = the default 4 GiB). */
+sbt_table *sbt_open_limit(const char *path, uint64_t max_payload_bytes, char *err, size_t err_len);
 /* Free a table (NULL is ignored). */
 void sbt_close(sbt_table *t);
 
-/* The verified JSON header (schema, axes, channels, attributes, provenance, payload). */
+/* The verified JSON header (schema, axes, channels, attributes, provenance, payload), as this
+ * library version understands it: fields added by a newer minor version are not included. */
 const char *sbt_header_json(const sbt_table *t);
 
 size_t sbt_num_axes(const sbt_table *t);

@@ -29,14 +29,12 @@ fn main() -> anyhow::Result<()> {
         let content = job.assemble(chunks)?;
         let secs = t0.elapsed().as_secs_f64();
         let a = &content.attributes;
-        // Deterministic tables have no standard errors.
-        let in_se = a
-            .get("energy_identity_max_deviation_std_errors")
-            .and_then(|v| v.as_f64())
-            .map_or(String::new(), |v| format!(" ({v:.2} std errors)"));
         println!(
-            "{name}: {n} tasks, {secs:.1} s, energy identity max dev {:.3e}{in_se}",
+            "{name}: {n} tasks, {secs:.1} s, energy identity max dev {:.3e} ({:.2} std errors)",
             a["energy_identity_max_deviation"].as_f64().unwrap(),
+            a["energy_identity_max_deviation_std_errors"]
+                .as_f64()
+                .unwrap()
         );
         // Relative standard error over bins above 1e-3 of each row's maximum (energy channel).
         let nc = content.channels.len();

@@ -13,7 +13,11 @@ import struct
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-import scatterbake_table as sbt  # noqa: E402
+try:
+    import scatterbake_table as sbt  # noqa: E402
+except ImportError as e:
+    print(f"missing Python module {e.name!r}: python3 -m pip install numpy zstandard", file=sys.stderr)
+    sys.exit(2)
 
 
 def bits(x) -> int:

@@ -2,8 +2,9 @@
 //! `tests/data/mie_*.json`, from the project's reference set), the `scatrs` crate, and
 //! rainbow maxima computed independently with miepython 3.3.0.
 //!
-//! Fast tests run by default; the x = 25000 reference and the scatrs grid up to 2e4 are
-//! `#[ignore]`d: `cargo test --release --test mie_reference -- --ignored --nocapture`.
+//! Fast tests run by default (including the x = 25000 reference); the scatrs grid up to 2e4 and
+//! the convergence checks up to x = 1e5 are `#[ignore]`d:
+//! `cargo test --release --test mie_reference -- --ignored --nocapture`.
 
 use num_complex::Complex64;
 use scatterbake::mie::filters::gaussian_blur_1d;
@@ -80,7 +81,6 @@ fn arbitrary_precision_x2000_absorbing() {
 
 /// x = 25000, m = 1.333 against 40-digit mpmath values (beyond scatrs' validated domain).
 #[test]
-#[ignore = "x = 25000: ~1 s in release; run with --ignored"]
 fn arbitrary_precision_x25000() {
     let r = load("mie_x25000_m1.333.json");
     let angles = [
@@ -168,7 +168,7 @@ fn agrees_with_scatrs() {
 
 /// scatrs grid up to its validated limit x = 2e4.
 #[test]
-#[ignore = "large x; run with --ignored"]
+#[ignore = "long validation (≈10 s); run with cargo test --release -- --ignored"]
 fn agrees_with_scatrs_large_x() {
     let mut worst = [0.0f64; 4];
     for x in [3000.0, 5000.0, 10000.0, 20000.0] {
@@ -191,7 +191,7 @@ fn agrees_with_scatrs_large_x() {
 /// downward recurrence changes nothing, Q_sca from the coefficients equals the angular
 /// integral of s11, and Q_ext = Q_sca for k = 0.
 #[test]
-#[ignore = "x = 1e5: tens of seconds; run with --ignored"]
+#[ignore = "long validation (≈2 min); run with cargo test --release -- --ignored"]
 fn convergence_and_energy_beyond_scatrs() {
     for x in [5e4, 1e5] {
         let m = Complex64::new(1.333, 0.0);

@@ -32,7 +32,7 @@ fn shipped_manifests_plan() {
 }
 
 #[test]
-#[ignore = "builds the whole default table (~1 min of CPU in release); run with --ignored"]
+#[ignore = "long validation: builds the whole default table (≈3 min on 2 cores); run with cargo test --release -- --ignored"]
 fn default_manifest_builds_normalised() {
     use rayon::prelude::*;
     let jobs = plan_manifest("manifests/rainbow-mie.toml");

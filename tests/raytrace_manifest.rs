@@ -1,6 +1,6 @@
 //! The default manifest `manifests/rainbow-raytraced.toml` plans, runs and assembles into tables that
-//! satisfy the phase-function contract. Timing (2 threads, as on the CI machine):
-//! `cargo test --release --test raytrace_manifest -- --ignored --nocapture`.
+//! satisfy the phase-function contract. The full build, with timing (2 threads, as on the CI
+//! machine): `cargo test --release --test raytrace_manifest -- --ignored --nocapture`.
 
 use scatterbake::stages;
 
@@ -42,8 +42,14 @@ fn default_and_full_manifests_plan() {
     assert!(bows.iter().all(|(_, j)| j.tasks().len() == 12 * 2));
 }
 
+/// Every table of the default manifest builds on 2 threads (timing printed) and keeps the
+/// phase-function contract: the four leading channels and the stated conventions, finite
+/// non-negative phase values, and an integral of the phase function over 4π before
+/// renormalisation (`integral_check`) within a few per cent of 1: the traced orders 0–3 carry
+/// ≈ 99.7 % of the intercepted flux and the forward lobe the diffracted rest (docs/raytrace.md;
+/// point-sampled cusp caustics of the 3 mm drop push it above 1).
 #[test]
-#[ignore]
+#[ignore = "long validation (≈20 s); run with cargo test --release -- --ignored"]
 fn build_default_manifest_two_threads() {
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(2)
@@ -63,6 +69,30 @@ fn build_default_manifest_two_threads() {
                 table.data.len(),
                 table.attributes["integral_check"]["values"]
             );
+            let names: Vec<&str> = table.channels.iter().map(|c| c.name.as_str()).collect();
+            assert_eq!(
+                names[..4],
+                scatterbake::stages::phase_contract::CHANNELS,
+                "{name}"
+            );
+            for key in ["normalization", "angle_convention", "water_index_model"] {
+                assert!(table.attributes.contains_key(key), "{name}: no `{key}`");
+            }
+            let nc = table.channels.len();
+            assert!(
+                table
+                    .data
+                    .chunks(nc)
+                    .all(|c| c[0].is_finite() && c[0] >= 0.0),
+                "{name}: phase not finite and non-negative"
+            );
+            for v in table.attributes["integral_check"]["values"]
+                .as_array()
+                .unwrap()
+            {
+                let v = v.as_f64().unwrap();
+                assert!((0.97..1.05).contains(&v), "{name}: ∫ p dΩ = {v}");
+            }
         }
         println!("total {:.1} s", t0.elapsed().as_secs_f64());
     });

@@ -2,8 +2,8 @@
 //! (dev-dependency, an independent implementation), reference maxima computed independently
 //! with miepython 3.3.0, and the 1-D geometric-optics-plus-phase path.
 //!
-//! The slow report (`cargo test --test raytrace_validation -- --ignored --nocapture`) prints
-//! the accuracy figures quoted in docs/raytrace.md.
+//! The slow validations (`cargo test --release --test raytrace_validation -- --ignored
+//! --nocapture`) check, and print, the accuracy figures quoted in docs/raytrace.md.
 
 use num_complex::Complex;
 use scatrs::mie::{AmplitudeBuffers, Mie, MieOptions};
@@ -238,9 +238,14 @@ fn window(angles: &[f64], v: &[f64], lo: f64, hi: f64) -> Vec<f64> {
         .collect()
 }
 
+/// Sphere 0.4 mm, 650 nm, sun elevation 17°: the 2-D tracer converges to the 1-D GO+phase path
+/// as the ray grid is refined (400², 800², 1200²; docs/raytrace.md): the relative L2 of the
+/// primary (p = 2) and secondary (p = 3) orders falls at every step, the primary supernumeraries
+/// stay within one table bin (0.02°), and at 1200² the figures of docs/raytrace.md hold.
 #[test]
-#[ignore]
-fn report_sphere_2d_vs_1d() {
+#[ignore = "long validation (≈10 s); run with cargo test --release -- --ignored"]
+fn sphere_2d_tracer_converges_to_1d_with_rays() {
+    let mut prev = (f64::INFINITY, f64::INFINITY);
     for &(a, rays) in &[(400.0, 400usize), (400.0, 800), (400.0, 1200)] {
         let t = std::time::Instant::now();
         let c = compare_sphere_2d(a, 650.0, 1.331, rays, 9001, 4, 0.3);
@@ -253,33 +258,57 @@ fn report_sphere_2d_vs_1d() {
         let m1 = maxima(&c.angles, &s1, 138.3, 141.0);
         let s23 = smooth(&c.order2d[3], sig);
         let s13 = smooth(&c.order1d[3], sig);
+        let l2_p2 = rel_l2(
+            &window(&c.angles, &s2, 130.0, 145.0),
+            &window(&c.angles, &s1, 130.0, 145.0),
+        );
+        let l2_p3 = rel_l2(
+            &window(&c.angles, &s23, 120.0, 130.0),
+            &window(&c.angles, &s13, 120.0, 130.0),
+        );
+        let dev = m2
+            .iter()
+            .zip(&m1)
+            .map(|(x, y)| (x - y).abs())
+            .fold(0.0, f64::max);
         println!(
             "a={a} rays={rays} t={el:.2}s phi_spread={:.3e}",
             c.phi_spread
         );
-        println!("  p2 maxima 2d {m2:?}\n           1d {m1:?}");
+        println!("  p2 maxima 2d {m2:?}\n           1d {m1:?} (max dev {dev:.4})");
         println!(
             "  p3 maxima 2d {:?}\n           1d {:?}",
             maxima(&c.angles, &s23, 124.0, 128.0),
             maxima(&c.angles, &s13, 124.0, 128.0)
         );
         println!(
-            "  L2 p2 130-145 {:.4}  p3 120-130 {:.4}  iperp(smoothed) 130-145 {:.4}",
-            rel_l2(
-                &window(&c.angles, &s2, 130.0, 145.0),
-                &window(&c.angles, &s1, 130.0, 145.0)
-            ),
-            rel_l2(
-                &window(&c.angles, &s23, 120.0, 130.0),
-                &window(&c.angles, &s13, 120.0, 130.0)
-            ),
+            "  L2 p2 130-145 {l2_p2:.4}  p3 120-130 {l2_p3:.4}  iperp(smoothed) 130-145 {:.4}",
             rel_l2(
                 &window(&c.angles, &smooth(&c.iperp2d, sig), 130.0, 145.0),
                 &window(&c.angles, &smooth(&c.iperp1d, sig), 130.0, 145.0)
             )
         );
         println!("  cross sections {:?}", c.cross_sections);
+        assert_eq!(m2.len(), m1.len(), "rays={rays}: {m2:?} vs {m1:?}");
+        assert!(m1.len() >= 5);
+        assert!(dev <= 0.02, "rays={rays}: supernumerary deviation {dev}");
+        assert!(
+            l2_p2 < prev.0 && l2_p3 < prev.1,
+            "rays={rays}: L2 p2 {l2_p2} p3 {l2_p3} did not fall from {prev:?}"
+        );
+        prev = (l2_p2, l2_p3);
+        let go = SphereGo::new(a, 650.0, 1.331, 3);
+        for p in 0..4 {
+            let want = go.energy_fraction(p) * PI * a * a;
+            assert!(
+                (c.cross_sections[p] / want - 1.0).abs() < 0.01,
+                "rays={rays} p={p}: {} vs {want}",
+                c.cross_sections[p]
+            );
+        }
     }
+    // docs/raytrace.md at 1200²: L2 p = 2 0.39 %, p = 3 2.2 %.
+    assert!(prev.0 < 0.006 && prev.1 < 0.03, "1200²: {prev:?}");
 }
 
 /// Sphere 0.4 mm, 650 nm: the general 2-D patch tracer (800² rays, sun elevation 17°) against
@@ -416,9 +445,15 @@ fn beard_chuang_symmetries() {
     ));
 }
 
+/// Beard–Chuang 1 mm with the sun on its axis: the table is φ-symmetric in the limit of a fine
+/// ray grid. The worst per-column relative L2 against the azimuth mean (100°–175°) falls as the
+/// ray grid is refined (docs/raytrace.md: 0.075 / 0.032 / 0.010 at 300² / 600² / 1200²), and the
+/// flux leaving in orders 0–3 is at most the intercepted flux and at least 99 % of it
+/// (docs/raytrace.md: 99.77 % at 1200²; the rest leaves in orders ≥ 4).
 #[test]
-#[ignore]
-fn report_bc_axis_symmetry() {
+#[ignore = "long validation (≈15 s); run with cargo test --release -- --ignored"]
+fn beard_chuang_axis_symmetry_converges_with_rays() {
+    let mut prev = f64::INFINITY;
     for rays in [300usize, 600, 1200] {
         let grid = DirectionGrid {
             n_polar: 1801,
@@ -436,49 +471,65 @@ fn report_bc_axis_symmetry() {
         let f = trace_fields(&bc, &cfg, grid);
         let el = t.elapsed().as_secs_f64();
         let angles: Vec<f64> = (0..1801).map(|j| 0.1 * j as f64).collect();
-        for sig in [2.0, 5.0] {
-            let cols: Vec<Vec<f64>> = (0..12)
-                .map(|k| {
-                    smooth(
-                        &(0..1801)
-                            .map(|j| {
-                                let (p, q, _) = f.intensities(j, k);
-                                p + q
-                            })
-                            .collect::<Vec<_>>(),
-                        sig,
-                    )
-                })
-                .collect();
-            let mean: Vec<f64> = (0..1801)
-                .map(|j| cols.iter().map(|c| c[j]).sum::<f64>() / 12.0)
-                .collect();
-            let per: Vec<f64> = cols
-                .iter()
-                .map(|c| {
-                    rel_l2(
-                        &window(&angles, c, 100.0, 175.0),
-                        &window(&angles, &mean, 100.0, 175.0),
-                    )
-                })
-                .collect();
-            println!(
-                "rays={rays} t={el:.2}s smooth={sig} per-column L2 {:?}",
-                per.iter().map(|x| format!("{x:.3}")).collect::<Vec<_>>()
-            );
-        }
+        let cols: Vec<Vec<f64>> = (0..12)
+            .map(|k| {
+                smooth(
+                    &(0..1801)
+                        .map(|j| {
+                            let (p, q, _) = f.intensities(j, k);
+                            p + q
+                        })
+                        .collect::<Vec<_>>(),
+                    2.0,
+                )
+            })
+            .collect();
+        let mean: Vec<f64> = (0..1801)
+            .map(|j| cols.iter().map(|c| c[j]).sum::<f64>() / 12.0)
+            .collect();
+        let per: Vec<f64> = cols
+            .iter()
+            .map(|c| {
+                rel_l2(
+                    &window(&angles, c, 100.0, 175.0),
+                    &window(&angles, &mean, 100.0, 175.0),
+                )
+            })
+            .collect();
+        let worst = per.iter().cloned().fold(0.0, f64::max);
+        let total = f.order_cross_section_um2.iter().sum::<f64>() / f.projected_area_um2;
         println!(
-            "cross sections {:?} projected {}",
-            f.order_cross_section_um2, f.projected_area_um2
+            "rays={rays} t={el:.2}s per-column L2 {:?} (worst {worst:.4}); orders 0-3 carry {total:.5} of the projected-area flux; cross sections {:?} projected {}",
+            per.iter().map(|x| format!("{x:.3}")).collect::<Vec<_>>(),
+            f.order_cross_section_um2,
+            f.projected_area_um2
+        );
+        assert!(
+            worst < prev,
+            "rays={rays}: worst column L2 {worst} vs {prev}"
+        );
+        prev = worst;
+        assert!(
+            (0.99..=1.0).contains(&total),
+            "rays={rays}: orders 0-3 carry {total}"
         );
     }
+    assert!(prev < 0.02, "1200²: worst column L2 {prev}");
 }
 
+/// A cosine series with all coefficients zero is the sphere: traced through the general series
+/// path (implicit surface, bracketing root finding, analytic normals) it reproduces the sphere
+/// path. Per-order cross-sections agree better as the ray grid is refined (200², 400²) and to
+/// 0.5 % at 400²; the per-order angular distributions agree where each order carries its flux;
+/// and the p = 0 order (external reflection) of both matches the 1-D geometric-optics field
+/// from 30° to 60° (nearer the forward direction grazing reflection is resolved only coarsely by
+/// the patches: +8 % at 20°, and nothing below 10°).
 #[test]
-#[ignore]
-fn report_series_vs_sphere() {
+fn zero_series_drop_is_the_sphere() {
     let sphere = DropShape::Sphere { radius_um: 400.0 };
-    let bc04 = DropShape::Series(CosineSeries::new(400.0, vec![0.0; 8]).unwrap());
+    let series = DropShape::Series(CosineSeries::new(400.0, vec![0.0; 8]).unwrap());
+    let go = SphereGo::new(400.0, 650.0, 1.331, 3);
+    let mut prev = [f64::INFINITY; 4];
     for rays in [200usize, 400] {
         let cfg = TraceConfig {
             rays,
@@ -492,7 +543,7 @@ fn report_series_vs_sphere() {
             n_azimuth: 4,
         };
         let fs = trace_fields(&sphere, &cfg, g);
-        let fb = trace_fields(&bc04, &cfg, g);
+        let fb = trace_fields(&series, &cfg, g);
         println!(
             "rays {rays}: xs sphere {:?}\n  series {:?}",
             fs.order_cross_section_um2, fb.order_cross_section_um2
@@ -501,8 +552,24 @@ fn report_series_vs_sphere() {
             "  patch sphere {:?}\n  series {:?}",
             fs.patch_cross_section_um2, fb.patch_cross_section_um2
         );
+        for (p, last) in prev.iter_mut().enumerate() {
+            let (a, b) = (fs.order_cross_section_um2[p], fb.order_cross_section_um2[p]);
+            let d = (b / a - 1.0).abs();
+            assert!(d < *last, "rays={rays} p={p}: {d} not below {last}");
+            *last = d;
+        }
+        if rays < 400 {
+            continue;
+        }
+        assert!(prev.iter().all(|d| *d < 0.005), "400²: {prev:?}");
         let ang: Vec<f64> = (0..901).map(|j| 0.2 * j as f64).collect();
-        for p in 0..4 {
+        // Where each order carries its flux (p = 1 away from its shadow boundary at 82.6°).
+        for (p, lo, hi, tol) in [
+            (0, 60.0, 150.0, 0.02),
+            (1, 2.0, 60.0, 0.02),
+            (2, 120.0, 150.0, 0.05),
+            (3, 120.0, 150.0, 0.15),
+        ] {
             let m = |f: &scatterbake::raytrace::tracer::FieldGrid| -> Vec<f64> {
                 smooth(
                     &(0..901)
@@ -511,47 +578,29 @@ fn report_series_vs_sphere() {
                     1.0,
                 )
             };
-            let (a, b) = (m(&fs), m(&fb));
-            for (lo, hi) in [(2.0, 60.0), (60.0, 120.0), (120.0, 150.0), (150.0, 178.0)] {
-                print!(
-                    " p{p} [{lo},{hi}] {:.3}",
-                    rel_l2(&window(&ang, &b, lo, hi), &window(&ang, &a, lo, hi))
-                );
-            }
-            println!();
+            let l2 = rel_l2(
+                &window(&ang, &m(&fb), lo, hi),
+                &window(&ang, &m(&fs), lo, hi),
+            );
+            println!("  p{p} [{lo}, {hi}]: series vs sphere L2 {l2:.4}");
+            assert!(l2 < tol, "p={p} [{lo}, {hi}]: L2 {l2}");
         }
-    }
-}
-
-#[test]
-#[ignore]
-fn report_p0_forward() {
-    let sphere = DropShape::Sphere { radius_um: 400.0 };
-    let bc04 = DropShape::Series(CosineSeries::new(400.0, vec![0.0; 8]).unwrap());
-    let go = SphereGo::new(400.0, 650.0, 1.331, 3);
-    let cfg = TraceConfig {
-        rays: 400,
-        max_order: 3,
-        sun_elevation_rad: 0.4,
-        wavelength_nm: 650.0,
-        n: 1.331,
-    };
-    let g = DirectionGrid {
-        n_polar: 901,
-        n_azimuth: 4,
-    };
-    let fs = trace_fields(&sphere, &cfg, g);
-    let fb = trace_fields(&bc04, &cfg, g);
-    for j in [10usize, 25, 50, 100, 150, 200, 250, 300] {
-        let th = (0.2 * j as f64).to_radians();
-        let o = go.order_field(0, th);
-        let r = 0.5 * (o.perp.norm_sqr() + o.par.norm_sqr());
-        let s: Vec<f64> = (0..4).map(|k| fs.intensities(j, k).2[0]).collect();
-        let b: Vec<f64> = (0..4).map(|k| fb.intensities(j, k).2[0]).collect();
-        println!(
-            "θ={:.1} 1d {r:.1} sphere {s:.1?} series {b:.1?}",
-            0.2 * j as f64
-        );
+        for j in [10usize, 25, 50, 100, 150, 200, 250, 300] {
+            let th = 0.2 * j as f64;
+            let o = go.order_field(0, th.to_radians());
+            let r = 0.5 * (o.perp.norm_sqr() + o.par.norm_sqr());
+            let s: Vec<f64> = (0..4).map(|k| fs.intensities(j, k).2[0]).collect();
+            let b: Vec<f64> = (0..4).map(|k| fb.intensities(j, k).2[0]).collect();
+            println!("θ={th:.1} 1d {r:.1} sphere {s:.1?} series {b:.1?}");
+            if th >= 30.0 {
+                for v in s.iter().chain(&b) {
+                    assert!(
+                        (v / r - 1.0).abs() < 0.05,
+                        "p = 0 at θ = {th:.1}°: 2-D {v} vs 1-D {r}"
+                    );
+                }
+            }
+        }
     }
 }
 
@@ -670,9 +719,14 @@ fn sphere_stage_phase_vs_mie_with_sun_disc() {
     }
 }
 
+/// The stage's 1-D phase function (filtered, Airy caustic model) against scatrs Lorenz–Mie at
+/// 0.1, 0.2, 0.4 and 1 mm (650 nm, n = 1.331): relative L2 after a 0.5° sun disc over 125–145°,
+/// primary maximum and the first four primary supernumeraries within the figures of
+/// docs/raytrace.md, and the Airy model beats every other diffraction treatment (none, Gaussian
+/// everywhere, Gaussian in a 2σ caustic window) at every radius.
 #[test]
-#[ignore]
-fn report_stage_vs_mie() {
+#[ignore = "long validation (≈10 s); run with cargo test --release -- --ignored"]
+fn stage_phase_vs_mie_across_radii_and_models() {
     use scatterbake::raytrace::sphere1d::DiffractionModel;
     let variants = [
         (
@@ -699,87 +753,91 @@ fn report_stage_vs_mie() {
         ),
         ("airy uniform", Phase1dOptions::default()),
     ];
-    for (a, (name, opts)) in [0.1, 0.2, 0.4, 1.0]
-        .iter()
-        .flat_map(|a| variants.iter().map(move |v| (*a, *v)))
-    {
-        let r = stage_vs_mie_opts(a, opts);
-        println!("diffraction model: {name}");
-        println!(
-            "a={a} mm: primary max filtered GO {:.3} Mie {:.3}; L2(sun disc 0.5°, 125-145°) = {:.4}",
-            r.primary_max.0, r.primary_max.1, r.l2_disc
-        );
-        println!(
-            "   supernumeraries GO  {:?}",
-            r.super_go
-                .iter()
-                .take(5)
-                .map(|x| format!("{x:.3}"))
-                .collect::<Vec<_>>()
-        );
-        println!(
-            "   supernumeraries filtered channel {:?}",
-            r.super_filtered
-                .iter()
-                .take(5)
-                .map(|x| format!("{x:.3}"))
-                .collect::<Vec<_>>()
-        );
-        println!(
-            "   supernumeraries Mie {:?}",
-            r.super_mie
-                .iter()
-                .take(5)
-                .map(|x| format!("{x:.3}"))
-                .collect::<Vec<_>>()
-        );
-        println!(
-            "   secondary GO  {:?}",
-            r.secondary_go
-                .iter()
-                .take(4)
-                .map(|x| format!("{x:.3}"))
-                .collect::<Vec<_>>()
-        );
-        println!(
-            "   secondary Mie {:?}",
-            r.secondary_mie
-                .iter()
-                .take(4)
-                .map(|x| format!("{x:.3}"))
-                .collect::<Vec<_>>()
+    let fmt = |v: &[f64], n: usize| -> Vec<String> {
+        v.iter().take(n).map(|x| format!("{x:.3}")).collect()
+    };
+    // docs/raytrace.md (Airy): L2 5.8 / 4.7 / 2.5 / 1.6 %; primary maximum vs Mie 0.03 / 0.06 /
+    // 0.00 / 0.00°; supernumeraries (GO) 0.019 / 0.017 / 0.004 / 0.002°.
+    for (a, l2_doc) in [(0.1, 0.058), (0.2, 0.047), (0.4, 0.025), (1.0, 0.016)] {
+        let mut l2 = Vec::new();
+        for (name, opts) in variants {
+            let r = stage_vs_mie_opts(a, opts);
+            println!("diffraction model: {name}");
+            println!(
+                "a={a} mm: primary max filtered GO {:.3} Mie {:.3}; L2(sun disc 0.5°, 125-145°) = {:.4}",
+                r.primary_max.0, r.primary_max.1, r.l2_disc
+            );
+            println!("   supernumeraries GO  {:?}", fmt(&r.super_go, 5));
+            println!(
+                "   supernumeraries filtered channel {:?}",
+                fmt(&r.super_filtered, 5)
+            );
+            println!("   supernumeraries Mie {:?}", fmt(&r.super_mie, 5));
+            println!("   secondary GO  {:?}", fmt(&r.secondary_go, 4));
+            println!("   secondary Mie {:?}", fmt(&r.secondary_mie, 4));
+            l2.push(r.l2_disc);
+            if name == "airy uniform" {
+                assert!(
+                    r.l2_disc <= 1.2 * l2_doc,
+                    "a={a}: L2 {} vs documented {l2_doc}",
+                    r.l2_disc
+                );
+                assert!(
+                    (r.primary_max.0 - r.primary_max.1).abs() <= 0.08,
+                    "a={a}: primary maximum {:?}",
+                    r.primary_max
+                );
+                assert!(r.super_go.len() >= 4 && r.super_mie.len() >= 4);
+                for (g, m) in r.super_go.iter().zip(&r.super_mie).take(4) {
+                    assert!(
+                        (g - m).abs() <= 0.02,
+                        "a={a}: supernumerary GO {g} vs Mie {m}"
+                    );
+                }
+            }
+        }
+        let airy = l2[3];
+        assert!(
+            l2[..3].iter().all(|x| *x > airy),
+            "a={a}: Airy L2 {airy} not the smallest of {l2:?}"
         );
     }
 }
 
+/// Pointwise view of the same comparison at 0.4 mm: after the 0.5° sun disc, the stage's
+/// filtered phase function over Mie stays within 5 % over the primary bow and its
+/// supernumeraries (137°–145°), and within 25 % over the secondary bow and Alexander's dark band
+/// (120°–137°; measured 0.77–1.01, the low values in fringe minima of the secondary and ≈ 0.90
+/// in the dark band).
 #[test]
-#[ignore]
-fn report_curves() {
+fn stage_phase_over_mie_pointwise_at_0_4_mm() {
     let (lambda, n) = (650.0, 1.331);
-    for a_mm in [0.4f64] {
-        let a = a_mm * 1e3;
-        let step = 0.01;
-        let ang = grid(118.0, 150.0, step);
-        let go = SphereGo::new(a, lambda, n, 3);
-        let (ch, _) = sphere_phase_1d(&go, &ang, Phase1dOptions::default());
-        let (mp, mpar, _) = mie(a, lambda, n, &ang);
-        let mphase: Vec<f64> = mp.iter().zip(&mpar).map(|(x, y)| 0.5 * (x + y)).collect();
-        let d1 = sun_disc(&ch[0], step, 0.5);
-        let d2 = sun_disc(&mphase, step, 0.5);
-        let du = sun_disc(&ch[5 + 4], step, 0.5);
-        for th in [
-            120.0, 125.0, 127.0, 128.0, 128.5, 129.0, 129.5, 130.0, 133.0, 136.0, 137.0, 137.5,
-            138.0, 138.5, 139.0, 140.0, 142.0, 145.0,
-        ] {
-            let j = ((th - 118.0) / step).round() as usize;
-            println!(
-                "θ={th:6.1} GOfilt {:.5} GOunf {:.5} Mie {:.5} ratio {:.3}",
-                d1[j],
-                du[j],
-                d2[j],
-                d1[j] / d2[j]
-            );
-        }
+    let a = 400.0;
+    let step = 0.01;
+    let ang = grid(118.0, 150.0, step);
+    let go = SphereGo::new(a, lambda, n, 3);
+    let (ch, _) = sphere_phase_1d(&go, &ang, Phase1dOptions::default());
+    let (mp, mpar, _) = mie(a, lambda, n, &ang);
+    let mphase: Vec<f64> = mp.iter().zip(&mpar).map(|(x, y)| 0.5 * (x + y)).collect();
+    let d1 = sun_disc(&ch[0], step, 0.5);
+    let d2 = sun_disc(&mphase, step, 0.5);
+    let du = sun_disc(&ch[5 + 4], step, 0.5);
+    let mut ratios = Vec::new();
+    for th in [
+        120.0, 125.0, 127.0, 128.0, 128.5, 129.0, 129.5, 130.0, 133.0, 136.0, 137.0, 137.5, 138.0,
+        138.5, 139.0, 140.0, 142.0, 145.0,
+    ] {
+        let j = ((th - 118.0) / step).round() as usize;
+        let ratio = d1[j] / d2[j];
+        println!(
+            "θ={th:6.1} GOfilt {:.5} GOunf {:.5} Mie {:.5} ratio {ratio:.3}",
+            d1[j], du[j], d2[j]
+        );
+        ratios.push((th, ratio));
+    }
+    for (th, ratio) in ratios {
+        let tol = if th >= 137.0 { 0.05 } else { 0.25 };
+        assert!((ratio - 1.0).abs() < tol, "θ = {th}°: ratio {ratio}");
     }
 }
 
@@ -833,39 +891,22 @@ fn beard_chuang_reciprocity_in_the_vertical_plane() {
     );
 }
 
-/// Profiling target: `perf record <test binary> profile_tracer --ignored`.
+/// Beard–Chuang primary bow vs radius (sun at 0°, 650 nm, 500² rays): the maximum of the
+/// unfiltered p = 2 intensity (130°–150°) in the vertical plane's two halves (φ = 0°, rays
+/// leaving upwards; φ = 180°, downwards, the bow's top), the horizontal direction (φ = 90°) and
+/// the azimuth mean. At 0.4 mm the drop is the sphere: every direction peaks at Descartes'
+/// geometric rainbow angle. Flattened drops keep the bow near it in the horizontal direction,
+/// while the bow's top moves to larger angles and leaves the window from 1.5 mm on
+/// (docs/raytrace.md).
 #[test]
-#[ignore]
-fn profile_tracer() {
-    let cfg = TraceConfig {
-        rays: 600,
-        max_order: 3,
-        sun_elevation_rad: 0.4,
-        wavelength_nm: 650.0,
-        n: 1.331,
-    };
-    let t = std::time::Instant::now();
-    let f = trace_fields(
-        &DropShape::Sphere { radius_um: 400.0 },
-        &cfg,
-        DirectionGrid {
-            n_polar: 3601,
-            n_azimuth: 1800,
-        },
-    );
-    println!(
-        "sphere 600² {:.2} s {}",
-        t.elapsed().as_secs_f64(),
-        f.rays_traced
-    );
-}
-
-/// Beard–Chuang primary bow vs radius (sun at 0°, 650 nm, 500² rays): position of the maximum
-/// of the azimuth-averaged unfiltered p = 2 intensity in the vertical plane's two halves
-/// (φ = 0°, rays leaving upwards; φ = 180°, downwards) and averaged over all azimuths.
-#[test]
-#[ignore]
-fn report_beard_chuang_bow_shift() {
+#[ignore = "long validation (≈15 s); run with cargo test --release -- --ignored"]
+fn beard_chuang_bow_shift_with_radius() {
+    let n: f64 = 1.331;
+    // Descartes: minimum deviation of the p = 2 ray, cos i = sqrt((n² − 1)/3).
+    let i = ((n * n - 1.0) / 3.0).sqrt().acos();
+    let r = (i.sin() / n).asin();
+    let descartes = (PI + 2.0 * i - 4.0 * r).to_degrees();
+    let mut peaks = Vec::new();
     for a in [0.4, 0.5, 1.0, 1.5, 2.0, 2.5, 3.0] {
         let shape = DropShape::beard_chuang(a);
         let cfg = TraceConfig {
@@ -873,7 +914,7 @@ fn report_beard_chuang_bow_shift() {
             max_order: 3,
             sun_elevation_rad: 0.0,
             wavelength_nm: 650.0,
-            n: 1.331,
+            n,
         };
         let grid = DirectionGrid {
             n_polar: 3601,
@@ -889,28 +930,67 @@ fn report_beard_chuang_bow_shift() {
                 .collect()
         };
         let ang: Vec<f64> = (0..3601).map(|j| 0.05 * j as f64).collect();
-        let argmax = |v: Vec<f64>| {
+        // None when no p = 2 light reaches the window.
+        let argmax = |v: Vec<f64>| -> Option<f64> {
             let s = smooth(&v, 2.0);
-            let (j, _) = s
+            let (j, best) = s
                 .iter()
                 .enumerate()
                 .filter(|(j, _)| (130.0..150.0).contains(&ang[*j]))
                 .fold((0, 0.0), |b, (j, x)| if *x > b.1 { (j, *x) } else { b });
-            ang[j]
+            (best > 0.0).then_some(ang[j])
         };
-        println!(
-            "a = {a} mm: p=2 peak at φ=0° {:.2}°, φ=180° {:.2}°, φ=90° {:.2}°, azimuth mean {:.2}°",
+        let p = [
             argmax(col(Some(0))),
             argmax(col(Some(18))),
             argmax(col(Some(9))),
-            argmax(col(None))
+            argmax(col(None)),
+        ];
+        println!(
+            "a = {a} mm: p=2 peak at φ=0° {:.2?}°, φ=180° {:.2?}°, φ=90° {:.2?}°, azimuth mean {:.2?}° (Descartes {descartes:.2}°)",
+            p[0], p[1], p[2], p[3]
         );
+        peaks.push((a, p));
+    }
+    for v in peaks[0].1 {
+        let v = v.expect("0.4 mm: a bow in every direction");
+        assert!(
+            (v - descartes).abs() < 0.15,
+            "0.4 mm: peak {v} vs {descartes}"
+        );
+    }
+    let mut top = peaks[0].1[1].unwrap();
+    for (a, p) in &peaks[1..] {
+        let horizontal = p[2].expect("a bow in the horizontal direction");
+        assert!(
+            (horizontal - descartes).abs() < 1.0,
+            "{a} mm: φ = 90° peak {horizontal}"
+        );
+        if *a <= 1.0 {
+            let t = p[1].expect("a bow top up to 1 mm");
+            assert!(t > top + 0.5, "{a} mm: bow top {t} not beyond {top}");
+            top = t;
+        } else {
+            assert!(
+                p[1].is_none_or(|t| t > 149.0),
+                "{a} mm: bow top {:?} inside the window",
+                p[1]
+            );
+        }
     }
 }
 
+/// Energy bookkeeping of the 2-D tracer for flattened drops (3 mm at sun 0° and 30°, 1 mm at 0°;
+/// 550 nm, n = 1.333): per order, the table integrated over the sphere of directions against
+/// the flux carried by the retained patches, and that against the ray-based flux of the order.
+/// Orders 0 and 1 conserve it everywhere (table within 2.5 % of the patches; patches within 6 %
+/// of the rays for p = 0, whose grazing triangles at the silhouette are discarded, and 1 % for
+/// p = 1), p = 2 within 3 % and p = 3 within 10 %, except p = 2, 3 of the 3 mm drop at sun 0°:
+/// its cusp caustics are point-sampled and over-weighted (the limitation in docs/raytrace.md),
+/// so there only table ≥ patches is required.
 #[test]
-#[ignore]
-fn report_energy_per_order_2d() {
+#[ignore = "long validation (≈5 s); run with cargo test --release -- --ignored"]
+fn beard_chuang_tables_conserve_energy_per_order() {
     for (a, e) in [(3.0, 0.0), (3.0, 30.0), (1.0, 0.0)] {
         let shape = DropShape::beard_chuang(a);
         let cfg = TraceConfig {
@@ -927,6 +1007,7 @@ fn report_energy_per_order_2d() {
         let f = trace_fields(&shape, &cfg, grid);
         let dth = grid.polar_step();
         let mut integ = [0.0; 4];
+        let mut top: Vec<(f64, usize, usize)> = vec![];
         for j in 0..1801 {
             let th = dth * j as f64;
             let om = ((th - 0.5 * dth).max(0.0).cos() - (th + 0.5 * dth).min(PI).cos())
@@ -936,15 +1017,7 @@ fn report_energy_per_order_2d() {
                 for p in 0..4 {
                     integ[p] += per[p] * om;
                 }
-            }
-        }
-        let mut top: Vec<(f64, usize, usize)> = vec![];
-        for j in 0..1801 {
-            let th = dth * j as f64;
-            let om = ((th - 0.5 * dth).max(0.0).cos() - (th + 0.5 * dth).min(PI).cos())
-                * grid.azimuth_step();
-            for k in 0..36 {
-                top.push((f.intensities(j, k).2[3] * om, j, k));
+                top.push((per[3] * om, j, k));
             }
         }
         top.sort_by(|x, y| y.0.total_cmp(&x.0));
@@ -961,5 +1034,33 @@ fn report_energy_per_order_2d() {
                 .map(|x| x.round())
                 .collect::<Vec<_>>()
         );
+        let cusps = a >= 3.0 && e == 0.0;
+        for (p, table_tol, ray_tol) in [
+            (0, 0.025, 0.06),
+            (1, 0.025, 0.01),
+            (2, 0.03, 0.03),
+            (3, 0.1, 0.05),
+        ] {
+            let (t, patch, ray) = (
+                integ[p],
+                f.patch_cross_section_um2[p],
+                f.order_cross_section_um2[p],
+            );
+            if cusps && p >= 2 {
+                assert!(
+                    t >= patch,
+                    "a={a} e={e} p={p}: table {t} below patches {patch}"
+                );
+            } else {
+                assert!(
+                    (t / patch - 1.0).abs() < table_tol,
+                    "a={a} e={e} p={p}: table {t} vs patches {patch}"
+                );
+            }
+            assert!(
+                (patch / ray - 1.0).abs() < ray_tol,
+                "a={a} e={e} p={p}: patches {patch} vs rays {ray}"
+            );
+        }
     }
 }

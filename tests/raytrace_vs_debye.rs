@@ -17,7 +17,7 @@
 //! no caustic model), the 1-D Airy-uniform channel (`order_field_uniform`, the stage's default
 //! for spheres) and the 2-D patch tracer (`trace_fields`, unfiltered GO with patches).
 //!
-//! Full table: `cargo test --test raytrace_vs_debye -- --ignored --nocapture`.
+//! Full table: `cargo test --release --test raytrace_vs_debye -- --ignored --nocapture`.
 
 use num_complex::Complex64;
 use rayon::prelude::*;
@@ -227,7 +227,8 @@ fn compare(
     let (maxima_debye, maxima_ray) = if p >= 2 {
         (
             bow_maxima(angles, &dg, p, bow, 5),
-            bow_maxima(angles, &rg, p, bow, 8),
+            // More than Debye's: noise maxima of the 2-D curve (see nearest_supernumerary_dev).
+            bow_maxima(angles, &rg, p, bow, 12),
         )
     } else {
         (vec![], vec![])
@@ -364,6 +365,23 @@ fn maxima_devs(f: &OrderFigures, p: usize, a_mm: f64) -> (f64, f64) {
     )
 }
 
+/// Largest distance from each of the first four Debye supernumeraries of order `p` to the
+/// nearest ray-traced maximum: the 2-D tracer's curve at 400² rays carries noise maxima between
+/// the supernumeraries (e.g. two maxima 0.12° apart near 127.4° for p = 3), which would shift a
+/// pairing by rank.
+fn nearest_supernumerary_dev(f: &OrderFigures, p: usize, a_mm: f64) -> f64 {
+    let (bow, gap) = (bow_deg(p), gap_deg(a_mm));
+    supernumeraries(&f.maxima_debye, p, bow, gap, 4)
+        .iter()
+        .map(|d| {
+            f.maxima_ray
+                .iter()
+                .map(|r| (r - d).abs())
+                .fold(f64::INFINITY, f64::min)
+        })
+        .fold(0.0, f64::max)
+}
+
 /// Fast subset: 0.1 and 0.4 mm, all four orders, 1-D path (unfiltered GO and Airy-uniform)
 /// against Debye; the 2-D patch tracer at 0.4 mm with 400² rays. Tolerances are the measured
 /// figures (docs/raytrace.md) with a margin of ≥ 2×.
@@ -429,7 +447,7 @@ fn ray_orders_match_debye_terms() {
     assert!(f2[1].l2_disc < 0.02, "2-D p=1 L2 {}", f2[1].l2_disc);
     // p = 3 converges more slowly with the ray count (0.129° at 400², 0.049° at 800²).
     for (p, tol) in [(2, 0.03), (3, 0.25)] {
-        let (_, sup) = maxima_devs(&f2[p], p, 0.4);
+        let sup = nearest_supernumerary_dev(&f2[p], p, 0.4);
         assert!(sup <= tol, "2-D p={p} supernumeraries Δ {sup}");
     }
 }
@@ -474,10 +492,11 @@ fn stage_order_channels_match_debye_curves() {
 }
 
 /// Where the Airy channel's p = 3 error sits: relative L2 (Gauss σ_s, ⊥ and ∥, normalised by
-/// the Debye norm over the whole 115°–135° window) in sub-windows, 0.4 mm.
+/// the Debye norm over the whole 115°–135° window) in sub-windows, 0.4 mm. At the caustic
+/// (127.5° to the bow, and the dark side) the Airy model removes the GO failure (docs/raytrace.md:
+/// Airy ≤ 0.8 %, GO 12–54 %); away from it (115°–127.5°) the two channels are the same GO field.
 #[test]
-#[ignore]
-fn report_p3_airy_error_by_region() {
+fn p3_airy_error_by_region() {
     let (a_mm, p) = (0.4, 3);
     let n = water_n();
     let a_um = a_mm * 1e3;
@@ -490,14 +509,14 @@ fn report_p3_airy_error_by_region() {
     let sig = 0.016 / a_mm / step;
     for pol in [Pol::Perp, Pol::Par] {
         let deb = gauss(&debye_order(&d, p, &angles, pol), sig);
-        for uniform in [false, true] {
+        let den: f64 = angles
+            .iter()
+            .zip(&deb)
+            .filter(|(t, _)| (115.0..=135.0).contains(*t))
+            .map(|(_, y)| y * y)
+            .sum();
+        let parts = |uniform: bool| -> [f64; 4] {
             let ray = gauss(&go_order(&go, p, &angles, uniform, pol), sig);
-            let den: f64 = angles
-                .iter()
-                .zip(&deb)
-                .filter(|(t, _)| (115.0..=135.0).contains(*t))
-                .map(|(_, y)| y * y)
-                .sum();
             let part = |lo: f64, hi: f64| -> f64 {
                 let num: f64 = angles
                     .iter()
@@ -508,25 +527,59 @@ fn report_p3_airy_error_by_region() {
                     .sum();
                 (num / den).sqrt()
             };
-            println!(
-                "{pol:?} {}: 115–121 {:.4} | 121–{:.2} {:.4} | {:.2}–bow {:.4} | bow–135 (dark) {:.4}",
-                if uniform { "Airy" } else { "GO" },
+            [
                 part(115.0, 121.0),
-                bow - 2.0,
                 part(121.0, bow - 2.0),
-                bow - 2.0,
                 part(bow - 2.0, bow),
-                part(bow, 135.0)
+                part(bow, 135.0),
+            ]
+        };
+        let (g, u) = (parts(false), parts(true));
+        for (name, v) in [("GO", g), ("Airy", u)] {
+            println!(
+                "{pol:?} {name}: 115–121 {:.4} | 121–{:.2} {:.4} | {:.2}–bow {:.4} | bow–135 (dark) {:.4}",
+                v[0],
+                bow - 2.0,
+                v[1],
+                bow - 2.0,
+                v[2],
+                v[3]
+            );
+        }
+        for k in [2, 3] {
+            assert!(u[k] < 0.01, "{pol:?} region {k}: Airy {}", u[k]);
+            assert!(g[k] > 0.1, "{pol:?} region {k}: GO {}", g[k]);
+        }
+        for k in [0, 1] {
+            assert!(
+                (u[k] - g[k]).abs() < 0.005,
+                "{pol:?} region {k}: Airy {} vs GO {}",
+                u[k],
+                g[k]
             );
         }
     }
 }
 
-/// Full table (1-D, all radii and orders; 2-D tracer at 0.4 mm, 400² and 800² rays).
+/// The full order-by-order table of docs/raytrace.md: 0.1, 0.2, 0.4 and 1 mm, p = 0–3, 1-D path
+/// (unfiltered GO and the Airy channel) unpolarised and per polarisation, and the 2-D patch
+/// tracer at 0.4 mm with 400² and 800² rays, against the Debye terms. Each error of the Airy
+/// channel falls as the drop grows (the ray picture is the large-size limit of the Debye
+/// term) and stays within 1.5× the documented figure; unfiltered GO fails at every caustic
+/// and matches away from it; the 2-D tracer converges with the ray count.
 #[test]
-#[ignore]
-fn report_orders_vs_debye() {
-    for a_mm in [0.1, 0.2, 0.4, 1.0] {
+#[ignore = "long validation (≈15 s); run with cargo test --release -- --ignored"]
+fn ray_orders_match_debye_terms_full_table() {
+    // docs/raytrace.md, per radius: Airy L2 (disc) for p = 0, 1; Airy L2 (Gauss) for p = 2, 3;
+    // GO far L2 for p = 2, 3.
+    let documented: [(f64, [f64; 4], [f64; 2]); 4] = [
+        (0.1, [0.0035, 0.0055, 0.0083, 0.080], [0.015, 0.077]),
+        (0.2, [0.0010, 0.0027, 0.0034, 0.046], [0.0073, 0.039]),
+        (0.4, [0.0002, 0.0013, 0.0015, 0.025], [0.0032, 0.020]),
+        (1.0, [0.0001, 0.0005, 0.0009, 0.011], [0.0012, 0.0067]),
+    ];
+    let mut prev = [f64::INFINITY; 4];
+    for (a_mm, airy_doc, far_doc) in documented {
         for p in 0..4 {
             let (g, u) = compare_1d(a_mm, p);
             println!(
@@ -539,6 +592,22 @@ fn report_orders_vs_debye() {
                 "   polarised L2 gauss: ⊥ GO {:.4} Airy {:.4} far GO {:.4} | ∥ GO {:.4} Airy {:.4} far GO {:.4}",
                 gp.l2_gauss, up.l2_gauss, gp.l2_far, gq.l2_gauss, uq.l2_gauss, gq.l2_far
             );
+            let airy = if p < 2 { u.l2_disc } else { u.l2_gauss };
+            assert!(
+                airy < 1.5 * airy_doc[p].max(1e-4),
+                "a={a_mm} p={p}: Airy L2 {airy} vs documented {}",
+                airy_doc[p]
+            );
+            assert!(
+                airy < prev[p],
+                "a={a_mm} p={p}: Airy L2 {airy} not below {} at the smaller drop",
+                prev[p]
+            );
+            prev[p] = airy;
+            // Each polarisation on its own (docs/raytrace.md: at most 6.1 % for ⊥ and 20 % for ∥,
+            // both p = 3 at 0.1 mm; p = 3 ∥ is limited by the grazing-incidence edge of the
+            // window, see p3_airy_error_by_region).
+            assert!(up.l2_gauss < 0.1 && uq.l2_gauss < 0.25, "a={a_mm} p={p}");
             if p >= 2 {
                 println!(
                     "   ∥ maxima Debye {:?}\n     Airy {:?}",
@@ -553,9 +622,24 @@ fn report_orders_vs_debye() {
                     round(&g.maxima_ray[..5.min(g.maxima_ray.len())]),
                     round(&u.maxima_ray[..5.min(u.maxima_ray.len())]),
                 );
+                // GO fails at the caustic, matches away from it.
+                assert!(g.l2_gauss > 0.15, "a={a_mm} p={p}: GO L2 {}", g.l2_gauss);
+                assert!(
+                    g.l2_far < 1.5 * far_doc[p - 2],
+                    "a={a_mm} p={p}: GO far L2 {} vs documented {}",
+                    g.l2_far,
+                    far_doc[p - 2]
+                );
+                // docs/raytrace.md: Airy main maximum within 0.012°, supernumeraries within
+                // 0.067° (p = 3 at 0.1 mm), 0.006° for p = 2; GO's main maximum is off by ≥ 0.2°.
+                let sup_tol = if p == 2 { 0.01 } else { 0.08 };
+                assert!(mu <= 0.015, "a={a_mm} p={p}: Airy main Δ {mu}");
+                assert!(su <= sup_tol, "a={a_mm} p={p}: Airy supernumeraries Δ {su}");
+                assert!(mg > 0.15, "a={a_mm} p={p}: GO main Δ {mg}");
             }
         }
     }
+    let mut prev2: Option<Vec<OrderFigures>> = None;
     for rays in [400, 800] {
         let t = std::time::Instant::now();
         let f2 = compare_2d(rays, 4);
@@ -579,6 +663,24 @@ fn report_orders_vs_debye() {
             }
             println!();
         }
+        if let Some(before) = &prev2 {
+            for p in 0..4 {
+                assert!(
+                    f2[p].l2_far < before[p].l2_far,
+                    "p={p}: 2-D far L2 {} at {rays}² not below {}",
+                    f2[p].l2_far,
+                    before[p].l2_far
+                );
+            }
+            // docs/raytrace.md at 800²: p = 2 0.003°, p = 3 0.049°.
+            let (_, s2) = maxima_devs(&f2[2], 2, 0.4);
+            let (_, s3) = maxima_devs(&f2[3], 3, 0.4);
+            assert!(
+                s2 <= 0.01 && s3 <= 0.07,
+                "800²: supernumeraries Δ {s2} / {s3}"
+            );
+        }
+        prev2 = Some(f2);
     }
 }
 

@@ -1,5 +1,7 @@
 //! Table format: round trip, corruption detection, version handling, lookup API.
 
+mod common;
+
 use proptest::prelude::*;
 use scatterbake::table::{
     Axis, Channel, Provenance, Schema, Table, TableContent, TableError, write_table_atomic,
@@ -95,12 +97,14 @@ proptest! {
         prop_assert!(Table::from_bytes(&b, Path::new("p.sbt")).is_err());
     }
 
+    /// Arbitrary bytes never panic the reader and are refused (with the magic prepended too:
+    /// they cannot carry a matching SHA-256 of the header).
     #[test]
-    fn arbitrary_bytes_never_panic(data in proptest::collection::vec(any::<u8>(), 0..512)) {
-        let _ = Table::from_bytes(&data, Path::new("fuzz.sbt"));
+    fn arbitrary_bytes_are_refused_without_panic(data in proptest::collection::vec(any::<u8>(), 0..512)) {
+        prop_assert!(Table::from_bytes(&data, Path::new("fuzz.sbt")).is_err());
         let mut with_magic = b"SBTABLE\0".to_vec();
         with_magic.extend_from_slice(&data);
-        let _ = Table::from_bytes(&with_magic, Path::new("fuzz.sbt"));
+        prop_assert!(Table::from_bytes(&with_magic, Path::new("fuzz.sbt")).is_err());
     }
 }
 
@@ -151,6 +155,106 @@ fn newer_major_is_refused_newer_minor_is_read() {
     assert_eq!(t.data, sample_table().data);
 }
 
+/// Lookup points of a table: the first grid point, an interior point between the first two
+/// samples of every axis, and a point clamped beyond the last sample.
+fn probe_points(t: &Table) -> Vec<Vec<f64>> {
+    let axes = t.axes();
+    let first = axes.iter().map(|a| a.coord(0)).collect();
+    let interior = axes
+        .iter()
+        .map(|a| {
+            if a.len() > 1 {
+                0.37 * a.coord(0) + 0.63 * a.coord(1)
+            } else {
+                a.coord(0)
+            }
+        })
+        .collect();
+    let beyond = axes.iter().map(|a| a.coord(a.len() - 1) + 1.0).collect();
+    vec![first, interior, beyond]
+}
+
+/// The format's promise for a newer minor version: a 1.1 file with unknown header fields at the
+/// top level and inside every nested object (axes, uniform ranges, channels, layout,
+/// provenance, payload), checksums recomputed as the spec says, reads as the 1.0 file it was
+/// made from: the same header (unknown fields dropped), bit-identical samples and lookups.
+#[test]
+fn newer_minor_with_unknown_fields_is_read() {
+    let dir = tempfile::tempdir().unwrap();
+    for p in common::synthetic_tables(dir.path()) {
+        let newer = dir.path().join("newer.sbt");
+        common::newer_minor_copy(&p, &newer);
+        let b = std::fs::read(&newer).unwrap();
+        assert_eq!(&b[8..12], &[1, 0, 1, 0], "format 1.1");
+        let header = String::from_utf8_lossy(&b[56..]);
+        assert!(header.contains("future_top_level") && header.contains("future_axis_field"));
+        let old = Table::open(&p).unwrap();
+        let new = Table::open(&newer).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
+        assert_eq!(new.header, old.header, "{}", p.display());
+        let bits = |t: &Table| t.data.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&new), bits(&old), "{}", p.display());
+        for x in probe_points(&old) {
+            let (u, v) = (old.sample(&x).unwrap(), new.sample(&x).unwrap());
+            let ub: Vec<u64> = u.iter().map(|v| v.to_bits()).collect();
+            let vb: Vec<u64> = v.iter().map(|v| v.to_bits()).collect();
+            assert_eq!(ub, vb, "{} at {x:?}", p.display());
+        }
+        // The header-only reader (resume checks, catalogue) accepts it too.
+        assert_eq!(
+            scatterbake::table::read_header_only(&newer).unwrap(),
+            old.header
+        );
+    }
+}
+
+/// Unknown fields are a newer minor's privilege: in a file of the minor this reader implements
+/// (1.0) an unknown top-level field is refused, naming the field.
+#[test]
+fn unknown_top_level_field_in_a_known_minor_is_refused() {
+    let b = common::rewrite_table(&bytes(), 1, 0, |h| {
+        h["future_note"] = serde_json::json!("x");
+    });
+    let e = Table::from_bytes(&b, Path::new("t.sbt")).unwrap_err();
+    assert!(matches!(e, TableError::BadHeader { .. }), "{e}");
+    assert!(e.to_string().contains("`future_note`"), "{e}");
+    // The same file as 1.1 reads.
+    let b = common::rewrite_table(&bytes(), 1, 1, |h| {
+        h["future_note"] = serde_json::json!("x");
+    });
+    assert_eq!(
+        Table::from_bytes(&b, Path::new("t.sbt")).unwrap().data,
+        sample_table().data
+    );
+}
+
+/// A newer major is refused on its version alone, before its header is interpreted (the crafted
+/// 2.0 header has valid checksums but no `layout`), with an error naming the version.
+#[test]
+fn newer_major_with_valid_checksums_is_refused_naming_the_version() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = common::synthetic_tables(dir.path()).remove(0);
+    let newer = dir.path().join("v2.sbt");
+    common::newer_major_copy(&p, &newer);
+    let e = Table::open(&newer).unwrap_err();
+    assert!(
+        matches!(
+            e,
+            TableError::NewerMajor {
+                major: 2,
+                minor: 0,
+                ..
+            }
+        ),
+        "{e}"
+    );
+    let msg = e.to_string();
+    assert!(msg.contains("2.0") && msg.contains("newer"), "{msg}");
+    assert!(matches!(
+        scatterbake::table::read_header_only(&newer).unwrap_err(),
+        TableError::NewerMajor { major: 2, .. }
+    ));
+}
+
 #[test]
 fn failed_write_keeps_existing_table() {
     let dir = tempfile::tempdir().unwrap();
@@ -185,4 +289,59 @@ fn sample_interpolates_and_clamps() {
     assert!(t.sample(&[f64::NAN, 0.0]).is_err());
     assert!(t.sample(&[1.0]).is_err());
     assert!(t.sample_channel("nope", &[1.0, 1.0]).is_err());
+}
+
+/// Every crafted file of the corpus is accepted or refused as marked, with an error (never a
+/// panic), and an accepted one can be looked up at its first and last grid points.
+#[test]
+fn crafted_corpus_rust_reader() {
+    let mut wrong = Vec::new();
+    for case in common::crafted::cases() {
+        let r = Table::from_bytes(&case.bytes, Path::new(case.name));
+        match (&r, case.valid) {
+            (Ok(t), true) => {
+                for pick in [0usize, 1] {
+                    let coords: Vec<f64> = t
+                        .axes()
+                        .iter()
+                        .map(|a| a.coord(if pick == 0 { 0 } else { a.len() - 1 }))
+                        .collect();
+                    t.sample(&coords).unwrap();
+                }
+            }
+            (Err(e), false) => {
+                let msg = e.to_string();
+                assert!(
+                    msg.starts_with(case.name),
+                    "{}: error does not name the file: {msg}",
+                    case.name
+                );
+            }
+            _ => wrong.push(format!(
+                "{}: valid={} got {:?}",
+                case.name,
+                case.valid,
+                r.map(|_| ())
+            )),
+        }
+    }
+    assert!(wrong.is_empty(), "{}", wrong.join("\n"));
+}
+
+/// Reading a file declaring a huge payload that its bytes do not back allocates little: the
+/// declared size is refused by the limit, and a raised limit only costs what decompresses.
+#[test]
+fn declared_sizes_are_not_allocated() {
+    use scatterbake::table::ReadLimits;
+    let case = common::crafted::cases()
+        .into_iter()
+        .find(|c| c.name == "declares_1gib_backed_by_18_floats")
+        .unwrap();
+    let small = ReadLimits {
+        max_payload_bytes: 1 << 20,
+    };
+    let e = Table::from_bytes_with_limits(&case.bytes, Path::new("t.sbt"), &small).unwrap_err();
+    assert!(e.to_string().contains("exceeds the reader limit"), "{e}");
+    let e = Table::from_bytes(&case.bytes, Path::new("t.sbt")).unwrap_err();
+    assert!(e.to_string().contains("zstd frame declares 72"), "{e}");
 }

@@ -59,12 +59,19 @@ enum Command {
     Verify {
         #[arg(required = true)]
         files: Vec<PathBuf>,
+        /// Treat NaN, infinite or negative samples of a phase-function table as errors
+        /// (default: warnings).
+        #[arg(long)]
+        strict: bool,
+        /// Largest uncompressed payload to accept, in bytes (default 4 GiB).
+        #[arg(long, value_name = "BYTES")]
+        max_payload_bytes: Option<u64>,
     },
     /// Export a table: csv|json|exr (any table) or mitsuba|legendre|mieplot (phase functions).
     Export(ExportArgs),
     /// Plot a table (phase function, rainbow colour strip, Lee diagram, 2-D maps) to PNG/SVG.
     Plot(crate::commands::plot::PlotArgs),
-    /// Plot 2-D ray-traced tables (raytrace-phase-2d/1): bows near the rainbows per outgoing
+    /// Plot 2-D ray-traced tables (raytrace-phase-2d): bows near the rainbows per outgoing
     /// azimuth with colour strips (several tables = several radii), or a lat-long map.
     PlotRaytrace(crate::commands::plot_raytrace::PlotRaytraceArgs),
     /// Render a picture through the public table reader API.
@@ -115,7 +122,7 @@ enum ExportFormat {
     Mitsuba,
     /// Legendre moments with truncation error (phase-function tables).
     Legendre,
-    /// MiePlot-style text table: angle, i_perp, i_par, unpolarised (phase-function tables).
+    /// MiePlot-style text table: angle, i_perp, i_par, phase (phase-function tables).
     Mieplot,
     /// Sun-disc-convolved linear-sRGB lookup vs angle, `.csv` or `.png` (phase-function tables).
     RgbLut,
@@ -155,9 +162,10 @@ struct ExportArgs {
     /// Also write the plain tabphase value lists here (mitsuba).
     #[arg(long)]
     values_out: Option<PathBuf>,
-    /// Sun disc angular diameter in degrees (rgb-lut).
-    #[arg(long, default_value_t = 0.5)]
-    sun_diameter_deg: f64,
+    /// Sun disc angular diameter in degrees (rgb-lut). Default: the disc the table already
+    /// averaged over (attribute `sun_diameter_deg`), 0.5 for a point-sun table.
+    #[arg(long)]
+    sun_diameter_deg: Option<f64>,
 }
 
 fn run_export(a: ExportArgs) -> Result<()> {
@@ -296,16 +304,31 @@ fn run(cmd: Command) -> Result<i32> {
             }
             Ok(0)
         }
-        Command::Verify { files } => {
+        Command::Verify {
+            files,
+            strict,
+            max_payload_bytes,
+        } => {
+            let mut limits = scatterbake::table::ReadLimits::default();
+            if let Some(m) = max_payload_bytes {
+                limits.max_payload_bytes = m;
+            }
             let mut bad = 0;
             for f in &files {
-                match Table::open(f) {
-                    Ok(t) => println!(
-                        "ok   {} ({}, {} values)",
-                        f.display(),
-                        t.header.schema,
-                        t.data.len()
-                    ),
+                match scatterbake::table::verify_file(f, &limits) {
+                    Ok(v) => {
+                        let problems = value_problems(&v);
+                        let n: usize = v.header.layout.shape.iter().product();
+                        if problems.is_empty() {
+                            println!("ok   {} ({}, {n} values)", f.display(), v.header.schema);
+                        } else if strict {
+                            bad += 1;
+                            eprintln!("BAD  {}: {}", f.display(), problems.join("; "));
+                        } else {
+                            println!("ok   {} ({}, {n} values)", f.display(), v.header.schema);
+                            eprintln!("warning: {}: {}", f.display(), problems.join("; "));
+                        }
+                    }
                     Err(e) => {
                         bad += 1;
                         eprintln!("BAD  {e}");
@@ -377,23 +400,72 @@ fn draw_previews(out: &std::path::Path, tables: &[String]) {
         if let Err(e) =
             scatterbake::consumers::plot::previews::previews(&path, &out.join("previews"))
         {
-            eprintln!("warning: previews of {name}: {e:#}");
+            eprintln!("warning: previews of {name}: {:#}", anyhow::Error::from(e));
         }
     }
+}
+
+/// Samples a phase-function table (one with a `phase` channel) must not hold: NaN or infinite
+/// values in any channel, negative values in `phase`, `i_perp`, `i_par`.
+fn value_problems(v: &scatterbake::table::Verified) -> Vec<String> {
+    let h = &v.header;
+    if !h.channels.iter().any(|c| c.name == "phase") {
+        return Vec::new();
+    }
+    let mut out = Vec::new();
+    for (i, c) in h.channels.iter().enumerate() {
+        let s = &v.values;
+        if s.nan[i] > 0 {
+            out.push(format!(
+                "channel `{}` has {} NaN value(s)",
+                c.name, s.nan[i]
+            ));
+        }
+        if s.infinite[i] > 0 {
+            out.push(format!(
+                "channel `{}` has {} infinite value(s)",
+                c.name, s.infinite[i]
+            ));
+        }
+        if ["phase", "i_perp", "i_par"].contains(&c.name.as_str()) && s.negative[i] > 0 {
+            out.push(format!(
+                "channel `{}` has {} negative value(s)",
+                c.name, s.negative[i]
+            ));
+        }
+    }
+    out
+}
+
+/// A header string made safe for a terminal: control characters (escape sequences, carriage
+/// returns, newlines, bidirectional overrides) are shown escaped, e.g. `\u{1b}`.
+fn esc(s: &str) -> String {
+    s.chars()
+        .map(|c| {
+            if c.is_control()
+                || ('\u{202a}'..='\u{202e}').contains(&c)
+                || ('\u{2066}'..='\u{2069}').contains(&c)
+            {
+                c.escape_unicode().to_string()
+            } else {
+                c.to_string()
+            }
+        })
+        .collect()
 }
 
 fn print_summary(file: &std::path::Path, t: &Table) -> Result<()> {
     let h = &t.header;
     let size = std::fs::metadata(file)?.len();
-    println!("file:        {}", file.display());
-    println!("schema:      {}", h.schema);
-    println!("description: {}", h.description);
+    println!("file:        {}", esc(&file.display().to_string()));
+    println!("schema:      {}", esc(&h.schema.to_string()));
+    println!("description: {}", esc(&h.description));
     println!(
         "layout:      {} {} shape {:?} ({})",
         h.layout.order,
         h.layout.dtype,
         h.layout.shape,
-        h.layout.axis_order.join(" × ")
+        esc(&h.layout.axis_order.join(" × "))
     );
     println!(
         "size:        {} bytes on disk, payload {} → {} bytes zstd ({:.1}×)",
@@ -411,11 +483,16 @@ fn print_summary(file: &std::path::Path, t: &Table) -> Result<()> {
             AxisPoints::Values(v) if v.len() <= 8 => format!("{v:?}"),
             AxisPoints::Values(v) => format!("{} values {} … {}", v.len(), v[0], v[v.len() - 1]),
         };
-        println!("  {:<20} [{}] {}", a.name, a.unit, desc);
+        println!("  {:<20} [{}] {}", esc(&a.name), esc(&a.unit), desc);
     }
     println!("channels:");
     for c in &h.channels {
-        println!("  {:<20} [{}] {}", c.name, c.unit, c.meaning);
+        println!(
+            "  {:<20} [{}] {}",
+            esc(&c.name),
+            esc(&c.unit),
+            esc(&c.meaning)
+        );
     }
     println!("attributes:");
     for (k, v) in &h.attributes {
@@ -425,28 +502,52 @@ fn print_summary(file: &std::path::Path, t: &Table) -> Result<()> {
         } else {
             s
         };
-        println!("  {k}: {s}");
+        println!("  {}: {}", esc(k), esc(&s));
     }
     let p = &h.provenance;
     println!("provenance:");
     println!(
         "  tool:        {} {} (commit {})",
-        p.tool,
-        p.tool_version,
-        p.git_commit.as_deref().unwrap_or("unknown")
+        esc(&p.tool),
+        esc(&p.tool_version),
+        esc(p.git_commit.as_deref().unwrap_or("unknown"))
     );
     println!(
         "  manifest:    {} entry {}",
-        p.manifest.as_deref().unwrap_or("-"),
-        p.entry.as_deref().unwrap_or("-")
+        esc(p.manifest.as_deref().unwrap_or("-")),
+        esc(p.entry.as_deref().unwrap_or("-"))
     );
-    println!("  stage:       {}", p.stage.as_deref().unwrap_or("-"));
+    println!("  stage:       {}", esc(p.stage.as_deref().unwrap_or("-")));
     println!("  parameters:  {}", p.parameters);
-    println!("  digest:      {}", p.parameters_digest);
-    println!("  created:     {}", p.created_utc);
+    println!("  digest:      {}", esc(&p.parameters_digest));
+    println!("  created:     {}", esc(&p.created_utc));
     Ok(())
 }
 
 fn main() {
-    std::process::exit(run_cli());
+    // A reader that stops early (`scatterbake stages | head -1`) closes our stdout; `println!`
+    // then panics with "failed printing to stdout: Broken pipe". That is not an error of ours:
+    // exit 0 without a message, as `head`'s other producers do.
+    let default_hook = std::panic::take_hook();
+    std::panic::set_hook(Box::new(move |info| {
+        if !is_broken_pipe(info.payload()) {
+            default_hook(info);
+        }
+    }));
+    let code = match std::panic::catch_unwind(run_cli) {
+        Ok(code) => code,
+        Err(payload) if is_broken_pipe(payload.as_ref()) => 0,
+        Err(_) => 101,
+    };
+    std::process::exit(code);
+}
+
+/// Whether a panic payload is the standard library's "stdout closed by the reader" panic.
+fn is_broken_pipe(payload: &(dyn std::any::Any + Send)) -> bool {
+    let message = payload
+        .downcast_ref::<String>()
+        .map(String::as_str)
+        .or_else(|| payload.downcast_ref::<&str>().copied())
+        .unwrap_or("");
+    message.starts_with("failed printing to stdout") && message.contains("Broken pipe")
 }

@@ -366,3 +366,203 @@ fn dual_scattering_command_line() {
     let o = run(&["dual-scattering", "--absorption", "0.2,0.3"], d.path());
     assert_clean_failure(&o, &["--absorption", "three"]);
 }
+
+/// A reader that closes the pipe early (`scatterbake stages | head -1`) ends the command
+/// quietly with exit code 0: no panic message, no "Broken pipe" error.
+#[test]
+fn closed_stdout_exits_quietly() {
+    for args in [
+        &["stages"][..],
+        &["mie", "--radius-um", "400", "--wavelength-nm", "650"],
+    ] {
+        let mut child = bin()
+            .args(args)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("spawn scatterbake");
+        // Close the read end before the command writes: its first write fails with EPIPE.
+        drop(child.stdout.take());
+        let out = child.wait_with_output().expect("wait");
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(0), "{args:?}: {stderr}");
+        assert!(!stderr.contains("panicked"), "{args:?}: {stderr}");
+    }
+}
+
+/// `mie` and `raytrace` speak one vocabulary: with their defaults both use the IAPWS R9-97 index
+/// of water (the thesis table by the same name in both), and `i_perp` is the normalised
+/// perpendicular component (1/sr) in both, the raw |S1|² being `s1_sq`. At 0.4 mm and 650 nm the
+/// ray-traced 1-D sphere path agrees with Lorenz–Mie at 138° (primary bow) within 5 %, compared
+/// like with like: the mean of each command's point values over the 0.5° window
+/// 137.75–138.25° in 0.01° steps, which averages out the cross-order ripple (period ≈ 0.2°) that
+/// point values of both carry.
+#[test]
+fn mie_and_raytrace_share_the_index_and_the_meaning_of_i_perp() {
+    let d = tempfile::tempdir().unwrap();
+    let json = |args: &[&str]| -> serde_json::Value {
+        let o = run(args, d.path());
+        assert!(o.status.success(), "{}", text(&o));
+        serde_json::from_slice(&o.stdout).unwrap()
+    };
+    let query = |command: &str, extra: &[&str]| {
+        let mut a = vec![command, "--radius-um", "400", "--wavelength-nm", "650"];
+        a.extend(["--angles", "137.75:138.25:0.01", "--format", "json"]);
+        a.extend(extra);
+        json(&a)
+    };
+    let col = |v: &serde_json::Value, key: &str| -> Vec<f64> {
+        v[key]
+            .as_array()
+            .unwrap_or_else(|| panic!("no column {key}: {v}"))
+            .iter()
+            .map(|x| x.as_f64().unwrap())
+            .collect()
+    };
+    let n = |v: &serde_json::Value| v["m"][0].as_f64().unwrap();
+    let (mie, rt) = (query("mie", &[]), query("raytrace", &[]));
+    assert_eq!(n(&mie), n(&rt));
+    assert!(
+        (n(&mie) - 1.33167).abs() < 1e-5,
+        "IAPWS n(650 nm) = {}",
+        n(&mie)
+    );
+    let (ip_mie, ip_rt) = (col(&mie, "i_perp"), col(&rt, "i_perp"));
+    assert_eq!((ip_mie.len(), ip_rt.len()), (51, 51));
+    let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
+    let ratio = mean(&ip_rt) / mean(&ip_mie);
+    assert!(
+        (ratio - 1.0).abs() < 0.05,
+        "i_perp over 137.75–138.25°: raytrace {} / mie {} = {ratio}",
+        mean(&ip_rt),
+        mean(&ip_mie)
+    );
+    // i_perp = |S1|²/(π x² Q_sca); |S1|² itself is s1_sq.
+    let x = 2.0 * std::f64::consts::PI * 400.0 / 0.65;
+    let norm = std::f64::consts::PI * x * x * mie["qsca"].as_f64().unwrap();
+    for (s1, ip) in col(&mie, "s1_sq").iter().zip(&ip_mie) {
+        assert!((s1 / norm / ip - 1.0).abs() < 1e-9);
+    }
+    // The thesis table by one name in both commands.
+    let thesis = ["--water-index-model", "sadeghi-table-3.2"];
+    assert_eq!(n(&query("mie", &thesis)), 1.331);
+    assert_eq!(n(&query("raytrace", &thesis)), 1.331);
+}
+
+#[test]
+fn five_concurrent_builds_all_succeed() {
+    let d = tempfile::tempdir().unwrap();
+    let m = manifest(d.path(), "w", 8);
+    let children: Vec<_> = (0..5)
+        .map(|_| {
+            bin()
+                .args([
+                    "build",
+                    m.to_str().unwrap(),
+                    "--out",
+                    "shared",
+                    "-q",
+                    "--jobs",
+                    "1",
+                ])
+                .current_dir(d.path())
+                .env("SCATTERBAKE_TEST_TASK_DELAY_MS", "5")
+                .stdout(Stdio::piped())
+                .stderr(Stdio::piped())
+                .spawn()
+                .unwrap()
+        })
+        .collect();
+    for c in children {
+        let o = c.wait_with_output().unwrap();
+        assert!(o.status.success(), "{}", text(&o));
+    }
+    let o = run(&["verify", "shared/w.sbt"], d.path());
+    assert!(o.status.success(), "{}", text(&o));
+}
+
+#[test]
+fn concurrent_shards_assemble_every_table() {
+    let d = tempfile::tempdir().unwrap();
+    let ms: Vec<PathBuf> = (0..4)
+        .map(|i| manifest(d.path(), &format!("t{i}"), 3))
+        .collect();
+    let children: Vec<_> = (0..3)
+        .map(|i| {
+            let mut c = bin();
+            c.arg("build");
+            for m in &ms {
+                c.arg(m);
+            }
+            c.args(["--out", "shared", "-q", "--jobs", "1", "--shard"])
+                .arg(format!("{i}/3"))
+                .current_dir(d.path())
+                .env("SCATTERBAKE_TEST_TASK_DELAY_MS", "10")
+                .stdout(Stdio::piped())
+                .stderr(Stdio::piped())
+                .spawn()
+                .unwrap()
+        })
+        .collect();
+    for c in children {
+        let o = c.wait_with_output().unwrap();
+        assert!(o.status.success(), "{}", text(&o));
+    }
+    for i in 0..4 {
+        let p = d.path().join(format!("shared/t{i}.sbt"));
+        assert!(p.exists(), "table t{i} was not assembled");
+    }
+}
+
+#[cfg(unix)]
+#[test]
+fn symlinked_work_dir_is_refused_and_outside_kept() {
+    let d = tempfile::tempdir().unwrap();
+    let m = manifest(d.path(), "w", 2);
+    let outside = d.path().join("outside");
+    std::fs::create_dir_all(outside.join("w")).unwrap();
+    std::fs::write(outside.join("w/keep.txt"), "x").unwrap();
+    std::fs::create_dir_all(d.path().join("out")).unwrap();
+    std::os::unix::fs::symlink(&outside, d.path().join("out/.work")).unwrap();
+    let o = run(
+        &[
+            "build",
+            m.to_str().unwrap(),
+            "--out",
+            "out",
+            "-q",
+            "--force",
+        ],
+        d.path(),
+    );
+    assert_clean_failure(&o, &[".work", "symbolic link"]);
+    assert!(
+        outside.join("w/keep.txt").exists(),
+        "a directory outside --out was deleted"
+    );
+}
+
+#[test]
+fn slurm_task_id_without_count_is_an_error() {
+    let d = tempfile::tempdir().unwrap();
+    let m = manifest(d.path(), "w", 2);
+    let o = bin()
+        .args(["build", m.to_str().unwrap(), "--out", "out", "-q"])
+        .current_dir(d.path())
+        .env("SLURM_ARRAY_TASK_ID", "1")
+        .env_remove("SLURM_ARRAY_TASK_COUNT")
+        .output()
+        .unwrap();
+    assert_clean_failure(&o, &["SLURM_ARRAY_TASK_COUNT"]);
+}
+
+#[test]
+fn verify_refuses_non_table_files_from_the_magic() {
+    let d = tempfile::tempdir().unwrap();
+    // A non-table file is refused from its magic.
+    std::fs::write(d.path().join("zeros.sbt"), vec![0u8; 4096]).unwrap();
+    let o = run(&["verify", "zeros.sbt"], d.path());
+    assert_clean_failure(&o, &["zeros.sbt", "bad magic"]);
+    let o = run(&["verify", "/dev/zero"], d.path());
+    assert_clean_failure(&o, &["/dev/zero", "bad magic"]);
+}

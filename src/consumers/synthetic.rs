@@ -31,7 +31,7 @@ fn attributes(kind: &str) -> serde_json::Map<String, serde_json::Value> {
     put("angle_convention", "scattering angle, 0 deg forward".into());
     put("water_index_model", "none (synthetic)".into());
     put("medium", "water drops in air (outside index 1.0)".into());
-    put("sun_disc_diameter_deg", 0.0.into());
+    put("sun_diameter_deg", 0.0.into());
     put(
         "angular_resampling",
         "point samples of an analytic function".into(),
@@ -154,8 +154,9 @@ pub fn peak_table(
     Table::from_content(content, Provenance::default()).expect("consistent synthetic table")
 }
 
-/// A ray-traced-style 2-D table (schema `raytrace-phase-2d/1`: wavelength × sun_elevation ×
-/// outgoing_polar × outgoing_azimuth, channel `phase`) made from a 1-D phase table
+/// A ray-traced-style 2-D table in the version 1 layout, which readers still accept (schema
+/// `raytrace-phase-2d/1`: wavelength × sun_elevation × outgoing_polar × outgoing_azimuth,
+/// channel `phase`) made from a 1-D phase table
 /// (wavelength × scattering_angle): p(λ, e, θ, φ) = p_1d(λ, θ) · `factor(θ, φ)` at every
 /// elevation in `elevations_deg`, azimuth samples 0, step, … < 360. With `factor ≡ 1` this is
 /// what the ray tracer writes for a sphere; an azimuth-dependent factor mimics a flattened drop

@@ -333,7 +333,7 @@ fn single_scatter_with_path(sigma: f64, g: f64, h: f64, bins: usize) -> (Vec<f64
     let chord = geom.chord();
     let dw = 2.0 * PI / bins as f64;
     let w0 = -(-sigma * chord).exp_m1();
-    let (us, ws) = crate::optics::quadrature::gauss_legendre_interval(SINGLE_NODES, 0.0, w0);
+    let (us, ws) = crate::math::quadrature::gauss_legendre_interval(SINGLE_NODES, 0.0, w0);
     let x0 = -(1.0 - h * h).max(0.0).sqrt();
     let dirs = geom.bin_directions(bins);
     let mut e = vec![0.0; bins];

@@ -9,9 +9,10 @@
 //!   Monte Carlo of the higher orders until a target error, batch-based error bars.
 //! - [`slab`]: deterministic C^M by adding–doubling on the circle of directions (all θ'_i and
 //!   all σ of one g at once, no noise).
-//! - [`stage`]: the `fur-medulla-azimuthal` and `fur-medulla-longitudinal` stages.
-//! - [`farfield`], [`farfield_stage`]: far-field profiles of the practical shading model for the
-//!   Table 4.2 samples (stage `fur-farfield`).
+//! - [`farfield`]: far-field profiles of the practical shading model for the Table 4.2 samples.
+//!
+//! Their stages (`fur-medulla-azimuthal`, `fur-medulla-longitudinal`, `fur-farfield`) are
+//! [`crate::stages::fur_medulla`] and [`crate::stages::fur_farfield`].
 //! - [`tt`]: tensor-train (TT-SVD) compression and reconstruction of a table channel.
 
 pub mod chief_ray;
@@ -21,3 +22,48 @@ pub mod medulla_fast;
 pub mod rng;
 pub mod slab;
 pub mod tt;
+
+use crate::table::SampleError;
+
+/// Why a fur computation that reads tables failed: a medulla table that does not fit the far
+/// field, or a tensor-train table that cannot be reconstructed.
+#[derive(Debug, thiserror::Error)]
+pub enum FurError {
+    /// A table of another schema than the one expected.
+    #[error("expected a {expected} table, got {found}")]
+    WrongSchema {
+        expected: &'static str,
+        found: String,
+    },
+    /// A lookup coordinate outside the axis range of a medulla table.
+    #[error(
+        "{schema}: {axis} = {value} is outside the table's range [{lo}, {hi}]; use the on-the-fly Monte Carlo or a table whose grid covers it"
+    )]
+    OutsideTable {
+        schema: String,
+        axis: String,
+        value: f64,
+        lo: f64,
+        hi: f64,
+    },
+    /// A lookup in a medulla table (missing axis or channel, NaN coordinate).
+    #[error("lookup in the {schema} table")]
+    Lookup {
+        schema: String,
+        #[source]
+        source: SampleError,
+    },
+    /// A channel to compress that the table does not have.
+    #[error("table has no channel `{0}`")]
+    NoChannel(String),
+    /// A `fur-medulla-tt/1` table whose header does not describe its cores.
+    #[error("fur-medulla-tt table: {0}")]
+    TensorTrain(String),
+    /// A `fur-medulla-tt/1` header attribute that does not decode (or encode).
+    #[error("fur-medulla-tt table: attribute `{key}`")]
+    TensorTrainAttribute {
+        key: &'static str,
+        #[source]
+        source: serde_json::Error,
+    },
+}

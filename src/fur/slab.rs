@@ -694,7 +694,7 @@ mod tests {
         // length is π·area/perimeter, independent of σ and g; for the slab of thickness 2 per
         // unit length of both faces, π. Checks the path-length moments of the solver
         // (scattered part) together with the analytic ballistic part.
-        let (x, w) = crate::optics::quadrature::gauss_legendre_interval(48, 0.0, FRAC_PI_2);
+        let (x, w) = crate::math::quadrature::gauss_legendre_interval(48, 0.0, FRAC_PI_2);
         for (sigma, g) in [(0.4, 0.0), (3.0, 0.8)] {
             let r = solve_slab(g, &[sigma], &x, &SlabSettings::default());
             let mut mean = 0.0;

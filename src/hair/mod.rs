@@ -9,8 +9,9 @@
 //! - [`dual`]: Dual Scattering averages and closed forms;
 //! - [`artist`]: the artist-friendly model with the scalar normalisation of thesis eq. 4.17;
 //! - [`melanin`]: eumelanin/pheomelanin concentration → `σ_a`;
-//! - [`stage`]: the `hair-azimuthal` and `hair-dual` stages;
-//! - [`export`]: EXR LUT and JSON exports, CLI argument structs.
+//!
+//! The `hair-azimuthal` and `hair-dual` stages are [`crate::stages::hair`]; the EXR LUT and
+//! JSON exports [`crate::consumers::export::hair_lut`].
 
 pub mod artist;
 pub mod dual;

@@ -2,14 +2,16 @@
 //!
 //! Two models, selectable by name in manifests and recorded in every table header:
 //!
-//! - `iapws1997` (default): the IAPWS R9-97 formulation (Harvey et al. 1998) of the refractive
+//! - `iapws1997` (the default of every stage and command: mie, debye, raytrace, airy): the
+//!   IAPWS R9-97 formulation (Harvey et al. 1998) of the refractive
 //!   index of water and steam as a function of wavelength, temperature and density. Density of
 //!   liquid water at 1 atm from temperature uses Kell's (1975) polynomial (0–150 °C, better than
 //!   1e-5 relative against IAPWS-95, i.e. < 1e-6 in n). Validated domain of R9-97:
 //!   0.2–1.1 µm, −12–500 °C, 0–1060 kg/m³; outside it [`WaterIndexModel::index`] refuses.
-//! - `sadeghi-table-3.2`: the 33 tabulated values of the rainbow thesis (Table 3.2, derived from
-//!   Hale & Querry 1973, 380–700 nm every 10 nm), linearly interpolated between nodes; refuses
-//!   wavelengths outside 380–700 nm. Use it to reproduce the thesis exactly.
+//! - `sadeghi-table-3.2`: the 33 tabulated values of Table 3.2 of the rainbow thesis (Sadeghi
+//!   2012, derived from Hale & Querry 1973, 380–700 nm every 10 nm), linearly interpolated
+//!   between nodes; refuses wavelengths outside 380–700 nm. Use it to reproduce the thesis
+//!   exactly (same name in manifests and on the command line).
 //!
 //! Both give the real index relative to vacuum; the absorption index of water in 380–700 nm is
 //! below 3.5e-8 (Pope & Fry 1997) and is ignored (k = 0). The outside medium is taken as 1.0
@@ -71,8 +73,8 @@ pub const SADEGHI_WAVELENGTHS_NM: [f64; 33] = {
 /// Indices of Table 3.2 at [`SADEGHI_WAVELENGTHS_NM`].
 pub const SADEGHI_TABLE_3_2: [f64; 33] = [
     1.3406, 1.3398, 1.339, 1.3386, 1.3382, 1.3378, 1.3374, 1.337, 1.3366, 1.3362, 1.3358, 1.3354,
-    1.335, 1.3346, 1.3342, 1.3338, 1.3334, 1.333, 1.333, 1.333, 1.333, 1.3328, 1.3324, 1.332,
-    1.332, 1.332, 1.3318, 1.3314, 1.331, 1.331, 1.331, 1.331, 1.331,
+    1.335, 1.3346, 1.3342, 1.3338, 1.3334, 1.333, 1.333, 1.333, 1.3328, 1.3324, 1.332, 1.332,
+    1.332, 1.3318, 1.3314, 1.331, 1.331, 1.331, 1.331, 1.331, 1.331,
 ];
 
 impl WaterIndexModel {
@@ -126,7 +128,7 @@ impl WaterIndexModel {
                         max_nm: 700.0,
                     });
                 }
-                Ok(crate::optics::interp::interp1_uniform(
+                Ok(crate::math::interp::interp1_uniform(
                     &SADEGHI_TABLE_3_2,
                     380.0,
                     10.0,
@@ -210,6 +212,54 @@ mod tests {
         let m = WaterIndexModel::default();
         assert!((m.index(400.0).unwrap() - 1.34356).abs() < 2e-5);
         assert!((m.index(550.0).unwrap() - 1.33468).abs() < 2e-5);
+    }
+
+    /// Every row of Table 3.2 of Sadeghi (2012) as published: (wavelength nm, η). The table
+    /// holds 1.333 at 550–570 nm only and 1.331 from 650 nm on.
+    const PUBLISHED_TABLE_3_2: [(f64, f64); 33] = [
+        (380.0, 1.3406),
+        (390.0, 1.3398),
+        (400.0, 1.339),
+        (410.0, 1.3386),
+        (420.0, 1.3382),
+        (430.0, 1.3378),
+        (440.0, 1.3374),
+        (450.0, 1.337),
+        (460.0, 1.3366),
+        (470.0, 1.3362),
+        (480.0, 1.3358),
+        (490.0, 1.3354),
+        (500.0, 1.335),
+        (510.0, 1.3346),
+        (520.0, 1.3342),
+        (530.0, 1.3338),
+        (540.0, 1.3334),
+        (550.0, 1.333),
+        (560.0, 1.333),
+        (570.0, 1.333),
+        (580.0, 1.3328),
+        (590.0, 1.3324),
+        (600.0, 1.332),
+        (610.0, 1.332),
+        (620.0, 1.332),
+        (630.0, 1.3318),
+        (640.0, 1.3314),
+        (650.0, 1.331),
+        (660.0, 1.331),
+        (670.0, 1.331),
+        (680.0, 1.331),
+        (690.0, 1.331),
+        (700.0, 1.331),
+    ];
+
+    #[test]
+    fn sadeghi_table_matches_every_published_row() {
+        let m = WaterIndexModel::SadeghiTable32;
+        for (k, &(wavelength_nm, eta)) in PUBLISHED_TABLE_3_2.iter().enumerate() {
+            assert_eq!(SADEGHI_WAVELENGTHS_NM[k], wavelength_nm);
+            assert_eq!(SADEGHI_TABLE_3_2[k], eta, "row {k}: {wavelength_nm} nm");
+            assert_eq!(m.index(wavelength_nm).unwrap(), eta, "{wavelength_nm} nm");
+        }
     }
 
     #[test]

@@ -6,7 +6,9 @@
 //! - [`tracer`]: the general 2-D patch tracer (any shape, any sun elevation);
 //! - [`sphere1d`]: the fast exact 1-D geometric-optics-plus-phase path for spheres;
 //! - [`post`]: the Gaussian diffraction filter and the forward Fraunhofer lobe;
-//! - [`stage`]: the `raytrace` stage (schemas `raytrace-phase/1` and `raytrace-phase-2d/1`).
+//!
+//! The `raytrace` stage (schemas `raytrace-phase/2` and `raytrace-phase-2d/2`) is
+//! [`crate::stages::raytrace`].
 
 pub mod post;
 pub mod shape;

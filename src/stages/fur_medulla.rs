@@ -1,6 +1,11 @@
 //! Stages `fur-medulla-azimuthal` (C^N) and `fur-medulla-longitudinal` (C^M).
 //!
-//! One task per (σ, g) pair: it computes every entry row (h' or θ'_i) of that pair, in
+//! Methods (manifest key `method`): `monte-carlo` (both families, [`crate::fur::medulla`]),
+//! `adaptive` (azimuthal, the default there; `fur_medulla_adaptive.rs`) and `adding-doubling`
+//! (longitudinal, the default there; deterministic, `fur_medulla_slab.rs`). All methods share
+//! the row packing, mirroring and assembly below, so the layouts are identical.
+//!
+//! Monte Carlo: one task per (σ, g) pair: it computes every entry row (h' or θ'_i) of that pair, in
 //! parallel over rows (each row has its own random stream derived from the seed and the entry
 //! parameters, so results do not depend on thread count or sharding). When the entry grid is
 //! mirror-symmetric, rows with a negative entry are the exact mirror of the positive row
@@ -18,12 +23,14 @@
 //! are stored in the attributes as flat row-major arrays over (sigma, g, entry).
 
 use crate::fur::medulla::{Estimator, Geometry, McSettings, Profile, normalise_lobes, simulate};
-use crate::stages::{Job, ParamDoc, PlanError, Stage, TaskSpec, parse_params};
+use crate::stages::{
+    Job, JobError, ParamDoc, PlanError, StageParams, StageSpec, TaskSpec, check_chunks,
+    stage_params,
+};
 use crate::table::{Axis, Channel, Schema, TableContent};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use serde_json::json;
-use std::f64::consts::PI;
 
 #[path = "fur_medulla_adaptive.rs"]
 mod adaptive_job;
@@ -110,39 +117,42 @@ fn check_grid(
     Ok(())
 }
 
-/// Parameters shared by both stages.
-#[derive(Debug, Clone, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-struct Params {
-    /// Scattering coefficient per unit medulla radius (dimensionless).
-    sigma: Grid,
-    /// Planar HG anisotropy.
-    g: Grid,
-    /// Entry offsets h' ∈ [−1, 1] (azimuthal only).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    h: Option<Grid>,
-    /// Entry inclinations θ'_i in degrees, in (−90, 90) (longitudinal only).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    theta_i_deg: Option<Grid>,
-    #[serde(default = "default_bins")]
-    bins: usize,
-    /// `None` in a manifest = the family's default (resolved in `plan`).
-    #[serde(default)]
-    method: Option<Method>,
-    /// Monte Carlo: paths per entry; adaptive: the cap per entry (0 = not given).
-    #[serde(default)]
-    photons: u64,
-    /// Adaptive only: target relative standard error on bins above 1e-3 of the maximum.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    target_rel_error: Option<f64>,
-    #[serde(default)]
-    seed: u64,
-    #[serde(default)]
-    estimator: Estimator,
-}
-
-fn default_bins() -> usize {
-    720
+stage_params! {
+    /// Parameters shared by both stages.
+    pub struct MedullaParams {
+        /// Scattering coefficient per unit medulla radius (dimensionless).
+        sigma: Grid = required, "list of float | {start, stop, count[, centred]}",
+            "scattering coefficient per unit MEDULLA radius (dimensionless; azimuthal disc radius 1, slab half-thickness 1), 0–200; ranges include both endpoints";
+        /// Planar HG anisotropy.
+        g: Grid = required, "list of float | {start, stop, count}",
+            "planar Henyey–Greenstein anisotropy, 0 ≤ g ≤ 0.95";
+        /// Entry offsets h' ∈ [−1, 1] (azimuthal only).
+        #[serde(skip_serializing_if = "Option::is_none")]
+        h: Option<Grid> = optional("required"), "list of float | {start, stop, count}",
+            "entry offset h' on the unit medulla circle, −1 ≤ h' ≤ 1";
+        /// Entry inclinations θ'_i in degrees, in (−90, 90) (longitudinal only).
+        #[serde(skip_serializing_if = "Option::is_none")]
+        theta_i_deg: Option<Grid> = optional("required"),
+            "list of float | {start, stop, count, centred}",
+            "entry inclination θ'_i in degrees, strictly inside (−90, 90)";
+        bins: usize = default(720), "integer",
+            "exit bins, a multiple of 4: over [−π, π) (azimuthal), over both faces with bins/2 per lobe (longitudinal)";
+        /// How the table is computed; `None` = the family's default (resolved in `plan`).
+        #[serde(skip_serializing_if = "Option::is_none")]
+        method: Option<Method> = optional("adaptive (azimuthal), adding-doubling (longitudinal)"), "string",
+            "`monte-carlo` (fixed photons, both families), `adaptive` (azimuthal: closed-form single scattering, next-event Monte Carlo of the higher orders until `target_rel_error`, batch error bars) or `adding-doubling` (longitudinal: deterministic slab solver, all σ and θ'_i of one g at once)";
+        /// Monte Carlo: paths per entry; adaptive: the cap per entry.
+        #[serde(skip_serializing_if = "Option::is_none")]
+        photons: Option<u64> = optional("required by monte-carlo and adaptive; rejected by adding-doubling"), "integer",
+            "monte-carlo: paths per entry; adaptive: the cap per entry";
+        /// Adaptive only: target relative standard error.
+        #[serde(skip_serializing_if = "Option::is_none")]
+        target_rel_error: Option<f64> = optional("0.01 for adaptive"), "float",
+            "adaptive only: stop an entry once every bin above 1e-3 of its maximum has this relative standard error";
+        seed: u64 = default(0), "integer", "random seed (streams derived per entry; Monte Carlo methods)";
+        estimator: Estimator = default(Estimator::Expected), "string",
+            "monte-carlo only: `expected` (next-event, default) or `histogram`";
+    }
 }
 
 /// How a table is computed (manifest key `method`).
@@ -160,113 +170,13 @@ pub enum Method {
     AddingDoubling,
 }
 
-const PARAMS_AZ: &[ParamDoc] = &[
-    ParamDoc {
-        name: "sigma",
-        kind: "list of float | {start, stop, count[, centred]}",
-        default: "required",
-        description: "scattering coefficient per unit MEDULLA radius (dimensionless), 0–200; ranges include both endpoints",
-    },
-    ParamDoc {
-        name: "g",
-        kind: "list of float | {start, stop, count}",
-        default: "required",
-        description: "planar Henyey–Greenstein anisotropy, 0 ≤ g ≤ 0.95",
-    },
-    ParamDoc {
-        name: "h",
-        kind: "list of float | {start, stop, count}",
-        default: "required",
-        description: "entry offset h' on the unit medulla circle, −1 ≤ h' ≤ 1",
-    },
-    ParamDoc {
-        name: "bins",
-        kind: "integer",
-        default: "720",
-        description: "exit-direction bins over [−π, π), even",
-    },
-    ParamDoc {
-        name: "method",
-        kind: "string",
-        default: "adaptive",
-        description: "`adaptive` (closed-form single scattering, next-event Monte Carlo of the higher orders until the target error, batch error bars) or `monte-carlo` (fixed photons)",
-    },
-    ParamDoc {
-        name: "photons",
-        kind: "integer",
-        default: "required",
-        description: "monte-carlo: paths per entry; adaptive: the cap per entry",
-    },
-    ParamDoc {
-        name: "target_rel_error",
-        kind: "float",
-        default: "0.01",
-        description: "adaptive only: stop an entry once every bin above 1e-3 of its maximum has this relative standard error",
-    },
-    ParamDoc {
-        name: "seed",
-        kind: "integer",
-        default: "0",
-        description: "random seed (streams derived per entry)",
-    },
-    ParamDoc {
-        name: "estimator",
-        kind: "string",
-        default: "expected",
-        description: "monte-carlo only: `expected` (next-event, default) or `histogram`",
-    },
-];
-
-const PARAMS_LONG: &[ParamDoc] = &[
-    ParamDoc {
-        name: "sigma",
-        kind: "list of float | {start, stop, count[, centred]}",
-        default: "required",
-        description: "scattering coefficient per unit MEDULLA radius (slab half-thickness 1), 0–200",
-    },
-    ParamDoc {
-        name: "g",
-        kind: "list of float | {start, stop, count}",
-        default: "required",
-        description: "planar Henyey–Greenstein anisotropy, 0 ≤ g ≤ 0.95",
-    },
-    ParamDoc {
-        name: "theta_i_deg",
-        kind: "list of float | {start, stop, count, centred}",
-        default: "required",
-        description: "entry inclination θ'_i in degrees, strictly inside (−90, 90)",
-    },
-    ParamDoc {
-        name: "bins",
-        kind: "integer",
-        default: "720",
-        description: "exit bins over both faces (bins/2 per lobe), even",
-    },
-    ParamDoc {
-        name: "method",
-        kind: "string",
-        default: "adding-doubling",
-        description: "`adding-doubling` (deterministic, all θ'_i and σ of one g at once) or `monte-carlo`",
-    },
-    ParamDoc {
-        name: "photons",
-        kind: "integer",
-        default: "required for monte-carlo",
-        description: "paths per entry (monte-carlo only)",
-    },
-    ParamDoc {
-        name: "seed",
-        kind: "integer",
-        default: "0",
-        description: "random seed (streams derived per entry; monte-carlo only)",
-    },
-    ParamDoc {
-        name: "estimator",
-        kind: "string",
-        default: "expected",
-        description: "monte-carlo only: `expected` (next-event, default) or `histogram`",
-    },
-];
+/// The entry parameter a family does not take (left out of its documentation).
+fn foreign_entry_key(family: Family) -> &'static str {
+    match family {
+        Family::Azimuthal => "theta_i_deg",
+        Family::Longitudinal => "h",
+    }
+}
 
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Family {
@@ -279,11 +189,7 @@ pub struct FurMedullaAzimuthalStage;
 /// Stage for the longitudinal family C^M(θ'_r; θ'_i, σ, g).
 pub struct FurMedullaLongitudinalStage;
 
-fn plan(
-    family: Family,
-    params: toml::de::ValueDeserializer<'_>,
-) -> Result<Box<dyn Job>, PlanError> {
-    let mut p: Params = parse_params(params)?;
+fn plan(family: Family, mut p: MedullaParams) -> Result<Box<dyn Job>, PlanError> {
     let method = match (family, p.method) {
         (Family::Azimuthal, Some(Method::AddingDoubling)) => {
             return Err(PlanError::invalid(
@@ -306,14 +212,13 @@ fn plan(
         (Method::Adaptive, Some(t)) if !(t > 0.0 && t < 1.0) => {
             return Err(PlanError::invalid("target_rel_error", "must be in (0, 1)"));
         }
-        (Method::Adaptive, Some(_)) => {}
+        (Method::Adaptive, Some(_)) | (_, None) => {}
         (_, Some(_)) => {
             return Err(PlanError::invalid(
                 "target_rel_error",
                 "only for method = \"adaptive\"",
             ));
         }
-        (_, None) => {}
     }
     let sigma = p.sigma.points();
     let g = p.g.points();
@@ -354,10 +259,10 @@ fn plan(
         ));
     }
     if method == Method::AddingDoubling {
-        if p.photons != 0 {
+        if p.photons.is_some() {
             return Err(PlanError::invalid(
                 "photons",
-                "only for method = \"monte-carlo\"",
+                "only for the Monte Carlo methods (monte-carlo, adaptive)",
             ));
         }
         return Ok(Box::new(slab_job::SlabJob::new(MedullaJob {
@@ -368,11 +273,17 @@ fn plan(
             entries,
         })));
     }
-    if p.photons == 0 || p.photons > 1_000_000_000 {
-        return Err(PlanError::invalid(
-            "photons",
-            "must be in 1..=1e9 (required for the Monte Carlo methods)",
-        ));
+    match p.photons {
+        None => {
+            return Err(PlanError::invalid(
+                "photons",
+                "required by the Monte Carlo methods (monte-carlo, adaptive)",
+            ));
+        }
+        Some(n) if n == 0 || n > 1_000_000_000 => {
+            return Err(PlanError::invalid("photons", "must be in 1..=1e9"));
+        }
+        Some(_) => {}
     }
     let job = MedullaJob {
         family,
@@ -387,39 +298,39 @@ fn plan(
     Ok(Box::new(job))
 }
 
-impl Stage for FurMedullaAzimuthalStage {
-    fn name(&self) -> &'static str {
-        "fur-medulla-azimuthal"
+/// The documentation of `MedullaParams` without the other family's entry key (and, for the
+/// longitudinal family, without the adaptive method's key).
+fn family_docs(family: Family) -> Vec<ParamDoc> {
+    MedullaParams::docs()
+        .into_iter()
+        .filter(|d| d.name != foreign_entry_key(family))
+        .filter(|d| !(family == Family::Longitudinal && d.name == "target_rel_error"))
+        .collect()
+}
+
+impl StageSpec for FurMedullaAzimuthalStage {
+    const NAME: &'static str = "fur-medulla-azimuthal";
+    const VERSION: u32 = 2;
+    const SUMMARY: &'static str = "fur medulla azimuthal scattering C^N(φ'; h', σ, g): 2-D transport in the unit disc (adaptive or fixed-photon Monte Carlo)";
+    type Params = MedullaParams;
+    fn plan_params(&self, p: MedullaParams) -> Result<Box<dyn Job>, PlanError> {
+        plan(Family::Azimuthal, p)
     }
-    fn algorithm_version(&self) -> u32 {
-        2
-    }
-    fn summary(&self) -> &'static str {
-        "fur medulla azimuthal scattering C^N(φ'; h', σ, g): 2-D transport in the unit disc (adaptive or fixed-photon Monte Carlo)"
-    }
-    fn parameters(&self) -> &'static [ParamDoc] {
-        PARAMS_AZ
-    }
-    fn plan(&self, params: toml::de::ValueDeserializer<'_>) -> Result<Box<dyn Job>, PlanError> {
-        plan(Family::Azimuthal, params)
+    fn parameter_docs(&self) -> Vec<ParamDoc> {
+        family_docs(Family::Azimuthal)
     }
 }
 
-impl Stage for FurMedullaLongitudinalStage {
-    fn name(&self) -> &'static str {
-        "fur-medulla-longitudinal"
+impl StageSpec for FurMedullaLongitudinalStage {
+    const NAME: &'static str = "fur-medulla-longitudinal";
+    const VERSION: u32 = 2;
+    const SUMMARY: &'static str = "fur medulla longitudinal scattering C^M(θ'_r; θ'_i, σ, g): back/forward lobes of a slab of thickness 2 (adding–doubling or Monte Carlo)";
+    type Params = MedullaParams;
+    fn plan_params(&self, p: MedullaParams) -> Result<Box<dyn Job>, PlanError> {
+        plan(Family::Longitudinal, p)
     }
-    fn algorithm_version(&self) -> u32 {
-        2
-    }
-    fn summary(&self) -> &'static str {
-        "fur medulla longitudinal scattering C^M(θ'_r; θ'_i, σ, g): back/forward lobes of a slab of thickness 2 (adding–doubling or Monte Carlo)"
-    }
-    fn parameters(&self) -> &'static [ParamDoc] {
-        PARAMS_LONG
-    }
-    fn plan(&self, params: toml::de::ValueDeserializer<'_>) -> Result<Box<dyn Job>, PlanError> {
-        plan(Family::Longitudinal, params)
+    fn parameter_docs(&self) -> Vec<ParamDoc> {
+        family_docs(Family::Longitudinal)
     }
 }
 
@@ -428,7 +339,7 @@ const SIGMA_LIMIT: f64 = 1e-9;
 
 struct MedullaJob {
     family: Family,
-    p: Params,
+    p: MedullaParams,
     sigma: Vec<f64>,
     g: Vec<f64>,
     entries: Vec<f64>,
@@ -457,7 +368,7 @@ impl MedullaJob {
     }
     fn settings(&self) -> McSettings {
         McSettings {
-            photons: self.p.photons,
+            photons: self.p.photons.unwrap_or(0),
             seed: self.p.seed,
             estimator: self.p.estimator,
             bins: self.p.bins,
@@ -616,7 +527,7 @@ impl Job for MedullaJob {
         }
         t
     }
-    fn run_task(&self, index: usize) -> anyhow::Result<Vec<f32>> {
+    fn run_task(&self, index: usize) -> Result<Vec<f32>, JobError> {
         let sigma = self.sigma[index / self.g.len()];
         let g = self.g[index % self.g.len()];
         let n = self.entries.len();
@@ -629,7 +540,7 @@ impl Job for MedullaJob {
             .collect();
         Ok(self.chunk(&rows))
     }
-    fn assemble(&self, chunks: Vec<Vec<f32>>) -> anyhow::Result<TableContent> {
+    fn assemble(&self, chunks: Vec<Vec<f32>>) -> Result<TableContent, JobError> {
         let (b, c, ns, n) = (
             self.p.bins,
             self.channels(),
@@ -639,14 +550,8 @@ impl Job for MedullaJob {
         let row_len = n * b * c;
         let mut data = Vec::with_capacity(chunks.len() * row_len);
         let mut scal: Vec<Vec<f64>> = vec![Vec::new(); ns];
-        // By value: each chunk is freed once copied (thesis-grid tables are ~1 GB).
-        for ch in chunks {
-            anyhow::ensure!(
-                ch.len() == row_len + n * ns,
-                "chunk of length {} (expected {})",
-                ch.len(),
-                row_len + n * ns
-            );
+        check_chunks(&chunks, self.sigma.len() * self.g.len(), row_len + n * ns)?;
+        for ch in &chunks {
             data.extend_from_slice(&ch[..row_len]);
             for i in 0..n {
                 for (j, s) in scal.iter_mut().enumerate() {
@@ -675,6 +580,7 @@ impl Job for MedullaJob {
             Estimator::Histogram => "analog histogram of exit directions",
         }.into());
         a.insert("photons_per_entry".into(), self.p.photons.into());
+        a.insert("method".into(), "monte-carlo".into());
         a.insert("seed".into(), self.p.seed.into());
         a.insert("rng".into(), "SplitMix64, one stream per entry derived from (seed, family, sigma, g, entry) bit patterns: independent of threads and sharding".into());
         a.insert("grid_endpoints".into(), "axis values are exactly the listed sample points; {start, stop, count} ranges include both endpoints unless centred = true".into());
@@ -762,7 +668,6 @@ impl Job for MedullaJob {
                 }
             }
         };
-        let _ = PI;
         Ok(content)
     }
 }
@@ -771,158 +676,114 @@ impl Job for MedullaJob {
 mod tests {
     use super::*;
 
+    use crate::stages::Stage;
+    use std::f64::consts::PI;
+
     fn plan_str(family: Family, s: &str) -> Result<Box<dyn Job>, PlanError> {
         let v = toml::de::ValueDeserializer::parse(s).unwrap();
-        plan(family, v)
+        match family {
+            Family::Azimuthal => FurMedullaAzimuthalStage.plan(v),
+            Family::Longitudinal => FurMedullaLongitudinalStage.plan(v),
+        }
     }
 
     fn run(job: &dyn Job) -> TableContent {
-        let chunks = (0..job.tasks().len())
-            .map(|i| job.run_task(i).unwrap())
-            .collect();
-        job.assemble(chunks).unwrap()
+        crate::stages::run_in_memory(job).unwrap()
     }
 
     #[test]
     fn azimuthal_table_energy_zeros_and_mirror_rows() {
-        let job = plan_str(
-            Family::Azimuthal,
-            "{ sigma = [0.0, 2.0], g = [0.0, 0.6], h = { start = -1.0, stop = 1.0, count = 5 }, bins = 72, photons = 300, seed = 3 }",
-        )
-        .unwrap();
-        let t = run(job.as_ref());
-        assert_eq!(t.data.len(), t.expected_len());
-        let (nh, b, c) = (5, 72, 3);
-        let at = |si: usize, gi: usize, hi: usize, k: usize, ch: usize| {
-            t.data[(((si * 2 + gi) * nh + hi) * b + k) * c + ch]
-        };
-        for gi in 0..2 {
-            for hi in 0..nh {
+        for method in ["monte-carlo", "adaptive"] {
+            let job = plan_str(
+                Family::Azimuthal,
+                &format!("{{ sigma = [0.0, 2.0], g = [0.0, 0.6], h = {{ start = -1.0, stop = 1.0, count = 5 }}, bins = 72, method = \"{method}\", photons = 300, seed = 3 }}"),
+            )
+            .unwrap();
+            let t = run(job.as_ref());
+            assert_eq!(t.data.len(), t.expected_len());
+            assert_eq!(t.attributes["method"], method);
+            let (nh, b, c) = (5, 72, 3);
+            let at = |si: usize, gi: usize, hi: usize, k: usize, ch: usize| {
+                t.data[(((si * 2 + gi) * nh + hi) * b + k) * c + ch]
+            };
+            let se = t.attributes["scattered_fraction_std_error"]
+                .as_array()
+                .unwrap();
+            for gi in 0..2 {
+                for hi in 0..nh {
+                    for k in 0..b {
+                        assert_eq!(at(0, gi, hi, k, 0), 0.0); // σ = 0
+                    }
+                }
                 for k in 0..b {
-                    assert_eq!(at(0, gi, hi, k, 0), 0.0); // σ = 0
+                    assert_eq!(at(1, gi, 0, k, 0), 0.0); // h = −1
+                    assert_eq!(at(1, gi, 4, k, 0), 0.0); // h = +1
+                    assert_eq!(at(1, gi, 1, k, 0), at(1, gi, 3, b - 1 - k, 0)); // mirror
+                }
+                for hi in 0..nh {
+                    let h: f64 = -1.0 + 0.5 * hi as f64;
+                    let sum: f64 = (0..b).map(|k| at(1, gi, hi, k, 0) as f64).sum();
+                    let expect = 1.0 - (-2.0 * 2.0 * (1.0 - h * h).max(0.0).sqrt()).exp();
+                    let err = se[(2 + gi) * nh + hi].as_f64().unwrap();
+                    assert!(
+                        (sum - expect).abs() < (5.0 * err).max(1e-4),
+                        "{method} h={h}: {sum} vs {expect} ± {err}"
+                    );
                 }
             }
-            for k in 0..b {
-                assert_eq!(at(1, gi, 0, k, 0), 0.0); // h = −1
-                assert_eq!(at(1, gi, 4, k, 0), 0.0); // h = +1
-                assert_eq!(at(1, gi, 1, k, 0), at(1, gi, 3, b - 1 - k, 0)); // mirror
-            }
-            for hi in 0..nh {
-                let h: f64 = -1.0 + 0.5 * hi as f64;
-                let sum: f64 = (0..b).map(|k| at(1, gi, hi, k, 0) as f64).sum();
-                let expect = 1.0 - (-2.0 * 2.0 * (1.0 - h * h).max(0.0).sqrt()).exp();
-                assert!((sum - expect).abs() < 1e-2, "h={h}: {sum} vs {expect}");
-            }
+            assert!(
+                t.attributes["energy_identity_max_deviation_std_errors"]
+                    .as_f64()
+                    .unwrap()
+                    < 5.0
+            );
         }
-        assert!(
-            t.attributes["energy_identity_max_deviation_std_errors"]
-                .as_f64()
-                .unwrap()
-                < 5.0
-        );
     }
 
     #[test]
     fn longitudinal_lobes_normalised_and_cdf_ends_at_one() {
-        for method in [
-            "method = \"monte-carlo\", photons = 200",
-            "method = \"adding-doubling\"",
-        ] {
-            let job = plan_str(
-                Family::Longitudinal,
-                &format!("{{ sigma = [0.0, 1.5], g = [0.3], theta_i_deg = {{ start = -60.0, stop = 60.0, count = 4, centred = true }}, bins = 120, {method} }}"),
-            )
-            .unwrap();
-            check_lobes(&run(job.as_ref()));
-        }
-    }
-
-    /// Every (σ, g, θ'_i) row of a longitudinal table: both lobes' pdf integrate to 1, the cdf
-    /// is monotone and ends at 1, and σ = 0 rows carry no energy.
-    fn check_lobes(t: &TableContent) {
-        let (c, half) = (5, t.axes[4].len());
-        let dw = PI / half as f64;
-        let sigma = t.axes[0].coords();
-        let per_sigma = t.axes[1].len() * t.axes[2].len();
-        for (row, r) in t.data.chunks(2 * half * c).enumerate() {
-            let si = row / per_sigma;
-            for lobe in 0..2 {
-                let base = lobe * half * c;
-                let int: f64 = (0..half).map(|j| r[base + j * c] as f64 * dw).sum();
-                assert!((int - 1.0).abs() < 1e-5, "row {row} lobe {lobe}: {int}");
-                assert!((r[base + (half - 1) * c + 1] - 1.0).abs() < 1e-6);
-                assert!((0..half - 1).all(|j| r[base + (j + 1) * c + 1] >= r[base + j * c + 1]));
-                if sigma[si] == 0.0 {
-                    assert!((0..half).all(|j| r[base + j * c + 2] == 0.0));
+        let job = plan_str(
+            Family::Longitudinal,
+            "{ sigma = [0.0, 1.5], g = [0.3], theta_i_deg = { start = -60.0, stop = 60.0, count = 4, centred = true }, bins = 120, method = \"monte-carlo\", photons = 200 }",
+        )
+        .unwrap();
+        let t = run(job.as_ref());
+        let (nt, half, c) = (4, 60, 5);
+        let dw = 2.0 * PI / 120.0;
+        for si in 0..2 {
+            for ti in 0..nt {
+                for lobe in 0..2 {
+                    let base = (((si * nt + ti) * 2 + lobe) * half) * c;
+                    let int: f64 = (0..half).map(|j| t.data[base + j * c] as f64 * dw).sum();
+                    assert!((int - 1.0).abs() < 1e-5, "σ{si} θ{ti} lobe {lobe}: {int}");
+                    assert!((t.data[base + (half - 1) * c + 1] - 1.0).abs() < 1e-6);
+                    assert!(
+                        (0..half - 1)
+                            .all(|j| t.data[base + (j + 1) * c + 1] >= t.data[base + j * c + 1])
+                    );
+                    if si == 0 {
+                        assert!((0..half).all(|j| t.data[base + j * c + 2] == 0.0));
+                    }
                 }
             }
         }
     }
 
     #[test]
-    fn adding_doubling_table_matches_the_solver_row_by_row() {
-        // The per-g tasks are reordered into (σ, g) order on assembly: compare one row of the
-        // assembled table with a direct solve, and check the conventions of the method.
-        let job = plan_str(
-            Family::Longitudinal,
-            "{ sigma = [0.0, 0.5, 2.0], g = [0.2, 0.7], theta_i_deg = [-40.0, 10.0, 40.0], bins = 120 }",
-        )
-        .unwrap();
-        assert_eq!(job.tasks().len(), 2);
-        let t = run(job.as_ref());
-        assert_eq!(t.data.len(), t.expected_len());
-        assert_eq!(t.attributes["method"], "adding-doubling");
-        let (nt, b, c) = (3, 120, 5);
-        let at = |si: usize, gi: usize, ti: usize, k: usize, ch: usize| {
-            t.data[(((si * 2 + gi) * nt + ti) * b + k) * c + ch]
-        };
-        let s = crate::fur::slab::SlabSettings {
-            bins: 120,
-            ..Default::default()
-        };
-        let direct = crate::fur::slab::solve_slab(0.7, &[2.0], &[10f64.to_radians()], &s);
-        let mut sum = 0.0;
-        for k in 0..b {
-            assert_eq!(at(2, 1, 1, k, 2), direct[0][0].energy[k] as f32);
-            assert_eq!(at(2, 1, 1, k, 3), direct[0][0].path_length[k] as f32);
-            assert_eq!(at(2, 1, 1, k, 4), 0.0);
-            sum += at(2, 1, 1, k, 2) as f64;
-            // θ'_i = −40° is the exact mirror of +40° within each lobe.
-            let m = if k < 60 { 59 - k } else { 60 + (119 - k) };
-            assert_eq!(at(1, 0, 0, k, 2), at(1, 0, 2, m, 2));
-        }
-        let expect = 1.0 - (-2.0 * 2.0 / 10f64.to_radians().cos()).exp();
-        assert!((sum - expect).abs() < 1e-5, "{sum} vs {expect}");
-        assert!(
-            t.attributes["energy_identity_max_deviation"]
-                .as_f64()
-                .unwrap()
-                < 1e-5
-        );
-        check_lobes(&t);
-    }
-
-    #[test]
     fn shipped_manifests_plan_with_the_documented_grids() {
-        let root = env!("CARGO_MANIFEST_DIR");
+        // (file, tasks of each table in order): Monte Carlo and adaptive one per (σ, g),
+        // adding–doubling one per g.
         for (file, tasks) in [
             ("manifests/fur-medulla.toml", [45, 5]),
             ("manifests/full/fur-medulla-full.toml", [1024, 1024]),
             ("manifests/full/fur-medulla-thesis.toml", [1024, 16]),
         ] {
-            let text = std::fs::read_to_string(format!("{root}/{file}")).unwrap();
-            let doc: toml::Table = toml::from_str(&text).unwrap();
-            let tables = doc["table"].as_array().unwrap();
-            assert_eq!(tables.len(), 2, "{file}");
-            for (entry, tasks) in tables.iter().zip(tasks) {
-                let stage = crate::stages::find(entry["stage"].as_str().unwrap()).unwrap();
-                let params = entry["params"].to_string();
-                let job = stage
-                    .plan(toml::de::ValueDeserializer::parse(&params).unwrap())
-                    .unwrap();
-                assert_eq!(job.tasks().len(), tasks, "{file}");
+            let jobs = crate::stages::plan_manifest_file(file);
+            assert_eq!(jobs.len(), 2, "{file}");
+            for ((_, job), n) in jobs.into_iter().zip(tasks) {
+                assert_eq!(job.tasks().len(), n, "{file}");
                 if file.contains("full/") {
-                    let p: Params = serde_json::from_value(job.parameters()).unwrap();
+                    let p: MedullaParams = serde_json::from_value(job.parameters()).unwrap();
                     let sigma = p.sigma.points();
                     assert_eq!((sigma.len(), sigma[0], sigma[63]), (64, 0.0, 20.0));
                     assert!((sigma[1] - 20.0 / 63.0).abs() < 1e-12);
@@ -936,63 +797,66 @@ mod tests {
     }
 
     #[test]
+    fn methods_resolve_per_family_and_reject_foreign_keys() {
+        let az = "sigma = [1.0], g = [0.0], h = [0.5]";
+        let lo = "sigma = [1.0], g = [0.0], theta_i_deg = [10.0]";
+        crate::stages::assert_planning(
+            &FurMedullaAzimuthalStage,
+            &[
+                &format!("{az}, method = \"adding-doubling\", photons = 10"),
+                &format!("{az}, method = \"adaptive\""),
+                &format!("{az}, method = \"adaptive\", photons = 10, target_rel_error = 0.0"),
+                &format!("{az}, method = \"monte-carlo\", photons = 10, target_rel_error = 0.1"),
+                &format!("{az}, method = \"bogus\", photons = 10"),
+            ],
+            &[
+                &format!("{az}, photons = 10"),
+                &format!("{az}, method = \"adaptive\", photons = 10, target_rel_error = 0.05"),
+                &format!("{az}, method = \"monte-carlo\", photons = 10"),
+            ],
+        );
+        crate::stages::assert_planning(
+            &FurMedullaLongitudinalStage,
+            &[
+                &format!("{lo}, method = \"adaptive\", photons = 10"),
+                &format!("{lo}, photons = 10"),
+                &format!("{lo}, method = \"monte-carlo\""),
+                &format!("{lo}, target_rel_error = 0.01"),
+            ],
+            &[
+                lo,
+                &format!("{lo}, method = \"adding-doubling\""),
+                &format!("{lo}, method = \"monte-carlo\", photons = 10"),
+            ],
+        );
+        // The resolved method is part of the recorded parameters (and so of the content key).
+        let job = plan_str(Family::Azimuthal, &format!("{{ {az}, photons = 10 }}")).unwrap();
+        assert_eq!(job.parameters()["method"], "adaptive");
+        assert_eq!(job.parameters()["target_rel_error"], 0.01);
+        let job = plan_str(Family::Longitudinal, &format!("{{ {lo} }}")).unwrap();
+        assert_eq!(job.parameters()["method"], "adding-doubling");
+        assert_eq!(job.tasks().len(), 1);
+    }
+
+    #[test]
     fn rejects_bad_params() {
-        assert!(
-            plan_str(
-                Family::Azimuthal,
-                "{ sigma = [1.0], g = [0.0], h = [1.5], photons = 1 }"
-            )
-            .is_err()
+        let common = "sigma = [1.0], g = [0.0], photons = 1";
+        crate::stages::assert_planning(
+            &FurMedullaAzimuthalStage,
+            &[
+                &format!("{common}, h = [1.5]"),
+                "sigma = [1.0], g = [0.99], h = [0.5], photons = 1",
+                &format!("{common}, h = [0.5], bogus = 2"),
+                &format!("{common}, theta_i_deg = [0.5]"),
+            ],
+            &[&format!("{common}, h = [0.5]")],
         );
-        assert!(
-            plan_str(
-                Family::Longitudinal,
-                "{ sigma = [1.0], g = [0.0], theta_i_deg = [90.0], photons = 1 }"
-            )
-            .is_err()
-        );
-        assert!(
-            plan_str(
-                Family::Azimuthal,
-                "{ sigma = [1.0], g = [0.99], h = [0.5], photons = 1 }"
-            )
-            .is_err()
-        );
-        assert!(
-            plan_str(
-                Family::Azimuthal,
-                "{ sigma = [1.0], g = [0.0], h = [0.5], photons = 1, bogus = 2 }"
-            )
-            .is_err()
-        );
-        assert!(
-            plan_str(
-                Family::Azimuthal,
-                "{ sigma = [1.0], g = [0.0], theta_i_deg = [0.5], photons = 1 }"
-            )
-            .is_err()
-        );
-        // Monte Carlo settings are rejected by the deterministic method and vice versa.
-        assert!(
-            plan_str(
-                Family::Longitudinal,
-                "{ sigma = [1.0], g = [0.0], theta_i_deg = [0.5], method = \"adding-doubling\", photons = 10 }"
-            )
-            .is_err()
-        );
-        assert!(
-            plan_str(
-                Family::Azimuthal,
-                "{ sigma = [1.0], g = [0.0], h = [0.5], method = \"adding-doubling\" }"
-            )
-            .is_err()
-        );
-        assert!(
-            plan_str(
-                Family::Longitudinal,
-                "{ sigma = [1.0], g = [0.0], theta_i_deg = [0.5], method = \"monte-carlo\" }"
-            )
-            .is_err()
+        crate::stages::assert_planning(
+            &FurMedullaLongitudinalStage,
+            &[&format!("{common}, theta_i_deg = [90.0]")],
+            &[&format!(
+                "{common}, theta_i_deg = [0.5], method = \"monte-carlo\""
+            )],
         );
     }
 }

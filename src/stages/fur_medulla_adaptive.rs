@@ -9,7 +9,7 @@
 use super::MedullaJob;
 use crate::fur::medulla::Profile;
 use crate::fur::medulla_fast::{AdaptiveSettings, simulate_adaptive};
-use crate::stages::{Job, TaskSpec};
+use crate::stages::{Job, JobError, TaskSpec, check_chunks};
 use crate::table::TableContent;
 use rayon::prelude::*;
 
@@ -29,7 +29,7 @@ impl AdaptiveJob {
         AdaptiveSettings {
             bins: self.inner.p.bins,
             seed: self.inner.p.seed,
-            max_photons: self.inner.p.photons,
+            max_photons: self.inner.p.photons.unwrap_or(0),
             target_rel_error: self.inner.p.target_rel_error.unwrap_or(0.01),
             ..AdaptiveSettings::default()
         }
@@ -45,7 +45,7 @@ impl Job for AdaptiveJob {
         self.inner.tasks()
     }
 
-    fn run_task(&self, index: usize) -> anyhow::Result<Vec<f32>> {
+    fn run_task(&self, index: usize) -> Result<Vec<f32>, JobError> {
         let job = &self.inner;
         let sigma = job.sigma[index / job.g.len()];
         let g = job.g[index % job.g.len()];
@@ -87,12 +87,14 @@ impl Job for AdaptiveJob {
         Ok(out)
     }
 
-    fn assemble(&self, chunks: Vec<Vec<f32>>) -> anyhow::Result<TableContent> {
+    fn assemble(&self, chunks: Vec<Vec<f32>>) -> Result<TableContent, JobError> {
         let n = self.inner.entries.len();
         let mut extras: Vec<Vec<f64>> = vec![Vec::new(); EXTRA];
         let mut inner_chunks = Vec::with_capacity(chunks.len());
+        let len = self.inner.entries.len()
+            * (self.inner.p.bins * self.inner.channels() + self.inner.scalars() + EXTRA);
+        check_chunks(&chunks, self.inner.sigma.len() * self.inner.g.len(), len)?;
         for mut ch in chunks {
-            anyhow::ensure!(ch.len() >= n * EXTRA, "chunk too short");
             let tail = ch.split_off(ch.len() - n * EXTRA);
             for e in tail.chunks(EXTRA) {
                 for (j, v) in e.iter().enumerate() {

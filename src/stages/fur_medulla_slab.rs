@@ -7,7 +7,7 @@
 use super::MedullaJob;
 use crate::fur::medulla::Profile;
 use crate::fur::slab::{SlabSettings, limit_shape, solve_slab};
-use crate::stages::{Job, TaskSpec};
+use crate::stages::{Job, JobError, TaskSpec, check_chunks};
 use crate::table::TableContent;
 use serde_json::json;
 
@@ -54,7 +54,7 @@ impl Job for SlabJob {
     }
 
     /// All σ of one g: the (σ, g) chunks of the Monte Carlo layout, σ ascending in grid order.
-    fn run_task(&self, index: usize) -> anyhow::Result<Vec<f32>> {
+    fn run_task(&self, index: usize) -> Result<Vec<f32>, JobError> {
         let job = &self.inner;
         let g = job.g[index];
         let bins = job.p.bins;
@@ -86,22 +86,10 @@ impl Job for SlabJob {
         Ok(out)
     }
 
-    fn assemble(&self, chunks: Vec<Vec<f32>>) -> anyhow::Result<TableContent> {
+    fn assemble(&self, chunks: Vec<Vec<f32>>) -> Result<TableContent, JobError> {
         let job = &self.inner;
         let (ns, ng, len) = (job.sigma.len(), job.g.len(), self.chunk_len());
-        anyhow::ensure!(
-            chunks.len() == ng,
-            "{} chunks for {ng} g values",
-            chunks.len()
-        );
-        for ch in &chunks {
-            anyhow::ensure!(
-                ch.len() == ns * len,
-                "chunk of length {} (expected {})",
-                ch.len(),
-                ns * len
-            );
-        }
+        check_chunks(&chunks, ng, ns * len)?;
         // Reorder into the (σ, g) task order of the Monte Carlo job, freeing each task's chunk
         // once split.
         let mut pieces: Vec<Vec<Vec<f32>>> = Vec::with_capacity(ng);

@@ -1,19 +1,29 @@
 //! `raytrace` stage: wave-optics ray-traced phase functions of raindrops.
 //!
-//! - `shape = "sphere"`: schema `raytrace-phase/1`, axes wavelength (nm) × radius (µm) ×
-//!   scattering_angle (deg, uniform over [0, 180]); computed by the exact 1-D
-//!   geometric-optics-plus-phase path ([`crate::raytrace::sphere1d`]), which the general 2-D tracer is
-//!   validated against (tests/raytrace_validation.rs).
-//! - `shape = "beard-chuang"` or `"profile"`: schema `raytrace-phase-2d/1`, axes wavelength (nm)
-//!   × sun_elevation (deg) × outgoing_polar (deg from the incident direction, 0 = forward) ×
-//!   outgoing_azimuth (deg, 0..360, from the vertical plane containing the incident direction,
-//!   towards +y; see [`crate::raytrace::tracer`] for the frame); computed by the 2-D patch tracer.
+//! Parameters use the vocabulary of the other phase-function stages (`docs/vocabulary.md`):
+//! `radii_um`, `wavelengths_nm`, `water_index_model` (default `iapws1997`), `temperature_c`.
+//!
+//! - `shape = "sphere"`: schema `raytrace-phase/2`, axes radius (µm) × wavelength (nm) ×
+//!   scattering_angle (deg, uniform over [0, 180]), as `mie-phase` and `debye-phase`; computed by
+//!   the exact 1-D geometric-optics-plus-phase path ([`crate::raytrace::sphere1d`]), which the
+//!   general 2-D tracer is validated against (tests/raytrace_validation.rs).
+//! - `shape = "beard-chuang"` or `"profile"`: schema `raytrace-phase-2d/2`, axes radius (µm, one
+//!   value) × wavelength (nm) × sun_elevation (deg) × outgoing_polar (deg from the incident
+//!   direction, 0 = forward) × outgoing_azimuth (deg, 0..360, from the vertical plane containing
+//!   the incident direction, towards +y; see [`crate::raytrace::tracer`] for the frame); computed
+//!   by the 2-D patch tracer.
+//!
+//! Version 1 of both schemas had the axes wavelength × radius (1-D) and wavelength × sun_elevation
+//! (2-D, radius only in the `radius_mm` attribute) and was written from the keys `radius_mm` and
+//! `wavelength_nm`; those keys are now refused with a message giving the new ones.
 //!
 //! Channels (both schemas): phase, i_perp, i_par, dolp, phase_p0..phase_pN (per order,
 //! filtered), phase_unfiltered, i_perp_unfiltered, i_par_unfiltered; all in 1/sr normalised
 //! against the full scattering cross-section σ = σ_GO (traced orders) + A (forward Fraunhofer
-//! lobe of the projected area A), so that ∫_{4π} p dΩ = 1 up to the flux of triangles discarded
-//! at the silhouette (reported in the attributes).
+//! lobe of the projected area A): i_perp = (dσ/dΩ)_⊥/σ, i_par = (dσ/dΩ)_∥/σ and
+//! phase = (i_perp + i_par)/2, so that ∫_{4π} phase dΩ = 1 up to the flux of triangles discarded
+//! at the silhouette (reported in the attributes). For a sphere this is the `mie` normalisation
+//! i_perp = |S1|²/(π x² Q_sca).
 
 use crate::optics::water::{SADEGHI_WAVELENGTHS_NM, WaterIndexModel};
 use crate::raytrace::post::{
@@ -23,175 +33,83 @@ use crate::raytrace::post::{
 use crate::raytrace::shape::{CosineSeries, DropShape};
 use crate::raytrace::sphere1d::{DiffractionModel, Phase1dOptions, SphereGo, sphere_phase_1d};
 use crate::raytrace::tracer::{DirectionGrid, TraceConfig, trace_fields};
-use crate::stages::{Job, ParamDoc, PlanError, Stage, TaskSpec, checks, parse_params};
-use crate::table::phase_contract;
+use crate::stages::phase_contract;
+use crate::stages::{Job, JobError, PlanError, StageSpec, TaskSpec, checks, stage_params};
 use crate::table::{Axis, Channel, Schema, TableContent};
-use serde::{Deserialize, Serialize};
 use std::f64::consts::PI;
 
 /// The stage.
 pub struct RaytraceStage;
 
-fn default_wavelengths() -> Vec<f64> {
-    SADEGHI_WAVELENGTHS_NM.to_vec()
-}
-fn default_model() -> String {
-    "sadeghi-table-3.2".into()
-}
-fn default_max_order() -> usize {
-    3
-}
-fn default_angle_step() -> f64 {
-    0.05
-}
-fn default_elevations() -> Vec<f64> {
-    vec![0.0]
-}
-fn default_rays() -> usize {
-    600
-}
-fn default_polar_step() -> f64 {
-    0.1
-}
-fn default_azimuth_step() -> f64 {
-    5.0
-}
-fn default_true() -> bool {
-    true
-}
-
-/// Parameters of `[table.params]`.
-#[derive(Debug, Clone, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct RaytraceParams {
-    /// `sphere`, `beard-chuang` or `profile`.
-    pub shape: String,
-    /// Equal-volume radii (mm); spheres accept a list, 2-D shapes exactly one.
-    pub radius_mm: Vec<f64>,
-    #[serde(default = "default_wavelengths")]
-    pub wavelength_nm: Vec<f64>,
-    #[serde(default = "default_model")]
-    pub water_index_model: String,
-    #[serde(default)]
-    pub temperature_c: Option<f64>,
-    #[serde(default = "default_max_order")]
-    pub max_order: usize,
-    /// Scattering-angle step (deg) of 1-D sphere tables.
-    #[serde(default = "default_angle_step")]
-    pub angle_step_deg: f64,
-    #[serde(default = "default_elevations")]
-    pub sun_elevation_deg: Vec<f64>,
-    #[serde(default = "default_rays")]
-    pub rays: usize,
-    #[serde(default = "default_polar_step")]
-    pub polar_step_deg: f64,
-    #[serde(default = "default_azimuth_step")]
-    pub azimuth_step_deg: f64,
-    #[serde(default = "default_true")]
-    pub diffraction_filter: bool,
-    /// Diffraction model of the main channels: `airy-uniform` (spheres only, default for
-    /// spheres) or `gaussian` (thesis Table 3.3 filter, windowed around the caustics; the only
-    /// choice for 2-D shapes).
-    #[serde(default)]
-    pub diffraction_model: Option<DiffractionModel>,
-    #[serde(default)]
-    pub profile_theta_deg: Option<Vec<f64>>,
-    #[serde(default)]
-    pub profile_r: Option<Vec<f64>>,
+stage_params! {
+    /// Parameters of `[table.params]`.
+    pub struct RaytraceParams {
+        /// `sphere`, `beard-chuang` or `profile`.
+        pub shape: String = required, "string",
+            "sphere (1-D table, exact GO+phase path) | beard-chuang | profile (2-D tables, patch tracer)";
+        /// Equal-volume radii (µm); spheres accept a list, 2-D shapes exactly one.
+        pub radii_um: Vec<f64> = required, "list of float, µm",
+            "equal-volume radii, 10–5000 µm, strictly increasing; exactly one for 2-D shapes";
+        /// Vacuum wavelengths (nm), strictly increasing; default: the thesis' 33 samples 380–700 nm.
+        pub wavelengths_nm: Vec<f64> = default(SADEGHI_WAVELENGTHS_NM.to_vec()),
+            "list of float, nm", "vacuum wavelengths, strictly increasing";
+        /// `iapws1997` (default) or `sadeghi-table-3.2`.
+        pub water_index_model: String = default("iapws1997".into()),
+            "string", "iapws1997 | sadeghi-table-3.2 (thesis parity)";
+        /// Water temperature for `iapws1997` (°C).
+        pub temperature_c: f64 = default(20.0), "float, °C", "water temperature (iapws1997)";
+        pub max_order: usize = default(3), "integer",
+            "highest order p traced (0 reflection, 1 transmission, 2 primary, 3 secondary, ...), 1–8";
+        /// Scattering-angle step (deg) of 1-D sphere tables.
+        pub angle_step_deg: f64 = default(0.05), "float, deg",
+            "scattering-angle step of 1-D sphere tables (divides 180)";
+        pub sun_elevation_deg: Vec<f64> = default(vec![0.0]), "list of float, deg",
+            "sun elevations above the horizon (drop axis vertical), 0–90, 2-D shapes";
+        pub rays: usize = default(600), "integer",
+            "rays per side of the square ray grid (2-D shapes; the thesis used 3000)";
+        pub polar_step_deg: f64 = default(0.1), "float, deg",
+            "outgoing polar step (divides 180), 2-D shapes";
+        pub azimuth_step_deg: f64 = default(5.0), "float, deg",
+            "outgoing azimuth step (divides 360), 2-D shapes";
+        pub diffraction_filter: bool = default(true), "bool",
+            "apply the Table 3.3 Gaussian filter to the main channels (unfiltered channels are always written)";
+        /// Diffraction model of the main channels: `airy-uniform` (spheres only, default for
+        /// spheres) or `gaussian` (thesis Table 3.3 filter, windowed around the caustics; the only
+        /// choice for 2-D shapes).
+        pub diffraction_model: Option<DiffractionModel> =
+            optional("airy-uniform (sphere) / gaussian (2-D)"), "string",
+            "airy-uniform: uniform caustic (Airy) approximation at each rainbow (spheres); gaussian: thesis Table 3.3 Gaussian filter windowed around the caustics";
+        pub profile_theta_deg: Option<Vec<f64>> = optional("none"), "list of float, deg",
+            "shape = profile: polar angles from the downward pole";
+        pub profile_r: Option<Vec<f64>> = optional("none"), "list of float",
+            "shape = profile: radii at profile_theta_deg (any unit; rescaled to radii_um equal volume)";
+    }
 }
 
-const PARAMS: &[ParamDoc] = &[
-    ParamDoc {
-        name: "shape",
-        kind: "string",
-        default: "required",
-        description: "sphere (1-D table, exact GO+phase path) | beard-chuang | profile (2-D tables, patch tracer)",
-    },
-    ParamDoc {
-        name: "radius_mm",
-        kind: "list of float, mm",
-        default: "required",
-        description: "equal-volume radii, 0.01–5 mm; exactly one for 2-D shapes",
-    },
-    ParamDoc {
-        name: "wavelength_nm",
-        kind: "list of float, nm",
-        default: "380..700 step 10 (33)",
-        description: "vacuum wavelengths, strictly increasing",
-    },
-    ParamDoc {
-        name: "water_index_model",
-        kind: "string",
-        default: "sadeghi-table-3.2",
-        description: "sadeghi-table-3.2 (thesis parity) or iapws1997",
-    },
-    ParamDoc {
-        name: "temperature_c",
-        kind: "float, °C",
-        default: "20",
-        description: "temperature for iapws1997",
-    },
-    ParamDoc {
-        name: "max_order",
-        kind: "integer",
-        default: "3",
-        description: "highest order p traced (0 reflection, 1 transmission, 2 primary, 3 secondary, ...), 1–8",
-    },
-    ParamDoc {
-        name: "angle_step_deg",
-        kind: "float, deg",
-        default: "0.05",
-        description: "scattering-angle step of 1-D sphere tables (divides 180)",
-    },
-    ParamDoc {
-        name: "sun_elevation_deg",
-        kind: "list of float, deg",
-        default: "[0]",
-        description: "sun elevations above the horizon (drop axis vertical), 0–90, 2-D shapes",
-    },
-    ParamDoc {
-        name: "rays",
-        kind: "integer",
-        default: "600",
-        description: "rays per side of the square ray grid (2-D shapes; the thesis used 3000)",
-    },
-    ParamDoc {
-        name: "polar_step_deg",
-        kind: "float, deg",
-        default: "0.1",
-        description: "outgoing polar step (divides 180), 2-D shapes",
-    },
-    ParamDoc {
-        name: "azimuth_step_deg",
-        kind: "float, deg",
-        default: "5",
-        description: "outgoing azimuth step (divides 360), 2-D shapes",
-    },
-    ParamDoc {
-        name: "diffraction_filter",
-        kind: "bool",
-        default: "true",
-        description: "apply the Table 3.3 Gaussian filter to the main channels (unfiltered channels are always written)",
-    },
-    ParamDoc {
-        name: "diffraction_model",
-        kind: "string",
-        default: "airy-uniform (sphere) / gaussian (2-D)",
-        description: "airy-uniform: uniform caustic (Airy) approximation at each rainbow (spheres); gaussian: thesis Table 3.3 Gaussian filter windowed around the caustics",
-    },
-    ParamDoc {
-        name: "profile_theta_deg",
-        kind: "list of float, deg",
-        default: "none",
-        description: "shape = profile: polar angles from the downward pole",
-    },
-    ParamDoc {
-        name: "profile_r",
-        kind: "list of float",
-        default: "none",
-        description: "shape = profile: radii at profile_theta_deg (any unit; rescaled to radius_mm equal volume)",
-    },
+/// Keys of `raytrace-phase/1` manifests and the keys that replaced them (same vocabulary as the
+/// `mie` and `debye` stages); the old keys are refused rather than translated, so that no
+/// manifest silently changes unit.
+const RENAMED_KEYS: [(&str, &str); 2] = [
+    (
+        "radius_mm",
+        "`radius_mm` (mm) was replaced by `radii_um` (µm), as in the mie and debye stages: write e.g. radii_um = [400.0] for radius_mm = [0.4]",
+    ),
+    (
+        "wavelength_nm",
+        "`wavelength_nm` was replaced by `wavelengths_nm`, as in the mie and debye stages",
+    ),
 ];
+
+/// A clear message for a key of the old vocabulary (serde reports it as an unknown field).
+fn renamed_key_error(e: PlanError) -> PlanError {
+    let text = e.to_string();
+    for (old, message) in RENAMED_KEYS {
+        if text.contains(&format!("unknown field `{old}`")) {
+            return PlanError::invalid(old, message);
+        }
+    }
+    e
+}
 
 fn divides(total: f64, step: f64) -> Option<usize> {
     if step.is_nan() || step <= 0.0 {
@@ -205,22 +123,18 @@ fn divides(total: f64, step: f64) -> Option<usize> {
     }
 }
 
-impl Stage for RaytraceStage {
-    fn name(&self) -> &'static str {
-        "raytrace"
+impl StageSpec for RaytraceStage {
+    const NAME: &'static str = "raytrace";
+    /// 2: 2-D tables renormalised to ∫ p dΩ = 1 on their grid. 3: Table 3.2 of Sadeghi (2012)
+    /// corrected at 580–650 nm; axes radius × wavelength × …, keys `radii_um`, `wavelengths_nm`.
+    const VERSION: u32 = 3;
+    const SUMMARY: &'static str =
+        "wave-optics patch ray tracer: phase functions of spherical and Beard–Chuang raindrops";
+    type Params = RaytraceParams;
+    fn map_parse_error(e: PlanError) -> PlanError {
+        renamed_key_error(e)
     }
-    /// 2: 2-D tables renormalised to ∫ p dΩ = 1 on their grid.
-    fn algorithm_version(&self) -> u32 {
-        2
-    }
-    fn summary(&self) -> &'static str {
-        "wave-optics patch ray tracer: phase functions of spherical and Beard–Chuang raindrops"
-    }
-    fn parameters(&self) -> &'static [ParamDoc] {
-        PARAMS
-    }
-    fn plan(&self, params: toml::de::ValueDeserializer<'_>) -> Result<Box<dyn Job>, PlanError> {
-        let p: RaytraceParams = parse_params(params)?;
+    fn plan_params(&self, p: RaytraceParams) -> Result<Box<dyn Job>, PlanError> {
         Ok(Box::new(RaytraceJob::new(p)?))
     }
 }
@@ -229,6 +143,9 @@ impl Stage for RaytraceStage {
 pub struct RaytraceJob {
     p: RaytraceParams,
     model: WaterIndexModel,
+    /// A fixed real index replacing the water model (single queries; see
+    /// [`RaytraceJob::with_refractive_index`]).
+    fixed_index: Option<f64>,
     two_d: bool,
     shape: Option<DropShape>,
     profile_fit_residual: Option<f64>,
@@ -237,18 +154,18 @@ pub struct RaytraceJob {
 impl RaytraceJob {
     /// Validate parameters and plan.
     pub fn new(p: RaytraceParams) -> Result<Self, PlanError> {
-        checks::increasing("wavelength_nm", &p.wavelength_nm, true)?;
+        checks::increasing("wavelengths_nm", &p.wavelengths_nm, true)?;
         let (model, _) = checks::water_indices(
             &p.water_index_model,
-            p.temperature_c,
-            "wavelength_nm",
-            &p.wavelength_nm,
+            Some(p.temperature_c),
+            "wavelengths_nm",
+            &p.wavelengths_nm,
         )?;
-        checks::increasing("radius_mm", &p.radius_mm, true)?;
-        if let Some(r) = p.radius_mm.iter().find(|r| !(0.01..=5.0).contains(*r)) {
+        checks::increasing("radii_um", &p.radii_um, true)?;
+        if let Some(r) = p.radii_um.iter().find(|r| !(10.0..=5000.0).contains(*r)) {
             return Err(PlanError::invalid(
-                "radius_mm",
-                format!("{r} mm is outside 0.01–5 mm (geometric optics needs x ≫ 1)"),
+                "radii_um",
+                format!("{r} µm is outside 10–5000 µm (geometric optics needs x ≫ 1)"),
             ));
         }
         if !(1..=8).contains(&p.max_order) {
@@ -274,6 +191,7 @@ impl RaytraceJob {
         let mut job = RaytraceJob {
             p,
             model,
+            fixed_index: None,
             two_d,
             shape: None,
             profile_fit_residual: None,
@@ -288,9 +206,9 @@ impl RaytraceJob {
             return Ok(job);
         }
         let p = &job.p;
-        if p.radius_mm.len() != 1 {
+        if p.radii_um.len() != 1 {
             return Err(PlanError::invalid(
-                "radius_mm",
+                "radii_um",
                 "2-D shapes take exactly one radius per table",
             ));
         }
@@ -320,9 +238,9 @@ impl RaytraceJob {
                 "must be strictly increasing within 0–90",
             ));
         }
-        let r_mm = p.radius_mm[0];
+        let r_um = p.radii_um[0];
         let shape = if p.shape == "beard-chuang" {
-            DropShape::beard_chuang(r_mm)
+            DropShape::beard_chuang(r_um * 1e-3)
         } else {
             let (Some(th), Some(r)) = (&p.profile_theta_deg, &p.profile_r) else {
                 return Err(PlanError::invalid(
@@ -330,7 +248,7 @@ impl RaytraceJob {
                     "shape = profile needs profile_theta_deg and profile_r",
                 ));
             };
-            let (s, res) = CosineSeries::fit_table(r_mm * 1e3, th, r)
+            let (s, res) = CosineSeries::fit_table(r_um, th, r)
                 .map_err(|e| PlanError::invalid("profile_r", e))?;
             if res > 1e-3 {
                 return Err(PlanError::invalid(
@@ -343,6 +261,28 @@ impl RaytraceJob {
         };
         job.shape = Some(shape);
         Ok(job)
+    }
+
+    /// Use the fixed real relative index `n` at every wavelength instead of the water model
+    /// (what `scatterbake raytrace --n N` asks for); the table then records
+    /// `water_index_model = "none"` and `refractive_index_real = n`.
+    pub fn with_refractive_index(mut self, n: f64) -> Result<Self, PlanError> {
+        if !(n > 1.0 && n < 2.0) {
+            return Err(PlanError::invalid(
+                "n",
+                format!("{n} is outside (1, 2), where the primary bow exists"),
+            ));
+        }
+        self.fixed_index = Some(n);
+        Ok(self)
+    }
+
+    /// Refractive index at `wavelength_nm`.
+    fn index(&self, wavelength_nm: f64) -> Result<f64, JobError> {
+        match self.fixed_index {
+            Some(n) => Ok(n),
+            None => Ok(self.model.index(wavelength_nm)?),
+        }
     }
 
     fn diffraction_model(&self) -> DiffractionModel {
@@ -364,16 +304,17 @@ impl RaytraceJob {
         }
     }
 
+    /// Tasks in table order: (radius µm, wavelength nm) for spheres; (wavelength nm, sun
+    /// elevation deg) of the one radius for 2-D shapes.
     fn task_pairs(&self) -> Vec<(f64, f64)> {
-        let second = if self.two_d {
-            &self.p.sun_elevation_deg
+        let (first, second) = if self.two_d {
+            (&self.p.wavelengths_nm, &self.p.sun_elevation_deg)
         } else {
-            &self.p.radius_mm
+            (&self.p.radii_um, &self.p.wavelengths_nm)
         };
-        self.p
-            .wavelength_nm
+        first
             .iter()
-            .flat_map(|&l| second.iter().map(move |&s| (l, s)))
+            .flat_map(|&f| second.iter().map(move |&s| (f, s)))
             .collect()
     }
 
@@ -383,8 +324,8 @@ impl RaytraceJob {
             .map(|n| {
                 let (unit, meaning) = match n.as_str() {
                     "phase" => ("1/sr", "unpolarised phase function (i_perp + i_par)/2, diffraction-filtered, with forward lobe".to_string()),
-                    "i_perp" => ("1/sr", "perpendicular part |S1|²-like, same normalisation".to_string()),
-                    "i_par" => ("1/sr", "parallel part |S2|²-like, same normalisation".to_string()),
+                    "i_perp" => ("1/sr", "perpendicular component (dσ/dΩ)_perp/σ, for a sphere |S1|^2/(pi x^2 Q_sca); phase = (i_perp + i_par)/2".to_string()),
+                    "i_par" => ("1/sr", "parallel component (dσ/dΩ)_par/σ, for a sphere |S2|^2/(pi x^2 Q_sca); phase = (i_perp + i_par)/2".to_string()),
                     "dolp" => ("1", "(i_perp − i_par)/(i_perp + i_par)".to_string()),
                     "phase_unfiltered" => ("1/sr", "phase without the Gaussian diffraction filter (forward lobe included)".to_string()),
                     "i_perp_unfiltered" => ("1/sr", "i_perp without the Gaussian filter".to_string()),
@@ -398,9 +339,9 @@ impl RaytraceJob {
 
     /// Run the 2-D tracer for one (wavelength, elevation): values [polar][azimuth][channel].
     #[allow(clippy::needless_range_loop)]
-    fn run_2d(&self, lambda: f64, elevation_deg: f64) -> anyhow::Result<Vec<f32>> {
+    fn run_2d(&self, lambda: f64, elevation_deg: f64) -> Result<Vec<f32>, JobError> {
         let shape = self.shape.as_ref().expect("2-D job has a shape");
-        let n = self.model.index(lambda)?;
+        let n = self.index(lambda)?;
         let grid = self.direction_grid();
         let cfg = TraceConfig {
             rays: self.p.rays,
@@ -546,21 +487,22 @@ impl Job for RaytraceJob {
                     }
                 } else {
                     TaskSpec {
-                        label: format!("λ={l} nm a={s} mm"),
-                        params: serde_json::json!({"wavelength_nm": l, "radius_mm": s}),
+                        label: format!("a={l} µm λ={s} nm"),
+                        params: serde_json::json!({"radius_um": l, "wavelength_nm": s}),
                     }
                 }
             })
             .collect()
     }
 
-    fn run_task(&self, index: usize) -> anyhow::Result<Vec<f32>> {
-        let (l, s) = self.task_pairs()[index];
+    fn run_task(&self, index: usize) -> Result<Vec<f32>, JobError> {
+        let (f, s) = self.task_pairs()[index];
         if self.two_d {
-            return self.run_2d(l, s);
+            return self.run_2d(f, s);
         }
-        let n = self.model.index(l)?;
-        let go = SphereGo::new(s * 1e3, l, n, self.p.max_order);
+        let (radius_um, l) = (f, s);
+        let n = self.index(l)?;
+        let go = SphereGo::new(radius_um, l, n, self.p.max_order);
         let na = self.n_angles();
         let angles: Vec<f64> = (0..na).map(|j| self.p.angle_step_deg * j as f64).collect();
         let (ch, _) = sphere_phase_1d(
@@ -582,7 +524,7 @@ impl Job for RaytraceJob {
         Ok(out)
     }
 
-    fn assemble(&self, chunks: Vec<Vec<f32>>) -> anyhow::Result<TableContent> {
+    fn assemble(&self, chunks: Vec<Vec<f32>>) -> Result<TableContent, JobError> {
         let data: Vec<f32> = chunks.into_iter().flatten().collect();
         let channels = self.channels();
         let nch = channels.len();
@@ -592,13 +534,18 @@ impl Job for RaytraceJob {
             &self.model,
             0.0,
         ));
+        if let Some(n) = self.fixed_index {
+            at.insert("water_index_model".into(), "none".into());
+            at.remove("temperature_c");
+            at.insert("refractive_index_real".into(), n.into());
+        }
         at.insert("max_order".into(), self.p.max_order.into());
         at.insert("cross_section_normalization".into(), "p = (dσ/dΩ)/σ with σ = σ_GO (flux of the traced orders) + A (Fraunhofer forward lobe of the projected area A, added to i_perp and i_par as the exact bin average of a²J1(x sinθ)²/sin²θ)".into());
         at.insert("focal_line_rule".into(), "longer-path branch π/2 behind (docs/decisions.md RT-1): phase exp(i(k l − (π/2) f)), f = [dl/db > 0], b = u² + v²".into());
         let model = self.diffraction_model();
         let filter_text = match model {
             DiffractionModel::AiryUniform => "airy-uniform: uniform caustic (Airy) approximation of each order's rainbow (two-branch CUA on the bright side, Airy continuation on the dark side); GO elsewhere".to_string(),
-            DiffractionModel::Gaussian => format!("gaussian: thesis Table 3.3 Gaussian in polar angle (σ linear in radius, Airy a^(-2/3) outside 0.1–1 mm; σ = {:.4}° at the first radius) for θ above the Alexander-band midpoint, 2σ below, blended in only within a Gaussian window of half-width 2σ_local around each caustic (peaks of the p = 2 and p = 3 intensities)", filter_sigma_deg(self.p.radius_mm[0])),
+            DiffractionModel::Gaussian => format!("gaussian: thesis Table 3.3 Gaussian in polar angle (σ linear in radius, Airy a^(-2/3) outside 0.1–1 mm; σ = {:.4}° at the first radius) for θ above the Alexander-band midpoint, 2σ below, blended in only within a Gaussian window of half-width 2σ_local around each caustic (peaks of the p = 2 and p = 3 intensities)", filter_sigma_deg(self.p.radii_um[0] * 1e-3)),
         };
         at.insert(
             "diffraction_filter".into(),
@@ -625,16 +572,12 @@ impl Job for RaytraceJob {
             at.insert("method".into(), "exact 1-D geometric optics plus phase for spheres (two-branch phasor sum of Airy theory), validated against the 2-D patch tracer and Lorenz–Mie (docs/raytrace.md)".into());
             at.insert("validated_domain".into(), "spheres of radius 0.1–1 mm in 380–700 nm (x ≳ 1000): supernumerary positions within 0.02° (primary) and 0.05° (secondary) of Lorenz–Mie; not valid within ~1° of 0° (forward lobe only approximate) and near 180° (glory, axial caustic clamped at a quarter bin)".into());
             let axes = vec![
-                Axis::values("wavelength", "nm", self.p.wavelength_nm.clone()),
-                Axis::values(
-                    "radius",
-                    "um",
-                    self.p.radius_mm.iter().map(|r| r * 1e3).collect(),
-                ),
+                Axis::values("radius", "um", self.p.radii_um.clone()),
+                Axis::values("wavelength", "nm", self.p.wavelengths_nm.clone()),
                 Axis::uniform("scattering_angle", "deg", 0.0, self.p.angle_step_deg, na),
             ];
             return Ok(TableContent {
-                schema: Schema::new("raytrace-phase", 1),
+                schema: Schema::new("raytrace-phase", 2),
                 description:
                     "ray-traced (geometric optics + phase) phase function of water spheres".into(),
                 axes,
@@ -665,7 +608,12 @@ impl Job for RaytraceJob {
             // sun 0°); every intensity channel (all but `dolp`) is divided by it, so ∫ p dΩ = 1
             // exactly on the table grid, as the phase-function contract requires, and the
             // factor is kept in `integral_check`.
-            anyhow::ensure!(s > 0.0 && s.is_finite(), "entry {e}: ∫ p dΩ = {s}");
+            if !(s > 0.0 && s.is_finite()) {
+                return Err(JobError::NotNormalisable {
+                    entry: e,
+                    integral: s,
+                });
+            }
             for v in data[base..base + np * na * nch].chunks_mut(nch) {
                 for (c, x) in v.iter_mut().enumerate() {
                     if c != 3 {
@@ -676,9 +624,13 @@ impl Job for RaytraceJob {
         }
         at.insert("integral_check".into(), serde_json::json!({"what": "bin-sum of phase over 4π per entry before renormalisation (below 1 by the flux of triangles discarded at the silhouette, above 1 where cusp caustics are point-sampled); every channel but dolp was divided by it, so the stored table integrates to 1 on its grid", "values": ints}));
         at.insert("angular_resampling".into(), "point samples of the coherent patch sum at the grid directions; filtered channels are Gaussian averages along the polar angle per azimuth column; the forward lobe is the exact average over each polar bin".into());
+        at.insert(
+            phase_contract::INTERPOLABLE_AXES.into(),
+            serde_json::json!(["wavelength", "outgoing_polar", "outgoing_azimuth"]),
+        );
         at.insert("frame".into(), "drop axis vertical (z up); sun at elevation e in the +x half-space, incident direction d = (−cos e, 0, −sin e); outgoing_polar = angle from d; outgoing_azimuth about d from e1 = (−sin e, 0, cos e) (vertical plane, upwards) towards e2 = +y".into());
         at.insert("shape".into(), self.p.shape.clone().into());
-        at.insert("radius_mm".into(), self.p.radius_mm[0].into());
+        at.insert("radius_um".into(), self.p.radii_um[0].into());
         at.insert("rays_per_side".into(), self.p.rays.into());
         at.insert("beard_chuang".into(), "r(θ) = a[1 + Σ c_n cos nθ], θ from the downward pole, thesis Table 3.1 linear in a; sphere for a ≤ 0.4 mm; clamped to the 3 mm row above 3 mm".into());
         if let Some(res) = self.profile_fit_residual {
@@ -688,16 +640,17 @@ impl Job for RaytraceJob {
         at.insert("method".into(), "patch-based wave-optics ray tracer (Sadeghi 2012, ch. 3) with 3-D complex field vectors, spherical-triangle patches, coherent sums; see docs/raytrace.md".into());
         at.insert("validated_domain".into(), "validated on spheres (0.4 mm, 650 nm) against the exact 1-D path and Lorenz–Mie; Beard–Chuang results checked for volume, axis ratios, symmetry and energy; accuracy depends on rays_per_side (docs/raytrace.md)".into());
         let axes = vec![
-            Axis::values("wavelength", "nm", self.p.wavelength_nm.clone()),
+            Axis::values("radius", "um", self.p.radii_um.clone()),
+            Axis::values("wavelength", "nm", self.p.wavelengths_nm.clone()),
             Axis::values("sun_elevation", "deg", self.p.sun_elevation_deg.clone()),
             Axis::uniform("outgoing_polar", "deg", 0.0, self.p.polar_step_deg, np),
             Axis::uniform("outgoing_azimuth", "deg", 0.0, self.p.azimuth_step_deg, na),
         ];
         Ok(TableContent {
-            schema: Schema::new("raytrace-phase-2d", 1),
+            schema: Schema::new("raytrace-phase-2d", 2),
             description: format!(
-                "ray-traced phase function of a {} drop, a = {} mm, over outgoing directions",
-                self.p.shape, self.p.radius_mm[0]
+                "ray-traced phase function of a {} drop, a = {} µm, over outgoing directions",
+                self.p.shape, self.p.radii_um[0]
             ),
             axes,
             channels,
@@ -717,32 +670,70 @@ mod tests {
 
     #[test]
     fn rejects_bad_parameters() {
-        assert!(plan("shape = \"cube\"\nradius_mm = [1.0]").is_err());
-        assert!(plan("shape = \"sphere\"\nradius_mm = [0.4]\nangle_step_deg = 0.07").is_err());
-        assert!(plan("shape = \"beard-chuang\"\nradius_mm = [1.0, 2.0]").is_err());
-        assert!(plan("shape = \"sphere\"\nradius_mm = [0.4]\nwavelength_nm = [300.0]").is_err());
-        assert!(plan("shape = \"sphere\"\nradius_mm = [0.4]\nunknown = 1").is_err());
-        assert!(plan("shape = \"profile\"\nradius_mm = [1.0]").is_err());
+        assert!(plan("shape = \"cube\"\nradii_um = [1000.0]").is_err());
+        assert!(plan("shape = \"sphere\"\nradii_um = [400.0]\nangle_step_deg = 0.07").is_err());
+        assert!(plan("shape = \"beard-chuang\"\nradii_um = [1000.0, 2000.0]").is_err());
+        assert!(plan("shape = \"sphere\"\nradii_um = [400.0]\nwavelengths_nm = [150.0]").is_err());
+        assert!(plan("shape = \"sphere\"\nradii_um = [400.0]\nunknown = 1").is_err());
+        assert!(plan("shape = \"profile\"\nradii_um = [1000.0]").is_err());
+        assert!(plan("shape = \"sphere\"\nradii_um = [0.4]").is_err());
+        assert!(plan("shape = \"sphere\"\nradii_um = [400.0]").is_ok());
+    }
+
+    /// The keys of `raytrace-phase/1` manifests are refused with a message naming the new key
+    /// (never silently read in another unit).
+    #[test]
+    fn old_keys_are_refused_with_the_new_names() {
+        let e = plan("shape = \"sphere\"\nradius_mm = [0.4]").err().unwrap();
+        let t = e.to_string();
+        assert!(
+            t.contains("radius_mm") && t.contains("radii_um = [400.0]"),
+            "{t}"
+        );
+        let e = plan("shape = \"sphere\"\nradii_um = [400.0]\nwavelength_nm = [650.0]")
+            .err()
+            .unwrap();
+        assert!(e.to_string().contains("wavelengths_nm"), "{e}");
+    }
+
+    /// Default water index: IAPWS R9-97 at 20 °C, as in the mie and debye stages; axes radius ×
+    /// wavelength × scattering_angle, schema version 2.
+    #[test]
+    fn defaults_and_axis_order_match_the_mie_stage() {
+        let job = plan(
+            "shape = \"sphere\"\nradii_um = [300.0, 400.0]\nwavelengths_nm = [450.0, 650.0]\nangle_step_deg = 1.0",
+        )
+        .unwrap();
+        assert_eq!(job.parameters()["water_index_model"], "iapws1997");
+        assert_eq!(job.parameters()["temperature_c"], 20.0);
+        let tasks = job.tasks();
+        assert_eq!(tasks[1].params["radius_um"], 300.0);
+        assert_eq!(tasks[1].params["wavelength_nm"], 650.0);
+        let chunks: Vec<Vec<f32>> = (0..tasks.len()).map(|i| job.run_task(i).unwrap()).collect();
+        let t = job.assemble(chunks).unwrap();
+        assert_eq!(t.schema, Schema::new("raytrace-phase", 2));
+        let names: Vec<&str> = t.axes.iter().map(|a| a.name.as_str()).collect();
+        assert_eq!(names, ["radius", "wavelength", "scattering_angle"]);
+        assert_eq!(t.axes[0].coords(), vec![300.0, 400.0]);
+        assert_eq!(t.attributes["water_index_model"], "iapws1997");
+        assert_eq!(t.data.len(), t.expected_len());
     }
 
     #[test]
     fn sphere_table_is_normalised_and_peaks_near_mie() {
         let job = plan(
-            "shape = \"sphere\"\nradius_mm = [0.4]\nwavelength_nm = [650.0]\nangle_step_deg = 0.05",
+            "shape = \"sphere\"\nradii_um = [400.0]\nwavelengths_nm = [650.0]\nwater_index_model = \"sadeghi-table-3.2\"\nangle_step_deg = 0.05",
         )
         .unwrap();
-        let chunks: Vec<Vec<f32>> = (0..job.tasks().len())
-            .map(|i| job.run_task(i).unwrap())
-            .collect();
-        let t = job.assemble(chunks).unwrap();
+        let t = crate::stages::run_in_memory(job.as_ref()).unwrap();
         assert_eq!(t.data.len(), t.expected_len());
         let integral = t.attributes["integral_check"]["values"][0]
             .as_f64()
             .unwrap();
         // Traced orders (99.7 %) + lobe; bin-summed on the table grid.
         assert!((integral - 1.0).abs() < 0.01, "∫p = {integral}");
-        // Filtered primary maximum: Lorenz–Mie 138.03° (0.4 mm, 650 nm); the Gaussian filter
-        // of Table 3.3 places it within 0.15°.
+        // Filtered primary maximum: Lorenz–Mie 138.03° (0.4 mm, 650 nm, n = 1.331); the
+        // Gaussian filter of Table 3.3 places it within 0.15°.
         let nch = t.channels.len();
         let (mut best, mut at) = (0.0, 0.0);
         for j in 0..3601 {
@@ -763,18 +754,27 @@ mod tests {
     #[test]
     fn two_d_table_integrates_to_one() {
         let job = plan(
-            "shape = \"beard-chuang\"\nradius_mm = [2.0]\nwavelength_nm = [550.0]\nsun_elevation_deg = [0.0]\nrays = 80\npolar_step_deg = 0.5\nazimuth_step_deg = 30.0",
+            "shape = \"beard-chuang\"\nradii_um = [2000.0]\nwavelengths_nm = [550.0]\nsun_elevation_deg = [0.0]\nrays = 80\npolar_step_deg = 0.5\nazimuth_step_deg = 30.0",
         )
         .unwrap();
-        let chunks: Vec<Vec<f32>> = (0..job.tasks().len())
-            .map(|i| job.run_task(i).unwrap())
-            .collect();
-        let t = job.assemble(chunks).unwrap();
+        let t = crate::stages::run_in_memory(job.as_ref()).unwrap();
         let raw = t.attributes["integral_check"]["values"][0]
             .as_f64()
             .unwrap();
         assert!((raw - 1.0).abs() < 0.1, "raw ∫p = {raw}");
-        let (np, na, nch) = (t.axes[2].len(), t.axes[3].len(), t.channels.len());
+        assert_eq!(t.schema, Schema::new("raytrace-phase-2d", 2));
+        let names: Vec<&str> = t.axes.iter().map(|a| a.name.as_str()).collect();
+        assert_eq!(
+            names,
+            [
+                "radius",
+                "wavelength",
+                "sun_elevation",
+                "outgoing_polar",
+                "outgoing_azimuth"
+            ]
+        );
+        let (np, na, nch) = (t.axes[3].len(), t.axes[4].len(), t.channels.len());
         let dth = 0.5f64.to_radians();
         let mut s = 0.0;
         for j in 0..np {

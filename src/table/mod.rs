@@ -5,11 +5,13 @@
 //! checksums of the header and of the payload (compressed and uncompressed).
 
 pub mod format;
-pub mod phase_contract;
+pub mod read;
 mod sample;
 
-pub use format::{
-    FORMAT_MAJOR, FORMAT_MINOR, MAGIC, TableError, read_header_only, write_table_atomic,
+pub use format::{FORMAT_MAJOR, FORMAT_MINOR, MAGIC, TableError, write_table_atomic};
+pub use read::{
+    DEFAULT_MAX_PAYLOAD_BYTES, MAX_AXES, MAX_HEADER_BYTES, MAX_JSON_DEPTH, ReadLimits, ValueStats,
+    Verified, read_header_only, verify_file,
 };
 
 use serde::{Deserialize, Serialize};
@@ -174,9 +176,10 @@ pub struct Table {
     pub data: Vec<f32>,
 }
 
-/// The JSON header of a `.sbt` file (see the spec for every field).
+/// The JSON header of a `.sbt` file (see the spec for every field). Fields this version does
+/// not know are ignored when deserialising; the reader rejects unknown top-level fields only in
+/// files of a minor version it implements (`docs/table-format.md`, "Versioning rules").
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
 pub struct Header {
     pub schema: Schema,
     pub description: String,

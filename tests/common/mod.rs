@@ -4,6 +4,8 @@
 
 #![allow(dead_code)]
 
+pub mod crafted;
+
 use scatterbake::consumers::synthetic::{henyey_greenstein_table, peak_table};
 use scatterbake::table::{
     Axis, Channel, Provenance, Schema, Table, TableContent, write_table_atomic,
@@ -13,6 +15,22 @@ use std::path::{Path, PathBuf};
 /// Write the synthetic tables into `dir` and return their paths together with the repository's
 /// built tables.
 pub fn tables(dir: &Path) -> Vec<PathBuf> {
+    let mut out = synthetic_tables(dir);
+    let built = Path::new(env!("CARGO_MANIFEST_DIR")).join("tables");
+    if let Ok(rd) = std::fs::read_dir(&built) {
+        let mut v: Vec<PathBuf> = rd
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .filter(|p| p.extension().is_some_and(|e| e == "sbt"))
+            .collect();
+        v.sort();
+        out.extend(v);
+    }
+    out
+}
+
+/// Write the synthetic tables (every layout: explicit and uniform axes, 1 to 4 axes, 1 to 4
+/// channels, special f32 values) into `dir` and return their paths.
+pub fn synthetic_tables(dir: &Path) -> Vec<PathBuf> {
     let mut out = Vec::new();
     let mut write = |name: &str, mut t: Table| {
         let p = dir.join(name);
@@ -99,15 +117,6 @@ pub fn tables(dir: &Path) -> Vec<PathBuf> {
         "special.sbt",
         Table::from_content(content, Provenance::default()).unwrap(),
     );
-    let built = Path::new(env!("CARGO_MANIFEST_DIR")).join("tables");
-    if let Ok(rd) = std::fs::read_dir(&built) {
-        let mut v: Vec<PathBuf> = rd
-            .filter_map(|e| e.ok().map(|e| e.path()))
-            .filter(|p| p.extension().is_some_and(|e| e == "sbt"))
-            .collect();
-        v.sort();
-        out.extend(v);
-    }
     out
 }
 
@@ -124,9 +133,84 @@ pub fn corrupt_copy(src: &Path, dst: &Path, offset_from_end: usize) {
     std::fs::write(dst, b).unwrap();
 }
 
-/// Copy of `src` claiming format major 2.
+/// Rewrite table bytes as a writer of format `major.minor` would: the header JSON passed through
+/// `edit`, then every checksum recomputed as `docs/table-format.md` specifies (header length,
+/// SHA-256 of bytes 0–23 plus the header, and the SHA-256 of the compressed and uncompressed
+/// payload, which is carried over unchanged).
+pub fn rewrite_table(
+    bytes: &[u8],
+    major: u16,
+    minor: u16,
+    edit: impl FnOnce(&mut serde_json::Value),
+) -> Vec<u8> {
+    use sha2::{Digest, Sha256};
+    let hlen = u64::from_le_bytes(bytes[16..24].try_into().unwrap()) as usize;
+    let mut header: serde_json::Value = serde_json::from_slice(&bytes[56..56 + hlen]).unwrap();
+    let payload = &bytes[56 + hlen..];
+    let raw = zstd::stream::decode_all(payload).unwrap();
+    header["payload"]["compressed_bytes"] = payload.len().into();
+    header["payload"]["uncompressed_bytes"] = raw.len().into();
+    header["payload"]["sha256_compressed"] = hex::encode(Sha256::digest(payload)).into();
+    header["payload"]["sha256_uncompressed"] = hex::encode(Sha256::digest(&raw)).into();
+    edit(&mut header);
+    let header = serde_json::to_vec_pretty(&header).unwrap();
+    let mut out = bytes[..8].to_vec();
+    out.extend_from_slice(&major.to_le_bytes());
+    out.extend_from_slice(&minor.to_le_bytes());
+    out.extend_from_slice(&bytes[12..16]); // flags
+    out.extend_from_slice(&(header.len() as u64).to_le_bytes());
+    let mut h = Sha256::new();
+    h.update(&out[..24]);
+    h.update(&header);
+    out.extend_from_slice(&h.finalize());
+    out.extend_from_slice(&header);
+    out.extend_from_slice(payload);
+    out
+}
+
+/// Header fields a later minor version might add: at the top level and inside every nested
+/// object (schema, each axis and its uniform range, each channel, layout, provenance, payload).
+pub fn add_unknown_fields(h: &mut serde_json::Value) {
+    use serde_json::json;
+    let o = h.as_object_mut().unwrap();
+    o.insert(
+        "future_top_level".into(),
+        json!({"nested": [1, 2.5, "x"], "flag": true}),
+    );
+    o.insert(
+        "future_note".into(),
+        json!("written by a newer minor version"),
+    );
+    h["schema"]["future_schema_field"] = json!(7);
+    for a in h["axes"].as_array_mut().unwrap() {
+        a["future_axis_field"] = json!({"interpolation": "cubic", "weights": [0.5, 0.5]});
+        if let Some(u) = a["points"].get_mut("uniform") {
+            u["future_range_field"] = json!(null);
+        }
+    }
+    for c in h["channels"].as_array_mut().unwrap() {
+        c["future_channel_field"] = json!(["a", "b"]);
+    }
+    h["layout"]["future_alignment"] = json!(64);
+    h["provenance"]["future_host"] = json!({"os": "any"});
+    h["payload"]["future_dictionary"] = json!(null);
+}
+
+/// Copy of `src` as format 1.1 with unknown header fields everywhere ([`add_unknown_fields`]),
+/// checksums recomputed: every 1.x reader must read it as it reads `src`.
+pub fn newer_minor_copy(src: &Path, dst: &Path) {
+    let b = std::fs::read(src).unwrap();
+    std::fs::write(dst, rewrite_table(&b, 1, 1, add_unknown_fields)).unwrap();
+}
+
+/// Copy of `src` as format 2.0 with valid checksums and a header a 1.x reader could not parse
+/// (no `layout`, a renamed field): readers must refuse it on the version alone.
 pub fn newer_major_copy(src: &Path, dst: &Path) {
-    let mut b = std::fs::read(src).unwrap();
-    b[8] = 2;
-    std::fs::write(dst, b).unwrap();
+    let b = std::fs::read(src).unwrap();
+    let out = rewrite_table(&b, 2, 0, |h| {
+        let o = h.as_object_mut().unwrap();
+        let layout = o.remove("layout").unwrap();
+        o.insert("storage".into(), layout);
+    });
+    std::fs::write(dst, out).unwrap();
 }

@@ -1,23 +1,25 @@
 //! `scatterbake mie ... --debye-orders 2,3` and `scatterbake airy ...`: one sphere, printed in
-//! the columns of `scatterbake mie` (the lead wires [`DebyeArgs`]/[`run_debye`] and
-//! [`AiryArgs`]/[`run_airy`] into the command line).
+//! the columns of `scatterbake mie`.
 //!
 //! ```text
 //! scatterbake mie <mie args> --debye-orders 2,3 [--debye-per-order]
-//! scatterbake airy --radius-um R --wavelength-nm L [--order 1|2] [--n N]
-//!     [--angles-step-deg S | --angles-deg a,b,c] [--format table|csv|json] [--csv FILE]
+//! scatterbake airy --radius-um R --wavelength-nm L [--order 1|2] [--index N | --n N |
+//!     --water-index-model M --temperature-c T] [--angle-step-deg S | --angles-deg a,b,c]
+//!     [--format table|csv|json] [--csv FILE]
 //! ```
-//! Columns: `angle_deg, i_perp, i_par, s11, phase, polarization` (raw Bohren–Huffman `|S|²`,
-//! `phase` normalised by the full sphere's `π x² Q_sca`); with `--debye-per-order`, one more
-//! column `phase_p<k>` per order. For `airy` the normalisation uses `Q_sca = 2` (the large-x
-//! limit), stated in the header.
+//! Columns: those of `mie` (`angle_deg, s1_sq, s2_sq, s11, i_perp, i_par, phase, dolp`: raw
+//! Bohren–Huffman |S1|², |S2|², s11, then `i_perp`, `i_par`, `phase` divided by the full
+//! sphere's `π x² Q_sca`); with `--debye-per-order`, one more column `phase_p<k>` per order.
+//! For `airy` the normalisation uses `Q_sca = 2` (the large-x limit), stated in the header.
 
-use crate::commands::mie::{MieArgs, MieFormat, MieQuery};
+use crate::commands::mie::{
+    CURVE_CSV_COLUMNS, CURVE_TABLE_COLUMNS, CurveRow, IndexArgs, MieArgs, MieFormat, MieQuery,
+    curve_json,
+};
 use anyhow::{Context, bail};
 use scatterbake::debye::airy::{AiryRainbow, airy_rainbow};
 use scatterbake::debye::{DebyeCoefficients, OrderSet};
 use scatterbake::mie::size_parameter;
-use scatterbake::optics::water::WaterIndexModel;
 #[allow(unused_imports)]
 use scatterbake::table::Table;
 use std::fmt::Write as _;
@@ -43,35 +45,41 @@ pub struct CurveReport {
     /// Header lines (without the leading `# `).
     pub header: Vec<String>,
     pub angles_deg: Vec<f64>,
-    pub i_perp: Vec<f64>,
-    pub i_par: Vec<f64>,
-    /// `π x² Q_sca` dividing s11 into the phase function.
+    /// |S1|² (dimensionless).
+    pub s1_sq: Vec<f64>,
+    /// |S2|² (dimensionless).
+    pub s2_sq: Vec<f64>,
+    /// `π x² Q_sca` dividing |S1|², |S2|², s11 into i_perp, i_par, phase.
     pub normalisation: f64,
     /// Extra `(name, phase values)` columns.
     pub extra: Vec<(String, Vec<f64>)>,
 }
 
 impl CurveReport {
-    fn rows(&self) -> impl Iterator<Item = (f64, f64, f64, f64, f64, f64)> + '_ {
-        let norm = 1.0 / self.normalisation;
-        (0..self.angles_deg.len()).map(move |i| {
-            let (a, b) = (self.i_perp[i], self.i_par[i]);
-            let s11 = 0.5 * (a + b);
-            let pol = if a + b > 0.0 { (a - b) / (a + b) } else { 0.0 };
-            (self.angles_deg[i], a, b, s11, s11 * norm, pol)
-        })
+    /// The printed rows.
+    pub fn rows(&self) -> Vec<CurveRow> {
+        (0..self.angles_deg.len())
+            .map(|i| {
+                CurveRow::new(
+                    self.angles_deg[i],
+                    self.s1_sq[i],
+                    self.s2_sq[i],
+                    self.normalisation,
+                )
+            })
+            .collect()
     }
 
     /// CSV with a header row (the `mie` columns, then the extra columns).
     pub fn to_csv(&self) -> String {
-        let mut s = String::from("angle_deg,i_perp,i_par,s11,phase,polarization");
+        let mut s = String::from(CURVE_CSV_COLUMNS);
         for (name, _) in &self.extra {
             s.push(',');
             s.push_str(name);
         }
         s.push('\n');
-        for (i, (t, a, b, u, p, d)) in self.rows().enumerate() {
-            let _ = write!(s, "{t},{a:e},{b:e},{u:e},{p:e},{d}");
+        for (i, r) in self.rows().iter().enumerate() {
+            s.push_str(&r.csv());
             for (_, v) in &self.extra {
                 let _ = write!(s, ",{:e}", v[i]);
             }
@@ -86,17 +94,13 @@ impl CurveReport {
         for h in &self.header {
             let _ = writeln!(s, "# {h}");
         }
-        let _ = write!(
-            s,
-            "# {:>10} {:>20} {:>20} {:>20}",
-            "angle", "i_perp", "i_par", "unpolarised"
-        );
+        s.push_str(CURVE_TABLE_COLUMNS);
         for (name, _) in &self.extra {
             let _ = write!(s, " {name:>20}");
         }
         s.push('\n');
-        for (i, (t, a, b, u, _, _)) in self.rows().enumerate() {
-            let _ = write!(s, "{t:>12.4} {a:>20.10e} {b:>20.10e} {u:>20.10e}");
+        for (i, r) in self.rows().iter().enumerate() {
+            s.push_str(&r.table());
             for (_, v) in &self.extra {
                 let _ = write!(s, " {:>20.10e}", v[i]);
             }
@@ -107,16 +111,10 @@ impl CurveReport {
 
     /// One JSON object with the `mie` keys plus the extra columns.
     pub fn to_json(&self) -> serde_json::Value {
-        let rows: Vec<_> = self.rows().collect();
-        let mut o = serde_json::json!({
-            "header": self.header,
-            "angles_deg": self.angles_deg,
-            "s11": rows.iter().map(|r| r.3).collect::<Vec<_>>(),
-            "i_perp": self.i_perp,
-            "i_par": self.i_par,
-            "phase": rows.iter().map(|r| r.4).collect::<Vec<_>>(),
-            "polarization": rows.iter().map(|r| r.5).collect::<Vec<_>>(),
-        });
+        let mut o = serde_json::Map::new();
+        o.insert("header".into(), serde_json::json!(self.header));
+        o.extend(curve_json(&self.rows()));
+        let mut o = serde_json::Value::Object(o);
         for (name, v) in &self.extra {
             o[name.as_str()] = serde_json::to_value(v).expect("finite values");
         }
@@ -182,12 +180,12 @@ pub fn solve_debye(args: &DebyeArgs) -> anyhow::Result<Option<CurveReport>> {
                 e.q_sca,
                 d.n_stop()
             ),
-            "i_perp = |S1|^2, i_par = |S2|^2 of the coherent sum of the orders (dimensionless)"
+            "i_perp = |S1|^2/(pi x^2 Q_sca), i_par = |S2|^2/(pi x^2 Q_sca) of the coherent sum of the orders (1/sr); s1_sq = |S1|^2, s2_sq = |S2|^2 (dimensionless) in --format csv|json"
                 .into(),
         ],
         angles_deg: q.angles_deg,
-        i_perp: s1.iter().map(|v| v.norm_sqr()).collect(),
-        i_par: s2.iter().map(|v| v.norm_sqr()).collect(),
+        s1_sq: s1.iter().map(|v| v.norm_sqr()).collect(),
+        s2_sq: s2.iter().map(|v| v.norm_sqr()).collect(),
         normalisation: norm,
         extra,
     }))
@@ -213,18 +211,12 @@ pub struct AiryArgs {
     /// Rainbow order: 1 = primary (Debye p = 2), 2 = secondary (p = 3).
     #[arg(long, default_value_t = 1)]
     pub order: usize,
-    /// Real refractive index (default: water at the wavelength).
-    #[arg(long)]
-    pub n: Option<f64>,
-    /// Water index model when --n is not given: iapws1997 | sadeghi-table-3.2.
-    #[arg(long, default_value = "iapws1997")]
-    pub water_index_model: String,
-    /// Water temperature (°C) for iapws1997.
-    #[arg(long, default_value_t = 20.0)]
-    pub temperature_c: f64,
+    /// Refractive index (real: Airy theory of a non-absorbing drop; k must be 0).
+    #[command(flatten)]
+    pub refractive: IndexArgs,
     /// Uniform angle step (degrees) over the window --from-deg..--to-deg.
     #[arg(long, default_value_t = 0.01)]
-    pub angles_step_deg: f64,
+    pub angle_step_deg: f64,
     /// Window start (deg); default: 3 Airy units on the dark side of the bow.
     #[arg(long)]
     pub from_deg: Option<f64>,
@@ -250,11 +242,9 @@ pub fn solve_airy(args: &AiryArgs) -> anyhow::Result<CurveReport> {
     if !(1..=5).contains(&args.order) {
         bail!("--order must be 1 (primary) .. 5");
     }
-    let n = match args.n {
-        Some(n) => n,
-        None => WaterIndexModel::from_name(&args.water_index_model, Some(args.temperature_c))?
-            .index(args.wavelength_nm)?,
-    };
+    let n = args
+        .refractive
+        .resolve_real(args.wavelength_nm, "Airy theory")?;
     if !(n > 1.0 && n < (args.order + 1) as f64) {
         bail!("no rainbow of order {} for n = {n}", args.order);
     }
@@ -271,25 +261,25 @@ pub fn solve_airy(args: &AiryArgs) -> anyhow::Result<CurveReport> {
             let (z0, z1) = (bow.angle_at(-3.0), bow.angle_at(8.0));
             let lo = args.from_deg.unwrap_or(z0.min(z1)).max(0.001);
             let hi = args.to_deg.unwrap_or(z0.max(z1)).min(179.999);
-            let step = args.angles_step_deg;
+            let step = args.angle_step_deg;
             if step.is_nan() || step <= 0.0 || hi <= lo {
-                bail!("need --angles-step-deg > 0 and a non-empty window");
+                bail!("need --angle-step-deg > 0 and a non-empty window");
             }
             let count = ((hi - lo) / step).floor() as usize;
             (0..=count).map(|k| lo + k as f64 * step).collect()
         }
     };
-    let (i_perp, i_par): (Vec<f64>, Vec<f64>) =
+    let (s1_sq, s2_sq): (Vec<f64>, Vec<f64>) =
         angles_deg.iter().map(|&t| airy_rainbow(&bow, t)).unzip();
     Ok(CurveReport {
         header: vec![
             format!("Airy theory, {} bow (Debye p = {}), x = {x}, n = {n}", if args.order == 1 { "primary" } else { "higher-order" }, bow.p),
             format!("rainbow angle {:.5} deg, incidence {:.5} deg, D'' = {:.6}, |eps_perp|^2 = {:.6e}, |eps_par|^2 = {:.6e}", bow.rainbow_angle_deg, bow.incidence_deg, bow.curvature, bow.eps2_perp, bow.eps2_par),
-            "i_perp = |S1|^2, i_par = |S2|^2 (Bohren-Huffman normalisation); phase = s11/(pi x^2 * 2), Q_sca = 2 (large-x limit)".into(),
+            "i_perp = |S1|^2/(pi x^2 * 2), i_par = |S2|^2/(pi x^2 * 2), phase = (i_perp + i_par)/2 (1/sr; Q_sca = 2, the large-x limit); s1_sq = |S1|^2, s2_sq = |S2|^2 (Bohren-Huffman, dimensionless) in --format csv|json".into(),
         ],
         angles_deg,
-        i_perp,
-        i_par,
+        s1_sq,
+        s2_sq,
         normalisation: std::f64::consts::PI * x * x * 2.0,
         extra: Vec::new(),
     })
@@ -339,7 +329,7 @@ mod tests {
             "1.333",
             "--k",
             "0.001",
-            "--angles-step-deg",
+            "--angle-step-deg",
             "10",
             "--debye-orders",
             &orders,
@@ -348,7 +338,7 @@ mod tests {
         let q = MieQuery::solve(&cli.args.mie).unwrap();
         for i in 0..r.angles_deg.len() {
             assert!(
-                (r.i_perp[i] / q.i_perp[i] - 1.0).abs() < 1e-6,
+                (r.s1_sq[i] / q.s1_sq[i] - 1.0).abs() < 1e-6,
                 "angle {}",
                 r.angles_deg[i]
             );
@@ -368,8 +358,9 @@ mod tests {
         let r = solve_debye(&cli.args).unwrap().unwrap();
         assert_eq!(r.extra.len(), 2);
         assert!(
-            r.to_csv()
-                .starts_with("angle_deg,i_perp,i_par,s11,phase,polarization,phase_p2,phase_p3\n")
+            r.to_csv().starts_with(
+                "angle_deg,s1_sq,s2_sq,s11,i_perp,i_par,phase,dolp,phase_p2,phase_p3\n"
+            )
         );
         assert!(r.to_json()["phase_p3"].as_array().unwrap().len() == 2);
         let plain = DCli::parse_from(["t", "--x", "5", "--n", "1.5"]);
@@ -390,9 +381,9 @@ mod tests {
             "csv",
         ]);
         let r = solve_airy(&cli.args).unwrap();
-        // the maximum of i_perp sits at the first Airy maximum z = 1.0188: 138.036° here
+        // the maximum of s1_sq sits at the first Airy maximum z = 1.0188: 138.036° here
         let (k, _) = r
-            .i_perp
+            .s1_sq
             .iter()
             .enumerate()
             .fold((0, 0.0), |b, (i, v)| if *v > b.1 { (i, *v) } else { b });

@@ -1,5 +1,5 @@
-//! `scatterbake medulla`: one medulla profile on the command line (issue 6 item 7). The lead
-//! wires [`MedullaArgs`] / [`run_medulla`] into the CLI.
+//! `scatterbake medulla`: one medulla profile on the command line. Option names are the keys
+//! of the `fur-medulla-*` stages (`photons`, `seed`, `bins`).
 
 use scatterbake::fur::medulla::{Estimator, Geometry, McSettings, simulate};
 use serde_json::json;
@@ -35,9 +35,9 @@ pub struct MedullaArgs {
     /// Longitudinal family: entry inclination θ'_i in degrees, in (−90, 90).
     #[arg(long, allow_hyphen_values = true)]
     pub theta_i_deg: Option<f64>,
-    /// Photons (paths).
+    /// Photons (Monte Carlo paths), as the manifest key `photons`.
     #[arg(long, default_value_t = 10_000)]
-    pub paths: u64,
+    pub photons: u64,
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
     /// Exit bins over the full circle (even; bins/2 per lobe for the slab).
@@ -81,7 +81,7 @@ pub fn medulla_report(args: &MedullaArgs) -> anyhow::Result<String> {
         _ => anyhow::bail!("give exactly one of --h and --theta-i-deg"),
     };
     let s = McSettings {
-        photons: args.paths,
+        photons: args.photons,
         seed: args.seed,
         estimator: match args.estimator {
             MedullaEstimator::Expected => Estimator::Expected,
@@ -115,7 +115,7 @@ pub fn medulla_report(args: &MedullaArgs) -> anyhow::Result<String> {
                 "bin_width_deg": dw,
                 "bin_convention": convention,
                 "estimator": format!("{:?}", s.estimator).to_lowercase(),
-                "paths": args.paths,
+                "photons": args.photons,
                 "seed": args.seed,
                 "bin_centre_deg": centres,
                 "profile": p.energy,
@@ -134,7 +134,7 @@ pub fn medulla_report(args: &MedullaArgs) -> anyhow::Result<String> {
         }
         MedullaFormat::Csv => {
             let mut o = format!(
-                "# sigma={} g={} {} paths={} seed={} estimator={:?}\n# ballistic={:.8} ballistic_mc={:.8} scattered={:.8} scattered_std_error={:.3e}\n# {convention}\n",
+                "# sigma={} g={} {} photons={} seed={} estimator={:?}\n# ballistic={:.8} ballistic_mc={:.8} scattered={:.8} scattered_std_error={:.3e}\n# {convention}\n",
                 args.sigma,
                 args.g,
                 match geom {
@@ -142,7 +142,7 @@ pub fn medulla_report(args: &MedullaArgs) -> anyhow::Result<String> {
                     Geometry::Longitudinal { .. } =>
                         format!("theta_i_deg={}", args.theta_i_deg.unwrap_or(0.0)),
                 },
-                args.paths,
+                args.photons,
                 args.seed,
                 s.estimator,
                 p.ballistic,
@@ -191,7 +191,16 @@ mod tests {
     #[test]
     fn json_profile_sums_to_scattered_fraction() {
         let cli = Cli::parse_from([
-            "x", "--sigma", "1.5", "--g", "0.4", "--h", "-0.3", "--paths", "200", "--format",
+            "x",
+            "--sigma",
+            "1.5",
+            "--g",
+            "0.4",
+            "--h",
+            "-0.3",
+            "--photons",
+            "200",
+            "--format",
             "json",
         ]);
         let v: serde_json::Value = serde_json::from_str(&medulla_report(&cli.m).unwrap()).unwrap();
@@ -209,6 +218,10 @@ mod tests {
         );
         assert_eq!(v["h"], json!(-0.3));
         assert_eq!(v["profile"].as_array().unwrap().len(), 720);
+        // One name with the manifest key: `photons`, not `paths`.
+        assert_eq!(v["photons"], json!(200));
+        let old = ["x", "--sigma", "1", "--g", "0", "--h", "0", "--paths", "20"];
+        assert!(Cli::try_parse_from(old).is_err());
         assert!(Cli::try_parse_from(["x", "--sigma", "1", "--g", "0"]).is_err());
         let csv = Cli::parse_from([
             "x",
@@ -218,7 +231,7 @@ mod tests {
             "0",
             "--theta-i-deg",
             "30",
-            "--paths",
+            "--photons",
             "20",
             "--bins",
             "8",

@@ -1,13 +1,15 @@
-//! `scatterbake mie`: one sphere, printed as a MiePlot-style table, CSV or JSON (the lead
-//! wires [`MieArgs`] and [`run_mie`] into the command line).
+//! `scatterbake mie`: one sphere, printed as a MiePlot-style table, CSV or JSON.
 //!
 //! ```text
-//! scatterbake mie (--radius-um R --wavelength-nm L | --x X) [--n 1.333 --k 0 |
-//!     --water-index-model iapws1997 --temperature-c 20] [--angles-step-deg 0.1 |
-//!     --angles-deg 0,90,180] [--format table|csv|json] [--csv FILE]
+//! scatterbake mie (--radius-um R --wavelength-nm L | --x X) [--index N+Ki | --n N --k K |
+//!     --water-index-model iapws1997 --temperature-c 20] [--angle-step-deg 0.1 |
+//!     --angles START:STOP:STEP | --angles-deg 0,90,180] [--format table|csv|json] [--csv FILE]
 //! ```
-//! Intensities are raw Bohren–Huffman `|S|²` (dimensionless); `phase` is normalised to
-//! `∫_{4π} p dΩ = 1` (1/sr).
+//! Columns (the vocabulary of every phase-function table, `docs/vocabulary.md`): `i_perp`,
+//! `i_par` = |S1|², |S2|² over π x² Q_sca (1/sr), `phase = (i_perp + i_par)/2` with
+//! `∫_{4π} phase dΩ = 1`, `dolp = (i_perp − i_par)/(i_perp + i_par)`; the raw Bohren–Huffman
+//! intensities are `s1_sq` = |S1|², `s2_sq` = |S2|² and `s11` = (|S1|² + |S2|²)/2
+//! (dimensionless, CSV and JSON only).
 
 use anyhow::{Context, bail};
 use num_complex::Complex64;
@@ -104,6 +106,162 @@ mod parse_tests {
     }
 }
 
+/// Refractive-index options of every command that takes an index (`mie`, `airy`, `raytrace`):
+/// an explicit relative index, or water at the wavelength from a named model (IAPWS R9-97 by
+/// default, or Table 3.2 of Sadeghi 2012 as `sadeghi-table-3.2`), the names and defaults of the
+/// manifest keys `water_index_model` and `temperature_c`.
+#[derive(Debug, Clone, clap::Args)]
+pub struct IndexArgs {
+    /// Relative complex refractive index as `N+Ki` (e.g. `1.55+0.002i`, or `1.333`); the same
+    /// as `--n N --k K`.
+    #[arg(long, conflicts_with_all = ["n", "k", "water"], value_parser = parse_complex_index)]
+    pub index: Option<(f64, f64)>,
+    /// Use the index of water at the wavelength (the default when no index is given).
+    #[arg(long)]
+    pub water: bool,
+    /// Real part of the relative refractive index (default: water at the wavelength).
+    #[arg(long, conflicts_with = "water")]
+    pub n: Option<f64>,
+    /// Imaginary part (absorption), k ≥ 0 (default 0).
+    #[arg(long)]
+    pub k: Option<f64>,
+    /// Water index model when no --index/--n is given.
+    #[arg(long, default_value = "iapws1997", value_parser = ["iapws1997", "sadeghi-table-3.2"])]
+    pub water_index_model: String,
+    /// Water temperature (°C) for iapws1997.
+    #[arg(long, default_value_t = 20.0)]
+    pub temperature_c: f64,
+}
+
+impl IndexArgs {
+    /// The explicit index (n, k), if one was given (`--index`, or `--n` with optional `--k`).
+    pub fn explicit(&self) -> anyhow::Result<Option<(f64, f64)>> {
+        let (n, k) = match self.index {
+            Some((n, k)) => (Some(n), k),
+            None => (self.n, self.k.unwrap_or(0.0)),
+        };
+        if !(k >= 0.0) || !k.is_finite() {
+            bail!("--k {k} must be ≥ 0 (absorbing convention m = n + ik, e^(-iωt))");
+        }
+        match n {
+            Some(n) if !(n > 0.0) || !n.is_finite() => bail!("--n {n} must be positive"),
+            Some(n) => Ok(Some((n, k))),
+            None => Ok(None),
+        }
+    }
+
+    /// The water model named by `--water-index-model` and `--temperature-c`.
+    pub fn water_model(&self) -> anyhow::Result<WaterIndexModel> {
+        Ok(WaterIndexModel::from_name(
+            &self.water_index_model,
+            Some(self.temperature_c),
+        )?)
+    }
+
+    /// (n, k) at `wavelength_nm`: the explicit index, or water (with `--k` if given); without
+    /// a wavelength only an explicit `--n`/`--index` works.
+    pub fn resolve(&self, wavelength_nm: Option<f64>) -> anyhow::Result<(f64, f64)> {
+        if let Some(nk) = self.explicit()? {
+            return Ok(nk);
+        }
+        let Some(l) = wavelength_nm else {
+            bail!("--x needs --n or --index (no wavelength to evaluate the water index)");
+        };
+        Ok((self.water_model()?.index(l)?, self.k.unwrap_or(0.0)))
+    }
+
+    /// Real index n at `wavelength_nm` for methods without absorption (`what`, e.g. "ray
+    /// tracing"): k must be 0.
+    pub fn resolve_real(&self, wavelength_nm: f64, what: &str) -> anyhow::Result<f64> {
+        let (n, k) = self.resolve(Some(wavelength_nm))?;
+        if k != 0.0 {
+            bail!("{what} treats non-absorbing drops only: k must be 0 (use `mie` for k > 0)");
+        }
+        Ok(n)
+    }
+}
+
+/// Header of the CSV output of `mie`, `mie --debye-orders` and `airy` (extra columns follow).
+pub const CURVE_CSV_COLUMNS: &str = "angle_deg,s1_sq,s2_sq,s11,i_perp,i_par,phase,dolp";
+
+/// One printed row: angle (deg), raw |S1|², |S2|², s11 = (|S1|² + |S2|²)/2 (dimensionless), the
+/// normalised i_perp, i_par, phase (1/sr, divided by `norm` = π x² Q_sca) and dolp.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CurveRow {
+    pub angle_deg: f64,
+    pub s1_sq: f64,
+    pub s2_sq: f64,
+    pub s11: f64,
+    pub i_perp: f64,
+    pub i_par: f64,
+    pub phase: f64,
+    pub dolp: f64,
+}
+
+impl CurveRow {
+    /// Row from the raw intensities and the normalisation π x² Q_sca.
+    pub fn new(angle_deg: f64, s1_sq: f64, s2_sq: f64, norm: f64) -> Self {
+        let s11 = 0.5 * (s1_sq + s2_sq);
+        CurveRow {
+            angle_deg,
+            s1_sq,
+            s2_sq,
+            s11,
+            i_perp: s1_sq / norm,
+            i_par: s2_sq / norm,
+            phase: s11 / norm,
+            dolp: if s11 > 0.0 {
+                (s1_sq - s2_sq) / (s1_sq + s2_sq)
+            } else {
+                0.0
+            },
+        }
+    }
+
+    /// The CSV fields of [`CURVE_CSV_COLUMNS`].
+    pub fn csv(&self) -> String {
+        format!(
+            "{},{:e},{:e},{:e},{:e},{:e},{:e},{}",
+            self.angle_deg,
+            self.s1_sq,
+            self.s2_sq,
+            self.s11,
+            self.i_perp,
+            self.i_par,
+            self.phase,
+            self.dolp
+        )
+    }
+
+    /// The MiePlot-style table line (angle, i_perp, i_par, phase), as `export --format mieplot`.
+    pub fn table(&self) -> String {
+        format!(
+            "{:>12.4} {:>20.10e} {:>20.10e} {:>20.10e}",
+            self.angle_deg, self.i_perp, self.i_par, self.phase
+        )
+    }
+}
+
+/// Column header of the MiePlot-style table (after the `#` comment lines).
+pub const CURVE_TABLE_COLUMNS: &str =
+    "#  angle_deg               i_perp                i_par                phase";
+
+/// JSON arrays of the rows: `angle_deg`, `s1_sq`, `s2_sq`, `s11`, `i_perp`, `i_par`, `phase`,
+/// `dolp`.
+pub fn curve_json(rows: &[CurveRow]) -> serde_json::Map<String, serde_json::Value> {
+    let col = |f: fn(&CurveRow) -> f64| serde_json::json!(rows.iter().map(f).collect::<Vec<_>>());
+    let mut o = serde_json::Map::new();
+    o.insert("angle_deg".into(), col(|r| r.angle_deg));
+    o.insert("s1_sq".into(), col(|r| r.s1_sq));
+    o.insert("s2_sq".into(), col(|r| r.s2_sq));
+    o.insert("s11".into(), col(|r| r.s11));
+    o.insert("i_perp".into(), col(|r| r.i_perp));
+    o.insert("i_par".into(), col(|r| r.i_par));
+    o.insert("phase".into(), col(|r| r.phase));
+    o.insert("dolp".into(), col(|r| r.dolp));
+    o
+}
+
 /// Arguments of `scatterbake mie`.
 #[derive(Debug, Clone, clap::Args)]
 pub struct MieArgs {
@@ -113,35 +271,18 @@ pub struct MieArgs {
     /// Vacuum wavelength in nm (with --radius-um; also selects the water index).
     #[arg(long)]
     pub wavelength_nm: Option<f64>,
-    /// Size parameter 2πr/λ (instead of radius and wavelength; then --n is required).
+    /// Size parameter 2πr/λ (instead of radius and wavelength; then --n or --index is required).
     #[arg(long, conflicts_with = "radius_um")]
     pub x: Option<f64>,
-    /// Relative complex refractive index as `N+Ki` (e.g. `1.55+0.002i`, or `1.333`); the same
-    /// as `--n N --k K`.
-    #[arg(long, conflicts_with_all = ["n", "water"], value_parser = parse_complex_index)]
-    pub index: Option<(f64, f64)>,
-    /// Use the index of water at the wavelength (the default when no index is given).
-    #[arg(long)]
-    pub water: bool,
-    /// Real part of the relative refractive index (default: water at the wavelength).
-    #[arg(long, conflicts_with = "water")]
-    pub n: Option<f64>,
-    /// Imaginary part (absorption), k ≥ 0.
-    #[arg(long, default_value_t = 0.0)]
-    pub k: f64,
-    /// Water index model when --n is not given: iapws1997 | sadeghi-table-3.2.
-    #[arg(long, default_value = "iapws1997")]
-    pub water_index_model: String,
-    /// Water temperature (°C) for iapws1997.
-    #[arg(long, default_value_t = 20.0)]
-    pub temperature_c: f64,
+    #[command(flatten)]
+    pub refractive: IndexArgs,
     /// Uniform angle step from 0 to 180° (degrees).
     #[arg(long, default_value_t = 0.1)]
-    pub angles_step_deg: f64,
-    /// Angle range `START:STOP:STEP` in degrees, within 0–180 (overrides --angles-step-deg).
+    pub angle_step_deg: f64,
+    /// Angle range `START:STOP:STEP` in degrees, within 0–180 (overrides --angle-step-deg).
     #[arg(long, conflicts_with = "angles_deg", value_parser = parse_angle_range)]
     pub angles: Option<(f64, f64, f64)>,
-    /// Explicit comma-separated angles in degrees (overrides --angles-step-deg).
+    /// Explicit comma-separated angles in degrees (overrides --angle-step-deg).
     #[arg(long, value_delimiter = ',')]
     pub angles_deg: Option<Vec<f64>>,
     /// Output format on stdout.
@@ -159,8 +300,10 @@ pub struct MieQuery {
     pub m: Complex64,
     pub sphere: Sphere,
     pub angles_deg: Vec<f64>,
-    pub i_perp: Vec<f64>,
-    pub i_par: Vec<f64>,
+    /// |S1|² (dimensionless).
+    pub s1_sq: Vec<f64>,
+    /// |S2|² (dimensionless).
+    pub s2_sq: Vec<f64>,
 }
 
 impl MieQuery {
@@ -171,18 +314,7 @@ impl MieQuery {
             (None, Some(r), Some(l)) => (size_parameter(r, l), Some(l)),
             _ => bail!("give either --x, or --radius-um with --wavelength-nm"),
         };
-        let (n_arg, k) = match args.index {
-            Some((n, k)) => (Some(n), k),
-            None => (args.n, args.k),
-        };
-        let n = match (n_arg, wavelength) {
-            (Some(n), _) => n,
-            (None, Some(l)) => {
-                WaterIndexModel::from_name(&args.water_index_model, Some(args.temperature_c))?
-                    .index(l)?
-            }
-            (None, None) => bail!("--x needs --n (no wavelength to evaluate the water index)"),
-        };
+        let (n, k) = args.refractive.resolve(wavelength)?;
         let m = Complex64::new(n, k);
         let sphere = Sphere::new(x, m).context("Mie query")?;
         let angles_deg = match (&args.angles_deg, args.angles) {
@@ -197,13 +329,13 @@ impl MieQuery {
                 a.clone()
             }
             (None, None) => {
-                let step = args.angles_step_deg;
+                let step = args.angle_step_deg;
                 let count = 180.0 / step;
                 if step.is_nan() || step <= 0.0 || (count - count.round()).abs() > 1e-6 {
-                    bail!("--angles-step-deg must divide 180");
+                    bail!("--angle-step-deg must divide 180");
                 }
                 if count > MAX_ANGLES as f64 {
-                    bail!("--angles-step-deg {step} gives more than {MAX_ANGLES} angles");
+                    bail!("--angle-step-deg {step} gives more than {MAX_ANGLES} angles");
                 }
                 (0..=count.round() as usize)
                     .map(|i| i as f64 * step)
@@ -215,27 +347,25 @@ impl MieQuery {
             x,
             m,
             angles_deg,
-            i_perp: s1.iter().map(|v| v.norm_sqr()).collect(),
-            i_par: s2.iter().map(|v| v.norm_sqr()).collect(),
+            s1_sq: s1.iter().map(|v| v.norm_sqr()).collect(),
+            s2_sq: s2.iter().map(|v| v.norm_sqr()).collect(),
             sphere,
         })
     }
 
-    fn rows(&self) -> impl Iterator<Item = (f64, f64, f64, f64, f64, f64)> + '_ {
-        let norm = 1.0 / self.sphere.phase_normalisation();
-        (0..self.angles_deg.len()).map(move |i| {
-            let (a, b) = (self.i_perp[i], self.i_par[i]);
-            let s11 = 0.5 * (a + b);
-            let pol = if a + b > 0.0 { (a - b) / (a + b) } else { 0.0 };
-            (self.angles_deg[i], a, b, s11, s11 * norm, pol)
-        })
+    /// The printed rows (normalised by π x² Q_sca).
+    pub fn rows(&self) -> Vec<CurveRow> {
+        let norm = self.sphere.phase_normalisation();
+        (0..self.angles_deg.len())
+            .map(|i| CurveRow::new(self.angles_deg[i], self.s1_sq[i], self.s2_sq[i], norm))
+            .collect()
     }
 
     /// CSV with a header row.
     pub fn to_csv(&self) -> String {
-        let mut s = String::from("angle_deg,i_perp,i_par,s11,phase,polarization\n");
-        for (t, a, b, u, p, d) in self.rows() {
-            let _ = writeln!(s, "{t},{a:e},{b:e},{u:e},{p:e},{d}");
+        let mut s = format!("{CURVE_CSV_COLUMNS}\n");
+        for r in self.rows() {
+            let _ = writeln!(s, "{}", r.csv());
         }
         s
     }
@@ -260,34 +390,28 @@ impl MieQuery {
         );
         let _ = writeln!(
             s,
-            "# i_perp = |S1|^2, i_par = |S2|^2, unpolarised = (i_perp + i_par)/2 (dimensionless)"
+            "# i_perp = |S1|^2/(pi x^2 Q_sca), i_par = |S2|^2/(pi x^2 Q_sca), phase = (i_perp + i_par)/2 (1/sr, integral over 4pi of phase = 1); pi x^2 Q_sca = {:.10e}",
+            self.sphere.phase_normalisation()
         );
-        let _ = writeln!(
-            s,
-            "# {:>10} {:>20} {:>20} {:>20}",
-            "angle", "i_perp", "i_par", "unpolarised"
-        );
-        for (t, a, b, u, _, _) in self.rows() {
-            let _ = writeln!(s, "{t:>12.4} {a:>20.10e} {b:>20.10e} {u:>20.10e}");
+        let _ = writeln!(s, "{CURVE_TABLE_COLUMNS}");
+        for r in self.rows() {
+            let _ = writeln!(s, "{}", r.table());
         }
         s
     }
 
-    /// JSON object (issue 3 §5 layout).
+    /// JSON object: `x`, `m` = [n, k], efficiencies, then the columns of [`curve_json`].
     pub fn to_json(&self) -> serde_json::Value {
         let e = self.sphere.efficiencies;
-        let rows: Vec<_> = self.rows().collect();
-        serde_json::json!({
-            "x": self.x,
-            "m": [self.m.re, self.m.im],
-            "qext": e.q_ext, "qsca": e.q_sca, "qback": e.q_back, "g": e.g,
-            "angles_deg": self.angles_deg,
-            "s11": rows.iter().map(|r| r.3).collect::<Vec<_>>(),
-            "i_perp": self.i_perp,
-            "i_par": self.i_par,
-            "phase": rows.iter().map(|r| r.4).collect::<Vec<_>>(),
-            "polarization": rows.iter().map(|r| r.5).collect::<Vec<_>>(),
-        })
+        let mut o = serde_json::Map::new();
+        o.insert("x".into(), self.x.into());
+        o.insert("m".into(), serde_json::json!([self.m.re, self.m.im]));
+        o.insert("qext".into(), e.q_ext.into());
+        o.insert("qsca".into(), e.q_sca.into());
+        o.insert("qback".into(), e.q_back.into());
+        o.insert("g".into(), e.g.into());
+        o.extend(curve_json(&self.rows()));
+        serde_json::Value::Object(o)
     }
 }
 
@@ -323,14 +447,14 @@ mod tests {
         let q = MieQuery::solve(&cli.args).unwrap();
         let j = q.to_json();
         assert!((j["qsca"].as_f64().unwrap() - 3.10547).abs() < 1e-5);
-        assert_eq!(j["angles_deg"].as_array().unwrap().len(), 2);
+        assert_eq!(j["angle_deg"].as_array().unwrap().len(), 2);
         let cli = Cli::parse_from([
             "t",
             "--radius-um",
             "10",
             "--wavelength-nm",
             "550",
-            "--angles-step-deg",
+            "--angle-step-deg",
             "45",
         ]);
         let q = MieQuery::solve(&cli.args).unwrap();
@@ -338,7 +462,67 @@ mod tests {
         assert!((q.m.re - 1.3352).abs() < 2e-3);
         assert!(q.to_table().contains("Q_sca"));
         assert_eq!(q.to_csv().lines().count(), 6);
-        let bad = Cli::parse_from(["t", "--x", "5", "--angles-step-deg", "0.1"]);
+        let bad = Cli::parse_from(["t", "--x", "5", "--angle-step-deg", "0.1"]);
         assert!(MieQuery::solve(&bad.args).is_err());
+    }
+
+    /// `i_perp`/`i_par` are |S1|², |S2|² over π x² Q_sca (1/sr), `phase` their mean; the raw
+    /// intensities are `s1_sq`/`s2_sq`. The normalised phase integrates to 1 over 4π.
+    #[test]
+    fn i_perp_is_the_normalised_component_and_s1_sq_the_raw_one() {
+        let cli = Cli::parse_from([
+            "t",
+            "--x",
+            "20",
+            "--index",
+            "1.33+0.001i",
+            "--angle-step-deg",
+            "0.05",
+            "--format",
+            "json",
+        ]);
+        let q = MieQuery::solve(&cli.args).unwrap();
+        assert_eq!((q.m.re, q.m.im), (1.33, 0.001));
+        let j = q.to_json();
+        let col = |k: &str| -> Vec<f64> {
+            j[k].as_array()
+                .unwrap()
+                .iter()
+                .map(|v| v.as_f64().unwrap())
+                .collect()
+        };
+        let (s1, ip, ipar, ph) = (col("s1_sq"), col("i_perp"), col("i_par"), col("phase"));
+        let norm = std::f64::consts::PI * 400.0 * j["qsca"].as_f64().unwrap();
+        let mut integral = 0.0;
+        for i in 0..ip.len() {
+            assert!((ip[i] * norm / s1[i] - 1.0).abs() < 1e-12, "{i}");
+            assert!((ph[i] - 0.5 * (ip[i] + ipar[i])).abs() <= 1e-12 * ph[i]);
+            if i > 0 {
+                let (a, b) = (
+                    (0.05 * (i - 1) as f64).to_radians(),
+                    (0.05 * i as f64).to_radians(),
+                );
+                integral +=
+                    std::f64::consts::PI * (ph[i - 1] * a.sin() + ph[i] * b.sin()) * (b - a);
+            }
+        }
+        assert!((integral - 1.0).abs() < 1e-3, "∫ phase dΩ = {integral}");
+        assert!(
+            q.to_csv()
+                .starts_with("angle_deg,s1_sq,s2_sq,s11,i_perp,i_par,phase,dolp\n")
+        );
+        // The water index is the default, a --k alone adds absorption to it.
+        let cli = Cli::parse_from([
+            "t",
+            "--radius-um",
+            "10",
+            "--wavelength-nm",
+            "650",
+            "--k",
+            "0.01",
+        ]);
+        let q = MieQuery::solve(&cli.args).unwrap();
+        let iapws = WaterIndexModel::default().index(650.0).unwrap();
+        assert_eq!((q.m.re, q.m.im), (iapws, 0.01));
     }
 }

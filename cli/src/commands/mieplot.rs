@@ -1,6 +1,6 @@
 //! `scatterbake` glue for [`scatterbake::consumers::export::mieplot`].
 
-use anyhow::{Context, bail};
+use anyhow::bail;
 #[allow(unused_imports)]
 use scatterbake::consumers::export::mieplot::*;
 use scatterbake::consumers::read::phase::{EntrySelection, PhaseTable, describe_entry};
@@ -49,7 +49,7 @@ pub fn run_mieplot(args: &MiePlotArgs) -> anyhow::Result<()> {
 pub struct ValidateArgs {
     /// Phase-function table (.sbt).
     pub table: PathBuf,
-    /// MiePlot-style reference text file (angle, i_perp, i_par[, unpolarised]).
+    /// MiePlot-style reference text file (angle, i_perp, i_par[, phase]).
     #[arg(long)]
     pub reference: PathBuf,
     #[arg(long = "entry", value_name = "NAME=VALUE")]
@@ -68,16 +68,13 @@ pub struct ValidateArgs {
 /// Run the validation; prints the figures, errors out when over `--tolerance`.
 pub fn run_validate(args: &ValidateArgs) -> anyhow::Result<()> {
     let pt = PhaseTable::open(&args.table)?;
-    let r = read_mieplot(
-        &std::fs::read_to_string(&args.reference)
-            .with_context(|| args.reference.display().to_string())?,
-    )?;
+    let r = read_mieplot_file(&args.reference)?;
     let wl = args.wavelength_nm.or(r.wavelength_nm).ok_or_else(|| {
         anyhow::anyhow!("reference has no `# wavelength_nm:` line: pass --wavelength-nm")
     })?;
     let rep = compare(&pt, &args.entry, wl, &r, args.rescale)?;
     println!(
-        "{} vs {} at {wl} nm: {} rows, scale {:.6e}, max rel. error i_perp {:.3e}, i_par {:.3e}, unpolarised {:.3e} (worst at {} deg)",
+        "{} vs {} at {wl} nm: {} rows, scale {:.6e}, max rel. error i_perp {:.3e}, i_par {:.3e}, phase {:.3e} (worst at {} deg)",
         args.table.display(),
         args.reference.display(),
         rep.rows,
@@ -88,7 +85,7 @@ pub fn run_validate(args: &ValidateArgs) -> anyhow::Result<()> {
         rep.worst_angle_deg
     );
     println!(
-        "  rms rel. error i_perp {:.3e}, i_par {:.3e}, unpolarised {:.3e}; correlation {:.9}",
+        "  rms rel. error i_perp {:.3e}, i_par {:.3e}, phase {:.3e}; correlation {:.9}",
         rep.rms_rel_error[0], rep.rms_rel_error[1], rep.rms_rel_error[2], rep.correlation
     );
     let show = |name: &str, m: Option<(f64, f64)>| match m {

@@ -1,22 +1,26 @@
-//! `scatterbake raytrace` single-query command (wired into the CLI by the lead).
+//! `scatterbake raytrace`: the ray-traced phase function of one drop at one wavelength.
 //!
-//! Prints, for spheres, the columns `angles_deg, i_perp, i_par, phase` of the 1-D ray-traced
-//! phase function (contract normalisation: ∫ p dΩ = 1, `phase = (i_perp + i_par)/2`); for
-//! non-spherical drops the same columns averaged over the outgoing azimuth about the incident
-//! direction (a 2-D trace at the requested sun elevation, 5° azimuth steps).
+//! Prints, for spheres, the columns `angle_deg, i_perp, i_par, phase, dolp` of the 1-D
+//! ray-traced phase function (the exact 1-D geometric-optics-plus-phase path of the `raytrace`
+//! stage; point values at the requested angles); for non-spherical drops the same columns
+//! averaged over the outgoing azimuth about the incident direction (a 2-D trace at the requested
+//! sun elevation, 5° azimuth steps). Same vocabulary as `mie` and the tables
+//! (`docs/vocabulary.md`): `i_perp`, `i_par` are the normalised perpendicular and parallel
+//! components (1/sr), `phase = (i_perp + i_par)/2` with ∫_{4π} phase dΩ = 1,
+//! `dolp = (i_perp − i_par)/(i_perp + i_par)`. The refractive index options are those of `mie`
+//! (water by IAPWS R9-97 by default).
 
+use crate::commands::mie::IndexArgs;
 use anyhow::{Context, bail};
 use scatterbake::stages::Job;
 use scatterbake::stages::raytrace::{RaytraceJob, RaytraceParams};
-#[allow(unused_imports)]
-use scatterbake::table::Table;
 
 /// Arguments of `scatterbake raytrace`.
 #[derive(clap::Args, Debug, Clone)]
 pub struct RaytraceArgs {
-    /// Equal-volume drop radius (mm).
+    /// Equal-volume drop radius (µm), 10–5000.
     #[arg(long)]
-    pub radius_mm: f64,
+    pub radius_um: f64,
     /// Vacuum wavelength (nm).
     #[arg(long)]
     pub wavelength_nm: f64,
@@ -35,16 +39,25 @@ pub struct RaytraceArgs {
     /// Skip the diffraction model (print geometric optics + interference only).
     #[arg(long)]
     pub no_diffraction_filter: bool,
-    /// Water index model: sadeghi-table-3.2 or iapws1997.
-    #[arg(long, default_value = "sadeghi-table-3.2")]
-    pub water_index_model: String,
+    /// Refractive index (real: the ray tracer treats non-absorbing drops; k must be 0).
+    #[command(flatten)]
+    pub refractive: IndexArgs,
     /// Output format.
     #[arg(long, default_value = "csv", value_parser = ["csv", "json"])]
     pub format: String,
 }
 
-/// Columns printed by [`run_raytrace`]: (angles_deg, i_perp, i_par, phase).
-pub type RaytraceColumns = (Vec<f64>, Vec<f64>, Vec<f64>, Vec<f64>);
+/// What [`run_raytrace`] prints.
+#[derive(Debug, Clone)]
+pub struct RaytraceColumns {
+    /// Relative refractive index used.
+    pub n: f64,
+    pub angle_deg: Vec<f64>,
+    pub i_perp: Vec<f64>,
+    pub i_par: Vec<f64>,
+    pub phase: Vec<f64>,
+    pub dolp: Vec<f64>,
+}
 
 /// Compute the printed columns (no I/O).
 pub fn raytrace_columns(args: &RaytraceArgs) -> anyhow::Result<RaytraceColumns> {
@@ -61,12 +74,15 @@ pub fn raytrace_columns(args: &RaytraceArgs) -> anyhow::Result<RaytraceColumns> 
         bail!("--angles must satisfy 0 <= START <= STOP <= 180");
     }
     let sphere = args.shape == "sphere";
+    let n = args
+        .refractive
+        .resolve_real(args.wavelength_nm, "ray tracing")?;
     let params = RaytraceParams {
         shape: args.shape.clone(),
-        radius_mm: vec![args.radius_mm],
-        wavelength_nm: vec![args.wavelength_nm],
-        water_index_model: args.water_index_model.clone(),
-        temperature_c: None,
+        radii_um: vec![args.radius_um],
+        wavelengths_nm: vec![args.wavelength_nm],
+        water_index_model: args.refractive.water_index_model.clone(),
+        temperature_c: args.refractive.temperature_c,
         max_order: 3,
         angle_step_deg: step,
         sun_elevation_deg: vec![args.sun_elevation_deg],
@@ -78,12 +94,24 @@ pub fn raytrace_columns(args: &RaytraceArgs) -> anyhow::Result<RaytraceColumns> 
         profile_theta_deg: None,
         profile_r: None,
     };
-    let job = RaytraceJob::new(params).map_err(|e| anyhow::anyhow!("{e}"))?;
+    let mut job = RaytraceJob::new(params).map_err(|e| anyhow::anyhow!("{e}"))?;
+    if args.refractive.explicit()?.is_some() {
+        job = job
+            .with_refractive_index(n)
+            .map_err(|e| anyhow::anyhow!("{e}"))?;
+    }
     let chunk = job.run_task(0)?;
     let nch = scatterbake::raytrace::channel_names(3).len();
     let n_polar = (180.0 / step).round() as usize + 1;
     let n_az = if sphere { 1 } else { 72 };
-    let (mut ang, mut ip, mut ipar, mut ph) = (vec![], vec![], vec![], vec![]);
+    let mut out = RaytraceColumns {
+        n,
+        angle_deg: vec![],
+        i_perp: vec![],
+        i_par: vec![],
+        phase: vec![],
+        dolp: vec![],
+    };
     for j in 0..n_polar {
         let th = step * j as f64;
         if th < start - 1e-9 || th > stop + 1e-9 {
@@ -95,28 +123,44 @@ pub fn raytrace_columns(args: &RaytraceArgs) -> anyhow::Result<RaytraceColumns> 
                 .sum::<f64>()
                 / n_az as f64
         };
-        ang.push(th);
-        ip.push(mean(1));
-        ipar.push(mean(2));
-        ph.push(mean(0));
+        let (ip, ipar) = (mean(1), mean(2));
+        out.angle_deg.push(th);
+        out.i_perp.push(ip);
+        out.i_par.push(ipar);
+        out.phase.push(mean(0));
+        out.dolp.push(if ip + ipar > 0.0 {
+            (ip - ipar) / (ip + ipar)
+        } else {
+            0.0
+        });
     }
-    Ok((ang, ip, ipar, ph))
+    Ok(out)
 }
 
 /// Run the command: compute and print.
 pub fn run_raytrace(args: &RaytraceArgs) -> anyhow::Result<()> {
-    let (ang, ip, ipar, ph) = raytrace_columns(args)?;
+    let c = raytrace_columns(args)?;
     if args.format == "json" {
+        let model = match args.refractive.explicit()? {
+            Some(_) => "none".to_string(),
+            None => args.refractive.water_index_model.clone(),
+        };
         let v = serde_json::json!({
-            "angles_deg": ang, "i_perp": ip, "i_par": ipar, "phase": ph,
-            "normalization": "integral over 4pi sr equals 1",
+            "m": [c.n, 0.0],
+            "water_index_model": model,
+            "angle_deg": c.angle_deg, "i_perp": c.i_perp, "i_par": c.i_par, "phase": c.phase,
+            "dolp": c.dolp,
+            "normalization": "integral over 4pi sr of phase equals 1; phase = (i_perp + i_par)/2",
             "azimuth_average": args.shape != "sphere",
         });
         println!("{}", serde_json::to_string_pretty(&v)?);
     } else {
-        println!("angles_deg,i_perp,i_par,phase");
-        for i in 0..ang.len() {
-            println!("{},{:.6e},{:.6e},{:.6e}", ang[i], ip[i], ipar[i], ph[i]);
+        println!("angle_deg,i_perp,i_par,phase,dolp");
+        for i in 0..c.angle_deg.len() {
+            println!(
+                "{},{:.6e},{:.6e},{:.6e},{:.6}",
+                c.angle_deg[i], c.i_perp[i], c.i_par[i], c.phase[i], c.dolp[i]
+            );
         }
     }
     Ok(())
@@ -125,26 +169,56 @@ pub fn run_raytrace(args: &RaytraceArgs) -> anyhow::Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use clap::Parser;
+
+    #[derive(Parser)]
+    struct Cli {
+        #[command(flatten)]
+        args: RaytraceArgs,
+    }
 
     #[test]
     fn sphere_columns_cover_the_requested_angles() {
-        let args = RaytraceArgs {
-            radius_mm: 0.4,
-            wavelength_nm: 650.0,
-            shape: "sphere".into(),
-            sun_elevation_deg: 0.0,
-            rays: 100,
-            angles: "130:145:0.05".into(),
-            no_diffraction_filter: false,
-            water_index_model: "sadeghi-table-3.2".into(),
-            format: "csv".into(),
-        };
-        let (a, ip, ipar, ph) = raytrace_columns(&args).unwrap();
+        let args = Cli::parse_from([
+            "t",
+            "--radius-um",
+            "400",
+            "--wavelength-nm",
+            "650",
+            "--rays",
+            "100",
+            "--angles",
+            "130:145:0.05",
+            "--water-index-model",
+            "sadeghi-table-3.2",
+        ])
+        .args;
+        let c = raytrace_columns(&args).unwrap();
+        assert_eq!(c.n, 1.331);
+        let (a, ip, ipar, ph) = (&c.angle_deg, &c.i_perp, &c.i_par, &c.phase);
         assert_eq!(a.len(), 301);
         assert!((a[0] - 130.0).abs() < 1e-9 && (a[300] - 145.0).abs() < 1e-9);
         for i in 0..a.len() {
             assert!((ph[i] - 0.5 * (ip[i] + ipar[i])).abs() <= 1e-6 * ph[i].abs() + 1e-12);
         }
+        // An explicit index replaces the water model; absorption is refused.
+        let with_n = |extra: &[&str]| {
+            let mut v = vec!["t", "--radius-um", "400", "--wavelength-nm", "650"];
+            v.extend(["--angles", "130:145:0.05"]);
+            v.extend(extra);
+            Cli::parse_from(v).args
+        };
+        let c = raytrace_columns(&with_n(&["--n", "1.34"])).unwrap();
+        assert_eq!(c.n, 1.34);
+        let c2 = raytrace_columns(&with_n(&["--index", "1.34"])).unwrap();
+        assert_eq!(c.i_perp, c2.i_perp);
+        assert!(raytrace_columns(&with_n(&["--index", "1.34+0.01i"])).is_err());
+        assert!(raytrace_columns(&with_n(&["--n", "2.5"])).is_err());
+        let default = raytrace_columns(&with_n(&[])).unwrap();
+        let iapws = scatterbake::optics::water::WaterIndexModel::default()
+            .index(650.0)
+            .unwrap();
+        assert_eq!(default.n, iapws);
         assert!(
             raytrace_columns(&RaytraceArgs {
                 angles: "1:2".into(),

@@ -1,5 +1,9 @@
-//! MiePlot-style text tables: `angle  i_perp  i_par  unpolarised`, one row per scattering
-//! angle, and the `validate` comparison that reads such a file back against a table.
+//! MiePlot-style text tables: `angle_deg  i_perp  i_par  phase`, one row per scattering
+//! angle, and the `validate` comparison that reads such a file back against a table. The
+//! columns have the meaning they have in every table and command (`docs/vocabulary.md`):
+//! `i_perp`, `i_par` are the normalised perpendicular and parallel components (1/sr, for a
+//! sphere |S1|², |S2|² over π x² Q_sca) and `phase = (i_perp + i_par)/2` (∫_{4π} phase dΩ = 1),
+//! the columns `scatterbake mie --format table` prints.
 //!
 //! Written format (what [`write_mieplot`] produces and [`read_mieplot`] reads):
 //! ```text
@@ -7,8 +11,8 @@
 //! # table: tables/mie.sbt
 //! # entry: radius=500 um
 //! # wavelength_nm: 650
-//! # units: angle in deg (0 = forward); intensities in 1/sr, integral over 4pi of unpolarised = 1
-//! # angle_deg<TAB>i_perp<TAB>i_par<TAB>unpolarised
+//! # units: angle in deg (0 = forward); i_perp, i_par, phase in 1/sr, phase = (i_perp + i_par)/2, integral over 4pi of phase = 1
+//! # angle_deg<TAB>i_perp<TAB>i_par<TAB>phase
 //! 0<TAB>1.2e3<TAB>1.2e3<TAB>1.2e3
 //! ```
 //! Numbers are written as the shortest decimal that round-trips the f64 value, so reading the
@@ -17,12 +21,13 @@
 //! The reader also accepts files saved by MiePlot itself (or any similar tool): lines that do
 //! not start with a number are skipped (headers, titles), fields may be separated by tabs,
 //! spaces, commas or semicolons, and rows need 3 columns (angle, perpendicular, parallel; the
-//! unpolarised value is then their mean) or 4+ (the 4th is the unpolarised value). MiePlot's
-//! intensities are not normalised like ours: `validate --rescale` fits one scale factor
-//! (least squares on the unpolarised column) before comparing.
+//! phase is then their mean) or 4+ (the 4th is the phase, i.e. the unpolarised value). MiePlot's
+//! intensities are raw |S1|², |S2|², not normalised like ours: `validate --rescale` fits one
+//! scale factor (least squares on the phase column) before comparing.
 
+use crate::consumers::ConsumerError;
 use crate::consumers::read::phase::{EntrySelection, PhaseTable};
-use anyhow::{Context, bail};
+use crate::error::IoError;
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -34,7 +39,8 @@ pub struct MiePlotData {
     pub angle_deg: Vec<f64>,
     pub i_perp: Vec<f64>,
     pub i_par: Vec<f64>,
-    pub unpolarised: Vec<f64>,
+    /// (i_perp + i_par)/2, the unpolarised phase function.
+    pub phase: Vec<f64>,
 }
 
 /// Format a MiePlot-style table (comment lines first, then rows).
@@ -47,30 +53,30 @@ pub fn write_mieplot(d: &MiePlotData, comments: &[String]) -> String {
     if let Some(w) = d.wavelength_nm {
         let _ = writeln!(s, "# wavelength_nm: {w}");
     }
-    s.push_str("# units: angle in deg (0 = forward); intensities in 1/sr, integral over 4pi of unpolarised = 1\n");
-    s.push_str("# angle_deg\ti_perp\ti_par\tunpolarised\n");
+    s.push_str("# units: angle in deg (0 = forward); i_perp, i_par, phase in 1/sr, phase = (i_perp + i_par)/2, integral over 4pi of phase = 1\n");
+    s.push_str("# angle_deg\ti_perp\ti_par\tphase\n");
     for j in 0..d.angle_deg.len() {
         let _ = writeln!(
             s,
             "{:e}\t{:e}\t{:e}\t{:e}",
-            d.angle_deg[j], d.i_perp[j], d.i_par[j], d.unpolarised[j]
+            d.angle_deg[j], d.i_perp[j], d.i_par[j], d.phase[j]
         );
     }
     s
 }
 
 /// Parse a MiePlot-style table (see the module doc for what is accepted).
-pub fn read_mieplot(text: &str) -> anyhow::Result<MiePlotData> {
+pub fn read_mieplot(text: &str) -> Result<MiePlotData, ConsumerError> {
     let mut d = MiePlotData::default();
     for (ln, line) in text.lines().enumerate() {
         let line = line.trim();
         if let Some(rest) = line.strip_prefix('#') {
             if let Some(v) = rest.trim().strip_prefix("wavelength_nm:") {
-                d.wavelength_nm = Some(
-                    v.trim()
-                        .parse()
-                        .with_context(|| format!("line {}: wavelength", ln + 1))?,
-                );
+                d.wavelength_nm = Some(v.trim().parse().map_err(|e| ConsumerError::Parse {
+                    line: ln + 1,
+                    message: "wavelength is not a number",
+                    source: Some(e),
+                })?);
             }
             continue;
         }
@@ -88,21 +94,29 @@ pub fn read_mieplot(text: &str) -> anyhow::Result<MiePlotData> {
             .iter()
             .map(|f| f.parse::<f64>())
             .collect::<Result<_, _>>()
-            .with_context(|| format!("line {}: not all fields are numbers", ln + 1))?;
+            .map_err(|e| ConsumerError::Parse {
+                line: ln + 1,
+                message: "not all fields are numbers",
+                source: Some(e),
+            })?;
         if nums.len() < 3 {
-            bail!("line {}: need at least angle, i_perp, i_par", ln + 1);
+            return Err(ConsumerError::Parse {
+                line: ln + 1,
+                message: "need at least angle, i_perp, i_par",
+                source: None,
+            });
         }
         d.angle_deg.push(nums[0]);
         d.i_perp.push(nums[1]);
         d.i_par.push(nums[2]);
-        d.unpolarised.push(if nums.len() >= 4 {
+        d.phase.push(if nums.len() >= 4 {
             nums[3]
         } else {
             0.5 * (nums[1] + nums[2])
         });
     }
     if d.angle_deg.is_empty() {
-        bail!("no data rows found");
+        return Err(ConsumerError::invalid("no data rows found"));
     }
     Ok(d)
 }
@@ -112,7 +126,7 @@ pub fn from_table(
     pt: &PhaseTable,
     entry: &[EntrySelection],
     wavelength_nm: f64,
-) -> anyhow::Result<MiePlotData> {
+) -> Result<MiePlotData, ConsumerError> {
     let e = pt.resolve_entry(entry)?;
     let angles = pt.angles_deg();
     let mut d = MiePlotData {
@@ -124,7 +138,7 @@ pub fn from_table(
         d.angle_deg.push(a);
         d.i_perp.push(s);
         d.i_par.push(q);
-        d.unpolarised.push(p);
+        d.phase.push(p);
     }
     Ok(d)
 }
@@ -135,15 +149,15 @@ pub struct ValidationReport {
     pub rows: usize,
     /// Scale applied to the reference (1 unless rescaled).
     pub scale: f64,
-    /// max |table − ref| / |ref| per column (i_perp, i_par, unpolarised).
+    /// max |table − ref| / |ref| per column (i_perp, i_par, phase).
     pub max_rel_error: [f64; 3],
-    /// Angle (deg) of the largest unpolarised relative error.
+    /// Angle (deg) of the largest phase relative error.
     pub worst_angle_deg: f64,
-    /// RMS relative error per column (i_perp, i_par, unpolarised).
+    /// RMS relative error per column (i_perp, i_par, phase).
     pub rms_rel_error: [f64; 3],
-    /// Pearson correlation of the unpolarised curves (table vs reference).
+    /// Pearson correlation of the phase curves (table vs reference).
     pub correlation: f64,
-    /// Primary-bow maximum of the unpolarised curve (deg): (table, reference). The primary is
+    /// Primary-bow maximum of the phase curve (deg): (table, reference). The primary is
     /// searched in (132°, 160°], the secondary in [115°, 132°] (132° ≈ middle of Alexander's
     /// band for water); `None` when the reference has no angles there.
     pub primary_max_deg: Option<(f64, f64)>,
@@ -168,17 +182,21 @@ pub fn compare(
     wavelength_nm: f64,
     r: &MiePlotData,
     rescale: bool,
-) -> anyhow::Result<ValidationReport> {
+) -> Result<ValidationReport, ConsumerError> {
     let e = pt.resolve_entry(entry)?;
     let vals: Vec<[f64; 3]> = r
         .angle_deg
         .iter()
         .map(|&a| pt.sample_at(wavelength_nm, &e, a))
-        .collect::<anyhow::Result<_>>()?;
+        .collect::<Result<_, _>>()?;
     let scale = if rescale {
-        let num: f64 = vals.iter().zip(&r.unpolarised).map(|(v, u)| v[0] * u).sum();
-        let den: f64 = r.unpolarised.iter().map(|u| u * u).sum();
-        anyhow::ensure!(den > 0.0, "reference is all zero");
+        let num: f64 = vals.iter().zip(&r.phase).map(|(v, u)| v[0] * u).sum();
+        let den: f64 = r.phase.iter().map(|u| u * u).sum();
+        if !(den > 0.0) {
+            return Err(ConsumerError::invalid(
+                "cannot rescale: the reference is all zero",
+            ));
+        }
         num / den
     } else {
         1.0
@@ -186,7 +204,7 @@ pub fn compare(
     let mut max = [0.0f64; 3];
     let mut worst = r.angle_deg[0];
     for (j, v) in vals.iter().enumerate() {
-        let refs = [r.i_perp[j], r.i_par[j], r.unpolarised[j]];
+        let refs = [r.i_perp[j], r.i_par[j], r.phase[j]];
         let tab = [v[1], v[2], v[0]];
         for c in 0..3 {
             let rf = refs[c] * scale;
@@ -205,7 +223,7 @@ pub fn compare(
     }
     let mut sq = [0.0f64; 3];
     for (j, v) in vals.iter().enumerate() {
-        let refs = [r.i_perp[j], r.i_par[j], r.unpolarised[j]];
+        let refs = [r.i_perp[j], r.i_par[j], r.phase[j]];
         let tab = [v[1], v[2], v[0]];
         for c in 0..3 {
             let rf = refs[c] * scale;
@@ -217,7 +235,7 @@ pub fn compare(
     let nrows = vals.len().max(1) as f64;
     let rms = sq.map(|s| (s / nrows).sqrt());
     let tab_u: Vec<f64> = vals.iter().map(|v| v[0]).collect();
-    let ref_u: Vec<f64> = r.unpolarised.iter().map(|u| u * scale).collect();
+    let ref_u: Vec<f64> = r.phase.iter().map(|u| u * scale).collect();
     let mean = |x: &[f64]| x.iter().sum::<f64>() / x.len().max(1) as f64;
     let (mt, mr) = (mean(&tab_u), mean(&ref_u));
     let cov: f64 = tab_u
@@ -251,8 +269,9 @@ pub fn compare(
 }
 
 /// Read a MiePlot-style file from disk.
-pub fn read_mieplot_file(path: &Path) -> anyhow::Result<MiePlotData> {
-    read_mieplot(&std::fs::read_to_string(path).with_context(|| path.display().to_string())?)
+pub fn read_mieplot_file(path: &Path) -> Result<MiePlotData, ConsumerError> {
+    let text = std::fs::read_to_string(path).map_err(IoError::doing("reading", path))?;
+    read_mieplot(&text).map_err(|e| e.in_file(path))
 }
 
 #[cfg(test)]

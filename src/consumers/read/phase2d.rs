@@ -1,7 +1,13 @@
-//! Consumers' view of the ray tracer's 2-D tables (schema `raytrace-phase-2d/1`, stage
-//! `raytrace` for non-spherical drops): axes wavelength (nm) × sun_elevation (deg) ×
-//! outgoing_polar (deg) × outgoing_azimuth (deg), optionally with further entry axes (e.g. a
-//! `radius`) between wavelength and sun_elevation, channel `phase` (1/sr).
+//! Consumers' view of the ray tracer's 2-D tables (schema `raytrace-phase-2d`, stage `raytrace`
+//! for non-spherical drops), channel `phase` (1/sr). Both versions are read:
+//! - version 2 (written now): radius (µm) × wavelength (nm) × sun_elevation (deg) ×
+//!   outgoing_polar (deg) × outgoing_azimuth (deg), the radius × wavelength × … × angle order of
+//!   every phase-function table;
+//! - version 1: wavelength × [entry axes] × sun_elevation × outgoing_polar × outgoing_azimuth,
+//!   the radius (mm) in the `radius_mm` attribute.
+//!
+//! In general the axes before `sun_elevation` are `wavelength` (at any position) and entry axes
+//! (e.g. `radius`); other versions are refused with a message naming the version.
 //!
 //! Frame (the table's `frame` attribute, `docs/raytrace.md`): drop symmetry axis z up, sun at
 //! elevation e in the +x half, incident (propagation) direction d = (−cos e, 0, −sin e);
@@ -20,77 +26,98 @@
 //! as periodic (the axis covers [0, 360) without repeating 360°).
 
 use super::spectrum::SkyPhase;
+use crate::consumers::ConsumerError;
 use crate::consumers::read::phase::EntrySelection;
-use crate::optics::vec3::V3;
-use crate::optics::vec3::{cross, dot};
-use crate::table::{Table, TableError};
-use anyhow::{Context, bail};
+use crate::math::vec3::V3;
+use crate::math::vec3::{cross, dot};
+use crate::table::Table;
 use rayon::prelude::*;
 use std::path::Path;
 
 /// Schema name of the ray tracer's 2-D tables.
 pub const SCHEMA_2D: &str = "raytrace-phase-2d";
 
+/// Versions of [`SCHEMA_2D`] this reader understands.
+pub const SCHEMA_2D_VERSIONS: [u32; 2] = [1, 2];
+
 /// Is this a 2-D ray-traced table?
 pub fn is_2d(table: &Table) -> bool {
     table.header.schema.name == SCHEMA_2D
 }
 
-/// A `raytrace-phase-2d/1` table with its axes identified.
+/// A `raytrace-phase-2d` table (version 1 or 2) with its axes identified.
 pub struct Phase2dTable {
     pub table: Table,
+    ax_wavelength: usize,
     ax_elev: usize,
     ax_polar: usize,
     ax_az: usize,
-    /// Entry axes other than wavelength / sun_elevation / polar / azimuth (e.g. radius).
+    /// Entry axes other than wavelength / sun_elevation / polar / azimuth (e.g. radius), in
+    /// table order.
     pub entry_axes: Vec<usize>,
 }
 
 impl Phase2dTable {
     /// Open a file and check the layout.
-    pub fn open(path: &Path) -> anyhow::Result<Self> {
-        let table = Table::open(path).map_err(|e: TableError| anyhow::anyhow!(e))?;
-        Self::new(table).with_context(|| format!("{}", path.display()))
+    pub fn open(path: &Path) -> Result<Self, ConsumerError> {
+        ConsumerError::check_file(path, Self::new)
     }
 
     /// Check a table in memory.
-    pub fn new(table: Table) -> anyhow::Result<Self> {
+    pub fn new(table: Table) -> Result<Self, ConsumerError> {
         if !is_2d(&table) {
-            bail!(
-                "schema `{}` is not `{SCHEMA_2D}/1`",
+            return Err(ConsumerError::layout(format!(
+                "schema `{}` is not `{SCHEMA_2D}`",
                 table.header.schema.name
-            );
+            )));
+        }
+        let version = table.header.schema.version;
+        if !SCHEMA_2D_VERSIONS.contains(&version) {
+            return Err(ConsumerError::layout(format!(
+                "`{SCHEMA_2D}/{version}` is not a version this reader knows (it reads \
+                 {SCHEMA_2D}/1 and {SCHEMA_2D}/2)"
+            )));
         }
         let axes = table.axes();
         let n = axes.len();
-        if n < 4
-            || axes[0].name != "wavelength"
-            || axes[n - 3].name != "sun_elevation"
-            || axes[n - 2].name != "outgoing_polar"
-            || axes[n - 1].name != "outgoing_azimuth"
-        {
+        let ax_wavelength = axes[..n.saturating_sub(3)]
+            .iter()
+            .position(|a| a.name == "wavelength");
+        let (true, Some(ax_wavelength)) = (
+            n >= 4
+                && axes[n - 3].name == "sun_elevation"
+                && axes[n - 2].name == "outgoing_polar"
+                && axes[n - 1].name == "outgoing_azimuth",
+            ax_wavelength,
+        ) else {
             let names: Vec<&str> = axes.iter().map(|a| a.name.as_str()).collect();
-            bail!(
-                "expected axes wavelength × [entry axes] × sun_elevation × outgoing_polar × \
-                 outgoing_azimuth, found {names:?}"
-            );
-        }
+            return Err(ConsumerError::layout(format!(
+                "expected axes [radius ×] wavelength × sun_elevation × outgoing_polar × \
+                 outgoing_azimuth (version 2) or wavelength × [entry axes] × sun_elevation × \
+                 outgoing_polar × outgoing_azimuth (version 1), found {names:?}"
+            )));
+        };
         table
             .channel_index("phase")
-            .map_err(|_| anyhow::anyhow!("table has no channel `phase`"))?;
+            .map_err(|_| ConsumerError::layout("table has no channel `phase`"))?;
         let p = axes[n - 2].coords();
         if p[0] > 1e-9 || p[p.len() - 1] < 180.0 - 1e-9 {
-            bail!("outgoing_polar must cover [0, 180] deg");
+            return Err(ConsumerError::layout(
+                "outgoing_polar must cover [0, 180] deg",
+            ));
         }
         let a = axes[n - 1].coords();
         if a[0].abs() > 1e-9 || a[a.len() - 1] >= 360.0 {
-            bail!("outgoing_azimuth must start at 0 and stay below 360 deg");
+            return Err(ConsumerError::layout(
+                "outgoing_azimuth must start at 0 and stay below 360 deg",
+            ));
         }
         Ok(Phase2dTable {
+            ax_wavelength,
             ax_elev: n - 3,
             ax_polar: n - 2,
             ax_az: n - 1,
-            entry_axes: (1..n - 3).collect(),
+            entry_axes: (0..n - 3).filter(|&i| i != ax_wavelength).collect(),
             table,
         })
     }
@@ -100,24 +127,30 @@ impl Phase2dTable {
         self.table.axes()[self.ax_elev].coords()
     }
 
-    /// The sun elevation to use: the requested one if it lies within the table's range (error
-    /// naming the range otherwise), or the table's lowest elevation when none is requested.
-    pub fn resolve_elevation(&self, requested: Option<f64>) -> anyhow::Result<f64> {
+    /// The sun elevation to use: the table's lowest elevation when none is requested, else the
+    /// requested one, which must lie within the table's range and, unless the table declares
+    /// `sun_elevation` interpolable, be one of its elevations (errors name the range or the
+    /// nearest elevation).
+    pub fn resolve_elevation(&self, requested: Option<f64>) -> Result<f64, ConsumerError> {
         let e = self.elevations_deg();
-        let (lo, hi) = (e[0], e[e.len() - 1]);
         match requested {
-            None => Ok(lo),
-            Some(x) if x >= lo - 1e-9 && x <= hi + 1e-9 => Ok(x.clamp(lo, hi)),
-            Some(x) => bail!(
-                "sun elevation {x} deg is outside the table's sun_elevation range [{lo}, {hi}] \
-                 deg (table elevations {e:?}); ray-traced tables are only valid at the \
-                 elevations they were traced for"
-            ),
+            None => Ok(e[0]),
+            Some(x) => {
+                super::operators::resolve_axis_value(&self.table, self.ax_elev, x).map_err(|e| {
+                    ConsumerError::invalid(format!(
+                        "{e}; ray-traced tables are only valid at the sun elevations they were \
+                         traced for (--sun-elevation-deg)"
+                    ))
+                })
+            }
         }
     }
 
     /// Entry values (name, value) for the extra entry axes: requested or the first sample.
-    pub fn resolve_entry(&self, sel: &[EntrySelection]) -> anyhow::Result<Vec<(String, f64)>> {
+    pub fn resolve_entry(
+        &self,
+        sel: &[EntrySelection],
+    ) -> Result<Vec<(String, f64)>, ConsumerError> {
         crate::consumers::read::phase::resolve_entry_axes(
             &self.table,
             &self.entry_axes,
@@ -126,8 +159,8 @@ impl Phase2dTable {
         )
     }
 
-    /// Drop radius for labels: the entry's `radius` (in its axis unit) or the table's
-    /// `radius_mm` attribute.
+    /// Drop radius for labels: the entry's `radius` (in its axis unit) or, for version 1
+    /// tables without a radius axis, the `radius_mm` attribute.
     pub fn radius_label(&self, entry: &[(String, f64)]) -> String {
         if let Some((_, v)) = entry.iter().find(|e| e.0 == "radius") {
             let unit = self
@@ -152,11 +185,12 @@ impl Phase2dTable {
         elevation_deg: f64,
         sel: &[EntrySelection],
         channel: &str,
-    ) -> anyhow::Result<PhaseSlice> {
+    ) -> Result<PhaseSlice, ConsumerError> {
         let entry = self.resolve_entry(sel)?;
+        let elevation_deg = self.resolve_elevation(Some(elevation_deg))?;
         let ch = self.table.channel_index(channel)?;
         let axes = self.table.axes();
-        let wavelengths_nm = axes[0].coords();
+        let wavelengths_nm = axes[self.ax_wavelength].coords();
         let polar_deg = axes[self.ax_polar].coords();
         let azimuth_deg = axes[self.ax_az].coords();
         let (np, na) = (polar_deg.len(), azimuth_deg.len());
@@ -166,16 +200,16 @@ impl Phase2dTable {
         let values: Vec<f32> = rows
             .par_iter()
             .map(|&(k, j)| {
-                let mut c = Vec::with_capacity(axes.len());
-                c.push(wavelengths_nm[k]);
-                c.extend(entry.iter().map(|e| e.1));
-                c.push(elevation_deg);
-                c.push(polar_deg[j]);
-                c.push(0.0);
-                let last = c.len() - 1;
+                let mut c = vec![0.0; axes.len()];
+                c[self.ax_wavelength] = wavelengths_nm[k];
+                for (&i, e) in self.entry_axes.iter().zip(&entry) {
+                    c[i] = e.1;
+                }
+                c[self.ax_elev] = elevation_deg;
+                c[self.ax_polar] = polar_deg[j];
                 (0..na)
                     .map(|i| {
-                        c[last] = azimuth_deg[i];
+                        c[self.ax_az] = azimuth_deg[i];
                         self.table.sample(&c).map(|v| v[ch] as f32)
                     })
                     .collect::<Result<Vec<f32>, _>>()
@@ -345,6 +379,8 @@ mod tests {
         }
     }
 
+    /// A version 1 layout (wavelength × radius × sun_elevation × …) is still read; radius and
+    /// sun elevation are interpolated only when the table declares them interpolable.
     #[test]
     fn radius_entry_axis_is_selected_and_interpolated() {
         use crate::table::{Axis, Channel, Provenance, Schema, TableContent};
@@ -375,9 +411,30 @@ mod tests {
             attributes: Default::default(),
             data,
         };
+        let coarse =
+            Phase2dTable::new(Table::from_content(content.clone(), Provenance::default()).unwrap())
+                .unwrap();
+        let sel: EntrySelection = "radius=750".parse().unwrap();
+        let e = coarse
+            .slice(0.0, std::slice::from_ref(&sel), "phase")
+            .err()
+            .unwrap();
+        assert!(e.to_string().contains("nearest is 500 um"), "{e}");
+        let e = coarse.slice(5.0, &[], "phase").err().unwrap();
+        assert!(e.to_string().contains("nearest is 0 deg"), "{e}");
+        let mut content = content;
+        content.attributes.insert(
+            "interpolable_axes".into(),
+            serde_json::json!([
+                "wavelength",
+                "radius",
+                "sun_elevation",
+                "outgoing_polar",
+                "outgoing_azimuth"
+            ]),
+        );
         let t = Phase2dTable::new(Table::from_content(content, Provenance::default()).unwrap())
             .unwrap();
-        let sel: EntrySelection = "radius=750".parse().unwrap();
         let s = t.slice(5.0, &[sel], "phase").unwrap();
         assert_eq!(t.radius_label(&s.entry), "750 um");
         // Linear in every axis: exact at an off-grid point; azimuth 315° interpolates between
@@ -391,5 +448,69 @@ mod tests {
         assert!((v - (800.0 + 0.09 + 0.5 * 270.0 / 1e5)).abs() < 1e-3, "{v}");
         let bad: EntrySelection = "size=1".parse().unwrap();
         assert!(t.slice(5.0, &[bad], "phase").is_err());
+    }
+
+    fn table_2d(version: u32, axes: Vec<crate::table::Axis>, data: Vec<f32>) -> Table {
+        use crate::table::{Channel, Provenance, Schema, TableContent};
+        let content = TableContent {
+            schema: Schema::new(SCHEMA_2D, version),
+            description: "test".into(),
+            axes,
+            channels: vec![Channel::new("phase", "1/sr", "test")],
+            attributes: Default::default(),
+            data,
+        };
+        Table::from_content(content, Provenance::default()).unwrap()
+    }
+
+    /// Version 2 layout (radius × wavelength × sun_elevation × polar × azimuth): the radius is an
+    /// entry axis and the wavelength axis is found in second place; an unknown version is
+    /// refused with its number.
+    #[test]
+    fn version_2_layout_is_read_and_unknown_versions_refused() {
+        use crate::table::Axis;
+        // phase = radius_um + wavelength_nm/1000 + 10·elevation + polar/1000 + azimuth/1e5.
+        let (radii, wl, elev, polar, az) = (
+            [400.0, 800.0],
+            [450.0, 650.0],
+            [0.0, 20.0],
+            [0.0, 90.0, 180.0],
+            4,
+        );
+        let mut data = vec![];
+        for &r in &radii {
+            for &w in &wl {
+                for &e in &elev {
+                    for &p in &polar {
+                        for i in 0..az {
+                            let v = r + w / 1000.0 + 10.0 * e + p / 1000.0;
+                            data.push((v + 90.0 * i as f64 / 1e5) as f32);
+                        }
+                    }
+                }
+            }
+        }
+        let axes = vec![
+            Axis::values("radius", "um", radii.to_vec()),
+            Axis::values("wavelength", "nm", wl.to_vec()),
+            Axis::values("sun_elevation", "deg", elev.to_vec()),
+            Axis::values("outgoing_polar", "deg", polar.to_vec()),
+            Axis::uniform("outgoing_azimuth", "deg", 0.0, 90.0, az),
+        ];
+        let t = Phase2dTable::new(table_2d(2, axes.clone(), data.clone())).unwrap();
+        let sel: EntrySelection = "radius=800".parse().unwrap();
+        let s = t.slice(20.0, &[sel], "phase").unwrap();
+        assert_eq!(s.wavelengths_nm, wl.to_vec());
+        assert_eq!(t.radius_label(&s.entry), "800 um");
+        for (k, w) in wl.iter().enumerate() {
+            let v = s.value(k, 90.0, 90.0);
+            let want = 800.0 + w / 1000.0 + 200.0 + 0.09 + 90.0 / 1e5;
+            assert!((v - want).abs() < 1e-3, "{v} vs {want}");
+        }
+        let e = Phase2dTable::new(table_2d(3, axes, data))
+            .err()
+            .unwrap()
+            .to_string();
+        assert!(e.contains("raytrace-phase-2d/3"), "{e}");
     }
 }
