@@ -20,7 +20,9 @@ fn main() -> anyhow::Result<()> {
         .find(|e| e["name"].as_str() == Some(&args[2]))
         .expect("table in manifest");
     let stage = scatterbake::stages::find(entry["stage"].as_str().unwrap()).unwrap();
-    let job = stage.plan(toml::de::ValueDeserializer::parse(&entry["params"].to_string())?)?;
+    let job = stage.plan(toml::de::ValueDeserializer::parse(
+        &entry["params"].to_string(),
+    )?)?;
     let t0 = Instant::now();
     let chunks: Vec<Vec<f32>> = (0..job.tasks().len())
         .into_par_iter()
@@ -33,7 +35,11 @@ fn main() -> anyhow::Result<()> {
         None => (false, args[3].clone()),
     };
     let nc = content.channels.len();
-    let ci = content.channels.iter().position(|c| c.name == name).unwrap();
+    let ci = content
+        .channels
+        .iter()
+        .position(|c| c.name == name)
+        .unwrap();
     let dense: Vec<f32> = content.data.iter().skip(ci).step_by(nc).copied().collect();
     let mut content = content;
     if log {
@@ -42,7 +48,11 @@ fn main() -> anyhow::Result<()> {
     }
     // Profile length: last axis, times the lobe axis when present.
     let profile = content.axes.last().unwrap().len()
-        * if content.axes.len() == 5 { content.axes[3].len() } else { 1 };
+        * if content.axes.len() == 5 {
+            content.axes[3].len()
+        } else {
+            1
+        };
     for tol in &args[4..] {
         let t1 = Instant::now();
         let (mut tt, rep) = compress_table(&content, &name, tol.parse()?, 256)?;
@@ -63,7 +73,9 @@ fn main() -> anyhow::Result<()> {
         rel.sort_by(f64::total_cmp);
         let ranks = tt.attributes["ranks"].clone();
         tt.attributes.remove("source_attributes");
-        let bytes = Table::from_content(tt, Provenance::default())?.to_bytes()?.len();
+        let bytes = Table::from_content(tt, Provenance::default())?
+            .to_bytes()?
+            .len();
         println!(
             "tol {tol}: ranks {ranks}, {} values, {bytes} B, rel Frobenius {:.3e}, max abs/max {:.3e}, per-bin rel (bins > 1e-3 of profile max): median {:.3e}, p99 {:.3e}, max {:.3e}; {secs:.1} s",
             rep.parameters,
