@@ -126,7 +126,10 @@ fn energy_identity(content: &TableContent) {
 
 fn method_report(content: &TableContent) {
     let a = &content.attributes;
-    println!("method {}", a.get("method").unwrap_or(&"monte-carlo".into()));
+    println!(
+        "method {}",
+        a.get("method").unwrap_or(&"monte-carlo".into())
+    );
     if let Some(e) = a.get("solver_error") {
         println!("solver_error (header) {e}");
     }

@@ -740,6 +740,85 @@ mod tests {
         }
     }
 
+    /// Error bars that hold when rebinned, read from the stored table: for groups of bins, the
+    /// spread of group sums over replicate tables (independent seeds) against the error the
+    /// header documents, Var(Σ_G energy) = Σ_{k,l∈G} se_k se_l exp(−|k−l|/ℓ), with `std_error`
+    /// and the entry's `std_error_correlation_length_bins` ℓ. Two entries: a moderate one and a
+    /// σ = 12 one read through its mirrored row (h' = −0.5). Groups of 1 to 72 bins must agree
+    /// within the noise of 16 replicates; 180-bin groups (where energy conservation makes far
+    /// bins anti-correlated) must not be understated; the plain quadrature sum must understate
+    /// 10° groups (so the test fails if the correlation were dropped).
+    #[test]
+    fn rebinned_error_bars_from_the_table_match_replicate_runs() {
+        use crate::fur::medulla_fast::correlated_group_error;
+        let reps = 16u64;
+        for (sigma, g) in [(4.0, 0.6), (12.0, 0.2)] {
+            // Rows per table: h' = −0.5 (mirror of +0.5) and +0.5; the test reads row 0.
+            let tables: Vec<TableContent> = (0..reps)
+                .map(|r| {
+                    let job = plan_str(
+                        Family::Azimuthal,
+                        &format!("{{ sigma = [{sigma}], g = [{g}], h = [-0.5, 0.5], method = \"adaptive\", target_rel_error = 0.001, photons = 1024, seed = {} }}", 100 + r),
+                    )
+                    .unwrap();
+                    run(job.as_ref())
+                })
+                .collect();
+            let c = 3;
+            let column = |t: &TableContent, ch: usize| -> Vec<f64> {
+                (0..720).map(|k| t.data[k * c + ch] as f64).collect()
+            };
+            let energy: Vec<Vec<f64>> = tables.iter().map(|t| column(t, 0)).collect();
+            let se: Vec<Vec<f64>> = tables.iter().map(|t| column(t, 2)).collect();
+            let ell: Vec<f64> = tables
+                .iter()
+                .map(|t| {
+                    t.attributes["std_error_correlation_length_bins"][0]
+                        .as_f64()
+                        .unwrap()
+                })
+                .collect();
+            let n = reps as f64;
+            for (group, lo, hi) in [
+                (1usize, 0.7, 1.3),
+                (20, 0.7, 1.3),
+                (72, 0.7, 1.3),
+                (180, 0.0, 1.2),
+            ] {
+                let (mut ratio, mut ratio_quad) = (0.0, 0.0);
+                let groups = 720 / group;
+                for gi in 0..groups {
+                    let r = gi * group..(gi + 1) * group;
+                    let sums: Vec<f64> = energy.iter().map(|e| e[r.clone()].iter().sum()).collect();
+                    let mean = sums.iter().sum::<f64>() / n;
+                    let sd =
+                        (sums.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt();
+                    let model = se
+                        .iter()
+                        .zip(&ell)
+                        .map(|(s, &l)| correlated_group_error(s, l, r.clone()))
+                        .sum::<f64>()
+                        / n;
+                    let quad = se
+                        .iter()
+                        .map(|s| s[r.clone()].iter().map(|x| x * x).sum::<f64>().sqrt())
+                        .sum::<f64>()
+                        / n;
+                    ratio += sd / model / groups as f64;
+                    ratio_quad += sd / quad / groups as f64;
+                }
+                println!(
+                    "σ={sigma} g={g} h'=-0.5: {group}-bin groups: replicate sd / stored-model error {ratio:.3}, / quadrature sum {ratio_quad:.3} (mean ℓ {:.1} bins)",
+                    ell.iter().sum::<f64>() / n
+                );
+                assert!((lo..hi).contains(&ratio), "σ={sigma} {group} bins: {ratio}");
+                if group == 20 {
+                    assert!(ratio_quad > 2.0, "σ={sigma} 10° groups: {ratio_quad}");
+                }
+            }
+        }
+    }
+
     #[test]
     fn longitudinal_lobes_normalised_and_cdf_ends_at_one() {
         let job = plan_str(
