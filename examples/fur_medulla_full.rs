@@ -11,7 +11,8 @@
 //! header's `solver_error`. For each TT_TOL: the tensor-train size of the channel the far field
 //! reads (`energy` azimuthal, `pdf` longitudinal) as an `.sbt` file without the per-entry header
 //! arrays, and its reconstruction error (relative Frobenius, per-bin relative on bins ≥ 1e-3 of
-//! the profile maximum: median, 99th percentile, maximum).
+//! the profile maximum: median, 99th percentile, maximum). `log:TOL` compresses the logarithm
+//! of the channel instead (the Frobenius figures are then those of the logarithm).
 use rayon::prelude::*;
 use scatterbake::fur::tt::{compress_table, reconstruct_table};
 use scatterbake::table::{Provenance, Table, TableContent};
@@ -55,7 +56,10 @@ fn main() -> anyhow::Result<()> {
     energy_identity(&content);
     method_report(&content);
     for tol in &args[3..] {
-        compress(&content, tol.parse()?)?;
+        match tol.strip_prefix("log:") {
+            Some(t) => compress(&content, t.parse()?, true)?,
+            None => compress(&content, tol.parse()?, false)?,
+        }
     }
     Ok(())
 }
@@ -162,15 +166,38 @@ fn method_report(content: &TableContent) {
     );
 }
 
-fn compress(content: &TableContent, tol: f64) -> anyhow::Result<()> {
+/// `log`: compress ln(max(value, 1e-12 × the table maximum)) and report the errors of exp of
+/// the reconstruction (relative errors spread evenly over the profile).
+fn compress(content: &TableContent, tol: f64, log: bool) -> anyhow::Result<()> {
     let longitudinal = content.schema.name == "fur-medulla-longitudinal";
     let name = if longitudinal { "pdf" } else { "energy" };
     let dense = channel(content, name);
     let (profile, _) = entries(content);
     let t = Instant::now();
-    let (mut tt, rep) = compress_table(content, name, tol, 256)?;
+    let (mut tt, rep) = if log {
+        let floor = 1e-12 * dense.iter().cloned().fold(0.0f32, f32::max);
+        let one = TableContent {
+            channels: vec![content.channels[0].clone()],
+            data: dense.iter().map(|v| v.max(floor).ln()).collect(),
+            schema: content.schema.clone(),
+            description: content.description.clone(),
+            axes: content.axes.clone(),
+            attributes: content.attributes.clone(),
+        };
+        let (mut tt, rep) = compress_table(&one, &one.channels[0].name, tol, 256)?;
+        tt.attributes.insert(
+            "value_transform".into(),
+            format!("ln(max(value, {floor:e}))").into(),
+        );
+        (tt, rep)
+    } else {
+        compress_table(content, name, tol, 256)?
+    };
     let secs = t.elapsed().as_secs_f64();
-    let back = reconstruct_table(&tt)?;
+    let mut back = reconstruct_table(&tt)?;
+    if log {
+        back.data.iter_mut().for_each(|v| *v = v.exp());
+    }
     let mut rel: Vec<f64> = Vec::new();
     for (a, b) in dense.chunks(profile).zip(back.data.chunks(profile)) {
         let max = a.iter().cloned().fold(0.0f32, f32::max);
@@ -190,7 +217,8 @@ fn compress(content: &TableContent, tol: f64) -> anyhow::Result<()> {
         .to_bytes()?
         .len();
     println!(
-        "TT `{name}` tol {tol}: ranks {ranks}, {} values, {bytes} B, rel Frobenius {:.3e}, max abs/max {:.3e}, per-bin rel (bins >= 1e-3 of profile max): median {:.3e}, p99 {:.3e}, max {:.3e}; {secs:.1} s",
+        "TT `{name}`{} tol {tol}: ranks {ranks}, {} values, {bytes} B, rel Frobenius {:.3e}, max abs/max {:.3e}, per-bin rel (bins >= 1e-3 of profile max): median {:.3e}, p99 {:.3e}, max {:.3e}; {secs:.1} s",
+        if log { " (log)" } else { "" },
         rep.parameters,
         rep.rel_frobenius_error,
         rep.max_abs_error_rel_to_max,
