@@ -12,9 +12,9 @@
 //! reads (`energy` azimuthal, `pdf` longitudinal) as an `.sbt` file without the per-entry header
 //! arrays, and its reconstruction error (relative Frobenius, per-bin relative on bins ≥ 1e-3 of
 //! the profile maximum: median, 99th percentile, maximum). `log:TOL` compresses the logarithm
-//! of the channel instead (the Frobenius figures are then those of the logarithm).
+//! of the channel instead (`fur::tt::compress_table_log`; all figures are of the values).
 use rayon::prelude::*;
-use scatterbake::fur::tt::{compress_table, reconstruct_table};
+use scatterbake::fur::tt::{compress_table, compress_table_log, reconstruct_table};
 use scatterbake::table::{Provenance, Table, TableContent};
 use std::time::Instant;
 
@@ -166,8 +166,8 @@ fn method_report(content: &TableContent) {
     );
 }
 
-/// `log`: compress ln(max(value, 1e-12 × the table maximum)) and report the errors of exp of
-/// the reconstruction (relative errors spread evenly over the profile).
+/// `log`: compress ln(max(value, 1e-12 × the table maximum)) (`compress_table_log`; the
+/// reconstruction applies exp), so that relative errors spread evenly over the profile.
 fn compress(content: &TableContent, tol: f64, log: bool) -> anyhow::Result<()> {
     let longitudinal = content.schema.name == "fur-medulla-longitudinal";
     let name = if longitudinal { "pdf" } else { "energy" };
@@ -175,29 +175,12 @@ fn compress(content: &TableContent, tol: f64, log: bool) -> anyhow::Result<()> {
     let (profile, _) = entries(content);
     let t = Instant::now();
     let (mut tt, rep) = if log {
-        let floor = 1e-12 * dense.iter().cloned().fold(0.0f32, f32::max);
-        let one = TableContent {
-            channels: vec![content.channels[0].clone()],
-            data: dense.iter().map(|v| v.max(floor).ln()).collect(),
-            schema: content.schema.clone(),
-            description: content.description.clone(),
-            axes: content.axes.clone(),
-            attributes: content.attributes.clone(),
-        };
-        let (mut tt, rep) = compress_table(&one, &one.channels[0].name, tol, 256)?;
-        tt.attributes.insert(
-            "value_transform".into(),
-            format!("ln(max(value, {floor:e}))").into(),
-        );
-        (tt, rep)
+        compress_table_log(content, name, tol, 256, 1e-12)?
     } else {
         compress_table(content, name, tol, 256)?
     };
     let secs = t.elapsed().as_secs_f64();
-    let mut back = reconstruct_table(&tt)?;
-    if log {
-        back.data.iter_mut().for_each(|v| *v = v.exp());
-    }
+    let back = reconstruct_table(&tt)?;
     let mut rel: Vec<f64> = Vec::new();
     for (a, b) in dense.chunks(profile).zip(back.data.chunks(profile)) {
         let max = a.iter().cloned().fold(0.0f32, f32::max);
