@@ -4,6 +4,7 @@
 //! non-zero; nothing panics on bad input.
 
 mod commands;
+mod progress;
 
 use anyhow::Result;
 use clap::{Parser, Subcommand};

@@ -50,7 +50,15 @@ pub fn previews(table_path: &Path, out_dir: &Path) -> Result<Vec<PathBuf>, Consu
             .any(|&i| pt.table.axes()[i].name == "radius" && pt.table.axes()[i].len() > 1)
         {
             let p = name("lee");
-            plot_lee(&pt, &[], None, (120.0, 145.0), &p, (900, 600))?;
+            plot_lee(
+                &pt,
+                &[],
+                None,
+                (120.0, 145.0),
+                &p,
+                (900, 600),
+                &crate::consumers::Silent,
+            )?;
             written.push(p);
         }
         if pt.table.channel_index("phase_p2").is_ok() {

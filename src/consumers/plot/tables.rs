@@ -21,12 +21,13 @@
 //! (other axes at their middle sample) or a line plot for 1-D tables.
 
 use super::style::{PALETTE, axis_label, short_number, wavelength_colour, xyz_colour};
-use crate::consumers::ConsumerError;
 use crate::consumers::read::operators::SunDisc;
 use crate::consumers::read::phase::{EntrySelection, PhaseCurves, PhaseTable};
 use crate::consumers::read::spectrum::{THETA_STEP_DEG, xyz_vs_angle};
+use crate::consumers::{ConsumerError, Progress};
 use crate::table::Table;
 use plotters::prelude::*;
+use rayon::prelude::*;
 use std::path::Path;
 
 use super::figure::{
@@ -254,6 +255,7 @@ pub fn plot_lee(
     range: (f64, f64),
     out: &Path,
     size: (u32, u32),
+    progress: &dyn Progress,
 ) -> Result<SunDisc, ConsumerError> {
     let disc = SunDisc::plan(&pt.table, sun_diameter_deg)?;
     let axes = pt.table.axes();
@@ -270,19 +272,25 @@ pub fn plot_lee(
         ));
     }
     let unit = axes[ai].unit.clone();
-    let mut cols = Vec::new();
-    for &r in &radii {
-        let mut sel: Vec<EntrySelection> = entry
-            .iter()
-            .filter(|e| e.axis != "radius")
-            .cloned()
-            .collect();
-        sel.push(EntrySelection {
-            axis: "radius".into(),
-            value: r,
-        });
-        cols.push(strip_xyz(pt, &sel, &disc)?);
-    }
+    // One colour column per radius, in parallel.
+    progress.start(radii.len() as u64, "radii");
+    let cols = radii
+        .par_iter()
+        .map(|&r| {
+            let mut sel: Vec<EntrySelection> = entry
+                .iter()
+                .filter(|e| e.axis != "radius")
+                .cloned()
+                .collect();
+            sel.push(EntrySelection {
+                axis: "radius".into(),
+                value: r,
+            });
+            let col = strip_xyz(pt, &sel, &disc);
+            progress.advance(1);
+            col
+        })
+        .collect::<Result<Vec<_>, ConsumerError>>()?;
     let idx = |a: f64| ((a / THETA_STEP_DEG).round() as usize).min(cols[0].len() - 1);
     let log_x = radii[0] > 0.0 && radii[radii.len() - 1] / radii[0] > 20.0;
     let fx = |r: f64| if log_x { r.log10() } else { r };
