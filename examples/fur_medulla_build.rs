@@ -29,12 +29,18 @@ fn main() -> anyhow::Result<()> {
         let content = job.assemble(chunks)?;
         let secs = t0.elapsed().as_secs_f64();
         let a = &content.attributes;
+        // Deterministic methods have no standard errors (the attribute is absent).
         println!(
-            "{name}: {n} tasks, {secs:.1} s, energy identity max dev {:.3e} ({:.2} std errors)",
-            a["energy_identity_max_deviation"].as_f64().unwrap(),
-            a["energy_identity_max_deviation_std_errors"]
+            "{name}: {n} tasks, {secs:.1} s, method {}, energy identity max dev {:.3e} ({} std errors)",
+            a.get("method")
+                .and_then(|m| m.as_str())
+                .unwrap_or("monte-carlo"),
+            a["energy_identity_max_deviation"]
                 .as_f64()
-                .unwrap()
+                .unwrap_or(f64::NAN),
+            a.get("energy_identity_max_deviation_std_errors")
+                .and_then(|v| v.as_f64())
+                .map_or("no".to_string(), |v| format!("{v:.2}"))
         );
         // Relative standard error over bins above 1e-3 of each row's maximum (energy channel).
         let nc = content.channels.len();

@@ -438,7 +438,7 @@ mod tests {
         );
         let lo = medulla_table(
             &FurMedullaLongitudinalStage,
-            "sigma = [0.5, 1.0, 1.5]\ng = [0.2, 0.4]\ntheta_i_deg = [-40.0, -30.0, -20.0]\nbins = 120\nphotons = 4000\nseed = 7",
+            "sigma = [0.5, 1.0, 1.5]\ng = [0.2, 0.4]\ntheta_i_deg = [-40.0, -30.0, -20.0]\nbins = 120\nmethod = \"adding-doubling\"",
             d.path(),
             "lo.sbt",
         );
