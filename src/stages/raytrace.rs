@@ -26,13 +26,12 @@
 //! i_perp = |S1|²/(π x² Q_sca).
 
 use crate::optics::water::{SADEGHI_WAVELENGTHS_NM, WaterIndexModel};
-use crate::raytrace::post::{
-    DEFAULT_CAUSTIC_WINDOW_SIGMAS, bin_edges, caustic_weight, filter_sigma_deg,
-    fraunhofer_bin_average, gaussian_blur,
-};
+use crate::raytrace::caustic::{CausticWindow, ColumnFilter};
+use crate::raytrace::post::{bin_edges, filter_sigma_deg, fraunhofer_bin_average};
 use crate::raytrace::shape::{CosineSeries, DropShape};
 use crate::raytrace::sphere1d::{DiffractionModel, Phase1dOptions, SphereGo, sphere_phase_1d};
-use crate::raytrace::tracer::{DirectionGrid, TraceConfig, trace_fields};
+use crate::raytrace::tracer::{DirectionGrid, FieldGrid, TraceConfig, trace_fields};
+use rayon::prelude::*;
 use crate::stages::{Job, ParamDoc, PlanError, Stage, TaskSpec, checks, parse_params};
 use crate::table::phase_contract;
 use crate::table::{Axis, Channel, Schema, TableContent};
@@ -466,7 +465,8 @@ impl RaytraceJob {
     }
 
     /// Run the 2-D tracer for one (wavelength, elevation): values [polar][azimuth][channel].
-    #[allow(clippy::needless_range_loop)]
+    /// Steps: trace (rayon over ray rows, then table rows), filter the caustic windows (rayon
+    /// over azimuth columns), normalise and write the channels (rayon over polar rows).
     fn run_2d(&self, lambda: f64, elevation_deg: f64) -> anyhow::Result<Vec<f32>> {
         let shape = self.shape.as_ref().expect("2-D job has a shape");
         let n = self.index(lambda)?;
@@ -480,112 +480,102 @@ impl RaytraceJob {
         };
         let f = trace_fields(shape, &cfg, grid);
         let a_um = shape.radius_um();
-        let area = f.projected_area_um2;
-        let a_eff = (area / PI).sqrt();
-        let sigma_total: f64 = f.order_cross_section_um2.iter().sum::<f64>() + area;
-        let (np, na) = (grid.n_polar, grid.n_azimuth);
-        let orders = self.p.max_order + 1;
-        let dth = grid.polar_step();
-        let theta: Vec<f64> = (0..np).map(|j| dth * j as f64).collect();
         let go = SphereGo::new(a_um, lambda, n, 3);
         let split = 0.5
-            * (go.rainbow_angle_rad(2).unwrap_or(2.4) + go.rainbow_angle_rad(3).unwrap_or(2.26));
-        let sigma = filter_sigma_deg(a_um * 1e-3).to_radians();
-        let filt = self.p.diffraction_filter;
-        let sigma_at = |th: f64| {
-            if !filt {
-                0.0
-            } else if th > split {
-                sigma
-            } else {
-                2.0 * sigma
-            }
-        };
-        let lobe: Vec<f64> = theta
-            .iter()
-            .map(|&th| {
-                let (lo, hi) = bin_edges(th, dth);
-                fraunhofer_bin_average(a_eff, lambda, lo, hi)
-            })
-            .collect();
-        let nch = 4 + orders + 3;
-        let mut out = vec![0f32; np * na * nch];
-        for k in 0..na {
-            // Columns of dσ/dΩ: i_perp, i_par, per order.
-            let mut cols = vec![vec![0.0; np]; 2 + orders];
-            for j in 0..np {
-                let (ip, ipar, per) = f.intensities(j, k);
-                cols[0][j] = ip;
-                cols[1][j] = ipar;
-                for o in 0..orders {
-                    cols[2 + o][j] = per[o];
-                }
-            }
-            // Caustics of this column: the peaks of the unfiltered primary and secondary orders
-            // ("very sharp transitions"), searched in 130–150° and 115–135°.
-            let peak = |o: usize, lo: f64, hi: f64| -> Option<f64> {
-                if o >= orders {
-                    return None;
-                }
-                let (j0, j1) = (
-                    (lo.to_radians() / dth) as usize,
-                    ((hi.to_radians() / dth) as usize).min(np - 1),
-                );
-                (j0..=j1)
-                    .max_by(|&x, &y| cols[2 + o][x].total_cmp(&cols[2 + o][y]))
-                    .map(|j| theta[j])
-            };
-            let bows: Vec<f64> = [peak(2, 130.0, 150.0), peak(3, 115.0, 135.0)]
-                .into_iter()
-                .flatten()
-                .collect();
-            let filtered: Vec<Vec<f64>> = cols
-                .iter()
-                .map(|c| {
-                    let b = gaussian_blur(c, 0.0, dth, &theta, sigma_at);
-                    (0..np)
-                        .map(|j| {
-                            let w = caustic_weight(
-                                theta[j],
-                                &bows,
-                                sigma_at(theta[j]) * DEFAULT_CAUSTIC_WINDOW_SIGMAS,
-                            );
-                            if filt {
-                                w * b[j] + (1.0 - w) * c[j]
-                            } else {
-                                c[j]
-                            }
-                        })
-                        .collect()
-                })
-                .collect();
-            for j in 0..np {
-                let ip = (filtered[0][j] + lobe[j]) / sigma_total;
-                let ipar = (filtered[1][j] + lobe[j]) / sigma_total;
-                let ipu = (cols[0][j] + lobe[j]) / sigma_total;
-                let iparu = (cols[1][j] + lobe[j]) / sigma_total;
-                let base = (j * na + k) * nch;
-                let mut row = vec![
-                    0.5 * (ip + ipar),
-                    ip,
-                    ipar,
-                    if ip + ipar > 0.0 {
-                        (ip - ipar) / (ip + ipar)
-                    } else {
-                        0.0
-                    },
-                ];
-                for o in 0..orders {
-                    row.push(filtered[2 + o][j] / sigma_total);
-                }
-                row.extend([0.5 * (ipu + iparu), ipu, iparu]);
-                for (c, v) in row.iter().enumerate() {
-                    out[base + c] = *v as f32;
-                }
-            }
-        }
-        Ok(out)
+            * (go.rainbow_angle_rad(2).unwrap_or(PRIMARY_FALLBACK_RAD)
+                + go.rainbow_angle_rad(3).unwrap_or(SECONDARY_FALLBACK_RAD));
+        let filter = ColumnFilter::new(
+            grid.n_polar,
+            grid.polar_step(),
+            filter_sigma_deg(a_um * 1e-3).to_radians(),
+            split,
+            self.p.diffraction_filter,
+        );
+        let windows = caustic_windows(&f, &filter);
+        Ok(write_channels(&f, &windows, lambda))
     }
+}
+
+/// Index of the `dolp` channel (not an intensity: never renormalised).
+const DOLP_CHANNEL: usize = 3;
+
+/// Geometric primary and secondary bow angles used when the index admits no bow (rad).
+const PRIMARY_FALLBACK_RAD: f64 = 2.4;
+const SECONDARY_FALLBACK_RAD: f64 = 2.26;
+
+/// Channels per pixel of a 2-D table with `orders` orders: phase, i_perp, i_par, dolp, the
+/// per-order phases, and the three unfiltered channels.
+fn n_channels_2d(orders: usize) -> usize {
+    4 + orders + 3
+}
+
+/// The filtered caustic window of every azimuth column (rayon over columns): columns of
+/// dσ/dΩ i_perp, i_par and per order over the rows the filter needs.
+fn caustic_windows(f: &FieldGrid, filter: &ColumnFilter) -> Vec<CausticWindow> {
+    let orders = f.orders;
+    let rows = filter.needed_rows();
+    (0..f.grid.n_azimuth)
+        .into_par_iter()
+        .map(|k| {
+            let mut cols = vec![Vec::with_capacity(rows.1 + 1 - rows.0); 2 + orders];
+            let mut per = vec![0.0; orders];
+            for j in rows.0..=rows.1 {
+                let (ip, ipar) = f.intensities_into(j, k, &mut per);
+                cols[0].push(ip);
+                cols[1].push(ipar);
+                for (c, v) in cols[2..].iter_mut().zip(&per) {
+                    c.push(*v);
+                }
+            }
+            let order = |o: usize| (o < orders).then_some(2 + o);
+            filter.filter_column(rows, &cols, order(2), order(3))
+        })
+        .collect()
+}
+
+/// The table values `[polar][azimuth][channel]` of one entry (rayon over polar rows): filtered
+/// values inside each column's caustic window, unfiltered outside, plus the forward lobe of the
+/// equal-area disc, all divided by σ = σ_GO + A.
+fn write_channels(f: &FieldGrid, windows: &[CausticWindow], lambda: f64) -> Vec<f32> {
+    let grid = f.grid;
+    let (np, na, orders) = (grid.n_polar, grid.n_azimuth, f.orders);
+    let area = f.projected_area_um2;
+    let a_eff = (area / PI).sqrt();
+    let sigma_total: f64 = f.order_cross_section_um2.iter().sum::<f64>() + area;
+    let dth = grid.polar_step();
+    let nch = n_channels_2d(orders);
+    let mut out = vec![0f32; np * na * nch];
+    out.par_chunks_mut(na * nch)
+        .enumerate()
+        .for_each(|(j, row)| {
+            let (lo, hi) = bin_edges(dth * j as f64, dth);
+            let lobe = fraunhofer_bin_average(a_eff, lambda, lo, hi);
+            let mut per = vec![0.0; orders];
+            let mut unf = vec![0.0; 2 + orders];
+            for (k, px) in row.chunks_exact_mut(nch).enumerate() {
+                let (ip_u, ipar_u) = f.intensities_into(j, k, &mut per);
+                unf[0] = ip_u;
+                unf[1] = ipar_u;
+                unf[2..].copy_from_slice(&per);
+                let filt = windows[k].get(j).unwrap_or(&unf);
+                let ip = (filt[0] + lobe) / sigma_total;
+                let ipar = (filt[1] + lobe) / sigma_total;
+                let ipu = (ip_u + lobe) / sigma_total;
+                let iparu = (ipar_u + lobe) / sigma_total;
+                let dolp = if ip + ipar > 0.0 {
+                    (ip - ipar) / (ip + ipar)
+                } else {
+                    0.0
+                };
+                let head = [0.5 * (ip + ipar), ip, ipar, dolp];
+                let tail = [0.5 * (ipu + iparu), ipu, iparu];
+                let per_order = filt[2..].iter().map(|v| v / sigma_total);
+                for (dst, v) in px.iter_mut().zip(head.into_iter().chain(per_order).chain(tail)) {
+                    *dst = v as f32;
+                }
+            }
+        });
+    out
 }
 
 /// ∫ p dΩ of a 1-D phase function on a uniform [0, π] grid (bin-sum with exact bin solid angles).
@@ -653,7 +643,11 @@ impl Job for RaytraceJob {
     }
 
     fn assemble(&self, chunks: Vec<Vec<f32>>) -> anyhow::Result<TableContent> {
-        let data: Vec<f32> = chunks.into_iter().flatten().collect();
+        // One allocation of the final size; each chunk is dropped once copied.
+        let mut data: Vec<f32> = Vec::with_capacity(chunks.iter().map(Vec::len).sum());
+        for c in chunks {
+            data.extend_from_slice(&c);
+        }
         let channels = self.channels();
         let nch = channels.len();
         let mut at = serde_json::Map::new();
@@ -717,18 +711,22 @@ impl Job for RaytraceJob {
         let grid = self.direction_grid();
         let (np, na) = (grid.n_polar, grid.n_azimuth);
         let dth = grid.polar_step();
-        let mut data = data;
         let mut ints = vec![];
         for e in 0..self.task_pairs().len() {
             let base = e * np * na * nch;
-            let mut s = 0.0;
-            for j in 0..np {
-                let (lo, hi) = bin_edges(dth * j as f64, dth);
-                let om = (lo.cos() - hi.cos()) * grid.azimuth_step();
-                for k in 0..na {
-                    s += data[base + (j * na + k) * nch] as f64 * om;
-                }
-            }
+            // Row sums in parallel, added in row order (deterministic, so rebuilt tables are
+            // byte-identical).
+            let rows: Vec<f64> = (0..np)
+                .into_par_iter()
+                .map(|j| {
+                    let (lo, hi) = bin_edges(dth * j as f64, dth);
+                    let om = (lo.cos() - hi.cos()) * grid.azimuth_step();
+                    (0..na)
+                        .map(|k| data[base + (j * na + k) * nch] as f64 * om)
+                        .sum::<f64>()
+                })
+                .collect();
+            let s: f64 = rows.iter().sum();
             ints.push(s);
             // Renormalisation of 2-D tables (decision RT-21 in docs/decisions.md): the bin-sum
             // deviates from 1 by the flux of discarded silhouette triangles (−0.1…−0.5 %) and,
@@ -737,13 +735,17 @@ impl Job for RaytraceJob {
             // exactly on the table grid, as the phase-function contract requires, and the
             // factor is kept in `integral_check`.
             anyhow::ensure!(s > 0.0 && s.is_finite(), "entry {e}: ∫ p dΩ = {s}");
-            for v in data[base..base + np * na * nch].chunks_mut(nch) {
-                for (c, x) in v.iter_mut().enumerate() {
-                    if c != 3 {
-                        *x = (*x as f64 / s) as f32;
+            data[base..base + np * na * nch]
+                .par_chunks_mut(na * nch)
+                .for_each(|row| {
+                    for v in row.chunks_mut(nch) {
+                        for (c, x) in v.iter_mut().enumerate() {
+                            if c != DOLP_CHANNEL {
+                                *x = (*x as f64 / s) as f32;
+                            }
+                        }
                     }
-                }
-            }
+                });
         }
         at.insert("integral_check".into(), serde_json::json!({"what": "bin-sum of phase over 4π per entry before renormalisation (below 1 by the flux of triangles discarded at the silhouette, above 1 where cusp caustics are point-sampled); every channel but dolp was divided by it, so the stored table integrates to 1 on its grid", "values": ints}));
         at.insert("angular_resampling".into(), "point samples of the coherent patch sum at the grid directions; filtered channels are Gaussian averages along the polar angle per azimuth column; the forward lobe is the exact average over each polar bin".into());
