@@ -132,7 +132,10 @@ impl ColumnFilter {
         let (j0, j1) = rows;
         let peak = |c: Option<usize>, (lo, hi): (f64, f64)| -> Option<f64> {
             let c = c?;
-            let (a, b) = (self.row(lo.to_radians()).max(j0), self.row(hi.to_radians()).min(j1));
+            let (a, b) = (
+                self.row(lo.to_radians()).max(j0),
+                self.row(hi.to_radians()).min(j1),
+            );
             (a..=b)
                 .max_by(|&x, &y| cols[c][x - j0].total_cmp(&cols[c][y - j0]))
                 .map(|j| self.step * j as f64)
@@ -148,8 +151,12 @@ impl ColumnFilter {
             return CausticWindow::default();
         }
         let reach = window_reach_rad(2.0 * self.sigma * DEFAULT_CAUSTIC_WINDOW_SIGMAS);
-        let lo = self.row(bows.iter().cloned().fold(f64::MAX, f64::min) - reach).max(j0);
-        let hi = self.row(bows.iter().cloned().fold(f64::MIN, f64::max) + reach).min(j1);
+        let lo = self
+            .row(bows.iter().cloned().fold(f64::MAX, f64::min) - reach)
+            .max(j0);
+        let hi = self
+            .row(bows.iter().cloned().fold(f64::MIN, f64::max) + reach)
+            .min(j1);
         let nvals = cols.len();
         let mut values = Vec::with_capacity((hi + 1 - lo) * nvals);
         for j in lo..=hi {
@@ -195,10 +202,17 @@ mod tests {
         let theta: Vec<f64> = (0..n).map(|j| step * j as f64).collect();
         let bow = |th: f64, c: f64| {
             let d = (c.to_radians() - th) / 0.3f64.to_radians();
-            if d > 0.0 { 1.0 / d.sqrt().max(0.05) * (40.0 * d).cos().powi(2) } else { 0.0 }
+            if d > 0.0 {
+                1.0 / d.sqrt().max(0.05) * (40.0 * d).cos().powi(2)
+            } else {
+                0.0
+            }
         };
         let p2: Vec<f64> = theta.iter().map(|&t| bow(t, 138.0) + 0.01).collect();
-        let p3: Vec<f64> = theta.iter().map(|&t| bow(-t + 2.0 * 129f64.to_radians(), 129.0) * 0.3).collect();
+        let p3: Vec<f64> = theta
+            .iter()
+            .map(|&t| bow(-t + 2.0 * 129f64.to_radians(), 129.0) * 0.3)
+            .collect();
         let total: Vec<f64> = p2.iter().zip(&p3).map(|(a, b)| a + b + 0.05).collect();
         let (sigma, split) = (0.25f64.to_radians(), 133.5f64.to_radians());
         let f = ColumnFilter::new(n, step, sigma, split, true);
@@ -209,7 +223,10 @@ mod tests {
         // Direct evaluation.
         let bows = [138.0f64.to_radians(), 129.0f64.to_radians()];
         let peak = |v: &Vec<f64>, lo: f64, hi: f64| {
-            let (a, b) = ((lo.to_radians() / step).round() as usize, (hi.to_radians() / step).round() as usize);
+            let (a, b) = (
+                (lo.to_radians() / step).round() as usize,
+                (hi.to_radians() / step).round() as usize,
+            );
             (a..=b).max_by(|&x, &y| v[x].total_cmp(&v[y])).unwrap() as f64 * step
         };
         let found = [peak(&p2, 130.0, 150.0), peak(&p3, 115.0, 135.0)];
@@ -218,10 +235,17 @@ mod tests {
         for (c, v) in [&total, &p2, &p3].into_iter().enumerate() {
             let b = gaussian_blur(v, 0.0, step, &theta, |t| f.sigma_at(t));
             for j in (0..n).step_by(7) {
-                let w = caustic_weight(theta[j], &found, f.sigma_at(theta[j]) * DEFAULT_CAUSTIC_WINDOW_SIGMAS);
+                let w = caustic_weight(
+                    theta[j],
+                    &found,
+                    f.sigma_at(theta[j]) * DEFAULT_CAUSTIC_WINDOW_SIGMAS,
+                );
                 let direct = w * b[j] + (1.0 - w) * v[j];
                 let got = win.get(j).map_or(v[j], |x| x[c]);
-                assert!((got - direct).abs() <= 1e-6 * max, "c={c} j={j}: {got} vs {direct}");
+                assert!(
+                    (got - direct).abs() <= 1e-6 * max,
+                    "c={c} j={j}: {got} vs {direct}"
+                );
             }
         }
         assert!(win.len > 0 && win.len < n / 4, "window of {} rows", win.len);

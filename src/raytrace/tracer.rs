@@ -686,13 +686,7 @@ fn triangle_field(
 }
 
 /// Step 4: rasterise a band's triangles into the field accumulators (rayon over table rows).
-fn rasterise(
-    g: &RayGrid,
-    grid: DirectionGrid,
-    band: &Band,
-    tris: &[Tri],
-    data: &mut [Complex32],
-) {
+fn rasterise(g: &RayGrid, grid: DirectionGrid, band: &Band, tris: &[Tri], data: &mut [Complex32]) {
     let (counts, idx) = bin_by_polar_row(tris, grid.n_polar);
     let flat: Vec<&RayOut> = band.iter().flat_map(|(r, _)| r.iter()).collect();
     let (dth, dph) = (grid.polar_step(), grid.azimuth_step());

@@ -7,6 +7,7 @@ pub mod fur_farfield;
 pub mod fur_medulla;
 pub mod hair;
 pub mod mie;
+pub mod mixture;
 pub mod raytrace;
 mod stage;
 pub mod water_index;
@@ -24,6 +25,7 @@ pub fn registry() -> Vec<Box<dyn Stage>> {
         Box::new(crate::stages::fur_medulla::FurMedullaAzimuthalStage),
         Box::new(crate::stages::fur_medulla::FurMedullaLongitudinalStage),
         Box::new(crate::stages::raytrace::RaytraceStage),
+        Box::new(crate::stages::mixture::MixtureStage),
         Box::new(crate::stages::fur_farfield::FurFarFieldStage),
     ]
 }

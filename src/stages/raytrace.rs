@@ -31,10 +31,10 @@ use crate::raytrace::post::{bin_edges, filter_sigma_deg, fraunhofer_bin_average}
 use crate::raytrace::shape::{CosineSeries, DropShape};
 use crate::raytrace::sphere1d::{DiffractionModel, Phase1dOptions, SphereGo, sphere_phase_1d};
 use crate::raytrace::tracer::{DirectionGrid, FieldGrid, TraceConfig, trace_fields};
-use rayon::prelude::*;
 use crate::stages::{Job, ParamDoc, PlanError, Stage, TaskSpec, checks, parse_params};
 use crate::table::phase_contract;
 use crate::table::{Axis, Channel, Schema, TableContent};
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::f64::consts::PI;
 
@@ -570,7 +570,10 @@ fn write_channels(f: &FieldGrid, windows: &[CausticWindow], lambda: f64) -> Vec<
                 let head = [0.5 * (ip + ipar), ip, ipar, dolp];
                 let tail = [0.5 * (ipu + iparu), ipu, iparu];
                 let per_order = filt[2..].iter().map(|v| v / sigma_total);
-                for (dst, v) in px.iter_mut().zip(head.into_iter().chain(per_order).chain(tail)) {
+                for (dst, v) in px
+                    .iter_mut()
+                    .zip(head.into_iter().chain(per_order).chain(tail))
+                {
                     *dst = v as f32;
                 }
             }
