@@ -11,7 +11,7 @@ use scatterbake::hair::dual::{
     HQuadrature, LobeShape, PhysicalFiber, combine, dual_scattering_physical,
 };
 use scatterbake::hair::fiber::{FresnelModel, LOBES, azimuthal_pointwise};
-use scatterbake::optics::quadrature::gauss_legendre_interval;
+use scatterbake::math::quadrature::gauss_legendre_interval;
 use scatterbake::stages::hair::{HairDualJob, HairDualParams};
 use scatterbake::stages::run_in_memory;
 use std::hint::black_box;

@@ -15,11 +15,14 @@
  * coordinates outside an axis to its end points (no extrapolation).
  *
  * All returned pointers stay valid until sbt_close(). Out-of-range indices return 0 or NULL.
+ * No call aborts the host process: an internal error is caught and reported as a failure
+ * (NULL with a message from sbt_open, 0 / NULL / -1 from the other calls).
  */
 #ifndef SCATTERBAKE_TABLE_H
 #define SCATTERBAKE_TABLE_H
 
 #include <stddef.h>
+#include <stdint.h>
 
 #ifdef __cplusplus
 extern "C" {
@@ -27,8 +30,11 @@ extern "C" {
 
 typedef struct SbtTable sbt_table;
 
-/* Open and fully verify a table. NULL on failure, with a message in err (if not NULL). */
+/* Open and fully verify a table (every structural rule of docs/table-format.md; uncompressed
+ * payload at most 4 GiB). NULL on failure, with a message in err (if not NULL). */
 sbt_table *sbt_open(const char *path, char *err, size_t err_len);
+/* Like sbt_open with another payload limit in bytes (0 = the default 4 GiB). */
+sbt_table *sbt_open_limit(const char *path, uint64_t max_payload_bytes, char *err, size_t err_len);
 /* Free a table (NULL is ignored). */
 void sbt_close(sbt_table *t);
 

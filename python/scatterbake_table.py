@@ -20,7 +20,10 @@ of the uncompressed payload, the sizes, and that nothing follows the payload.
 from __future__ import annotations
 
 import hashlib
+import io
 import json
+import math
+import re
 import struct
 from dataclasses import dataclass, field
 
@@ -29,11 +32,25 @@ import zstandard
 
 MAGIC = b"SBTABLE\0"
 FORMAT_MAJOR = 1
+FORMAT_MINOR = 0
 PREAMBLE = 56
+#: Largest header accepted (64 MiB).
+MAX_HEADER_BYTES = 64 << 20
+#: Default largest uncompressed payload (4 GiB); pass ``max_payload_bytes`` to raise it.
+DEFAULT_MAX_PAYLOAD_BYTES = 4 << 30
+#: Largest number of axes (a lookup touches up to 2**axes grid points).
+MAX_AXES = 16
+#: Deepest nesting of JSON arrays/objects in a header.
+MAX_JSON_DEPTH = 64
+_ZSTD_MAGIC = b"\x28\xb5\x2f\xfd"
+_CHUNK = 1 << 16
+_HEADER_FIELDS = ("schema", "description", "axes", "channels", "layout", "attributes", "provenance", "payload")
+_U64 = 1 << 64
 
 
 class TableError(Exception):
-    """The file is not a valid scatterbake table (corrupt, truncated, newer major, ...)."""
+    """The file is not a valid scatterbake table (corrupt, truncated, newer major, ...). The only
+    exception the reader raises for bad input."""
 
 
 @dataclass
@@ -112,62 +129,369 @@ class Table:
         return out
 
 
-def _axis_coords(points: dict) -> np.ndarray:
-    if "values" in points:
-        return np.asarray(points["values"], dtype=np.float64)
-    u = points["uniform"]
-    return u["start"] + u["step"] * np.arange(u["count"], dtype=np.float64)
+class _Bad(Exception):
+    """Internal: a header rule is broken (message without the file name)."""
 
 
-def read_table_bytes(buf: bytes, name: str = "<bytes>") -> Table:
-    """Parse and fully verify a table held in memory."""
-    if len(buf) < 8 or buf[:8] != MAGIC:
-        raise TableError(f"{name}: not a scatterbake table (bad magic)")
-    if len(buf) < PREAMBLE:
-        raise TableError(f"{name}: file truncated (shorter than the preamble)")
-    major, minor, _flags, hlen = struct.unpack_from("<HHIQ", buf, 8)
+def _json_depth_ok(text: str) -> None:
+    # Strings removed, then brackets counted: the nesting depth of arrays and objects.
+    stripped = re.sub(r'"(?:[^"\\]|\\.)*"', '""', text)
+    depth = 0
+    for m in re.finditer(r"[\[\]{}]", stripped):
+        if m.group(0) in "[{":
+            depth += 1
+            if depth > MAX_JSON_DEPTH:
+                raise _Bad(f"JSON: nesting deeper than {MAX_JSON_DEPTH} levels")
+        else:
+            depth -= 1
+
+
+def _no_duplicates(pairs):
+    d = {}
+    for k, v in pairs:
+        if k in d:
+            raise _Bad(f"JSON: duplicate key `{k}`")
+        d[k] = v
+    return d
+
+
+def _refuse_constant(name):
+    raise _Bad(f"JSON: {name} is not a JSON number")
+
+
+def _check_strings(v) -> None:
+    # JSON escapes can encode lone surrogates, which are not Unicode scalar values.
+    stack = [v]
+    while stack:
+        x = stack.pop()
+        if isinstance(x, str):
+            x.encode("utf-8")
+        elif isinstance(x, dict):
+            for k, y in x.items():
+                k.encode("utf-8")
+                stack.append(y)
+        elif isinstance(x, list):
+            stack.extend(x)
+
+
+def _obj(v, what: str) -> dict:
+    if not isinstance(v, dict):
+        raise _Bad(f"{what}: expected an object")
+    return v
+
+
+def _field(d: dict, key: str, what: str):
+    if key not in d:
+        raise _Bad(f"{what}: missing field `{key}`")
+    return d[key]
+
+
+def _str(d: dict, key: str, what: str, optional: bool = False):
+    if optional and d.get(key) is None:
+        return None
+    v = _field(d, key, what)
+    if not isinstance(v, str):
+        raise _Bad(f"{what}.{key}: expected a string")
+    return v
+
+
+def _uint(v, what: str, limit: int = _U64) -> int:
+    if isinstance(v, bool) or not isinstance(v, int) or not 0 <= v < limit:
+        raise _Bad(f"{what}: expected an unsigned integer below {limit}")
+    return v
+
+
+def _float(v, what: str) -> float:
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        raise _Bad(f"{what}: expected a number")
+    try:
+        return float(v)
+    except OverflowError:
+        raise _Bad(f"{what}: number out of range") from None
+
+
+def _parse_header(header_bytes: bytes, major: int, minor: int, max_payload_bytes: int):
+    try:
+        text = header_bytes.decode("utf-8")
+    except UnicodeDecodeError as e:
+        raise _Bad(f"JSON: header is not UTF-8 ({e.reason} at byte {e.start})") from None
+    _json_depth_ok(text)
+    try:
+        header = json.loads(text, object_pairs_hook=_no_duplicates, parse_constant=_refuse_constant)
+    except json.JSONDecodeError as e:
+        raise _Bad(f"JSON: {e}") from None
+    except (RecursionError, ValueError) as e:
+        raise _Bad(f"JSON: {e}") from None
+    try:
+        _check_strings(header)
+    except UnicodeEncodeError:
+        raise _Bad("JSON: a string holds a lone surrogate") from None
+    if not isinstance(header, dict):
+        raise _Bad("the header is not a JSON object")
+    if minor <= FORMAT_MINOR:
+        for k in header:
+            if k not in _HEADER_FIELDS:
+                raise _Bad(f"unknown field `{k}` in a format {major}.{minor} header (only a newer minor version may add fields)")
+    # Types of every field the reader uses (the fields of format 1.0).
+    schema = _obj(_field(header, "schema", "header"), "schema")
+    _str(schema, "name", "schema")
+    _uint(_field(schema, "version", "schema"), "schema.version", 1 << 32)
+    _str(header, "description", "header")
+    axes_j = _field(header, "axes", "header")
+    chans_j = _field(header, "channels", "header")
+    if not isinstance(axes_j, list) or not isinstance(chans_j, list):
+        raise _Bad("axes and channels must be arrays")
+    _obj(_field(header, "attributes", "header"), "attributes")
+    prov = _obj(_field(header, "provenance", "header"), "provenance")
+    for k in ("tool", "tool_version", "parameters_digest", "created_utc"):
+        _str(prov, k, "provenance")
+    for k in ("git_commit", "manifest", "entry", "stage"):
+        _str(prov, k, "provenance", optional=True)
+    layout = _obj(_field(header, "layout", "header"), "layout")
+    payload = _obj(_field(header, "payload", "header"), "payload")
+    order = _str(layout, "order", "layout")
+    dtype = _str(layout, "dtype", "layout")
+    axis_order = _field(layout, "axis_order", "layout")
+    if not isinstance(axis_order, list) or not all(isinstance(x, str) for x in axis_order):
+        raise _Bad("layout.axis_order: expected an array of strings")
+    lshape = _field(layout, "shape", "layout")
+    if not isinstance(lshape, list):
+        raise _Bad("layout.shape: expected an array")
+    lshape = [_uint(x, "layout.shape") for x in lshape]
+    compression = _str(payload, "compression", "payload")
+    cbytes = _uint(_field(payload, "compressed_bytes", "payload"), "payload.compressed_bytes")
+    ubytes = _uint(_field(payload, "uncompressed_bytes", "payload"), "payload.uncompressed_bytes")
+    _str(payload, "sha256_compressed", "payload")
+    _str(payload, "sha256_uncompressed", "payload")
+    axes = []  # (name, unit, kind, values-or-(start, step, count))
+    for i, a in enumerate(axes_j):
+        a = _obj(a, f"axes[{i}]")
+        name = _str(a, "name", f"axes[{i}]")
+        unit = _str(a, "unit", f"axes[{i}]")
+        pts = _obj(_field(a, "points", f"axes[{i}]"), f"axes[{i}].points")
+        if len(pts) != 1 or next(iter(pts)) not in ("values", "uniform"):
+            raise _Bad(f"axes[{i}].points: expected exactly one of `values` or `uniform`")
+        if "values" in pts:
+            vals = pts["values"]
+            if not isinstance(vals, list):
+                raise _Bad(f"axes[{i}].points.values: expected an array")
+            axes.append((name, unit, "values", [_float(x, f"axes[{i}].points.values") for x in vals]))
+        else:
+            u = _obj(pts["uniform"], f"axes[{i}].points.uniform")
+            start = _float(_field(u, "start", "uniform"), "uniform.start")
+            step = _float(_field(u, "step", "uniform"), "uniform.step")
+            count = _uint(_field(u, "count", "uniform"), "uniform.count")
+            axes.append((name, unit, "uniform", (start, step, count)))
+    channels = []
+    for i, c in enumerate(chans_j):
+        c = _obj(c, f"channels[{i}]")
+        channels.append(Channel(_str(c, "name", f"channels[{i}]"), _str(c, "unit", f"channels[{i}]"), _str(c, "meaning", f"channels[{i}]")))
+    # Structural rules, in the order of the Rust reader.
+    if order != "row-major" or dtype != "f32le":
+        raise _Bad(f"unsupported layout {order} / {dtype}")
+    if compression != "zstd":
+        raise _Bad(f"unsupported compression `{compression}`")
+    if not axes:
+        raise _Bad("a table needs at least one axis")
+    if len(axes) > MAX_AXES:
+        raise _Bad(f"{len(axes)} axes, more than the limit of {MAX_AXES}")
+    if not channels:
+        raise _Bad("a table needs at least one channel")
+    lens = [len(a[3]) if a[2] == "values" else a[3][2] for a in axes]
+    for a, n in zip(axes, lens):
+        if n == 0:
+            raise _Bad(f"axis `{a[0]}` is empty")
+    shape = lens + [len(channels)]
+    if shape != lshape:
+        raise _Bad(f"layout shape {lshape} disagrees with axes/channels {shape}")
+    if axis_order != [a[0] for a in axes] + ["channel"]:
+        raise _Bad(f"layout axis_order {axis_order} disagrees with the axis names followed by `channel`")
+    nbytes = 4
+    for n in shape:
+        nbytes *= n
+        if nbytes >= _U64:
+            raise _Bad(f"shape {shape} overflows a 64-bit byte count")
+    if nbytes != ubytes:
+        raise _Bad(f"shape {shape} implies {nbytes} bytes, payload.uncompressed_bytes says {ubytes}")
+    if nbytes > max_payload_bytes:
+        raise _Bad(f"payload of {nbytes} bytes exceeds the reader limit of {max_payload_bytes} bytes (raise it to read this table)")
+    for (name, unit, kind, pts) in axes:
+        if kind == "values":
+            _check_coords(name, np.asarray(pts, dtype=np.float64))
+        else:
+            start, step, count = pts
+            if not math.isfinite(start):
+                raise _Bad(f"axis `{name}`: uniform start {start} is not finite")
+            if not (math.isfinite(step) and step > 0.0):
+                raise _Bad(f"axis `{name}`: uniform step {step} is not finite and > 0")
+    # Uniform coordinates are enumerated only once the payload has proved the grid exists.
+    return header, axes, channels, tuple(shape), cbytes, ubytes
+
+
+def _check_coords(name: str, coords) -> None:
+    if not np.all(np.isfinite(coords)):
+        raise _Bad(f"axis `{name}`: a coordinate is not finite")
+    if len(coords) > 1 and not np.all(np.diff(coords) > 0):
+        raise _Bad(f"axis `{name}`: coordinates are not strictly increasing")
+
+
+def _axis_coords(name: str, kind: str, pts):
+    if kind == "values":
+        return np.asarray(pts, dtype=np.float64)
+    start, step, count = pts
+    with np.errstate(over="ignore", invalid="ignore"):
+        coords = start + step * np.arange(count, dtype=np.float64)
+    _check_coords(name, coords)
+    return coords
+
+
+def _check_zstd_frame(p: bytes, content_size: int) -> None:
+    """Exactly one zstd frame declaring its content size (RFC 8878; no dictionary)."""
+    if len(p) < 5 or p[:4] != _ZSTD_MAGIC:
+        raise _Bad("payload does not start with a zstd frame (magic 28 b5 2f fd)")
+    fhd = p[4]
+    fcs_flag, single, reserved, checksum, dict_flag = fhd >> 6, (fhd >> 5) & 1, (fhd >> 3) & 1, (fhd >> 2) & 1, fhd & 3
+    if reserved:
+        raise _Bad("zstd frame header has its reserved bit set")
+    if dict_flag:
+        raise _Bad("zstd frame names a dictionary")
+    pos = 5 + (0 if single else 1)
+    fcs_len = {0: 1 if single else 0, 1: 2, 2: 4, 3: 8}[fcs_flag]
+    if fcs_len == 0:
+        raise _Bad("zstd frame does not declare its content size")
+    if pos + fcs_len > len(p):
+        raise _Bad("the zstd frame is truncated")
+    declared = int.from_bytes(p[pos:pos + fcs_len], "little") + (256 if fcs_len == 2 else 0)
+    pos += fcs_len
+    if declared != content_size:
+        raise _Bad(f"zstd frame declares {declared} content bytes, payload.uncompressed_bytes says {content_size}")
+    while True:
+        if pos + 3 > len(p):
+            raise _Bad("the zstd frame is truncated")
+        bh = p[pos] | p[pos + 1] << 8 | p[pos + 2] << 16
+        pos += 3
+        btype = (bh >> 1) & 3
+        if btype == 3:
+            raise _Bad("zstd block of reserved type")
+        pos += 1 if btype == 1 else bh >> 3
+        if pos > len(p):
+            raise _Bad("the zstd frame is truncated")
+        if bh & 1:
+            break
+    pos += 4 if checksum else 0
+    if pos > len(p):
+        raise _Bad("the zstd frame is truncated")
+    if pos < len(p):
+        raise _Bad(f"{len(p) - pos} bytes follow the zstd frame (the payload must be exactly one frame)")
+
+
+def _read_exact(f, n: int) -> bytes:
+    """Read up to ``n`` bytes in chunks, so a declared size allocates only what is present."""
+    parts, got = [], 0
+    while got < n:
+        b = f.read(min(n - got, 1 << 20))
+        if not b:
+            break
+        parts.append(b)
+        got += len(b)
+    return b"".join(parts)
+
+
+def _read_table(f, name: str, file_len, max_payload_bytes: int) -> Table:
+    magic = f.read(8)
+    if len(magic) < 8 or magic != MAGIC:
+        raise TableError(f"{name}: not a scatterbake table (bad magic bytes {magic.hex()})")
+    rest = f.read(PREAMBLE - 8)
+    if len(rest) < PREAMBLE - 8:
+        raise TableError(f"{name}: file truncated: {8 + len(rest)} bytes, shorter than the {PREAMBLE}-byte preamble")
+    pre = magic + rest
+    major, minor, flags, hlen = struct.unpack_from("<HHIQ", pre, 8)
     if major > FORMAT_MAJOR:
-        raise TableError(f"{name}: table format {major}.{minor} is newer than this reader ({FORMAT_MAJOR}.x)")
+        raise TableError(f"{name}: table format version {major}.{minor} is newer than this reader (supports {FORMAT_MAJOR}.x)")
     if major == 0:
-        raise TableError(f"{name}: format major version 0 does not exist")
-    if PREAMBLE + hlen > len(buf):
-        raise TableError(f"{name}: file truncated (header)")
-    header_bytes = buf[PREAMBLE:PREAMBLE + hlen]
-    if hashlib.sha256(buf[:24] + header_bytes).digest() != buf[24:56]:
+        raise TableError(f"{name}: header is not valid: format major version 0 does not exist")
+    if flags != 0:
+        raise TableError(f"{name}: header is not valid: reserved flags at offset 12 are {flags:#010x}, must be 0")
+    if hlen > MAX_HEADER_BYTES:
+        raise TableError(f"{name}: header length {hlen} (offset 16) exceeds the limit of {MAX_HEADER_BYTES} bytes")
+    if file_len is not None and PREAMBLE + hlen > file_len:
+        raise TableError(f"{name}: file truncated: header needs {hlen} bytes, {file_len - PREAMBLE} present")
+    header_bytes = _read_exact(f, hlen)
+    if len(header_bytes) < hlen:
+        raise TableError(f"{name}: file truncated: header needs {hlen} bytes, {len(header_bytes)} present")
+    if hashlib.sha256(pre[:24] + header_bytes).digest() != pre[24:56]:
         raise TableError(f"{name}: header checksum mismatch (file is corrupt)")
-    header = json.loads(header_bytes.decode("utf-8"))
-    layout, payload = header["layout"], header["payload"]
-    if layout["order"] != "row-major" or layout["dtype"] != "f32le" or payload["compression"] != "zstd":
-        raise TableError(f"{name}: unsupported layout/compression")
+    try:
+        header, axes, channels, shape, cbytes, ubytes = _parse_header(header_bytes, major, minor, max_payload_bytes)
+    except _Bad as e:
+        raise TableError(f"{name}: header is not valid: {e}") from None
     start = PREAMBLE + hlen
-    end = start + payload["compressed_bytes"]
-    if len(buf) < end:
-        raise TableError(f"{name}: file truncated (payload)")
-    if len(buf) > end:
-        raise TableError(f"{name}: {len(buf) - end} unexpected bytes after the payload")
-    compressed = buf[start:end]
+    end = start + cbytes
+    if end >= _U64:
+        raise TableError(f"{name}: header is not valid: payload.compressed_bytes {cbytes} overflows the file size")
+    if file_len is not None:
+        if file_len < end:
+            raise TableError(f"{name}: file truncated: payload needs {cbytes} bytes, {file_len - start} present")
+        if file_len > end:
+            raise TableError(f"{name}: {file_len - end} unexpected bytes after the payload")
+    compressed = _read_exact(f, cbytes)
+    if len(compressed) < cbytes:
+        raise TableError(f"{name}: file truncated: payload needs {cbytes} bytes, {len(compressed)} present")
+    if file_len is None:
+        extra = len(f.read(1 << 20))
+        if extra:
+            raise TableError(f"{name}: {extra} unexpected bytes after the payload")
+    payload = header["payload"]
     if hashlib.sha256(compressed).hexdigest() != payload["sha256_compressed"]:
         raise TableError(f"{name}: payload compressed checksum mismatch (file is corrupt)")
     try:
-        raw = zstandard.ZstdDecompressor().decompress(compressed, max_output_size=payload["uncompressed_bytes"])
+        _check_zstd_frame(compressed, ubytes)
+    except _Bad as e:
+        raise TableError(f"{name}: payload cannot be decompressed: {e}") from None
+    raw = bytearray()
+    h = hashlib.sha256()
+    try:
+        with zstandard.ZstdDecompressor().stream_reader(io.BytesIO(compressed), read_across_frames=False) as r:
+            while True:
+                want = min(ubytes - len(raw), _CHUNK) or 1
+                b = r.read(want)
+                if len(raw) == ubytes:
+                    if b:
+                        raise TableError(f"{name}: payload cannot be decompressed: payload decompresses to more than the {ubytes} bytes the header says")
+                    break
+                if not b:
+                    raise TableError(f"{name}: payload cannot be decompressed: payload decompresses to {len(raw)} bytes, header says {ubytes}")
+                h.update(b)
+                raw += b
     except zstandard.ZstdError as e:
-        raise TableError(f"{name}: payload cannot be decompressed: {e}") from e
-    if len(raw) != payload["uncompressed_bytes"]:
-        raise TableError(f"{name}: payload decompresses to {len(raw)} bytes, header says {payload['uncompressed_bytes']}")
-    if hashlib.sha256(raw).hexdigest() != payload["sha256_uncompressed"]:
+        raise TableError(f"{name}: payload cannot be decompressed: {e}") from None
+    if h.hexdigest() != payload["sha256_uncompressed"]:
         raise TableError(f"{name}: payload uncompressed checksum mismatch (file is corrupt)")
-    axes = [Axis(a["name"], a["unit"], _axis_coords(a["points"])) for a in header["axes"]]
-    channels = [Channel(c["name"], c["unit"], c["meaning"]) for c in header["channels"]]
-    shape = tuple(len(a.coords) for a in axes) + (len(channels),)
-    if list(shape) != list(layout["shape"]):
-        raise TableError(f"{name}: layout shape {layout['shape']} disagrees with axes/channels {shape}")
-    if int(np.prod(shape)) * 4 != len(raw):
-        raise TableError(f"{name}: shape {shape} does not match the payload size")
-    data = np.frombuffer(raw, dtype="<f4").reshape(shape)
+    try:
+        axes = [Axis(an, unit, _axis_coords(an, kind, pts)) for (an, unit, kind, pts) in axes]
+    except _Bad as e:
+        raise TableError(f"{name}: header is not valid: {e}") from None
+    data = np.frombuffer(bytes(raw), dtype="<f4").reshape(shape)
     return Table(header=header, axes=axes, channels=channels, data=data, format_version=(major, minor))
 
 
-def open_table(path) -> Table:
-    """Open and fully verify a ``.sbt`` file."""
-    with open(path, "rb") as f:
-        return read_table_bytes(f.read(), str(path))
+def read_table_bytes(buf: bytes, name: str = "<bytes>", max_payload_bytes: int = DEFAULT_MAX_PAYLOAD_BYTES) -> Table:
+    """Parse and fully verify a table held in memory."""
+    return _read_table(io.BytesIO(buf), name, len(buf), max_payload_bytes)
+
+
+def open_table(path, max_payload_bytes: int = DEFAULT_MAX_PAYLOAD_BYTES) -> Table:
+    """Open and fully verify a ``.sbt`` file, streaming it (memory bounded by the data present
+    and by ``max_payload_bytes``)."""
+    import os
+    import stat
+
+    try:
+        with open(path, "rb") as f:
+            st = os.fstat(f.fileno())
+            file_len = st.st_size if stat.S_ISREG(st.st_mode) else None
+            return _read_table(f, str(path), file_len, max_payload_bytes)
+    except OSError as e:
+        raise TableError(f"{path}: {e.strerror or e}") from None
+    except MemoryError:
+        raise TableError(f"{path}: out of memory reading the table") from None

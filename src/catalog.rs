@@ -2,12 +2,36 @@
 //! origin. Rebuilt from the directory contents (so shards and concurrent builds converge) under
 //! an exclusive lock on `<dir>/.lock`, and written atomically.
 
+use crate::error::IoError;
 use crate::table::format::write_atomic;
-use crate::table::{FORMAT_MAJOR, FORMAT_MINOR, read_header_only};
-use anyhow::{Context, Result};
+use crate::table::{FORMAT_MAJOR, FORMAT_MINOR, TableError, read_header_only};
 use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
-use std::path::Path;
+use std::path::{Path, PathBuf};
+
+/// Why the catalog could not be rebuilt.
+#[derive(Debug, thiserror::Error)]
+pub enum CatalogError {
+    /// Reading the directory, taking the lock or writing `index.json`.
+    #[error(transparent)]
+    Io(#[from] IoError),
+    /// The header of a table that verified a moment before (the error names the file).
+    #[error(transparent)]
+    Table(#[from] TableError),
+    /// A symlinked catalog, lock or work path in the output directory.
+    #[error(transparent)]
+    Workdir(#[from] crate::workdir::WorkdirError),
+    /// The catalog does not encode as JSON.
+    #[error("encoding the catalog {}", path.display())]
+    Json {
+        path: PathBuf,
+        #[source]
+        source: serde_json::Error,
+    },
+}
+
+/// Byte range of the format version (major, minor: u16 little-endian) in a table file.
+const VERSION_BYTES: std::ops::Range<usize> = 8..12;
 
 /// One catalog entry.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -44,18 +68,19 @@ pub struct Catalog {
 }
 
 /// Rebuild `<dir>/index.json` from the `.sbt` files in `dir`. Returns the catalog.
-pub fn rebuild(dir: &Path) -> Result<Catalog> {
-    std::fs::create_dir_all(dir)?;
+pub fn rebuild(dir: &Path) -> Result<Catalog, CatalogError> {
+    std::fs::create_dir_all(dir).map_err(IoError::doing("creating the catalog directory", dir))?;
+    crate::workdir::check_out_dir(dir).map_err(CatalogError::from)?;
     let lock_path = dir.join(".lock");
     let lock = std::fs::OpenOptions::new()
         .create(true)
         .truncate(false)
         .write(true)
         .open(&lock_path)
-        .with_context(|| format!("opening lock file {}", lock_path.display()))?;
-    lock.lock()
-        .with_context(|| format!("locking {}", lock_path.display()))?;
-    let mut files: Vec<_> = std::fs::read_dir(dir)?
+        .map_err(IoError::doing("opening lock file", &lock_path))?;
+    lock.lock().map_err(IoError::doing("locking", &lock_path))?;
+    let mut files: Vec<_> = std::fs::read_dir(dir)
+        .map_err(IoError::doing("listing", dir))?
         .filter_map(|e| e.ok().map(|e| e.path()))
         .filter(|p| p.extension().is_some_and(|e| e == "sbt") && p.is_file())
         .collect();
@@ -76,8 +101,9 @@ pub fn rebuild(dir: &Path) -> Result<Catalog> {
             continue;
         }
         let h = read_header_only(&p)?;
-        let major = u16::from_le_bytes([bytes[8], bytes[9]]);
-        let minor = u16::from_le_bytes([bytes[10], bytes[11]]);
+        let v = &bytes[VERSION_BYTES];
+        let major = u16::from_le_bytes([v[0], v[1]]);
+        let minor = u16::from_le_bytes([v[2], v[3]]);
         tables.push(CatalogEntry {
             name: file.trim_end_matches(".sbt").to_string(),
             file,
@@ -97,9 +123,13 @@ pub fn rebuild(dir: &Path) -> Result<Catalog> {
         tables,
         invalid,
     };
-    let mut json = serde_json::to_vec_pretty(&catalog)?;
+    let index = dir.join("index.json");
+    let mut json = serde_json::to_vec_pretty(&catalog).map_err(|source| CatalogError::Json {
+        path: index.clone(),
+        source,
+    })?;
     json.push(b'\n');
-    write_atomic(&dir.join("index.json"), &json)?;
+    write_atomic(&index, &json).map_err(IoError::doing("writing", &index))?;
     drop(lock);
     Ok(catalog)
 }

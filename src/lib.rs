@@ -1,9 +1,13 @@
 //! scatterbake: precomputed light-scattering tables for renderers.
 //!
 //! The modules follow the data flow; each depends only on those listed before it:
+//! 0. [`math`]: numerical primitives (interpolation, quadrature, 3-vectors);
+//!    [`error`]: error pieces every layer shares (I/O failures with their path, cause chains);
+//!    each layer has its own error type ([`table::TableError`], [`stages::PlanError`],
+//!    [`stages::JobError`], [`pipeline::PipelineError`], [`consumers::ConsumerError`], …);
 //! 1. [`table`]: the `.sbt` table file format (writer, reader, verifier, lookup API);
-//! 2. [`optics`]: primitives shared by every stage (Fresnel, water index, colour, Henyey–
-//!    Greenstein, quadrature, interpolation, vectors);
+//! 2. [`optics`]: optics primitives shared by every stage (Fresnel, water index, colour,
+//!    Henyey–Greenstein, Airy function);
 //! 3. physics, pure and free of I/O: [`mie`] (Lorenz–Mie), [`debye`] (Debye series, Airy
 //!    theory), [`raytrace`] (patch-based wave-optics ray tracing of raindrops), [`hair`]
 //!    (fibre lobes, Dual Scattering), [`fur`] (medulla transport, far field);
@@ -13,6 +17,10 @@
 //!
 //! The command line is a separate crate (`cli/`, binary `scatterbake`); this library never sees
 //! its argument parser.
+
+pub mod math;
+
+pub mod error;
 
 pub mod table;
 
@@ -28,5 +36,6 @@ pub mod catalog;
 pub mod manifest;
 pub mod pipeline;
 pub mod stages;
+pub mod workdir;
 
 pub mod consumers;

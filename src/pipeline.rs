@@ -21,10 +21,12 @@
 //!   deterministic, a missing checkpoint at assembly time is recomputed, and the catalog is
 //!   rewritten under an exclusive lock on `<out>/.lock`. They may duplicate work, never corrupt.
 
-use crate::manifest::{PlannedTable, load_manifest};
+use crate::catalog::CatalogError;
+use crate::error::{IoError, error_chain};
+use crate::manifest::{ManifestError, PlannedTable, load_manifest};
+use crate::stages::JobError;
 use crate::table::format::write_atomic;
-use crate::table::{Provenance, Table, write_table_atomic};
-use anyhow::{Context, Result, anyhow, bail};
+use crate::table::{Provenance, Table, TableError, write_table_atomic};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -33,6 +35,104 @@ use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicUsize, Ordering};
+
+/// Directory under the output directory that holds the checkpoints, one folder per table.
+pub const WORK_DIR: &str = ".work";
+/// File extension of a task checkpoint, `<task-key>.chunk`.
+pub const CHECKPOINT_EXTENSION: &str = "chunk";
+/// Thread count that lets rayon choose (one per CPU), used when `--jobs` is not given.
+/// Attempts at writing a checkpoint whose work directory a concurrent build removed.
+const CHECKPOINT_RETRIES: usize = 8;
+const DEFAULT_THREADS: usize = 0;
+/// Progress bar layout of a build.
+const PROGRESS_TEMPLATE: &str =
+    "{prefix} [{elapsed_precise}] {wide_bar} {pos}/{len} tasks, eta {eta} {msg}";
+
+/// Why a shard specification is unusable.
+#[derive(Debug, thiserror::Error)]
+pub enum ShardError {
+    #[error("--shard must be I/N (e.g. 0/4), got `{0}`")]
+    Syntax(String),
+    #[error("--shard: `{text}` is not a number")]
+    NotANumber {
+        text: String,
+        #[source]
+        source: std::num::ParseIntError,
+    },
+    #[error("--shard {index}/{count}: need 0 <= I < N")]
+    OutOfRange { index: usize, count: usize },
+    #[error(
+        "JOB_COMPLETION_INDEX is set but SCATTERBAKE_SHARD_COUNT (the Job's completions) is not"
+    )]
+    MissingCount,
+    /// A Slurm array task id without the array size.
+    #[error("SLURM_ARRAY_TASK_ID is set ({0}) but SLURM_ARRAY_TASK_COUNT is not: pass --shard I/N")]
+    SlurmMissingCount(String),
+    /// A shard taken from environment variables (named) that does not parse.
+    #[error("from {variables}")]
+    Environment {
+        variables: &'static str,
+        #[source]
+        source: Box<ShardError>,
+    },
+}
+
+/// Why a build failed.
+#[derive(Debug, thiserror::Error)]
+pub enum PipelineError {
+    /// A symlinked work, lock or catalog path, or a lock that cannot be taken.
+    #[error(transparent)]
+    Workdir(#[from] crate::workdir::WorkdirError),
+    /// A manifest that does not read or plan (the error gives FILE:LINE:COLUMN).
+    #[error(transparent)]
+    Manifest(#[from] ManifestError),
+    #[error("table `{name}` is defined twice: in {} and in {}", first.display(), second.display())]
+    DuplicateTable {
+        name: String,
+        first: PathBuf,
+        second: PathBuf,
+    },
+    /// A file or directory operation of the build.
+    #[error(transparent)]
+    Io(#[from] IoError),
+    #[error("creating the thread pool")]
+    ThreadPool(#[source] rayon::ThreadPoolBuildError),
+    #[error(transparent)]
+    Shard(#[from] ShardError),
+    /// A task's computation or a table's assembly.
+    #[error(transparent)]
+    Job(#[from] JobError),
+    #[error("encoding checkpoint {}", path.display())]
+    CheckpointEncode {
+        path: PathBuf,
+        #[source]
+        source: bincode::error::EncodeError,
+    },
+    /// Making or writing a table file (the error names the file when there is one).
+    #[error(transparent)]
+    Table(#[from] TableError),
+    /// One task of a table (its index and label) and why it failed.
+    #[error("{table} task {index} ({label})")]
+    Task {
+        table: String,
+        index: usize,
+        label: String,
+        #[source]
+        source: Box<PipelineError>,
+    },
+    /// Assembling or writing a table whose tasks are all done.
+    #[error("{table}")]
+    Finish {
+        table: String,
+        #[source]
+        source: Box<PipelineError>,
+    },
+    #[error(transparent)]
+    Catalog(#[from] CatalogError),
+    /// Every task or table that failed (each with its cause chain); the others were built.
+    #[error("{} task(s) failed:\n  {}", .0.len(), .0.iter().map(|e| error_chain(e)).collect::<Vec<_>>().join("\n  "))]
+    Failed(Vec<PipelineError>),
+}
 
 /// Which part of the global task list this process computes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -45,20 +145,21 @@ pub struct Shard {
 
 impl Shard {
     /// Parse `I/N`.
-    pub fn parse(s: &str) -> Result<Shard> {
+    pub fn parse(s: &str) -> Result<Shard, ShardError> {
         let (i, n) = s
             .split_once('/')
-            .ok_or_else(|| anyhow!("--shard must be I/N (e.g. 0/4), got `{s}`"))?;
-        let index: usize = i
-            .trim()
-            .parse()
-            .map_err(|_| anyhow!("--shard: `{i}` is not a number"))?;
-        let count: usize = n
-            .trim()
-            .parse()
-            .map_err(|_| anyhow!("--shard: `{n}` is not a number"))?;
+            .ok_or_else(|| ShardError::Syntax(s.to_string()))?;
+        let number = |t: &str| {
+            t.trim()
+                .parse::<usize>()
+                .map_err(|source| ShardError::NotANumber {
+                    text: t.to_string(),
+                    source,
+                })
+        };
+        let (index, count) = (number(i)?, number(n)?);
         if count == 0 || index >= count {
-            bail!("--shard {index}/{count}: need 0 <= I < N");
+            return Err(ShardError::OutOfRange { index, count });
         }
         Ok(Shard { index, count })
     }
@@ -66,20 +167,25 @@ impl Shard {
     /// Shard from the environment: Slurm job arrays (`SLURM_ARRAY_TASK_ID`,
     /// `SLURM_ARRAY_TASK_COUNT`, ids assumed 0-based — use `--array=0-(N-1)`), or a Kubernetes
     /// Indexed Job (`JOB_COMPLETION_INDEX` with `SCATTERBAKE_SHARD_COUNT` giving N).
-    pub fn from_env() -> Result<Option<Shard>> {
+    pub fn from_env() -> Result<Option<Shard>, ShardError> {
         let get = |k: &str| std::env::var(k).ok().filter(|v| !v.is_empty());
-        if let (Some(i), Some(n)) = (get("SLURM_ARRAY_TASK_ID"), get("SLURM_ARRAY_TASK_COUNT")) {
-            return Shard::parse(&format!("{i}/{n}"))
+        if let (Some(i), None) = (get("SLURM_ARRAY_TASK_ID"), get("SLURM_ARRAY_TASK_COUNT")) {
+            return Err(ShardError::SlurmMissingCount(i));
+        }
+        let parse = |i: String, n: String, variables: &'static str| {
+            Shard::parse(&format!("{i}/{n}"))
                 .map(Some)
-                .context("from SLURM_ARRAY_TASK_ID/SLURM_ARRAY_TASK_COUNT");
+                .map_err(|e| ShardError::Environment {
+                    variables,
+                    source: Box::new(e),
+                })
+        };
+        if let (Some(i), Some(n)) = (get("SLURM_ARRAY_TASK_ID"), get("SLURM_ARRAY_TASK_COUNT")) {
+            return parse(i, n, "SLURM_ARRAY_TASK_ID/SLURM_ARRAY_TASK_COUNT");
         }
         if let Some(i) = get("JOB_COMPLETION_INDEX") {
-            let n = get("SCATTERBAKE_SHARD_COUNT").ok_or_else(|| {
-                anyhow!("JOB_COMPLETION_INDEX is set but SCATTERBAKE_SHARD_COUNT (the Job's completions) is not")
-            })?;
-            return Shard::parse(&format!("{i}/{n}"))
-                .map(Some)
-                .context("from JOB_COMPLETION_INDEX/SCATTERBAKE_SHARD_COUNT");
+            let n = get("SCATTERBAKE_SHARD_COUNT").ok_or(ShardError::MissingCount)?;
+            return parse(i, n, "JOB_COMPLETION_INDEX/SCATTERBAKE_SHARD_COUNT");
         }
         Ok(None)
     }
@@ -151,14 +257,6 @@ struct Checkpoint {
     values: Vec<f32>,
 }
 
-fn values_sha(values: &[f32]) -> String {
-    let mut h = Sha256::new();
-    for v in values {
-        h.update(v.to_le_bytes());
-    }
-    hex::encode(h.finalize())
-}
-
 fn bincode_config() -> bincode::config::Configuration {
     bincode::config::standard()
 }
@@ -167,17 +265,43 @@ fn read_checkpoint(path: &Path, key: &str) -> Option<Vec<f32>> {
     let bytes = std::fs::read(path).ok()?;
     let (c, used): (Checkpoint, usize) =
         bincode::serde::decode_from_slice(&bytes, bincode_config()).ok()?;
-    (used == bytes.len() && c.key == key && values_sha(&c.values) == c.sha256).then_some(c.values)
+    (used == bytes.len()
+        && c.key == key
+        && crate::workdir::checkpoint_hash(key, &c.values) == c.sha256)
+        .then_some(c.values)
 }
 
-fn write_checkpoint(path: &Path, key: &str, values: &[f32]) -> Result<()> {
+fn write_checkpoint(path: &Path, key: &str, values: &[f32]) -> Result<(), PipelineError> {
     let c = Checkpoint {
         key: key.to_string(),
-        sha256: values_sha(values),
+        sha256: crate::workdir::checkpoint_hash(key, values),
         values: values.to_vec(),
     };
-    let bytes = bincode::serde::encode_to_vec(&c, bincode_config())?;
-    write_atomic(path, &bytes).with_context(|| format!("writing checkpoint {}", path.display()))
+    let bytes = bincode::serde::encode_to_vec(&c, bincode_config()).map_err(|source| {
+        PipelineError::CheckpointEncode {
+            path: path.to_path_buf(),
+            source,
+        }
+    })?;
+    write_checkpoint_bytes(path, &bytes).map_err(IoError::doing("writing checkpoint", path))?;
+    Ok(())
+}
+
+/// Write a checkpoint atomically, retrying when a concurrent build that finished the table
+/// removed its work directory in between (the directory is recreated).
+fn write_checkpoint_bytes(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    let mut attempt = 0;
+    loop {
+        if let Some(dir) = path.parent() {
+            crate::workdir::refuse_symlink(dir).map_err(std::io::Error::other)?;
+        }
+        match write_atomic(path, bytes) {
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound && attempt < CHECKPOINT_RETRIES => {
+                attempt += 1
+            }
+            r => return r,
+        }
+    }
 }
 
 /// Creation time for provenance: `SOURCE_DATE_EPOCH` when set (reproducible builds), else now.
@@ -227,13 +351,22 @@ fn up_to_date(path: &Path, key: &str) -> bool {
     }
 }
 
+/// A table of the build that is not up to date: its plan, content key and tasks.
 struct TableState {
     planned: PlannedTable,
     key: String,
     task_keys: Vec<String>,
     task_labels: Vec<String>,
     work_dir: PathBuf,
+    /// Tasks without a valid checkpoint yet; the task that brings it to 0 assembles the table.
     remaining: AtomicUsize,
+}
+
+impl TableState {
+    fn checkpoint(&self, task: usize) -> PathBuf {
+        self.work_dir
+            .join(format!("{}.{CHECKPOINT_EXTENSION}", self.task_keys[task]))
+    }
 }
 
 /// Optional artificial delay after each task (milliseconds), from
@@ -246,26 +379,83 @@ fn test_delay() -> Option<std::time::Duration> {
         .map(std::time::Duration::from_millis)
 }
 
-/// Run a build.
-pub fn build(opts: &BuildOptions) -> Result<BuildReport> {
-    let mut planned = Vec::new();
-    for m in &opts.manifests {
+/// Under the lock on `<out>/.lock`, assemble every table this build did not write whose
+/// checkpoints are now all present (written by other shards or concurrent builds), unless
+/// another build already wrote it: whichever shard finishes last assembles every complete table.
+fn assemble_completed(
+    states: &[TableState],
+    finish: &(dyn Fn(&TableState) + Sync),
+    written: &Mutex<Vec<String>>,
+    out_dir: &Path,
+) -> Result<(), PipelineError> {
+    let _lock = crate::workdir::lock_out_dir(out_dir)?;
+    for s in states {
+        if written.lock().expect("lock").contains(&s.planned.name) {
+            continue;
+        }
+        if up_to_date(&table_path(out_dir, &s.planned.name), &s.key) {
+            continue;
+        }
+        let complete = (0..s.task_keys.len())
+            .all(|k| read_checkpoint(&s.checkpoint(k), &s.task_keys[k]).is_some());
+        if complete {
+            finish(s);
+        }
+    }
+    Ok(())
+}
+
+/// Run a build: plan, load checkpoints, run the pending tasks (assembling each table when its
+/// last task is done), rebuild the catalog.
+pub fn build(opts: &BuildOptions) -> Result<BuildReport, PipelineError> {
+    let planned = plan_manifests(&opts.manifests)?;
+    std::fs::create_dir_all(&opts.out_dir)
+        .map_err(IoError::doing("creating output directory", &opts.out_dir))?;
+    crate::workdir::check_out_dir(&opts.out_dir)?;
+    let mut report = BuildReport::default();
+    let states = plan_tables(planned, opts, &mut report)?;
+    let pending = load_checkpoints(&states, opts, &mut report)?;
+    let run = run_tasks(&states, &pending, opts)?;
+    report.tasks_computed = run.computed;
+    report.tables_written = run.written;
+    report.tables_written.sort();
+    for s in &states {
+        if !report.tables_written.contains(&s.planned.name) {
+            report.tables_pending.push(s.planned.name.clone());
+        }
+    }
+    update_catalog(&opts.out_dir)?;
+    if !run.errors.is_empty() {
+        return Err(PipelineError::Failed(run.errors));
+    }
+    Ok(report)
+}
+
+/// Plan every table of the manifests; a table name may appear only once across them.
+fn plan_manifests(manifests: &[PathBuf]) -> Result<Vec<PlannedTable>, PipelineError> {
+    let mut planned: Vec<PlannedTable> = Vec::new();
+    for m in manifests {
         for t in load_manifest(m)? {
-            if let Some(prev) = planned.iter().find(|p: &&PlannedTable| p.name == t.name) {
-                bail!(
-                    "table `{}` is defined twice: in {} and in {}",
-                    t.name,
-                    prev.manifest.display(),
-                    t.manifest.display()
-                );
+            if let Some(prev) = planned.iter().find(|p| p.name == t.name) {
+                return Err(PipelineError::DuplicateTable {
+                    name: t.name,
+                    first: prev.manifest.clone(),
+                    second: t.manifest,
+                });
             }
             planned.push(t);
         }
     }
-    std::fs::create_dir_all(&opts.out_dir)
-        .with_context(|| format!("creating output directory {}", opts.out_dir.display()))?;
+    Ok(planned)
+}
 
-    let mut report = BuildReport::default();
+/// Content and task keys of every planned table; tables whose file is up to date are only
+/// reported (unless `--force`).
+fn plan_tables(
+    planned: Vec<PlannedTable>,
+    opts: &BuildOptions,
+    report: &mut BuildReport,
+) -> Result<Vec<TableState>, PipelineError> {
     let mut states = Vec::new();
     for t in planned {
         let key = table_key(&t);
@@ -281,7 +471,8 @@ pub fn build(opts: &BuildOptions) -> Result<BuildReport> {
             .map(|(i, s)| task_key(&key, i, &s.params))
             .collect::<Vec<_>>();
         let task_labels = tasks.into_iter().map(|s| s.label).collect();
-        let work_dir = opts.out_dir.join(".work").join(&t.name);
+        let work_dir = opts.out_dir.join(WORK_DIR).join(&t.name);
+        crate::workdir::refuse_symlink(&work_dir)?;
         states.push(TableState {
             remaining: AtomicUsize::new(task_keys.len()),
             planned: t,
@@ -291,16 +482,24 @@ pub fn build(opts: &BuildOptions) -> Result<BuildReport> {
             work_dir,
         });
     }
+    Ok(states)
+}
 
-    // Global task list: (table, task) in deterministic order; shard by global index.
+/// Count the tasks with a valid checkpoint as done (none with `--force`, which also removes
+/// the old checkpoints) and return the other tasks of this shard, as (table, task) in the
+/// deterministic global order the shards divide by index.
+fn load_checkpoints(
+    states: &[TableState],
+    opts: &BuildOptions,
+    report: &mut BuildReport,
+) -> Result<Vec<(usize, usize)>, PipelineError> {
     let mut pending = Vec::new();
     let mut global = 0usize;
     for (ti, s) in states.iter().enumerate() {
         for (k, key) in s.task_keys.iter().enumerate() {
             let mine = opts.shard.is_none_or(|sh| global % sh.count == sh.index);
             global += 1;
-            let ck = s.work_dir.join(format!("{key}.chunk"));
-            let done = !opts.force && read_checkpoint(&ck, key).is_some();
+            let done = !opts.force && read_checkpoint(&s.checkpoint(k), key).is_some();
             if done {
                 report.tasks_reused += 1;
                 s.remaining.fetch_sub(1, Ordering::SeqCst);
@@ -310,126 +509,178 @@ pub fn build(opts: &BuildOptions) -> Result<BuildReport> {
         }
     }
     if opts.force {
-        for s in &states {
-            let _ = std::fs::remove_dir_all(&s.work_dir);
+        for s in states {
+            crate::workdir::remove_table_work_dir(&s.work_dir)?;
         }
     }
+    Ok(pending)
+}
 
+/// What [`run_tasks`] did.
+struct TaskRun {
+    computed: usize,
+    written: Vec<String>,
+    errors: Vec<PipelineError>,
+}
+
+/// Run the pending tasks in one pool, writing a checkpoint per task; a table is assembled as
+/// soon as its last task is done (right away when every task was reused). Failures are
+/// collected, not fatal: the other tables still build.
+fn run_tasks(
+    states: &[TableState],
+    pending: &[(usize, usize)],
+    opts: &BuildOptions,
+) -> Result<TaskRun, PipelineError> {
     let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(opts.jobs.unwrap_or(0))
+        .num_threads(opts.jobs.unwrap_or(DEFAULT_THREADS))
         .build()
-        .context("creating the thread pool")?;
-    let bar = ProgressBar::new(pending.len() as u64);
-    if opts.quiet || !std::io::stdout().is_terminal() {
-        bar.set_draw_target(ProgressDrawTarget::hidden());
-    }
-    bar.set_style(
-        ProgressStyle::with_template(
-            "{prefix} [{elapsed_precise}] {wide_bar} {pos}/{len} tasks, eta {eta} {msg}",
-        )
-        .expect("valid template"),
-    );
-    bar.set_prefix("build");
-    let errors = Mutex::new(Vec::<String>::new());
+        .map_err(PipelineError::ThreadPool)?;
+    let bar = progress_bar(pending.len(), opts.quiet);
+    let errors = Mutex::new(Vec::<PipelineError>::new());
     let written = Mutex::new(Vec::<String>::new());
     let computed = AtomicUsize::new(0);
     let delay = test_delay();
-
-    // Tables whose tasks were all reused can be assembled right away.
-    let finish_table = |s: &TableState| -> Result<()> {
-        let chunks = s
-            .task_keys
-            .iter()
-            .enumerate()
-            .map(|(i, key)| {
-                let ck = s.work_dir.join(format!("{key}.chunk"));
-                match read_checkpoint(&ck, key) {
-                    Some(v) => Ok(v),
-                    // Removed by a concurrent build that finished this table, or corrupt.
-                    None => s.planned.job.run_task(i),
-                }
-            })
-            .collect::<Result<Vec<_>>>()?;
-        let mut content = s.planned.job.assemble(chunks)?;
-        if let Some(d) = &s.planned.description {
-            content
-                .attributes
-                .insert("manifest_description".into(), d.clone().into());
-        }
-        let mut table = Table::from_content(content, provenance(&s.planned, &s.key))?;
-        let path = table_path(&opts.out_dir, &s.planned.name);
-        write_table_atomic(&mut table, &path)?;
-        let _ = std::fs::remove_dir_all(&s.work_dir);
-        written.lock().expect("lock").push(s.planned.name.clone());
-        Ok(())
+    let finish = |s: &TableState| match finish_table(s, &opts.out_dir) {
+        Ok(()) => written.lock().expect("lock").push(s.planned.name.clone()),
+        Err(e) => errors.lock().expect("lock").push(PipelineError::Finish {
+            table: s.planned.name.clone(),
+            source: Box::new(e),
+        }),
     };
-
     pool.install(|| {
         states
             .par_iter()
             .filter(|s| s.remaining.load(Ordering::SeqCst) == 0)
-            .for_each(|s| {
-                if let Err(e) = finish_table(s) {
-                    errors
-                        .lock()
-                        .expect("lock")
-                        .push(format!("{}: {e:#}", s.planned.name));
-                }
-            });
+            .for_each(finish);
         pending.par_iter().for_each(|&(ti, k)| {
             let s = &states[ti];
-            let label = &s.task_labels[k];
-            let result = s.planned.job.run_task(k).and_then(|values| {
-                write_checkpoint(
-                    &s.work_dir.join(format!("{}.chunk", s.task_keys[k])),
-                    &s.task_keys[k],
-                    &values,
-                )
-            });
+            let result = s
+                .planned
+                .job
+                .run_task(k)
+                .map_err(PipelineError::from)
+                .and_then(|values| write_checkpoint(&s.checkpoint(k), &s.task_keys[k], &values));
             if let Some(d) = delay {
                 std::thread::sleep(d);
             }
             computed.fetch_add(1, Ordering::SeqCst);
             bar.inc(1);
             match result {
-                Err(e) => errors
-                    .lock()
-                    .expect("lock")
-                    .push(format!("{} task {k} ({label}): {e:#}", s.planned.name)),
+                Err(e) => errors.lock().expect("lock").push(PipelineError::Task {
+                    table: s.planned.name.clone(),
+                    index: k,
+                    label: s.task_labels[k].clone(),
+                    source: Box::new(e),
+                }),
                 Ok(()) => {
                     if s.remaining.fetch_sub(1, Ordering::SeqCst) == 1 {
                         bar.set_message(format!("writing {}", s.planned.name));
-                        if let Err(e) = finish_table(s) {
-                            errors
-                                .lock()
-                                .expect("lock")
-                                .push(format!("{}: {e:#}", s.planned.name));
-                        }
+                        finish(s);
                     }
                 }
             }
         });
     });
     bar.finish_and_clear();
+    assemble_completed(states, &finish, &written, &opts.out_dir)?;
+    Ok(TaskRun {
+        computed: computed.load(Ordering::SeqCst),
+        written: written.into_inner().expect("lock"),
+        errors: errors.into_inner().expect("lock"),
+    })
+}
 
-    report.tasks_computed = computed.load(Ordering::SeqCst);
-    report.tables_written = written.into_inner().expect("lock");
-    report.tables_written.sort();
-    for s in &states {
-        if !report.tables_written.contains(&s.planned.name) {
-            report.tables_pending.push(s.planned.name.clone());
-        }
+/// The build's progress bar (hidden when quiet or not on a terminal).
+fn progress_bar(tasks: usize, quiet: bool) -> ProgressBar {
+    let bar = ProgressBar::new(tasks as u64);
+    if quiet || !std::io::stdout().is_terminal() {
+        bar.set_draw_target(ProgressDrawTarget::hidden());
     }
-    // Leave no empty work directory behind (ignore failure: another build may be using it).
-    let _ = std::fs::remove_dir(opts.out_dir.join(".work"));
-    crate::catalog::rebuild(&opts.out_dir)?;
-    let errors = errors.into_inner().expect("lock");
-    if !errors.is_empty() {
-        bail!(
-            "{} task(s) failed:\n  {}",
-            errors.len(),
-            errors.join("\n  ")
+    bar.set_style(ProgressStyle::with_template(PROGRESS_TEMPLATE).expect("valid template"));
+    bar.set_prefix("build");
+    bar
+}
+
+/// Assemble a table whose tasks are all done from its checkpoints (recomputing any that a
+/// concurrent build removed or that is corrupt), write it atomically into `out_dir` and remove
+/// its checkpoints.
+fn finish_table(s: &TableState, out_dir: &Path) -> Result<(), PipelineError> {
+    let chunks = (0..s.task_keys.len())
+        .map(
+            |i| match read_checkpoint(&s.checkpoint(i), &s.task_keys[i]) {
+                Some(v) => Ok(v),
+                None => s.planned.job.run_task(i),
+            },
+        )
+        .collect::<Result<Vec<_>, _>>()?;
+    let mut content = s.planned.job.assemble(chunks)?;
+    if let Some(d) = &s.planned.description {
+        content
+            .attributes
+            .insert("manifest_description".into(), d.clone().into());
+    }
+    let mut table = Table::from_content(content, provenance(&s.planned, &s.key))?;
+    write_table_atomic(&mut table, &table_path(out_dir, &s.planned.name))?;
+    crate::workdir::remove_table_work_dir(&s.work_dir)?;
+    Ok(())
+}
+
+/// Remove the work directory if no table uses it any more (ignoring failure: another build
+/// may be using it) and rebuild the catalog of `out_dir`.
+fn update_catalog(out_dir: &Path) -> Result<(), PipelineError> {
+    let _ = std::fs::remove_dir(out_dir.join(WORK_DIR));
+    crate::catalog::rebuild(out_dir)?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::error::error_chain;
+
+    #[test]
+    fn shard_errors_name_the_problem_and_the_source() {
+        assert_eq!(
+            Shard::parse(" 1 / 4").unwrap(),
+            Shard { index: 1, count: 4 }
+        );
+        let e = Shard::parse("x/4").unwrap_err();
+        assert_eq!(
+            error_chain(&e),
+            "--shard: `x` is not a number: invalid digit found in string"
+        );
+        assert!(matches!(
+            Shard::parse("4/4"),
+            Err(ShardError::OutOfRange { index: 4, count: 4 })
+        ));
+        assert!(matches!(Shard::parse("4"), Err(ShardError::Syntax(_))));
+    }
+
+    #[test]
+    fn failed_build_lists_each_task_with_its_cause_chain() {
+        let task = PipelineError::Task {
+            table: "w".into(),
+            index: 3,
+            label: "T=20 °C".into(),
+            source: Box::new(PipelineError::Job(JobError::ChunkCount {
+                expected: 2,
+                got: 1,
+            })),
+        };
+        let finish = PipelineError::Finish {
+            table: "m".into(),
+            source: Box::new(
+                IoError::doing("writing checkpoint", Path::new("out/.work/m/k.chunk"))(
+                    std::io::Error::other("disk full"),
+                )
+                .into(),
+            ),
+        };
+        let e = PipelineError::Failed(vec![task, finish]);
+        assert_eq!(
+            e.to_string(),
+            "2 task(s) failed:\n  w task 3 (T=20 °C): expected 2 chunks (one per task), got 1\n  \
+             m: writing checkpoint out/.work/m/k.chunk: disk full"
         );
     }
-    Ok(report)
 }

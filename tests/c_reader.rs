@@ -262,3 +262,31 @@ fn c_reader_reads_newer_minor_and_refuses_newer_major() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("2.0") && err.contains("newer"), "{err}");
 }
+
+/// The crafted corpus through the C library: each valid file opens (exit 0), each invalid one
+/// is refused with a message (exit 3); nothing crashes or aborts.
+#[test]
+fn c_reader_crafted_corpus() {
+    let dir = tempfile::tempdir().unwrap();
+    let exe = example_exe(dir.path());
+    let mut wrong = Vec::new();
+    for case in common::crafted::cases() {
+        let p = dir.path().join(format!("{}.sbt", case.name));
+        std::fs::write(&p, &case.bytes).unwrap();
+        let out = Command::new(&exe).arg(&p).output().unwrap();
+        let code = out.status.code();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        let ok = if case.valid {
+            code == Some(0)
+        } else {
+            code == Some(3) && stderr.contains(case.name)
+        };
+        if !ok {
+            wrong.push(format!(
+                "{}: valid={} exit {code:?}: {stderr}",
+                case.name, case.valid
+            ));
+        }
+    }
+    assert!(wrong.is_empty(), "{}", wrong.join("\n"));
+}

@@ -219,3 +219,33 @@ fn python_reader_reads_newer_minor_and_refuses_newer_major() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("2.0") && err.contains("newer"), "{err}");
 }
+
+/// The crafted corpus through the Python reader: each valid file reads (exit 0), each invalid
+/// one raises `TableError` naming the file (exit 3); any other exception exits 1 and fails.
+#[test]
+fn python_reader_crafted_corpus() {
+    if skip_or_require_python() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let mut wrong = Vec::new();
+    for case in common::crafted::cases() {
+        let p = dir.path().join(format!("{}.sbt", case.name));
+        std::fs::write(&p, &case.bytes).unwrap();
+        let out = run(&p, &dir.path().join("dump.bin"), &[]);
+        let code = out.status.code();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        let ok = if case.valid {
+            code == Some(0)
+        } else {
+            code == Some(3) && stderr.contains(case.name)
+        };
+        if !ok {
+            wrong.push(format!(
+                "{}: valid={} exit {code:?}: {stderr}",
+                case.name, case.valid
+            ));
+        }
+    }
+    assert!(wrong.is_empty(), "{}", wrong.join("\n"));
+}

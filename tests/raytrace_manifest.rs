@@ -72,7 +72,7 @@ fn build_default_manifest_two_threads() {
             let names: Vec<&str> = table.channels.iter().map(|c| c.name.as_str()).collect();
             assert_eq!(
                 names[..4],
-                scatterbake::table::phase_contract::CHANNELS,
+                scatterbake::stages::phase_contract::CHANNELS,
                 "{name}"
             );
             for key in ["normalization", "angle_convention", "water_index_model"] {

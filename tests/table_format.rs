@@ -290,3 +290,58 @@ fn sample_interpolates_and_clamps() {
     assert!(t.sample(&[1.0]).is_err());
     assert!(t.sample_channel("nope", &[1.0, 1.0]).is_err());
 }
+
+/// Every crafted file of the corpus is accepted or refused as marked, with an error (never a
+/// panic), and an accepted one can be looked up at its first and last grid points.
+#[test]
+fn crafted_corpus_rust_reader() {
+    let mut wrong = Vec::new();
+    for case in common::crafted::cases() {
+        let r = Table::from_bytes(&case.bytes, Path::new(case.name));
+        match (&r, case.valid) {
+            (Ok(t), true) => {
+                for pick in [0usize, 1] {
+                    let coords: Vec<f64> = t
+                        .axes()
+                        .iter()
+                        .map(|a| a.coord(if pick == 0 { 0 } else { a.len() - 1 }))
+                        .collect();
+                    t.sample(&coords).unwrap();
+                }
+            }
+            (Err(e), false) => {
+                let msg = e.to_string();
+                assert!(
+                    msg.starts_with(case.name),
+                    "{}: error does not name the file: {msg}",
+                    case.name
+                );
+            }
+            _ => wrong.push(format!(
+                "{}: valid={} got {:?}",
+                case.name,
+                case.valid,
+                r.map(|_| ())
+            )),
+        }
+    }
+    assert!(wrong.is_empty(), "{}", wrong.join("\n"));
+}
+
+/// Reading a file declaring a huge payload that its bytes do not back allocates little: the
+/// declared size is refused by the limit, and a raised limit only costs what decompresses.
+#[test]
+fn declared_sizes_are_not_allocated() {
+    use scatterbake::table::ReadLimits;
+    let case = common::crafted::cases()
+        .into_iter()
+        .find(|c| c.name == "declares_1gib_backed_by_18_floats")
+        .unwrap();
+    let small = ReadLimits {
+        max_payload_bytes: 1 << 20,
+    };
+    let e = Table::from_bytes_with_limits(&case.bytes, Path::new("t.sbt"), &small).unwrap_err();
+    assert!(e.to_string().contains("exceeds the reader limit"), "{e}");
+    let e = Table::from_bytes(&case.bytes, Path::new("t.sbt")).unwrap_err();
+    assert!(e.to_string().contains("zstd frame declares 72"), "{e}");
+}

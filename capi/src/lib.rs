@@ -6,10 +6,18 @@
 //! `sbt_open` fully verifies the file (magic, version, header SHA-256, payload SHA-256 of the
 //! compressed and uncompressed bytes, sizes) with the same code as `Table::open`; every other
 //! call reads the verified table. All pointers returned stay valid until `sbt_close`. Functions
-//! taking an out-of-range index return 0 / NULL / NaN rather than aborting.
+//! taking an out-of-range index return 0 / NULL / NaN rather than aborting. Every entry point
+//! runs under `catch_unwind`: an internal panic never unwinds into the host; `sbt_open` then
+//! returns NULL with a message and the other calls return their error value.
 
-use scatterbake::table::Table;
+use scatterbake::table::{ReadLimits, Table};
 use std::ffi::{CStr, CString, c_char};
+use std::panic::{AssertUnwindSafe, catch_unwind};
+
+/// Run `f`, turning a panic into `on_panic` (never unwinding across the C boundary).
+fn guard<T>(on_panic: T, f: impl FnOnce() -> T) -> T {
+    catch_unwind(AssertUnwindSafe(f)).unwrap_or(on_panic)
+}
 
 /// Opaque handle behind `sbt_table *`.
 pub struct SbtTable {
@@ -39,7 +47,8 @@ fn write_err(err: *mut c_char, err_len: usize, msg: &str) {
     }
 }
 
-/// Open and verify a table. Returns NULL on failure with a message in `err` (if not NULL).
+/// Open and verify a table with the default payload limit (4 GiB uncompressed). Returns NULL on
+/// failure with a message in `err` (if not NULL).
 ///
 /// # Safety
 /// `path` must be a NUL-terminated string; `err` NULL or `err_len` writable bytes.
@@ -49,34 +58,67 @@ pub unsafe extern "C" fn sbt_open(
     err: *mut c_char,
     err_len: usize,
 ) -> *mut SbtTable {
+    // SAFETY: same contract.
+    unsafe { sbt_open_limit(path, 0, err, err_len) }
+}
+
+/// Like `sbt_open`, refusing tables whose uncompressed payload exceeds `max_payload_bytes`
+/// (0 = the default limit).
+///
+/// # Safety
+/// `path` must be a NUL-terminated string; `err` NULL or `err_len` writable bytes.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn sbt_open_limit(
+    path: *const c_char,
+    max_payload_bytes: u64,
+    err: *mut c_char,
+    err_len: usize,
+) -> *mut SbtTable {
+    let r = catch_unwind(AssertUnwindSafe(|| {
+        // SAFETY: forwarded contract.
+        unsafe { open_inner(path, max_payload_bytes) }
+    }));
+    match r {
+        Ok(Ok(t)) => Box::into_raw(Box::new(t)),
+        Ok(Err(msg)) => {
+            write_err(err, err_len, &msg);
+            std::ptr::null_mut()
+        }
+        Err(_) => {
+            write_err(
+                err,
+                err_len,
+                "internal error while reading the table (panic caught)",
+            );
+            std::ptr::null_mut()
+        }
+    }
+}
+
+unsafe fn open_inner(path: *const c_char, max_payload_bytes: u64) -> Result<SbtTable, String> {
     if path.is_null() {
-        write_err(err, err_len, "path is NULL");
-        return std::ptr::null_mut();
+        return Err("path is NULL".into());
     }
     // SAFETY: NUL-terminated per the contract.
     let p = unsafe { CStr::from_ptr(path) }
         .to_string_lossy()
         .into_owned();
-    match Table::open(&p) {
-        Ok(table) => {
-            let header_json = cstring(&serde_json::to_string(&table.header).unwrap_or_default());
-            let h = &table.header;
-            let t = SbtTable {
-                header_json,
-                axis_names: h.axes.iter().map(|a| cstring(&a.name)).collect(),
-                axis_units: h.axes.iter().map(|a| cstring(&a.unit)).collect(),
-                axis_coords: h.axes.iter().map(|a| a.coords()).collect(),
-                channel_names: h.channels.iter().map(|c| cstring(&c.name)).collect(),
-                channel_units: h.channels.iter().map(|c| cstring(&c.unit)).collect(),
-                table,
-            };
-            Box::into_raw(Box::new(t))
-        }
-        Err(e) => {
-            write_err(err, err_len, &e.to_string());
-            std::ptr::null_mut()
-        }
+    let mut limits = ReadLimits::default();
+    if max_payload_bytes != 0 {
+        limits.max_payload_bytes = max_payload_bytes;
     }
+    let table = Table::open_with_limits(&p, &limits).map_err(|e| e.to_string())?;
+    let header_json = cstring(&serde_json::to_string(&table.header).unwrap_or_default());
+    let h = &table.header;
+    Ok(SbtTable {
+        header_json,
+        axis_names: h.axes.iter().map(|a| cstring(&a.name)).collect(),
+        axis_units: h.axes.iter().map(|a| cstring(&a.unit)).collect(),
+        axis_coords: h.axes.iter().map(|a| a.coords()).collect(),
+        channel_names: h.channels.iter().map(|c| cstring(&c.name)).collect(),
+        channel_units: h.channels.iter().map(|c| cstring(&c.unit)).collect(),
+        table,
+    })
 }
 
 /// Free a table (NULL is ignored).
@@ -86,8 +128,10 @@ pub unsafe extern "C" fn sbt_open(
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn sbt_close(t: *mut SbtTable) {
     if !t.is_null() {
-        // SAFETY: allocated by Box::into_raw in sbt_open.
-        drop(unsafe { Box::from_raw(t) });
+        guard((), || {
+            // SAFETY: allocated by Box::into_raw in sbt_open.
+            drop(unsafe { Box::from_raw(t) });
+        });
     }
 }
 
@@ -107,7 +151,9 @@ fn ptr_or_null(v: Option<&CString>) -> *const c_char {
 /// `t` must be NULL or a live handle.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn sbt_header_json(t: *const SbtTable) -> *const c_char {
-    ptr_or_null(get(t).map(|t| &t.header_json))
+    guard(std::ptr::null(), || {
+        ptr_or_null(get(t).map(|t| &t.header_json))
+    })
 }
 
 /// Number of axes.
@@ -116,7 +162,7 @@ pub unsafe extern "C" fn sbt_header_json(t: *const SbtTable) -> *const c_char {
 /// `t` must be NULL or a live handle.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn sbt_num_axes(t: *const SbtTable) -> usize {
-    get(t).map_or(0, |t| t.axis_names.len())
+    guard(0, || get(t).map_or(0, |t| t.axis_names.len()))
 }
 
 /// Name of axis `a`.
@@ -125,7 +171,9 @@ pub unsafe extern "C" fn sbt_num_axes(t: *const SbtTable) -> usize {
 /// `t` must be NULL or a live handle.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn sbt_axis_name(t: *const SbtTable, a: usize) -> *const c_char {
-    ptr_or_null(get(t).and_then(|t| t.axis_names.get(a)))
+    guard(std::ptr::null(), || {
+        ptr_or_null(get(t).and_then(|t| t.axis_names.get(a)))
+    })
 }
 
 /// Unit of axis `a`.
@@ -134,7 +182,9 @@ pub unsafe extern "C" fn sbt_axis_name(t: *const SbtTable, a: usize) -> *const c
 /// `t` must be NULL or a live handle.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn sbt_axis_unit(t: *const SbtTable, a: usize) -> *const c_char {
-    ptr_or_null(get(t).and_then(|t| t.axis_units.get(a)))
+    guard(std::ptr::null(), || {
+        ptr_or_null(get(t).and_then(|t| t.axis_units.get(a)))
+    })
 }
 
 /// Number of samples of axis `a`.
@@ -143,9 +193,11 @@ pub unsafe extern "C" fn sbt_axis_unit(t: *const SbtTable, a: usize) -> *const c
 /// `t` must be NULL or a live handle.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn sbt_axis_len(t: *const SbtTable, a: usize) -> usize {
-    get(t)
-        .and_then(|t| t.axis_coords.get(a))
-        .map_or(0, |c| c.len())
+    guard(0, || {
+        get(t)
+            .and_then(|t| t.axis_coords.get(a))
+            .map_or(0, |c| c.len())
+    })
 }
 
 /// Pointer to the `sbt_axis_len(t, a)` coordinates of axis `a` (doubles).
@@ -154,9 +206,11 @@ pub unsafe extern "C" fn sbt_axis_len(t: *const SbtTable, a: usize) -> usize {
 /// `t` must be NULL or a live handle.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn sbt_axis_coords(t: *const SbtTable, a: usize) -> *const f64 {
-    get(t)
-        .and_then(|t| t.axis_coords.get(a))
-        .map_or(std::ptr::null(), |c| c.as_ptr())
+    guard(std::ptr::null(), || {
+        get(t)
+            .and_then(|t| t.axis_coords.get(a))
+            .map_or(std::ptr::null(), |c| c.as_ptr())
+    })
 }
 
 /// Number of channels.
@@ -165,7 +219,7 @@ pub unsafe extern "C" fn sbt_axis_coords(t: *const SbtTable, a: usize) -> *const
 /// `t` must be NULL or a live handle.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn sbt_num_channels(t: *const SbtTable) -> usize {
-    get(t).map_or(0, |t| t.channel_names.len())
+    guard(0, || get(t).map_or(0, |t| t.channel_names.len()))
 }
 
 /// Name of channel `c`.
@@ -174,7 +228,9 @@ pub unsafe extern "C" fn sbt_num_channels(t: *const SbtTable) -> usize {
 /// `t` must be NULL or a live handle.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn sbt_channel_name(t: *const SbtTable, c: usize) -> *const c_char {
-    ptr_or_null(get(t).and_then(|t| t.channel_names.get(c)))
+    guard(std::ptr::null(), || {
+        ptr_or_null(get(t).and_then(|t| t.channel_names.get(c)))
+    })
 }
 
 /// Unit of channel `c`.
@@ -183,7 +239,9 @@ pub unsafe extern "C" fn sbt_channel_name(t: *const SbtTable, c: usize) -> *cons
 /// `t` must be NULL or a live handle.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn sbt_channel_unit(t: *const SbtTable, c: usize) -> *const c_char {
-    ptr_or_null(get(t).and_then(|t| t.channel_units.get(c)))
+    guard(std::ptr::null(), || {
+        ptr_or_null(get(t).and_then(|t| t.channel_units.get(c)))
+    })
 }
 
 /// The samples: row-major, axes in order, channel innermost (`sbt_data_len` floats).
@@ -192,7 +250,9 @@ pub unsafe extern "C" fn sbt_channel_unit(t: *const SbtTable, c: usize) -> *cons
 /// `t` must be NULL or a live handle.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn sbt_data(t: *const SbtTable) -> *const f32 {
-    get(t).map_or(std::ptr::null(), |t| t.table.data.as_ptr())
+    guard(std::ptr::null(), || {
+        get(t).map_or(std::ptr::null(), |t| t.table.data.as_ptr())
+    })
 }
 
 /// Number of floats behind `sbt_data`.
@@ -201,7 +261,7 @@ pub unsafe extern "C" fn sbt_data(t: *const SbtTable) -> *const f32 {
 /// `t` must be NULL or a live handle.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn sbt_data_len(t: *const SbtTable) -> usize {
-    get(t).map_or(0, |t| t.table.data.len())
+    guard(0, || get(t).map_or(0, |t| t.table.data.len()))
 }
 
 /// Multilinear lookup of every channel at `coords` (one per axis, axis units; clamped at the
@@ -218,19 +278,21 @@ pub unsafe extern "C" fn sbt_sample(
     out: *mut f64,
     n_out: usize,
 ) -> i32 {
-    let Some(t) = get(t) else { return -1 };
-    if coords.is_null() || out.is_null() || n_out < t.channel_names.len() {
-        return -1;
-    }
-    // SAFETY: sizes per the contract above.
-    let c = unsafe { std::slice::from_raw_parts(coords, n_coords) };
-    match t.table.sample(c) {
-        Ok(v) => {
-            // SAFETY: n_out ≥ v.len() checked above.
-            let o = unsafe { std::slice::from_raw_parts_mut(out, v.len()) };
-            o.copy_from_slice(&v);
-            0
+    guard(-1, || {
+        let Some(t) = get(t) else { return -1 };
+        if coords.is_null() || out.is_null() || n_out < t.channel_names.len() {
+            return -1;
         }
-        Err(_) => -1,
-    }
+        // SAFETY: sizes per the contract above.
+        let c = unsafe { std::slice::from_raw_parts(coords, n_coords) };
+        match t.table.sample(c) {
+            Ok(v) => {
+                // SAFETY: n_out ≥ v.len() checked above.
+                let o = unsafe { std::slice::from_raw_parts_mut(out, v.len()) };
+                o.copy_from_slice(&v);
+                0
+            }
+            Err(_) => -1,
+        }
+    })
 }

@@ -59,6 +59,13 @@ enum Command {
     Verify {
         #[arg(required = true)]
         files: Vec<PathBuf>,
+        /// Treat NaN, infinite or negative samples of a phase-function table as errors
+        /// (default: warnings).
+        #[arg(long)]
+        strict: bool,
+        /// Largest uncompressed payload to accept, in bytes (default 4 GiB).
+        #[arg(long, value_name = "BYTES")]
+        max_payload_bytes: Option<u64>,
     },
     /// Export a table: csv|json|exr (any table) or mitsuba|legendre|mieplot (phase functions).
     Export(ExportArgs),
@@ -155,9 +162,10 @@ struct ExportArgs {
     /// Also write the plain tabphase value lists here (mitsuba).
     #[arg(long)]
     values_out: Option<PathBuf>,
-    /// Sun disc angular diameter in degrees (rgb-lut).
-    #[arg(long, default_value_t = 0.5)]
-    sun_diameter_deg: f64,
+    /// Sun disc angular diameter in degrees (rgb-lut). Default: the disc the table already
+    /// averaged over (attribute `sun_diameter_deg`), 0.5 for a point-sun table.
+    #[arg(long)]
+    sun_diameter_deg: Option<f64>,
 }
 
 fn run_export(a: ExportArgs) -> Result<()> {
@@ -296,16 +304,31 @@ fn run(cmd: Command) -> Result<i32> {
             }
             Ok(0)
         }
-        Command::Verify { files } => {
+        Command::Verify {
+            files,
+            strict,
+            max_payload_bytes,
+        } => {
+            let mut limits = scatterbake::table::ReadLimits::default();
+            if let Some(m) = max_payload_bytes {
+                limits.max_payload_bytes = m;
+            }
             let mut bad = 0;
             for f in &files {
-                match Table::open(f) {
-                    Ok(t) => println!(
-                        "ok   {} ({}, {} values)",
-                        f.display(),
-                        t.header.schema,
-                        t.data.len()
-                    ),
+                match scatterbake::table::verify_file(f, &limits) {
+                    Ok(v) => {
+                        let problems = value_problems(&v);
+                        let n: usize = v.header.layout.shape.iter().product();
+                        if problems.is_empty() {
+                            println!("ok   {} ({}, {n} values)", f.display(), v.header.schema);
+                        } else if strict {
+                            bad += 1;
+                            eprintln!("BAD  {}: {}", f.display(), problems.join("; "));
+                        } else {
+                            println!("ok   {} ({}, {n} values)", f.display(), v.header.schema);
+                            eprintln!("warning: {}: {}", f.display(), problems.join("; "));
+                        }
+                    }
                     Err(e) => {
                         bad += 1;
                         eprintln!("BAD  {e}");
@@ -377,23 +400,72 @@ fn draw_previews(out: &std::path::Path, tables: &[String]) {
         if let Err(e) =
             scatterbake::consumers::plot::previews::previews(&path, &out.join("previews"))
         {
-            eprintln!("warning: previews of {name}: {e:#}");
+            eprintln!("warning: previews of {name}: {:#}", anyhow::Error::from(e));
         }
     }
+}
+
+/// Samples a phase-function table (one with a `phase` channel) must not hold: NaN or infinite
+/// values in any channel, negative values in `phase`, `i_perp`, `i_par`.
+fn value_problems(v: &scatterbake::table::Verified) -> Vec<String> {
+    let h = &v.header;
+    if !h.channels.iter().any(|c| c.name == "phase") {
+        return Vec::new();
+    }
+    let mut out = Vec::new();
+    for (i, c) in h.channels.iter().enumerate() {
+        let s = &v.values;
+        if s.nan[i] > 0 {
+            out.push(format!(
+                "channel `{}` has {} NaN value(s)",
+                c.name, s.nan[i]
+            ));
+        }
+        if s.infinite[i] > 0 {
+            out.push(format!(
+                "channel `{}` has {} infinite value(s)",
+                c.name, s.infinite[i]
+            ));
+        }
+        if ["phase", "i_perp", "i_par"].contains(&c.name.as_str()) && s.negative[i] > 0 {
+            out.push(format!(
+                "channel `{}` has {} negative value(s)",
+                c.name, s.negative[i]
+            ));
+        }
+    }
+    out
+}
+
+/// A header string made safe for a terminal: control characters (escape sequences, carriage
+/// returns, newlines, bidirectional overrides) are shown escaped, e.g. `\u{1b}`.
+fn esc(s: &str) -> String {
+    s.chars()
+        .map(|c| {
+            if c.is_control()
+                || ('\u{202a}'..='\u{202e}').contains(&c)
+                || ('\u{2066}'..='\u{2069}').contains(&c)
+            {
+                c.escape_unicode().to_string()
+            } else {
+                c.to_string()
+            }
+        })
+        .collect()
 }
 
 fn print_summary(file: &std::path::Path, t: &Table) -> Result<()> {
     let h = &t.header;
     let size = std::fs::metadata(file)?.len();
-    println!("file:        {}", file.display());
-    println!("schema:      {}", h.schema);
-    println!("description: {}", h.description);
+    println!("file:        {}", esc(&file.display().to_string()));
+    println!("schema:      {}", esc(&h.schema.to_string()));
+    println!("description: {}", esc(&h.description));
     println!(
         "layout:      {} {} shape {:?} ({})",
         h.layout.order,
         h.layout.dtype,
         h.layout.shape,
-        h.layout.axis_order.join(" × ")
+        esc(&h.layout.axis_order.join(" × "))
     );
     println!(
         "size:        {} bytes on disk, payload {} → {} bytes zstd ({:.1}×)",
@@ -411,11 +483,16 @@ fn print_summary(file: &std::path::Path, t: &Table) -> Result<()> {
             AxisPoints::Values(v) if v.len() <= 8 => format!("{v:?}"),
             AxisPoints::Values(v) => format!("{} values {} … {}", v.len(), v[0], v[v.len() - 1]),
         };
-        println!("  {:<20} [{}] {}", a.name, a.unit, desc);
+        println!("  {:<20} [{}] {}", esc(&a.name), esc(&a.unit), desc);
     }
     println!("channels:");
     for c in &h.channels {
-        println!("  {:<20} [{}] {}", c.name, c.unit, c.meaning);
+        println!(
+            "  {:<20} [{}] {}",
+            esc(&c.name),
+            esc(&c.unit),
+            esc(&c.meaning)
+        );
     }
     println!("attributes:");
     for (k, v) in &h.attributes {
@@ -425,25 +502,25 @@ fn print_summary(file: &std::path::Path, t: &Table) -> Result<()> {
         } else {
             s
         };
-        println!("  {k}: {s}");
+        println!("  {}: {}", esc(k), esc(&s));
     }
     let p = &h.provenance;
     println!("provenance:");
     println!(
         "  tool:        {} {} (commit {})",
-        p.tool,
-        p.tool_version,
-        p.git_commit.as_deref().unwrap_or("unknown")
+        esc(&p.tool),
+        esc(&p.tool_version),
+        esc(p.git_commit.as_deref().unwrap_or("unknown"))
     );
     println!(
         "  manifest:    {} entry {}",
-        p.manifest.as_deref().unwrap_or("-"),
-        p.entry.as_deref().unwrap_or("-")
+        esc(p.manifest.as_deref().unwrap_or("-")),
+        esc(p.entry.as_deref().unwrap_or("-"))
     );
-    println!("  stage:       {}", p.stage.as_deref().unwrap_or("-"));
+    println!("  stage:       {}", esc(p.stage.as_deref().unwrap_or("-")));
     println!("  parameters:  {}", p.parameters);
-    println!("  digest:      {}", p.parameters_digest);
-    println!("  created:     {}", p.created_utc);
+    println!("  digest:      {}", esc(&p.parameters_digest));
+    println!("  created:     {}", esc(&p.created_utc));
     Ok(())
 }
 

@@ -448,3 +448,121 @@ fn mie_and_raytrace_share_the_index_and_the_meaning_of_i_perp() {
     assert_eq!(n(&query("mie", &thesis)), 1.331);
     assert_eq!(n(&query("raytrace", &thesis)), 1.331);
 }
+
+#[test]
+fn five_concurrent_builds_all_succeed() {
+    let d = tempfile::tempdir().unwrap();
+    let m = manifest(d.path(), "w", 8);
+    let children: Vec<_> = (0..5)
+        .map(|_| {
+            bin()
+                .args([
+                    "build",
+                    m.to_str().unwrap(),
+                    "--out",
+                    "shared",
+                    "-q",
+                    "--jobs",
+                    "1",
+                ])
+                .current_dir(d.path())
+                .env("SCATTERBAKE_TEST_TASK_DELAY_MS", "5")
+                .stdout(Stdio::piped())
+                .stderr(Stdio::piped())
+                .spawn()
+                .unwrap()
+        })
+        .collect();
+    for c in children {
+        let o = c.wait_with_output().unwrap();
+        assert!(o.status.success(), "{}", text(&o));
+    }
+    let o = run(&["verify", "shared/w.sbt"], d.path());
+    assert!(o.status.success(), "{}", text(&o));
+}
+
+#[test]
+fn concurrent_shards_assemble_every_table() {
+    let d = tempfile::tempdir().unwrap();
+    let ms: Vec<PathBuf> = (0..4)
+        .map(|i| manifest(d.path(), &format!("t{i}"), 3))
+        .collect();
+    let children: Vec<_> = (0..3)
+        .map(|i| {
+            let mut c = bin();
+            c.arg("build");
+            for m in &ms {
+                c.arg(m);
+            }
+            c.args(["--out", "shared", "-q", "--jobs", "1", "--shard"])
+                .arg(format!("{i}/3"))
+                .current_dir(d.path())
+                .env("SCATTERBAKE_TEST_TASK_DELAY_MS", "10")
+                .stdout(Stdio::piped())
+                .stderr(Stdio::piped())
+                .spawn()
+                .unwrap()
+        })
+        .collect();
+    for c in children {
+        let o = c.wait_with_output().unwrap();
+        assert!(o.status.success(), "{}", text(&o));
+    }
+    for i in 0..4 {
+        let p = d.path().join(format!("shared/t{i}.sbt"));
+        assert!(p.exists(), "table t{i} was not assembled");
+    }
+}
+
+#[cfg(unix)]
+#[test]
+fn symlinked_work_dir_is_refused_and_outside_kept() {
+    let d = tempfile::tempdir().unwrap();
+    let m = manifest(d.path(), "w", 2);
+    let outside = d.path().join("outside");
+    std::fs::create_dir_all(outside.join("w")).unwrap();
+    std::fs::write(outside.join("w/keep.txt"), "x").unwrap();
+    std::fs::create_dir_all(d.path().join("out")).unwrap();
+    std::os::unix::fs::symlink(&outside, d.path().join("out/.work")).unwrap();
+    let o = run(
+        &[
+            "build",
+            m.to_str().unwrap(),
+            "--out",
+            "out",
+            "-q",
+            "--force",
+        ],
+        d.path(),
+    );
+    assert_clean_failure(&o, &[".work", "symbolic link"]);
+    assert!(
+        outside.join("w/keep.txt").exists(),
+        "a directory outside --out was deleted"
+    );
+}
+
+#[test]
+fn slurm_task_id_without_count_is_an_error() {
+    let d = tempfile::tempdir().unwrap();
+    let m = manifest(d.path(), "w", 2);
+    let o = bin()
+        .args(["build", m.to_str().unwrap(), "--out", "out", "-q"])
+        .current_dir(d.path())
+        .env("SLURM_ARRAY_TASK_ID", "1")
+        .env_remove("SLURM_ARRAY_TASK_COUNT")
+        .output()
+        .unwrap();
+    assert_clean_failure(&o, &["SLURM_ARRAY_TASK_COUNT"]);
+}
+
+#[test]
+fn verify_refuses_non_table_files_from_the_magic() {
+    let d = tempfile::tempdir().unwrap();
+    // A non-table file is refused from its magic.
+    std::fs::write(d.path().join("zeros.sbt"), vec![0u8; 4096]).unwrap();
+    let o = run(&["verify", "zeros.sbt"], d.path());
+    assert_clean_failure(&o, &["zeros.sbt", "bad magic"]);
+    let o = run(&["verify", "/dev/zero"], d.path());
+    assert_clean_failure(&o, &["/dev/zero", "bad magic"]);
+}

@@ -10,10 +10,13 @@
 //! - [`render`]: a reference spectral renderer of rainbows in a rain volume;
 //! - [`image`]: PNG writing shared by `plot` and `render`.
 //!
+//! Every consumer reports failures as a [`ConsumerError`].
+//!
 //! Everything reads tables through the public reader API ([`crate::table::Table::open`],
 //! [`crate::table::Table::sample`]). The C ABI for other languages is the `capi/` crate and
 //! the Python reader `python/scatterbake_table.py`.
 
+mod error;
 pub mod export;
 pub mod image;
 pub mod plot;
@@ -21,3 +24,5 @@ pub mod read;
 pub mod render;
 #[cfg(any(test, feature = "fixtures"))]
 pub mod synthetic;
+
+pub use error::ConsumerError;

@@ -12,6 +12,7 @@
 //! ±180° = forward. Decisions on the points the thesis leaves open (FUR-1f, FUR-11 … FUR-19) are
 //! in `docs/decisions.md` (fur far field).
 
+use super::FurError;
 use super::chief_ray::{CoaxialFiber, Path};
 use super::medulla::{Estimator, Geometry, McSettings, normalise_lobes, simulate};
 use crate::optics::fresnel::fresnel_reflectance_unpolarized;
@@ -32,19 +33,42 @@ pub enum MedullaSource<'a> {
     },
 }
 
-/// `value` inside the coordinate range of axis `name` of `table` (a clear error otherwise).
-fn check_axis_range(table: &Table, name: &str, value: f64) -> anyhow::Result<()> {
-    let i = table.axis_index(name)?;
-    let c = table.axes()[i].coords();
-    let (lo, hi) = (c[0].min(c[c.len() - 1]), c[0].max(c[c.len() - 1]));
-    anyhow::ensure!(
-        value >= lo - 1e-9 && value <= hi + 1e-9,
-        "{}: {name} = {value} is outside the table's range [{lo}, {hi}]; use the on-the-fly \
-         Monte Carlo or a table whose grid covers it",
-        table.header.schema.name
-    );
+/// A lookup error of `table`, naming its schema.
+fn lookup_error(table: &Table) -> impl Fn(crate::table::SampleError) -> FurError + '_ {
+    move |source| FurError::Lookup {
+        schema: table.header.schema.name.clone(),
+        source,
+    }
+}
+
+/// `table` has schema `schema` and every `(axis, value)` lies inside the coordinate range of
+/// that axis (a clear error otherwise).
+fn check_table(table: &Table, schema: &'static str, at: &[(&str, f64)]) -> Result<(), FurError> {
+    if table.header.schema.name != schema {
+        return Err(FurError::WrongSchema {
+            expected: schema,
+            found: table.header.schema.name.clone(),
+        });
+    }
+    for &(name, value) in at {
+        let i = table.axis_index(name).map_err(lookup_error(table))?;
+        let c = table.axes()[i].coords();
+        let (lo, hi) = (c[0].min(c[c.len() - 1]), c[0].max(c[c.len() - 1]));
+        if !(value >= lo - AXIS_RANGE_TOLERANCE && value <= hi + AXIS_RANGE_TOLERANCE) {
+            return Err(FurError::OutsideTable {
+                schema: schema.to_string(),
+                axis: name.to_string(),
+                value,
+                lo,
+                hi,
+            });
+        }
+    }
     Ok(())
 }
+
+/// Slack of [`check_table`] at the ends of an axis (coordinates computed in floating point).
+const AXIS_RANGE_TOLERANCE: f64 = 1e-9;
 
 /// Lobe-normalised longitudinal densities (both lobes, `bins` values: lobe 0 = back then lobe
 /// 1 = forward, θ'_r cells over [−90°, 90°) each) at medulla σ (per medulla radius, already
@@ -55,7 +79,7 @@ pub fn longitudinal_lobe_pdf(
     g: f64,
     theta_i_med_rad: f64,
     set: &FarFieldSettings,
-) -> anyhow::Result<Vec<f64>> {
+) -> Result<Vec<f64>, FurError> {
     match source {
         MedullaSource::Simulate => {
             let mc = set.monte_carlo();
@@ -71,23 +95,23 @@ pub fn longitudinal_lobe_pdf(
         }
         MedullaSource::Tables { longitudinal, .. } => {
             let t = longitudinal;
-            anyhow::ensure!(
-                t.header.schema.name == "fur-medulla-longitudinal",
-                "expected a fur-medulla-longitudinal table, got {}",
-                t.header.schema.name
-            );
             let ti = theta_i_med_rad.to_degrees();
-            check_axis_range(t, "sigma", sigma)?;
-            check_axis_range(t, "g", g)?;
-            check_axis_range(t, "theta_i", ti)?;
-            let ch = t.channel_index("pdf")?;
+            check_table(
+                t,
+                "fur-medulla-longitudinal",
+                &[("sigma", sigma), ("g", g), ("theta_i", ti)],
+            )?;
+            let ch = t.channel_index("pdf").map_err(lookup_error(t))?;
             let half = set.medulla_bins / 2;
             let dw = 180.0 / half as f64;
             let mut pdf = Vec::with_capacity(set.medulla_bins);
             for lobe in 0..2 {
                 for k in 0..half {
                     let tr = -90.0 + (k as f64 + 0.5) * dw;
-                    pdf.push(t.sample(&[sigma, g, ti, lobe as f64, tr])?[ch].max(0.0));
+                    let v = t
+                        .sample(&[sigma, g, ti, lobe as f64, tr])
+                        .map_err(lookup_error(t))?;
+                    pdf.push(v[ch].max(0.0));
                 }
             }
             // Renormalise each lobe on this grid (∫ pdf dθ = 1 per lobe with energy).
@@ -292,18 +316,14 @@ impl MedullaShapes {
         sigma: f64,
         g: f64,
         set: &FarFieldSettings,
-    ) -> anyhow::Result<Self> {
+    ) -> Result<Self, FurError> {
         let t = azimuthal;
-        anyhow::ensure!(
-            t.header.schema.name == "fur-medulla-azimuthal",
-            "expected a fur-medulla-azimuthal table, got {}",
-            t.header.schema.name
-        );
-        check_axis_range(t, "sigma", sigma)?;
-        check_axis_range(t, "g", g)?;
-        check_axis_range(t, "h", 0.0)?;
-        check_axis_range(t, "h", 1.0)?;
-        let ch = t.channel_index("energy")?;
+        check_table(
+            t,
+            "fur-medulla-azimuthal",
+            &[("sigma", sigma), ("g", g), ("h", 0.0), ("h", 1.0)],
+        )?;
+        let ch = t.channel_index("energy").map_err(lookup_error(t))?;
         let n = set.medulla_rows.max(2);
         let b = set.medulla_bins;
         let rows: Vec<f64> = (0..n).map(|j| j as f64 / (n - 1) as f64).collect();
@@ -312,7 +332,8 @@ impl MedullaShapes {
             let mut row = Vec::with_capacity(b);
             for k in 0..b {
                 let phi = -180.0 + (k as f64 + 0.5) * 360.0 / b as f64;
-                row.push(t.sample(&[sigma, g, h, phi])?[ch].max(0.0));
+                let v = t.sample(&[sigma, g, h, phi]).map_err(lookup_error(t))?;
+                row.push(v[ch].max(0.0));
             }
             let tot: f64 = row.iter().sum();
             shapes.push(if tot > 0.0 {
@@ -537,7 +558,7 @@ pub fn far_field_with(
     shapes: &MedullaShapes,
     set: &FarFieldSettings,
     source: MedullaSource<'_>,
-) -> anyhow::Result<FarField> {
+) -> Result<FarField, FurError> {
     let (nt, np) = (set.theta_r_cells, set.phi_cells);
     let (alpha, beta) = (s.alpha_deg.to_radians(), s.beta_deg.to_radians());
     let sin_ti = theta_i_rad.sin();
@@ -710,7 +731,7 @@ pub fn far_field_with(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::optics::quadrature::gauss_legendre_interval;
+    use crate::math::quadrature::gauss_legendre_interval;
 
     fn settings() -> FarFieldSettings {
         FarFieldSettings {

@@ -480,7 +480,7 @@ pub fn single_scatter_energy(
     let dw = 2.0 * PI / bins as f64;
     let chord = geom.chord();
     let (p0, d0) = geom.entry();
-    let (ts, ws) = crate::optics::quadrature::gauss_legendre_interval(nodes, 0.0, chord);
+    let (ts, ws) = crate::math::quadrature::gauss_legendre_interval(nodes, 0.0, chord);
     geom.bin_directions(bins)
         .iter()
         .map(|w| {

@@ -15,6 +15,7 @@
 //! axis `value` holding all cores, self-described in the attributes) and [`reconstruct_table`]
 //! reverses it on load.
 
+use super::FurError;
 use crate::table::{Axis, Channel, Schema, TableContent};
 use nalgebra::{DMatrix, SymmetricEigen};
 
@@ -189,6 +190,22 @@ pub struct CompressionReport {
     pub dense_values: usize,
 }
 
+/// Encode a header attribute of a `fur-medulla-tt/1` table.
+fn to_json<T: serde::Serialize>(
+    key: &'static str,
+    value: &T,
+) -> Result<serde_json::Value, FurError> {
+    serde_json::to_value(value).map_err(|source| FurError::TensorTrainAttribute { key, source })
+}
+
+/// Decode a header attribute of a `fur-medulla-tt/1` table.
+fn from_json<T: serde::de::DeserializeOwned>(
+    key: &'static str,
+    value: &serde_json::Value,
+) -> Result<T, FurError> {
+    T::deserialize(value).map_err(|source| FurError::TensorTrainAttribute { key, source })
+}
+
 /// Compress channel `channel` of `table` into a `fur-medulla-tt/1` table (cores stored as f32;
 /// the reported errors are those of the f32 cores as stored).
 pub fn compress_table(
@@ -196,13 +213,13 @@ pub fn compress_table(
     channel: &str,
     rel_tol: f64,
     max_rank: usize,
-) -> anyhow::Result<(TableContent, CompressionReport)> {
+) -> Result<(TableContent, CompressionReport), FurError> {
     let nc = table.channels.len();
     let ci = table
         .channels
         .iter()
         .position(|c| c.name == channel)
-        .ok_or_else(|| anyhow::anyhow!("table has no channel `{channel}`"))?;
+        .ok_or_else(|| FurError::NoChannel(channel.to_string()))?;
     let dims: Vec<usize> = table.axes.iter().map(Axis::len).collect();
     let dense: Vec<f64> = table
         .data
@@ -232,18 +249,18 @@ pub fn compress_table(
         "source_description".into(),
         table.description.clone().into(),
     );
-    a.insert("source_axes".into(), serde_json::to_value(&table.axes)?);
+    a.insert("source_axes".into(), to_json("source_axes", &table.axes)?);
     a.insert(
         "source_channel".into(),
-        serde_json::to_value(&table.channels[ci])?,
+        to_json("source_channel", &table.channels[ci])?,
     );
     a.insert(
         "source_attributes".into(),
         serde_json::Value::Object(table.attributes.clone()),
     );
-    a.insert("dims".into(), serde_json::to_value(&tt.dims)?);
-    a.insert("ranks".into(), serde_json::to_value(&tt.ranks)?);
-    a.insert("core_offsets".into(), serde_json::to_value(&offsets)?);
+    a.insert("dims".into(), to_json("dims", &tt.dims)?);
+    a.insert("ranks".into(), to_json("ranks", &tt.ranks)?);
+    a.insert("core_offsets".into(), to_json("core_offsets", &offsets)?);
     a.insert("rel_tol".into(), rel_tol.into());
     a.insert("max_rank".into(), max_rank.into());
     a.insert(
@@ -294,29 +311,34 @@ fn error_report(dense: &[f64], approx: &[f64], parameters: usize) -> Compression
 }
 
 /// Rebuild the dense single-channel table from a `fur-medulla-tt/1` table.
-pub fn reconstruct_table(tt_table: &TableContent) -> anyhow::Result<TableContent> {
-    anyhow::ensure!(
-        tt_table.schema.name == "fur-medulla-tt",
-        "not a fur-medulla-tt table"
-    );
+pub fn reconstruct_table(tt_table: &TableContent) -> Result<TableContent, FurError> {
+    if tt_table.schema.name != "fur-medulla-tt" {
+        return Err(FurError::WrongSchema {
+            expected: "fur-medulla-tt",
+            found: tt_table.schema.name.clone(),
+        });
+    }
     let at = &tt_table.attributes;
-    let get = |k: &str| {
+    let get = |k: &'static str| {
         at.get(k)
-            .ok_or_else(|| anyhow::anyhow!("missing attribute `{k}`"))
+            .ok_or_else(|| FurError::TensorTrain(format!("missing attribute `{k}`")))
     };
-    let dims: Vec<usize> = serde_json::from_value(get("dims")?.clone())?;
-    let ranks: Vec<usize> = serde_json::from_value(get("ranks")?.clone())?;
-    let offsets: Vec<usize> = serde_json::from_value(get("core_offsets")?.clone())?;
-    anyhow::ensure!(
-        ranks.len() == dims.len() + 1 && offsets.len() == dims.len() + 1,
-        "inconsistent TT header"
-    );
+    let dims: Vec<usize> = from_json("dims", get("dims")?)?;
+    let ranks: Vec<usize> = from_json("ranks", get("ranks")?)?;
+    let offsets: Vec<usize> = from_json("core_offsets", get("core_offsets")?)?;
+    if ranks.len() != dims.len() + 1 || offsets.len() != dims.len() + 1 {
+        return Err(FurError::TensorTrain(format!(
+            "inconsistent header: {} dims, {} ranks, {} core offsets",
+            dims.len(),
+            ranks.len(),
+            offsets.len()
+        )));
+    }
     let mut cores = Vec::new();
     for k in 0..dims.len() {
-        anyhow::ensure!(
-            offsets[k + 1] - offsets[k] == ranks[k] * dims[k] * ranks[k + 1],
-            "core {k} size mismatch"
-        );
+        if offsets[k + 1] - offsets[k] != ranks[k] * dims[k] * ranks[k + 1] {
+            return Err(FurError::TensorTrain(format!("core {k} size mismatch")));
+        }
         cores.push(
             tt_table.data[offsets[k]..offsets[k + 1]]
                 .iter()
@@ -325,8 +347,8 @@ pub fn reconstruct_table(tt_table: &TableContent) -> anyhow::Result<TableContent
         );
     }
     let tt = TensorTrain { dims, ranks, cores };
-    let axes: Vec<Axis> = serde_json::from_value(get("source_axes")?.clone())?;
-    let channel: Channel = serde_json::from_value(get("source_channel")?.clone())?;
+    let axes: Vec<Axis> = from_json("source_axes", get("source_axes")?)?;
+    let channel: Channel = from_json("source_channel", get("source_channel")?)?;
     let schema_str = get("source_schema")?
         .as_str()
         .unwrap_or_default()

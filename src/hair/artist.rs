@@ -8,22 +8,50 @@
 //! ```
 //!
 //! with unit-height Gaussians `g'` ([`super::longitudinal::gaussian_unit_height`]), `φ ∈ [0, π]`
-//! folded (decision DS-21 in `docs/decisions.md`), `cos²θ_d ≥ 1e-3` (DS-18). Eq. 4.17 (DS-4):
-//! the normaliser `K` is the energy of `f'_s` under the same measure as the DS averages
-//! (`cos²θ_o dθ_o dφ`, see [`super::dual`]) at normal incidence `θ_i = 0`, glints included, and
-//! it is one **scalar**: the maximum over the RGB channels (keeps the hair colour; the brightest
-//! channel of a normally lit fibre conserves energy exactly). Being global, `ā_f + ā_b` varies
-//! with `θ_i`. The stored `N^G_X` include `C_X I_X / K` so that `f_s^scatter = Σ_X M'^G_X N^G_X`
-//! uses `f'^norm` as the thesis requires; [`bare_forward_average`] gives the bare constants.
+//! folded (decision DS-21 in `docs/decisions.md`), `cos²θ_d ≥ 1e-3` (DS-18).
+//!
+//! Eq. 4.17 (DS-4) divides `f'_s` by its integral over the full sphere of outgoing directions,
+//! under the same measure as the DS averages (`cos²θ_o dθ_o dφ`, see [`super::dual`]), glints
+//! included. The normaliser is one **scalar over the channels** (the maximum over RGB, so the
+//! hair colour is kept) taken **per light inclination** `θ_i`
+//! ([`ArtistNormalisation::PerInclination`], the default): the brightest channel then scatters
+//! exactly the light it receives at every `θ_i` and every channel satisfies `ā_f + ā_b ≤ 1`, so
+//! multiple scattering neither vanishes nor blows up (thesis Fig. 4.12).
+//! [`ArtistNormalisation::NormalIncidence`] keeps the earlier single constant `K` taken at
+//! `θ_i = 0`, for which the unclamped `ā_f + ā_b` exceeds 1 toward grazing light (2.2 with the
+//! default parameters). The stored `N^G_X` include `C_X I_X / K(θ_i)` so that
+//! `f_s^scatter = Σ_X M'^G_X N^G_X` uses `f'^norm` as the thesis requires;
+//! [`bare_forward_average`] gives the bare constants.
 
 use super::dual::{
     DualScattering, average_backscatter_attenuation, average_backscatter_shift,
     average_backscatter_variance,
 };
 use super::longitudinal::{gaussian_unit_height, lobe_energy};
-use crate::optics::quadrature::gauss_legendre;
+use crate::math::quadrature::gauss_legendre;
 use serde::{Deserialize, Serialize};
 use std::f64::consts::{FRAC_PI_2, PI};
+
+/// How eq. 4.17 normalises `f'_s` (decision DS-4).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum ArtistNormalisation {
+    /// One scalar per light inclination: `K(θ_i) = max_RGB ∫∫ f'_s(θ_i, θ_o, φ) cos²θ_o dθ_o dφ`.
+    #[default]
+    PerInclination,
+    /// One scalar for all inclinations, `K = K(0)` (energy conserving at normal incidence only).
+    NormalIncidence,
+}
+
+impl ArtistNormalisation {
+    /// The name used in parameter files, on the command line and in table headers.
+    pub fn name(self) -> &'static str {
+        match self {
+            ArtistNormalisation::PerInclination => "per-inclination",
+            ArtistNormalisation::NormalIncidence => "normal-incidence",
+        }
+    }
+}
 
 /// Artist-friendly parameters (angles in degrees as in the artists' UI). Defaults: the public
 /// Arnold "aiMarschner" sample shader of this model (Sadeghi 2012 gives no numeric defaults).
@@ -50,6 +78,8 @@ pub struct ArtistParams {
     pub glint_width_deg: f64,
     /// Range of the per-strand random glint half-angle G_angle, averaged uniformly (DS-14).
     pub glint_angle_deg: [f64; 2],
+    /// Normalisation of eq. 4.17 (`per-inclination` or `normal-incidence`).
+    pub normalisation: ArtistNormalisation,
 }
 
 impl Default for ArtistParams {
@@ -71,6 +101,7 @@ impl Default for ArtistParams {
             glint_intensity: 2.5,
             glint_width_deg: 10.0,
             glint_angle_deg: [30.0, 45.0],
+            normalisation: ArtistNormalisation::PerInclination,
         }
     }
 }
@@ -211,10 +242,9 @@ fn longitudinal_energies(params: &ArtistParams, theta_i: f64) -> [f64; 3] {
     })
 }
 
-/// The scalar normaliser K of eq. 4.17 (decision DS-4): max over RGB of the energy at `θ_i = 0`.
-pub fn normalisation(params: &ArtistParams) -> f64 {
-    let l = longitudinal_energies(params, 0.0);
-    let hemi: [(f64, f64); 3] = std::array::from_fn(|x| params.azimuthal_hemispheres(x));
+/// Largest energy over the RGB channels of `f'_s` given the lobe longitudinal energies `l` and
+/// the azimuthal hemisphere integrals `hemi`.
+fn brightest_channel_energy(params: &ArtistParams, l: &[f64; 3], hemi: &[(f64, f64); 3]) -> f64 {
     (0..3)
         .map(|c| {
             let w = params.weights(c);
@@ -225,10 +255,25 @@ pub fn normalisation(params: &ArtistParams) -> f64 {
         .fold(0.0, f64::max)
 }
 
+/// The scalar normaliser of eq. 4.17 (decision DS-4) at light inclination `theta_i`: the largest
+/// energy over RGB of `f'_s` at that inclination.
+pub fn normalisation_at(params: &ArtistParams, theta_i: f64) -> f64 {
+    let l = longitudinal_energies(params, theta_i);
+    let hemi: [(f64, f64); 3] = std::array::from_fn(|x| params.azimuthal_hemispheres(x));
+    brightest_channel_energy(params, &l, &hemi)
+}
+
+/// The normaliser at normal incidence, `K(0)` (the constant of
+/// [`ArtistNormalisation::NormalIncidence`]).
+pub fn normalisation(params: &ArtistParams) -> f64 {
+    normalisation_at(params, 0.0)
+}
+
 /// Precomputed pieces of the artist model that do not depend on `θ_i`.
 #[derive(Debug, Clone)]
 pub struct ArtistModel {
     pub params: ArtistParams,
+    /// `K(0)`, the normaliser at normal incidence.
     pub k: f64,
     hemi: [(f64, f64); 3],
 }
@@ -238,6 +283,18 @@ impl ArtistModel {
         let k = normalisation(&params);
         let hemi = std::array::from_fn(|x| params.azimuthal_hemispheres(x));
         ArtistModel { params, k, hemi }
+    }
+
+    /// The normaliser used at `θ_i` given the lobe longitudinal energies `l` there.
+    fn k_at(&self, l: &[f64; 3]) -> f64 {
+        let k = match self.params.normalisation {
+            ArtistNormalisation::PerInclination => {
+                brightest_channel_energy(&self.params, l, &self.hemi)
+            }
+            ArtistNormalisation::NormalIncidence => self.k,
+        };
+        // All lobes black at this inclination: nothing to normalise (every energy is 0).
+        if k > 0.0 { k } else { 1.0 }
     }
 
     /// DS quantities per colour channel at `θ_i`, plus the normalised lobe energies
@@ -251,10 +308,11 @@ impl ArtistModel {
         let l = longitudinal_energies(&self.params, theta_i);
         let alpha = self.params.shifts();
         let beta = self.params.widths();
+        let k = self.k_at(&l);
         std::array::from_fn(|c| {
             let w = self.params.weights(c);
-            let eb: [f64; 3] = std::array::from_fn(|x| w[x] * l[x] * self.hemi[x].0 / self.k);
-            let ef: [f64; 3] = std::array::from_fn(|x| w[x] * l[x] * self.hemi[x].1 / self.k);
+            let eb: [f64; 3] = std::array::from_fn(|x| w[x] * l[x] * self.hemi[x].0 / k);
+            let ef: [f64; 3] = std::array::from_fn(|x| w[x] * l[x] * self.hemi[x].1 / k);
             let mean = |e: &[f64; 3], v: &dyn Fn(usize) -> f64| {
                 let s: f64 = e.iter().sum();
                 if s <= 0.0 {
@@ -269,7 +327,7 @@ impl ArtistModel {
             let alpha_b = mean(&eb, &|x| alpha[x]);
             let beta_f2 = mean(&ef, &|x| beta[x] * beta[x]);
             let beta_b2 = mean(&eb, &|x| beta[x] * beta[x]);
-            let ng: [f64; 3] = std::array::from_fn(|x| w[x] / self.k * self.hemi[x].1 / PI);
+            let ng: [f64; 3] = std::array::from_fn(|x| w[x] / k * self.hemi[x].1 / PI);
             let ds = DualScattering {
                 a_f,
                 a_b,
@@ -369,6 +427,101 @@ mod tests {
             for (x, y) in a.iter().zip(&b) {
                 assert!((x - y).abs() < 1e-12);
             }
+        }
+    }
+
+    /// Default and five random parameter sets (fixed seed).
+    fn parameter_sets() -> Vec<ArtistParams> {
+        let mut rng = crate::fur::rng::SplitMix64::new(0x5ade_2012);
+        let mut u = |lo: f64, hi: f64| lo + (hi - lo) * rng.uniform();
+        let mut sets = vec![ArtistParams::default()];
+        for _ in 0..5 {
+            let mut colour = || [u(0.05, 1.0), u(0.05, 1.0), u(0.05, 1.0)];
+            let (c_r, c_tt, c_trt) = (colour(), colour(), colour());
+            let g0 = u(20.0, 40.0);
+            sets.push(ArtistParams {
+                colour_r: c_r,
+                intensity_r: u(0.1, 5.0),
+                shift_r_deg: u(-12.0, -2.0),
+                width_r_deg: u(2.0, 20.0),
+                colour_tt: c_tt,
+                intensity_tt: u(0.1, 8.0),
+                shift_tt_deg: u(0.0, 8.0),
+                width_tt_deg: u(1.0, 15.0),
+                azimuthal_width_tt_deg: u(5.0, 40.0),
+                colour_trt: c_trt,
+                intensity_trt: u(0.1, 5.0),
+                shift_trt_deg: u(2.0, 15.0),
+                width_trt_deg: u(4.0, 30.0),
+                glint_intensity: u(0.0, 5.0),
+                glint_width_deg: u(5.0, 25.0),
+                glint_angle_deg: [g0, g0 + u(0.0, 15.0)],
+                normalisation: ArtistNormalisation::PerInclination,
+            });
+        }
+        sets
+    }
+
+    /// Largest and smallest over channels of the unclamped `ā_f + ā_b`, per θ_i (1° steps).
+    fn albedo_extremes(p: &ArtistParams) -> Vec<(f64, f64, f64)> {
+        let m = ArtistModel::new(p.clone());
+        (0..=180)
+            .map(|k| {
+                let theta = f64::to_radians(-90.0 + k as f64);
+                let ds = m.dual_scattering(theta, 0.7, f64::INFINITY);
+                let sums: Vec<f64> = ds.iter().map(|(d, _)| d.a_f + d.a_b).collect();
+                let max = sums.iter().cloned().fold(f64::MIN, f64::max);
+                let min = sums.iter().cloned().fold(f64::MAX, f64::min);
+                (theta, max, min)
+            })
+            .collect()
+    }
+
+    /// Thesis eq. 4.17 / Fig. 4.12: with the per-inclination normaliser, `ā_f + ā_b ≤ 1` for
+    /// every θ_i and channel, the brightest channel is exactly 1 (no vanishing), at the default
+    /// and five random parameter sets; the normal-incidence constant exceeds 1 at grazing light.
+    #[test]
+    fn per_inclination_normalisation_conserves_energy_at_every_inclination() {
+        let mut worst_new: f64 = 0.0;
+        let mut worst_old: f64 = 0.0;
+        for (i, p) in parameter_sets().into_iter().enumerate() {
+            p.validate().unwrap();
+            let new = albedo_extremes(&p);
+            let old = albedo_extremes(&ArtistParams {
+                normalisation: ArtistNormalisation::NormalIncidence,
+                ..p.clone()
+            });
+            let max_new = new.iter().map(|e| e.1).fold(0.0, f64::max);
+            let max_old = old.iter().map(|e| e.1).fold(0.0, f64::max);
+            println!(
+                "set {i}: max over θ, channels of ā_f + ā_b: normal-incidence {max_old:.4} → per-inclination {max_new:.4}"
+            );
+            for (theta, max, min) in &new {
+                assert!(*max <= 1.0 + 1e-12, "set {i} θ={theta}: {max}");
+                assert!(
+                    (max - 1.0).abs() < 1e-12,
+                    "set {i} θ={theta}: brightest {max}"
+                );
+                assert!(*min > 0.0, "set {i} θ={theta}: a channel vanished");
+            }
+            worst_new = worst_new.max(max_new);
+            worst_old = worst_old.max(max_old);
+        }
+        println!("all sets: normal-incidence {worst_old:.4} → per-inclination {worst_new:.4}");
+        assert!(
+            worst_old > 1.2,
+            "the normal-incidence variant no longer exceeds 1: {worst_old}"
+        );
+        // The normal-incidence variant is unchanged at θ_i = 0.
+        let p = ArtistParams::default();
+        let a = ArtistModel::new(p.clone()).dual_scattering(0.0, 0.7, 1.0);
+        let b = ArtistModel::new(ArtistParams {
+            normalisation: ArtistNormalisation::NormalIncidence,
+            ..p
+        })
+        .dual_scattering(0.0, 0.7, 1.0);
+        for c in 0..3 {
+            assert_eq!(a[c].0.to_array(), b[c].0.to_array());
         }
     }
 }

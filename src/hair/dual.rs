@@ -464,7 +464,7 @@ mod tests {
     /// hemisphere energies (checks the longitudinal renormalisation and the φ split).
     #[test]
     fn brute_force_two_dimensional_integral_matches_factored_averages() {
-        use crate::optics::quadrature::gauss_legendre_interval;
+        use crate::math::quadrature::gauss_legendre_interval;
         let fiber = blond();
         let q = HQuadrature::default();
         for (theta_i, s) in [(deg(20.0), 0.25), (deg(-70.0), 0.0)] {
@@ -496,7 +496,7 @@ mod tests {
     #[test]
     fn hemisphere_split_matches_direct_phi_integration() {
         use super::super::fiber::azimuthal_pointwise;
-        use crate::optics::quadrature::gauss_legendre_interval;
+        use crate::math::quadrature::gauss_legendre_interval;
         let fiber = blond();
         let q = HQuadrature::default();
         let theta = deg(25.0);
@@ -670,7 +670,7 @@ mod accuracy {
     #[test]
     fn factored_energies_match_pointwise_peer() {
         use super::super::fiber::azimuthal_pointwise;
-        use crate::optics::quadrature::gauss_legendre_interval;
+        use crate::math::quadrature::gauss_legendre_interval;
         let q = HQuadrature::default();
         let fiber = marschner_fiber(7.5);
         let (theta, s) = (0.4, 0.3);

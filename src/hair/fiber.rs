@@ -25,8 +25,8 @@
 //! ([`FresnelModel`]), the default being the exact unpolarised 3-D Fresnel at the true angle of
 //! incidence on the cylinder.
 
+use crate::math::quadrature::gauss_legendre;
 use crate::optics::fresnel::{fresnel_amplitudes_real, fresnel_reflectance_unpolarized};
-use crate::optics::quadrature::gauss_legendre;
 use serde::{Deserialize, Serialize};
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 

@@ -17,7 +17,7 @@
 //!
 //! which keeps Marschner's shape and makes `∫∫ f_s cos²θ_o dθ_o dφ = Σ_p E_p(θ_i)` exactly.
 
-use crate::optics::quadrature::gauss_legendre;
+use crate::math::quadrature::gauss_legendre;
 use std::f64::consts::{FRAC_PI_2, PI};
 
 /// Unit-area Gaussian `exp(−x²/(2 v))/sqrt(2π v)` (`v` = variance).
@@ -95,7 +95,7 @@ mod tests {
     #[test]
     fn gaussian_has_unit_area_and_marschner_lobe_has_area_two_in_theta_o() {
         let v: f64 = 0.01;
-        let a = crate::optics::quadrature::integrate(|x| gaussian(x, v), -1.0, 1.0, 200);
+        let a = crate::math::quadrature::integrate(|x| gaussian(x, v), -1.0, 1.0, 200);
         assert!((a - 1.0).abs() < 1e-12);
         // Narrow centred lobe at θ_i = 0: Z ≈ 2 (area 2 in θ_o, cos ratio ≈ 1).
         let z = marschner_lobe_normalisation(0.0, 0.0, 0.02);

@@ -16,7 +16,8 @@
 //!   `m` and accurate relative to itself for weak absorption;
 //! - `Q_ext = Q_sca + Q_abs` (the optical-theorem sum `(2/x²) Σ (2n+1) Re(a_n + b_n)` is kept as
 //!   [`Efficiencies::q_ext_series`] for consistency checks);
-//! - `Q_back = |Σ (2n+1)(−1)^n (a_n − b_n)|²/x²`;
+//! - `Q_back = |Σ (2n+1)(−1)^n (a_n − b_n)|²/x²` (radar convention, `= 4|S_1(180°)|²/x²`;
+//!   the per-steradian value of MiePlot is `Q_back/(4π)`, [`Efficiencies::q_back_per_sr`]);
 //! - `g = (4/(x² Q_sca)) Σ [n(n+2)/(n+1) Re(a_n a*_{n+1} + b_n b*_{n+1})
 //!   + (2n+1)/(n(n+1)) Re(a_n b*_n)]`.
 
@@ -48,12 +49,21 @@ pub struct Efficiencies {
     pub q_sca: f64,
     /// Absorption efficiency (exactly 0 for real `m`).
     pub q_abs: f64,
-    /// Backscattering efficiency `4|S_1(180°)|²/x²`.
+    /// Backscattering efficiency in the radar convention, `4π (dC_sca/dΩ)(180°)/(π r²) =
+    /// 4|S_1(180°)|²/x²` (see [`Efficiencies::q_back_per_sr`] for MiePlot's, `4π` smaller).
     pub q_back: f64,
     /// Asymmetry parameter `⟨cos θ⟩`.
     pub g: f64,
     /// Optical-theorem series `(2/x²) Σ (2n+1) Re(a_n + b_n)` (equals `q_ext` analytically).
     pub q_ext_series: f64,
+}
+
+impl Efficiencies {
+    /// Backscattering per steradian (MiePlot's convention): `Q_back/(4π) = |S_1(180°)|²/(π x²)`.
+    /// [`Efficiencies::q_back`] is the radar convention, `4π` larger.
+    pub fn q_back_per_sr(&self) -> f64 {
+        self.q_back / (4.0 * std::f64::consts::PI)
+    }
 }
 
 impl MieCoefficients {
@@ -70,10 +80,65 @@ impl MieCoefficients {
 
     /// As [`MieCoefficients::new`] with an explicit truncation order `n_stop` and no domain check
     /// (for convergence studies; `x > 0` and `m ≠ 0` are still required by the maths).
+    ///
+    /// The numerators use `D_n(z) = (n+1)/z − r_n(z)`, `r_n = ψ_{n+1}/ψ_n =
+    /// 1/(D_{n+1}(z) + (n+1)/z)`:
+    /// `D_n(mx)/m − D_n(x) = (n+1)(1 − m²)/(m² x) + r_n(x) − r_n(mx)/m` and
+    /// `m D_n(mx) − D_n(x) = r_n(x) − m r_n(mx)`, which removes the cancellation of the
+    /// `(n+1)/x` poles when `|m x|` is small (the `b_n` numerator is `O(x)` while each term is
+    /// `O(n/x)`: 2.7e-6 relative error in `S_2(90°)` at x = 1e-3, m = 0.982 with the direct
+    /// difference, 1e-15 with this one) and evaluates `1 − m²` exactly as `(1 − m)(1 + m)`.
     pub fn with_order(x: f64, m: Complex64, n_stop: usize) -> Self {
-        let rb = RiccatiBessel::new(x, n_stop);
+        let rb = RiccatiBessel::new(x, n_stop + 1);
         let mut dz = Vec::new();
-        log_derivative_complex(m * x, n_stop, &mut dz);
+        log_derivative_complex(m * x, n_stop + 1, &mut dz);
+        let inv_x = 1.0 / x;
+        let inv_mx = 1.0 / (m * x);
+        let one_minus_m2_over_m2x = (1.0 - m) * (1.0 + m) / (m * m) * inv_x;
+        let inv_m = 1.0 / m;
+        Self::assemble(&rb, m, &dz[1..=n_stop], &dz[1..=n_stop], |n| {
+            let n1 = (n + 1) as f64;
+            let r_x = 1.0 / (rb.log_derivative[n + 1] + n1 * inv_x);
+            let r_mx = 1.0 / (dz[n + 1] + n1 * inv_mx);
+            (
+                n1 * one_minus_m2_over_m2x + r_x - r_mx * inv_m,
+                r_x - m * r_mx,
+            )
+        })
+    }
+
+    /// Coefficients from the log-derivatives `H^a_n`, `H^b_n` (`n = 1..=n_stop`, index 0 is
+    /// `n = 1`) of the inside field at the surface, in the inside argument `m x`:
+    /// `a_n = ψ_n (H^a_n/m − D_n(x)) / ((H^a_n/m + n/x) ξ_n − ξ_{n−1})`,
+    /// `b_n = ψ_n (m H^b_n − D_n(x)) / ((m H^b_n + n/x) ξ_n − ξ_{n−1})`.
+    /// A homogeneous sphere has `H^a_n = H^b_n = D_n(m x)`; a coated one the values carried
+    /// through its shell ([`super::coated`]). `outside` holds `ψ_n`, `χ_n`, `D_n` at `x` for
+    /// `n = 0..=n_stop` (or more). The `Q_abs` identity of the module doc holds for any `H`.
+    pub fn from_log_derivatives(
+        outside: &RiccatiBessel,
+        m: Complex64,
+        ha: &[Complex64],
+        hb: &[Complex64],
+    ) -> Self {
+        let inv_m = 1.0 / m;
+        let dx = &outside.log_derivative;
+        Self::assemble(outside, m, ha, hb, |n| {
+            (ha[n - 1] * inv_m - dx[n], hb[n - 1] * m - dx[n])
+        })
+    }
+
+    /// Shared assembly; `numerators(n)` returns `(H^a_n/m − D_n(x), m H^b_n − D_n(x))`.
+    fn assemble(
+        rb: &RiccatiBessel,
+        m: Complex64,
+        ha: &[Complex64],
+        hb: &[Complex64],
+        numerators: impl Fn(usize) -> (Complex64, Complex64),
+    ) -> Self {
+        let x = rb.x;
+        let n_stop = ha.len();
+        debug_assert_eq!(hb.len(), n_stop);
+        debug_assert!(rb.psi.len() > n_stop);
         let mut a = Vec::with_capacity(n_stop);
         let mut b = Vec::with_capacity(n_stop);
         let mut q_abs = 0.0;
@@ -83,15 +148,15 @@ impl MieCoefficients {
         for n in 1..=n_stop {
             let nx = n as f64 * inv_x;
             let psi = rb.psi[n];
-            let dxn = rb.log_derivative[n];
             let xi = rb.xi(n);
             let xi_prev = Complex64::new(rb.psi_prev(n), -rb.chi_prev(n));
-            let d_over_m = dz[n] * inv_m;
-            let m_d = dz[n] * m;
+            let d_over_m = ha[n - 1] * inv_m;
+            let m_d = hb[n - 1] * m;
             let den_a = (d_over_m + nx) * xi - xi_prev;
             let den_b = (m_d + nx) * xi - xi_prev;
-            let an = (d_over_m - dxn) * psi / den_a;
-            let bn = (m_d - dxn) * psi / den_b;
+            let (num_a, num_b) = numerators(n);
+            let an = num_a * psi / den_a;
+            let bn = num_b * psi / den_b;
             a.push(an);
             b.push(bn);
             q_abs -=

@@ -158,7 +158,7 @@ impl SizeDistribution {
             return (vec![radius_um], vec![1.0]);
         }
         let (lo, hi) = self.support_um();
-        let (x, w) = crate::optics::quadrature::gauss_legendre_interval(points, lo.ln(), hi.ln());
+        let (x, w) = crate::math::quadrature::gauss_legendre_interval(points, lo.ln(), hi.ln());
         let radii: Vec<f64> = x.iter().map(|l| l.exp()).collect();
         let weights = radii
             .iter()

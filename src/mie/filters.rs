@@ -75,7 +75,7 @@ impl PolarisedPhase {
     pub fn from_sphere(sphere: &Sphere, intervals: usize, points: usize, parallel: bool) -> Self {
         let m = intervals.max(2) + intervals % 2;
         let d = PI / m as f64;
-        let (gx, gw) = crate::optics::quadrature::gauss_legendre(points);
+        let (gx, gw) = crate::math::quadrature::gauss_legendre(points);
         let half_cells = m / 2;
         let mut mu = Vec::with_capacity((half_cells + 1) * points);
         let mut wsin = Vec::with_capacity((half_cells + 1) * points);
@@ -288,7 +288,7 @@ fn sun_disc_rows(m: usize, diameter_deg: f64) -> Vec<(usize, Vec<f64>)> {
     let rho = 0.5 * diameter_deg.to_radians();
     let cos_rho = rho.cos();
     let reach = (rho / d).ceil() as usize + 1;
-    let (gx, gw) = crate::optics::quadrature::gauss_legendre(SUN_POINTS);
+    let (gx, gw) = crate::math::quadrature::gauss_legendre(SUN_POINTS);
     let inv_disc = 1.0 / (2.0 * PI * (1.0 - cos_rho));
     // ∫_a^b 2 φ_0(s, t) sin t dt on a piece whose ends may carry a square-root singularity of
     // φ_0: split at the middle and use t = e ± h v² from each end (smooth integrand in v).
@@ -321,7 +321,7 @@ fn sun_disc_rows(m: usize, diameter_deg: f64) -> Vec<(usize, Vec<f64>)> {
     // p̃_i = Σ_j w_ij p_j with w_ij = (2π/ΔΩ_i) ∫_{cell i} sin θ (1/Ω_⊙) ∫_{cell j}
     // 2 φ_0(θ, θ') sin θ' dθ' dθ; the outer integral uses ROW_POINTS Gauss points, the inner
     // one is split at the kinks of φ_0.
-    let (rx, rw) = crate::optics::quadrature::gauss_legendre(ROW_POINTS);
+    let (rx, rw) = crate::math::quadrature::gauss_legendre(ROW_POINTS);
     let cells = cell_solid_angles(m);
     (0..=m)
         .into_par_iter()

@@ -9,9 +9,15 @@
 //! `p = s11/(π x² Q_sca)`, so that `∫_{4π} p dΩ = 1`.
 //!
 //! Validated domain ([`VALIDATED_DOMAIN`], enforced by [`MieCoefficients::new`]):
-//! `10⁻³ ≤ x ≤ 10⁵`, `1.05 ≤ Re m ≤ 2.5`, `0 ≤ Im m ≤ 1`. See `docs/mie.md` for the evidence
-//! (arbitrary-precision references at x = 2000 and 25000, `scatrs` up to 2·10⁴, convergence and
-//! energy checks up to 10⁵) and the accuracy figures.
+//! `10⁻³ ≤ x ≤ 10⁵`, `0.05 ≤ Re m ≤ 10`, `0 ≤ Im m ≤ 10`, `|m − 1| ≥ 10⁻⁵` and `|m| x ≤ 1.5·10⁵`
+//! (bubbles and ice in water, metals such as gold and silver, high-index semiconductors,
+//! water and glass). Evidence in `docs/mie.md`: 40-digit references on 15 indices ×
+//! x = 10⁻³ … 10⁴ (`tests/mie_wide.rs`), the earlier references at x = 2000 and 25000, `scatrs`
+//! up to 2·10⁴, convergence and energy checks up to 10⁵.
+//!
+//! Units: `x` and the angles are dimensionless and in degrees; efficiencies are cross-sections
+//! over `π r²`; `S_1`, `S_2` are dimensionless. A sphere in a medium of index `n_medium`
+//! ([`in_medium`]) takes the relative index `m/n_medium` and the wavelength in the medium.
 //!
 //! Layout: [`riccati`] (Riccati–Bessel functions and log-derivatives, reusable by a Debye
 //! series), [`coefficients`] (`a_n`, `b_n`, efficiencies), [`angular`] (the vectorised
@@ -19,6 +25,7 @@
 //! stage is [`crate::stages::mie`].
 
 pub mod angular;
+pub mod coated;
 pub mod coefficients;
 pub mod distributions;
 pub mod filters;
@@ -29,57 +36,145 @@ pub use coefficients::{Efficiencies, MieCoefficients};
 
 use num_complex::Complex64;
 
-/// The input region whose accuracy is validated (see the module doc).
+/// A region of (size parameter, relative index) whose accuracy is validated.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ValidatedDomain {
+    /// Smallest size parameter `x`.
     pub x_min: f64,
+    /// Largest size parameter `x`.
     pub x_max: f64,
+    /// Smallest `Re m`.
     pub m_re_min: f64,
+    /// Largest `Re m`.
     pub m_re_max: f64,
+    /// Largest `Im m` (the smallest is 0: no gain media).
     pub m_im_max: f64,
+    /// Largest inside size parameter `|m| x`.
+    pub mx_max: f64,
+    /// Smallest `|m − 1|` (a nearly index-matched sphere hardly scatters: its coefficients are
+    /// `∝ m − 1` and the phase function, `s11/(π x² Q_sca)`, is 0/0 at `m = 1`).
+    pub m_minus_one_min: f64,
 }
 
-/// `10⁻³ ≤ x ≤ 10⁵`, `1.05 ≤ Re m ≤ 2.5`, `0 ≤ Im m ≤ 1`.
+impl ValidatedDomain {
+    /// Checks `(x, m)` against this region.
+    pub fn check(&self, x: f64, m: Complex64) -> Result<(), MieError> {
+        if !(self.x_min..=self.x_max).contains(&x) {
+            return Err(MieError::SizeParameterOutOfDomain {
+                x,
+                min: self.x_min,
+                max: self.x_max,
+            });
+        }
+        if !(self.m_re_min..=self.m_re_max).contains(&m.re)
+            || !(0.0..=self.m_im_max).contains(&m.im)
+        {
+            return Err(MieError::IndexOutOfDomain {
+                re: m.re,
+                im: m.im,
+                re_min: self.m_re_min,
+                re_max: self.m_re_max,
+                im_max: self.m_im_max,
+            });
+        }
+        if !((m - 1.0).norm() >= self.m_minus_one_min) {
+            return Err(MieError::NearlyMatchedIndex {
+                re: m.re,
+                im: m.im,
+                min: self.m_minus_one_min,
+            });
+        }
+        let mx = m.norm() * x;
+        if !(mx <= self.mx_max) {
+            return Err(MieError::InsideSizeOutOfDomain {
+                x,
+                m_abs: m.norm(),
+                max: self.mx_max,
+            });
+        }
+        Ok(())
+    }
+}
+
+/// The validated domain of the homogeneous-sphere solution: `10⁻³ ≤ x ≤ 10⁵`,
+/// `0.05 ≤ Re m ≤ 10`, `0 ≤ Im m ≤ 10`, `|m − 1| ≥ 10⁻⁵`, `|m| x ≤ 1.5·10⁵`.
 ///
-/// Upper x: the largest raindrop of interest (5 mm) at 380 nm has x ≈ 8.3·10⁴; 10⁵ keeps the
-/// cost of one sphere below a second and is covered by convergence and energy checks.
-/// Lower x: below 10⁻³ the phase function is Rayleigh to 10⁻⁶ and efficiencies ∝ x⁴ lose
-/// meaning for rendering. Index: water, ice, glass and absorbing aerosols; `Re m → 1` loses
-/// relative accuracy (a_n, b_n ∝ m − 1) and `m < 1` (bubbles) is not validated.
+/// Upper x: a 5 mm drop at 380 nm has x ≈ 8.3·10⁴. `|m| x ≤ 1.5·10⁵` is the largest inside size
+/// parameter of the 40-digit references (m = 10 + 10i at x = 10⁴), so a high-index or metal
+/// sphere reaches x = 10⁵ only when `|m| ≤ 1.5` (water, bubbles). Lower x: below 10⁻³ the
+/// phase function is Rayleigh to 10⁻⁶. `|m − 1| ≥ 10⁻⁵`: the smallest contrast of the
+/// references; at `m = 1` the phase function is 0/0. The algorithm itself (downward `D_n`
+/// from `max(n_stop, |mx|) + 10 M^{1/3} + 100`, the `r_n` numerators of
+/// [`coefficients`]) needs no regime switch inside this domain.
 pub const VALIDATED_DOMAIN: ValidatedDomain = ValidatedDomain {
     x_min: 1e-3,
     x_max: 1e5,
-    m_re_min: 1.05,
-    m_re_max: 2.5,
-    m_im_max: 1.0,
+    m_re_min: 0.05,
+    m_re_max: 10.0,
+    m_im_max: 10.0,
+    mx_max: 1.5e5,
+    m_minus_one_min: 1e-5,
 };
 
 /// Errors of the Mie module.
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum MieError {
-    #[error("size parameter x = {0} is outside the validated domain [1e-3, 1e5] of the Mie module")]
-    SizeParameterOutOfDomain(f64),
     #[error(
-        "refractive index m = {re} + {im}i is outside the validated domain (1.05 <= Re m <= 2.5, 0 <= Im m <= 1)"
+        "size parameter x = {x} is outside the validated domain [{min:e}, {max:e}] of the Mie module"
     )]
-    IndexOutOfDomain { re: f64, im: f64 },
+    SizeParameterOutOfDomain { x: f64, min: f64, max: f64 },
+    #[error(
+        "refractive index m = {re} + {im}i is outside the validated domain ({re_min} <= Re m <= {re_max}, 0 <= Im m <= {im_max})"
+    )]
+    IndexOutOfDomain {
+        re: f64,
+        im: f64,
+        re_min: f64,
+        re_max: f64,
+        im_max: f64,
+    },
+    #[error(
+        "inside size parameter |m| x = {} (x = {x}, |m| = {m_abs}) is outside the validated domain |m| x <= {max:e} of the Mie module",
+        m_abs * x
+    )]
+    InsideSizeOutOfDomain { x: f64, m_abs: f64, max: f64 },
+    #[error(
+        "refractive index m = {re} + {im}i is too close to the outside medium's (|m - 1| < {min:e}): the sphere hardly scatters and the phase function is undefined at m = 1"
+    )]
+    NearlyMatchedIndex { re: f64, im: f64, min: f64 },
 }
 
 /// Checks `(x, m)` against [`VALIDATED_DOMAIN`].
 pub fn check_domain(x: f64, m: Complex64) -> Result<(), MieError> {
-    let d = VALIDATED_DOMAIN;
-    if !(d.x_min..=d.x_max).contains(&x) {
-        return Err(MieError::SizeParameterOutOfDomain(x));
-    }
-    if !(d.m_re_min..=d.m_re_max).contains(&m.re) || !(0.0..=d.m_im_max).contains(&m.im) {
-        return Err(MieError::IndexOutOfDomain { re: m.re, im: m.im });
-    }
-    Ok(())
+    VALIDATED_DOMAIN.check(x, m)
 }
+
+/// [`VALIDATED_DOMAIN`] in words (for table headers).
+pub const VALIDATED_DOMAIN_TEXT: &str = "1e-3 <= x <= 1e5, 0.05 <= Re m <= 10, 0 <= Im m <= 10, |m - 1| >= 1e-5, |m| x <= 1.5e5; vs 40-digit references S1, S2 <= 3e-9 relative where |S|^2 >= 1e-12 of its maximum, Q_ext, Q_sca, g <= 3e-11, Q_back <= 6e-9 (see docs/mie.md)";
+
+/// The two backscattering conventions, as labelled wherever both are printed.
+pub const Q_BACK_CONVENTIONS: &str = "q_back: radar convention, 4 pi (dC_sca/dOmega at 180 deg) / (pi r^2) = |sum_n (2n+1) (-1)^n (a_n - b_n)|^2 / x^2 = 4 |S1(180)|^2 / x^2; q_back_per_sr: per steradian (MiePlot), (dC_sca/dOmega at 180 deg) / (pi r^2) = q_back / (4 pi) = |S1(180)|^2 / (pi x^2)";
 
 /// Size parameter `2π r/λ` from a radius in µm and a wavelength in nm (outside index 1).
 pub fn size_parameter(radius_um: f64, wavelength_nm: f64) -> f64 {
     2.0 * std::f64::consts::PI * radius_um * 1e3 / wavelength_nm
+}
+
+/// A sphere of absolute index `index` (`n + ik`, `k ≥ 0`) in a non-absorbing medium of real
+/// index `n_medium`, lit at the vacuum wavelength `wavelength_nm`: returns the size parameter
+/// `x = 2π r n_medium/λ` (the wavelength in the medium is `λ/n_medium`) and the relative index
+/// `m = index/n_medium` that the Lorenz–Mie solution takes. `S_1`, `S_2`, the efficiencies and
+/// the phase function are then those of the medium (Bohren & Huffman 1983, §4.1).
+pub fn in_medium(
+    radius_um: f64,
+    wavelength_nm: f64,
+    index: Complex64,
+    n_medium: f64,
+) -> (f64, Complex64) {
+    (
+        size_parameter(radius_um, wavelength_nm / n_medium),
+        index / n_medium,
+    )
 }
 
 /// One solved sphere: coefficients, efficiencies and the prepared angular series.
@@ -176,7 +271,11 @@ mod tests {
         assert!(Sphere::new(2e5, Complex64::new(1.33, 0.0)).is_err());
         assert!(Sphere::new(1e-4, Complex64::new(1.33, 0.0)).is_err());
         assert!(Sphere::new(10.0, Complex64::new(1.33, -0.1)).is_err());
-        assert!(Sphere::new(10.0, Complex64::new(0.9, 0.0)).is_err());
+        assert!(Sphere::new(10.0, Complex64::new(0.04, 0.0)).is_err());
+        assert!(Sphere::new(10.0, Complex64::new(1.0, 0.0)).is_err());
+        assert!(Sphere::new(10.0, Complex64::new(10.0, 10.5)).is_err());
+        assert!(Sphere::new(10.0, Complex64::new(0.9, 0.0)).is_ok());
+        assert!(Sphere::new(10.0, Complex64::new(0.1425812, 3.6813284)).is_ok());
         assert!(Sphere::new(10.0, Complex64::new(1.33, 0.0)).is_ok());
     }
 

@@ -44,7 +44,7 @@ pub fn hg_density_sr(cos_theta: f64, g: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::optics::quadrature::integrate;
+    use crate::math::quadrature::integrate;
 
     #[test]
     fn planar_hg_is_normalised_with_mean_cosine_g() {

@@ -1,6 +1,7 @@
-//! Optics primitives shared by every stage. Each primitive lives here exactly once.
+//! Optics primitives shared by every stage. Each primitive lives here exactly once (numerical
+//! primitives without physics are in [`crate::math`]).
 //!
-//! Conventions (shared by all of scatterbake, see `docs/conventions.md`):
+//! Conventions (shared by all of scatterbake, see `docs/vocabulary.md`):
 //! - complex refractive index `m = n + i k`, `k >= 0` absorbing, time dependence `e^{-iωt}`
 //!   (Bohren & Huffman);
 //! - angles in radians in code, with `_rad`/`_deg` in names where confusion is possible;
@@ -10,7 +11,4 @@ pub mod airy_function;
 pub mod colour;
 pub mod fresnel;
 pub mod henyey_greenstein;
-pub mod interp;
-pub mod quadrature;
-pub mod vec3;
 pub mod water;

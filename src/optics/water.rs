@@ -128,7 +128,7 @@ impl WaterIndexModel {
                         max_nm: 700.0,
                     });
                 }
-                Ok(crate::optics::interp::interp1_uniform(
+                Ok(crate::math::interp::interp1_uniform(
                     &SADEGHI_TABLE_3_2,
                     380.0,
                     10.0,

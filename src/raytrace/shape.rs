@@ -241,7 +241,7 @@ impl CosineSeries {
     /// Volume (µm³): (2π/3) ∫ r³ sin θ dθ.
     pub fn volume_um3(&self) -> f64 {
         2.0 * PI / 3.0
-            * crate::optics::quadrature::integrate(
+            * crate::math::quadrature::integrate(
                 |th| self.r_and_rs(th.cos()).0.powi(3) * th.sin(),
                 0.0,
                 PI,
@@ -517,7 +517,7 @@ fn illinois(g: impl Fn(f64) -> f64, mut a: f64, mut ga: f64, mut b: f64, mut gb:
     0.5 * (a + b)
 }
 
-pub(crate) use crate::optics::vec3::{add, cross, dot, norm, normalize, scale, sub};
+pub(crate) use crate::math::vec3::{add, cross, dot, norm, normalize, scale, sub};
 
 #[cfg(test)]
 mod tests {

@@ -416,7 +416,7 @@ impl SphereGo {
     /// Fraction of the flux incident on the silhouette that leaves in order `p`
     /// (unpolarised): `∫₀¹ ½(|ε⊥|² + |ε∥|²) d(b²)`, Gauss–Legendre in `i`.
     pub fn energy_fraction(&self, p: usize) -> f64 {
-        crate::optics::quadrature::integrate(
+        crate::math::quadrature::integrate(
             |i| {
                 let (s, pp) = self.fresnel_product(p, i);
                 0.5 * (s * s + pp * pp) * 2.0 * i.sin() * i.cos()

@@ -609,10 +609,10 @@ fn build_triangles(
             let mut flux = vec![0.0; g.orders];
             for j in 0..g.nr - 1 {
                 let (a, b, c, d) = ((i, j), (i + 1, j), (i + 1, j + 1), (i, j + 1));
-                for o in 0..g.orders {
+                for (o, flux_o) in flux.iter_mut().enumerate() {
                     for tri in [[a, b, c], [a, c, d]] {
                         if let Some((t, f)) = make_triangle(g, grid, band, row0, tri, o) {
-                            flux[o] += f;
+                            *flux_o += f;
                             tris.push(t);
                         }
                     }

@@ -11,156 +11,64 @@ use crate::fur::farfield::{
     COMPONENTS, FarFieldSettings, FurSample, MedullaShapes, MedullaSource, SigmaScaling, TABLE_4_2,
     far_field_with, isotropic_fraction, medulla_sigma,
 };
-use crate::stages::{Job, ParamDoc, PlanError, Stage, TaskSpec, parse_params};
+use crate::stages::{
+    Job, JobError, PlanError, StageSpec, TaskSpec, check_chunks, checks, stage_params,
+};
 use crate::table::Table;
 use crate::table::{Axis, Channel, Schema, TableContent};
 use serde::{Deserialize, Serialize};
 use serde_json::json;
 use std::sync::Arc;
 
-#[derive(Debug, Clone, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-struct Params {
-    /// Sample names from Table 4.2 (default: all ten, in the thesis's column order).
-    #[serde(default = "default_samples")]
-    samples: Vec<String>,
-    /// Incidence inclinations θ_i (deg), |θ_i| < 90.
-    theta_i_deg: Vec<f64>,
-    #[serde(default = "default_theta_r_cells")]
-    theta_r_cells: usize,
-    #[serde(default = "default_phi_cells")]
-    phi_cells: usize,
-    #[serde(default = "default_h_samples")]
-    h_samples: usize,
-    #[serde(default = "default_medulla_rows")]
-    medulla_rows: usize,
-    #[serde(default = "default_medulla_bins")]
-    medulla_bins: usize,
-    photons: u64,
-    #[serde(default)]
-    seed: u64,
-    #[serde(default)]
-    medulla_sigma_scaling: SigmaScaling,
-    /// Take the medulla profiles from shipped tables instead of the on-the-fly Monte Carlo.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    medulla_tables: Option<MedullaTablePaths>,
+stage_params! {
+    /// Parameters of `[table.params]`.
+    pub struct FarFieldParams {
+        /// Sample names from Table 4.2 (default: all ten, in the thesis's column order).
+        samples: Vec<String> = default(TABLE_4_2.iter().map(|s| s.name.to_string()).collect()),
+            "list of string",
+            "bobcat, cat, deer, dog, mouse, rabbit, raccoon, red_fox, springbok, human";
+        /// Incidence inclinations θ_i (deg), |θ_i| < 90.
+        theta_i_deg: Vec<f64> = required, "list of float",
+            "incidence inclinations from the fibre's normal plane, |θ_i| < 90";
+        theta_r_cells: usize = default(90), "integer", "θ_r cells over [−90, 90] deg";
+        phi_cells: usize = default(180), "integer", "φ cells over [−180, 180) deg (even)";
+        h_samples: usize = default(400), "integer",
+            "offsets across the fibre width (midpoint rule in asin h)";
+        medulla_rows: usize = default(17), "integer",
+            "rows h' ∈ [0, 1] of the on-the-fly azimuthal medulla profiles";
+        medulla_bins: usize = default(360), "integer",
+            "exit bins of the medulla profiles (multiple of 4)";
+        photons: u64 = required, "integer",
+            "Monte Carlo photons per medulla profile (expected-value estimator)";
+        seed: u64 = default(0), "integer", "random seed of the medulla profiles";
+        medulla_sigma_scaling: SigmaScaling = default(SigmaScaling::KappaHalf), "string",
+            "σ_ms → table σ per medulla radius: kappa_half (σκ/2, σ per diameter), kappa (σκ), thesis_over_kappa (σ/κ)";
+        /// Take the medulla profiles from shipped tables instead of the on-the-fly Monte Carlo.
+        #[serde(skip_serializing_if = "Option::is_none")]
+        medulla_tables: Option<MedullaTablePaths> = optional("none (Monte Carlo on the fly)"),
+            "table { azimuthal = path, longitudinal = path }",
+            "look the medulla profiles up in fur-medulla-azimuthal/1 and fur-medulla-longitudinal/1 tables (their grids must cover every sample's σ, g and θ'_i); the tables' payload digests enter the content key";
+    }
 }
 
 /// Paths (relative to the working directory of the build) of the medulla tables a far field
 /// looks its profiles up in.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
-struct MedullaTablePaths {
+pub struct MedullaTablePaths {
     azimuthal: String,
     longitudinal: String,
 }
 
-fn default_samples() -> Vec<String> {
-    TABLE_4_2.iter().map(|s| s.name.to_string()).collect()
-}
-fn default_theta_r_cells() -> usize {
-    90
-}
-fn default_phi_cells() -> usize {
-    180
-}
-fn default_h_samples() -> usize {
-    400
-}
-fn default_medulla_rows() -> usize {
-    17
-}
-fn default_medulla_bins() -> usize {
-    360
-}
-
-const PARAMS: &[ParamDoc] = &[
-    ParamDoc {
-        name: "samples",
-        kind: "list of string",
-        default: "all ten of Table 4.2",
-        description: "bobcat, cat, deer, dog, mouse, rabbit, raccoon, red_fox, springbok, human",
-    },
-    ParamDoc {
-        name: "theta_i_deg",
-        kind: "list of float",
-        default: "required",
-        description: "incidence inclinations from the fibre's normal plane, |θ_i| < 90",
-    },
-    ParamDoc {
-        name: "theta_r_cells",
-        kind: "integer",
-        default: "90",
-        description: "θ_r cells over [−90, 90] deg",
-    },
-    ParamDoc {
-        name: "phi_cells",
-        kind: "integer",
-        default: "180",
-        description: "φ cells over [−180, 180) deg (even)",
-    },
-    ParamDoc {
-        name: "h_samples",
-        kind: "integer",
-        default: "400",
-        description: "offsets across the fibre width (midpoint rule in asin h)",
-    },
-    ParamDoc {
-        name: "medulla_rows",
-        kind: "integer",
-        default: "17",
-        description: "rows h' ∈ [0, 1] of the on-the-fly azimuthal medulla profiles",
-    },
-    ParamDoc {
-        name: "medulla_bins",
-        kind: "integer",
-        default: "360",
-        description: "exit bins of the medulla profiles (multiple of 4)",
-    },
-    ParamDoc {
-        name: "photons",
-        kind: "integer",
-        default: "required",
-        description: "Monte Carlo photons per medulla profile (expected-value estimator)",
-    },
-    ParamDoc {
-        name: "seed",
-        kind: "integer",
-        default: "0",
-        description: "random seed of the medulla profiles",
-    },
-    ParamDoc {
-        name: "medulla_sigma_scaling",
-        kind: "string",
-        default: "kappa_half",
-        description: "σ_ms → table σ per medulla radius: kappa_half (σκ/2, σ per diameter), kappa (σκ), thesis_over_kappa (σ/κ)",
-    },
-    ParamDoc {
-        name: "medulla_tables",
-        kind: "table { azimuthal = path, longitudinal = path }",
-        default: "none (Monte Carlo on the fly)",
-        description: "look the medulla profiles up in fur-medulla-azimuthal/1 and fur-medulla-longitudinal/1 tables (their grids must cover every sample's σ, g and θ'_i); the tables' payload digests enter the content key",
-    },
-];
-
 /// The `fur-farfield` stage.
 pub struct FurFarFieldStage;
 
-impl Stage for FurFarFieldStage {
-    fn name(&self) -> &'static str {
-        "fur-farfield"
-    }
-    fn algorithm_version(&self) -> u32 {
-        1
-    }
-    fn summary(&self) -> &'static str {
-        "far-field fur profiles S(θ_r, φ; θ_i) of the practical coaxial-cylinder model for Tseng 2015 Table 4.2"
-    }
-    fn parameters(&self) -> &'static [ParamDoc] {
-        PARAMS
-    }
-    fn plan(&self, params: toml::de::ValueDeserializer<'_>) -> Result<Box<dyn Job>, PlanError> {
-        let p: Params = parse_params(params)?;
+impl StageSpec for FurFarFieldStage {
+    const NAME: &'static str = "fur-farfield";
+    const VERSION: u32 = 1;
+    const SUMMARY: &'static str = "far-field fur profiles S(θ_r, φ; θ_i) of the practical coaxial-cylinder model for Tseng 2015 Table 4.2";
+    type Params = FarFieldParams;
+    fn plan_params(&self, p: FarFieldParams) -> Result<Box<dyn Job>, PlanError> {
         let mut samples = Vec::new();
         for n in &p.samples {
             let s = TABLE_4_2
@@ -185,18 +93,12 @@ impl Stage for FurFarFieldStage {
         if p.theta_i_deg.windows(2).any(|w| w[1] <= w[0]) {
             return Err(PlanError::invalid("theta_i_deg", "must be increasing"));
         }
-        if !(6..=1800).contains(&p.theta_r_cells) {
-            return Err(PlanError::invalid("theta_r_cells", "must be in 6..=1800"));
-        }
+        checks::within("theta_r_cells", p.theta_r_cells, 6, 1800, "")?;
         if !(8..=3600).contains(&p.phi_cells) || !p.phi_cells.is_multiple_of(2) {
             return Err(PlanError::invalid("phi_cells", "must be even, 8..=3600"));
         }
-        if !(16..=100_000).contains(&p.h_samples) {
-            return Err(PlanError::invalid("h_samples", "must be in 16..=100000"));
-        }
-        if !(2..=1000).contains(&p.medulla_rows) {
-            return Err(PlanError::invalid("medulla_rows", "must be in 2..=1000"));
-        }
+        checks::within("h_samples", p.h_samples, 16, 100_000, "")?;
+        checks::within("medulla_rows", p.medulla_rows, 2, 1000, "")?;
         if !(8..=36_000).contains(&p.medulla_bins) || !p.medulla_bins.is_multiple_of(4) {
             return Err(PlanError::invalid(
                 "medulla_bins",
@@ -210,9 +112,9 @@ impl Stage for FurFarFieldStage {
             None => None,
             Some(paths) => {
                 let open = |path: &str, schema: &str| -> Result<Table, PlanError> {
-                    let t = Table::open(path).map_err(|e| {
-                        PlanError::invalid("medulla_tables", format!("{path}: {e}"))
-                    })?;
+                    // The table error names the file.
+                    let t = Table::open(path)
+                        .map_err(|e| PlanError::invalid("medulla_tables", e.to_string()))?;
                     if t.header.schema.name != schema {
                         return Err(PlanError::invalid(
                             "medulla_tables",
@@ -242,7 +144,11 @@ impl Stage for FurFarFieldStage {
                     };
                     let sigma = medulla_sigma(s, p.medulla_sigma_scaling);
                     MedullaShapes::from_table(&tables.0, sigma, s.g, &set).map_err(|e| {
-                        PlanError::invalid("medulla_tables", format!("sample {}: {e:#}", s.name))
+                        PlanError::invalid_because(
+                            "medulla_tables",
+                            &format!("sample {}", s.name),
+                            &e,
+                        )
                     })?;
                     for &ti in &p.theta_i_deg {
                         let sin_ti = ti.to_radians().sin();
@@ -255,9 +161,10 @@ impl Stage for FurFarFieldStage {
                             &set,
                         )
                         .map_err(|e| {
-                            PlanError::invalid(
+                            PlanError::invalid_because(
                                 "medulla_tables",
-                                format!("sample {} at theta_i {ti}: {e:#}", s.name),
+                                &format!("sample {} at theta_i {ti}", s.name),
+                                &e,
                             )
                         })?;
                     }
@@ -270,7 +177,7 @@ impl Stage for FurFarFieldStage {
 }
 
 struct FarFieldJob {
-    p: Params,
+    p: FarFieldParams,
     samples: Vec<FurSample>,
     /// (azimuthal, longitudinal) medulla tables when `medulla_tables` is given.
     tables: Option<Arc<(Table, Table)>>,
@@ -317,7 +224,7 @@ impl Job for FarFieldJob {
             })
             .collect()
     }
-    fn run_task(&self, index: usize) -> anyhow::Result<Vec<f32>> {
+    fn run_task(&self, index: usize) -> Result<Vec<f32>, JobError> {
         let s = &self.samples[index];
         let set = self.settings();
         let sigma = medulla_sigma(s, self.p.medulla_sigma_scaling);
@@ -349,15 +256,15 @@ impl Job for FarFieldJob {
         }
         Ok(out)
     }
-    fn assemble(&self, chunks: Vec<Vec<f32>>) -> anyhow::Result<TableContent> {
+    fn assemble(&self, chunks: Vec<Vec<f32>>) -> Result<TableContent, JobError> {
         let n = self.chunk_len();
         let mut data = Vec::with_capacity(n * chunks.len());
         let (nt, np) = (self.p.theta_r_cells, self.p.phi_cells);
         let area = (180.0 / nt as f64).to_radians() * (360.0 / np as f64).to_radians();
         // Energy per (sample, θ_i) and component, from the stored (f32) values.
         let mut energies = Vec::new();
+        check_chunks(&chunks, self.samples.len(), n)?;
         for ch in &chunks {
-            anyhow::ensure!(ch.len() == n, "chunk of length {} (expected {n})", ch.len());
             data.extend_from_slice(ch);
             for ti in 0..self.p.theta_i_deg.len() {
                 let block = &ch[ti * nt * np * CHANNELS..(ti + 1) * nt * np * CHANNELS];
@@ -454,6 +361,8 @@ impl Job for FarFieldJob {
 mod tests {
     use super::*;
 
+    use crate::stages::Stage;
+
     fn plan_str(s: &str) -> Result<Box<dyn Job>, PlanError> {
         FurFarFieldStage.plan(toml::de::ValueDeserializer::parse(s).unwrap())
     }
@@ -465,8 +374,7 @@ mod tests {
         )
         .unwrap();
         assert_eq!(job.tasks().len(), 2);
-        let chunks: Vec<Vec<f32>> = (0..2).map(|i| job.run_task(i).unwrap()).collect();
-        let t = job.assemble(chunks).unwrap();
+        let t = crate::stages::run_in_memory(job.as_ref()).unwrap();
         assert_eq!(t.data.len(), t.expected_len());
         // energy channel = sum of components, everything non-negative.
         for row in t.data.chunks(CHANNELS) {
@@ -490,21 +398,24 @@ mod tests {
 
     #[test]
     fn rejects_bad_params() {
-        assert!(plan_str("{ theta_i_deg = [0.0], photons = 10, samples = [\"yeti\"] }").is_err());
-        assert!(plan_str("{ theta_i_deg = [90.0], photons = 10 }").is_err());
-        assert!(plan_str("{ theta_i_deg = [0.0], photons = 0 }").is_err());
-        assert!(plan_str("{ theta_i_deg = [0.0], photons = 10, phi_cells = 7 }").is_err());
-        assert!(plan_str("{ theta_i_deg = [0.0], photons = 10, bogus = 1 }").is_err());
-        assert!(plan_str("{ theta_i_deg = [0.0], photons = 10 }").is_ok());
+        crate::stages::assert_planning(
+            &FurFarFieldStage,
+            &[
+                "theta_i_deg = [0.0], photons = 10, samples = [\"yeti\"]",
+                "theta_i_deg = [90.0], photons = 10",
+                "theta_i_deg = [0.0], photons = 0",
+                "theta_i_deg = [0.0], photons = 10, phi_cells = 7",
+                "theta_i_deg = [0.0], photons = 10, bogus = 1",
+            ],
+            &["theta_i_deg = [0.0], photons = 10"],
+        );
     }
 
     /// Build a small medulla table of `stage` into `dir` and return its path.
     fn medulla_table(stage: &dyn Stage, lines: &str, dir: &std::path::Path, name: &str) -> String {
         let job = crate::stages::plan_from_lines(stage, lines).unwrap();
-        let chunks: Vec<Vec<f32>> = (0..job.tasks().len())
-            .map(|i| job.run_task(i).unwrap())
-            .collect();
-        let mut t = Table::from_content(job.assemble(chunks).unwrap(), Default::default()).unwrap();
+        let content = crate::stages::run_in_memory(job.as_ref()).unwrap();
+        let mut t = Table::from_content(content, Default::default()).unwrap();
         let path = dir.join(name);
         crate::table::write_table_atomic(&mut t, &path).unwrap();
         path.display().to_string()

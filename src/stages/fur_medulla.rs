@@ -18,12 +18,14 @@
 //! are stored in the attributes as flat row-major arrays over (sigma, g, entry).
 
 use crate::fur::medulla::{Estimator, Geometry, McSettings, Profile, normalise_lobes, simulate};
-use crate::stages::{Job, ParamDoc, PlanError, Stage, TaskSpec, parse_params};
+use crate::stages::{
+    Job, JobError, ParamDoc, PlanError, StageParams, StageSpec, TaskSpec, check_chunks,
+    stage_params,
+};
 use crate::table::{Axis, Channel, Schema, TableContent};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use serde_json::json;
-use std::f64::consts::PI;
 
 /// A 1-D grid: an explicit increasing list, or `{ start, stop, count }` with both endpoints
 /// included (`centred = true`: `count` cell centres of [start, stop] instead).
@@ -105,122 +107,40 @@ fn check_grid(
     Ok(())
 }
 
-/// Parameters shared by both stages.
-#[derive(Debug, Clone, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-struct Params {
-    /// Scattering coefficient per unit medulla radius (dimensionless).
-    sigma: Grid,
-    /// Planar HG anisotropy.
-    g: Grid,
-    /// Entry offsets h' ∈ [−1, 1] (azimuthal only).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    h: Option<Grid>,
-    /// Entry inclinations θ'_i in degrees, in (−90, 90) (longitudinal only).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    theta_i_deg: Option<Grid>,
-    #[serde(default = "default_bins")]
-    bins: usize,
-    photons: u64,
-    #[serde(default)]
-    seed: u64,
-    #[serde(default)]
-    estimator: Estimator,
+stage_params! {
+    /// Parameters shared by both stages.
+    pub struct MedullaParams {
+        /// Scattering coefficient per unit medulla radius (dimensionless).
+        sigma: Grid = required, "list of float | {start, stop, count[, centred]}",
+            "scattering coefficient per unit MEDULLA radius (dimensionless; azimuthal disc radius 1, slab half-thickness 1), 0–200; ranges include both endpoints";
+        /// Planar HG anisotropy.
+        g: Grid = required, "list of float | {start, stop, count}",
+            "planar Henyey–Greenstein anisotropy, 0 ≤ g ≤ 0.95";
+        /// Entry offsets h' ∈ [−1, 1] (azimuthal only).
+        #[serde(skip_serializing_if = "Option::is_none")]
+        h: Option<Grid> = optional("required"), "list of float | {start, stop, count}",
+            "entry offset h' on the unit medulla circle, −1 ≤ h' ≤ 1";
+        /// Entry inclinations θ'_i in degrees, in (−90, 90) (longitudinal only).
+        #[serde(skip_serializing_if = "Option::is_none")]
+        theta_i_deg: Option<Grid> = optional("required"),
+            "list of float | {start, stop, count, centred}",
+            "entry inclination θ'_i in degrees, strictly inside (−90, 90)";
+        bins: usize = default(720), "integer",
+            "exit bins, a multiple of 4: over [−π, π) (azimuthal), over both faces with bins/2 per lobe (longitudinal)";
+        photons: u64 = required, "integer", "paths per entry";
+        seed: u64 = default(0), "integer", "random seed (streams derived per entry)";
+        estimator: Estimator = default(Estimator::Expected), "string",
+            "`expected` (next-event, default) or `histogram`";
+    }
 }
 
-fn default_bins() -> usize {
-    720
+/// The entry parameter a family does not take (left out of its documentation).
+fn foreign_entry_key(family: Family) -> &'static str {
+    match family {
+        Family::Azimuthal => "theta_i_deg",
+        Family::Longitudinal => "h",
+    }
 }
-
-const PARAMS_AZ: &[ParamDoc] = &[
-    ParamDoc {
-        name: "sigma",
-        kind: "list of float | {start, stop, count[, centred]}",
-        default: "required",
-        description: "scattering coefficient per unit MEDULLA radius (dimensionless), 0–200; ranges include both endpoints",
-    },
-    ParamDoc {
-        name: "g",
-        kind: "list of float | {start, stop, count}",
-        default: "required",
-        description: "planar Henyey–Greenstein anisotropy, 0 ≤ g ≤ 0.95",
-    },
-    ParamDoc {
-        name: "h",
-        kind: "list of float | {start, stop, count}",
-        default: "required",
-        description: "entry offset h' on the unit medulla circle, −1 ≤ h' ≤ 1",
-    },
-    ParamDoc {
-        name: "bins",
-        kind: "integer",
-        default: "720",
-        description: "exit-direction bins over [−π, π), even",
-    },
-    ParamDoc {
-        name: "photons",
-        kind: "integer",
-        default: "required",
-        description: "paths per entry",
-    },
-    ParamDoc {
-        name: "seed",
-        kind: "integer",
-        default: "0",
-        description: "random seed (streams derived per entry)",
-    },
-    ParamDoc {
-        name: "estimator",
-        kind: "string",
-        default: "expected",
-        description: "`expected` (next-event, default) or `histogram`",
-    },
-];
-
-const PARAMS_LONG: &[ParamDoc] = &[
-    ParamDoc {
-        name: "sigma",
-        kind: "list of float | {start, stop, count[, centred]}",
-        default: "required",
-        description: "scattering coefficient per unit MEDULLA radius (slab half-thickness 1), 0–200",
-    },
-    ParamDoc {
-        name: "g",
-        kind: "list of float | {start, stop, count}",
-        default: "required",
-        description: "planar Henyey–Greenstein anisotropy, 0 ≤ g ≤ 0.95",
-    },
-    ParamDoc {
-        name: "theta_i_deg",
-        kind: "list of float | {start, stop, count, centred}",
-        default: "required",
-        description: "entry inclination θ'_i in degrees, strictly inside (−90, 90)",
-    },
-    ParamDoc {
-        name: "bins",
-        kind: "integer",
-        default: "720",
-        description: "exit bins over both faces (bins/2 per lobe), even",
-    },
-    ParamDoc {
-        name: "photons",
-        kind: "integer",
-        default: "required",
-        description: "paths per entry",
-    },
-    ParamDoc {
-        name: "seed",
-        kind: "integer",
-        default: "0",
-        description: "random seed (streams derived per entry)",
-    },
-    ParamDoc {
-        name: "estimator",
-        kind: "string",
-        default: "expected",
-        description: "`expected` (next-event, default) or `histogram`",
-    },
-];
 
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Family {
@@ -233,11 +153,7 @@ pub struct FurMedullaAzimuthalStage;
 /// Stage for the longitudinal family C^M(θ'_r; θ'_i, σ, g).
 pub struct FurMedullaLongitudinalStage;
 
-fn plan(
-    family: Family,
-    params: toml::de::ValueDeserializer<'_>,
-) -> Result<Box<dyn Job>, PlanError> {
-    let p: Params = parse_params(params)?;
+fn plan(family: Family, p: MedullaParams) -> Result<Box<dyn Job>, PlanError> {
     let sigma = p.sigma.points();
     let g = p.g.points();
     check_grid("sigma", &sigma, 0.0, 200.0, false, false)?;
@@ -288,39 +204,38 @@ fn plan(
     }))
 }
 
-impl Stage for FurMedullaAzimuthalStage {
-    fn name(&self) -> &'static str {
-        "fur-medulla-azimuthal"
+/// The documentation of `MedullaParams` without the other family's entry key.
+fn family_docs(family: Family) -> Vec<ParamDoc> {
+    MedullaParams::docs()
+        .into_iter()
+        .filter(|d| d.name != foreign_entry_key(family))
+        .collect()
+}
+
+impl StageSpec for FurMedullaAzimuthalStage {
+    const NAME: &'static str = "fur-medulla-azimuthal";
+    const VERSION: u32 = 1;
+    const SUMMARY: &'static str =
+        "fur medulla azimuthal scattering C^N(φ'; h', σ, g): 2-D Monte Carlo in the unit disc";
+    type Params = MedullaParams;
+    fn plan_params(&self, p: MedullaParams) -> Result<Box<dyn Job>, PlanError> {
+        plan(Family::Azimuthal, p)
     }
-    fn algorithm_version(&self) -> u32 {
-        1
-    }
-    fn summary(&self) -> &'static str {
-        "fur medulla azimuthal scattering C^N(φ'; h', σ, g): 2-D Monte Carlo in the unit disc"
-    }
-    fn parameters(&self) -> &'static [ParamDoc] {
-        PARAMS_AZ
-    }
-    fn plan(&self, params: toml::de::ValueDeserializer<'_>) -> Result<Box<dyn Job>, PlanError> {
-        plan(Family::Azimuthal, params)
+    fn parameter_docs(&self) -> Vec<ParamDoc> {
+        family_docs(Family::Azimuthal)
     }
 }
 
-impl Stage for FurMedullaLongitudinalStage {
-    fn name(&self) -> &'static str {
-        "fur-medulla-longitudinal"
+impl StageSpec for FurMedullaLongitudinalStage {
+    const NAME: &'static str = "fur-medulla-longitudinal";
+    const VERSION: u32 = 1;
+    const SUMMARY: &'static str = "fur medulla longitudinal scattering C^M(θ'_r; θ'_i, σ, g): back/forward lobes of a slab of thickness 2";
+    type Params = MedullaParams;
+    fn plan_params(&self, p: MedullaParams) -> Result<Box<dyn Job>, PlanError> {
+        plan(Family::Longitudinal, p)
     }
-    fn algorithm_version(&self) -> u32 {
-        1
-    }
-    fn summary(&self) -> &'static str {
-        "fur medulla longitudinal scattering C^M(θ'_r; θ'_i, σ, g): back/forward lobes of a slab of thickness 2"
-    }
-    fn parameters(&self) -> &'static [ParamDoc] {
-        PARAMS_LONG
-    }
-    fn plan(&self, params: toml::de::ValueDeserializer<'_>) -> Result<Box<dyn Job>, PlanError> {
-        plan(Family::Longitudinal, params)
+    fn parameter_docs(&self) -> Vec<ParamDoc> {
+        family_docs(Family::Longitudinal)
     }
 }
 
@@ -329,7 +244,7 @@ const SIGMA_LIMIT: f64 = 1e-9;
 
 struct MedullaJob {
     family: Family,
-    p: Params,
+    p: MedullaParams,
     sigma: Vec<f64>,
     g: Vec<f64>,
     entries: Vec<f64>,
@@ -462,7 +377,7 @@ impl Job for MedullaJob {
         }
         t
     }
-    fn run_task(&self, index: usize) -> anyhow::Result<Vec<f32>> {
+    fn run_task(&self, index: usize) -> Result<Vec<f32>, JobError> {
         let sigma = self.sigma[index / self.g.len()];
         let g = self.g[index % self.g.len()];
         let n = self.entries.len();
@@ -514,7 +429,7 @@ impl Job for MedullaJob {
         data.extend(scalars);
         Ok(data)
     }
-    fn assemble(&self, chunks: Vec<Vec<f32>>) -> anyhow::Result<TableContent> {
+    fn assemble(&self, chunks: Vec<Vec<f32>>) -> Result<TableContent, JobError> {
         let (b, c, ns, n) = (
             self.p.bins,
             self.channels(),
@@ -524,13 +439,8 @@ impl Job for MedullaJob {
         let row_len = n * b * c;
         let mut data = Vec::with_capacity(chunks.len() * row_len);
         let mut scal: Vec<Vec<f64>> = vec![Vec::new(); ns];
+        check_chunks(&chunks, self.sigma.len() * self.g.len(), row_len + n * ns)?;
         for ch in &chunks {
-            anyhow::ensure!(
-                ch.len() == row_len + n * ns,
-                "chunk of length {} (expected {})",
-                ch.len(),
-                row_len + n * ns
-            );
             data.extend_from_slice(&ch[..row_len]);
             for i in 0..n {
                 for (j, s) in scal.iter_mut().enumerate() {
@@ -646,7 +556,6 @@ impl Job for MedullaJob {
                 }
             }
         };
-        let _ = PI;
         Ok(content)
     }
 }
@@ -655,16 +564,19 @@ impl Job for MedullaJob {
 mod tests {
     use super::*;
 
+    use crate::stages::Stage;
+    use std::f64::consts::PI;
+
     fn plan_str(family: Family, s: &str) -> Result<Box<dyn Job>, PlanError> {
         let v = toml::de::ValueDeserializer::parse(s).unwrap();
-        plan(family, v)
+        match family {
+            Family::Azimuthal => FurMedullaAzimuthalStage.plan(v),
+            Family::Longitudinal => FurMedullaLongitudinalStage.plan(v),
+        }
     }
 
     fn run(job: &dyn Job) -> TableContent {
-        let chunks = (0..job.tasks().len())
-            .map(|i| job.run_task(i).unwrap())
-            .collect();
-        job.assemble(chunks).unwrap()
+        crate::stages::run_in_memory(job).unwrap()
     }
 
     #[test]
@@ -737,22 +649,14 @@ mod tests {
 
     #[test]
     fn shipped_manifests_plan_with_the_documented_grids() {
-        let root = env!("CARGO_MANIFEST_DIR");
         for (file, tasks) in [
             ("manifests/fur-medulla.toml", 45),
             ("manifests/full/fur-medulla-full.toml", 1024),
         ] {
-            let text = std::fs::read_to_string(format!("{root}/{file}")).unwrap();
-            let doc: toml::Table = toml::from_str(&text).unwrap();
-            for entry in doc["table"].as_array().unwrap() {
-                let stage = crate::stages::find(entry["stage"].as_str().unwrap()).unwrap();
-                let params = entry["params"].to_string();
-                let job = stage
-                    .plan(toml::de::ValueDeserializer::parse(&params).unwrap())
-                    .unwrap();
+            for (_, job) in crate::stages::plan_manifest_file(file) {
                 assert_eq!(job.tasks().len(), tasks, "{file}");
                 if tasks == 1024 {
-                    let p: Params = serde_json::from_value(job.parameters()).unwrap();
+                    let p: MedullaParams = serde_json::from_value(job.parameters()).unwrap();
                     let sigma = p.sigma.points();
                     assert_eq!((sigma.len(), sigma[0], sigma[63]), (64, 0.0, 20.0));
                     assert!((sigma[1] - 20.0 / 63.0).abs() < 1e-12);
@@ -767,40 +671,21 @@ mod tests {
 
     #[test]
     fn rejects_bad_params() {
-        assert!(
-            plan_str(
-                Family::Azimuthal,
-                "{ sigma = [1.0], g = [0.0], h = [1.5], photons = 1 }"
-            )
-            .is_err()
+        let common = "sigma = [1.0], g = [0.0], photons = 1";
+        crate::stages::assert_planning(
+            &FurMedullaAzimuthalStage,
+            &[
+                &format!("{common}, h = [1.5]"),
+                "sigma = [1.0], g = [0.99], h = [0.5], photons = 1",
+                &format!("{common}, h = [0.5], bogus = 2"),
+                &format!("{common}, theta_i_deg = [0.5]"),
+            ],
+            &[&format!("{common}, h = [0.5]")],
         );
-        assert!(
-            plan_str(
-                Family::Longitudinal,
-                "{ sigma = [1.0], g = [0.0], theta_i_deg = [90.0], photons = 1 }"
-            )
-            .is_err()
-        );
-        assert!(
-            plan_str(
-                Family::Azimuthal,
-                "{ sigma = [1.0], g = [0.99], h = [0.5], photons = 1 }"
-            )
-            .is_err()
-        );
-        assert!(
-            plan_str(
-                Family::Azimuthal,
-                "{ sigma = [1.0], g = [0.0], h = [0.5], photons = 1, bogus = 2 }"
-            )
-            .is_err()
-        );
-        assert!(
-            plan_str(
-                Family::Azimuthal,
-                "{ sigma = [1.0], g = [0.0], theta_i_deg = [0.5], photons = 1 }"
-            )
-            .is_err()
+        crate::stages::assert_planning(
+            &FurMedullaLongitudinalStage,
+            &[&format!("{common}, theta_i_deg = [90.0]")],
+            &[&format!("{common}, theta_i_deg = [0.5]")],
         );
     }
 }

@@ -10,132 +10,41 @@ use crate::mie::filters::{
     FINE_CELL_POINTS, PolarisedPhase, SunDiscOperator, fine_intervals, gaussian_blur, resample_bins,
 };
 use crate::mie::{Sphere, size_parameter};
-use crate::optics::water::{SADEGHI_WAVELENGTHS_NM, WaterIndexModel};
-use crate::stages::{
-    Job, ParamDoc, PlanError, Stage, TaskSpec, checks, join_f64, parse_params, split_f64,
+use crate::stages::common::{
+    CONTRACT_CHANNELS, FilteredPhase, filtered_phase_params, phase_chunk, scalar_arrays,
 };
-use crate::table::phase_contract::{self, CHANNELS};
+use crate::stages::phase_contract;
+use crate::stages::{Job, JobError, PlanError, StageSpec, TaskSpec, checks};
 use crate::table::{Axis, Schema, TableContent};
 use num_complex::Complex64;
 use rayon::prelude::*;
-use serde::{Deserialize, Serialize};
 
 /// The stage.
 pub struct MieStage;
 
-/// Parameters of `[table.params]`.
-#[derive(Debug, Clone, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct MieParams {
-    /// Vacuum wavelengths (nm); default: the thesis' 33 samples 380–700 nm.
-    #[serde(default = "default_wavelengths")]
-    pub wavelengths_nm: Vec<f64>,
-    /// Monodisperse radii (µm), strictly increasing. Exactly one of `radii_um`/`distributions`.
-    #[serde(default)]
-    pub radii_um: Option<Vec<f64>>,
-    /// Size distributions (tables with `kind = "lognormal" | "gamma" | "marshall-palmer" |
-    /// "monodisperse"`).
-    #[serde(default)]
-    pub distributions: Option<Vec<SizeDistribution>>,
-    /// `iapws1997` or `sadeghi-table-3.2`.
-    #[serde(default = "default_model")]
-    pub water_index_model: String,
-    /// Water temperature for `iapws1997` (°C).
-    #[serde(default = "default_temperature")]
-    pub temperature_c: f64,
-    /// Output angular step (deg); 180/step must be an integer.
-    #[serde(default = "default_step")]
-    pub angle_step_deg: f64,
-    /// Angular diameter of the sun's disc (deg); 0 disables the convolution.
-    #[serde(default = "default_sun")]
-    pub sun_diameter_deg: f64,
-    /// Optional extra 1-D Gaussian blur (deg, standard deviation); 0 = off.
-    #[serde(default)]
-    pub gaussian_sigma_deg: f64,
-    /// Gauss–Legendre points in ln r for distributions.
-    #[serde(default = "default_radius_points")]
-    pub radius_points: usize,
+filtered_phase_params! {
+    /// Parameters of `[table.params]`.
+    pub struct MieParams {
+        /// Monodisperse radii (µm), strictly increasing. Exactly one of `radii_um`/`distributions`.
+        pub radii_um: Option<Vec<f64>> = optional("required unless distributions"),
+            "list of float, µm", "monodisperse drop radii, strictly increasing";
+        /// Size distributions (tables with `kind = "lognormal" | "gamma" | "marshall-palmer" |
+        /// "monodisperse"`).
+        pub distributions: Option<Vec<SizeDistribution>> = optional("required unless radii_um"),
+            "list of tables",
+            "size distributions: kind = lognormal {median_radius_um, geometric_sigma} | gamma {effective_radius_um, effective_variance} | marshall-palmer {rain_rate_mm_h, min_radius_um=50, max_radius_um=3000} | monodisperse {radius_um}";
+        /// Optional extra 1-D Gaussian blur (deg, standard deviation); 0 = off.
+        pub gaussian_sigma_deg: f64 = default(0.0),
+            "float, deg", "optional extra Gaussian blur in angle";
+        /// Gauss–Legendre points in ln r for distributions.
+        pub radius_points: usize = default(24),
+            "integer", "Gauss–Legendre nodes in ln r per distribution";
+    }
 }
 
-fn default_wavelengths() -> Vec<f64> {
-    SADEGHI_WAVELENGTHS_NM.to_vec()
-}
-fn default_model() -> String {
-    "iapws1997".into()
-}
-fn default_temperature() -> f64 {
-    20.0
-}
-fn default_step() -> f64 {
-    0.05
-}
-fn default_sun() -> f64 {
-    0.5
-}
-fn default_radius_points() -> usize {
-    24
-}
-
-const PARAMS: &[ParamDoc] = &[
-    ParamDoc {
-        name: "wavelengths_nm",
-        kind: "list of float, nm",
-        default: "33 samples 380–700 nm",
-        description: "vacuum wavelengths",
-    },
-    ParamDoc {
-        name: "radii_um",
-        kind: "list of float, µm",
-        default: "required unless distributions",
-        description: "monodisperse drop radii, strictly increasing",
-    },
-    ParamDoc {
-        name: "distributions",
-        kind: "list of tables",
-        default: "required unless radii_um",
-        description: "size distributions: kind = lognormal {median_radius_um, geometric_sigma} | gamma {effective_radius_um, effective_variance} | marshall-palmer {rain_rate_mm_h, min_radius_um=50, max_radius_um=3000} | monodisperse {radius_um}",
-    },
-    ParamDoc {
-        name: "water_index_model",
-        kind: "string",
-        default: "iapws1997",
-        description: "iapws1997 | sadeghi-table-3.2",
-    },
-    ParamDoc {
-        name: "temperature_c",
-        kind: "float, °C",
-        default: "20",
-        description: "water temperature (iapws1997)",
-    },
-    ParamDoc {
-        name: "angle_step_deg",
-        kind: "float, deg",
-        default: "0.05",
-        description: "output bin width; 180/step integer; values are bin averages",
-    },
-    ParamDoc {
-        name: "sun_diameter_deg",
-        kind: "float, deg",
-        default: "0.5",
-        description: "uniform solar disc convolution (0 = off)",
-    },
-    ParamDoc {
-        name: "gaussian_sigma_deg",
-        kind: "float, deg",
-        default: "0",
-        description: "optional extra Gaussian blur in angle",
-    },
-    ParamDoc {
-        name: "radius_points",
-        kind: "integer",
-        default: "24",
-        description: "Gauss–Legendre nodes in ln r per distribution",
-    },
-];
-
-/// Number of f32 values appended to each task chunk: Q_ext, Q_sca, Q_back, g, each as an f32
-/// pair (hi, lo) with hi + lo = the f64 value to ~1e-14 relative (chunks are f32 vectors).
-const TAIL: usize = 8;
+/// The f64 scalars at the end of each task chunk (as f32 pairs, see
+/// [`phase_chunk`]), stored in the header as `[entry][wavelength]` arrays.
+const SCALARS: [&str; 4] = ["q_ext", "q_sca", "q_back", "g"];
 
 /// The entries (second axis) of a job.
 #[derive(Debug, Clone)]
@@ -183,6 +92,12 @@ pub struct FilterSettings {
     pub radius_points: usize,
 }
 
+/// The smallest odd integer ≥ `k` (odd refinements keep every output bin centre on a cell
+/// centre of the finer grid, so that cells nest in bins).
+fn odd_at_least(k: usize) -> usize {
+    if k.is_multiple_of(2) { k + 1 } else { k }
+}
+
 impl FilterSettings {
     /// Intervals of the intermediate grid on which the disc/Gaussian act: the output step
     /// divided by the smallest odd `k` giving a step ≤ min(sun diameter/40, σ/4) (so that cells
@@ -196,11 +111,14 @@ impl FilterSettings {
         if self.gaussian_sigma_deg > 0.0 {
             limit = limit.min(self.gaussian_sigma_deg / 4.0);
         }
-        let mut k = (step / limit - 1e-9).ceil().max(1.0) as usize;
-        if k.is_multiple_of(2) {
-            k += 1;
-        }
-        self.output_intervals * k
+        self.output_intervals * odd_at_least((step / limit - 1e-9).ceil().max(1.0) as usize)
+    }
+
+    /// Intervals of the fine grid of cell averages for a sphere of `n_stop` terms: an odd
+    /// multiple of the intermediate grid (`mid` intervals) with at least
+    /// [`fine_intervals`]`(n_stop, mid)` cells.
+    pub fn fine_grid_intervals(mid: usize, n_stop: usize) -> usize {
+        mid * odd_at_least(fine_intervals(n_stop, mid).div_ceil(mid))
     }
 
     /// The sun-disc operator on the intermediate grid (build once per job, share across tasks).
@@ -228,14 +146,8 @@ pub fn compute_entry(
         .map(|(&r, &w)| {
             let x = size_parameter(r, wavelength_nm);
             let sphere = Sphere::new(x, m)?;
-            let n_stop = sphere.coefficients.n_stop();
-            // fine cells nest in intermediate cells: an odd multiple of `mid`
-            let need = fine_intervals(n_stop, mid);
-            let mut k = need.div_ceil(mid);
-            if k.is_multiple_of(2) {
-                k += 1;
-            }
-            let fine = PolarisedPhase::from_sphere(&sphere, mid * k, FINE_CELL_POINTS, false);
+            let fine_cells = FilterSettings::fine_grid_intervals(mid, sphere.coefficients.n_stop());
+            let fine = PolarisedPhase::from_sphere(&sphere, fine_cells, FINE_CELL_POINTS, false);
             let curve = resample_bins(&fine, mid);
             let e = sphere.efficiencies;
             let area = std::f64::consts::PI * r * r;
@@ -280,113 +192,49 @@ pub fn compute_entry(
 
 struct MieJob {
     p: MieParams,
-    model: WaterIndexModel,
     entries: Entries,
-    indices: Vec<f64>,
-    settings: FilterSettings,
-    sun: std::sync::OnceLock<SunDiscOperator>,
+    filter: FilteredPhase,
 }
 
-impl Stage for MieStage {
-    fn name(&self) -> &'static str {
-        "mie"
-    }
+impl StageSpec for MieStage {
+    const NAME: &'static str = "mie";
     /// 2: axes radius × wavelength × angle, Q and g kept in f64. 3: `sadeghi-table-3.2`
     /// corrected at 580–650 nm; attribute `sun_diameter_deg`.
-    fn algorithm_version(&self) -> u32 {
-        3
-    }
-    fn summary(&self) -> &'static str {
-        "Lorenz–Mie phase functions of water drops (radii or size distributions), sun-disc smoothed, bin-integrated"
-    }
-    fn parameters(&self) -> &'static [ParamDoc] {
-        PARAMS
-    }
-    fn plan(&self, params: toml::de::ValueDeserializer<'_>) -> Result<Box<dyn Job>, PlanError> {
-        let p: MieParams = parse_params(params)?;
-        Ok(Box::new(plan_job(p)?))
-    }
-}
-
-fn plan_job(p: MieParams) -> Result<MieJob, PlanError> {
-    checks::increasing("wavelengths_nm", &p.wavelengths_nm, true)?;
-    let (model, indices) = checks::water_indices(
-        &p.water_index_model,
-        Some(p.temperature_c),
-        "wavelengths_nm",
-        &p.wavelengths_nm,
-    )?;
-    let entries = match (&p.radii_um, &p.distributions) {
-        (Some(r), None) => {
-            checks::increasing("radii_um", r, true)?;
-            Entries::Radii(r.clone())
-        }
-        (None, Some(d)) => {
-            if d.is_empty() {
-                return Err(PlanError::invalid("distributions", "must not be empty"));
+    const VERSION: u32 = 3;
+    const SUMMARY: &'static str = "Lorenz–Mie phase functions of water drops (radii or size distributions), sun-disc smoothed, bin-integrated";
+    type Params = MieParams;
+    fn plan_params(&self, p: MieParams) -> Result<Box<dyn Job>, PlanError> {
+        let filter = FilteredPhase::plan(p.filter_keys(p.gaussian_sigma_deg, p.radius_points))?;
+        let (entries, entries_key) = match (&p.radii_um, &p.distributions) {
+            (Some(r), None) => {
+                checks::increasing("radii_um", r, true)?;
+                (Entries::Radii(r.clone()), "radii_um")
             }
-            for (i, dist) in d.iter().enumerate() {
-                dist.validate()
-                    .map_err(|m| PlanError::invalid(&format!("distributions[{i}]"), m))?;
+            (None, Some(d)) => {
+                if d.is_empty() {
+                    return Err(PlanError::invalid("distributions", "must not be empty"));
+                }
+                for (i, dist) in d.iter().enumerate() {
+                    dist.validate()
+                        .map_err(|m| PlanError::invalid(&format!("distributions[{i}]"), m))?;
+                }
+                (Entries::Distributions(d.clone()), "distributions")
             }
-            Entries::Distributions(d.clone())
-        }
-        _ => {
-            return Err(PlanError::invalid(
-                "radii_um",
-                "give exactly one of `radii_um` and `distributions`",
-            ));
-        }
-    };
-    let output_intervals = checks::angle_step_intervals("angle_step_deg", p.angle_step_deg)?;
-    if !(0.0..=5.0).contains(&p.sun_diameter_deg) {
-        return Err(PlanError::invalid(
-            "sun_diameter_deg",
-            "must be within 0–5 deg",
-        ));
-    }
-    if !(0.0..=10.0).contains(&p.gaussian_sigma_deg) {
-        return Err(PlanError::invalid(
-            "gaussian_sigma_deg",
-            "must be within 0–10 deg",
-        ));
-    }
-    if !(4..=512).contains(&p.radius_points) {
-        return Err(PlanError::invalid("radius_points", "must be within 4–512"));
-    }
-    // every (wavelength, radius) must be inside the validated Mie domain
-    for e in 0..entries.len() {
-        let (lo, hi) = entries.distribution(e).support_um();
-        for (l, n) in p.wavelengths_nm.iter().zip(&indices) {
-            for r in [lo, hi] {
-                let x = size_parameter(r, *l);
-                crate::mie::check_domain(x, Complex64::new(*n, 0.0)).map_err(|err| {
-                    PlanError::invalid(
-                        if p.radii_um.is_some() {
-                            "radii_um"
-                        } else {
-                            "distributions"
-                        },
-                        format!("radius {r} µm at {l} nm: {err}"),
-                    )
-                })?;
+            _ => {
+                return Err(PlanError::invalid(
+                    "radii_um",
+                    "give exactly one of `radii_um` and `distributions`",
+                ));
             }
+        };
+        // every wavelength with the radii at the ends of each entry's support must be inside the
+        // validated Mie domain
+        for e in 0..entries.len() {
+            let (lo, hi) = entries.distribution(e).support_um();
+            filter.check_domain(entries_key, &[lo, hi])?;
         }
+        Ok(Box::new(MieJob { p, entries, filter }))
     }
-    let settings = FilterSettings {
-        output_intervals,
-        sun_diameter_deg: p.sun_diameter_deg,
-        gaussian_sigma_deg: p.gaussian_sigma_deg,
-        radius_points: p.radius_points,
-    };
-    Ok(MieJob {
-        p,
-        model,
-        entries,
-        indices,
-        settings,
-        sun: std::sync::OnceLock::new(),
-    })
 }
 
 impl MieJob {
@@ -407,107 +255,76 @@ impl Job for MieJob {
         serde_json::to_value(&self.p).expect("params serialise")
     }
     fn tasks(&self) -> Vec<TaskSpec> {
-        let mut out = Vec::new();
-        for e in 0..self.entries.len() {
+        self.filter.tasks(self.entries.len(), |e, l, n| {
             let d = self.entries.distribution(e);
-            for (l, n) in self.p.wavelengths_nm.iter().zip(&self.indices) {
-                out.push(TaskSpec {
-                    label: format!("λ={l} nm {}", serde_json::to_string(&d).unwrap_or_default()),
-                    params: serde_json::json!({ "wavelength_nm": l, "n": n, "entry": d }),
-                });
+            TaskSpec {
+                label: format!("λ={l} nm {}", serde_json::to_string(&d).unwrap_or_default()),
+                params: serde_json::json!({ "wavelength_nm": l, "n": n, "entry": d }),
             }
-        }
-        out
+        })
     }
-    fn run_task(&self, index: usize) -> anyhow::Result<Vec<f32>> {
-        let n_w = self.p.wavelengths_nm.len();
-        let (e, w) = (index / n_w, index % n_w);
-        let m = Complex64::new(self.indices[w], 0.0);
-        let sun = self.sun.get_or_init(|| self.settings.sun_operator());
+    fn run_task(&self, index: usize) -> Result<Vec<f32>, JobError> {
+        let (e, wavelength_nm, m) = self.filter.task(index);
         let r = compute_entry(
             &self.entries.distribution(e),
-            self.p.wavelengths_nm[w],
+            wavelength_nm,
             m,
-            &self.settings,
-            sun,
+            &self.filter.settings,
+            self.filter.sun(),
         )?;
-        let (phase, dolp) = (r.curve.phase(), r.curve.dolp());
-        let mut out = Vec::with_capacity(phase.len() * 4 + TAIL);
-        for j in 0..phase.len() {
-            out.extend([
-                phase[j] as f32,
-                r.curve.i_perp[j] as f32,
-                r.curve.i_par[j] as f32,
-                dolp[j] as f32,
-            ]);
-        }
-        for q in [r.q_ext, r.q_sca, r.q_back, r.g] {
-            out.extend(split_f64(q));
-        }
-        Ok(out)
+        Ok(phase_chunk(
+            &r.curve,
+            &[],
+            &[r.q_ext, r.q_sca, r.q_back, r.g],
+        ))
     }
-    fn assemble(&self, chunks: Vec<Vec<f32>>) -> anyhow::Result<TableContent> {
-        let n_w = self.p.wavelengths_nm.len();
-        let n_a = self.settings.output_intervals + 1;
-        let per = n_a * CHANNELS.len();
-        anyhow::ensure!(
-            chunks.len() == n_w * self.entries.len(),
-            "wrong number of chunks"
-        );
-        let mut data = Vec::with_capacity(chunks.len() * per);
-        let mut scalars: [Vec<Vec<f64>>; 4] = Default::default();
-        for (i, c) in chunks.iter().enumerate() {
-            anyhow::ensure!(
-                c.len() == per + TAIL,
-                "chunk {i} has {} values, expected {}",
-                c.len(),
-                per + TAIL
-            );
-            data.extend_from_slice(&c[..per]);
-            if i % n_w == 0 {
-                scalars.iter_mut().for_each(|s| s.push(Vec::new()));
-            }
-            for (k, s) in scalars.iter_mut().enumerate() {
-                let v = join_f64(c[per + 2 * k], c[per + 2 * k + 1]);
-                s.last_mut().expect("row").push(v);
-            }
-        }
-        let mut a = serde_json::Map::new();
+    fn assemble(&self, chunks: Vec<Vec<f32>>) -> Result<TableContent, JobError> {
+        let (data, tails) = self.filter.split_chunks(
+            &chunks,
+            self.entries.len(),
+            CONTRACT_CHANNELS,
+            SCALARS.len(),
+        )?;
+        let mut a = self.filter.attributes("integral over 4pi sr equals 1");
         let s = |v: &str| serde_json::Value::from(v);
-        a.extend(phase_contract::attributes(
-            "integral over 4pi sr equals 1",
-            &self.model,
-            self.p.sun_diameter_deg,
-        ));
-        a.insert("refractive_index_real".into(), self.indices.clone().into());
-        a.insert(
-            "sun_disc_model".into(),
-            s("uniform disc (no limb darkening), exact 2-D average on the sphere"),
-        );
         a.insert(
             "gaussian_sigma_deg".into(),
             self.p.gaussian_sigma_deg.into(),
         );
-        a.insert("angular_resampling".into(), s("each value is the solid-angle average over its bin [theta - step/2, theta + step/2] (clipped at 0 and 180 deg) of the single-sphere curve, computed as cell averages with 6 Gauss points per cell of at most 180/n_stop deg; no point sampling"));
-        a.insert("validated_domain".into(), s("1e-3 <= x <= 1e5, 1.05 <= Re m <= 2.5, 0 <= Im m <= 1; s11 vs arbitrary-precision references <= 1e-8 relative (see docs/mie.md)"));
+        a.insert(
+            "validated_domain".into(),
+            s(crate::mie::VALIDATED_DOMAIN_TEXT),
+        );
         a.insert("conventions".into(), s("Bohren & Huffman: exp(-i omega t), m = n + ik; i_perp = |S1|^2, i_par = |S2|^2 over (pi x^2 Q_sca); phase = (i_perp + i_par)/2; dolp = (i_perp - i_par)/(i_perp + i_par)"));
         a.insert("size_distribution_weighting".into(), s("normalised phase functions mixed with weights n(r) dr * C_sca(r); Gauss-Legendre in ln r"));
         if let Entries::Distributions(d) = &self.entries {
             a.insert("distributions".into(), serde_json::to_value(d)?);
         }
-        let names = ["q_ext", "q_sca", "q_back", "g"];
-        for (k, v) in scalars.into_iter().enumerate() {
-            a.insert(names[k].into(), serde_json::to_value(v)?);
+        for (k, name) in SCALARS.iter().enumerate() {
+            a.insert(
+                (*name).into(),
+                serde_json::to_value(scalar_arrays(&tails, k))?,
+            );
         }
-        a.insert("scalar_layout".into(), s("q_ext, q_sca, q_back, g: [entry][wavelength] (f64); ensemble averages <C>/<pi r^2>, g weighted by C_sca"));
+        // MiePlot's per-steradian Q_back is the radar-convention one over 4π.
+        let per_sr: Vec<Vec<f64>> = scalar_arrays(&tails, 2)
+            .iter()
+            .map(|row| {
+                row.iter()
+                    .map(|q| q / (4.0 * std::f64::consts::PI))
+                    .collect()
+            })
+            .collect();
+        a.insert("q_back_per_sr".into(), serde_json::to_value(per_sr)?);
+        a.insert(
+            "q_back_convention".into(),
+            s(crate::mie::Q_BACK_CONVENTIONS),
+        );
+        a.insert("scalar_layout".into(), s("q_ext, q_sca, q_back, q_back_per_sr, g: [entry][wavelength] (f64); ensemble averages <C>/<pi r^2>, g weighted by C_sca"));
         Ok(TableContent {
             schema: Schema::new("mie-phase", 1),
             description: "Lorenz-Mie phase functions of water drops per wavelength".into(),
-            axes: vec![
-                self.entry_axis(),
-                Axis::values("wavelength", "nm", self.p.wavelengths_nm.clone()),
-                Axis::uniform("scattering_angle", "deg", 0.0, self.p.angle_step_deg, n_a),
-            ],
+            axes: self.filter.axes(self.entry_axis()),
             channels: phase_contract::channels("over pi x^2 Q_sca"),
             attributes: a,
             data,
@@ -518,32 +335,35 @@ impl Job for MieJob {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    fn plan(toml_lines: &str) -> Result<Box<dyn Job>, PlanError> {
-        crate::stages::plan_from_lines(&MieStage, toml_lines)
-    }
+    use crate::optics::water::WaterIndexModel;
+    use crate::stages::common::bin_integrals;
+    use crate::stages::join_f64;
+    use crate::stages::plan_from_lines;
 
     #[test]
     fn rejects_bad_params() {
-        assert!(plan("radii_um = [10.0]\nangle_step_deg = 0.07").is_err());
-        assert!(plan("radii_um = [10.0, 5.0]").is_err());
-        assert!(plan("radii_um = [1e5]\nwavelengths_nm = [380.0]").is_err());
-        assert!(plan("wavelengths_nm = [550.0]").is_err());
-        assert!(plan("radii_um = [10.0]\nunknown = 1").is_err());
-        assert!(plan("radii_um = [10.0]\nwater_index_model = \"sadeghi-table-3.2\"\nwavelengths_nm = [750.0]").is_err());
+        crate::stages::assert_planning(
+            &MieStage,
+            &[
+                "radii_um = [10.0]\nangle_step_deg = 0.07",
+                "radii_um = [10.0, 5.0]",
+                "radii_um = [1e5]\nwavelengths_nm = [380.0]",
+                "wavelengths_nm = [550.0]",
+                "radii_um = [10.0]\nunknown = 1",
+                "radii_um = [10.0]\nwater_index_model = \"sadeghi-table-3.2\"\nwavelengths_nm = [750.0]",
+            ],
+            &["radii_um = [10.0]"],
+        );
     }
 
     /// A small job end to end: table shape, contract attributes, and ∫ p dΩ = 1 over the
     /// output bins after sun disc and bin integration.
     #[test]
     fn small_job_is_normalised() {
-        let job =
-            plan("radii_um = [2.0, 20.0]\nwavelengths_nm = [450.0, 650.0]\nangle_step_deg = 0.5")
-                .unwrap();
-        let chunks: Vec<Vec<f32>> = (0..job.tasks().len())
-            .map(|i| job.run_task(i).unwrap())
-            .collect();
-        let t = job.assemble(chunks).unwrap();
+        let t = crate::stages::table_from_lines(
+            &MieStage,
+            "radii_um = [2.0, 20.0]\nwavelengths_nm = [450.0, 650.0]\nangle_step_deg = 0.5",
+        );
         assert_eq!(t.data.len(), t.expected_len());
         assert_eq!(t.axes[0].name, "radius");
         assert_eq!(t.axes[1].name, "wavelength");
@@ -564,36 +384,29 @@ mod tests {
         assert!((q - direct).abs() <= 1e-12 * direct, "{q} vs {direct}");
         assert!((q - q as f32 as f64).abs() > 0.0, "stored as f64, not f32");
         let cells = crate::mie::filters::cell_solid_angles(360);
-        for row in t.data.chunks(361 * 4) {
-            let e: f64 = row
-                .chunks(4)
-                .zip(&cells)
-                .map(|(c, w)| c[0] as f64 * w)
-                .sum();
+        for e in bin_integrals(&t.data, 4, 0, &cells) {
             assert!((e - 1.0).abs() < 1e-5, "integral {e}");
-            // phase = (i_perp + i_par)/2
-            assert!(
-                row.chunks(4)
-                    .all(|c| (c[0] - 0.5 * (c[1] + c[2])).abs() <= 1e-6 * c[0].abs())
-            );
         }
+        // phase = (i_perp + i_par)/2
+        assert!(
+            t.data
+                .chunks(4)
+                .all(|c| (c[0] - 0.5 * (c[1] + c[2])).abs() <= 1e-6 * c[0].abs())
+        );
     }
 
     /// A size distribution entry: normalised, and its ensemble Q_sca lies between the
     /// single-sphere values at the ends of the support (weights n(r) dr · π r²).
     #[test]
     fn distribution_entry_is_normalised() {
-        let job = plan(
+        let job = plan_from_lines(
+            &MieStage,
             "distributions = [{ kind = \"gamma\", effective_radius_um = 3.0, effective_variance = 0.1 }]\nwavelengths_nm = [550.0]\nangle_step_deg = 0.5\nradius_points = 8",
         )
         .unwrap();
         let chunk = job.run_task(0).unwrap();
         let cells = crate::mie::filters::cell_solid_angles(360);
-        let e: f64 = chunk[..361 * 4]
-            .chunks(4)
-            .zip(&cells)
-            .map(|(c, w)| c[0] as f64 * w)
-            .sum();
+        let e = bin_integrals(&chunk[..361 * 4], 4, 0, &cells)[0];
         assert!((e - 1.0).abs() < 1e-5, "integral {e}");
         let q_sca = join_f64(chunk[361 * 4 + 2], chunk[361 * 4 + 3]);
         assert!(q_sca > 1.8 && q_sca < 2.6, "Q_sca {q_sca}");

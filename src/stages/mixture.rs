@@ -19,29 +19,20 @@
 //! `monodisperse` (the `mie` stage's kinds), or `explicit` radii with number weights.
 
 use crate::mie::distributions::SizeDistribution;
-use crate::mie::filters::{
-    FINE_CELL_POINTS, PolarisedPhase, SunDiscOperator, fine_intervals, resample_bins,
-};
+use crate::mie::filters::{FINE_CELL_POINTS, PolarisedPhase, resample_bins};
 use crate::mie::{MieError, Sphere, size_parameter};
-use crate::optics::water::{SADEGHI_WAVELENGTHS_NM, WaterIndexModel};
 use crate::raytrace::sphere1d::{Phase1dOptions, SphereGo, sphere_phase_1d};
+use crate::stages::common::{
+    CONTRACT_CHANNELS, FilteredPhase, filtered_phase_params, phase_chunk, scalar_arrays,
+};
 use crate::stages::mie::FilterSettings;
-use crate::stages::{Job, ParamDoc, PlanError, Stage, TaskSpec, checks, parse_params};
-use crate::table::phase_contract::{self, CHANNELS};
+use crate::stages::phase_contract;
+use crate::stages::{Job, JobError, PlanError, StageSpec, TaskSpec, checks};
 use crate::table::{Axis, Schema, TableContent};
 use num_complex::Complex64;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::f64::consts::PI;
-
-/// Errors of a mixture entry.
-#[derive(Debug, thiserror::Error)]
-pub enum MixtureError {
-    #[error("Mie part: {0}")]
-    Mie(#[from] MieError),
-    #[error("distribution {entry}: total scattering cross-section {value} is not positive")]
-    EmptyMixture { entry: usize, value: f64 },
-}
 
 /// The stage.
 pub struct MixtureStage;
@@ -70,31 +61,17 @@ impl MixtureEntry {
             MixtureEntry::Distribution(d) => d.quadrature(points),
         }
     }
-}
 
-fn default_wavelengths() -> Vec<f64> {
-    SADEGHI_WAVELENGTHS_NM.to_vec()
-}
-fn default_model() -> String {
-    "iapws1997".into()
-}
-fn default_temperature() -> f64 {
-    20.0
-}
-fn default_step() -> f64 {
-    0.05
-}
-fn default_sun() -> f64 {
-    0.5
-}
-fn default_radius_points() -> usize {
-    24
-}
-fn default_handover() -> f64 {
-    DEFAULT_HANDOVER_UM
-}
-fn default_max_order() -> usize {
-    3
+    /// Smallest and largest radius (µm).
+    fn support_um(&self) -> (f64, f64) {
+        match self {
+            MixtureEntry::Explicit(e) => e
+                .radii_um
+                .iter()
+                .fold((f64::INFINITY, 0.0), |(lo, hi), &r| (lo.min(r), hi.max(r))),
+            MixtureEntry::Distribution(d) => d.support_um(),
+        }
+    }
 }
 
 /// Default handover radius (µm): above it the size parameter at 700 nm exceeds ~900 and the
@@ -104,114 +81,64 @@ pub const DEFAULT_HANDOVER_UM: f64 = 100.0;
 /// Smallest radius the traced path accepts (µm), as the `raytrace` stage.
 const MIN_TRACED_UM: f64 = 10.0;
 
-/// Parameters of `[table.params]`.
-#[derive(Debug, Clone, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct MixtureParams {
-    /// One table entry per distribution.
-    pub distributions: Vec<MixtureEntry>,
-    #[serde(default = "default_wavelengths")]
-    pub wavelengths_nm: Vec<f64>,
-    #[serde(default = "default_model")]
-    pub water_index_model: String,
-    #[serde(default = "default_temperature")]
-    pub temperature_c: f64,
-    #[serde(default = "default_step")]
-    pub angle_step_deg: f64,
-    #[serde(default = "default_sun")]
-    pub sun_diameter_deg: f64,
-    #[serde(default = "default_radius_points")]
-    pub radius_points: usize,
-    /// Radii below this use Lorenz–Mie, radii at or above it the traced 1-D path (µm).
-    #[serde(default = "default_handover")]
-    pub handover_radius_um: f64,
-    /// Highest order traced for the large drops.
-    #[serde(default = "default_max_order")]
-    pub max_order: usize,
+/// The f64 scalar at the end of each task chunk: the traced share of the scattering
+/// cross-section.
+const SCALARS: [&str; 1] = ["traced_fraction"];
+
+filtered_phase_params! {
+    /// Parameters of `[table.params]`.
+    pub struct MixtureParams {
+        /// One table entry per distribution.
+        pub distributions: Vec<MixtureEntry> = required, "list of tables",
+            "kind = marshall-palmer {rain_rate_mm_h, min_radius_um, max_radius_um} | gamma | lognormal | monodisperse (as the mie stage), or {radii_um, number_weights}";
+        /// Gauss–Legendre points in ln r for distributions.
+        pub radius_points: usize = default(24),
+            "integer", "Gauss–Legendre nodes in ln r per distribution";
+        /// Radii below this use Lorenz–Mie, radii at or above it the traced 1-D path (µm).
+        pub handover_radius_um: f64 = default(DEFAULT_HANDOVER_UM),
+            "float, µm", "radii below use Lorenz–Mie, radii at or above the traced 1-D sphere path";
+        /// Highest order traced for the large drops.
+        pub max_order: usize = default(3),
+            "integer", "highest order traced for the large drops, 1–8";
+    }
 }
 
-const PARAMS: &[ParamDoc] = &[
-    ParamDoc {
-        name: "distributions",
-        kind: "list of tables",
-        default: "required",
-        description: "kind = marshall-palmer {rain_rate_mm_h, min_radius_um, max_radius_um} | gamma | lognormal | monodisperse (as the mie stage), or {radii_um, number_weights}",
-    },
-    ParamDoc {
-        name: "wavelengths_nm",
-        kind: "list of float, nm",
-        default: "33 samples 380–700 nm",
-        description: "vacuum wavelengths, strictly increasing",
-    },
-    ParamDoc {
-        name: "water_index_model",
-        kind: "string",
-        default: "iapws1997",
-        description: "iapws1997 | sadeghi-table-3.2",
-    },
-    ParamDoc {
-        name: "temperature_c",
-        kind: "float, °C",
-        default: "20",
-        description: "water temperature (iapws1997)",
-    },
-    ParamDoc {
-        name: "angle_step_deg",
-        kind: "float, deg",
-        default: "0.05",
-        description: "output scattering-angle step (divides 180)",
-    },
-    ParamDoc {
-        name: "sun_diameter_deg",
-        kind: "float, deg",
-        default: "0.5",
-        description: "sun's disc convolved with the mix (0 = off)",
-    },
-    ParamDoc {
-        name: "radius_points",
-        kind: "integer",
-        default: "24",
-        description: "Gauss–Legendre nodes in ln r per distribution",
-    },
-    ParamDoc {
-        name: "handover_radius_um",
-        kind: "float, µm",
-        default: "100",
-        description: "radii below use Lorenz–Mie, radii at or above the traced 1-D sphere path",
-    },
-    ParamDoc {
-        name: "max_order",
-        kind: "integer",
-        default: "3",
-        description: "highest order traced for the large drops, 1–8",
-    },
-];
-
-impl Stage for MixtureStage {
-    fn name(&self) -> &'static str {
-        "mixture"
-    }
-    fn algorithm_version(&self) -> u32 {
-        1
-    }
-    fn summary(&self) -> &'static str {
-        "drop-size mixtures: Lorenz–Mie for small drops, traced spheres for large ones, weighted by number × scattering cross-section"
-    }
-    fn parameters(&self) -> &'static [ParamDoc] {
-        PARAMS
-    }
-    fn plan(&self, params: toml::de::ValueDeserializer<'_>) -> Result<Box<dyn Job>, PlanError> {
-        let p: MixtureParams = parse_params(params)?;
-        Ok(Box::new(MixtureJob::new(p)?))
+impl StageSpec for MixtureStage {
+    const NAME: &'static str = "mixture";
+    const VERSION: u32 = 1;
+    const SUMMARY: &'static str = "drop-size mixtures: Lorenz–Mie for small drops, traced spheres for large ones, weighted by number × scattering cross-section";
+    type Params = MixtureParams;
+    fn plan_params(&self, p: MixtureParams) -> Result<Box<dyn Job>, PlanError> {
+        let filter = FilteredPhase::plan(p.filter_keys(0.0, p.radius_points))?;
+        if p.distributions.is_empty() {
+            return Err(PlanError::invalid("distributions", "must not be empty"));
+        }
+        for (i, e) in p.distributions.iter().enumerate() {
+            validate_entry(i, e)?;
+        }
+        if !(p.handover_radius_um >= MIN_TRACED_UM) {
+            return Err(PlanError::invalid(
+                "handover_radius_um",
+                format!("must be ≥ {MIN_TRACED_UM} µm (geometric optics needs x ≫ 1)"),
+            ));
+        }
+        checks::within("max_order", p.max_order, 1, 8, "")?;
+        // The Mie part of every entry must lie in the validated Mie domain.
+        for e in &p.distributions {
+            let (lo, hi) = e.support_um();
+            let mie: Vec<f64> = [lo, hi.min(p.handover_radius_um)]
+                .into_iter()
+                .filter(|r| *r < p.handover_radius_um)
+                .collect();
+            filter.check_domain("distributions", &mie)?;
+        }
+        Ok(Box::new(MixtureJob { p, filter }))
     }
 }
 
 struct MixtureJob {
     p: MixtureParams,
-    model: WaterIndexModel,
-    indices: Vec<f64>,
-    settings: FilterSettings,
-    sun: std::sync::OnceLock<SunDiscOperator>,
+    filter: FilteredPhase,
 }
 
 fn validate_entry(i: usize, e: &MixtureEntry) -> Result<(), PlanError> {
@@ -234,56 +161,6 @@ fn validate_entry(i: usize, e: &MixtureEntry) -> Result<(), PlanError> {
     }
 }
 
-impl MixtureJob {
-    fn new(p: MixtureParams) -> Result<Self, PlanError> {
-        checks::increasing("wavelengths_nm", &p.wavelengths_nm, true)?;
-        let (model, indices) = checks::water_indices(
-            &p.water_index_model,
-            Some(p.temperature_c),
-            "wavelengths_nm",
-            &p.wavelengths_nm,
-        )?;
-        if p.distributions.is_empty() {
-            return Err(PlanError::invalid("distributions", "must not be empty"));
-        }
-        for (i, e) in p.distributions.iter().enumerate() {
-            validate_entry(i, e)?;
-        }
-        let output_intervals = checks::angle_step_intervals("angle_step_deg", p.angle_step_deg)?;
-        if !(0.0..=5.0).contains(&p.sun_diameter_deg) {
-            return Err(PlanError::invalid(
-                "sun_diameter_deg",
-                "must be within 0–5 deg",
-            ));
-        }
-        if !(4..=512).contains(&p.radius_points) {
-            return Err(PlanError::invalid("radius_points", "must be within 4–512"));
-        }
-        if !(p.handover_radius_um >= MIN_TRACED_UM) {
-            return Err(PlanError::invalid(
-                "handover_radius_um",
-                format!("must be ≥ {MIN_TRACED_UM} µm (geometric optics needs x ≫ 1)"),
-            ));
-        }
-        if !(1..=8).contains(&p.max_order) {
-            return Err(PlanError::invalid("max_order", "must be within 1–8"));
-        }
-        let settings = FilterSettings {
-            output_intervals,
-            sun_diameter_deg: p.sun_diameter_deg,
-            gaussian_sigma_deg: 0.0,
-            radius_points: p.radius_points,
-        };
-        Ok(MixtureJob {
-            p,
-            model,
-            indices,
-            settings,
-            sun: std::sync::OnceLock::new(),
-        })
-    }
-}
-
 /// One radius' normalised curve on the intermediate grid (`mid` intervals) and its scattering
 /// cross-section (µm²): Lorenz–Mie below `handover_um`, the traced 1-D path at or above.
 fn radius_curve(
@@ -293,16 +170,12 @@ fn radius_curve(
     mid: usize,
     handover_um: f64,
     max_order: usize,
-) -> Result<(PolarisedPhase, f64, bool), MixtureError> {
+) -> Result<(PolarisedPhase, f64, bool), MieError> {
     if r < handover_um {
         let sphere = Sphere::new(size_parameter(r, wavelength_nm), Complex64::new(n, 0.0))?;
-        // Fine cells nest in intermediate cells: an odd multiple of `mid` (as the mie stage).
-        let need = fine_intervals(sphere.coefficients.n_stop(), mid);
-        let mut k = need.div_ceil(mid);
-        if k.is_multiple_of(2) {
-            k += 1;
-        }
-        let fine = PolarisedPhase::from_sphere(&sphere, mid * k, FINE_CELL_POINTS, false);
+        // Fine cells nest in intermediate cells, as in the mie stage.
+        let fine_cells = FilterSettings::fine_grid_intervals(mid, sphere.coefficients.n_stop());
+        let fine = PolarisedPhase::from_sphere(&sphere, fine_cells, FINE_CELL_POINTS, false);
         let c_sca = PI * r * r * sphere.efficiencies.q_sca;
         return Ok((resample_bins(&fine, mid), c_sca, false));
     }
@@ -320,28 +193,25 @@ fn radius_curve(
 
 /// One (distribution, wavelength): the mixed curve on the output grid and the fraction of the
 /// scattering cross-section carried by traced drops.
-fn mix_entry(
-    job: &MixtureJob,
-    entry: usize,
-    w: usize,
-) -> Result<(PolarisedPhase, f64), MixtureError> {
+fn mix_entry(job: &MixtureJob, index: usize) -> Result<(PolarisedPhase, f64), JobError> {
+    let (entry, l, m) = job.filter.task(index);
+    let settings = &job.filter.settings;
     let (radii, weights) = job.p.distributions[entry].nodes(job.p.radius_points);
-    let mid = job.settings.intermediate_intervals();
-    let (l, n) = (job.p.wavelengths_nm[w], job.indices[w]);
+    let mid = settings.intermediate_intervals();
     let parts: Vec<(PolarisedPhase, f64, bool)> = radii
         .par_iter()
         .zip(&weights)
         .map(|(&r, &nw)| {
             let (c, c_sca, traced) =
-                radius_curve(r, l, n, mid, job.p.handover_radius_um, job.p.max_order)?;
+                radius_curve(r, l, m.re, mid, job.p.handover_radius_um, job.p.max_order)?;
             Ok((c, nw * c_sca, traced))
         })
-        .collect::<Result<_, MixtureError>>()?;
+        .collect::<Result<_, MieError>>()?;
     let total: f64 = parts.iter().map(|p| p.1).sum();
     if !(total > 0.0 && total.is_finite()) {
-        return Err(MixtureError::EmptyMixture {
+        return Err(JobError::NotNormalisable {
             entry,
-            value: total,
+            integral: total,
         });
     }
     let traced: f64 = parts.iter().filter(|p| p.2).map(|p| p.1).sum();
@@ -349,10 +219,9 @@ fn mix_entry(
     for (curve, weight, _) in &parts {
         mix.add_scaled(curve, weight / total);
     }
-    let sun = job.sun.get_or_init(|| job.settings.sun_operator());
-    let mix = sun.apply(&mix);
+    let mix = job.filter.sun().apply(&mix);
     Ok((
-        resample_bins(&mix, job.settings.output_intervals),
+        resample_bins(&mix, settings.output_intervals),
         traced / total,
     ))
 }
@@ -362,58 +231,21 @@ impl Job for MixtureJob {
         serde_json::to_value(&self.p).expect("params serialise")
     }
     fn tasks(&self) -> Vec<TaskSpec> {
-        let mut out = Vec::new();
-        for (e, d) in self.p.distributions.iter().enumerate() {
-            for l in &self.p.wavelengths_nm {
-                out.push(TaskSpec {
-                    label: format!("distribution {e} λ={l} nm"),
-                    params: serde_json::json!({ "wavelength_nm": l, "entry": d }),
-                });
-            }
-        }
-        out
+        self.filter.tasks(self.p.distributions.len(), |e, l, n| TaskSpec {
+            label: format!("distribution {e} λ={l} nm"),
+            params: serde_json::json!({ "wavelength_nm": l, "n": n, "entry": self.p.distributions[e] }),
+        })
     }
-    fn run_task(&self, index: usize) -> anyhow::Result<Vec<f32>> {
-        let n_w = self.p.wavelengths_nm.len();
-        let (curve, traced) = mix_entry(self, index / n_w, index % n_w)?;
-        let (phase, dolp) = (curve.phase(), curve.dolp());
-        let mut out = Vec::with_capacity(phase.len() * CHANNELS.len() + 1);
-        for j in 0..phase.len() {
-            out.extend([
-                phase[j] as f32,
-                curve.i_perp[j] as f32,
-                curve.i_par[j] as f32,
-                dolp[j] as f32,
-            ]);
-        }
-        out.push(traced as f32);
-        Ok(out)
+    fn run_task(&self, index: usize) -> Result<Vec<f32>, JobError> {
+        let (curve, traced) = mix_entry(self, index)?;
+        Ok(phase_chunk(&curve, &[], &[traced]))
     }
-    fn assemble(&self, chunks: Vec<Vec<f32>>) -> anyhow::Result<TableContent> {
-        let n_w = self.p.wavelengths_nm.len();
-        let n_a = self.settings.output_intervals + 1;
-        let per = n_a * CHANNELS.len();
-        anyhow::ensure!(
-            chunks.len() == n_w * self.p.distributions.len(),
-            "wrong number of chunks"
-        );
-        let mut data = Vec::with_capacity(chunks.len() * per);
-        let mut traced: Vec<Vec<f64>> = vec![];
-        for (i, c) in chunks.iter().enumerate() {
-            anyhow::ensure!(c.len() == per + 1, "chunk {i} has {} values", c.len());
-            data.extend_from_slice(&c[..per]);
-            if i % n_w == 0 {
-                traced.push(vec![]);
-            }
-            traced.last_mut().expect("row").push(c[per] as f64);
-        }
-        let mut a = serde_json::Map::new();
-        a.extend(phase_contract::attributes(
-            "integral over 4pi sr equals 1",
-            &self.model,
-            self.p.sun_diameter_deg,
-        ));
-        a.insert("refractive_index_real".into(), self.indices.clone().into());
+    fn assemble(&self, chunks: Vec<Vec<f32>>) -> Result<TableContent, JobError> {
+        let entries = self.p.distributions.len();
+        let (data, tails) =
+            self.filter
+                .split_chunks(&chunks, entries, CONTRACT_CHANNELS, SCALARS.len())?;
+        let mut a = self.filter.attributes("integral over 4pi sr equals 1");
         a.insert(
             "distributions".into(),
             serde_json::to_value(&self.p.distributions)?,
@@ -422,22 +254,22 @@ impl Job for MixtureJob {
             "handover_radius_um".into(),
             self.p.handover_radius_um.into(),
         );
-        a.insert("traced_fraction".into(), serde_json::to_value(traced)?);
+        a.insert("max_order".into(), self.p.max_order.into());
+        a.insert(
+            SCALARS[0].into(),
+            serde_json::to_value(scalar_arrays(&tails, 0))?,
+        );
         a.insert("mixture_weighting".into(), "normalised phase functions mixed with weights n(r) dr · C_sca(r) (Gauss–Legendre in ln r, or explicit weights); C_sca = π r² Q_sca (Lorenz–Mie, r < handover) or σ_GO + π r² (traced sphere, 1-D exact path with Airy-uniform caustics, r ≥ handover); mixed on the mie stage's intermediate grid, then sun disc and bin averages; traced_fraction[entry][wavelength] = traced share of the mixture's scattering cross-section".into());
         Ok(TableContent {
             schema: Schema::new("mixture-phase", 1),
             description:
                 "phase functions of drop-size mixtures (Lorenz–Mie small drops, traced large drops)"
                     .into(),
-            axes: vec![
-                Axis::values(
-                    "distribution",
-                    "1",
-                    (0..self.p.distributions.len()).map(|i| i as f64).collect(),
-                ),
-                Axis::values("wavelength", "nm", self.p.wavelengths_nm.clone()),
-                Axis::uniform("scattering_angle", "deg", 0.0, self.p.angle_step_deg, n_a),
-            ],
+            axes: self.filter.axes(Axis::values(
+                "distribution",
+                "1",
+                (0..entries).map(|i| i as f64).collect(),
+            )),
             channels: phase_contract::channels("over the mixture's scattering cross-section"),
             attributes: a,
             data,

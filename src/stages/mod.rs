@@ -2,17 +2,20 @@
 //! manifest entry's `[table.params]` into a [`Job`] (independent pure tasks plus an assemble
 //! step); the pipeline runs jobs. Each stage lives in its own module; this file lists them.
 
+mod common;
 pub mod debye;
 pub mod fur_farfield;
 pub mod fur_medulla;
 pub mod hair;
 pub mod mie;
 pub mod mixture;
+pub mod phase_contract;
 pub mod raytrace;
 mod stage;
 pub mod water_index;
 
 pub use stage::*;
+pub(crate) use stage::{param_default_text, param_raw_type, param_value, stage_params};
 
 /// All stages known to this build, in the order `scatterbake stages` lists them.
 pub fn registry() -> Vec<Box<dyn Stage>> {

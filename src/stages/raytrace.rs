@@ -31,182 +31,59 @@ use crate::raytrace::post::{bin_edges, filter_sigma_deg, fraunhofer_bin_average}
 use crate::raytrace::shape::{CosineSeries, DropShape};
 use crate::raytrace::sphere1d::{DiffractionModel, Phase1dOptions, SphereGo, sphere_phase_1d};
 use crate::raytrace::tracer::{DirectionGrid, FieldGrid, TraceConfig, trace_fields};
-use crate::stages::{Job, ParamDoc, PlanError, Stage, TaskSpec, checks, parse_params};
-use crate::table::phase_contract;
+use crate::stages::phase_contract;
+use crate::stages::{Job, JobError, PlanError, StageSpec, TaskSpec, checks, stage_params};
 use crate::table::{Axis, Channel, Schema, TableContent};
 use rayon::prelude::*;
-use serde::{Deserialize, Serialize};
 use std::f64::consts::PI;
 
 /// The stage.
 pub struct RaytraceStage;
 
-fn default_wavelengths() -> Vec<f64> {
-    SADEGHI_WAVELENGTHS_NM.to_vec()
+stage_params! {
+    /// Parameters of `[table.params]`.
+    pub struct RaytraceParams {
+        /// `sphere`, `beard-chuang` or `profile`.
+        pub shape: String = required, "string",
+            "sphere (1-D table, exact GO+phase path) | beard-chuang | profile (2-D tables, patch tracer)";
+        /// Equal-volume radii (µm); spheres accept a list, 2-D shapes exactly one.
+        pub radii_um: Vec<f64> = required, "list of float, µm",
+            "equal-volume radii, 10–5000 µm, strictly increasing; exactly one for 2-D shapes";
+        /// Vacuum wavelengths (nm), strictly increasing; default: the thesis' 33 samples 380–700 nm.
+        pub wavelengths_nm: Vec<f64> = default(SADEGHI_WAVELENGTHS_NM.to_vec()),
+            "list of float, nm", "vacuum wavelengths, strictly increasing";
+        /// `iapws1997` (default) or `sadeghi-table-3.2`.
+        pub water_index_model: String = default("iapws1997".into()),
+            "string", "iapws1997 | sadeghi-table-3.2 (thesis parity)";
+        /// Water temperature for `iapws1997` (°C).
+        pub temperature_c: f64 = default(20.0), "float, °C", "water temperature (iapws1997)";
+        pub max_order: usize = default(3), "integer",
+            "highest order p traced (0 reflection, 1 transmission, 2 primary, 3 secondary, ...), 1–8";
+        /// Scattering-angle step (deg) of 1-D sphere tables.
+        pub angle_step_deg: f64 = default(0.05), "float, deg",
+            "scattering-angle step of 1-D sphere tables (divides 180)";
+        pub sun_elevation_deg: Vec<f64> = default(vec![0.0]), "list of float, deg",
+            "sun elevations above the horizon (drop axis vertical), 0–90, 2-D shapes";
+        pub rays: usize = default(600), "integer",
+            "rays per side of the square ray grid (2-D shapes; the thesis used 3000)";
+        pub polar_step_deg: f64 = default(0.1), "float, deg",
+            "outgoing polar step (divides 180), 2-D shapes";
+        pub azimuth_step_deg: f64 = default(5.0), "float, deg",
+            "outgoing azimuth step (divides 360), 2-D shapes";
+        pub diffraction_filter: bool = default(true), "bool",
+            "apply the Table 3.3 Gaussian filter to the main channels (unfiltered channels are always written)";
+        /// Diffraction model of the main channels: `airy-uniform` (spheres only, default for
+        /// spheres) or `gaussian` (thesis Table 3.3 filter, windowed around the caustics; the only
+        /// choice for 2-D shapes).
+        pub diffraction_model: Option<DiffractionModel> =
+            optional("airy-uniform (sphere) / gaussian (2-D)"), "string",
+            "airy-uniform: uniform caustic (Airy) approximation at each rainbow (spheres); gaussian: thesis Table 3.3 Gaussian filter windowed around the caustics";
+        pub profile_theta_deg: Option<Vec<f64>> = optional("none"), "list of float, deg",
+            "shape = profile: polar angles from the downward pole";
+        pub profile_r: Option<Vec<f64>> = optional("none"), "list of float",
+            "shape = profile: radii at profile_theta_deg (any unit; rescaled to radii_um equal volume)";
+    }
 }
-fn default_model() -> String {
-    "iapws1997".into()
-}
-fn default_temperature() -> f64 {
-    20.0
-}
-fn default_max_order() -> usize {
-    3
-}
-fn default_angle_step() -> f64 {
-    0.05
-}
-fn default_elevations() -> Vec<f64> {
-    vec![0.0]
-}
-fn default_rays() -> usize {
-    600
-}
-fn default_polar_step() -> f64 {
-    0.1
-}
-fn default_azimuth_step() -> f64 {
-    5.0
-}
-fn default_true() -> bool {
-    true
-}
-
-/// Parameters of `[table.params]`.
-#[derive(Debug, Clone, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct RaytraceParams {
-    /// `sphere`, `beard-chuang` or `profile`.
-    pub shape: String,
-    /// Equal-volume radii (µm); spheres accept a list, 2-D shapes exactly one.
-    pub radii_um: Vec<f64>,
-    /// Vacuum wavelengths (nm), strictly increasing; default: the thesis' 33 samples 380–700 nm.
-    #[serde(default = "default_wavelengths")]
-    pub wavelengths_nm: Vec<f64>,
-    /// `iapws1997` (default) or `sadeghi-table-3.2`.
-    #[serde(default = "default_model")]
-    pub water_index_model: String,
-    /// Water temperature for `iapws1997` (°C).
-    #[serde(default = "default_temperature")]
-    pub temperature_c: f64,
-    #[serde(default = "default_max_order")]
-    pub max_order: usize,
-    /// Scattering-angle step (deg) of 1-D sphere tables.
-    #[serde(default = "default_angle_step")]
-    pub angle_step_deg: f64,
-    #[serde(default = "default_elevations")]
-    pub sun_elevation_deg: Vec<f64>,
-    #[serde(default = "default_rays")]
-    pub rays: usize,
-    #[serde(default = "default_polar_step")]
-    pub polar_step_deg: f64,
-    #[serde(default = "default_azimuth_step")]
-    pub azimuth_step_deg: f64,
-    #[serde(default = "default_true")]
-    pub diffraction_filter: bool,
-    /// Diffraction model of the main channels: `airy-uniform` (spheres only, default for
-    /// spheres) or `gaussian` (thesis Table 3.3 filter, windowed around the caustics; the only
-    /// choice for 2-D shapes).
-    #[serde(default)]
-    pub diffraction_model: Option<DiffractionModel>,
-    #[serde(default)]
-    pub profile_theta_deg: Option<Vec<f64>>,
-    #[serde(default)]
-    pub profile_r: Option<Vec<f64>>,
-}
-
-const PARAMS: &[ParamDoc] = &[
-    ParamDoc {
-        name: "shape",
-        kind: "string",
-        default: "required",
-        description: "sphere (1-D table, exact GO+phase path) | beard-chuang | profile (2-D tables, patch tracer)",
-    },
-    ParamDoc {
-        name: "radii_um",
-        kind: "list of float, µm",
-        default: "required",
-        description: "equal-volume radii, 10–5000 µm, strictly increasing; exactly one for 2-D shapes",
-    },
-    ParamDoc {
-        name: "wavelengths_nm",
-        kind: "list of float, nm",
-        default: "33 samples 380–700 nm",
-        description: "vacuum wavelengths, strictly increasing",
-    },
-    ParamDoc {
-        name: "water_index_model",
-        kind: "string",
-        default: "iapws1997",
-        description: "iapws1997 | sadeghi-table-3.2 (thesis parity)",
-    },
-    ParamDoc {
-        name: "temperature_c",
-        kind: "float, °C",
-        default: "20",
-        description: "water temperature (iapws1997)",
-    },
-    ParamDoc {
-        name: "max_order",
-        kind: "integer",
-        default: "3",
-        description: "highest order p traced (0 reflection, 1 transmission, 2 primary, 3 secondary, ...), 1–8",
-    },
-    ParamDoc {
-        name: "angle_step_deg",
-        kind: "float, deg",
-        default: "0.05",
-        description: "scattering-angle step of 1-D sphere tables (divides 180)",
-    },
-    ParamDoc {
-        name: "sun_elevation_deg",
-        kind: "list of float, deg",
-        default: "[0]",
-        description: "sun elevations above the horizon (drop axis vertical), 0–90, 2-D shapes",
-    },
-    ParamDoc {
-        name: "rays",
-        kind: "integer",
-        default: "600",
-        description: "rays per side of the square ray grid (2-D shapes; the thesis used 3000)",
-    },
-    ParamDoc {
-        name: "polar_step_deg",
-        kind: "float, deg",
-        default: "0.1",
-        description: "outgoing polar step (divides 180), 2-D shapes",
-    },
-    ParamDoc {
-        name: "azimuth_step_deg",
-        kind: "float, deg",
-        default: "5",
-        description: "outgoing azimuth step (divides 360), 2-D shapes",
-    },
-    ParamDoc {
-        name: "diffraction_filter",
-        kind: "bool",
-        default: "true",
-        description: "apply the Table 3.3 Gaussian filter to the main channels (unfiltered channels are always written)",
-    },
-    ParamDoc {
-        name: "diffraction_model",
-        kind: "string",
-        default: "airy-uniform (sphere) / gaussian (2-D)",
-        description: "airy-uniform: uniform caustic (Airy) approximation at each rainbow (spheres); gaussian: thesis Table 3.3 Gaussian filter windowed around the caustics",
-    },
-    ParamDoc {
-        name: "profile_theta_deg",
-        kind: "list of float, deg",
-        default: "none",
-        description: "shape = profile: polar angles from the downward pole",
-    },
-    ParamDoc {
-        name: "profile_r",
-        kind: "list of float",
-        default: "none",
-        description: "shape = profile: radii at profile_theta_deg (any unit; rescaled to radii_um equal volume)",
-    },
-];
 
 /// Keys of `raytrace-phase/1` manifests and the keys that replaced them (same vocabulary as the
 /// `mie` and `debye` stages); the old keys are refused rather than translated, so that no
@@ -245,23 +122,18 @@ fn divides(total: f64, step: f64) -> Option<usize> {
     }
 }
 
-impl Stage for RaytraceStage {
-    fn name(&self) -> &'static str {
-        "raytrace"
-    }
+impl StageSpec for RaytraceStage {
+    const NAME: &'static str = "raytrace";
     /// 2: 2-D tables renormalised to ∫ p dΩ = 1 on their grid. 3: Table 3.2 of Sadeghi (2012)
-    /// corrected at 580–650 nm.
-    fn algorithm_version(&self) -> u32 {
-        3
+    /// corrected at 580–650 nm; axes radius × wavelength × …, keys `radii_um`, `wavelengths_nm`.
+    const VERSION: u32 = 3;
+    const SUMMARY: &'static str =
+        "wave-optics patch ray tracer: phase functions of spherical and Beard–Chuang raindrops";
+    type Params = RaytraceParams;
+    fn map_parse_error(e: PlanError) -> PlanError {
+        renamed_key_error(e)
     }
-    fn summary(&self) -> &'static str {
-        "wave-optics patch ray tracer: phase functions of spherical and Beard–Chuang raindrops"
-    }
-    fn parameters(&self) -> &'static [ParamDoc] {
-        PARAMS
-    }
-    fn plan(&self, params: toml::de::ValueDeserializer<'_>) -> Result<Box<dyn Job>, PlanError> {
-        let p: RaytraceParams = parse_params(params).map_err(renamed_key_error)?;
+    fn plan_params(&self, p: RaytraceParams) -> Result<Box<dyn Job>, PlanError> {
         Ok(Box::new(RaytraceJob::new(p)?))
     }
 }
@@ -405,7 +277,7 @@ impl RaytraceJob {
     }
 
     /// Refractive index at `wavelength_nm`.
-    fn index(&self, wavelength_nm: f64) -> anyhow::Result<f64> {
+    fn index(&self, wavelength_nm: f64) -> Result<f64, JobError> {
         match self.fixed_index {
             Some(n) => Ok(n),
             None => Ok(self.model.index(wavelength_nm)?),
@@ -467,7 +339,7 @@ impl RaytraceJob {
     /// Run the 2-D tracer for one (wavelength, elevation): values [polar][azimuth][channel].
     /// Steps: trace (rayon over ray rows, then table rows), filter the caustic windows (rayon
     /// over azimuth columns), normalise and write the channels (rayon over polar rows).
-    fn run_2d(&self, lambda: f64, elevation_deg: f64) -> anyhow::Result<Vec<f32>> {
+    fn run_2d(&self, lambda: f64, elevation_deg: f64) -> Result<Vec<f32>, JobError> {
         let shape = self.shape.as_ref().expect("2-D job has a shape");
         let n = self.index(lambda)?;
         let grid = self.direction_grid();
@@ -616,7 +488,7 @@ impl Job for RaytraceJob {
             .collect()
     }
 
-    fn run_task(&self, index: usize) -> anyhow::Result<Vec<f32>> {
+    fn run_task(&self, index: usize) -> Result<Vec<f32>, JobError> {
         let (f, s) = self.task_pairs()[index];
         if self.two_d {
             return self.run_2d(f, s);
@@ -645,7 +517,7 @@ impl Job for RaytraceJob {
         Ok(out)
     }
 
-    fn assemble(&self, chunks: Vec<Vec<f32>>) -> anyhow::Result<TableContent> {
+    fn assemble(&self, chunks: Vec<Vec<f32>>) -> Result<TableContent, JobError> {
         // One allocation of the final size; each chunk is dropped once copied.
         let mut data: Vec<f32> = Vec::with_capacity(chunks.iter().map(Vec::len).sum());
         for c in chunks {
@@ -737,7 +609,12 @@ impl Job for RaytraceJob {
             // sun 0°); every intensity channel (all but `dolp`) is divided by it, so ∫ p dΩ = 1
             // exactly on the table grid, as the phase-function contract requires, and the
             // factor is kept in `integral_check`.
-            anyhow::ensure!(s > 0.0 && s.is_finite(), "entry {e}: ∫ p dΩ = {s}");
+            if !(s > 0.0 && s.is_finite()) {
+                return Err(JobError::NotNormalisable {
+                    entry: e,
+                    integral: s,
+                });
+            }
             data[base..base + np * na * nch]
                 .par_chunks_mut(na * nch)
                 .for_each(|row| {
@@ -752,6 +629,10 @@ impl Job for RaytraceJob {
         }
         at.insert("integral_check".into(), serde_json::json!({"what": "bin-sum of phase over 4π per entry before renormalisation (below 1 by the flux of triangles discarded at the silhouette, above 1 where cusp caustics are point-sampled); every channel but dolp was divided by it, so the stored table integrates to 1 on its grid", "values": ints}));
         at.insert("angular_resampling".into(), "point samples of the coherent patch sum at the grid directions; filtered channels are Gaussian averages along the polar angle per azimuth column; the forward lobe is the exact average over each polar bin".into());
+        at.insert(
+            phase_contract::INTERPOLABLE_AXES.into(),
+            serde_json::json!(["wavelength", "outgoing_polar", "outgoing_azimuth"]),
+        );
         at.insert("frame".into(), "drop axis vertical (z up); sun at elevation e in the +x half-space, incident direction d = (−cos e, 0, −sin e); outgoing_polar = angle from d; outgoing_azimuth about d from e1 = (−sin e, 0, cos e) (vertical plane, upwards) towards e2 = +y".into());
         at.insert("shape".into(), self.p.shape.clone().into());
         at.insert("radius_um".into(), self.p.radii_um[0].into());
@@ -849,10 +730,7 @@ mod tests {
             "shape = \"sphere\"\nradii_um = [400.0]\nwavelengths_nm = [650.0]\nwater_index_model = \"sadeghi-table-3.2\"\nangle_step_deg = 0.05",
         )
         .unwrap();
-        let chunks: Vec<Vec<f32>> = (0..job.tasks().len())
-            .map(|i| job.run_task(i).unwrap())
-            .collect();
-        let t = job.assemble(chunks).unwrap();
+        let t = crate::stages::run_in_memory(job.as_ref()).unwrap();
         assert_eq!(t.data.len(), t.expected_len());
         let integral = t.attributes["integral_check"]["values"][0]
             .as_f64()
@@ -884,10 +762,7 @@ mod tests {
             "shape = \"beard-chuang\"\nradii_um = [2000.0]\nwavelengths_nm = [550.0]\nsun_elevation_deg = [0.0]\nrays = 80\npolar_step_deg = 0.5\nazimuth_step_deg = 30.0",
         )
         .unwrap();
-        let chunks: Vec<Vec<f32>> = (0..job.tasks().len())
-            .map(|i| job.run_task(i).unwrap())
-            .collect();
-        let t = job.assemble(chunks).unwrap();
+        let t = crate::stages::run_in_memory(job.as_ref()).unwrap();
         let raw = t.attributes["integral_check"]["values"][0]
             .as_f64()
             .unwrap();

@@ -5,18 +5,25 @@
 //! turns the chunks, in task order, into a [`TableContent`]. The pipeline owns I/O, parallelism,
 //! resume (per-task checkpoints keyed by stage, algorithm version and task parameters) and
 //! progress; stages own the physics and must stay free of I/O.
+//!
+//! A stage is written as a [`StageSpec`] (name, version, summary, a parameter struct declared
+//! with [`stage_params!`](crate::stages::stage_params) and a planning function); [`Stage`], the
+//! object-safe form the registry and the manifest reader use, follows from it.
 
+use crate::error::error_chain;
 use crate::table::TableContent;
+use serde::Serialize;
 use serde::de::DeserializeOwned;
 
 /// Documentation of one manifest parameter (for `scatterbake stages`).
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct ParamDoc {
     pub name: &'static str,
     /// Type as written in TOML, e.g. `float`, `list of float`, `string`.
     pub kind: &'static str,
-    /// Default, or `required`.
-    pub default: &'static str,
+    /// The default value as text (derived from the value the parameter struct uses), or
+    /// `required`, or what leaving an optional parameter out means.
+    pub default: String,
     pub description: &'static str,
 }
 
@@ -40,14 +47,64 @@ impl PlanError {
             message: message.into(),
         }
     }
+
+    /// [`PlanError::Invalid`] whose message is `context` followed by the whole cause chain of
+    /// `cause` (the manifest error carries text only).
+    pub fn invalid_because(
+        key: &str,
+        context: &str,
+        cause: &(dyn std::error::Error + 'static),
+    ) -> Self {
+        PlanError::invalid(key, format!("{context}: {}", error_chain(cause)))
+    }
 }
 
-/// Deserialise a stage's parameter struct from the manifest value (use
-/// `#[serde(deny_unknown_fields)]` on the struct so unknown keys are errors).
-pub fn parse_params<T: DeserializeOwned>(
-    params: toml::de::ValueDeserializer<'_>,
-) -> Result<T, PlanError> {
-    Ok(T::deserialize(params)?)
+/// Why a task or the assembly of a planned job failed.
+#[derive(Debug, thiserror::Error)]
+pub enum JobError {
+    /// The Lorenz–Mie or Debye computation of a task.
+    #[error("Lorenz–Mie computation")]
+    Mie(#[from] crate::mie::MieError),
+    /// The refractive index of water at a task's wavelength.
+    #[error("water refractive index")]
+    WaterIndex(#[from] crate::optics::water::WaterIndexError),
+    /// A fur computation (e.g. a lookup in medulla tables).
+    #[error("fur far field")]
+    Fur(#[from] crate::fur::FurError),
+    /// `assemble` received a different number of chunks than the job has tasks.
+    #[error("expected {expected} chunks (one per task), got {got}")]
+    ChunkCount { expected: usize, got: usize },
+    /// A chunk of the wrong length (e.g. a checkpoint of another layout).
+    #[error("chunk {index} has {got} values, expected {expected}")]
+    ChunkLength {
+        index: usize,
+        got: usize,
+        expected: usize,
+    },
+    /// A table entry whose phase function cannot be normalised to ∫ p dΩ = 1.
+    #[error("entry {entry}: ∫ p dΩ = {integral}, not positive and finite; cannot normalise")]
+    NotNormalisable { entry: usize, integral: f64 },
+    /// A header attribute that does not encode as JSON.
+    #[error("encoding the table attributes as JSON")]
+    Attributes(#[from] serde_json::Error),
+}
+
+/// Checks that `chunks` holds `count` chunks of `len` values each.
+pub fn check_chunks(chunks: &[Vec<f32>], count: usize, len: usize) -> Result<(), JobError> {
+    if chunks.len() != count {
+        return Err(JobError::ChunkCount {
+            expected: count,
+            got: chunks.len(),
+        });
+    }
+    match chunks.iter().position(|c| c.len() != len) {
+        Some(index) => Err(JobError::ChunkLength {
+            index,
+            got: chunks[index].len(),
+            expected: len,
+        }),
+        None => Ok(()),
+    }
 }
 
 /// One independent unit of work.
@@ -67,24 +124,25 @@ pub trait Job: Send + Sync {
     /// The independent tasks, in a deterministic order.
     fn tasks(&self) -> Vec<TaskSpec>;
     /// Run task `index` (pure; may use rayon internally). Returns its chunk of values.
-    fn run_task(&self, index: usize) -> anyhow::Result<Vec<f32>>;
+    fn run_task(&self, index: usize) -> Result<Vec<f32>, JobError>;
     /// Assemble the chunks (in task order) into the table.
-    fn assemble(&self, chunks: Vec<Vec<f32>>) -> anyhow::Result<TableContent>;
+    fn assemble(&self, chunks: Vec<Vec<f32>>) -> Result<TableContent, JobError>;
 }
 
 /// Run a planned job in memory, tasks in parallel (rayon), without checkpoints or files: the
 /// runner for tests, examples and library users who want a table's content directly. The
 /// pipeline's resumable runner gives identical content.
-pub fn run_in_memory(job: &dyn Job) -> anyhow::Result<TableContent> {
+pub fn run_in_memory(job: &dyn Job) -> Result<TableContent, JobError> {
     use rayon::prelude::*;
     let chunks = (0..job.tasks().len())
         .into_par_iter()
         .map(|i| job.run_task(i))
-        .collect::<anyhow::Result<Vec<_>>>()?;
+        .collect::<Result<Vec<_>, _>>()?;
     job.assemble(chunks)
 }
 
-/// A computation stage, registered in [`crate::stages::registry`].
+/// A computation stage, registered in [`crate::stages::registry`]. Implemented for every
+/// [`StageSpec`].
 pub trait Stage: Send + Sync {
     /// Stage name used in manifests (`stage = "..."`).
     fn name(&self) -> &'static str;
@@ -93,12 +151,201 @@ pub trait Stage: Send + Sync {
     /// One-line summary.
     fn summary(&self) -> &'static str;
     /// Parameters accepted in `[table.params]`.
-    fn parameters(&self) -> &'static [ParamDoc];
+    fn parameters(&self) -> Vec<ParamDoc>;
     /// Validate parameters and plan the job.
     fn plan(&self, params: toml::de::ValueDeserializer<'_>) -> Result<Box<dyn Job>, PlanError>;
 }
 
-/// Shared parameter checks, so every stage words and enforces them the same way.
+/// A parameter struct declared with the `stage_params!` macro: it reads
+/// itself from `[table.params]` (unknown keys are errors, missing keys take their declared
+/// defaults) and documents every field.
+pub trait StageParams: DeserializeOwned + Serialize {
+    /// One entry per field, in declaration order.
+    fn docs() -> Vec<ParamDoc>;
+}
+
+/// The typed description of a stage; [`Stage`] follows from it.
+pub trait StageSpec: Send + Sync {
+    /// Stage name used in manifests (`stage = "..."`).
+    const NAME: &'static str;
+    /// Algorithm version: bump when results change, so that stale tables are rebuilt.
+    const VERSION: u32;
+    /// One-line summary.
+    const SUMMARY: &'static str;
+    /// The `[table.params]` struct.
+    type Params: StageParams;
+    /// Validate parsed parameters and plan the job.
+    fn plan_params(&self, params: Self::Params) -> Result<Box<dyn Job>, PlanError>;
+    /// Rewrite an error of parsing the parameters (e.g. name the key that replaced an old one);
+    /// the default keeps it.
+    fn map_parse_error(e: PlanError) -> PlanError {
+        e
+    }
+    /// Parameters listed by `scatterbake stages` (every field of [`Self::Params`] unless a
+    /// stage shares its struct with another).
+    fn parameter_docs(&self) -> Vec<ParamDoc> {
+        Self::Params::docs()
+    }
+}
+
+impl<S: StageSpec> Stage for S {
+    fn name(&self) -> &'static str {
+        S::NAME
+    }
+    fn algorithm_version(&self) -> u32 {
+        S::VERSION
+    }
+    fn summary(&self) -> &'static str {
+        S::SUMMARY
+    }
+    fn parameters(&self) -> Vec<ParamDoc> {
+        self.parameter_docs()
+    }
+    fn plan(&self, params: toml::de::ValueDeserializer<'_>) -> Result<Box<dyn Job>, PlanError> {
+        let parsed =
+            serde::Deserialize::deserialize(params).map_err(|e| S::map_parse_error(e.into()))?;
+        self.plan_params(parsed)
+    }
+}
+
+/// Text of a parameter's default value for [`ParamDoc::default`]: strings without quotes,
+/// lists of up to [`SHOWN_LIST_LEN`] items in full, longer ones as their length and end values.
+pub fn show_default<T: Serialize>(value: &T) -> String {
+    fn show(v: &serde_json::Value, nested: bool) -> String {
+        use serde_json::Value;
+        match v {
+            Value::String(s) if !nested => s.clone(),
+            Value::Array(a) if a.len() > SHOWN_LIST_LEN => format!(
+                "{} values {} … {}",
+                a.len(),
+                show(&a[0], true),
+                show(&a[a.len() - 1], true)
+            ),
+            Value::Array(a) => format!(
+                "[{}]",
+                a.iter()
+                    .map(|x| show(x, true))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
+            Value::Null => "none".into(),
+            other => other.to_string(),
+        }
+    }
+    serde_json::to_value(value).map_or_else(|e| format!("({e})"), |v| show(&v, false))
+}
+
+/// Lists longer than this are shown by [`show_default`] as `N values first … last`.
+pub const SHOWN_LIST_LEN: usize = 10;
+
+/// Declares a stage's parameter struct together with its documentation, so that each default
+/// is written once. Every field is
+///
+/// `[attributes] [vis] name: Type = HOW, "kind", "description";`
+///
+/// where `HOW` is `default(EXPR)` (a missing key takes the value of `EXPR`, which
+/// `scatterbake stages` shows), `required` (a missing key is an error), or
+/// `optional("meaning of leaving it out")` for `Option` fields that stay `None`. The struct
+/// derives `Debug`, `Clone` and `Serialize` (field attributes such as
+/// `#[serde(skip_serializing_if = ...)]` apply to serialisation); it reads itself from the
+/// manifest with unknown keys rejected, and implements [`StageParams`].
+///
+/// ```ignore
+/// stage_params! {
+///     /// Parameters of `[table.params]`.
+///     pub struct ExampleParams {
+///         /// Output angular step (deg).
+///         pub angle_step_deg: f64 = default(0.05), "float, deg", "output bin width";
+///         pub radii_um: Vec<f64> = required, "list of float, µm", "drop radii";
+///         pub profile: Option<Vec<f64>> = optional("none"), "list of float", "drop profile";
+///     }
+/// }
+/// ```
+macro_rules! stage_params {
+    (
+        $(#[$sattr:meta])*
+        $svis:vis struct $name:ident {
+            $(
+                $(#[$fattr:meta])*
+                $fvis:vis $field:ident : $ty:ty = $how:ident $(($($arg:tt)*))?, $kind:literal, $desc:literal;
+            )*
+        }
+    ) => {
+        $(#[$sattr])*
+        #[derive(Debug, Clone, ::serde::Serialize)]
+        $svis struct $name {
+            $( $(#[$fattr])* $fvis $field: $ty, )*
+        }
+
+        impl<'de> ::serde::Deserialize<'de> for $name {
+            fn deserialize<D: ::serde::Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+                // The manifest form: keys with a default are `Option` here (a missing `Option`
+                // is `None`). It carries the public name so that serde's messages use it.
+                #[derive(::serde::Deserialize)]
+                #[serde(deny_unknown_fields)]
+                struct $name {
+                    $( $field: $crate::stages::param_raw_type!($how; $ty), )*
+                }
+                let raw = <$name as ::serde::Deserialize>::deserialize(deserializer)?;
+                Ok(Self {
+                    $( $field: $crate::stages::param_value!(raw.$field; $ty; $how $(($($arg)*))?), )*
+                })
+            }
+        }
+
+        impl $crate::stages::StageParams for $name {
+            fn docs() -> Vec<$crate::stages::ParamDoc> {
+                vec![$(
+                    $crate::stages::ParamDoc {
+                        name: stringify!($field),
+                        kind: $kind,
+                        default: $crate::stages::param_default_text!($ty; $how $(($($arg)*))?),
+                        description: $desc,
+                    },
+                )*]
+            }
+        }
+    };
+}
+pub(crate) use stage_params;
+
+/// Type of a field in the manifest form of a [`stage_params!`] struct.
+macro_rules! param_raw_type {
+    (default; $ty:ty) => { Option<$ty> };
+    (required; $ty:ty) => { $ty };
+    (optional; $ty:ty) => { $ty };
+}
+pub(crate) use param_raw_type;
+
+/// Value of a [`stage_params!`] field from its manifest form.
+macro_rules! param_value {
+    ($raw:expr; $ty:ty; default($default:expr)) => {
+        $raw.unwrap_or_else(|| -> $ty { $default })
+    };
+    ($raw:expr; $ty:ty; required) => {
+        $raw
+    };
+    ($raw:expr; $ty:ty; optional($meaning:literal)) => {
+        $raw
+    };
+}
+pub(crate) use param_value;
+
+/// [`ParamDoc::default`] of a [`stage_params!`] field.
+macro_rules! param_default_text {
+    ($ty:ty; default($default:expr)) => {{
+        let value: $ty = $default;
+        $crate::stages::show_default(&value)
+    }};
+    ($ty:ty; required) => {
+        String::from("required")
+    };
+    ($ty:ty; optional($meaning:literal)) => {
+        String::from($meaning)
+    };
+}
+pub(crate) use param_default_text;
+
 /// Split an f64 into an f32 pair `[hi, lo]` with `hi + lo` = v to about 2^-48 relative, so a
 /// task (whose result is an f32 vector) can carry an f64 scalar for the header without
 /// rounding it to f32. Finite values of f32 range only.
@@ -112,9 +359,29 @@ pub fn join_f64(hi: f32, lo: f32) -> f64 {
     hi as f64 + lo as f64
 }
 
+/// Shared parameter checks, so every stage words and enforces them the same way.
 pub mod checks {
     use super::PlanError;
     use crate::optics::water::WaterIndexModel;
+    use std::fmt::Display;
+
+    /// `value` must lie within `[lo, hi]` (NaN never does); `unit` is appended to the numbers
+    /// in the message (e.g. `" deg"`, `"°"` or `""`).
+    pub fn within<T: PartialOrd + Display>(
+        key: &str,
+        value: T,
+        lo: T,
+        hi: T,
+        unit: &str,
+    ) -> Result<(), PlanError> {
+        if value >= lo && value <= hi {
+            return Ok(());
+        }
+        Err(PlanError::invalid(
+            key,
+            format!("must be within {lo}–{hi}{unit} (got {value})"),
+        ))
+    }
 
     /// `values` must be non-empty, finite and strictly increasing (and positive when
     /// `positive`).
@@ -147,14 +414,16 @@ pub mod checks {
         Ok(ratio.round() as usize)
     }
 
-    /// Resolve a water index model by name and evaluate it at every wavelength; errors name
-    /// `water_index_model` or the wavelength key.
+    /// Check the wavelengths (positive, strictly increasing), resolve a water index model by
+    /// name and evaluate it at every wavelength; errors name `water_index_model` or the
+    /// wavelength key.
     pub fn water_indices(
         model_name: &str,
         temperature_c: Option<f64>,
         wavelengths_key: &str,
         wavelengths_nm: &[f64],
     ) -> Result<(WaterIndexModel, Vec<f64>), PlanError> {
+        increasing(wavelengths_key, wavelengths_nm, true)?;
         let model = WaterIndexModel::from_name(model_name, temperature_c)
             .map_err(|e| PlanError::invalid("water_index_model", e.to_string()))?;
         let indices = wavelengths_nm
@@ -178,4 +447,128 @@ pub fn plan_from_lines(stage: &dyn Stage, toml_lines: &str) -> Result<Box<dyn Jo
             .join(", ")
     );
     stage.plan(toml::de::ValueDeserializer::parse(&inline).expect("test TOML parses"))
+}
+
+/// Test helper: plan `stage` from parameter lines (see [`plan_from_lines`]) and run the job in
+/// memory; checks that the table has as many values as its axes and channels call for.
+#[cfg(test)]
+pub fn table_from_lines(stage: &dyn Stage, toml_lines: &str) -> TableContent {
+    let job = plan_from_lines(stage, toml_lines)
+        .unwrap_or_else(|e| panic!("{} rejected {toml_lines:?}: {e}", stage.name()));
+    let t = run_in_memory(job.as_ref()).unwrap_or_else(|e| panic!("{}", error_chain(&e)));
+    assert_eq!(t.data.len(), t.expected_len(), "{}", stage.name());
+    t
+}
+
+/// Test helper: every parameter set of `rejected` fails to plan on `stage` and every one of
+/// `accepted` plans (each in the form of [`plan_from_lines`]).
+#[cfg(test)]
+pub fn assert_planning(stage: &dyn Stage, rejected: &[&str], accepted: &[&str]) {
+    for lines in rejected {
+        assert!(
+            plan_from_lines(stage, lines).is_err(),
+            "{} accepted {lines:?}",
+            stage.name()
+        );
+    }
+    for lines in accepted {
+        if let Err(e) = plan_from_lines(stage, lines) {
+            panic!("{} rejected {lines:?}: {e}", stage.name());
+        }
+    }
+}
+
+/// Test helper: plan every entry of a manifest file (a relative path is taken from the package
+/// root) with its registered stage, panicking with the manifest error; returns (table name,
+/// job) pairs.
+#[cfg(test)]
+pub fn plan_manifest_file(path: &str) -> Vec<(String, Box<dyn Job>)> {
+    let full = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(path);
+    let text = std::fs::read_to_string(&full).unwrap_or_else(|e| panic!("{}: {e}", full.display()));
+    crate::manifest::parse_manifest(std::path::Path::new(path), &text)
+        .unwrap_or_else(|e| panic!("{e}"))
+        .into_iter()
+        .map(|t| (t.name, t.job))
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    stage_params! {
+        /// A parameter struct of every kind of field.
+        struct Example {
+            step_deg: f64 = default(0.05), "float, deg", "a step";
+            radii_um: Vec<f64> = required, "list of float, µm", "radii";
+            profile: Option<Vec<f64>> = optional("none"), "list of float", "a profile";
+            grid: Vec<f64> = default((0..12).map(f64::from).collect()), "list of float", "a grid";
+        }
+    }
+
+    fn parse(inline: &str) -> Result<Example, toml::de::Error> {
+        serde::Deserialize::deserialize(toml::de::ValueDeserializer::parse(inline).unwrap())
+    }
+
+    #[test]
+    fn declared_defaults_fill_missing_keys_and_are_documented() {
+        let p = parse("{ radii_um = [1.0] }").unwrap();
+        assert_eq!(
+            (p.step_deg, p.profile.as_deref(), p.grid.len()),
+            (0.05, None, 12)
+        );
+        let docs = Example::docs();
+        let shown: Vec<(&str, &str)> = docs.iter().map(|d| (d.name, d.default.as_str())).collect();
+        assert_eq!(
+            shown,
+            [
+                ("step_deg", "0.05"),
+                ("radii_um", "required"),
+                ("profile", "none"),
+                ("grid", "12 values 0.0 … 11.0"),
+            ]
+        );
+        // Serialised parameters hold the filled-in defaults (they enter the content key).
+        let json = serde_json::to_value(&p).unwrap();
+        assert_eq!(json["step_deg"], 0.05);
+        assert!(json["profile"].is_null());
+    }
+
+    #[test]
+    fn unknown_and_missing_keys_are_errors_naming_the_key() {
+        let e = parse("{ radii_um = [1.0], bogus = 1 }").unwrap_err();
+        assert!(e.to_string().contains("bogus"), "{e}");
+        let e = parse("{ step_deg = 0.1 }").unwrap_err();
+        assert!(e.to_string().contains("radii_um"), "{e}");
+    }
+
+    #[test]
+    fn every_registered_stage_documents_distinct_parameters() {
+        for s in crate::stages::registry() {
+            let docs = s.parameters();
+            assert!(!docs.is_empty(), "{}", s.name());
+            let mut names: Vec<&str> = docs.iter().map(|d| d.name).collect();
+            names.sort_unstable();
+            names.dedup();
+            assert_eq!(names.len(), docs.len(), "{}: duplicate names", s.name());
+        }
+    }
+
+    #[test]
+    fn chunk_checks_name_the_chunk() {
+        let chunks = vec![vec![0.0; 3], vec![0.0; 2]];
+        assert!(
+            check_chunks(&chunks, 2, 3)
+                .unwrap_err()
+                .to_string()
+                .contains("chunk 1 has 2")
+        );
+        assert!(matches!(
+            check_chunks(&chunks, 3, 3),
+            Err(JobError::ChunkCount {
+                expected: 3,
+                got: 2
+            })
+        ));
+    }
 }

@@ -3,52 +3,31 @@
 //! serves as the reference table for the index used by the scattering stages.
 
 use crate::optics::water::{WaterIndexModel, water_density_kell_kg_m3};
-use crate::stages::{Job, ParamDoc, PlanError, Stage, TaskSpec, parse_params};
+use crate::stages::{Job, JobError, PlanError, StageSpec, TaskSpec, stage_params};
 use crate::table::{Axis, Channel, Schema, TableContent};
-use serde::{Deserialize, Serialize};
 
 /// The stage.
 pub struct WaterIndexStage;
 
-#[derive(Debug, Clone, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-struct Params {
-    /// Wavelength range in nm: [start, stop, step].
-    wavelength_nm: [f64; 3],
-    /// Temperatures in °C.
-    temperature_c: Vec<f64>,
+stage_params! {
+    /// Parameters of `[table.params]`.
+    pub struct WaterIndexParams {
+        /// Wavelength range in nm: [start, stop, step].
+        wavelength_nm: [f64; 3] = required, "[start, stop, step] float, nm",
+            "wavelength grid, within 200–1100 nm (IAPWS R9-97 domain)";
+        /// Temperatures in °C.
+        temperature_c: Vec<f64> = required, "list of float, °C",
+            "temperatures, strictly increasing, within 0–100 °C (liquid water at 1 atm)";
+    }
 }
 
-const PARAMS: &[ParamDoc] = &[
-    ParamDoc {
-        name: "wavelength_nm",
-        kind: "[start, stop, step] float, nm",
-        default: "required",
-        description: "wavelength grid, within 200–1100 nm (IAPWS R9-97 domain)",
-    },
-    ParamDoc {
-        name: "temperature_c",
-        kind: "list of float, °C",
-        default: "required",
-        description: "temperatures, strictly increasing, within 0–100 °C (liquid water at 1 atm)",
-    },
-];
-
-impl Stage for WaterIndexStage {
-    fn name(&self) -> &'static str {
-        "water-index"
-    }
-    fn algorithm_version(&self) -> u32 {
-        1
-    }
-    fn summary(&self) -> &'static str {
-        "refractive index of liquid water (IAPWS R9-97) over wavelength × temperature"
-    }
-    fn parameters(&self) -> &'static [ParamDoc] {
-        PARAMS
-    }
-    fn plan(&self, params: toml::de::ValueDeserializer<'_>) -> Result<Box<dyn Job>, PlanError> {
-        let p: Params = parse_params(params)?;
+impl StageSpec for WaterIndexStage {
+    const NAME: &'static str = "water-index";
+    const VERSION: u32 = 1;
+    const SUMMARY: &'static str =
+        "refractive index of liquid water (IAPWS R9-97) over wavelength × temperature";
+    type Params = WaterIndexParams;
+    fn plan_params(&self, p: WaterIndexParams) -> Result<Box<dyn Job>, PlanError> {
         let [start, stop, step] = p.wavelength_nm;
         if !(step > 0.0) || !(stop >= start) {
             return Err(PlanError::invalid(
@@ -86,7 +65,7 @@ impl Stage for WaterIndexStage {
 }
 
 struct WaterIndexJob {
-    p: Params,
+    p: WaterIndexParams,
     count: usize,
 }
 
@@ -112,7 +91,7 @@ impl Job for WaterIndexJob {
             })
             .collect()
     }
-    fn run_task(&self, index: usize) -> anyhow::Result<Vec<f32>> {
+    fn run_task(&self, index: usize) -> Result<Vec<f32>, JobError> {
         let model = WaterIndexModel::Iapws1997 {
             temperature_c: self.p.temperature_c[index],
         };
@@ -121,7 +100,7 @@ impl Job for WaterIndexJob {
             .map(|&l| Ok(model.index(l)? as f32))
             .collect()
     }
-    fn assemble(&self, chunks: Vec<Vec<f32>>) -> anyhow::Result<TableContent> {
+    fn assemble(&self, chunks: Vec<Vec<f32>>) -> Result<TableContent, JobError> {
         // chunks are per temperature; the table is temperature × wavelength.
         let data: Vec<f32> = chunks.into_iter().flatten().collect();
         let mut attributes = serde_json::Map::new();

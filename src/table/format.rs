@@ -15,7 +15,7 @@
 
 use super::{Header, Layout, PayloadInfo, Provenance, Table, TableContent};
 use sha2::{Digest, Sha256};
-use std::io::{Read, Write};
+use std::io::Write;
 use std::path::{Path, PathBuf};
 
 /// File magic.
@@ -25,11 +25,7 @@ pub const FORMAT_MAJOR: u16 = 1;
 /// Format minor version written by this build. Readers accept any minor of a known major and
 /// ignore the header fields a newer minor adds.
 pub const FORMAT_MINOR: u16 = 0;
-const PREAMBLE: usize = 56;
-/// Upper bound on a header, so a corrupt length cannot make us allocate absurdly.
-const MAX_HEADER_BYTES: u64 = 256 << 20;
-/// Upper bound on an uncompressed payload (16 GiB).
-const MAX_PAYLOAD_BYTES: u64 = 16 << 30;
+pub(crate) const PREAMBLE: usize = 56;
 
 /// Everything that can be wrong with a table file.
 #[derive(Debug, thiserror::Error)]
@@ -61,11 +57,13 @@ pub enum TableError {
     Decompress { path: PathBuf, message: String },
     #[error("{path}: {extra} unexpected bytes after the payload")]
     TrailingBytes { path: PathBuf, extra: u64 },
+    #[error("{path}: {message}")]
+    Limit { path: PathBuf, message: String },
     #[error("table content is inconsistent: {0}")]
     Inconsistent(String),
 }
 
-fn sha256_hex(bytes: &[u8]) -> String {
+pub(crate) fn sha256_hex(bytes: &[u8]) -> String {
     hex::encode(Sha256::digest(bytes))
 }
 
@@ -106,30 +104,14 @@ fn compress_payload(data: &[f32]) -> Result<(Vec<u8>, u64, String), TableError> 
 impl Table {
     /// Build a table from stage content and provenance (computes layout and checksums on write).
     pub fn from_content(content: TableContent, provenance: Provenance) -> Result<Self, TableError> {
-        if content.axes.is_empty() {
-            return Err(TableError::Inconsistent(
-                "a table needs at least one axis".into(),
-            ));
-        }
+        super::read::check_axis_count(content.axes.len()).map_err(TableError::Inconsistent)?;
         if content.channels.is_empty() {
             return Err(TableError::Inconsistent(
                 "a table needs at least one channel".into(),
             ));
         }
         for a in &content.axes {
-            if a.is_empty() {
-                return Err(TableError::Inconsistent(format!(
-                    "axis `{}` is empty",
-                    a.name
-                )));
-            }
-            let c = a.coords();
-            if c.windows(2).any(|w| w[1] <= w[0] || !w[1].is_finite()) || !c[0].is_finite() {
-                return Err(TableError::Inconsistent(format!(
-                    "axis `{}` is not strictly increasing and finite",
-                    a.name
-                )));
-            }
+            super::read::check_axis_coords(a).map_err(TableError::Inconsistent)?;
         }
         if content.data.len() != content.expected_len() {
             return Err(TableError::Inconsistent(format!(
@@ -195,259 +177,6 @@ impl Table {
         out.extend_from_slice(&compressed);
         Ok(out)
     }
-
-    /// Open and fully verify a table (header checksum, payload checksums, sizes).
-    pub fn open(path: impl AsRef<Path>) -> Result<Self, TableError> {
-        let path = path.as_ref();
-        let bytes = std::fs::read(path).map_err(|source| TableError::Io {
-            path: path.into(),
-            source,
-        })?;
-        Self::from_bytes(&bytes, path)
-    }
-
-    /// Parse and fully verify table bytes; `path` is only used in error messages.
-    pub fn from_bytes(bytes: &[u8], path: &Path) -> Result<Self, TableError> {
-        let header = parse_header(bytes, path)?;
-        let start = PREAMBLE + header_len(bytes) as usize;
-        let p = &header.payload;
-        let end = start as u64 + p.compressed_bytes;
-        if (bytes.len() as u64) < end {
-            return Err(TableError::Truncated {
-                path: path.into(),
-                what: format!(
-                    "payload needs {} bytes, {} present",
-                    p.compressed_bytes,
-                    bytes.len() - start
-                ),
-            });
-        }
-        if (bytes.len() as u64) > end {
-            return Err(TableError::TrailingBytes {
-                path: path.into(),
-                extra: bytes.len() as u64 - end,
-            });
-        }
-        let compressed = &bytes[start..end as usize];
-        if sha256_hex(compressed) != p.sha256_compressed {
-            return Err(TableError::PayloadChecksum {
-                path: path.into(),
-                which: "compressed",
-            });
-        }
-        if p.uncompressed_bytes > MAX_PAYLOAD_BYTES {
-            return Err(TableError::BadHeader {
-                path: path.into(),
-                message: format!(
-                    "payload of {} bytes is implausibly large",
-                    p.uncompressed_bytes
-                ),
-            });
-        }
-        // The capacity is only a hint (bounded), so a crafted size cannot force a huge allocation
-        // before decompression proves the data exists.
-        let mut raw = Vec::with_capacity(
-            p.uncompressed_bytes
-                .min(p.compressed_bytes.saturating_mul(64)) as usize,
-        );
-        zstd::stream::Decoder::new(compressed)
-            .and_then(|d| d.take(p.uncompressed_bytes + 1).read_to_end(&mut raw))
-            .map_err(|e| TableError::Decompress {
-                path: path.into(),
-                message: e.to_string(),
-            })?;
-        if raw.len() as u64 != p.uncompressed_bytes {
-            return Err(TableError::Decompress {
-                path: path.into(),
-                message: format!(
-                    "payload decompresses to {} bytes, header says {}",
-                    raw.len(),
-                    p.uncompressed_bytes
-                ),
-            });
-        }
-        if sha256_hex(&raw) != p.sha256_uncompressed {
-            return Err(TableError::PayloadChecksum {
-                path: path.into(),
-                which: "uncompressed",
-            });
-        }
-        let data = raw
-            .chunks_exact(4)
-            .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
-            .collect();
-        Ok(Table { header, data })
-    }
-}
-
-fn header_len(bytes: &[u8]) -> u64 {
-    u64::from_le_bytes(bytes[16..24].try_into().expect("8 bytes"))
-}
-
-/// Parse and verify the preamble and header (not the payload).
-fn parse_header(bytes: &[u8], path: &Path) -> Result<Header, TableError> {
-    if bytes.len() < 8 || bytes[..8] != MAGIC {
-        return Err(TableError::BadMagic {
-            path: path.into(),
-            found: bytes[..bytes.len().min(8)].to_vec(),
-        });
-    }
-    if bytes.len() < PREAMBLE {
-        return Err(TableError::Truncated {
-            path: path.into(),
-            what: format!(
-                "{} bytes, shorter than the {PREAMBLE}-byte preamble",
-                bytes.len()
-            ),
-        });
-    }
-    let major = u16::from_le_bytes([bytes[8], bytes[9]]);
-    let minor = u16::from_le_bytes([bytes[10], bytes[11]]);
-    if major > FORMAT_MAJOR {
-        return Err(TableError::NewerMajor {
-            path: path.into(),
-            major,
-            minor,
-        });
-    }
-    if major == 0 {
-        return Err(TableError::BadHeader {
-            path: path.into(),
-            message: "format major version 0 does not exist".into(),
-        });
-    }
-    let hlen = header_len(bytes);
-    if hlen > MAX_HEADER_BYTES || (PREAMBLE as u64 + hlen) > bytes.len() as u64 {
-        return Err(TableError::Truncated {
-            path: path.into(),
-            what: format!(
-                "header needs {hlen} bytes, {} present",
-                bytes.len() - PREAMBLE
-            ),
-        });
-    }
-    let header_bytes = &bytes[PREAMBLE..PREAMBLE + hlen as usize];
-    let mut h = Sha256::new();
-    h.update(&bytes[..24]);
-    h.update(header_bytes);
-    if h.finalize().as_slice() != &bytes[24..56] {
-        return Err(TableError::HeaderChecksum { path: path.into() });
-    }
-    let header: Header =
-        serde_json::from_slice(header_bytes).map_err(|e| TableError::BadHeader {
-            path: path.into(),
-            message: e.to_string(),
-        })?;
-    // Fields of a newer minor are ignored; a file of a minor this reader implements has exactly
-    // the fields of that version.
-    let newer_minor = minor > FORMAT_MINOR;
-    if !newer_minor {
-        reject_unknown_fields(header_bytes, major, minor).map_err(|message| {
-            TableError::BadHeader {
-                path: path.into(),
-                message,
-            }
-        })?;
-    }
-    validate_header(&header).map_err(|message| TableError::BadHeader {
-        path: path.into(),
-        message,
-    })?;
-    Ok(header)
-}
-
-/// Top-level header fields of format 1.0 (the fields of [`Header`]).
-const HEADER_FIELDS: [&str; 8] = [
-    "schema",
-    "description",
-    "axes",
-    "channels",
-    "layout",
-    "attributes",
-    "provenance",
-    "payload",
-];
-
-fn reject_unknown_fields(header_bytes: &[u8], major: u16, minor: u16) -> Result<(), String> {
-    let fields: std::collections::BTreeMap<String, serde::de::IgnoredAny> =
-        serde_json::from_slice(header_bytes).map_err(|e| e.to_string())?;
-    match fields.keys().find(|k| !HEADER_FIELDS.contains(&k.as_str())) {
-        Some(k) => Err(format!(
-            "unknown field `{k}` in a format {major}.{minor} header (only a newer minor version \
-             may add fields)"
-        )),
-        None => Ok(()),
-    }
-}
-
-fn validate_header(h: &Header) -> Result<(), String> {
-    if h.layout.order != "row-major" || h.layout.dtype != "f32le" {
-        return Err(format!(
-            "unsupported layout {} / {}",
-            h.layout.order, h.layout.dtype
-        ));
-    }
-    if h.payload.compression != "zstd" {
-        return Err(format!(
-            "unsupported compression `{}`",
-            h.payload.compression
-        ));
-    }
-    let mut shape: Vec<usize> = h.axes.iter().map(|a| a.len()).collect();
-    shape.push(h.channels.len());
-    if shape != h.layout.shape {
-        return Err(format!(
-            "layout shape {:?} disagrees with axes/channels {:?}",
-            h.layout.shape, shape
-        ));
-    }
-    let n = shape
-        .iter()
-        .try_fold(1u64, |acc, &s| acc.checked_mul(s as u64))
-        .ok_or("shape overflows")?;
-    if n.checked_mul(4) != Some(h.payload.uncompressed_bytes) {
-        return Err(format!(
-            "shape {:?} implies {} bytes, payload says {}",
-            shape,
-            n * 4,
-            h.payload.uncompressed_bytes
-        ));
-    }
-    Ok(())
-}
-
-/// Read and verify only the preamble and header of a table (cheap; used for resume checks and
-/// the catalog). The payload is not checked.
-pub fn read_header_only(path: &Path) -> Result<Header, TableError> {
-    let io = |source| TableError::Io {
-        path: path.into(),
-        source,
-    };
-    let mut f = std::fs::File::open(path).map_err(io)?;
-    let mut pre = vec![0u8; PREAMBLE];
-    let n = read_up_to(&mut f, &mut pre).map_err(io)?;
-    pre.truncate(n);
-    if n < PREAMBLE {
-        return parse_header(&pre, path);
-    }
-    let hlen = header_len(&pre).min(MAX_HEADER_BYTES + 1);
-    let mut rest = vec![0u8; hlen as usize];
-    let m = read_up_to(&mut f, &mut rest).map_err(io)?;
-    rest.truncate(m);
-    pre.extend_from_slice(&rest);
-    parse_header(&pre, path)
-}
-
-fn read_up_to(f: &mut impl Read, buf: &mut [u8]) -> std::io::Result<usize> {
-    let mut got = 0;
-    while got < buf.len() {
-        let n = f.read(&mut buf[got..])?;
-        if n == 0 {
-            break;
-        }
-        got += n;
-    }
-    Ok(got)
 }
 
 /// Write `bytes` to `path` atomically: a temporary file in the same directory, fsync, rename,

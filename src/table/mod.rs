@@ -5,11 +5,13 @@
 //! checksums of the header and of the payload (compressed and uncompressed).
 
 pub mod format;
-pub mod phase_contract;
+pub mod read;
 mod sample;
 
-pub use format::{
-    FORMAT_MAJOR, FORMAT_MINOR, MAGIC, TableError, read_header_only, write_table_atomic,
+pub use format::{FORMAT_MAJOR, FORMAT_MINOR, MAGIC, TableError, write_table_atomic};
+pub use read::{
+    DEFAULT_MAX_PAYLOAD_BYTES, MAX_AXES, MAX_HEADER_BYTES, MAX_JSON_DEPTH, ReadLimits, ValueStats,
+    Verified, read_header_only, verify_file,
 };
 
 use serde::{Deserialize, Serialize};

@@ -5,7 +5,7 @@
 //! Axes are interpolated linearly in the coordinate as stored (e.g. degrees, nm).
 
 use super::{Axis, AxisPoints, Table};
-use crate::optics::interp::{locate, locate_uniform, multilinear};
+use crate::math::interp::{locate, locate_uniform, multilinear};
 
 /// Why a lookup failed.
 #[derive(Debug, thiserror::Error, PartialEq)]

@@ -4,6 +4,8 @@
 
 #![allow(dead_code)]
 
+pub mod crafted;
+
 use scatterbake::consumers::synthetic::{henyey_greenstein_table, peak_table};
 use scatterbake::table::{
     Axis, Channel, Provenance, Schema, Table, TableContent, write_table_atomic,

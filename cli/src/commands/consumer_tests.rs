@@ -3,7 +3,7 @@
 //! reconstructs to the reported truncation error, Mitsuba snippet, plots and the renderer write
 //! decodable images of the requested size that show what they should.
 
-use crate::commands::{legendre, mieplot, mitsuba, plot, plot_raytrace, render};
+use crate::commands::{legendre, lut, mieplot, mitsuba, plot, plot_raytrace, render};
 use clap::Parser;
 use scatterbake::consumers::synthetic;
 use scatterbake::table::write_table_atomic;
@@ -341,7 +341,7 @@ fn render_and_plot_two_d_tables() {
     let dir = tempfile::tempdir().unwrap();
     let wl: Vec<f64> = (0..5).map(|i| 450.0 + 50.0 * i as f64).collect();
     let t1 = synthetic::peak_table(&wl, |_| 138.0, 0.3, 1e-4, 1801);
-    let mut t2 = synthetic::lat_long_from_1d(&t1, &[0.0, 20.0], 10.0, |_, _| 1.0);
+    let mut t2 = synthetic::lat_long_from_1d(&t1, &[0.0, 10.0, 20.0], 10.0, |_, _| 1.0);
     let p2 = dir.path().join("sphere2d.sbt");
     write_table_atomic(&mut t2, &p2).unwrap();
     let out = dir.path().join("sky2d.png");
@@ -364,7 +364,14 @@ fn render_and_plot_two_d_tables() {
     let err = render::run_render_rainbow(&args("25"))
         .unwrap_err()
         .to_string();
-    assert!(err.contains("[0, 20]"), "{err}");
+    assert!(err.contains("`sun_elevation` range [0, 20] deg"), "{err}");
+    // Between two traced elevations: refused (blending 10° and 20° would draw two bows),
+    // naming the nearest traced elevation.
+    let err = format!("{:#}", render::run_render_rainbow(&args("14")).unwrap_err());
+    assert!(
+        err.contains("between the samples 10 and 20 deg") && err.contains("nearest is 10 deg"),
+        "{err}"
+    );
     render::run_render_rainbow(&args("10")).unwrap();
     let (w, h, px) = decode_png(&out);
     assert_eq!((w, h), (300, 200));
@@ -399,4 +406,189 @@ fn render_and_plot_two_d_tables() {
     ]))
     .unwrap();
     assert!(decode_png(&bows).0 == 1500);
+}
+
+/// A narrow peak (σ = 0.3°) at 138° written twice with the same data: once stating that the
+/// 0.5° sun disc is already applied, once as a point-sun table.
+fn peak_pair(dir: &Path) -> (PathBuf, PathBuf) {
+    let wl: Vec<f64> = (0..9).map(|i| 380.0 + 40.0 * i as f64).collect();
+    let mut pair = vec![];
+    for (name, sun) in [("disc.sbt", 0.5), ("point.sbt", 0.0)] {
+        let mut t = synthetic::peak_table(&wl, |w| 137.0 + w / 500.0, 0.3, 1e-4, 3601);
+        t.header
+            .attributes
+            .insert("sun_diameter_deg".into(), sun.into());
+        let p = dir.join(name);
+        write_table_atomic(&mut t, &p).unwrap();
+        pair.push(p);
+    }
+    (pair[0].clone(), pair[1].clone())
+}
+
+fn csv_rows(p: &Path) -> Vec<String> {
+    std::fs::read_to_string(p)
+        .unwrap()
+        .lines()
+        .filter(|l| !l.starts_with('#'))
+        .map(str::to_string)
+        .collect()
+}
+
+/// rgb-lut of a table that already averaged the 0.5° disc equals the disc-free conversion of
+/// the same data (no second disc); the point-sun table gets the disc (its bow peak drops);
+/// a request below the table's disc is refused naming it; a format is refused before any work.
+#[test]
+fn rgb_lut_applies_only_the_disc_the_table_lacks() {
+    let dir = tempfile::tempdir().unwrap();
+    let (disc, point) = peak_pair(dir.path());
+    let run = |t: &Path, extra: &[&str], out: &str| {
+        let out = dir.path().join(out);
+        let mut argv = vec![t.to_str().unwrap(), "--samples", "3601", "--out"];
+        argv.push(out.to_str().unwrap());
+        argv.extend_from_slice(extra);
+        lut::run_lut(&parse::<lut::LutArgs>(&argv)).map(|_| out)
+    };
+    let a = run(&disc, &[], "disc.csv").unwrap();
+    let b = run(&point, &["--sun-diameter-deg", "0"], "point0.csv").unwrap();
+    assert_eq!(csv_rows(&a), csv_rows(&b));
+    let first = std::fs::read_to_string(&a).unwrap();
+    assert!(
+        first.starts_with("# sun_disc: sun disc 0.5 deg: already averaged"),
+        "{first}"
+    );
+    // The point-sun table by default shows the 0.5° sun: the peak's red maximum drops.
+    let c = run(&point, &[], "point.csv").unwrap();
+    let peak = |p: &Path| {
+        csv_rows(p)[1..]
+            .iter()
+            .map(|l| l.split(',').nth(1).unwrap().parse::<f64>().unwrap())
+            .fold(0.0, f64::max)
+    };
+    let ratio = peak(&c) / peak(&a);
+    assert!(
+        ratio < 0.97,
+        "disc applied to the point-sun table: ratio {ratio}"
+    );
+    let err = run(&disc, &["--sun-diameter-deg", "0.25"], "x.csv")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("0.5 deg sun disc the table already averaged"),
+        "{err}"
+    );
+    let err = run(Path::new("/nonexistent.sbt"), &[], "x.tiff")
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("must end in .exr, .csv or .png"), "{err}");
+}
+
+/// render rainbow of the disc-averaged table equals, pixel for pixel, the point-sun render of
+/// the same data; with its default disc the point-sun table renders differently.
+#[test]
+fn render_applies_only_the_disc_the_table_lacks() {
+    let dir = tempfile::tempdir().unwrap();
+    let (disc, point) = peak_pair(dir.path());
+    let run = |t: &Path, extra: &[&str], out: &str| {
+        let out = dir.path().join(out);
+        let mut argv = vec![
+            "--table",
+            t.to_str().unwrap(),
+            "--width",
+            "150",
+            "--height",
+            "100",
+            "--view-elevation-deg",
+            "5",
+            "--exposure",
+            "1e-2",
+            "--out",
+        ];
+        argv.push(out.to_str().unwrap());
+        argv.extend_from_slice(extra);
+        render::run_render_rainbow(&parse(&argv)).map(|_| decode_png(&out).2)
+    };
+    let a = run(&disc, &[], "disc.png").unwrap();
+    let b = run(&point, &["--sun-diameter-deg", "0"], "point0.png").unwrap();
+    assert!(a == b, "disc-averaged table rendered with a second disc");
+    let c = run(&point, &[], "point.png").unwrap();
+    assert!(a != c, "the point-sun table must get the 0.5 deg disc");
+    let err = run(&disc, &[], "sky.jpg").unwrap_err().to_string();
+    assert!(err.contains("must end in .png"), "{err}");
+}
+
+/// Strips and Lee diagrams: the colours of the disc-averaged table (default request) are the
+/// disc-free colours of the same data; the command's default request is "the table's disc".
+#[test]
+fn plot_strip_applies_only_the_disc_the_table_lacks() {
+    use scatterbake::consumers::read::operators::SunDisc;
+    use scatterbake::consumers::read::phase::PhaseTable;
+    let dir = tempfile::tempdir().unwrap();
+    let (disc, point) = peak_pair(dir.path());
+    let (a, b) = (
+        PhaseTable::open(&disc).unwrap(),
+        PhaseTable::open(&point).unwrap(),
+    );
+    let args: plot::PlotArgs =
+        parse(&[disc.to_str().unwrap(), "--kind", "strip", "--out", "x.png"]);
+    assert_eq!(args.sun_diameter_deg, None);
+    let plan = SunDisc::plan(&a.table, args.sun_diameter_deg).unwrap();
+    let xa = scatterbake::consumers::plot::tables::strip_xyz(&a, &[], &plan).unwrap();
+    let xb = scatterbake::consumers::read::spectrum::xyz_vs_angle(&b, &[], 0.0).unwrap();
+    assert_eq!(xa, xb);
+    let out = dir.path().join("strip.png");
+    let got = scatterbake::consumers::plot::tables::plot_strip(
+        &a,
+        &[],
+        None,
+        (120.0, 145.0),
+        &out,
+        (400, 100),
+    )
+    .unwrap();
+    assert_eq!(got.extra_deg, 0.0);
+    assert_eq!(decode_png(&out).0, 400);
+}
+
+/// Entry axes a table does not declare interpolable take stored samples: radius=450 between
+/// 100 and 500 µm is refused naming the nearest, radius=99999 names the axis range.
+#[test]
+fn coarse_entry_axes_are_not_interpolated() {
+    let dir = tempfile::tempdir().unwrap();
+    let t = hg_table(dir.path());
+    let out = dir.path().join("sky.png");
+    let run = |e: &str| {
+        render::run_render_rainbow(&parse(&[
+            "--table",
+            t.to_str().unwrap(),
+            "--entry",
+            e,
+            "--width",
+            "60",
+            "--out",
+            out.to_str().unwrap(),
+        ]))
+        .map_err(|e| format!("{e:#}"))
+    };
+    let err = run("radius=450").unwrap_err();
+    assert!(
+        err.contains("between the samples 100 and 500 um") && err.contains("nearest is 500 um"),
+        "{err}"
+    );
+    let err = run("radius=99999").unwrap_err();
+    assert!(
+        err.contains("outside the table's `radius` range [100, 500] um"),
+        "{err}"
+    );
+    run("radius=500").unwrap();
+    // rgb-lut reads entries the same way.
+    let err = lut::run_lut(&parse::<lut::LutArgs>(&[
+        t.to_str().unwrap(),
+        "--entry",
+        "radius=450",
+        "--out",
+        dir.path().join("l.csv").to_str().unwrap(),
+    ]))
+    .unwrap_err()
+    .to_string();
+    assert!(err.contains("nearest is 500 um"), "{err}");
 }

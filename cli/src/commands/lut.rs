@@ -2,6 +2,7 @@
 
 #[allow(unused_imports)]
 use scatterbake::consumers::export::lut::*;
+use scatterbake::consumers::read::operators::SunDisc;
 use scatterbake::consumers::read::phase::{EntrySelection, PhaseTable};
 #[allow(unused_imports)]
 use scatterbake::table::Table;
@@ -18,32 +19,57 @@ pub struct LutArgs {
     /// Number of rows (uniform in angle over [0, 180] deg).
     #[arg(long, default_value_t = 7201)]
     pub samples: usize,
-    #[arg(long, default_value_t = 0.5)]
-    pub sun_diameter_deg: f64,
+    /// Sun disc of the texture (deg). Default: the disc the table already averaged over
+    /// (attribute `sun_diameter_deg`; nothing more is applied), 0.5 for a point-sun table. A
+    /// value smaller than the table's is refused.
+    #[arg(long)]
+    pub sun_diameter_deg: Option<f64>,
     /// Output `.exr` (float, recommended), `.csv` or `.png` (16-bit, log10-encoded).
     #[arg(long)]
     pub out: PathBuf,
 }
 
+/// Output formats of the LUT, chosen from the extension of `--out`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum LutFormat {
+    Csv,
+    Png,
+    Exr,
+}
+
+fn lut_format(out: &std::path::Path) -> anyhow::Result<LutFormat> {
+    match out
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(|e| e.to_ascii_lowercase())
+        .as_deref()
+    {
+        Some("csv") => Ok(LutFormat::Csv),
+        Some("png") => Ok(LutFormat::Png),
+        Some("exr") => Ok(LutFormat::Exr),
+        _ => anyhow::bail!("{}: output must end in .exr, .csv or .png", out.display()),
+    }
+}
+
 /// Run the LUT export.
 pub fn run_lut(args: &LutArgs) -> anyhow::Result<()> {
     anyhow::ensure!(args.samples >= 2, "--samples must be at least 2");
-    anyhow::ensure!(
-        (0.0..=10.0).contains(&args.sun_diameter_deg),
-        "--sun-diameter-deg must be within 0…10°"
-    );
+    // Refuse an unknown format before any work.
+    let format = lut_format(&args.out)?;
     let pt = PhaseTable::open(&args.table)?;
-    let lut = rgb_lut(&pt, &args.entry, args.sun_diameter_deg, args.samples)?;
-    match args.out.extension().and_then(|e| e.to_str()) {
-        Some("csv") => {
-            let mut s = String::from("angle_deg,r,g,b\n");
+    let disc = SunDisc::plan(&pt.table, args.sun_diameter_deg)?;
+    eprintln!("{}", disc.describe());
+    let lut = rgb_lut(&pt, &args.entry, &disc, args.samples)?;
+    match format {
+        LutFormat::Csv => {
+            let mut s = format!("# sun_disc: {}\nangle_deg,r,g,b\n", disc.describe());
             for (k, v) in lut.iter().enumerate() {
                 let a = 180.0 * k as f64 / (args.samples - 1) as f64;
                 let _ = writeln!(s, "{a},{:e},{:e},{:e}", v[0], v[1], v[2]);
             }
             std::fs::write(&args.out, s)?;
         }
-        Some("png") => {
+        LutFormat::Png => {
             let (codes, l0, l1) = log_encode(&lut);
             let f = std::io::BufWriter::new(std::fs::File::create(&args.out)?);
             let mut enc = png::Encoder::new(f, args.samples as u32, 1);
@@ -52,6 +78,7 @@ pub fn run_lut(args: &LutArgs) -> anyhow::Result<()> {
             enc.add_text_chunk("scatterbake_encoding".into(), "log10".into())?;
             enc.add_text_chunk("scatterbake_log10_min".into(), format!("{l0:e}"))?;
             enc.add_text_chunk("scatterbake_log10_max".into(), format!("{l1:e}"))?;
+            enc.add_text_chunk("scatterbake_sun_disc".into(), disc.describe())?;
             let mut w = enc.write_header()?;
             let bytes: Vec<u8> = codes.iter().flat_map(|c| c.to_be_bytes()).collect();
             w.write_image_data(&bytes)?;
@@ -61,12 +88,13 @@ pub fn run_lut(args: &LutArgs) -> anyhow::Result<()> {
                 l1 - l0
             );
         }
-        Some("exr") => {
+        LutFormat::Exr => {
             let entry = pt.resolve_entry(&args.entry)?;
             let t = lut_table(
                 &lut,
                 &args.table.display().to_string(),
                 &scatterbake::consumers::read::phase::describe_entry(&pt.table, &entry),
+                &disc,
             )?;
             scatterbake::consumers::export::generic::export(
                 &t,
@@ -74,10 +102,6 @@ pub fn run_lut(args: &LutArgs) -> anyhow::Result<()> {
                 &args.out,
             )?;
         }
-        _ => anyhow::bail!(
-            "{}: output must end in .exr, .csv or .png",
-            args.out.display()
-        ),
     }
     Ok(())
 }
@@ -101,12 +125,13 @@ mod tests {
             table: table_path.clone(),
             entry: vec![],
             samples: 721,
-            sun_diameter_deg: 0.0,
+            sun_diameter_deg: Some(0.0),
             out: out.clone(),
         };
         run_lut(&args).unwrap();
         let pt = PhaseTable::open(&table_path).unwrap();
-        let lut = rgb_lut(&pt, &[], 0.0, 721).unwrap();
+        let disc = SunDisc::plan(&pt.table, Some(0.0)).unwrap();
+        let lut = rgb_lut(&pt, &[], &disc, 721).unwrap();
         let dec = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(&out).unwrap()));
         let mut reader = dec.read_info().unwrap();
         let text = |k: &str| -> f64 {

@@ -1,6 +1,6 @@
 //! `scatterbake` glue for [`scatterbake::consumers::export::mieplot`].
 
-use anyhow::{Context, bail};
+use anyhow::bail;
 #[allow(unused_imports)]
 use scatterbake::consumers::export::mieplot::*;
 use scatterbake::consumers::read::phase::{EntrySelection, PhaseTable, describe_entry};
@@ -68,10 +68,7 @@ pub struct ValidateArgs {
 /// Run the validation; prints the figures, errors out when over `--tolerance`.
 pub fn run_validate(args: &ValidateArgs) -> anyhow::Result<()> {
     let pt = PhaseTable::open(&args.table)?;
-    let r = read_mieplot(
-        &std::fs::read_to_string(&args.reference)
-            .with_context(|| args.reference.display().to_string())?,
-    )?;
+    let r = read_mieplot_file(&args.reference)?;
     let wl = args.wavelength_nm.or(r.wavelength_nm).ok_or_else(|| {
         anyhow::anyhow!("reference has no `# wavelength_nm:` line: pass --wavelength-nm")
     })?;

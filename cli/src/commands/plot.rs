@@ -44,8 +44,11 @@ pub struct PlotArgs {
     /// Scattering-angle range of strips and Lee diagrams, LO,HI in deg.
     #[arg(long, default_value = "120,145", value_parser = parse_range)]
     pub angle_range: (f64, f64),
-    #[arg(long, default_value_t = 0.5)]
-    pub sun_diameter_deg: f64,
+    /// Sun disc of strips and Lee diagrams (deg). Default: the disc the table already averaged
+    /// over (attribute `sun_diameter_deg`; nothing more is applied), 0.5 for a point-sun table.
+    /// A value smaller than the table's is refused.
+    #[arg(long)]
+    pub sun_diameter_deg: Option<f64>,
     #[arg(long, default_value_t = 1000)]
     pub width: u32,
     #[arg(long, default_value_t = 600)]
@@ -74,22 +77,28 @@ pub fn run_plot(args: &PlotArgs) -> anyhow::Result<()> {
             &args.out,
             size,
         )?,
-        PlotKind::Strip => plot_strip(
-            &phase()?,
-            &args.entry,
-            args.sun_diameter_deg,
-            args.angle_range,
-            &args.out,
-            size,
-        )?,
-        PlotKind::Lee => plot_lee(
-            &phase()?,
-            &args.entry,
-            args.sun_diameter_deg,
-            args.angle_range,
-            &args.out,
-            size,
-        )?,
+        PlotKind::Strip => {
+            let disc = plot_strip(
+                &phase()?,
+                &args.entry,
+                args.sun_diameter_deg,
+                args.angle_range,
+                &args.out,
+                size,
+            )?;
+            eprintln!("{}", disc.describe());
+        }
+        PlotKind::Lee => {
+            let disc = plot_lee(
+                &phase()?,
+                &args.entry,
+                args.sun_diameter_deg,
+                args.angle_range,
+                &args.out,
+                size,
+            )?;
+            eprintln!("{}", disc.describe());
+        }
         PlotKind::Orders => plot_debye_components(
             &phase()?,
             &args.entry,

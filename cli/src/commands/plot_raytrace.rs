@@ -1,8 +1,9 @@
 //! `scatterbake` glue for [`scatterbake::consumers::plot::raytrace`].
 
-use anyhow::anyhow;
+use anyhow::{Context, anyhow};
 #[allow(unused_imports)]
 use scatterbake::consumers::plot::raytrace::*;
+use scatterbake::consumers::read::operators::SunDisc;
 use scatterbake::consumers::read::phase::EntrySelection;
 use scatterbake::consumers::read::phase2d::Phase2dTable;
 #[allow(unused_imports)]
@@ -28,8 +29,10 @@ pub struct PlotRaytraceArgs {
     /// Wavelength of the phase curves / the lat-long map (nearest table wavelength).
     #[arg(long, default_value_t = 650.0)]
     pub wavelength_nm: f64,
-    #[arg(long, default_value_t = 0.5)]
-    pub sun_diameter_deg: f64,
+    /// Sun disc of the colour strips (deg). Default: the disc the tables already averaged over
+    /// (attribute `sun_diameter_deg`), 0.5 for point-sun tables (what the ray tracer writes).
+    #[arg(long)]
+    pub sun_diameter_deg: Option<f64>,
     /// Polar-angle range of the bows plot, LO,HI in deg.
     #[arg(long, default_value = "120,150")]
     pub polar_range: String,
@@ -54,8 +57,21 @@ pub fn run_plot_raytrace(args: &PlotRaytraceArgs) -> anyhow::Result<()> {
         "--polar-range: need 0 <= LO < HI <= 180"
     );
     let mut inputs = vec![];
+    let mut disc: Option<SunDisc> = None;
     for path in &args.tables {
         let t2 = Phase2dTable::open(path)?;
+        let d = SunDisc::plan(&t2.table, args.sun_diameter_deg)
+            .with_context(|| path.display().to_string())?;
+        if let Some(first) = disc {
+            anyhow::ensure!(
+                first == d,
+                "{}: {} (the first table: {}); one figure needs one sun disc",
+                path.display(),
+                d.describe(),
+                first.describe()
+            );
+        }
+        disc = Some(d);
         let e = t2.resolve_elevation(args.sun_elevation_deg)?;
         let slice = t2.slice(e, &args.entry, "phase")?;
         let label = format!("a = {}", t2.radius_label(&slice.entry));
@@ -83,10 +99,12 @@ pub fn run_plot_raytrace(args: &PlotRaytraceArgs) -> anyhow::Result<()> {
             let h = args
                 .height
                 .unwrap_or(600 + 30 * inputs.len() as u32 + 60 + 30);
+            let disc = disc.ok_or_else(|| anyhow!("no tables"))?;
+            eprintln!("{}", disc.describe());
             let peaks = plot_bows(
                 &inputs,
                 args.wavelength_nm,
-                args.sun_diameter_deg,
+                &disc,
                 range,
                 &args.out,
                 (args.width, h),

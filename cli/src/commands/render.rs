@@ -2,12 +2,15 @@
 
 use anyhow::Context;
 use scatterbake::consumers::image::write_png;
+use scatterbake::consumers::read::operators::SunDisc;
 use scatterbake::consumers::read::phase::{EntrySelection, PhaseTable, describe_entry};
-use scatterbake::consumers::read::spectrum::{THETA_STEP_DEG, xyz_vs_angle};
+use scatterbake::consumers::read::phase2d::{Phase2dTable, PhaseSlice, is_2d};
+use scatterbake::consumers::read::spectrum::xyz_vs_angle;
+use scatterbake::consumers::render::measure::{
+    RainbowMeasurements, TableReference, measure_rainbow,
+};
 #[allow(unused_imports)]
 use scatterbake::consumers::render::rainbow::*;
-use scatterbake::optics::colour::linear_srgb_luminance;
-#[allow(unused_imports)]
 use scatterbake::table::Table;
 use std::path::PathBuf;
 
@@ -32,9 +35,11 @@ pub struct RenderRainbowArgs {
     /// tables (which refuse elevations outside their sun_elevation axis).
     #[arg(long)]
     pub sun_elevation_deg: Option<f64>,
-    /// Angular diameter of the sun disc (0 = point sun).
-    #[arg(long, default_value_t = 0.5)]
-    pub sun_diameter_deg: f64,
+    /// Angular diameter of the sun disc (0 = point sun). Default: the disc the table already
+    /// averaged over (attribute `sun_diameter_deg`; nothing more is applied), 0.5 for a
+    /// point-sun table. A value smaller than the table's is refused.
+    #[arg(long)]
+    pub sun_diameter_deg: Option<f64>,
     /// Horizontal field of view.
     #[arg(long, default_value_t = 120.0)]
     pub fov_deg: f64,
@@ -68,13 +73,18 @@ pub struct RenderRainbowArgs {
     /// Background sRGB colour added to the render, R,G,B in 0–255 (Table 3.4).
     #[arg(long, default_value = "0,0,0", value_parser = parse_rgb)]
     pub background: [u8; 3],
-    /// Output PNG.
+    /// Output PNG (`.png`; other extensions are refused).
     #[arg(long)]
     pub out: PathBuf,
 }
 
-/// Run the renderer; prints the measured bow radii next to the table's.
-pub fn run_render_rainbow(args: &RenderRainbowArgs) -> anyhow::Result<()> {
+/// The table a render reads: a 1-D phase table, or a 2-D ray-traced slice at the sun elevation.
+enum Source {
+    OneD(Box<PhaseTable>),
+    TwoD(Box<PhaseSlice>),
+}
+
+fn check_args(args: &RenderRainbowArgs) -> anyhow::Result<()> {
     anyhow::ensure!(
         args.width >= 2 && args.steps >= 1,
         "width ≥ 2 and steps ≥ 1"
@@ -83,47 +93,55 @@ pub fn run_render_rainbow(args: &RenderRainbowArgs) -> anyhow::Result<()> {
         args.fov_deg > 0.0 && (args.lens == Lens::Fisheye || args.fov_deg < 179.0),
         "fov must be positive (and below 179° for a rectilinear lens)"
     );
-    anyhow::ensure!(
-        (0.0..=10.0).contains(&args.sun_diameter_deg),
-        "--sun-diameter-deg must be within 0…10°"
-    );
-    let table = scatterbake::table::Table::open(&args.table)
-        .map_err(|e| anyhow::anyhow!(e))
-        .with_context(|| args.table.display().to_string())?;
-    // 1-D tables: the phase contract; 2-D ray-traced tables: a slice at the sun elevation.
-    enum Source {
-        OneD(Box<PhaseTable>),
-        TwoD(
-            Box<scatterbake::consumers::read::phase2d::PhaseSlice>,
-            String,
+    image_format(&args.out)
+}
+
+/// The render writes PNG only: refuse any other extension before computing.
+fn image_format(out: &std::path::Path) -> anyhow::Result<()> {
+    match out.extension().and_then(|e| e.to_str()) {
+        Some(e) if e.eq_ignore_ascii_case("png") => Ok(()),
+        _ => anyhow::bail!(
+            "{}: render writes PNG images; the output must end in .png",
+            out.display()
         ),
     }
-    let (source, sun_elevation_deg) = if scatterbake::consumers::read::phase2d::is_2d(&table) {
-        let t2 = scatterbake::consumers::read::phase2d::Phase2dTable::new(table)
-            .with_context(|| args.table.display().to_string())?;
+}
+
+/// Open the table: the source, its sun elevation, the sun disc plan and a label.
+fn load_source(args: &RenderRainbowArgs) -> anyhow::Result<(Source, f64, SunDisc, String)> {
+    let table = Table::open(&args.table)
+        .map_err(|e| anyhow::anyhow!(e))
+        .with_context(|| args.table.display().to_string())?;
+    let disc = SunDisc::plan(&table, args.sun_diameter_deg)
+        .with_context(|| args.table.display().to_string())?;
+    if is_2d(&table) {
+        let t2 = Phase2dTable::new(table).with_context(|| args.table.display().to_string())?;
         let e = t2.resolve_elevation(args.sun_elevation_deg)?;
         let slice = t2.slice(e, &args.entry, "phase")?;
+        let default = if args.sun_elevation_deg.is_none() {
+            " (table default)"
+        } else {
+            ""
+        };
         let label = format!(
-            "2-D table, radius {}, sun elevation {e} deg{}",
-            t2.radius_label(&slice.entry),
-            if args.sun_elevation_deg.is_none() {
-                " (table default)"
-            } else {
-                ""
-            }
+            "2-D table, radius {}, sun elevation {e} deg{default}",
+            t2.radius_label(&slice.entry)
         );
-        (Source::TwoD(Box::new(slice), label), e)
+        Ok((Source::TwoD(Box::new(slice)), e, disc, label))
     } else {
         let pt = PhaseTable::new(table).with_context(|| args.table.display().to_string())?;
-        (
-            Source::OneD(Box::new(pt)),
-            args.sun_elevation_deg.unwrap_or(25.0),
-        )
-    };
-    anyhow::ensure!(
-        (-90.0..=90.0).contains(&sun_elevation_deg),
-        "--sun-elevation-deg must be within −90…90°"
-    );
+        let label = describe_entry(&pt.table, &pt.resolve_entry(&args.entry)?);
+        let e = args.sun_elevation_deg.unwrap_or(25.0);
+        Ok((Source::OneD(Box::new(pt)), e, disc, label))
+    }
+}
+
+/// Camera and scene of the arguments; the scene convolves only the disc the table lacks.
+fn camera_and_scene(
+    args: &RenderRainbowArgs,
+    sun_elevation_deg: f64,
+    disc: &SunDisc,
+) -> (Camera, Scene) {
     let camera = Camera {
         lens: args.lens,
         width: args.width,
@@ -135,17 +153,29 @@ pub fn run_render_rainbow(args: &RenderRainbowArgs) -> anyhow::Result<()> {
     };
     let scene = Scene {
         sun_elevation_deg,
-        sun_diameter_deg: args.sun_diameter_deg,
+        sun_diameter_deg: disc.extra_deg,
         extinction_per_km: args.extinction_per_km,
         rain_top_m: args.rain_top_m,
         rain_near_m: args.rain_near_m,
         camera_height_m: 1.7,
         steps: args.steps,
     };
+    (camera, scene)
+}
+
+/// Run the renderer; prints the measured bow radii next to the table's.
+pub fn run_render_rainbow(args: &RenderRainbowArgs) -> anyhow::Result<()> {
+    check_args(args)?;
+    let (source, sun_elevation_deg, disc, what) = load_source(args)?;
+    anyhow::ensure!(
+        (-90.0..=90.0).contains(&sun_elevation_deg),
+        "--sun-elevation-deg must be within −90…90°"
+    );
+    let (camera, scene) = camera_and_scene(args, sun_elevation_deg, &disc);
     let t0 = std::time::Instant::now();
     let r = match &source {
         Source::OneD(pt) => render(pt, &args.entry, &scene, &camera)?,
-        Source::TwoD(slice, _) => render_2d(slice, &scene, &camera)?,
+        Source::TwoD(slice) => render_2d(slice, &scene, &camera)?,
     };
     let seconds = t0.elapsed().as_secs_f64();
     let exposure = args
@@ -153,105 +183,77 @@ pub fn run_render_rainbow(args: &RenderRainbowArgs) -> anyhow::Result<()> {
         .unwrap_or_else(|| auto_exposure(&r.linear_srgb));
     let rgb = to_srgb8(&r.linear_srgb, exposure, args.intensity, args.background);
     write_png(&args.out, camera.width, camera.height, &rgb)?;
-    let what = match &source {
-        Source::OneD(pt) => {
-            let entry = pt.resolve_entry(&args.entry)?;
-            describe_entry(&pt.table, &entry)
-        }
-        Source::TwoD(_, label) => label.clone(),
-    };
     eprintln!(
-        "rendered {} ({}x{}, {:?}, fov {} deg, sun {} deg, disc {} deg, {}) in {seconds:.1} s, exposure {:.4e}",
+        "rendered {} ({}x{}, {:?}, fov {} deg, sun {} deg, {}) in {seconds:.1} s, exposure {:.4e}",
         args.out.display(),
         camera.width,
         camera.height,
         camera.lens,
         camera.fov_deg,
         sun_elevation_deg,
-        args.sun_diameter_deg,
         what,
         exposure
     );
-    let xyz = match &source {
-        Source::OneD(pt) => Some(xyz_vs_angle(pt, &args.entry, args.sun_diameter_deg)?),
-        Source::TwoD(..) => None,
+    eprintln!("{}", disc.describe());
+    let m = match &source {
+        Source::OneD(pt) => {
+            let xyz = xyz_vs_angle(pt, &args.entry, disc.extra_deg)?;
+            measure_rainbow(&r, sun_elevation_deg, &TableReference::OneD(&xyz))
+        }
+        Source::TwoD(slice) => measure_rainbow(
+            &r,
+            sun_elevation_deg,
+            &TableReference::TwoD(slice, disc.extra_deg),
+        ),
     };
-    // The brightest pixel of the centre column within each window; a 2-D table's bow may lie
-    // outside it (flattened drops move the top of the bow), which the edge note reports.
-    let windows = [("primary", 36.0, 46.0), ("secondary", 48.0, 56.0)];
-    let mut radii = [f64::NAN; 2];
-    for (w, (name, lo, hi)) in windows.into_iter().enumerate() {
-        if let Some(m) = measure_bow(&r, sun_elevation_deg, lo, hi) {
-            radii[w] = m.radius_deg;
-            let table_max = match (&source, &xyz) {
-                (_, Some(xyz)) => table_bow_radius(xyz, lo, hi),
-                (Source::TwoD(slice, _), None) => {
-                    table_bow_radius_2d(slice.as_ref(), args.sun_diameter_deg, lo, hi)
-                }
-                _ => f64::NAN,
-            };
+    print_measurements(&m, camera.pixel_deg());
+    Ok(())
+}
+
+/// Print the measurements of a render.
+fn print_measurements(m: &RainbowMeasurements, pixel_deg: f64) {
+    for b in &m.bows {
+        eprintln!(
+            "{} bow (centre column, top of the bow): image radius {:.2} deg (R {:.2}, G {:.2}, B {:.2}), table maximum {:.2} deg, pixel {pixel_deg:.3} deg",
+            b.name,
+            b.image.radius_deg,
+            b.image.radius_rgb_deg[0],
+            b.image.radius_rgb_deg[1],
+            b.image.radius_rgb_deg[2],
+            b.table_max_deg,
+        );
+        if b.at_window_edge {
             eprintln!(
-                "{name} bow (centre column, top of the bow): image radius {:.2} deg (R {:.2}, G {:.2}, B {:.2}), table maximum {:.2} deg, pixel {:.3} deg",
-                m.radius_deg,
-                m.radius_rgb_deg[0],
-                m.radius_rgb_deg[1],
-                m.radius_rgb_deg[2],
-                table_max,
-                camera.pixel_deg()
+                "  (at the edge of the {}-{} deg window: no {} maximum inside)",
+                b.window_deg.0, b.window_deg.1, b.name
             );
-            if m.radius_deg - lo < camera.pixel_deg() || hi - m.radius_deg < camera.pixel_deg() {
-                eprintln!("  (at the edge of the {lo}-{hi} deg window: no {name} maximum inside)");
-                // Not a bow: keep it out of the band and fringe reports below.
-                radii[w] = f64::NAN;
-            }
         }
     }
-    // Supernumerary fringes inside the primary (up to 5° inside its maximum), image column vs
-    // the disc-averaged table luminance (1-D tables).
-    if let (Some(xyz), true) = (&xyz, radii[0].is_finite()) {
-        let (lo, hi) = (radii[0] - 5.0, radii[0] - 0.3);
-        let mut column: Vec<(f64, f64)> = centre_column(&r, sun_elevation_deg)
-            .unwrap_or_default()
-            .into_iter()
-            .map(|(radius, p)| (radius, linear_srgb_luminance(p)))
-            .collect();
-        column.sort_by(|a, b| a.0.total_cmp(&b.0));
-        let mut table: Vec<(f64, f64)> = xyz
-            .iter()
-            .enumerate()
-            .map(|(i, v)| (180.0 - i as f64 * THETA_STEP_DEG, v[1]))
-            .collect();
-        table.sort_by(|a, b| a.0.total_cmp(&b.0));
-        let fmt = |v: Vec<f64>| {
-            v.iter()
-                .rev()
-                .map(|x| format!("{x:.2}"))
-                .collect::<Vec<_>>()
-                .join(", ")
-        };
+    let fmt = |v: &[f64]| {
+        v.iter()
+            .map(|x| format!("{x:.2}"))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    if let Some(s) = &m.supernumeraries {
         eprintln!(
-            "supernumerary maxima inside the primary ({lo:.1}-{hi:.1} deg, outermost first): image [{}], table [{}]",
-            fmt(prominent_maxima(&column, lo, hi, 0.02)),
-            fmt(prominent_maxima(&table, lo, hi, 0.02))
+            "supernumerary maxima inside the primary ({:.1}-{:.1} deg, outermost first): image [{}], table [{}]",
+            s.window_deg.0,
+            s.window_deg.1,
+            fmt(&s.image_deg),
+            fmt(&s.table_deg)
         );
     }
-    // Alexander's dark band: between the bows (1° clear of each maximum) against the sky
-    // inside the primary (from 10° to 2° inside its maximum), centre column.
-    if radii.iter().all(|r| r.is_finite()) && radii[1] - radii[0] > 3.0 {
-        let band = column_mean_luminance(&r, sun_elevation_deg, radii[0] + 1.0, radii[1] - 1.0);
-        let inside = column_mean_luminance(&r, sun_elevation_deg, radii[0] - 10.0, radii[0] - 2.0);
-        if let (Some(b), Some(i)) = (band, inside) {
-            eprintln!(
-                "Alexander's dark band ({:.1}-{:.1} deg): mean luminance {:.3e} = {:.2} x the sky inside the primary ({:.1}-{:.1} deg, {:.3e})",
-                radii[0] + 1.0,
-                radii[1] - 1.0,
-                b,
-                b / i,
-                radii[0] - 10.0,
-                radii[0] - 2.0,
-                i
-            );
-        }
+    if let Some(d) = &m.dark_band {
+        eprintln!(
+            "Alexander's dark band ({:.1}-{:.1} deg): mean luminance {:.3e} = {:.2} x the sky inside the primary ({:.1}-{:.1} deg, {:.3e})",
+            d.band_deg.0,
+            d.band_deg.1,
+            d.band_luminance,
+            d.band_luminance / d.inside_luminance,
+            d.inside_deg.0,
+            d.inside_deg.1,
+            d.inside_luminance
+        );
     }
-    Ok(())
 }

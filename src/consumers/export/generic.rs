@@ -14,9 +14,10 @@
 //!   header (JSON) is stored in the EXR attribute `scatterbake_header` so the file stays
 //!   self-describing.
 
+use crate::consumers::ConsumerError;
+use crate::error::IoError;
 use crate::table::Table;
 use crate::table::format::write_atomic;
-use anyhow::{Context, Result, bail};
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -100,14 +101,16 @@ pub fn to_json(table: &Table) -> serde_json::Value {
 }
 
 /// EXR bytes of a table (layout in the module docs).
-pub fn to_exr(table: &Table) -> Result<Vec<u8>> {
+pub fn to_exr(table: &Table) -> Result<Vec<u8>, ConsumerError> {
     use exr::prelude::*;
     let h = &table.header;
     let shape = table.grid_shape();
     let width = *shape.last().expect("at least one axis");
     let height: usize = shape[..shape.len() - 1].iter().product::<usize>().max(1);
     if width > i32::MAX as usize / 2 || height > i32::MAX as usize / 2 {
-        bail!("table too large for an EXR image ({width}×{height})");
+        return Err(ConsumerError::layout(format!(
+            "table too large for an EXR image ({width}×{height})"
+        )));
     }
     let nc = h.channels.len();
     let mut list = smallvec::SmallVec::<[AnyChannel<FlatSamples>; 4]>::new();
@@ -115,8 +118,9 @@ pub fn to_exr(table: &Table) -> Result<Vec<u8>> {
         let samples: Vec<f32> = (0..width * height)
             .map(|p| table.data[p * nc + c])
             .collect();
-        let name = Text::new_or_none(&ch.name)
-            .with_context(|| format!("channel name `{}` is not valid in EXR", ch.name))?;
+        let name = Text::new_or_none(&ch.name).ok_or_else(|| {
+            ConsumerError::layout(format!("channel name `{}` is not valid in EXR", ch.name))
+        })?;
         list.push(AnyChannel::new(name, FlatSamples::F32(samples)));
     }
     let header_json = serde_json::to_string(h)?;
@@ -126,25 +130,31 @@ pub fn to_exr(table: &Table) -> Result<Vec<u8>> {
         Encoding::SMALL_LOSSLESS,
         AnyChannels::sort(list),
     );
+    let header_text = Text::new_or_none(&header_json)
+        .ok_or_else(|| ConsumerError::layout("the table header is not valid EXR text"))?;
     layer.attributes.other.insert(
         Text::new_or_panic("scatterbake_header"),
-        AttributeValue::Text(Text::new_or_none(&header_json).context("header not EXR text")?),
+        AttributeValue::Text(header_text),
     );
     let image = Image::from_layer(layer);
     let mut buf = std::io::Cursor::new(Vec::new());
     image
         .write()
         .to_buffered(&mut buf)
-        .map_err(|e| anyhow::anyhow!("EXR encoding failed: {e}"))?;
+        .map_err(|source| ConsumerError::Exr {
+            what: "EXR encoding failed".into(),
+            source,
+        })?;
     Ok(buf.into_inner())
 }
 
 /// Export `table` to `out` in `format`, atomically.
-pub fn export(table: &Table, format: GenericFormat, out: &Path) -> Result<()> {
+pub fn export(table: &Table, format: GenericFormat, out: &Path) -> Result<(), ConsumerError> {
     let bytes = match format {
         GenericFormat::Csv => to_csv(table).into_bytes(),
         GenericFormat::Json => serde_json::to_vec_pretty(&to_json(table))?,
         GenericFormat::Exr => to_exr(table)?,
     };
-    write_atomic(out, &bytes).with_context(|| format!("writing {}", out.display()))
+    write_atomic(out, &bytes).map_err(IoError::doing("writing", out))?;
+    Ok(())
 }

@@ -4,9 +4,9 @@
 
 use crate::hair::dual::DUAL_CHANNELS;
 
+use crate::consumers::ConsumerError;
 use crate::stages::hair::DUAL_TABLE_CHANNELS;
 use crate::table::{Table, TableContent};
-use anyhow::{Context, bail, ensure};
 use serde_json::{Value, json};
 
 /// A `hair-dual` table laid out as an engine texture: `width` = absorption (or colour) samples,
@@ -26,22 +26,28 @@ pub struct DualLutLayout {
 }
 
 /// Turn a `hair-dual/1` table into the texture layout of [`DualLutLayout`].
-pub fn dual_lut_layout(t: &TableContent) -> anyhow::Result<DualLutLayout> {
-    ensure!(
-        t.schema.name == "hair-dual" && t.schema.version == 1,
-        "not a hair-dual/1 table ({})",
-        t.schema
-    );
-    ensure!(
-        t.channels.len() == DUAL_TABLE_CHANNELS,
-        "unexpected channel count"
-    );
+pub fn dual_lut_layout(t: &TableContent) -> Result<DualLutLayout, ConsumerError> {
+    let layout = |m: String| Err(ConsumerError::Layout(m));
+    if t.schema.name != "hair-dual" || t.schema.version != 1 {
+        return layout(format!("not a hair-dual/1 table ({})", t.schema));
+    }
+    if t.channels.len() != DUAL_TABLE_CHANNELS {
+        return layout(format!(
+            "hair-dual table with {} channels (expected {DUAL_TABLE_CHANNELS})",
+            t.channels.len()
+        ));
+    }
     let (n_roughness, col_axis, theta_axis) = match t.axes.len() {
         3 => (t.axes[0].len(), &t.axes[1], &t.axes[2]),
         2 => (1, &t.axes[0], &t.axes[1]),
-        n => bail!("hair-dual table with {n} axes"),
+        n => return layout(format!("hair-dual table with {n} axes")),
     };
-    ensure!(theta_axis.name == "theta", "last axis must be theta");
+    if theta_axis.name != "theta" {
+        return layout(format!(
+            "last axis must be theta (found `{}`)",
+            theta_axis.name
+        ));
+    }
     let width = col_axis.len();
     let n_theta = theta_axis.len();
     let height = n_theta * n_roughness;
@@ -71,7 +77,10 @@ pub fn dual_lut_layout(t: &TableContent) -> anyhow::Result<DualLutLayout> {
 /// Write the layout as a single-part OpenEXR file (32-bit float, lossless compression) with
 /// twelve channels named `ds0.R … ds2.A` (the classic layer.channel naming every OpenEXR reader
 /// understands; no multi-part support needed). A header comment records the layout.
-pub fn write_dual_lut_exr(layout: &DualLutLayout, path: &std::path::Path) -> anyhow::Result<()> {
+pub fn write_dual_lut_exr(
+    layout: &DualLutLayout,
+    path: &std::path::Path,
+) -> Result<(), ConsumerError> {
     use exr::prelude::*;
     let size = (layout.width, layout.height);
     let mut channels: SmallVec<[AnyChannel<FlatSamples>; 4]> = SmallVec::new();
@@ -107,22 +116,27 @@ pub fn write_dual_lut_exr(layout: &DualLutLayout, path: &std::path::Path) -> any
     Image::from_layer(layer)
         .write()
         .to_file(path)
-        .with_context(|| format!("writing {}", path.display()))?;
+        .map_err(|source| ConsumerError::Exr {
+            what: format!("writing {}", path.display()),
+            source,
+        })?;
     Ok(())
 }
 
 /// JSON of the 1-D set (RGB triples per θ) from a `hair-dual/1` table whose column axis is
 /// `colour_channel` and which has one roughness.
-pub fn dual_json(t: &TableContent) -> anyhow::Result<Value> {
+pub fn dual_json(t: &TableContent) -> Result<Value, ConsumerError> {
     let layout = dual_lut_layout(t)?;
-    ensure!(
-        layout.column_axis == "colour_channel",
-        "the JSON export needs a one-colour table (sigma_a_rgb, melanin or the artist model)"
-    );
-    ensure!(
-        layout.n_roughness == 1,
-        "the JSON export needs a single roughness"
-    );
+    if layout.column_axis != "colour_channel" {
+        return Err(ConsumerError::layout(
+            "the JSON export needs a one-colour table (sigma_a_rgb, melanin or the artist model)",
+        ));
+    }
+    if layout.n_roughness != 1 {
+        return Err(ConsumerError::layout(
+            "the JSON export needs a single roughness",
+        ));
+    }
     let nt = layout.n_theta;
     let theta_axis = t.axes.last().expect("axes");
     let theta_deg: Vec<f64> = theta_axis.coords();
@@ -150,7 +164,7 @@ pub fn dual_json(t: &TableContent) -> anyhow::Result<Value> {
 
 /// CSV of the same 1-D set: `theta_deg`, then `<quantity>_r,_g,_b` for the twelve quantities and
 /// the lobe energies.
-pub fn dual_csv(t: &TableContent) -> anyhow::Result<String> {
+pub fn dual_csv(t: &TableContent) -> Result<String, ConsumerError> {
     let j = dual_json(t)?;
     let theta = j["theta_deg"].as_array().expect("theta").clone();
     let mut cols: Vec<(String, &Value)> = DUAL_CHANNELS

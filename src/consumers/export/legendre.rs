@@ -25,7 +25,8 @@
 //! replaces the peak, so the error inside it is not meaningful), and `f` is printed (the
 //! power the δ carries: scale the scattering coefficient by 1 − f, as DISORT does).
 
-use crate::optics::quadrature::gauss_legendre;
+use crate::consumers::ConsumerError;
+use crate::math::quadrature::gauss_legendre;
 use std::f64::consts::PI;
 
 /// P_0..P_L at `x` by the three-term recurrence.
@@ -105,15 +106,18 @@ pub struct DeltaM {
 }
 
 /// Delta-M moments of order L from the full moments `chi` = χ_0..χ_{L+1}.
-pub fn delta_m(chi: &[f64]) -> anyhow::Result<DeltaM> {
-    anyhow::ensure!(chi.len() >= 2, "delta-M needs moments up to L + 1");
+pub fn delta_m(chi: &[f64]) -> Result<DeltaM, ConsumerError> {
+    if chi.len() < 2 {
+        return Err(ConsumerError::invalid("delta-M needs moments up to L + 1"));
+    }
     let l = chi.len() - 2;
     let f = chi[l + 1];
-    anyhow::ensure!(
-        f < 1.0 - 1e-12,
-        "delta-M: f = chi_{} = {f} is not below 1",
-        l + 1
-    );
+    if !(f < 1.0 - 1e-12) {
+        return Err(ConsumerError::invalid(format!(
+            "delta-M: f = chi_{} = {f} is not below 1",
+            l + 1
+        )));
+    }
     Ok(DeltaM {
         f,
         chi_star: chi[..=l].iter().map(|c| (c - f) / (1.0 - f)).collect(),

@@ -7,13 +7,18 @@
 //! rgb(θ) = M_XYZ→sRGB · Σ_λ W_λ · P̄_λ(θ)      [1/sr, per unit sun irradiance]
 //! ```
 //!
-//! with P̄ the phase function averaged over the sun disc (`--sun-diameter-deg`) and W_λ the CIE
+//! with P̄ the phase function averaged over the sun disc and W_λ the CIE
 //! 1931 2° weights under D65 ([`SpectralWeights`](crate::optics::colour::SpectralWeights)), as
 //! in the reference renderer. A shader multiplies it by the sun's irradiance and the medium's
 //! in-scattering factor: `L = lut[θ] · E_sun · σ_s · (path integral)`, θ = acos(dot(sun_dir,
 //! view_dir)) (the angle between the direction toward the sun and the view direction; 180° at
 //! the antisolar point), interpolating linearly between rows. Channels can be slightly negative
 //! where the colour is outside the sRGB gamut; they are written as computed.
+//!
+//! The disc is the table's own (`sun_diameter_deg`, already averaged: nothing more is
+//! convolved) unless `--sun-diameter-deg` asks for a wider one ([`SunDisc`]); what was done is
+//! printed and stored with the texture (EXR attribute `sun_disc`, PNG `tEXt` chunk
+//! `scatterbake_sun_disc`, CSV first line `# sun_disc: …`).
 //!
 //! Output, by the extension of `--out`:
 //! - `.exr`: N × 1 texels, float32 channels `R`, `G`, `B` (linear values as computed, the
@@ -28,6 +33,8 @@
 //!   `scatterbake_log10_max` (with `scatterbake_encoding = log10`). Step: 8/65535 decades
 //!   = 0.028 % relative.
 
+use crate::consumers::ConsumerError;
+use crate::consumers::read::operators::SunDisc;
 use crate::consumers::read::phase::{EntrySelection, PhaseTable};
 use crate::consumers::read::spectrum::{THETA_STEP_DEG, xyz_vs_angle};
 use crate::optics::colour::xyz_to_linear_srgb;
@@ -71,9 +78,16 @@ pub fn log_decode(code: u16, l0: f64, l1: f64) -> f64 {
 }
 
 /// The LUT as a 1-D table (axis `scattering_angle`, channels `R`, `G`, `B`) for the EXR writer.
-pub fn lut_table(lut: &[[f64; 3]], source: &str, entry: &str) -> anyhow::Result<Table> {
+pub fn lut_table(
+    lut: &[[f64; 3]],
+    source: &str,
+    entry: &str,
+    disc: &SunDisc,
+) -> Result<Table, ConsumerError> {
     let n = lut.len();
     let mut attributes = serde_json::Map::new();
+    attributes.insert("sun_disc".into(), disc.describe().into());
+    attributes.insert("sun_diameter_deg".into(), disc.target_deg.into());
     attributes.insert("source_table".into(), source.into());
     attributes.insert("entry".into(), entry.into());
     attributes.insert("lookup".into(), "L = lut(theta) * E_sun * sigma_s * path integral; theta = acos(dot(sun_dir, view_dir)), 180 deg at the antisolar point; texel k at theta = k * 180/(N-1) deg, linear interpolation".into());
@@ -97,14 +111,15 @@ pub fn lut_table(lut: &[[f64; 3]], source: &str, entry: &str) -> anyhow::Result<
     Ok(Table::from_content(content, Provenance::default())?)
 }
 
-/// Linear sRGB vs angle on `n` uniform angles over [0, 180].
+/// Linear sRGB vs angle on `n` uniform angles over [0, 180], convolving only the disc the
+/// table has not applied (`disc.extra_deg`).
 pub fn rgb_lut(
     pt: &PhaseTable,
     entry: &[EntrySelection],
-    sun_diameter_deg: f64,
+    disc: &SunDisc,
     n: usize,
-) -> anyhow::Result<Vec<[f64; 3]>> {
-    let xyz = xyz_vs_angle(pt, entry, sun_diameter_deg)?;
+) -> Result<Vec<[f64; 3]>, ConsumerError> {
+    let xyz = xyz_vs_angle(pt, entry, disc.extra_deg)?;
     Ok((0..n)
         .map(|k| {
             let a = 180.0 * k as f64 / (n - 1) as f64;
@@ -128,7 +143,8 @@ mod tests {
         let wl: Vec<f64> = (0..33).map(|i| 380.0 + 10.0 * i as f64).collect();
         let pt =
             PhaseTable::new(henyey_greenstein_table(&wl, &[1.0], |_, _| 0.5, 1801, 0.0)).unwrap();
-        let lut = rgb_lut(&pt, &[], 0.0, 181).unwrap();
+        let disc = SunDisc::plan(&pt.table, Some(0.0)).unwrap();
+        let lut = rgb_lut(&pt, &[], &disc, 181).unwrap();
         for (k, v) in lut.iter().enumerate() {
             let p =
                 crate::consumers::synthetic::henyey_greenstein(0.5, (k as f64).to_radians().cos());
@@ -165,7 +181,9 @@ mod tests {
         let lut: Vec<[f64; 3]> = (0..181)
             .map(|k| [1e3 / (1.0 + k as f64), 0.1, 1e-5])
             .collect();
-        let t = lut_table(&lut, "x.sbt", "radius=1 um").unwrap();
+        let disc = SunDisc::from_applied(0.5, true, None).unwrap();
+        let t = lut_table(&lut, "x.sbt", "radius=1 um", &disc).unwrap();
+        assert_eq!(t.header.attributes["sun_diameter_deg"], 0.5);
         let d = tempfile::tempdir().unwrap();
         let path = d.path().join("lut.exr");
         crate::consumers::export::generic::export(

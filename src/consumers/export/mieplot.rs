@@ -25,8 +25,9 @@
 //! intensities are raw |S1|², |S2|², not normalised like ours: `validate --rescale` fits one
 //! scale factor (least squares on the phase column) before comparing.
 
+use crate::consumers::ConsumerError;
 use crate::consumers::read::phase::{EntrySelection, PhaseTable};
-use anyhow::{Context, bail};
+use crate::error::IoError;
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -65,17 +66,17 @@ pub fn write_mieplot(d: &MiePlotData, comments: &[String]) -> String {
 }
 
 /// Parse a MiePlot-style table (see the module doc for what is accepted).
-pub fn read_mieplot(text: &str) -> anyhow::Result<MiePlotData> {
+pub fn read_mieplot(text: &str) -> Result<MiePlotData, ConsumerError> {
     let mut d = MiePlotData::default();
     for (ln, line) in text.lines().enumerate() {
         let line = line.trim();
         if let Some(rest) = line.strip_prefix('#') {
             if let Some(v) = rest.trim().strip_prefix("wavelength_nm:") {
-                d.wavelength_nm = Some(
-                    v.trim()
-                        .parse()
-                        .with_context(|| format!("line {}: wavelength", ln + 1))?,
-                );
+                d.wavelength_nm = Some(v.trim().parse().map_err(|e| ConsumerError::Parse {
+                    line: ln + 1,
+                    message: "wavelength is not a number",
+                    source: Some(e),
+                })?);
             }
             continue;
         }
@@ -93,9 +94,17 @@ pub fn read_mieplot(text: &str) -> anyhow::Result<MiePlotData> {
             .iter()
             .map(|f| f.parse::<f64>())
             .collect::<Result<_, _>>()
-            .with_context(|| format!("line {}: not all fields are numbers", ln + 1))?;
+            .map_err(|e| ConsumerError::Parse {
+                line: ln + 1,
+                message: "not all fields are numbers",
+                source: Some(e),
+            })?;
         if nums.len() < 3 {
-            bail!("line {}: need at least angle, i_perp, i_par", ln + 1);
+            return Err(ConsumerError::Parse {
+                line: ln + 1,
+                message: "need at least angle, i_perp, i_par",
+                source: None,
+            });
         }
         d.angle_deg.push(nums[0]);
         d.i_perp.push(nums[1]);
@@ -107,7 +116,7 @@ pub fn read_mieplot(text: &str) -> anyhow::Result<MiePlotData> {
         });
     }
     if d.angle_deg.is_empty() {
-        bail!("no data rows found");
+        return Err(ConsumerError::invalid("no data rows found"));
     }
     Ok(d)
 }
@@ -117,7 +126,7 @@ pub fn from_table(
     pt: &PhaseTable,
     entry: &[EntrySelection],
     wavelength_nm: f64,
-) -> anyhow::Result<MiePlotData> {
+) -> Result<MiePlotData, ConsumerError> {
     let e = pt.resolve_entry(entry)?;
     let angles = pt.angles_deg();
     let mut d = MiePlotData {
@@ -173,17 +182,21 @@ pub fn compare(
     wavelength_nm: f64,
     r: &MiePlotData,
     rescale: bool,
-) -> anyhow::Result<ValidationReport> {
+) -> Result<ValidationReport, ConsumerError> {
     let e = pt.resolve_entry(entry)?;
     let vals: Vec<[f64; 3]> = r
         .angle_deg
         .iter()
         .map(|&a| pt.sample_at(wavelength_nm, &e, a))
-        .collect::<anyhow::Result<_>>()?;
+        .collect::<Result<_, _>>()?;
     let scale = if rescale {
         let num: f64 = vals.iter().zip(&r.phase).map(|(v, u)| v[0] * u).sum();
         let den: f64 = r.phase.iter().map(|u| u * u).sum();
-        anyhow::ensure!(den > 0.0, "reference is all zero");
+        if !(den > 0.0) {
+            return Err(ConsumerError::invalid(
+                "cannot rescale: the reference is all zero",
+            ));
+        }
         num / den
     } else {
         1.0
@@ -256,8 +269,9 @@ pub fn compare(
 }
 
 /// Read a MiePlot-style file from disk.
-pub fn read_mieplot_file(path: &Path) -> anyhow::Result<MiePlotData> {
-    read_mieplot(&std::fs::read_to_string(path).with_context(|| path.display().to_string())?)
+pub fn read_mieplot_file(path: &Path) -> Result<MiePlotData, ConsumerError> {
+    let text = std::fs::read_to_string(path).map_err(IoError::doing("reading", path))?;
+    read_mieplot(&text).map_err(|e| e.in_file(path))
 }
 
 #[cfg(test)]

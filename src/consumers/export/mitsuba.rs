@@ -32,6 +32,7 @@
 //! is again normalised to 1. Colour-matching lobes make some w_ck negative, so p_c can dip
 //! below 0 where the spectrum is very uneven; such values are clamped to 0 and counted.
 
+use crate::consumers::ConsumerError;
 use crate::consumers::read::phase::PhaseCurves;
 use crate::optics::colour::{Illuminant1931, SpectralWeights, xyz_to_linear_srgb};
 use std::f64::consts::PI;
@@ -134,11 +135,7 @@ pub fn tabphase_point_values(angles_deg: &[f64], phase: &[f64], n: usize) -> Vec
     mu_grid(n)
         .into_iter()
         .map(|mu| {
-            crate::optics::interp::interp1(
-                angles_deg,
-                phase,
-                mu.clamp(-1.0, 1.0).acos().to_degrees(),
-            )
+            crate::math::interp::interp1(angles_deg, phase, mu.clamp(-1.0, 1.0).acos().to_degrees())
         })
         .collect()
 }
@@ -149,7 +146,7 @@ pub fn mitsuba_eval(values: &[f64], mu: f64) -> f64 {
     let n = values.len();
     let h = 2.0 / (n - 1) as f64;
     let integral: f64 = values.windows(2).map(|w| 0.5 * (w[0] + w[1]) * h).sum();
-    let v = crate::optics::interp::interp1_uniform(values, -1.0, h, mu);
+    let v = crate::math::interp::interp1_uniform(values, -1.0, h, mu);
     v / integral / (2.0 * PI)
 }
 
@@ -257,7 +254,7 @@ pub fn build_lists(
     mode: MitsubaMode,
     wavelength_nm: Option<f64>,
     n: usize,
-) -> anyhow::Result<Vec<NamedList>> {
+) -> Result<Vec<NamedList>, ConsumerError> {
     let mk = |id: String, label: String, curve: Vec<f64>| {
         let mut values = tabphase_values(&c.angles_deg, &curve, n);
         let clamped = values.iter().filter(|v| **v < 0.0).count();
@@ -289,7 +286,7 @@ pub fn build_lists(
             .collect(),
         MitsubaMode::Wavelength => {
             let wl = wavelength_nm
-                .ok_or_else(|| anyhow::anyhow!("--mode wavelength needs --wavelength-nm"))?;
+                .ok_or_else(|| ConsumerError::invalid("--mode wavelength needs --wavelength-nm"))?;
             let k = c.nearest_wavelength(wl);
             let w = c.wavelengths_nm[k];
             vec![mk(

@@ -13,6 +13,7 @@
 //! Colour: [`ColourScale`] (viridis, linear or log10), shown in a colour bar at the right of
 //! every heatmap panel.
 
+use crate::consumers::ConsumerError;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use std::ops::Range;
@@ -29,9 +30,9 @@ pub fn ensure_font() {
     });
 }
 
-/// Any plotters error as an `anyhow` error.
-pub fn perr<E: std::fmt::Debug>(e: E) -> anyhow::Error {
-    anyhow::anyhow!("plotting failed: {e:?}")
+/// A `plotters` drawing error as a [`ConsumerError::Plot`].
+pub fn perr<E: std::error::Error + Send + Sync + 'static>(e: E) -> ConsumerError {
+    ConsumerError::Plot(Box::new(e))
 }
 
 /// Run `body` on a PNG or SVG backend chosen by the extension of `out`. The form
@@ -72,9 +73,14 @@ macro_rules! with_backend {
                 }
                 $crate::consumers::image::write_png(out, size.0 as usize, size.1 as usize, &buf)?;
             }
-            _ => anyhow::bail!("{}: output must end in .png or .svg", out.display()),
+            _ => {
+                return Err($crate::consumers::ConsumerError::invalid(format!(
+                    "{}: output must end in .png or .svg",
+                    out.display()
+                )));
+            }
         }
-        Ok::<(), anyhow::Error>(())
+        Ok::<(), $crate::consumers::ConsumerError>(())
     }};
 }
 pub(crate) use with_backend;
@@ -297,13 +303,13 @@ fn pixel_edges(edges: &[f64], len: u32, flip: bool) -> Vec<i32> {
 
 /// Fill `area` (pixel origin at its top-left) with cells: column `i` spans pixels
 /// `[xe[i], xe[i+1])`, row `r` spans `[ye[r], ye[r+1])`; `colour(i, r)`.
-fn fill_cells<DB: DrawingBackend>(
+fn fill_cells<DB: DrawingBackend<ErrorType: 'static>>(
     area: &DrawingArea<DB, Shift>,
     xe: &[i32],
     ye: &[i32],
     colour: &dyn Fn(usize, usize) -> RGBColor,
     vector: bool,
-) -> anyhow::Result<()> {
+) -> Result<(), ConsumerError> {
     let (w, h) = area.dim_in_pixel();
     if w == 0 || h == 0 {
         return Ok(());
@@ -339,7 +345,7 @@ fn fill_cells<DB: DrawingBackend>(
         }
     }
     let elem = BitMapElement::with_owned_buffer((0, 0), (w, h), buf)
-        .ok_or_else(|| anyhow::anyhow!("raster buffer size mismatch"))?;
+        .ok_or_else(|| ConsumerError::invalid("raster buffer size mismatch"))?;
     area.draw(&elem).map_err(perr)?;
     Ok(())
 }
@@ -349,18 +355,18 @@ const LABEL_FONT: u32 = 12;
 
 /// Draw a heatmap panel with its colour bar; returns the pixel rectangle of the raster
 /// (backend coordinates).
-fn draw_heat<DB: DrawingBackend>(
+fn draw_heat<DB: DrawingBackend<ErrorType: 'static>>(
     area: &DrawingArea<DB, Shift>,
     p: &HeatPanel,
     vector: bool,
-) -> anyhow::Result<PixelRect> {
+) -> Result<PixelRect, ConsumerError> {
     let (nx, ny) = (p.xs.len(), p.ys.len());
     if nx == 0 || ny == 0 || p.values.len() != nx * ny {
-        anyhow::bail!(
+        return Err(ConsumerError::invalid(format!(
             "heatmap `{}`: {nx} × {ny} cells, {} values",
             p.title,
             p.values.len()
-        );
+        )));
     }
     let (w, _) = area.dim_in_pixel();
     let bar_w = 100.min(w / 3);
@@ -453,14 +459,17 @@ fn draw_heat<DB: DrawingBackend>(
 }
 
 /// Draw a line panel.
-fn draw_lines<DB: DrawingBackend>(
+fn draw_lines<DB: DrawingBackend<ErrorType: 'static>>(
     area: &DrawingArea<DB, Shift>,
     p: &LinePanel,
-) -> anyhow::Result<()> {
+) -> Result<(), ConsumerError> {
     let (x0, x1) = range_of(p.series.iter().flat_map(|s| s.points.iter().map(|q| q.0)));
     let (y0, y1) = range_of(p.series.iter().flat_map(|s| s.points.iter().map(|q| q.1)));
     if !x0.is_finite() {
-        anyhow::bail!("line panel `{}` has no points", p.title);
+        return Err(ConsumerError::invalid(format!(
+            "line panel `{}` has no points",
+            p.title
+        )));
     }
     let x1 = if x1 > x0 { x1 } else { x0 + 1.0 };
     let x_labels = (area.dim_in_pixel().0 / 75).clamp(3, 12) as usize;
@@ -565,11 +574,11 @@ fn format_tick(v: f64) -> String {
 pub type PixelRect = (Range<i32>, Range<i32>);
 
 /// Draw `fig` on `root`; returns the raster rectangles of its heatmap panels.
-pub fn draw_figure_on<DB: DrawingBackend>(
+pub fn draw_figure_on<DB: DrawingBackend<ErrorType: 'static>>(
     root: &DrawingArea<DB, Shift>,
     fig: &Figure,
     vector: bool,
-) -> anyhow::Result<Vec<PixelRect>> {
+) -> Result<Vec<PixelRect>, ConsumerError> {
     root.fill(&WHITE).map_err(perr)?;
     let body = if fig.title.is_empty() {
         root.clone()
@@ -590,7 +599,7 @@ pub fn draw_figure_on<DB: DrawingBackend>(
 }
 
 /// Write `fig` to `out` (.png or .svg).
-pub fn draw_figure(fig: &Figure, out: &Path) -> anyhow::Result<()> {
+pub fn draw_figure(fig: &Figure, out: &Path) -> Result<(), ConsumerError> {
     with_backend!(out, fig.size, |root, vector| draw_figure_on(
         &root, fig, vector
     )
@@ -599,7 +608,7 @@ pub fn draw_figure(fig: &Figure, out: &Path) -> anyhow::Result<()> {
 
 /// Render `fig` into an RGB buffer (for tests and previews); returns the buffer and the
 /// raster rectangles of its heatmap panels.
-pub fn render_rgb(fig: &Figure) -> anyhow::Result<(Vec<u8>, Vec<PixelRect>)> {
+pub fn render_rgb(fig: &Figure) -> Result<(Vec<u8>, Vec<PixelRect>), ConsumerError> {
     ensure_font();
     let (w, h) = fig.size;
     let mut buf = vec![0u8; w as usize * h as usize * 3];

@@ -11,10 +11,10 @@ use super::tables::{
     heat_panel_sampled, plot_debye_components, plot_heatmap, plot_lee, plot_line, plot_phase,
     plot_strip,
 };
+use crate::consumers::ConsumerError;
 use crate::consumers::read::phase::{EntrySelection, PhaseTable};
+use crate::error::IoError;
 use crate::table::Table;
-use anyhow::anyhow;
-use anyhow::bail;
 use plotters::prelude::*;
 use std::path::{Path, PathBuf};
 
@@ -23,14 +23,14 @@ use std::path::{Path, PathBuf};
 /// get the figures of their schema family (`super::previews`); unknown schemas a heatmap of the
 /// last two axes with every other axis at its middle sample (first non-constant channel), or a
 /// line plot when 1-D.
-pub fn previews(table_path: &Path, out_dir: &Path) -> anyhow::Result<Vec<PathBuf>> {
-    std::fs::create_dir_all(out_dir)?;
+pub fn previews(table_path: &Path, out_dir: &Path) -> Result<Vec<PathBuf>, ConsumerError> {
+    std::fs::create_dir_all(out_dir).map_err(IoError::doing("creating", out_dir))?;
     let stem = table_path
         .file_stem()
         .and_then(|s| s.to_str())
         .unwrap_or("table")
         .to_string();
-    let table = Table::open(table_path).map_err(|e| anyhow!(e))?;
+    let table = Table::open(table_path)?;
     let name = |k: &str| out_dir.join(format!("{stem}-{k}.png"));
     if crate::consumers::read::phase2d::is_2d(&table) {
         return super::raytrace::previews_2d(table, &stem, out_dir);
@@ -42,7 +42,7 @@ pub fn previews(table_path: &Path, out_dir: &Path) -> anyhow::Result<Vec<PathBuf
         plot_phase(&pt, &[], &[450.0, 550.0, 650.0], false, &p, (1000, 600))?;
         written.push(p);
         let p = name("strip");
-        plot_strip(&pt, &[], 0.5, (120.0, 145.0), &p, (1000, 160))?;
+        plot_strip(&pt, &[], None, (120.0, 145.0), &p, (1000, 160))?;
         written.push(p);
         if pt
             .entry_axes
@@ -50,7 +50,7 @@ pub fn previews(table_path: &Path, out_dir: &Path) -> anyhow::Result<Vec<PathBuf
             .any(|&i| pt.table.axes()[i].name == "radius" && pt.table.axes()[i].len() > 1)
         {
             let p = name("lee");
-            plot_lee(&pt, &[], 0.5, (120.0, 145.0), &p, (900, 600))?;
+            plot_lee(&pt, &[], None, (120.0, 145.0), &p, (900, 600))?;
             written.push(p);
         }
         if pt.table.channel_index("phase_p2").is_ok() {
@@ -78,7 +78,7 @@ pub fn previews(table_path: &Path, out_dir: &Path) -> anyhow::Result<Vec<PathBuf
     };
     for (kind, fig) in figures {
         let p = name(kind);
-        draw_figure(&fig, &p).map_err(|e| anyhow!("{}: {e}", p.display()))?;
+        draw_figure(&fig, &p).map_err(|e| e.in_file(&p))?;
         written.push(p);
     }
     Ok(written)
@@ -86,7 +86,10 @@ pub fn previews(table_path: &Path, out_dir: &Path) -> anyhow::Result<Vec<PathBuf
 
 /// Preview of a table of unknown schema: heatmap of the last two axes at the middle sample of
 /// every other axis, first channel that is not constant there; line plot for 1-D tables.
-fn generic_preview(table: &Table, name: &dyn Fn(&str) -> PathBuf) -> anyhow::Result<PathBuf> {
+fn generic_preview(
+    table: &Table,
+    name: &dyn Fn(&str) -> PathBuf,
+) -> Result<PathBuf, ConsumerError> {
     let axes = table.axes();
     let n = axes.len();
     let entry: Vec<EntrySelection> = axes[..n.saturating_sub(if n >= 2 { 2 } else { 1 })]
@@ -136,11 +139,11 @@ impl<'a> View<'a> {
         View { t, stem }
     }
 
-    pub fn ax(&self, name: &str) -> anyhow::Result<usize> {
+    pub fn ax(&self, name: &str) -> Result<usize, ConsumerError> {
         Ok(self.t.axis_index(name)?)
     }
 
-    pub fn ch(&self, name: &str) -> anyhow::Result<usize> {
+    pub fn ch(&self, name: &str) -> Result<usize, ConsumerError> {
         Ok(self.t.channel_index(name)?)
     }
 
@@ -353,7 +356,7 @@ fn mid_non_zero(v: &View, axis: usize) -> usize {
 }
 
 /// `fur-medulla-azimuthal/1`: profile plots and an h' × φ' map.
-pub fn medulla_azimuthal(v: &View) -> anyhow::Result<Vec<(&'static str, Figure)>> {
+pub fn medulla_azimuthal(v: &View) -> Result<Vec<(&'static str, Figure)>, ConsumerError> {
     let (sa, ga, ha, pa) = (v.ax("sigma")?, v.ax("g")?, v.ax("h")?, v.ax("phi")?);
     let (energy, path) = (v.ch("energy")?, v.ch("path_length")?);
     let (s0, g0) = (mid_non_zero(v, sa), v.mid(ga));
@@ -486,7 +489,7 @@ pub fn medulla_azimuthal(v: &View) -> anyhow::Result<Vec<(&'static str, Figure)>
 }
 
 /// `fur-medulla-longitudinal/1`: back and forward lobes vs θ'_r.
-pub fn medulla_longitudinal(v: &View) -> anyhow::Result<Vec<(&'static str, Figure)>> {
+pub fn medulla_longitudinal(v: &View) -> Result<Vec<(&'static str, Figure)>, ConsumerError> {
     let (sa, ga, ia, la, ra) = (
         v.ax("sigma")?,
         v.ax("g")?,
@@ -588,7 +591,7 @@ pub fn medulla_longitudinal(v: &View) -> anyhow::Result<Vec<(&'static str, Figur
 }
 
 /// `fur-farfield/1`: θ_r × φ images per sample, and the components of one sample.
-pub fn fur_farfield(v: &View) -> anyhow::Result<Vec<(&'static str, Figure)>> {
+pub fn fur_farfield(v: &View) -> Result<Vec<(&'static str, Figure)>, ConsumerError> {
     let (sa, ia, ra, pa) = (
         v.ax("sample")?,
         v.ax("theta_i")?,
@@ -683,7 +686,7 @@ fn rgb_colour(c: f64) -> RGBColor {
 
 /// `hair-dual/1` per colour: the Dual Scattering quantities vs θ, one curve per RGB channel
 /// (line style = which quantity; the legend names the colours once per panel).
-fn hair_dual_colour(v: &View) -> anyhow::Result<Vec<(&'static str, Figure)>> {
+fn hair_dual_colour(v: &View) -> Result<Vec<(&'static str, Figure)>, ConsumerError> {
     let ca = v.ax("colour_channel")?;
     let ta = v.ax("theta")?;
     let na = v.t.axes().len();
@@ -699,7 +702,7 @@ fn hair_dual_colour(v: &View) -> anyhow::Result<Vec<(&'static str, Figure)>> {
     // `label`.
     let curve = |name: &str, f: &dyn Fn(f64) -> f64, dash: Dash, label: bool| {
         let ch = v.ch(name)?;
-        Ok::<Vec<Series>, anyhow::Error>(
+        Ok::<Vec<Series>, ConsumerError>(
             (0..v.len(ca))
                 .map(|c| {
                     let mut k = idx.clone();
@@ -726,7 +729,7 @@ fn hair_dual_colour(v: &View) -> anyhow::Result<Vec<(&'static str, Figure)>> {
     let id = |y: f64| y;
     let to_deg = |y: f64| y * deg;
     let sqrt_deg = |y: f64| y.max(0.0).sqrt() * deg;
-    let group = |names: &[(&str, &dyn Fn(f64) -> f64)]| -> anyhow::Result<Vec<Series>> {
+    let group = |names: &[(&str, &dyn Fn(f64) -> f64)]| -> Result<Vec<Series>, ConsumerError> {
         let dashes = [Dash::Solid, Dash::Dashed, Dash::Dotted];
         let mut s = Vec::new();
         for (k, (name, f)) in names.iter().enumerate() {
@@ -795,7 +798,7 @@ fn hair_dual_colour(v: &View) -> anyhow::Result<Vec<(&'static str, Figure)>> {
 }
 
 /// `hair-dual/1` LUT over roughness × absorption_u × theta: ā_f and ā_b maps.
-fn hair_dual_lut(v: &View) -> anyhow::Result<Vec<(&'static str, Figure)>> {
+fn hair_dual_lut(v: &View) -> Result<Vec<(&'static str, Figure)>, ConsumerError> {
     let (ra, ua, ta) = (v.ax("roughness")?, v.ax("absorption_u")?, v.ax("theta")?);
     let rs = spread(&(0..v.len(ra)).collect::<Vec<_>>(), 3);
     let mut grids = Vec::new();
@@ -835,18 +838,20 @@ fn hair_dual_lut(v: &View) -> anyhow::Result<Vec<(&'static str, Figure)>> {
 }
 
 /// `hair-dual/1`: per-colour curves or the LUT maps, by the table's axes.
-pub fn hair_dual(v: &View) -> anyhow::Result<Vec<(&'static str, Figure)>> {
+pub fn hair_dual(v: &View) -> Result<Vec<(&'static str, Figure)>, ConsumerError> {
     if v.ax("colour_channel").is_ok() {
         hair_dual_colour(v)
     } else if v.ax("absorption_u").is_ok() && v.ax("roughness").is_ok() {
         hair_dual_lut(v)
     } else {
-        bail!("hair-dual table with neither a colour_channel nor an absorption_u axis")
+        Err(ConsumerError::layout(
+            "hair-dual table with neither a colour_channel nor an absorption_u axis",
+        ))
     }
 }
 
 /// `hair-azimuthal/1`: N_p vs φ at θ = 0 for a few absorptions, and φ × θ maps.
-pub fn hair_azimuthal(v: &View) -> anyhow::Result<Vec<(&'static str, Figure)>> {
+pub fn hair_azimuthal(v: &View) -> Result<Vec<(&'static str, Figure)>, ConsumerError> {
     let (ua, ta, pa) = (v.ax("absorption_u")?, v.ax("theta")?, v.ax("phi")?);
     let lobes = [("R", PALETTE[0]), ("TT", PALETTE[1]), ("TRT", PALETTE[2])];
     let t0 = v.nearest(ta, 0.0);
@@ -913,13 +918,13 @@ pub fn hair_azimuthal(v: &View) -> anyhow::Result<Vec<(&'static str, Figure)>> {
                     format!("N_{name} (1/rad)"),
                 ))
             })
-            .collect::<anyhow::Result<_>>()?,
+            .collect::<Result<_, ConsumerError>>()?,
     };
     Ok(vec![("lobes", curves), ("map", map)])
 }
 
 /// `water-index/1`: n vs wavelength per temperature, and the difference to the middle one.
-pub fn water_index(v: &View) -> anyhow::Result<Vec<(&'static str, Figure)>> {
+pub fn water_index(v: &View) -> Result<Vec<(&'static str, Figure)>, ConsumerError> {
     let (ta, wa) = (v.ax("temperature")?, v.ax("wavelength")?);
     let n = v.ch("n")?;
     let nt = v.len(ta);

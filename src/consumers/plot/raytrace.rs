@@ -16,10 +16,11 @@
 
 use super::figure::{perr, with_backend};
 use super::style::xyz_colour;
+use crate::consumers::ConsumerError;
+use crate::consumers::read::operators::SunDisc;
 use crate::consumers::read::phase2d::{Phase2dTable, PhaseSlice, outgoing_direction};
 use crate::consumers::read::spectrum::{THETA_STEP_DEG, xyz_along};
-use crate::optics::vec3::V3;
-use anyhow::bail;
+use crate::math::vec3::V3;
 use plotters::coord::ReverseCoordTranslate;
 use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
@@ -95,11 +96,11 @@ pub fn strip_xyz(
 }
 
 /// Fill the plotting area of a chart pixel by pixel with `colour(x, y)` (data coordinates).
-fn raster<DB: DrawingBackend>(
+fn raster<DB: DrawingBackend<ErrorType: 'static>>(
     root: &DrawingArea<DB, plotters::coord::Shift>,
     chart: &ChartContext<'_, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>,
     colour: impl Fn(f64, f64) -> RGBColor,
-) -> anyhow::Result<()> {
+) -> Result<(), ConsumerError> {
     let (xr, yr) = chart.plotting_area().get_pixel_range();
     let spec = chart.as_coord_spec();
     for py in yr.clone() {
@@ -112,17 +113,18 @@ fn raster<DB: DrawingBackend>(
     Ok(())
 }
 
-/// The bows figure (see the module doc); returns the peaks per input and direction.
+/// The bows figure (see the module doc); returns the peaks per input and direction. The colour
+/// strips convolve `disc.extra_deg`, the disc the tables have not applied ([`SunDisc::plan`]).
 pub fn plot_bows(
     inputs: &[BowInput],
     wavelength_nm: f64,
-    sun_diameter_deg: f64,
+    disc: &SunDisc,
     range: (f64, f64),
     out: &Path,
     size: (u32, u32),
-) -> anyhow::Result<Vec<Vec<BowPeak>>> {
+) -> Result<Vec<Vec<BowPeak>>, ConsumerError> {
     if inputs.is_empty() {
-        bail!("no tables to plot");
+        return Err(ConsumerError::invalid("no tables to plot"));
     }
     let n_strip = ((range.1 - range.0) / THETA_STEP_DEG).round() as usize + 1;
     let polar: Vec<f64> = (0..n_strip)
@@ -148,7 +150,7 @@ pub fn plot_bows(
                     hi = hi.max(v);
                 }
             }
-            let xyz = strip_xyz(&inp.slice, phi, &polar, sun_diameter_deg);
+            let xyz = strip_xyz(&inp.slice, phi, &polar, disc.extra_deg);
             // Primary bow: brightest angle in 133°–146° (between Alexander's band and the
             // bright inside; the geometric primary of water is at 137.5°–138.5°).
             let (plo, phi_hi) = (133.0f64.max(range.0), 146.0f64.min(range.1));
@@ -177,7 +179,9 @@ pub fn plot_bows(
         peaks.push(ps);
     }
     if !(hi > 0.0) {
-        bail!("no positive phase values in {range:?}");
+        return Err(ConsumerError::invalid(format!(
+            "no positive phase values in {range:?}"
+        )));
     }
     let lo = lo.max(hi * 1e-8);
     let k0 = nearest(&inputs[0].slice.wavelengths_nm, wavelength_nm);
@@ -193,8 +197,8 @@ pub fn plot_bows(
     with_backend!(out, size, |root| {
         root.fill(&WHITE).map_err(perr)?;
         let title = format!(
-            "phase at {wl_label} nm (log) and D65 colour strips ({sun_diameter_deg} deg sun), sun elevation {} deg",
-            inputs[0].slice.sun_elevation_deg
+            "phase at {wl_label} nm (log) and D65 colour strips ({} deg sun), sun elevation {} deg",
+            disc.target_deg, inputs[0].slice.sun_elevation_deg
         );
         let (head, body) = root.split_vertically(30);
         head.draw(&Text::new(title, (10, 8), ("sans-serif", 18)))
@@ -277,7 +281,7 @@ pub fn plot_bows(
                 xyz_colour(strips[i][d][j], scales[i])
             })?;
         }
-        Ok::<(), anyhow::Error>(())
+        Ok::<(), ConsumerError>(())
     })?;
     Ok(peaks)
 }
@@ -289,7 +293,7 @@ pub fn plot_latlong(
     title_prefix: &str,
     out: &Path,
     size: (u32, u32),
-) -> anyhow::Result<()> {
+) -> Result<(), ConsumerError> {
     // Colour scale: log10 between the 1st and 99th percentiles of the positive grid values
     // (the forward lobe, 10⁵ 1/sr, would otherwise leave everything else dark).
     let mut logs: Vec<f64> = slice
@@ -301,7 +305,7 @@ pub fn plot_latlong(
         .map(f64::log10)
         .collect();
     if logs.is_empty() {
-        bail!("no positive phase values");
+        return Err(ConsumerError::invalid("no positive phase values"));
     }
     logs.sort_by(|a, b| a.total_cmp(b));
     let pct = |q: f64| logs[((logs.len() - 1) as f64 * q).round() as usize];
@@ -335,7 +339,7 @@ pub fn plot_latlong(
             .y_desc("outgoing polar (deg; 0 = forward)")
             .draw()
             .map_err(perr)?;
-        Ok::<(), anyhow::Error>(())
+        Ok::<(), ConsumerError>(())
     })
 }
 
@@ -345,7 +349,7 @@ pub fn previews_2d(
     table: crate::table::Table,
     stem: &str,
     out_dir: &Path,
-) -> anyhow::Result<Vec<PathBuf>> {
+) -> Result<Vec<PathBuf>, ConsumerError> {
     let t2 = Phase2dTable::new(table)?;
     let e = t2.resolve_elevation(None)?;
     let slice = t2.slice(e, &[], "phase")?;
@@ -358,6 +362,7 @@ pub fn previews_2d(
     let p = out_dir.join(format!("{stem}-bows.png"));
     let label = format!("a = {}", t2.radius_label(&entry));
     let primary_order = t2.slice(e, &[], "phase_p2").ok();
+    let disc = SunDisc::plan(&t2.table, None)?;
     plot_bows(
         &[BowInput {
             label,
@@ -365,7 +370,7 @@ pub fn previews_2d(
             primary_order,
         }],
         650.0,
-        0.5,
+        &disc,
         (120.0, 150.0),
         &p,
         (1500, 700),
@@ -406,7 +411,7 @@ mod tests {
                 primary_order: Some(slice.clone()),
             }],
             650.0,
-            0.0,
+            &SunDisc::from_applied(0.0, true, Some(0.0)).unwrap(),
             (120.0, 150.0),
             &out,
             (900, 500),

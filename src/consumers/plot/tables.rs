@@ -21,10 +21,11 @@
 //! (other axes at their middle sample) or a line plot for 1-D tables.
 
 use super::style::{PALETTE, axis_label, short_number, wavelength_colour, xyz_colour};
+use crate::consumers::ConsumerError;
+use crate::consumers::read::operators::SunDisc;
 use crate::consumers::read::phase::{EntrySelection, PhaseTable};
 use crate::consumers::read::spectrum::{THETA_STEP_DEG, xyz_vs_angle};
 use crate::table::Table;
-use anyhow::{Context, anyhow, bail};
 use plotters::prelude::*;
 use std::path::Path;
 
@@ -63,7 +64,7 @@ pub fn plot_phase(
     polarised: bool,
     out: &Path,
     size: (u32, u32),
-) -> anyhow::Result<()> {
+) -> Result<(), ConsumerError> {
     let c = pt.curves(entry)?;
     let ks = pick_wavelengths(&c.wavelengths_nm, wavelengths);
     let mut lo = f64::INFINITY;
@@ -84,7 +85,9 @@ pub fn plot_phase(
         }
     }
     if hi.is_nan() || hi <= 0.0 {
-        bail!("no positive values to plot on a log scale");
+        return Err(ConsumerError::invalid(
+            "no positive values to plot on a log scale",
+        ));
     }
     lo = lo.max(hi * 1e-12);
     let title = format!(
@@ -157,27 +160,40 @@ pub fn plot_phase(
             ))
             .map_err(perr)?;
         }
-        Ok::<(), anyhow::Error>(())
+        Ok::<(), ConsumerError>(())
     })
 }
 
-/// Colour strip vs scattering angle over `[lo, hi]`.
+/// The colours of a strip or Lee-diagram column: XYZ vs angle ([`xyz_vs_angle`]) with the sun
+/// disc `disc` planned for the table, convolving only what the table has not applied.
+pub fn strip_xyz(
+    pt: &PhaseTable,
+    entry: &[EntrySelection],
+    disc: &SunDisc,
+) -> Result<Vec<[f64; 3]>, ConsumerError> {
+    xyz_vs_angle(pt, entry, disc.extra_deg)
+}
+
+/// Colour strip vs scattering angle over `[lo, hi]`; the sun disc is planned from the table
+/// and `sun_diameter_deg` ([`SunDisc::plan`]: `None` keeps the table's own) and returned.
 pub fn plot_strip(
     pt: &PhaseTable,
     entry: &[EntrySelection],
-    sun_diameter_deg: f64,
+    sun_diameter_deg: Option<f64>,
     range: (f64, f64),
     out: &Path,
     size: (u32, u32),
-) -> anyhow::Result<()> {
-    let xyz = xyz_vs_angle(pt, entry, sun_diameter_deg)?;
+) -> Result<SunDisc, ConsumerError> {
+    let disc = SunDisc::plan(&pt.table, sun_diameter_deg)?;
+    let xyz = strip_xyz(pt, entry, &disc)?;
     let idx = |a: f64| ((a / THETA_STEP_DEG).round() as usize).min(xyz.len() - 1);
     let (i0, i1) = (idx(range.0), idx(range.1));
     let ymax = xyz[i0..=i1].iter().map(|v| v[1]).fold(0.0, f64::max);
     let scale = if ymax > 0.0 { 1.0 / ymax } else { 1.0 };
     let e = pt.resolve_entry(entry)?;
     let title = format!(
-        "rainbow colours vs scattering angle (D65 sun, {sun_diameter_deg} deg disc), {}",
+        "rainbow colours vs scattering angle (D65 sun, {} deg disc), {}",
+        disc.target_deg,
         crate::consumers::read::phase::describe_entry(&pt.table, &e)
     );
     with_backend!(out, size, |root| {
@@ -205,29 +221,33 @@ pub fn plot_strip(
                 Rectangle::new([(a, 0.0), (a + step, 1.0)], xyz_colour(v, scale).filled())
             }))
             .map_err(perr)?;
-        Ok::<(), anyhow::Error>(())
-    })
+        Ok::<(), ConsumerError>(())
+    })?;
+    Ok(disc)
 }
 
-/// Lee diagram over the entry axis `radius`.
+/// Lee diagram over the entry axis `radius`; the sun disc as in [`plot_strip`].
 pub fn plot_lee(
     pt: &PhaseTable,
     entry: &[EntrySelection],
-    sun_diameter_deg: f64,
+    sun_diameter_deg: Option<f64>,
     range: (f64, f64),
     out: &Path,
     size: (u32, u32),
-) -> anyhow::Result<()> {
+) -> Result<SunDisc, ConsumerError> {
+    let disc = SunDisc::plan(&pt.table, sun_diameter_deg)?;
     let axes = pt.table.axes();
     let ai = pt
         .entry_axes
         .iter()
         .copied()
         .find(|&i| axes[i].name == "radius")
-        .ok_or_else(|| anyhow!("a Lee diagram needs an entry axis `radius`"))?;
+        .ok_or_else(|| ConsumerError::layout("a Lee diagram needs an entry axis `radius`"))?;
     let radii = axes[ai].coords();
     if radii.len() < 2 {
-        bail!("a Lee diagram needs at least two radii");
+        return Err(ConsumerError::layout(
+            "a Lee diagram needs at least two radii",
+        ));
     }
     let unit = axes[ai].unit.clone();
     let mut cols = Vec::new();
@@ -241,7 +261,7 @@ pub fn plot_lee(
             axis: "radius".into(),
             value: r,
         });
-        cols.push(xyz_vs_angle(pt, &sel, sun_diameter_deg)?);
+        cols.push(strip_xyz(pt, &sel, &disc)?);
     }
     let idx = |a: f64| ((a / THETA_STEP_DEG).round() as usize).min(cols[0].len() - 1);
     let log_x = radii[0] > 0.0 && radii[radii.len() - 1] / radii[0] > 20.0;
@@ -299,8 +319,9 @@ pub fn plot_lee(
                 }))
                 .map_err(perr)?;
         }
-        Ok::<(), anyhow::Error>(())
-    })
+        Ok::<(), ConsumerError>(())
+    })?;
+    Ok(disc)
 }
 
 /// `a = 1, b = 2 nm` for the axes of `table` at `coords`, except the axes in `skip`.
@@ -344,10 +365,10 @@ pub fn plot_heatmap(
     channel: Option<&str>,
     out: &Path,
     size: (u32, u32),
-) -> anyhow::Result<()> {
+) -> Result<(), ConsumerError> {
     let axes = table.axes();
     if axes.len() < 2 {
-        bail!("a heatmap needs at least two axes");
+        return Err(ConsumerError::layout("a heatmap needs at least two axes"));
     }
     let ch = match channel {
         Some(n) => table.channel_index(n)?,
@@ -383,7 +404,7 @@ pub fn heat_panel_sampled(
     xa: usize,
     ya: usize,
     ch: usize,
-) -> anyhow::Result<HeatPanel> {
+) -> Result<HeatPanel, ConsumerError> {
     let axes = table.axes();
     let xs = heat_coords(axes[xa].coords(), 800);
     let ys = heat_coords(axes[ya].coords(), 500);
@@ -416,7 +437,7 @@ pub fn plot_line(
     entry: &[EntrySelection],
     out: &Path,
     size: (u32, u32),
-) -> anyhow::Result<()> {
+) -> Result<(), ConsumerError> {
     let axes = table.axes();
     let n = axes.len();
     let xa = &axes[n - 1];
@@ -479,7 +500,7 @@ pub fn plot_debye_components(
     wavelength_nm: f64,
     out: &Path,
     size: (u32, u32),
-) -> anyhow::Result<()> {
+) -> Result<(), ConsumerError> {
     let t = &pt.table;
     let orders: Vec<(String, usize)> = t
         .header
@@ -494,7 +515,9 @@ pub fn plot_debye_components(
         .map(|(i, c)| (c.name.clone(), i))
         .collect();
     if orders.is_empty() {
-        bail!("table has no per-order channels `phase_p<k>`");
+        return Err(ConsumerError::layout(
+            "table has no per-order channels `phase_p<k>`",
+        ));
     }
     let ch_sum = t.channel_index("phase")?;
     let entry = pt.resolve_entry(entry)?;
@@ -507,7 +530,7 @@ pub fn plot_debye_components(
                 .abs()
                 .total_cmp(&(b - wavelength_nm).abs())
         })
-        .context("no wavelengths")?;
+        .ok_or_else(|| ConsumerError::layout("the table has no wavelengths"))?;
     let angles = pt.angles_deg();
     let mut coords = vec![0.0; t.axes().len()];
     coords[pt.wavelength_axis] = w;
@@ -525,7 +548,9 @@ pub fn plot_debye_components(
     }
     let hi = series.iter().flatten().map(|p| p.1).fold(0.0, f64::max);
     if hi <= 0.0 {
-        bail!("no positive values to plot on a log scale");
+        return Err(ConsumerError::invalid(
+            "no positive values to plot on a log scale",
+        ));
     }
     // Floor: a decade below the smallest value of the total; components that fall below it
     // (outside their geometric zones) leave the plot instead of running along its bottom.
@@ -619,7 +644,7 @@ pub fn plot_debye_components(
             .position(SeriesLabelPosition::UpperRight)
             .draw()
             .map_err(perr)?;
-        Ok::<(), anyhow::Error>(())
+        Ok::<(), ConsumerError>(())
     })
 }
 

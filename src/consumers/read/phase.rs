@@ -11,8 +11,8 @@
 //!
 //! Everything here goes through the public reader API ([`Table::open`], [`Table::sample`]).
 
-use crate::table::{Table, TableError};
-use anyhow::{Context, bail};
+use crate::consumers::ConsumerError;
+use crate::table::Table;
 use std::path::Path;
 
 /// One `name=value` entry selection (value in the axis unit).
@@ -73,58 +73,60 @@ pub struct PhaseCurves {
 
 impl PhaseTable {
     /// Open a table file and check the contract.
-    pub fn open(path: &Path) -> anyhow::Result<Self> {
-        let table = Table::open(path).map_err(|e: TableError| anyhow::anyhow!(e))?;
-        Self::new(table).with_context(|| format!("{}", path.display()))
+    pub fn open(path: &Path) -> Result<Self, ConsumerError> {
+        ConsumerError::check_file(path, Self::new)
     }
 
     /// Check a table in memory against the contract.
-    pub fn new(table: Table) -> anyhow::Result<Self> {
+    pub fn new(table: Table) -> Result<Self, ConsumerError> {
         let schema = &table.header.schema;
         if schema.name == "raytrace-phase" && !(1..=2).contains(&schema.version) {
-            bail!(
+            return Err(ConsumerError::layout(format!(
                 "`raytrace-phase/{}` is not a version this reader knows (it reads \
                  raytrace-phase/1 and raytrace-phase/2)",
                 schema.version
-            );
+            )));
         }
         let axes = table.axes();
         if axes.len() < 2 {
-            bail!("a phase-function table needs at least the axes wavelength and scattering_angle");
+            return Err(ConsumerError::layout(
+                "a phase-function table needs at least the axes wavelength and scattering_angle",
+            ));
         }
         let last = axes.len() - 1;
         let Some(wavelength_axis) = axes[..last].iter().position(|a| a.name == "wavelength") else {
             let names: Vec<&str> = axes.iter().map(|a| a.name.as_str()).collect();
-            bail!(
+            return Err(ConsumerError::layout(format!(
                 "a phase-function table needs a `wavelength` axis before `scattering_angle` (axes: {names:?})"
-            );
+            )));
         };
         if axes[wavelength_axis].unit != "nm" {
-            bail!(
+            return Err(ConsumerError::layout(format!(
                 "axis `wavelength` must be in nm (found `{}`)",
                 axes[wavelength_axis].unit
-            );
+            )));
         }
         let a = &axes[last];
         if a.name != "scattering_angle" || a.unit != "deg" {
-            bail!(
+            return Err(ConsumerError::layout(format!(
                 "last axis must be `scattering_angle` in deg (found `{}` in `{}`); 2-D tables \
                  (outgoing_polar/outgoing_azimuth) are not 1-D phase functions",
-                a.name,
-                a.unit
-            );
+                a.name, a.unit
+            )));
         }
         let c = a.coords();
         if c[0] > 1e-9 || c[c.len() - 1] < 180.0 - 1e-9 {
-            bail!(
+            return Err(ConsumerError::layout(format!(
                 "scattering_angle must cover [0, 180] deg (covers [{}, {}])",
                 c[0],
                 c[c.len() - 1]
-            );
+            )));
         }
         let ch = |n: &str| {
             table.channel_index(n).map_err(|_| {
-                anyhow::anyhow!("table has no channel `{n}` required by the phase contract")
+                ConsumerError::layout(format!(
+                    "table has no channel `{n}` required by the phase contract"
+                ))
             })
         };
         let (ch_phase, ch_perp, ch_par) = (ch("phase")?, ch("i_perp")?, ch("i_par")?);
@@ -151,7 +153,10 @@ impl PhaseTable {
 
     /// Resolve an entry selection: for every entry axis the requested value, or its first
     /// sample when not selected. Unknown axis names are an error.
-    pub fn resolve_entry(&self, sel: &[EntrySelection]) -> anyhow::Result<Vec<(String, f64)>> {
+    pub fn resolve_entry(
+        &self,
+        sel: &[EntrySelection],
+    ) -> Result<Vec<(String, f64)>, ConsumerError> {
         resolve_entry_axes(&self.table, &self.entry_axes, sel, "")
     }
 
@@ -162,7 +167,7 @@ impl PhaseTable {
         wavelength_nm: f64,
         entry: &[(String, f64)],
         angle_deg: f64,
-    ) -> anyhow::Result<[f64; 3]> {
+    ) -> Result<[f64; 3], ConsumerError> {
         let mut coords = vec![0.0; entry.len() + 2];
         coords[self.wavelength_axis] = wavelength_nm;
         for (&i, e) in self.entry_axes.iter().zip(entry) {
@@ -175,7 +180,7 @@ impl PhaseTable {
 
     /// Curves of one entry at every table wavelength on the table's angle grid (grid values are
     /// reproduced exactly when the entry value lies on a grid sample).
-    pub fn curves(&self, sel: &[EntrySelection]) -> anyhow::Result<PhaseCurves> {
+    pub fn curves(&self, sel: &[EntrySelection]) -> Result<PhaseCurves, ConsumerError> {
         let entry = self.resolve_entry(sel)?;
         let wavelengths_nm = self.wavelengths_nm();
         let angles_deg = self.angles_deg();
@@ -227,13 +232,13 @@ impl PhaseCurves {
     /// wavelengths at one angle: value = `v[j] (1 − t) + v[j + 1] t`. Needs ≥ 2 angles.
     pub fn locate_angle(&self, angle_deg: f64) -> (usize, f64) {
         match self.uniform_step {
-            Some(step) => crate::optics::interp::locate_uniform(
+            Some(step) => crate::math::interp::locate_uniform(
                 self.angles_deg[0],
                 step,
                 self.angles_deg.len(),
                 angle_deg,
             ),
-            None => crate::optics::interp::locate(&self.angles_deg, angle_deg),
+            None => crate::math::interp::locate(&self.angles_deg, angle_deg),
         }
     }
 
@@ -242,49 +247,66 @@ impl PhaseCurves {
     pub fn phase_at(&self, k: usize, angle_deg: f64) -> f64 {
         // Fast path for uniform grids (the contract's preferred layout); same formula.
         if let Some(step) = self.uniform_step {
-            return crate::optics::interp::interp1_uniform(
+            return crate::math::interp::interp1_uniform(
                 &self.phase[k],
                 self.angles_deg[0],
                 step,
                 angle_deg,
             );
         }
-        crate::optics::interp::interp1(&self.angles_deg, &self.phase[k], angle_deg)
+        crate::math::interp::interp1(&self.angles_deg, &self.phase[k], angle_deg)
     }
 }
 
 /// Entry values `(axis name, value)` of `entry_axes` of `table`: the selected value, or the
 /// axis' first sample when not selected; an unknown axis name is an error listing the entry
-/// axes (`hint` is appended to the message).
+/// axes (`hint` is appended to the message). A selected value must lie within its axis, and on
+/// an axis the table does not declare interpolable it must be a stored sample
+/// ([`super::operators::resolve_axis_value`]).
 pub fn resolve_entry_axes(
     table: &Table,
     entry_axes: &[usize],
     sel: &[EntrySelection],
     hint: &str,
-) -> anyhow::Result<Vec<(String, f64)>> {
+) -> Result<Vec<(String, f64)>, ConsumerError> {
     let axes = table.axes();
     for s in sel {
         if !entry_axes.iter().any(|&i| axes[i].name == s.axis) {
-            let names: Vec<&str> = entry_axes.iter().map(|&i| axes[i].name.as_str()).collect();
-            bail!(
-                "`{}` is not an entry axis of this table (entry axes: {names:?}){hint}",
-                s.axis
-            );
+            let listed: Vec<String> = entry_axes
+                .iter()
+                .map(|&i| {
+                    let a = &axes[i];
+                    format!(
+                        "{} [{}, {}] {}",
+                        a.name,
+                        a.coord(0),
+                        a.coord(a.len() - 1),
+                        a.unit
+                    )
+                })
+                .collect();
+            return Err(ConsumerError::UnknownEntryAxis {
+                axis: s.axis.clone(),
+                entry_axes: if listed.is_empty() {
+                    "none".into()
+                } else {
+                    listed.join(", ")
+                },
+                hint: hint.to_string(),
+            });
         }
     }
-    Ok(entry_axes
+    entry_axes
         .iter()
         .map(|&i| {
             let a = &axes[i];
-            let v = sel
-                .iter()
-                .rev()
-                .find(|s| s.axis == a.name)
-                .map(|s| s.value)
-                .unwrap_or_else(|| a.coord(0));
-            (a.name.clone(), v)
+            let v = match sel.iter().rev().find(|s| s.axis == a.name) {
+                Some(s) => super::operators::resolve_axis_value(table, i, s.value)?,
+                None => a.coord(0),
+            };
+            Ok((a.name.clone(), v))
         })
-        .collect())
+        .collect()
 }
 
 /// Human-readable description of a selected entry, e.g. `radius=500 um`.
@@ -380,5 +402,45 @@ mod tests {
             .unwrap()
             .to_string();
         assert!(e.contains("raytrace-phase/3"), "{e}");
+    }
+
+    use crate::consumers::synthetic::henyey_greenstein_table;
+
+    #[test]
+    fn unknown_entry_axis_lists_the_entry_axes_with_their_ranges() {
+        let pt = PhaseTable::new(henyey_greenstein_table(
+            &[550.0],
+            &[100.0, 500.0],
+            |_, _| 0.5,
+            181,
+            0.0,
+        ))
+        .unwrap();
+        let e = pt
+            .resolve_entry(&["diameter=3".parse().unwrap()])
+            .unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "`diameter` is not an entry axis of this table (entry axes: radius [100, 500] um)"
+        );
+    }
+
+    #[test]
+    fn layout_errors_of_a_file_name_the_file() {
+        use crate::consumers::synthetic::{lat_long_from_1d, peak_table};
+        let d = tempfile::tempdir().unwrap();
+        let path = d.path().join("latlong.sbt");
+        let one_d = peak_table(&[550.0], |_| 138.0, 0.3, 1e-3, 181);
+        let mut t = lat_long_from_1d(&one_d, &[0.0], 90.0, |_, _| 1.0);
+        crate::table::write_table_atomic(&mut t, &path).unwrap();
+        let e = PhaseTable::open(&path)
+            .err()
+            .expect("a 2-D table is not a 1-D phase table");
+        let chain = crate::error::error_chain(&e);
+        assert!(
+            chain.starts_with(&format!("{}: ", path.display())),
+            "{chain}"
+        );
+        assert!(chain.contains("2-D tables"), "{chain}");
     }
 }

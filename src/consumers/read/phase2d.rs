@@ -26,11 +26,11 @@
 //! as periodic (the axis covers [0, 360) without repeating 360°).
 
 use super::spectrum::SkyPhase;
+use crate::consumers::ConsumerError;
 use crate::consumers::read::phase::EntrySelection;
-use crate::optics::vec3::V3;
-use crate::optics::vec3::{cross, dot};
-use crate::table::{Table, TableError};
-use anyhow::{Context, bail};
+use crate::math::vec3::V3;
+use crate::math::vec3::{cross, dot};
+use crate::table::Table;
 use rayon::prelude::*;
 use std::path::Path;
 
@@ -59,22 +59,24 @@ pub struct Phase2dTable {
 
 impl Phase2dTable {
     /// Open a file and check the layout.
-    pub fn open(path: &Path) -> anyhow::Result<Self> {
-        let table = Table::open(path).map_err(|e: TableError| anyhow::anyhow!(e))?;
-        Self::new(table).with_context(|| format!("{}", path.display()))
+    pub fn open(path: &Path) -> Result<Self, ConsumerError> {
+        ConsumerError::check_file(path, Self::new)
     }
 
     /// Check a table in memory.
-    pub fn new(table: Table) -> anyhow::Result<Self> {
+    pub fn new(table: Table) -> Result<Self, ConsumerError> {
         if !is_2d(&table) {
-            bail!("schema `{}` is not `{SCHEMA_2D}`", table.header.schema.name);
+            return Err(ConsumerError::layout(format!(
+                "schema `{}` is not `{SCHEMA_2D}`",
+                table.header.schema.name
+            )));
         }
         let version = table.header.schema.version;
         if !SCHEMA_2D_VERSIONS.contains(&version) {
-            bail!(
+            return Err(ConsumerError::layout(format!(
                 "`{SCHEMA_2D}/{version}` is not a version this reader knows (it reads \
                  {SCHEMA_2D}/1 and {SCHEMA_2D}/2)"
-            );
+            )));
         }
         let axes = table.axes();
         let n = axes.len();
@@ -89,22 +91,26 @@ impl Phase2dTable {
             ax_wavelength,
         ) else {
             let names: Vec<&str> = axes.iter().map(|a| a.name.as_str()).collect();
-            bail!(
+            return Err(ConsumerError::layout(format!(
                 "expected axes [radius ×] wavelength × sun_elevation × outgoing_polar × \
                  outgoing_azimuth (version 2) or wavelength × [entry axes] × sun_elevation × \
                  outgoing_polar × outgoing_azimuth (version 1), found {names:?}"
-            );
+            )));
         };
         table
             .channel_index("phase")
-            .map_err(|_| anyhow::anyhow!("table has no channel `phase`"))?;
+            .map_err(|_| ConsumerError::layout("table has no channel `phase`"))?;
         let p = axes[n - 2].coords();
         if p[0] > 1e-9 || p[p.len() - 1] < 180.0 - 1e-9 {
-            bail!("outgoing_polar must cover [0, 180] deg");
+            return Err(ConsumerError::layout(
+                "outgoing_polar must cover [0, 180] deg",
+            ));
         }
         let a = axes[n - 1].coords();
         if a[0].abs() > 1e-9 || a[a.len() - 1] >= 360.0 {
-            bail!("outgoing_azimuth must start at 0 and stay below 360 deg");
+            return Err(ConsumerError::layout(
+                "outgoing_azimuth must start at 0 and stay below 360 deg",
+            ));
         }
         Ok(Phase2dTable {
             ax_wavelength,
@@ -121,24 +127,30 @@ impl Phase2dTable {
         self.table.axes()[self.ax_elev].coords()
     }
 
-    /// The sun elevation to use: the requested one if it lies within the table's range (error
-    /// naming the range otherwise), or the table's lowest elevation when none is requested.
-    pub fn resolve_elevation(&self, requested: Option<f64>) -> anyhow::Result<f64> {
+    /// The sun elevation to use: the table's lowest elevation when none is requested, else the
+    /// requested one, which must lie within the table's range and, unless the table declares
+    /// `sun_elevation` interpolable, be one of its elevations (errors name the range or the
+    /// nearest elevation).
+    pub fn resolve_elevation(&self, requested: Option<f64>) -> Result<f64, ConsumerError> {
         let e = self.elevations_deg();
-        let (lo, hi) = (e[0], e[e.len() - 1]);
         match requested {
-            None => Ok(lo),
-            Some(x) if x >= lo - 1e-9 && x <= hi + 1e-9 => Ok(x.clamp(lo, hi)),
-            Some(x) => bail!(
-                "sun elevation {x} deg is outside the table's sun_elevation range [{lo}, {hi}] \
-                 deg (table elevations {e:?}); ray-traced tables are only valid at the \
-                 elevations they were traced for"
-            ),
+            None => Ok(e[0]),
+            Some(x) => {
+                super::operators::resolve_axis_value(&self.table, self.ax_elev, x).map_err(|e| {
+                    ConsumerError::invalid(format!(
+                        "{e}; ray-traced tables are only valid at the sun elevations they were \
+                         traced for (--sun-elevation-deg)"
+                    ))
+                })
+            }
         }
     }
 
     /// Entry values (name, value) for the extra entry axes: requested or the first sample.
-    pub fn resolve_entry(&self, sel: &[EntrySelection]) -> anyhow::Result<Vec<(String, f64)>> {
+    pub fn resolve_entry(
+        &self,
+        sel: &[EntrySelection],
+    ) -> Result<Vec<(String, f64)>, ConsumerError> {
         crate::consumers::read::phase::resolve_entry_axes(
             &self.table,
             &self.entry_axes,
@@ -173,8 +185,9 @@ impl Phase2dTable {
         elevation_deg: f64,
         sel: &[EntrySelection],
         channel: &str,
-    ) -> anyhow::Result<PhaseSlice> {
+    ) -> Result<PhaseSlice, ConsumerError> {
         let entry = self.resolve_entry(sel)?;
+        let elevation_deg = self.resolve_elevation(Some(elevation_deg))?;
         let ch = self.table.channel_index(channel)?;
         let axes = self.table.axes();
         let wavelengths_nm = axes[self.ax_wavelength].coords();
@@ -366,7 +379,8 @@ mod tests {
         }
     }
 
-    /// A version 1 layout (wavelength × radius × sun_elevation × …) is still read.
+    /// A version 1 layout (wavelength × radius × sun_elevation × …) is still read; radius and
+    /// sun elevation are interpolated only when the table declares them interpolable.
     #[test]
     fn radius_entry_axis_is_selected_and_interpolated() {
         use crate::table::{Axis, Channel, Provenance, Schema, TableContent};
@@ -397,9 +411,30 @@ mod tests {
             attributes: Default::default(),
             data,
         };
+        let coarse =
+            Phase2dTable::new(Table::from_content(content.clone(), Provenance::default()).unwrap())
+                .unwrap();
+        let sel: EntrySelection = "radius=750".parse().unwrap();
+        let e = coarse
+            .slice(0.0, std::slice::from_ref(&sel), "phase")
+            .err()
+            .unwrap();
+        assert!(e.to_string().contains("nearest is 500 um"), "{e}");
+        let e = coarse.slice(5.0, &[], "phase").err().unwrap();
+        assert!(e.to_string().contains("nearest is 0 deg"), "{e}");
+        let mut content = content;
+        content.attributes.insert(
+            "interpolable_axes".into(),
+            serde_json::json!([
+                "wavelength",
+                "radius",
+                "sun_elevation",
+                "outgoing_polar",
+                "outgoing_azimuth"
+            ]),
+        );
         let t = Phase2dTable::new(Table::from_content(content, Provenance::default()).unwrap())
             .unwrap();
-        let sel: EntrySelection = "radius=750".parse().unwrap();
         let s = t.slice(5.0, &[sel], "phase").unwrap();
         assert_eq!(t.radius_label(&s.entry), "750 um");
         // Linear in every axis: exact at an off-grid point; azimuth 315° interpolates between
@@ -464,12 +499,12 @@ mod tests {
         ];
         let t = Phase2dTable::new(table_2d(2, axes.clone(), data.clone())).unwrap();
         let sel: EntrySelection = "radius=800".parse().unwrap();
-        let s = t.slice(10.0, &[sel], "phase").unwrap();
+        let s = t.slice(20.0, &[sel], "phase").unwrap();
         assert_eq!(s.wavelengths_nm, wl.to_vec());
         assert_eq!(t.radius_label(&s.entry), "800 um");
         for (k, w) in wl.iter().enumerate() {
             let v = s.value(k, 90.0, 90.0);
-            let want = 800.0 + w / 1000.0 + 100.0 + 0.09 + 90.0 / 1e5;
+            let want = 800.0 + w / 1000.0 + 200.0 + 0.09 + 90.0 / 1e5;
             assert!((v - want).abs() < 1e-3, "{v} vs {want}");
         }
         let e = Phase2dTable::new(table_2d(3, axes, data))

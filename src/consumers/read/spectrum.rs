@@ -4,9 +4,10 @@
 //! Shared by the exports (RGB lookup textures), the plots (colour strips, Lee diagrams) and the
 //! renderer.
 
+use crate::consumers::ConsumerError;
 use crate::consumers::read::phase::{EntrySelection, PhaseTable};
+use crate::math::vec3::{V3, cross, dot, normalize};
 use crate::optics::colour::{Illuminant1931, SpectralWeights};
-use crate::optics::vec3::{V3, cross, dot, normalize};
 use rayon::prelude::*;
 
 /// Spacing of the precomputed Θ grid (deg).
@@ -113,7 +114,7 @@ pub fn xyz_vs_angle(
     pt: &PhaseTable,
     entry: &[EntrySelection],
     sun_diameter_deg: f64,
-) -> anyhow::Result<Vec<[f64; 3]>> {
+) -> Result<Vec<[f64; 3]>, ConsumerError> {
     let c = Curves1d(pt.curves(entry)?);
     let n = (180.0 / THETA_STEP_DEG).round() as usize + 1;
     // Sun at the pole, view rays at angle Θ from it: the average depends on Θ only.

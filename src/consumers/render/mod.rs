@@ -1,3 +1,4 @@
 //! Reference renderers that read tables through the public API.
 
+pub mod measure;
 pub mod rainbow;

@@ -37,14 +37,15 @@
 //! `fov_deg` across the width) — the thesis does not say which fisheye mapping; we choose the
 //! equidistant one because bow radii can then be read off linearly.
 
+use crate::consumers::ConsumerError;
 use crate::consumers::read::phase::{EntrySelection, PhaseTable};
 use crate::consumers::read::spectrum::{
     THETA_STEP_DEG, disc_average_spectrum, disc_samples, xyz_along, xyz_vs_angle,
 };
+use crate::math::vec3::{V3, dot, normalize};
 use crate::optics::colour::{
     Illuminant1931, SpectralWeights, linear_srgb_luminance, srgb_encode, xyz_to_linear_srgb,
 };
-use crate::optics::vec3::{V3, dot, normalize};
 use rayon::prelude::*;
 
 /// Camera lens model.
@@ -249,7 +250,7 @@ pub fn render(
     entry: &[EntrySelection],
     scene: &Scene,
     camera: &Camera,
-) -> anyhow::Result<Rendered> {
+) -> Result<Rendered, ConsumerError> {
     let xyz = xyz_vs_angle(pt, entry, scene.sun_diameter_deg)?;
     let s = scene.sun_direction();
     Ok(render_with(scene, camera, |d| {
@@ -268,13 +269,13 @@ pub fn render_2d(
     slice: &crate::consumers::read::phase2d::PhaseSlice,
     scene: &Scene,
     camera: &Camera,
-) -> anyhow::Result<Rendered> {
-    anyhow::ensure!(
-        (slice.sun_elevation_deg - scene.sun_elevation_deg).abs() < 1e-9,
-        "slice at sun elevation {} deg, scene at {} deg",
-        slice.sun_elevation_deg,
-        scene.sun_elevation_deg
-    );
+) -> Result<Rendered, ConsumerError> {
+    if !((slice.sun_elevation_deg - scene.sun_elevation_deg).abs() < 1e-9) {
+        return Err(ConsumerError::invalid(format!(
+            "slice at sun elevation {} deg, scene at {} deg",
+            slice.sun_elevation_deg, scene.sun_elevation_deg
+        )));
+    }
     let sw = SpectralWeights::new(&slice.wavelengths_nm, Illuminant1931::D65);
     let disc = disc_samples(scene.sun_diameter_deg);
     let s = scene.sun_direction();

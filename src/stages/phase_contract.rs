@@ -11,8 +11,8 @@
 //! with ∫_{4π} phase dΩ = 1; `dolp = (i_perp − i_par)/(i_perp + i_par)`. Raw |S1|², |S2|²
 //! (dimensionless) are never called `i_perp`/`i_par`: commands print them as `s1_sq`, `s2_sq`.
 
-use super::Channel;
 use crate::optics::water::WaterIndexModel;
+use crate::table::Channel;
 use serde_json::{Map, Value};
 
 /// Names of the four leading channels of every phase-function table.
@@ -43,7 +43,8 @@ pub fn channels(normalisation: &str) -> Vec<Channel> {
 
 /// The attributes every phase-function table states: `normalization`, `angle_convention`,
 /// `water_index_model` (and `temperature_c` for IAPWS), `medium`, `sun_diameter_deg` (the
-/// name of the manifest key).
+/// name of the manifest key) and `interpolable_axes` (wavelength and scattering angle; a
+/// stage with other fine axes overwrites it).
 pub fn attributes(
     normalization: &str,
     model: &WaterIndexModel,
@@ -64,5 +65,14 @@ pub fn attributes(
         "water drops in air (outside index 1.0)".into(),
     );
     a.insert("sun_diameter_deg".into(), sun_diameter_deg.into());
+    a.insert(
+        INTERPOLABLE_AXES.into(),
+        serde_json::json!(["wavelength", "scattering_angle"]),
+    );
     a
 }
+
+/// Attribute naming the axes along which linear interpolation between samples is meaningful
+/// (finely sampled spectral and angular axes); consumers take stored samples along every
+/// other axis (radius, sun elevation, …) and refuse values between them.
+pub const INTERPOLABLE_AXES: &str = "interpolable_axes";

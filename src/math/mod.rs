@@ -1,0 +1,6 @@
+//! Numerical primitives with no physics in them, each once: interpolation and grid location,
+//! quadrature rules, 3-vectors. The table reader and every layer above use them.
+
+pub mod interp;
+pub mod quadrature;
+pub mod vec3;

@@ -1,0 +1,686 @@
+//! Reading and verification of `.sbt` files (see `docs/table-format.md`, "Reading and
+//! verification"). The file is streamed: the magic is checked from the first 8 bytes, the
+//! header is read only after its declared length is checked against the limit and the file
+//! size, and the payload is decompressed in fixed-size chunks, so memory is bounded by the data
+//! actually present (and by [`ReadLimits`]), never by a size the file declares.
+
+use super::format::{FORMAT_MAJOR, FORMAT_MINOR, MAGIC, PREAMBLE, TableError, sha256_hex};
+use super::{Axis, AxisPoints, Header, Table};
+use serde::de::{DeserializeSeed, MapAccess, SeqAccess, Visitor};
+use sha2::{Digest, Sha256};
+use std::fmt;
+use std::io::Read;
+use std::path::Path;
+
+/// Largest header accepted (64 MiB).
+pub const MAX_HEADER_BYTES: u64 = 64 << 20;
+/// Default largest uncompressed payload (4 GiB); raise it with [`ReadLimits`].
+pub const DEFAULT_MAX_PAYLOAD_BYTES: u64 = 4 << 30;
+/// Largest number of axes (a lookup touches up to 2^axes grid points).
+pub const MAX_AXES: usize = 16;
+/// Deepest nesting of JSON arrays/objects in a header.
+pub const MAX_JSON_DEPTH: usize = 64;
+/// Magic number of a zstd frame (little-endian `0xFD2FB528`).
+const ZSTD_MAGIC: [u8; 4] = [0x28, 0xB5, 0x2F, 0xFD];
+/// Decompression chunk (bytes); a multiple of 4.
+const CHUNK: usize = 1 << 16;
+
+/// Resource limits of a read.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ReadLimits {
+    /// Largest `payload.uncompressed_bytes` accepted (default [`DEFAULT_MAX_PAYLOAD_BYTES`]).
+    pub max_payload_bytes: u64,
+}
+
+impl Default for ReadLimits {
+    fn default() -> Self {
+        ReadLimits {
+            max_payload_bytes: DEFAULT_MAX_PAYLOAD_BYTES,
+        }
+    }
+}
+
+/// Count of non-finite and negative samples per channel, gathered while verifying.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct ValueStats {
+    /// NaN samples per channel.
+    pub nan: Vec<u64>,
+    /// ±infinite samples per channel.
+    pub infinite: Vec<u64>,
+    /// Negative (finite, < 0) samples per channel.
+    pub negative: Vec<u64>,
+}
+
+/// Result of [`verify_file`]: the verified header and the value statistics.
+#[derive(Debug, Clone)]
+pub struct Verified {
+    pub header: Header,
+    pub values: ValueStats,
+}
+
+fn bad(path: &Path, message: impl Into<String>) -> TableError {
+    TableError::BadHeader {
+        path: path.into(),
+        message: message.into(),
+    }
+}
+
+fn io_err(path: &Path) -> impl Fn(std::io::Error) -> TableError + '_ {
+    move |source| TableError::Io {
+        path: path.into(),
+        source,
+    }
+}
+
+fn read_up_to(f: &mut impl Read, buf: &mut [u8]) -> std::io::Result<usize> {
+    let mut got = 0;
+    while got < buf.len() {
+        match f.read(&mut buf[got..]) {
+            Ok(0) => break,
+            Ok(n) => got += n,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+            Err(e) => return Err(e),
+        }
+    }
+    Ok(got)
+}
+
+/// Read exactly `n` bytes without allocating more than is actually read.
+fn read_exact_vec(f: &mut impl Read, n: u64) -> std::io::Result<Vec<u8>> {
+    let mut v = Vec::new();
+    f.take(n).read_to_end(&mut v)?;
+    Ok(v)
+}
+
+/// Preamble, header bytes and parsed header.
+struct HeaderPart {
+    header: Header,
+    header_len: u64,
+}
+
+fn read_header_part(
+    r: &mut impl Read,
+    file_len: Option<u64>,
+    path: &Path,
+    limits: &ReadLimits,
+) -> Result<HeaderPart, TableError> {
+    let mut pre = [0u8; PREAMBLE];
+    let n = read_up_to(r, &mut pre[..8]).map_err(io_err(path))?;
+    if n < 8 || pre[..8] != MAGIC {
+        return Err(TableError::BadMagic {
+            path: path.into(),
+            found: pre[..n].to_vec(),
+        });
+    }
+    let m = read_up_to(r, &mut pre[8..]).map_err(io_err(path))?;
+    if m < PREAMBLE - 8 {
+        return Err(TableError::Truncated {
+            path: path.into(),
+            what: format!("{} bytes, shorter than the {PREAMBLE}-byte preamble", 8 + m),
+        });
+    }
+    let major = u16::from_le_bytes([pre[8], pre[9]]);
+    let minor = u16::from_le_bytes([pre[10], pre[11]]);
+    if major > FORMAT_MAJOR {
+        return Err(TableError::NewerMajor {
+            path: path.into(),
+            major,
+            minor,
+        });
+    }
+    if major == 0 {
+        return Err(bad(path, "format major version 0 does not exist"));
+    }
+    let flags = u32::from_le_bytes(pre[12..16].try_into().expect("4 bytes"));
+    if flags != 0 {
+        return Err(bad(
+            path,
+            format!("reserved flags at offset 12 are {flags:#010x}, must be 0"),
+        ));
+    }
+    let hlen = u64::from_le_bytes(pre[16..24].try_into().expect("8 bytes"));
+    if hlen > MAX_HEADER_BYTES {
+        return Err(TableError::Limit {
+            path: path.into(),
+            message: format!(
+                "header length {hlen} (offset 16) exceeds the limit of {MAX_HEADER_BYTES} bytes"
+            ),
+        });
+    }
+    if let Some(len) = file_len
+        && PREAMBLE as u64 + hlen > len
+    {
+        return Err(TableError::Truncated {
+            path: path.into(),
+            what: format!(
+                "header needs {hlen} bytes, {} present",
+                len - PREAMBLE as u64
+            ),
+        });
+    }
+    let header_bytes = read_exact_vec(r, hlen).map_err(io_err(path))?;
+    if (header_bytes.len() as u64) < hlen {
+        return Err(TableError::Truncated {
+            path: path.into(),
+            what: format!("header needs {hlen} bytes, {} present", header_bytes.len()),
+        });
+    }
+    let mut h = Sha256::new();
+    h.update(&pre[..24]);
+    h.update(&header_bytes);
+    if h.finalize().as_slice() != &pre[24..56] {
+        return Err(TableError::HeaderChecksum { path: path.into() });
+    }
+    let header = parse_header_json(&header_bytes, major, minor).map_err(|m| bad(path, m))?;
+    validate_header(&header, limits).map_err(|m| bad(path, m))?;
+    Ok(HeaderPart {
+        header,
+        header_len: hlen,
+    })
+}
+
+/// Top-level header fields of format 1.0 (the fields of [`Header`]).
+const HEADER_FIELDS: [&str; 8] = [
+    "schema",
+    "description",
+    "axes",
+    "channels",
+    "layout",
+    "attributes",
+    "provenance",
+    "payload",
+];
+
+/// Parse the JSON header: nesting depth, duplicate keys and unknown top-level fields (in a minor
+/// this reader implements) are checked on a first pass, then the typed header is decoded.
+fn parse_header_json(bytes: &[u8], major: u16, minor: u16) -> Result<Header, String> {
+    let mut de = serde_json::Deserializer::from_slice(bytes);
+    let top = StrictJson { depth: 0 }
+        .deserialize(&mut de)
+        .map_err(|e| format!("JSON: {e}"))?;
+    de.end().map_err(|e| format!("JSON: {e}"))?;
+    let Some(keys) = top else {
+        return Err("the header is not a JSON object".into());
+    };
+    // Fields of a newer minor are ignored; a file of a minor this reader implements has exactly
+    // the fields of that version.
+    let newer_minor = minor > FORMAT_MINOR;
+    if !newer_minor && let Some(k) = keys.iter().find(|k| !HEADER_FIELDS.contains(&k.as_str())) {
+        return Err(format!(
+            "unknown field `{k}` in a format {major}.{minor} header (only a newer minor version \
+             may add fields)"
+        ));
+    }
+    serde_json::from_slice(bytes).map_err(|e| e.to_string())
+}
+
+/// A serde visitor over any JSON value that refuses duplicate object keys and nesting deeper
+/// than [`MAX_JSON_DEPTH`]. Returns the keys of the value when it is an object.
+struct StrictJson {
+    depth: usize,
+}
+
+impl<'de> DeserializeSeed<'de> for StrictJson {
+    type Value = Option<Vec<String>>;
+    fn deserialize<D: serde::Deserializer<'de>>(self, d: D) -> Result<Self::Value, D::Error> {
+        d.deserialize_any(self)
+    }
+}
+
+impl<'de> Visitor<'de> for StrictJson {
+    type Value = Option<Vec<String>>;
+    fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+        f.write_str("a JSON value")
+    }
+    fn visit_bool<E>(self, _: bool) -> Result<Self::Value, E> {
+        Ok(None)
+    }
+    fn visit_i64<E>(self, _: i64) -> Result<Self::Value, E> {
+        Ok(None)
+    }
+    fn visit_u64<E>(self, _: u64) -> Result<Self::Value, E> {
+        Ok(None)
+    }
+    fn visit_f64<E>(self, _: f64) -> Result<Self::Value, E> {
+        Ok(None)
+    }
+    fn visit_str<E>(self, _: &str) -> Result<Self::Value, E> {
+        Ok(None)
+    }
+    fn visit_unit<E>(self) -> Result<Self::Value, E> {
+        Ok(None)
+    }
+    fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Self::Value, A::Error> {
+        let depth = self.depth + 1;
+        if depth > MAX_JSON_DEPTH {
+            return Err(serde::de::Error::custom(format!(
+                "nesting deeper than {MAX_JSON_DEPTH} levels"
+            )));
+        }
+        while seq.next_element_seed(StrictJson { depth })?.is_some() {}
+        Ok(None)
+    }
+    fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<Self::Value, A::Error> {
+        let depth = self.depth + 1;
+        if depth > MAX_JSON_DEPTH {
+            return Err(serde::de::Error::custom(format!(
+                "nesting deeper than {MAX_JSON_DEPTH} levels"
+            )));
+        }
+        let mut keys = std::collections::BTreeSet::new();
+        let mut order = Vec::new();
+        while let Some(k) = map.next_key::<String>()? {
+            if !keys.insert(k.clone()) {
+                return Err(serde::de::Error::custom(format!("duplicate key `{k}`")));
+            }
+            map.next_value_seed(StrictJson { depth })?;
+            order.push(k);
+        }
+        Ok(Some(order))
+    }
+}
+
+/// Structural checks of the checksummed header (the same rules in every reader).
+fn validate_header(h: &Header, limits: &ReadLimits) -> Result<(), String> {
+    if h.layout.order != "row-major" || h.layout.dtype != "f32le" {
+        return Err(format!(
+            "unsupported layout {} / {}",
+            h.layout.order, h.layout.dtype
+        ));
+    }
+    if h.payload.compression != "zstd" {
+        return Err(format!(
+            "unsupported compression `{}`",
+            h.payload.compression
+        ));
+    }
+    check_axis_count(h.axes.len())?;
+    if h.channels.is_empty() {
+        return Err("a table needs at least one channel".into());
+    }
+    for a in &h.axes {
+        if a.is_empty() {
+            return Err(format!("axis `{}` is empty", a.name));
+        }
+    }
+    let mut shape: Vec<usize> = h.axes.iter().map(|a| a.len()).collect();
+    shape.push(h.channels.len());
+    if shape != h.layout.shape {
+        return Err(format!(
+            "layout shape {:?} disagrees with axes/channels {:?}",
+            h.layout.shape, shape
+        ));
+    }
+    let names = h
+        .axes
+        .iter()
+        .map(|a| a.name.as_str())
+        .chain(std::iter::once("channel"));
+    if !names.eq(h.layout.axis_order.iter().map(String::as_str)) {
+        return Err(format!(
+            "layout axis_order {:?} disagrees with the axis names followed by `channel`",
+            h.layout.axis_order
+        ));
+    }
+    let bytes = shape
+        .iter()
+        .try_fold(4u64, |acc, &s| acc.checked_mul(s as u64))
+        .ok_or_else(|| format!("shape {shape:?} overflows a 64-bit byte count"))?;
+    if bytes != h.payload.uncompressed_bytes {
+        return Err(format!(
+            "shape {shape:?} implies {bytes} bytes, payload.uncompressed_bytes says {}",
+            h.payload.uncompressed_bytes
+        ));
+    }
+    if bytes > limits.max_payload_bytes {
+        return Err(format!(
+            "payload of {bytes} bytes exceeds the reader limit of {} bytes (raise it to read \
+             this table)",
+            limits.max_payload_bytes
+        ));
+    }
+    // Explicit coordinates are in the header already; the coordinates of a uniform axis are
+    // enumerated only once the payload has proved the grid exists (`check_all_coords`).
+    for a in &h.axes {
+        if let AxisPoints::Uniform { start, step, .. } = a.points {
+            check_uniform_params(a, start, step)?;
+        } else {
+            check_axis_coords(a)?;
+        }
+    }
+    Ok(())
+}
+
+/// At least one axis and at most [`MAX_AXES`].
+pub(crate) fn check_axis_count(n: usize) -> Result<(), String> {
+    if n == 0 {
+        return Err("a table needs at least one axis".into());
+    }
+    if n > MAX_AXES {
+        return Err(format!("{n} axes, more than the limit of {MAX_AXES}"));
+    }
+    Ok(())
+}
+
+/// Coordinates finite and strictly increasing; a uniform axis has a finite start and a finite
+/// step > 0, and `start + k·step` (computed in f64) is finite and strictly increasing.
+pub(crate) fn check_axis_coords(a: &Axis) -> Result<(), String> {
+    if a.is_empty() {
+        return Err(format!("axis `{}` is empty", a.name));
+    }
+    if let AxisPoints::Uniform { start, step, .. } = a.points {
+        check_uniform_params(a, start, step)?;
+    }
+    let mut prev = f64::NEG_INFINITY;
+    for k in 0..a.len() {
+        let x = a.coord(k);
+        if !x.is_finite() {
+            return Err(format!(
+                "axis `{}`: coordinate {k} ({x}) is not finite",
+                a.name
+            ));
+        }
+        if k > 0 && x <= prev {
+            return Err(format!(
+                "axis `{}`: coordinates are not strictly increasing at index {k} ({prev} then {x})",
+                a.name
+            ));
+        }
+        prev = x;
+    }
+    Ok(())
+}
+
+fn check_uniform_params(a: &Axis, start: f64, step: f64) -> Result<(), String> {
+    if !start.is_finite() {
+        return Err(format!(
+            "axis `{}`: uniform start {start} is not finite",
+            a.name
+        ));
+    }
+    if !(step.is_finite() && step > 0.0) {
+        return Err(format!(
+            "axis `{}`: uniform step {step} is not finite and > 0",
+            a.name
+        ));
+    }
+    Ok(())
+}
+
+/// Check that `payload` is exactly one zstd frame that declares its content size, equal to
+/// `content_size` (RFC 8878 frame and block headers; no dictionary).
+pub(crate) fn check_zstd_frame(payload: &[u8], content_size: u64) -> Result<(), String> {
+    let short = || "the zstd frame is truncated".to_string();
+    if payload.len() < 5 || payload[..4] != ZSTD_MAGIC {
+        return Err("payload does not start with a zstd frame (magic 28 b5 2f fd)".into());
+    }
+    let fhd = payload[4];
+    let fcs_flag = fhd >> 6;
+    let single_segment = (fhd >> 5) & 1 == 1;
+    let reserved = (fhd >> 3) & 1;
+    let checksum = (fhd >> 2) & 1 == 1;
+    let dict_flag = fhd & 3;
+    if reserved != 0 {
+        return Err("zstd frame header has its reserved bit set".into());
+    }
+    if dict_flag != 0 {
+        return Err("zstd frame names a dictionary".into());
+    }
+    let mut pos = 5usize;
+    if !single_segment {
+        pos += 1;
+    }
+    let fcs_len = match (fcs_flag, single_segment) {
+        (0, false) => 0,
+        (0, true) => 1,
+        (1, _) => 2,
+        (2, _) => 4,
+        _ => 8,
+    };
+    if fcs_len == 0 {
+        return Err("zstd frame does not declare its content size".into());
+    }
+    let fcs_bytes = payload.get(pos..pos + fcs_len).ok_or_else(short)?;
+    let mut le = [0u8; 8];
+    le[..fcs_len].copy_from_slice(fcs_bytes);
+    let mut declared = u64::from_le_bytes(le);
+    if fcs_len == 2 {
+        declared += 256;
+    }
+    pos += fcs_len;
+    if declared != content_size {
+        return Err(format!(
+            "zstd frame declares {declared} content bytes, payload.uncompressed_bytes says \
+             {content_size}"
+        ));
+    }
+    loop {
+        let bh = payload.get(pos..pos + 3).ok_or_else(short)?;
+        let bh = u32::from(bh[0]) | u32::from(bh[1]) << 8 | u32::from(bh[2]) << 16;
+        pos += 3;
+        let last = bh & 1 == 1;
+        let size = (bh >> 3) as usize;
+        let stored = match (bh >> 1) & 3 {
+            0 | 2 => size,
+            1 => 1,
+            _ => return Err("zstd block of reserved type".into()),
+        };
+        pos = pos.checked_add(stored).ok_or_else(short)?;
+        if pos > payload.len() {
+            return Err(short());
+        }
+        if last {
+            break;
+        }
+    }
+    if checksum {
+        pos += 4;
+    }
+    match pos.cmp(&payload.len()) {
+        std::cmp::Ordering::Greater => Err(short()),
+        std::cmp::Ordering::Less => Err(format!(
+            "{} bytes follow the zstd frame (the payload must be exactly one frame)",
+            payload.len() - pos
+        )),
+        std::cmp::Ordering::Equal => Ok(()),
+    }
+}
+
+/// Read, verify and (when `keep` is true) return the samples of a table from a stream.
+/// `file_len` (when known) lets size errors be reported before anything is read.
+fn read_table(
+    r: &mut impl Read,
+    file_len: Option<u64>,
+    path: &Path,
+    limits: &ReadLimits,
+    keep: bool,
+) -> Result<(Header, Vec<f32>, ValueStats), TableError> {
+    let HeaderPart { header, header_len } = read_header_part(r, file_len, path, limits)?;
+    let p = &header.payload;
+    let start = PREAMBLE as u64 + header_len;
+    let end = start.checked_add(p.compressed_bytes).ok_or_else(|| {
+        bad(
+            path,
+            format!(
+                "payload.compressed_bytes {} overflows the file size",
+                p.compressed_bytes
+            ),
+        )
+    })?;
+    if let Some(len) = file_len {
+        if len < end {
+            return Err(TableError::Truncated {
+                path: path.into(),
+                what: format!(
+                    "payload needs {} bytes, {} present",
+                    p.compressed_bytes,
+                    len - start
+                ),
+            });
+        }
+        if len > end {
+            return Err(TableError::TrailingBytes {
+                path: path.into(),
+                extra: len - end,
+            });
+        }
+    }
+    let compressed = read_exact_vec(r, p.compressed_bytes).map_err(io_err(path))?;
+    if (compressed.len() as u64) < p.compressed_bytes {
+        return Err(TableError::Truncated {
+            path: path.into(),
+            what: format!(
+                "payload needs {} bytes, {} present",
+                p.compressed_bytes,
+                compressed.len()
+            ),
+        });
+    }
+    if file_len.is_none() {
+        let extra =
+            std::io::copy(&mut r.take(1 << 20), &mut std::io::sink()).map_err(io_err(path))?;
+        if extra > 0 {
+            return Err(TableError::TrailingBytes {
+                path: path.into(),
+                extra,
+            });
+        }
+    }
+    if sha256_hex(&compressed) != p.sha256_compressed {
+        return Err(TableError::PayloadChecksum {
+            path: path.into(),
+            which: "compressed",
+        });
+    }
+    let decompress_err = |message: String| TableError::Decompress {
+        path: path.into(),
+        message,
+    };
+    check_zstd_frame(&compressed, p.uncompressed_bytes).map_err(decompress_err)?;
+    let nc = header.channels.len();
+    let mut stats = ValueStats {
+        nan: vec![0; nc],
+        infinite: vec![0; nc],
+        negative: vec![0; nc],
+    };
+    let mut data = Vec::new();
+    let mut dec = zstd::stream::read::Decoder::with_buffer(&compressed[..])
+        .map_err(|e| decompress_err(e.to_string()))?
+        .single_frame();
+    let mut hasher = Sha256::new();
+    let mut buf = vec![0u8; CHUNK];
+    let mut got = 0u64;
+    let mut flat = 0usize;
+    loop {
+        let want = (p.uncompressed_bytes - got).min(CHUNK as u64) as usize;
+        let want = if want == 0 { 1 } else { want };
+        let n =
+            read_up_to(&mut dec, &mut buf[..want]).map_err(|e| decompress_err(e.to_string()))?;
+        if got == p.uncompressed_bytes {
+            if n > 0 {
+                return Err(decompress_err(format!(
+                    "payload decompresses to more than the {} bytes the header says",
+                    p.uncompressed_bytes
+                )));
+            }
+            break;
+        }
+        if n < want {
+            return Err(decompress_err(format!(
+                "payload decompresses to {} bytes, header says {}",
+                got + n as u64,
+                p.uncompressed_bytes
+            )));
+        }
+        hasher.update(&buf[..n]);
+        got += n as u64;
+        for c in buf[..n].chunks_exact(4) {
+            let v = f32::from_le_bytes([c[0], c[1], c[2], c[3]]);
+            let ch = flat % nc;
+            if v.is_nan() {
+                stats.nan[ch] += 1;
+            } else if v.is_infinite() {
+                stats.infinite[ch] += 1;
+            } else if v < 0.0 {
+                stats.negative[ch] += 1;
+            }
+            flat += 1;
+            if keep {
+                data.push(v);
+            }
+        }
+    }
+    if hex::encode(hasher.finalize()) != p.sha256_uncompressed {
+        return Err(TableError::PayloadChecksum {
+            path: path.into(),
+            which: "uncompressed",
+        });
+    }
+    for a in &header.axes {
+        check_axis_coords(a).map_err(|m| bad(path, m))?;
+    }
+    Ok((header, data, stats))
+}
+
+fn open_file(path: &Path) -> Result<(std::fs::File, Option<u64>), TableError> {
+    let f = std::fs::File::open(path).map_err(io_err(path))?;
+    let meta = f.metadata().map_err(io_err(path))?;
+    let len = meta.is_file().then_some(meta.len());
+    Ok((f, len))
+}
+
+impl Table {
+    /// Open and fully verify a table with the default [`ReadLimits`].
+    pub fn open(path: impl AsRef<Path>) -> Result<Self, TableError> {
+        Self::open_with_limits(path, &ReadLimits::default())
+    }
+
+    /// Open and fully verify a table (every rule of `docs/table-format.md`).
+    pub fn open_with_limits(
+        path: impl AsRef<Path>,
+        limits: &ReadLimits,
+    ) -> Result<Self, TableError> {
+        let path = path.as_ref();
+        let (f, len) = open_file(path)?;
+        let mut r = std::io::BufReader::new(f);
+        let (header, data, _) = read_table(&mut r, len, path, limits, true)?;
+        Ok(Table { header, data })
+    }
+
+    /// Parse and fully verify table bytes; `path` is only used in error messages.
+    pub fn from_bytes(bytes: &[u8], path: &Path) -> Result<Self, TableError> {
+        Self::from_bytes_with_limits(bytes, path, &ReadLimits::default())
+    }
+
+    /// [`Table::from_bytes`] with explicit limits.
+    pub fn from_bytes_with_limits(
+        bytes: &[u8],
+        path: &Path,
+        limits: &ReadLimits,
+    ) -> Result<Self, TableError> {
+        let mut r = bytes;
+        let (header, data, _) = read_table(&mut r, Some(bytes.len() as u64), path, limits, true)?;
+        Ok(Table { header, data })
+    }
+}
+
+/// Fully verify a table file without keeping its samples (memory bounded by the header and a
+/// fixed buffer), gathering [`ValueStats`].
+pub fn verify_file(path: &Path, limits: &ReadLimits) -> Result<Verified, TableError> {
+    let (f, len) = open_file(path)?;
+    let mut r = std::io::BufReader::new(f);
+    let (header, _, values) = read_table(&mut r, len, path, limits, false)?;
+    Ok(Verified { header, values })
+}
+
+/// Read and verify only the preamble and header of a table (cheap; used for resume checks and
+/// the catalog). The payload is not checked.
+pub fn read_header_only(path: &Path) -> Result<Header, TableError> {
+    let (f, len) = open_file(path)?;
+    let mut r = std::io::BufReader::new(f);
+    let header = read_header_part(&mut r, len, path, &ReadLimits::default())?.header;
+    for a in &header.axes {
+        check_axis_coords(a).map_err(|m| bad(path, m))?;
+    }
+    Ok(header)
+}

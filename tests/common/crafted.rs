@@ -1,0 +1,531 @@
+//! A corpus of crafted `.sbt` files: each breaks one rule of `docs/table-format.md` (or sits
+//! exactly on a limit) with every checksum recomputed, so the reader must catch it by the rule
+//! itself. Every reader (Rust, C, Python) must accept exactly the files marked valid and refuse
+//! the others with an error, never a crash.
+
+use scatterbake::table::{Axis, Channel, Provenance, Schema, Table, TableContent};
+use serde_json::{Value, json};
+use sha2::{Digest, Sha256};
+
+/// One crafted file.
+pub struct Case {
+    pub name: &'static str,
+    pub bytes: Vec<u8>,
+    /// True when every reader must accept it.
+    pub valid: bool,
+}
+
+fn sha_hex(b: &[u8]) -> String {
+    hex::encode(Sha256::digest(b))
+}
+
+/// zstd frame with content size and checksum (as the writer makes it).
+pub fn zstd_frame(raw: &[u8]) -> Vec<u8> {
+    zstd::bulk::compress(raw, 3).unwrap()
+}
+
+/// A zstd frame that does not declare its content size.
+fn zstd_frame_unsized(raw: &[u8]) -> Vec<u8> {
+    use std::io::Write;
+    let mut e = zstd::stream::Encoder::new(Vec::new(), 3).unwrap();
+    e.include_contentsize(false).unwrap();
+    e.write_all(raw).unwrap();
+    e.finish().unwrap()
+}
+
+/// Preamble (with a correct header checksum) + header bytes + payload bytes.
+pub fn assemble(major: u16, minor: u16, flags: u32, header: &[u8], payload: &[u8]) -> Vec<u8> {
+    let mut out = Vec::new();
+    out.extend_from_slice(b"SBTABLE\0");
+    out.extend_from_slice(&major.to_le_bytes());
+    out.extend_from_slice(&minor.to_le_bytes());
+    out.extend_from_slice(&flags.to_le_bytes());
+    out.extend_from_slice(&(header.len() as u64).to_le_bytes());
+    let mut h = Sha256::new();
+    h.update(&out[..24]);
+    h.update(header);
+    out.extend_from_slice(&h.finalize());
+    out.extend_from_slice(header);
+    out.extend_from_slice(payload);
+    out
+}
+
+/// Fill the payload section of `header` for these payload bytes (sizes and checksums).
+pub fn set_payload(header: &mut Value, raw: &[u8], compressed: &[u8]) {
+    header["payload"] = json!({
+        "compression": "zstd",
+        "compressed_bytes": compressed.len(),
+        "uncompressed_bytes": raw.len(),
+        "sha256_compressed": sha_hex(compressed),
+        "sha256_uncompressed": sha_hex(raw),
+    });
+}
+
+/// Base table: axes `wavelength` (values 400, 500, 600 nm) and `scattering_angle` (uniform
+/// 0, 90, 180 deg), channels `phase` and `dolp`.
+pub fn base_header() -> Value {
+    let content = TableContent {
+        schema: Schema::new("crafted", 1),
+        description: "crafted test table".into(),
+        axes: vec![
+            Axis::values("wavelength", "nm", vec![400.0, 500.0, 600.0]),
+            Axis::uniform("scattering_angle", "deg", 0.0, 90.0, 3),
+        ],
+        channels: vec![
+            Channel::new("phase", "1/sr", "test"),
+            Channel::new("dolp", "1", "test"),
+        ],
+        attributes: serde_json::Map::new(),
+        data: (0..18).map(|i| i as f32 * 0.25).collect(),
+    };
+    let mut t = Table::from_content(content, Provenance::default()).unwrap();
+    let bytes = t.to_bytes().unwrap();
+    let hlen = u64::from_le_bytes(bytes[16..24].try_into().unwrap()) as usize;
+    serde_json::from_slice(&bytes[56..56 + hlen]).unwrap()
+}
+
+fn floats(n: usize, f: impl Fn(usize) -> f32) -> Vec<u8> {
+    (0..n).flat_map(|i| f(i).to_le_bytes()).collect()
+}
+
+/// A file from a header (payload section filled in for `raw`), with `tweak` applied last.
+fn file_with(mut header: Value, raw: &[u8], tweak: impl FnOnce(&mut Value)) -> Vec<u8> {
+    let c = zstd_frame(raw);
+    set_payload(&mut header, raw, &c);
+    tweak(&mut header);
+    assemble(1, 0, 0, &serde_json::to_vec(&header).unwrap(), &c)
+}
+
+/// Header with its payload filled in, as text, for textual edits.
+fn header_text(raw: &[u8]) -> (String, Vec<u8>) {
+    let mut h = base_header();
+    let c = zstd_frame(raw);
+    set_payload(&mut h, raw, &c);
+    (serde_json::to_string(&h).unwrap(), c)
+}
+
+fn base_raw() -> Vec<u8> {
+    floats(18, |i| i as f32 * 0.25)
+}
+
+/// Set the axes (and the layout that goes with them) of a header.
+fn set_axes(h: &mut Value, axes: Value, channels: usize) {
+    let mut shape: Vec<Value> = axes
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|a| {
+            let p = &a["points"];
+            if let Some(v) = p.get("values") {
+                json!(v.as_array().unwrap().len())
+            } else {
+                p["uniform"]["count"].clone()
+            }
+        })
+        .collect();
+    shape.push(json!(channels));
+    if let Some(c) = h["channels"].as_array_mut() {
+        c.truncate(channels);
+    }
+    let mut order: Vec<Value> = axes
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|a| a["name"].clone())
+        .collect();
+    order.push(json!("channel"));
+    h["axes"] = axes;
+    h["layout"]["shape"] = json!(shape);
+    h["layout"]["axis_order"] = json!(order);
+}
+
+fn values_axis(name: &str, v: Value) -> Value {
+    json!({"name": name, "unit": "1", "points": {"values": v}})
+}
+
+fn uniform_axis(name: &str, start: Value, step: Value, count: Value) -> Value {
+    json!({"name": name, "unit": "1", "points": {"uniform": {"start": start, "step": step, "count": count}}})
+}
+
+/// One axis `x` replaced in the base table (the other axis and the channels stay).
+fn with_first_axis(axis: Value, n: usize) -> Vec<u8> {
+    let mut h = base_header();
+    let second = h["axes"][1].clone();
+    set_axes(&mut h, json!([axis, second]), 2);
+    file_with(h, &floats(n * 3 * 2, |i| i as f32), |_| {})
+}
+
+/// Every crafted case.
+pub fn cases() -> Vec<Case> {
+    let mut v = Vec::new();
+    let mut add =
+        |name: &'static str, bytes: Vec<u8>, valid: bool| v.push(Case { name, bytes, valid });
+    let raw = base_raw();
+    add("valid_base", file_with(base_header(), &raw, |_| {}), true);
+
+    // Structure: axes and channels.
+    let mut h = base_header();
+    set_axes(&mut h, json!([]), 2);
+    add("no_axes", file_with(h, &floats(2, |_| 1.0), |_| {}), false);
+    add(
+        "empty_values_axis",
+        with_first_axis(values_axis("x", json!([])), 0),
+        false,
+    );
+    add(
+        "uniform_count_zero",
+        with_first_axis(uniform_axis("x", json!(0.0), json!(1.0), json!(0)), 0),
+        false,
+    );
+    let mut h = base_header();
+    let axes = h["axes"].clone();
+    set_axes(&mut h, axes, 0);
+    h["channels"] = json!([]);
+    add("no_channels", file_with(h, &[], |_| {}), false);
+    add(
+        "values_repeated",
+        with_first_axis(values_axis("x", json!([1.0, 1.0, 2.0])), 3),
+        false,
+    );
+    add(
+        "values_decreasing",
+        with_first_axis(values_axis("x", json!([3.0, 2.0, 1.0])), 3),
+        false,
+    );
+    add(
+        "values_single",
+        with_first_axis(values_axis("x", json!([5.0])), 1),
+        true,
+    );
+    add(
+        "uniform_step_zero",
+        with_first_axis(uniform_axis("x", json!(0.0), json!(0.0), json!(3)), 3),
+        false,
+    );
+    add(
+        "uniform_step_negative",
+        with_first_axis(uniform_axis("x", json!(0.0), json!(-1.0), json!(3)), 3),
+        false,
+    );
+    add(
+        "uniform_overflows_to_inf",
+        with_first_axis(uniform_axis("x", json!(1e308), json!(1e308), json!(3)), 3),
+        false,
+    );
+    add(
+        "uniform_step_below_resolution",
+        with_first_axis(uniform_axis("x", json!(1e16), json!(0.5), json!(3)), 3),
+        false,
+    );
+    add(
+        "uniform_count_string",
+        with_first_axis(uniform_axis("x", json!(0.0), json!(1.0), json!("3")), 3),
+        false,
+    );
+    add(
+        "uniform_count_float",
+        with_first_axis(uniform_axis("x", json!(0.0), json!(1.0), json!(3.0)), 3),
+        false,
+    );
+    add(
+        "uniform_count_negative",
+        with_first_axis(uniform_axis("x", json!(0.0), json!(1.0), json!(-3)), 3),
+        false,
+    );
+    add(
+        "both_values_and_uniform",
+        with_first_axis(
+            json!({"name": "x", "unit": "1", "points": {"values": [0.0, 1.0, 2.0],
+                   "uniform": {"start": 0.0, "step": 1.0, "count": 3}}}),
+            3,
+        ),
+        false,
+    );
+    // Axis count at and over the limit.
+    let many = |n: usize, len: usize| {
+        let mut h = base_header();
+        let axes: Vec<Value> = (0..n)
+            .map(|i| {
+                values_axis(
+                    &format!("a{i}"),
+                    json!((0..len).map(|k| k as f64).collect::<Vec<_>>()),
+                )
+            })
+            .collect();
+        set_axes(&mut h, json!(axes), 1);
+        let count = len.pow(n as u32);
+        file_with(h, &floats(count, |i| (i % 7) as f32), |_| {})
+    };
+    add("axes_16_of_2", many(16, 2), true);
+    add("axes_17_of_1", many(17, 1), false);
+
+    // Sizes.
+    add(
+        "shape_overflows_u64",
+        file_with(base_header(), &raw, |h| {
+            let ax = json!([
+                uniform_axis("x", json!(0.0), json!(1.0), json!(1u64 << 40)),
+                uniform_axis("y", json!(0.0), json!(1.0), json!(1u64 << 40))
+            ]);
+            set_axes(h, ax, 2);
+            h["payload"]["uncompressed_bytes"] = json!(0);
+        }),
+        false,
+    );
+    add(
+        "declares_1tib",
+        file_with(base_header(), &raw, |h| {
+            let ax = json!([uniform_axis("x", json!(0.0), json!(1.0), json!(1u64 << 38))]);
+            set_axes(h, ax, 1);
+            h["payload"]["uncompressed_bytes"] = json!(1u64 << 40);
+        }),
+        false,
+    );
+    add(
+        "declares_1gib_backed_by_18_floats",
+        file_with(base_header(), &raw, |h| {
+            let ax = json!([uniform_axis("x", json!(0.0), json!(1.0), json!(1u64 << 28))]);
+            set_axes(h, ax, 1);
+            h["payload"]["uncompressed_bytes"] = json!(1u64 << 30);
+        }),
+        false,
+    );
+    add(
+        "uncompressed_bytes_disagree_with_shape",
+        file_with(base_header(), &raw, |h| {
+            h["payload"]["uncompressed_bytes"] = json!(76);
+        }),
+        false,
+    );
+    add(
+        "shape_disagrees_with_axes",
+        file_with(base_header(), &raw, |h| {
+            h["layout"]["shape"] = json!([2, 3, 3]);
+        }),
+        false,
+    );
+    add(
+        "axis_order_disagrees",
+        file_with(base_header(), &raw, |h| {
+            h["layout"]["axis_order"] = json!(["scattering_angle", "wavelength", "channel"]);
+        }),
+        false,
+    );
+    add(
+        "compressed_bytes_overflow",
+        file_with(base_header(), &raw, |h| {
+            h["payload"]["compressed_bytes"] = json!(u64::MAX - 8);
+        }),
+        false,
+    );
+
+    // Preamble.
+    let (text, c) = header_text(&raw);
+    add(
+        "flags_nonzero",
+        assemble(1, 0, 1, text.as_bytes(), &c),
+        false,
+    );
+    add(
+        "flags_high_bit",
+        assemble(1, 0, 1 << 31, text.as_bytes(), &c),
+        false,
+    );
+    add("major_0", assemble(0, 0, 0, text.as_bytes(), &c), false);
+    add("major_2", assemble(2, 0, 0, text.as_bytes(), &c), false);
+    add(
+        "minor_7_valid",
+        assemble(1, 7, 0, text.as_bytes(), &c),
+        true,
+    );
+    let mut f = assemble(1, 0, 0, text.as_bytes(), &c);
+    f[16..24].copy_from_slice(&u64::MAX.to_le_bytes());
+    add("header_len_u64_max", f, false);
+    let mut f = assemble(1, 0, 0, text.as_bytes(), &c);
+    f[16..24].copy_from_slice(&(1u64 << 30).to_le_bytes());
+    add("header_len_1gib_in_small_file", f, false);
+    add("zeros_1mib", vec![0u8; 1 << 20], false);
+    add("empty_file", Vec::new(), false);
+    add("magic_only", b"SBTABLE\0".to_vec(), false);
+    let mut f = assemble(1, 0, 0, text.as_bytes(), &c);
+    f.extend_from_slice(b"x");
+    add("trailing_byte", f, false);
+    let f = assemble(1, 0, 0, text.as_bytes(), &c);
+    add("truncated_payload", f[..f.len() - 1].to_vec(), false);
+
+    // Payload frames.
+    let two = [zstd_frame(&raw[..36]), zstd_frame(&raw[36..])].concat();
+    add(
+        "two_zstd_frames",
+        file_with(base_header(), &raw, |h| {
+            h["payload"]["compressed_bytes"] = json!(two.len());
+            h["payload"]["sha256_compressed"] = json!(sha_hex(&two));
+        }),
+        false,
+    );
+    let mut h = base_header();
+    set_payload(&mut h, &raw, &two);
+    add(
+        "two_zstd_frames_payload",
+        assemble(1, 0, 0, &serde_json::to_vec(&h).unwrap(), &two),
+        false,
+    );
+    let one_plus = [zstd_frame(&raw), zstd_frame(&[])].concat();
+    let mut h = base_header();
+    set_payload(&mut h, &raw, &one_plus);
+    add(
+        "frame_then_empty_frame",
+        assemble(1, 0, 0, &serde_json::to_vec(&h).unwrap(), &one_plus),
+        false,
+    );
+    let no_size = zstd_frame_unsized(&raw);
+    let mut h = base_header();
+    set_payload(&mut h, &raw, &no_size);
+    add(
+        "frame_without_content_size",
+        assemble(1, 0, 0, &serde_json::to_vec(&h).unwrap(), &no_size),
+        false,
+    );
+    let mut skippable = vec![0x50, 0x2A, 0x4D, 0x18, 4, 0, 0, 0, 1, 2, 3, 4];
+    skippable.extend_from_slice(&zstd_frame(&raw));
+    let mut h = base_header();
+    set_payload(&mut h, &raw, &skippable);
+    add(
+        "skippable_frame_first",
+        assemble(1, 0, 0, &serde_json::to_vec(&h).unwrap(), &skippable),
+        false,
+    );
+    let short = zstd_frame(&raw[..64]);
+    let mut h = base_header();
+    set_payload(&mut h, &raw, &short);
+    add(
+        "frame_content_shorter_than_header",
+        assemble(1, 0, 0, &serde_json::to_vec(&h).unwrap(), &short),
+        false,
+    );
+    add(
+        "sha256_uppercase",
+        file_with(base_header(), &raw, |h| {
+            let s = h["payload"]["sha256_compressed"]
+                .as_str()
+                .unwrap()
+                .to_uppercase();
+            h["payload"]["sha256_compressed"] = json!(s);
+        }),
+        false,
+    );
+    add(
+        "nan_and_negative_values",
+        file_with(
+            base_header(),
+            &floats(18, |i| match i % 4 {
+                0 => f32::NAN,
+                1 => -1.0,
+                2 => f32::INFINITY,
+                _ => 1.0,
+            }),
+            |_| {},
+        ),
+        true,
+    );
+
+    // JSON.
+    let dup = text.replacen('{', "{\"description\":\"first\",", 1);
+    add(
+        "duplicate_top_key",
+        assemble(1, 0, 0, dup.as_bytes(), &c),
+        false,
+    );
+    let dup = text.replace("\"attributes\":{}", "\"attributes\":{\"a\":1,\"a\":2}");
+    assert_ne!(dup, text);
+    add(
+        "duplicate_attribute_key",
+        assemble(1, 0, 0, dup.as_bytes(), &c),
+        false,
+    );
+    let deep = |n: usize| {
+        text.replace(
+            "\"attributes\":{}",
+            &format!(
+                "\"attributes\":{{\"d\":{}{}}}",
+                "[".repeat(n),
+                "]".repeat(n)
+            ),
+        )
+    };
+    // Depth counts the top-level object and `attributes`: 62 arrays make 64 levels.
+    add(
+        "nesting_64",
+        assemble(1, 0, 0, deep(62).as_bytes(), &c),
+        true,
+    );
+    add(
+        "nesting_65",
+        assemble(1, 0, 0, deep(63).as_bytes(), &c),
+        false,
+    );
+    add(
+        "nesting_100000",
+        assemble(1, 0, 0, deep(100_000).as_bytes(), &c),
+        false,
+    );
+    let mut bad_utf8 = text.clone().into_bytes();
+    let at = text.find("crafted test table").unwrap();
+    bad_utf8[at] = 0xFF;
+    add("header_not_utf8", assemble(1, 0, 0, &bad_utf8, &c), false);
+    let sur = text.replace("crafted test table", "\\ud800");
+    add(
+        "lone_surrogate",
+        assemble(1, 0, 0, sur.as_bytes(), &c),
+        false,
+    );
+    let nan = text.replace("[400.0,500.0,600.0]", "[NaN,500.0,600.0]");
+    assert_ne!(nan, text);
+    add("nan_literal", assemble(1, 0, 0, nan.as_bytes(), &c), false);
+    let inf = text.replace("[400.0,500.0,600.0]", "[400.0,500.0,1e999]");
+    add("number_1e999", assemble(1, 0, 0, inf.as_bytes(), &c), false);
+    add(
+        "header_not_object",
+        assemble(1, 0, 0, b"[1,2,3]", &c),
+        false,
+    );
+    add("header_empty", assemble(1, 0, 0, b"", &c), false);
+    add(
+        "header_trailing_garbage",
+        assemble(1, 0, 0, format!("{text} x").as_bytes(), &c),
+        false,
+    );
+    add(
+        "missing_payload_field",
+        file_with(base_header(), &raw, |h| {
+            h.as_object_mut().unwrap().remove("payload");
+        }),
+        false,
+    );
+    add(
+        "schema_version_2_pow_32",
+        file_with(base_header(), &raw, |h| {
+            h["schema"]["version"] = json!(1u64 << 32)
+        }),
+        false,
+    );
+    add(
+        "channel_name_number",
+        file_with(base_header(), &raw, |h| h["channels"][0]["name"] = json!(7)),
+        false,
+    );
+    add(
+        "unknown_top_field_1_0",
+        file_with(base_header(), &raw, |h| h["extra"] = json!(1)),
+        false,
+    );
+    let mut h = base_header();
+    set_payload(&mut h, &raw, &c);
+    h["extra"] = json!({"nested": [1, 2]});
+    add(
+        "unknown_top_field_1_1",
+        assemble(1, 1, 0, &serde_json::to_vec(&h).unwrap(), &c),
+        true,
+    );
+    v
+}
