@@ -271,11 +271,20 @@ fn read_checkpoint(path: &Path, key: &str) -> Option<Vec<f32>> {
         .then_some(c.values)
 }
 
+/// The encoding of a [`Checkpoint`] from borrowed values (the same bytes, without copying the
+/// values first).
+#[derive(Serialize)]
+struct CheckpointRef<'a> {
+    key: &'a str,
+    sha256: String,
+    values: &'a [f32],
+}
+
 fn write_checkpoint(path: &Path, key: &str, values: &[f32]) -> Result<(), PipelineError> {
-    let c = Checkpoint {
-        key: key.to_string(),
+    let c = CheckpointRef {
+        key,
         sha256: crate::workdir::checkpoint_hash(key, values),
-        values: values.to_vec(),
+        values,
     };
     let bytes = bincode::serde::encode_to_vec(&c, bincode_config()).map_err(|source| {
         PipelineError::CheckpointEncode {

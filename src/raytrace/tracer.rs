@@ -78,8 +78,11 @@ impl DirectionGrid {
 pub struct FieldGrid {
     pub grid: DirectionGrid,
     pub orders: usize,
-    /// Row-major `[polar][azimuth][order][4]`.
-    pub data: Vec<Complex32>,
+    /// Polar rows per band of [`FieldGrid::bands`].
+    pub band_rows: usize,
+    /// Row-major `[polar][azimuth][order][4]`, split into bands of `band_rows` polar rows (the
+    /// last may be shorter), so a consumer can release the accumulators band by band.
+    pub bands: Vec<Vec<Complex32>>,
     /// Flux per order that left the drop (µm², ray-based: Σ cell area × |ε|²).
     pub order_cross_section_um2: Vec<f64>,
     /// Flux per order carried by the retained (complete) triangles (µm²).
@@ -90,50 +93,64 @@ pub struct FieldGrid {
     pub rays_traced: usize,
 }
 
+/// Bytes of accumulators per band of [`FieldGrid::bands`] (at least one polar row): above
+/// glibc's largest mmap threshold (32 MiB), so a released band returns to the system at once.
+const FIELD_BAND_BYTES: usize = 64 << 20;
+
+/// `(i_perp, i_par)` dσ/dΩ of one pixel's accumulators `px` (`[order][4]`), coherent over
+/// orders, with each order's unpolarised dσ/dΩ written to `per` (length `orders`);
+/// allocation-free.
+pub fn pixel_intensities(px: &[Complex32], per: &mut [f64]) -> (f64, f64) {
+    let mut tot = [Complex64::new(0.0, 0.0); 4];
+    for (o, c) in px.chunks_exact(4).enumerate() {
+        let mut s = 0.0;
+        for (t, z) in tot.iter_mut().zip(c) {
+            let z = Complex64::new(z.re as f64, z.im as f64);
+            *t += z;
+            s += z.norm_sqr();
+        }
+        per[o] = 0.5 * s;
+    }
+    (
+        tot[0].norm_sqr() + tot[2].norm_sqr(),
+        tot[1].norm_sqr() + tot[3].norm_sqr(),
+    )
+}
+
 impl FieldGrid {
+    /// Values per polar row of the accumulators.
+    pub fn row_len(&self) -> usize {
+        self.grid.n_azimuth * self.orders * 4
+    }
+
+    /// The accumulators `[order][4]` of pixel (j, k).
+    pub fn pixel(&self, j: usize, k: usize) -> &[Complex32] {
+        let stride = self.orders * 4;
+        let base = ((j % self.band_rows) * self.grid.n_azimuth + k) * stride;
+        &self.bands[j / self.band_rows][base..base + stride]
+    }
+
     /// `(i_perp, i_par)` dσ/dΩ at pixel (j, k), coherent over orders, with each order's
     /// unpolarised dσ/dΩ written to `per` (length `orders`); allocation-free.
     pub fn intensities_into(&self, j: usize, k: usize, per: &mut [f64]) -> (f64, f64) {
-        let base = (j * self.grid.n_azimuth + k) * self.orders * 4;
-        let mut tot = [Complex64::new(0.0, 0.0); 4];
-        for (o, c) in self.data[base..base + self.orders * 4]
-            .chunks_exact(4)
-            .enumerate()
-        {
-            let mut s = 0.0;
-            for (t, z) in tot.iter_mut().zip(c) {
-                let z = Complex64::new(z.re as f64, z.im as f64);
-                *t += z;
-                s += z.norm_sqr();
-            }
-            per[o] = 0.5 * s;
-        }
-        (
-            tot[0].norm_sqr() + tot[2].norm_sqr(),
-            tot[1].norm_sqr() + tot[3].norm_sqr(),
-        )
+        pixel_intensities(self.pixel(j, k), per)
     }
 
     /// `(i_perp, i_par, per-order unpolarised)` dσ/dΩ at pixel (j, k), coherent over orders.
     pub fn intensities(&self, j: usize, k: usize) -> (f64, f64, Vec<f64>) {
-        let base = (j * self.grid.n_azimuth + k) * self.orders * 4;
-        let mut tot = [Complex64::new(0.0, 0.0); 4];
-        let mut per = Vec::with_capacity(self.orders);
-        for o in 0..self.orders {
-            let c = &self.data[base + o * 4..base + o * 4 + 4];
-            let mut s = 0.0;
-            for q in 0..4 {
-                let z = Complex64::new(c[q].re as f64, c[q].im as f64);
-                tot[q] += z;
-                s += z.norm_sqr();
-            }
-            per.push(0.5 * s);
-        }
-        (
-            tot[0].norm_sqr() + tot[2].norm_sqr(),
-            tot[1].norm_sqr() + tot[3].norm_sqr(),
-            per,
-        )
+        let mut per = vec![0.0; self.orders];
+        let (a, b) = self.intensities_into(j, k, &mut per);
+        (a, b, per)
+    }
+
+    /// Number of accumulator values (all bands).
+    pub fn len(&self) -> usize {
+        self.bands.iter().map(Vec::len).sum()
+    }
+
+    /// Whether the grid has no accumulators.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
     }
 }
 
@@ -685,8 +702,16 @@ fn triangle_field(
     ])
 }
 
-/// Step 4: rasterise a band's triangles into the field accumulators (rayon over table rows).
-fn rasterise(g: &RayGrid, grid: DirectionGrid, band: &Band, tris: &[Tri], data: &mut [Complex32]) {
+/// Step 4: rasterise a band's triangles into the field accumulators `data` (bands of
+/// `band_rows` polar rows; rayon over table rows).
+fn rasterise(
+    g: &RayGrid,
+    grid: DirectionGrid,
+    band: &Band,
+    tris: &[Tri],
+    data: &mut [Vec<Complex32>],
+    band_rows: usize,
+) {
     let (counts, idx) = bin_by_polar_row(tris, grid.n_polar);
     let flat: Vec<&RayOut> = band.iter().flat_map(|(r, _)| r.iter()).collect();
     let (dth, dph) = (grid.polar_step(), grid.azimuth_step());
@@ -695,28 +720,32 @@ fn rasterise(g: &RayGrid, grid: DirectionGrid, band: &Band, tris: &[Tri], data: 
         .collect();
     let stride = g.orders * 4;
     let na = grid.n_azimuth as i64;
-    data.par_chunks_mut(grid.n_azimuth * stride)
-        .enumerate()
-        .for_each(|(j, row)| {
-            let (st, ct) = (dth * j as f64).sin_cos();
-            for &ti in &idx[counts[j] as usize..counts[j + 1] as usize] {
-                let t = &tris[ti as usize];
-                let (ka, kb) = if t.full { (0, na - 1) } else { (t.k0, t.k1) };
-                for kk in ka..=kb {
-                    let k = kk.rem_euclid(na) as usize;
-                    let (sp, cp) = sc_ph[k];
-                    let radial = add(scale(g.fr.e1, cp), scale(g.fr.e2, sp));
-                    let r = add(scale(g.fr.d, ct), scale(radial, st));
-                    let Some(vals) = triangle_field(g, t, &flat, r, (sp, cp)) else {
-                        continue;
-                    };
-                    let base = k * stride + t.order as usize * 4;
-                    for (acc, v) in row[base..base + 4].iter_mut().zip(vals) {
-                        *acc += Complex32::new(v.re as f32, v.im as f32);
-                    }
+    let row_len = grid.n_azimuth * stride;
+    let rows = data.par_iter_mut().enumerate().flat_map(|(b, acc)| {
+        acc.par_chunks_mut(row_len)
+            .enumerate()
+            .map(move |(jj, row)| (b * band_rows + jj, row))
+    });
+    rows.for_each(|(j, row)| {
+        let (st, ct) = (dth * j as f64).sin_cos();
+        for &ti in &idx[counts[j] as usize..counts[j + 1] as usize] {
+            let t = &tris[ti as usize];
+            let (ka, kb) = if t.full { (0, na - 1) } else { (t.k0, t.k1) };
+            for kk in ka..=kb {
+                let k = kk.rem_euclid(na) as usize;
+                let (sp, cp) = sc_ph[k];
+                let radial = add(scale(g.fr.e1, cp), scale(g.fr.e2, sp));
+                let r = add(scale(g.fr.d, ct), scale(radial, st));
+                let Some(vals) = triangle_field(g, t, &flat, r, (sp, cp)) else {
+                    continue;
+                };
+                let base = k * stride + t.order as usize * 4;
+                for (acc, v) in row[base..base + 4].iter_mut().zip(vals) {
+                    *acc += Complex32::new(v.re as f32, v.im as f32);
                 }
             }
-        });
+        }
+    });
 }
 
 /// Trace the drop and accumulate the coherent far fields of every order on `grid`: rows of
@@ -725,7 +754,15 @@ fn rasterise(g: &RayGrid, grid: DirectionGrid, band: &Band, tris: &[Tri], data: 
 pub fn trace_fields(shape: &DropShape, cfg: &TraceConfig, grid: DirectionGrid) -> FieldGrid {
     let g = RayGrid::new(shape, cfg);
     let (nr, orders) = (g.nr, g.orders);
-    let mut data = vec![Complex32::new(0.0, 0.0); grid.n_polar * grid.n_azimuth * orders * 4];
+    let row_len = grid.n_azimuth * orders * 4;
+    let field_rows =
+        (FIELD_BAND_BYTES / (row_len * std::mem::size_of::<Complex32>())).clamp(1, grid.n_polar);
+    let mut data: Vec<Vec<Complex32>> = (0..grid.n_polar.div_ceil(field_rows))
+        .map(|b| {
+            let rows = field_rows.min(grid.n_polar - b * field_rows);
+            vec![Complex32::new(0.0, 0.0); rows * row_len]
+        })
+        .collect();
     let mut order_flux = vec![0.0; orders];
     let mut patch_flux = vec![0.0; orders];
     let mut hits = 0usize;
@@ -748,13 +785,14 @@ pub fn trace_fields(shape: &DropShape, cfg: &TraceConfig, grid: DirectionGrid) -
         }
         let (tris, flux) = build_triangles(&g, grid, &band, row0);
         patch_flux.iter_mut().zip(flux).for_each(|(a, b)| *a += b);
-        rasterise(&g, grid, &band, &tris, &mut data);
+        rasterise(&g, grid, &band, &tris, &mut data, field_rows);
         row0 = row1;
     }
     FieldGrid {
         grid,
         orders,
-        data,
+        band_rows: field_rows,
+        bands: data,
         order_cross_section_um2: order_flux,
         patch_cross_section_um2: patch_flux,
         projected_area_um2: hits as f64 * g.cell,

@@ -9,6 +9,7 @@ pub mod fur_medulla;
 pub mod hair;
 pub mod mie;
 pub mod mixture;
+pub mod mixture_2d;
 pub mod phase_contract;
 pub mod raytrace;
 mod stage;
@@ -29,6 +30,7 @@ pub fn registry() -> Vec<Box<dyn Stage>> {
         Box::new(crate::stages::fur_medulla::FurMedullaLongitudinalStage),
         Box::new(crate::stages::raytrace::RaytraceStage),
         Box::new(crate::stages::mixture::MixtureStage),
+        Box::new(crate::stages::mixture_2d::Mixture2dStage),
         Box::new(crate::stages::fur_farfield::FurFarFieldStage),
     ]
 }
