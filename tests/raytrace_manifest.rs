@@ -49,10 +49,10 @@ fn default_and_full_manifests_plan() {
     let colour = plan_all("manifests/full/beard-chuang-colour.toml");
     assert_eq!(colour.len(), 11);
     assert!(colour.iter().all(|(_, j)| j.tasks().len() == 33 * 4));
-    // Twinned bow: 2 distributions × 9 wavelengths × 1 sun elevation.
+    // Twinned bow: 4 distributions × 9 wavelengths × 1 sun elevation.
     let twin = plan_all("manifests/full/twinned-bow.toml");
     assert_eq!(twin.len(), 1);
-    assert_eq!(twin[0].1.tasks().len(), 2 * 9);
+    assert_eq!(twin[0].1.tasks().len(), 4 * 9);
 }
 
 /// Every table of the default manifest builds on 2 threads (timing printed) and keeps the
