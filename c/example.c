@@ -4,7 +4,7 @@
  *     cc -std=c99 -Wall -I c c/example.c -L target/release -lscatterbake_table \
  *        -Wl,-rpath,$PWD/target/release -o sbt-example
  * Run:
- *     ./sbt-example tables/mie.sbt [--dump out.bin] [COORD ...]
+ *     ./sbt-example tables/rainbow-mie.sbt [--dump out.bin] [COORD ...]
  * With --dump the payload is written as raw float32 little-endian (used by the tests to
  * compare bit for bit with the Rust writer). With COORDs (one per axis) every channel is
  * printed at that point, with the lookup formula of the library.

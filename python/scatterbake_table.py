@@ -1,12 +1,14 @@
 """Reader for scatterbake tables (``.sbt``), format 1.x. Needs numpy and zstandard.
 
+    import sys; sys.path.insert(0, "python")
     import scatterbake_table as sbt
-    t = sbt.open_table("tables/mie.sbt")      # verifies every checksum
+    t = sbt.open_table("tables/rainbow-mie.sbt")  # verifies every checksum
     t.axes            # list of Axis(name, unit, coords: numpy float64 array)
     t.channels        # list of Channel(name, unit, meaning)
     t.data            # numpy float32 array, shape = axis lengths + (number of channels,)
     t.channel("phase")            # view without the channel dimension
-    t.sample([650.0, 500.0, 138.0])  # multilinear lookup of every channel (clamped), like Rust
+    p = t.sample([400.0, 650.0, 138.0])  # radius µm, wavelength nm, angle deg (axis order) → every
+                                         # channel; multilinear, clamped at the axis ends, like Rust
 
 Byte layout (see docs/table-format.md): magic ``SBTABLE\\0`` (8 bytes), format major and minor
 (u16 LE each), flags (u32 LE), header length H (u64 LE), SHA-256 of bytes [0, 24) + header,

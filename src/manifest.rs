@@ -138,7 +138,28 @@ pub fn parse_manifest(file: &Path, src: &str) -> Result<Vec<PlannedTable>, Manif
         )
     })?;
     let root = root.into_inner();
-    let mut out = Vec::new();
+    let mut out: Vec<PlannedTable> = Vec::new();
+    for (idx, entry) in table_entries(&ctx, &root)?.iter().enumerate() {
+        let fields = EntryFields::read(&ctx, idx, entry)?;
+        let name = fields.checked_name(&ctx, idx, entry, &out)?;
+        let stage = fields.resolved_stage(&ctx, idx, entry)?;
+        let job = fields.planned_job(&ctx, idx, entry, stage.as_ref())?;
+        out.push(PlannedTable {
+            name,
+            manifest: file.to_path_buf(),
+            description: fields.description,
+            stage,
+            job,
+        });
+    }
+    Ok(out)
+}
+
+/// The `[[table]]` array of a manifest's root (the only top-level key allowed).
+fn table_entries<'t, 'de>(
+    ctx: &Ctx<'_>,
+    root: &'t DeTable<'de>,
+) -> Result<&'t toml::de::DeArray<'de>, ManifestError> {
     let mut tables_value: Option<&Spanned<DeValue<'_>>> = None;
     for (k, v) in root.iter() {
         match k.get_ref().as_ref() {
@@ -155,17 +176,33 @@ pub fn parse_manifest(file: &Path, src: &str) -> Result<Vec<PlannedTable>, Manif
     let Some(tables_value) = tables_value else {
         return Err(ctx.err(None, None, "manifest has no [[table]] entries"));
     };
-    let DeValue::Array(entries) = tables_value.get_ref() else {
-        return Err(ctx.err(
+    match tables_value.get_ref() {
+        DeValue::Array(entries) => Ok(entries),
+        other => Err(ctx.err(
             Some(tables_value.span()),
             Some("table".into()),
             format!(
                 "expected an array of tables ([[table]]), found {}",
-                type_name(tables_value.get_ref())
+                type_name(other)
             ),
-        ));
-    };
-    for (idx, entry) in entries.iter().enumerate() {
+        )),
+    }
+}
+
+/// The keys of one `[[table]]` entry, checked for type and spelling but not yet for meaning.
+struct EntryFields<'t, 'de> {
+    name: Option<(String, Range<usize>)>,
+    stage_name: Option<(String, Range<usize>)>,
+    description: Option<String>,
+    params: Option<&'t Spanned<DeValue<'de>>>,
+}
+
+impl<'t, 'de> EntryFields<'t, 'de> {
+    fn read(
+        ctx: &Ctx<'_>,
+        idx: usize,
+        entry: &'t Spanned<DeValue<'de>>,
+    ) -> Result<Self, ManifestError> {
         let DeValue::Table(t) = entry.get_ref() else {
             return Err(ctx.err(
                 Some(entry.span()),
@@ -173,10 +210,12 @@ pub fn parse_manifest(file: &Path, src: &str) -> Result<Vec<PlannedTable>, Manif
                 "expected a table",
             ));
         };
-        let mut name = None;
-        let mut stage_name = None;
-        let mut description = None;
-        let mut params: Option<&Spanned<DeValue<'_>>> = None;
+        let mut fields = EntryFields {
+            name: None,
+            stage_name: None,
+            description: None,
+            params: None,
+        };
         for (k, v) in t.iter() {
             let key = k.get_ref().as_ref();
             let want_string = |v: &Spanned<DeValue<'_>>| -> Result<String, ManifestError> {
@@ -190,10 +229,10 @@ pub fn parse_manifest(file: &Path, src: &str) -> Result<Vec<PlannedTable>, Manif
                 }
             };
             match key {
-                "name" => name = Some((want_string(v)?, v.span())),
-                "stage" => stage_name = Some((want_string(v)?, v.span())),
-                "description" => description = Some(want_string(v)?),
-                "params" => params = Some(v),
+                "name" => fields.name = Some((want_string(v)?, v.span())),
+                "stage" => fields.stage_name = Some((want_string(v)?, v.span())),
+                "description" => fields.description = Some(want_string(v)?),
+                "params" => fields.params = Some(v),
                 other => {
                     return Err(ctx.err(
                         Some(k.span()),
@@ -203,93 +242,118 @@ pub fn parse_manifest(file: &Path, src: &str) -> Result<Vec<PlannedTable>, Manif
                 }
             }
         }
-        let (name, name_span) = name.ok_or_else(|| {
-            ctx.err(
-                Some(entry.span()),
-                Some(format!("table[{idx}].name")),
-                "missing key",
-            )
-        })?;
-        if !valid_table_name(&name) {
+        Ok(fields)
+    }
+
+    /// The table name: present, well formed, and not used by an earlier entry.
+    fn checked_name(
+        &self,
+        ctx: &Ctx<'_>,
+        idx: usize,
+        entry: &Spanned<DeValue<'_>>,
+        earlier: &[PlannedTable],
+    ) -> Result<String, ManifestError> {
+        let key = Some(format!("table[{idx}].name"));
+        let Some((name, name_span)) = &self.name else {
+            return Err(ctx.err(Some(entry.span()), key, "missing key"));
+        };
+        if !valid_table_name(name) {
             return Err(ctx.err(
-                Some(name_span),
-                Some(format!("table[{idx}].name")),
+                Some(name_span.clone()),
+                key,
                 format!("`{name}` is not a valid table name (lowercase letters, digits, '.', '_', '-'; no extension)"),
             ));
         }
-        if out.iter().any(|p: &PlannedTable| p.name == name) {
+        if earlier.iter().any(|p| &p.name == name) {
             return Err(ctx.err(
-                Some(name_span),
-                Some(format!("table[{idx}].name")),
+                Some(name_span.clone()),
+                key,
                 format!("duplicate table name `{name}`"),
             ));
         }
-        let (stage_name, stage_span) = stage_name.ok_or_else(|| {
-            ctx.err(
-                Some(entry.span()),
-                Some(format!("table[{idx}].stage")),
-                "missing key",
-            )
-        })?;
-        let stage = crate::stages::find(&stage_name).ok_or_else(|| {
+        Ok(name.clone())
+    }
+
+    /// The registered stage the entry names.
+    fn resolved_stage(
+        &self,
+        ctx: &Ctx<'_>,
+        idx: usize,
+        entry: &Spanned<DeValue<'_>>,
+    ) -> Result<Box<dyn Stage>, ManifestError> {
+        let key = Some(format!("table[{idx}].stage"));
+        let Some((stage_name, stage_span)) = &self.stage_name else {
+            return Err(ctx.err(Some(entry.span()), key, "missing key"));
+        };
+        crate::stages::find(stage_name).ok_or_else(|| {
             let known: Vec<&str> = crate::stages::registry().iter().map(|s| s.name()).collect();
             ctx.err(
-                Some(stage_span),
-                Some(format!("table[{idx}].stage")),
+                Some(stage_span.clone()),
+                key,
                 format!("unknown stage `{stage_name}` (known: {})", known.join(", ")),
             )
-        })?;
-        let empty = Spanned::new(entry.span(), DeValue::Table(DeTable::default()));
-        let params = params.unwrap_or(&empty);
-        let params_table = match params.get_ref() {
-            DeValue::Table(t) => t,
-            other => {
-                return Err(ctx.err(
-                    Some(params.span()),
-                    Some(format!("table[{idx}].params")),
-                    format!("expected a table, found {}", type_name(other)),
-                ));
-            }
-        };
-        let job = stage
-            .plan(ValueDeserializer::from(params.clone()))
-            .map_err(|e| match e {
-                PlanError::Deserialize(e) => {
-                    let span = e.span();
-                    // Name the key at the error position when there is one.
-                    let key = span.as_ref().and_then(|s| {
-                        params_table
-                            .iter()
-                            .find(|(k, v)| {
-                                k.span().start <= s.start
-                                    && s.start < v.span().end.max(k.span().end)
-                            })
-                            .map(|(k, _)| k.get_ref().to_string())
-                    });
-                    ctx.err(
-                        span,
-                        Some(format!(
-                            "table[{idx}].params{}",
-                            key.map(|k| format!(".{k}")).unwrap_or_default()
-                        )),
-                        e.message().to_string(),
-                    )
-                }
-                PlanError::Invalid { key, message } => ctx.err(
-                    find_key_span(params_table, &key).or(Some(params.span())),
-                    Some(format!("table[{idx}].params.{key}")),
-                    message,
-                ),
-            })?;
-        out.push(PlannedTable {
-            name,
-            manifest: file.to_path_buf(),
-            description,
-            stage,
-            job,
-        });
+        })
     }
-    Ok(out)
+
+    /// The stage's job planned from `params` (an absent `params` is an empty table), with
+    /// errors located at the offending key.
+    fn planned_job(
+        &self,
+        ctx: &Ctx<'_>,
+        idx: usize,
+        entry: &Spanned<DeValue<'_>>,
+        stage: &dyn Stage,
+    ) -> Result<Box<dyn Job>, ManifestError> {
+        let empty = Spanned::new(entry.span(), DeValue::Table(DeTable::default()));
+        let params = self.params.unwrap_or(&empty);
+        let DeValue::Table(params_table) = params.get_ref() else {
+            return Err(ctx.err(
+                Some(params.span()),
+                Some(format!("table[{idx}].params")),
+                format!("expected a table, found {}", type_name(params.get_ref())),
+            ));
+        };
+        stage
+            .plan(ValueDeserializer::from(params.clone()))
+            .map_err(|e| plan_error_at_key(ctx, idx, params, params_table, e))
+    }
+}
+
+/// A stage's planning error located at the key it concerns.
+fn plan_error_at_key(
+    ctx: &Ctx<'_>,
+    idx: usize,
+    params: &Spanned<DeValue<'_>>,
+    params_table: &DeTable<'_>,
+    e: PlanError,
+) -> ManifestError {
+    match e {
+        PlanError::Deserialize(e) => {
+            let span = e.span();
+            // Name the key at the error position when there is one.
+            let key = span.as_ref().and_then(|s| {
+                params_table
+                    .iter()
+                    .find(|(k, v)| {
+                        k.span().start <= s.start && s.start < v.span().end.max(k.span().end)
+                    })
+                    .map(|(k, _)| k.get_ref().to_string())
+            });
+            ctx.err(
+                span,
+                Some(format!(
+                    "table[{idx}].params{}",
+                    key.map(|k| format!(".{k}")).unwrap_or_default()
+                )),
+                e.message().to_string(),
+            )
+        }
+        PlanError::Invalid { key, message } => ctx.err(
+            find_key_span(params_table, &key).or(Some(params.span())),
+            Some(format!("table[{idx}].params.{key}")),
+            message,
+        ),
+    }
 }
 
 /// All `*.toml` files directly in `dir`, sorted by name (subfolders such as `full/` are not

@@ -33,17 +33,18 @@ pub fn refuse_symlink(path: &Path) -> Result<(), WorkdirError> {
     match std::fs::symlink_metadata(path) {
         Ok(m) if m.file_type().is_symlink() => Err(WorkdirError::Symlink { path: path.into() }),
         Ok(_) => Ok(()),
-        Err(e)
-            if matches!(
-                e.kind(),
-                std::io::ErrorKind::NotFound | std::io::ErrorKind::DirectoryNotEmpty
-            ) =>
-        {
-            Ok(())
-        }
-        Err(source) => Err(WorkdirError::Io {
+        Err(e) => gone_is_fine(e, path),
+    }
+}
+
+/// Ok for "not found" and "directory not empty" (a directory a concurrent build is writing
+/// into); any other I/O error names `path`.
+fn gone_is_fine(e: std::io::Error, path: &Path) -> Result<(), WorkdirError> {
+    match e.kind() {
+        std::io::ErrorKind::NotFound | std::io::ErrorKind::DirectoryNotEmpty => Ok(()),
+        _ => Err(WorkdirError::Io {
             path: path.into(),
-            source,
+            source: e,
         }),
     }
 }
@@ -65,21 +66,7 @@ pub fn remove_table_work_dir(work_dir: &Path) -> Result<(), WorkdirError> {
         refuse_symlink(parent)?;
     }
     refuse_symlink(work_dir)?;
-    match std::fs::remove_dir_all(work_dir) {
-        Ok(()) => Ok(()),
-        Err(e)
-            if matches!(
-                e.kind(),
-                std::io::ErrorKind::NotFound | std::io::ErrorKind::DirectoryNotEmpty
-            ) =>
-        {
-            Ok(())
-        }
-        Err(source) => Err(WorkdirError::Io {
-            path: work_dir.into(),
-            source,
-        }),
-    }
+    std::fs::remove_dir_all(work_dir).or_else(|e| gone_is_fine(e, work_dir))
 }
 
 /// Hash of a checkpoint's values bound to its task key.

@@ -4,11 +4,11 @@
 //! non-zero; nothing panics on bad input.
 
 mod commands;
+mod progress;
 
-use anyhow::{Context, Result, bail};
+use anyhow::Result;
 use clap::{Parser, Subcommand};
-use scatterbake::pipeline::{BuildOptions, Shard, build};
-use scatterbake::table::{AxisPoints, Table};
+use scatterbake::table::Table;
 use std::path::PathBuf;
 
 #[derive(Parser, Debug)]
@@ -25,48 +25,11 @@ struct Cli {
 #[derive(Subcommand, Debug)]
 enum Command {
     /// Build tables from manifests (default: every manifests/*.toml into tables/).
-    Build {
-        /// Manifest files; default: every *.toml directly in manifests/.
-        manifests: Vec<PathBuf>,
-        /// Output directory.
-        #[arg(long, default_value = "tables")]
-        out: PathBuf,
-        /// Worker threads (default: all cores).
-        #[arg(long)]
-        jobs: Option<usize>,
-        /// Compute only shard I of N (I/N, 0-based); default from SLURM_ARRAY_TASK_ID/COUNT or
-        /// JOB_COMPLETION_INDEX + SCATTERBAKE_SHARD_COUNT.
-        #[arg(long)]
-        shard: Option<String>,
-        /// Recompute even if up-to-date tables or checkpoints exist.
-        #[arg(long)]
-        force: bool,
-        /// No progress bar.
-        #[arg(long, short)]
-        quiet: bool,
-        /// Do not draw preview pictures into OUT/previews/.
-        #[arg(long)]
-        no_previews: bool,
-    },
+    Build(crate::commands::build::BuildArgs),
     /// Show a table's header, axes, channels, provenance and sizes.
-    Inspect {
-        file: PathBuf,
-        /// Print the raw JSON header.
-        #[arg(long)]
-        json: bool,
-    },
+    Inspect(crate::commands::table::InspectArgs),
     /// Verify tables (checksums, sizes, structure); non-zero exit if any is bad.
-    Verify {
-        #[arg(required = true)]
-        files: Vec<PathBuf>,
-        /// Treat NaN, infinite or negative samples of a phase-function table as errors
-        /// (default: warnings).
-        #[arg(long)]
-        strict: bool,
-        /// Largest uncompressed payload to accept, in bytes (default 4 GiB).
-        #[arg(long, value_name = "BYTES")]
-        max_payload_bytes: Option<u64>,
-    },
+    Verify(crate::commands::table::VerifyArgs),
     /// Export a table: csv|json|exr (any table) or mitsuba|legendre|mieplot (phase functions).
     Export(ExportArgs),
     /// Plot a table (phase function, rainbow colour strip, Lee diagram, 2-D maps) to PNG/SVG.
@@ -96,10 +59,7 @@ enum Command {
     /// List stages with their parameters and defaults.
     Stages,
     /// Rebuild DIR/index.json from the tables in DIR (after sharded builds).
-    Catalog {
-        #[arg(default_value = "tables")]
-        dir: PathBuf,
-    },
+    Catalog(crate::commands::table::CatalogArgs),
 }
 
 /// What `render` can draw.
@@ -244,107 +204,9 @@ fn run_cli() -> i32 {
 
 fn run(cmd: Command) -> Result<i32> {
     match cmd {
-        Command::Build {
-            manifests,
-            out,
-            jobs,
-            shard,
-            force,
-            quiet,
-            no_previews,
-        } => {
-            let manifests = if manifests.is_empty() {
-                scatterbake::manifest::default_manifests(std::path::Path::new("manifests"))
-                    .context(
-                        "listing manifests/ (run from the repository root or name manifests)",
-                    )?
-            } else {
-                manifests
-            };
-            if manifests.is_empty() {
-                bail!("no manifests to build");
-            }
-            if jobs == Some(0) {
-                bail!("--jobs must be at least 1");
-            }
-            let shard = match shard {
-                Some(s) => Some(Shard::parse(&s)?),
-                None => Shard::from_env()?,
-            };
-            let t0 = std::time::Instant::now();
-            let report = build(&BuildOptions {
-                manifests,
-                out_dir: out.clone(),
-                jobs,
-                shard,
-                force,
-                quiet,
-            })?;
-            if !no_previews {
-                draw_previews(&out, &report.tables_written);
-            }
-            println!(
-                "built {} table(s), {} up to date, {} pending other shards; tasks: {} computed, {} reused from checkpoints; {:.1} s; catalog {}",
-                report.tables_written.len(),
-                report.tables_up_to_date.len(),
-                report.tables_pending.len(),
-                report.tasks_computed,
-                report.tasks_reused,
-                t0.elapsed().as_secs_f64(),
-                out.join("index.json").display()
-            );
-            Ok(0)
-        }
-        Command::Inspect { file, json } => {
-            let t = Table::open(&file)?;
-            if json {
-                println!("{}", serde_json::to_string_pretty(&t.header)?);
-            } else {
-                print_summary(&file, &t)?;
-            }
-            Ok(0)
-        }
-        Command::Verify {
-            files,
-            strict,
-            max_payload_bytes,
-        } => {
-            let mut limits = scatterbake::table::ReadLimits::default();
-            if let Some(m) = max_payload_bytes {
-                limits.max_payload_bytes = m;
-            }
-            let mut bad = 0;
-            for f in &files {
-                match scatterbake::table::verify_file(f, &limits) {
-                    Ok(v) => {
-                        let problems = value_problems(&v);
-                        let n: usize = v.header.layout.shape.iter().product();
-                        if problems.is_empty() {
-                            println!("ok   {} ({}, {n} values)", f.display(), v.header.schema);
-                        } else if strict {
-                            bad += 1;
-                            eprintln!("BAD  {}: {}", f.display(), problems.join("; "));
-                        } else {
-                            println!("ok   {} ({}, {n} values)", f.display(), v.header.schema);
-                            eprintln!("warning: {}: {}", f.display(), problems.join("; "));
-                        }
-                    }
-                    Err(e) => {
-                        bad += 1;
-                        eprintln!("BAD  {e}");
-                    }
-                }
-            }
-            if bad > 0 {
-                eprintln!(
-                    "error: {bad} of {} file(s) failed verification",
-                    files.len()
-                );
-                Ok(1)
-            } else {
-                Ok(0)
-            }
-        }
+        Command::Build(a) => crate::commands::build::run_build(a),
+        Command::Inspect(a) => crate::commands::table::run_inspect(&a).map(|_| 0),
+        Command::Verify(a) => crate::commands::table::run_verify(&a),
         Command::Export(a) => run_export(a).map(|_| 0),
         Command::Plot(a) => crate::commands::plot::run_plot(&a).map(|_| 0),
         Command::PlotRaytrace(a) => {
@@ -360,168 +222,9 @@ fn run(cmd: Command) -> Result<i32> {
         Command::HairLut(a) => crate::commands::hair::run_hair_lut(&a).map(|_| 0),
         Command::HairJson(a) => crate::commands::hair::run_dual_scattering(&a).map(|_| 0),
         Command::Validate(a) => crate::commands::mieplot::run_validate(&a).map(|_| 0),
-        Command::Stages => {
-            for s in scatterbake::stages::registry() {
-                println!(
-                    "{} (algorithm v{}): {}",
-                    s.name(),
-                    s.algorithm_version(),
-                    s.summary()
-                );
-                for p in s.parameters() {
-                    println!("    {:<24} {:<28} default: {}", p.name, p.kind, p.default);
-                    println!("    {:<24} {}", "", p.description);
-                }
-                println!();
-            }
-            Ok(0)
-        }
-        Command::Catalog { dir } => {
-            let c = scatterbake::catalog::rebuild(&dir)?;
-            println!(
-                "{}: {} table(s), {} invalid",
-                dir.join("index.json").display(),
-                c.tables.len(),
-                c.invalid.len()
-            );
-            for (f, why) in &c.invalid {
-                eprintln!("invalid: {f}: {why}");
-            }
-            Ok(if c.invalid.is_empty() { 0 } else { 1 })
-        }
+        Command::Stages => crate::commands::table::run_stages().map(|_| 0),
+        Command::Catalog(a) => crate::commands::table::run_catalog(&a),
     }
-}
-
-/// Preview pictures of freshly written tables into `OUT/previews/`. Pictures are a
-/// convenience: a failure is reported and the table stays valid.
-fn draw_previews(out: &std::path::Path, tables: &[String]) {
-    for name in tables {
-        let path = scatterbake::pipeline::table_path(out, name);
-        if let Err(e) =
-            scatterbake::consumers::plot::previews::previews(&path, &out.join("previews"))
-        {
-            eprintln!("warning: previews of {name}: {:#}", anyhow::Error::from(e));
-        }
-    }
-}
-
-/// Samples a phase-function table (one with a `phase` channel) must not hold: NaN or infinite
-/// values in any channel, negative values in `phase`, `i_perp`, `i_par`.
-fn value_problems(v: &scatterbake::table::Verified) -> Vec<String> {
-    let h = &v.header;
-    if !h.channels.iter().any(|c| c.name == "phase") {
-        return Vec::new();
-    }
-    let mut out = Vec::new();
-    for (i, c) in h.channels.iter().enumerate() {
-        let s = &v.values;
-        if s.nan[i] > 0 {
-            out.push(format!(
-                "channel `{}` has {} NaN value(s)",
-                c.name, s.nan[i]
-            ));
-        }
-        if s.infinite[i] > 0 {
-            out.push(format!(
-                "channel `{}` has {} infinite value(s)",
-                c.name, s.infinite[i]
-            ));
-        }
-        if ["phase", "i_perp", "i_par"].contains(&c.name.as_str()) && s.negative[i] > 0 {
-            out.push(format!(
-                "channel `{}` has {} negative value(s)",
-                c.name, s.negative[i]
-            ));
-        }
-    }
-    out
-}
-
-/// A header string made safe for a terminal: control characters (escape sequences, carriage
-/// returns, newlines, bidirectional overrides) are shown escaped, e.g. `\u{1b}`.
-fn esc(s: &str) -> String {
-    s.chars()
-        .map(|c| {
-            if c.is_control()
-                || ('\u{202a}'..='\u{202e}').contains(&c)
-                || ('\u{2066}'..='\u{2069}').contains(&c)
-            {
-                c.escape_unicode().to_string()
-            } else {
-                c.to_string()
-            }
-        })
-        .collect()
-}
-
-fn print_summary(file: &std::path::Path, t: &Table) -> Result<()> {
-    let h = &t.header;
-    let size = std::fs::metadata(file)?.len();
-    println!("file:        {}", esc(&file.display().to_string()));
-    println!("schema:      {}", esc(&h.schema.to_string()));
-    println!("description: {}", esc(&h.description));
-    println!(
-        "layout:      {} {} shape {:?} ({})",
-        h.layout.order,
-        h.layout.dtype,
-        h.layout.shape,
-        esc(&h.layout.axis_order.join(" × "))
-    );
-    println!(
-        "size:        {} bytes on disk, payload {} → {} bytes zstd ({:.1}×)",
-        size,
-        h.payload.uncompressed_bytes,
-        h.payload.compressed_bytes,
-        h.payload.uncompressed_bytes as f64 / h.payload.compressed_bytes.max(1) as f64
-    );
-    println!("axes:");
-    for a in &h.axes {
-        let desc = match &a.points {
-            AxisPoints::Uniform { start, step, count } => {
-                format!("uniform {start} + k·{step}, k < {count}")
-            }
-            AxisPoints::Values(v) if v.len() <= 8 => format!("{v:?}"),
-            AxisPoints::Values(v) => format!("{} values {} … {}", v.len(), v[0], v[v.len() - 1]),
-        };
-        println!("  {:<20} [{}] {}", esc(&a.name), esc(&a.unit), desc);
-    }
-    println!("channels:");
-    for c in &h.channels {
-        println!(
-            "  {:<20} [{}] {}",
-            esc(&c.name),
-            esc(&c.unit),
-            esc(&c.meaning)
-        );
-    }
-    println!("attributes:");
-    for (k, v) in &h.attributes {
-        let s = v.to_string();
-        let s = if s.len() > 100 {
-            format!("{}…", &s[..s.floor_char_boundary(100)])
-        } else {
-            s
-        };
-        println!("  {}: {}", esc(k), esc(&s));
-    }
-    let p = &h.provenance;
-    println!("provenance:");
-    println!(
-        "  tool:        {} {} (commit {})",
-        esc(&p.tool),
-        esc(&p.tool_version),
-        esc(p.git_commit.as_deref().unwrap_or("unknown"))
-    );
-    println!(
-        "  manifest:    {} entry {}",
-        esc(p.manifest.as_deref().unwrap_or("-")),
-        esc(p.entry.as_deref().unwrap_or("-"))
-    );
-    println!("  stage:       {}", esc(p.stage.as_deref().unwrap_or("-")));
-    println!("  parameters:  {}", p.parameters);
-    println!("  digest:      {}", esc(&p.parameters_digest));
-    println!("  created:     {}", esc(&p.created_utc));
-    Ok(())
 }
 
 fn main() {

@@ -26,3 +26,18 @@ pub mod render;
 pub mod synthetic;
 
 pub use error::ConsumerError;
+
+/// Progress of a long consumer (a render, a Lee diagram): `start` with the number of units,
+/// then `advance` as units finish, from any thread. The library draws nothing; the command line
+/// shows a bar (quiet when stderr is not a terminal). [`Silent`] ignores everything.
+pub trait Progress: Sync {
+    /// `total` units of work described by `what` begin.
+    fn start(&self, _total: u64, _what: &str) {}
+    /// `n` more units are done.
+    fn advance(&self, _n: u64) {}
+}
+
+/// A [`Progress`] that reports nothing.
+pub struct Silent;
+
+impl Progress for Silent {}

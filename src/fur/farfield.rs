@@ -559,110 +559,176 @@ pub fn far_field_with(
     set: &FarFieldSettings,
     source: MedullaSource<'_>,
 ) -> Result<FarField, FurError> {
-    let (nt, np) = (set.theta_r_cells, set.phi_cells);
-    let (alpha, beta) = (s.alpha_deg.to_radians(), s.beta_deg.to_radians());
-    let sin_ti = theta_i_rad.sin();
-    // Longitudinal refraction into cortex and medulla (no tilt): cos θ_t for path projections.
-    let cos_tc = (1.0 - (sin_ti / s.eta_c).powi(2)).sqrt();
-    let cos_tm = (1.0 - (sin_ti / s.eta_m).powi(2)).sqrt();
-    let fiber = CoaxialFiber {
-        kappa: s.kappa,
-        eta_c: bravais(s.eta_c, theta_i_rad),
-        eta_m: bravais(s.eta_m, theta_i_rad),
-    };
-    // Coefficients per unit fibre radius, projected onto the azimuthal plane (÷ cos θ_t).
-    let sca = s.sigma_ca / 2.0 / cos_tc;
-    let sigma_med = medulla_sigma(s, set.sigma_scaling) / cos_tm; // per unit medulla radius
-    let cos_i = theta_i_rad.cos();
+    let geo = FarFieldGeometry::new(s, theta_i_rad, set);
+    let (n_u, n_s) = geo.azimuthal_profiles(s, shapes, set);
+    let mut components = unscattered_lobes(s, theta_i_rad, set, &n_u);
+    let dw = 2.0 * PI / shapes.bins as f64;
+    let ms = scattered_longitudinal_lobes(s, theta_i_rad, set, &geo, dw, source)?;
+    add_scattered_lobe(&mut components[4], &ms, &n_s, set);
+    Ok(FarField {
+        theta_r_cells: set.theta_r_cells,
+        phi_cells: set.phi_cells,
+        components,
+    })
+}
 
-    // Azimuthal energy profiles (cell masses × energy) per path, h-averaged.
-    let mut n_u: Vec<Vec<f64>> = vec![vec![0.0; np]; 8];
-    let mut n_s = vec![0.0; np];
-    let lambda = isotropic_fraction(s);
-    let a_exit = (-sca * (1.0 - s.kappa)).exp();
-    let nb = shapes.bins;
-    let dw = 2.0 * PI / nb as f64;
-    let nh = set.h_samples;
-    let dg = PI / nh as f64;
-    for ih in 0..nh {
-        let gi = -FRAC_PI_2 + (ih as f64 + 0.5) * dg;
-        let h = gi.sin();
-        let w = 0.5 * gi.cos() * dg; // (1/2)∫ dh, h = sin γ_i
-        let f_o = cuticle_reflectance(cos_i * gi.cos(), s.layers);
-        let t_o = 1.0 - f_o;
-        let hits = h.abs() < fiber.kappa * fiber.eta_c;
-        let (f_m, t_m) = if hits {
-            let gi2 = (h / (fiber.eta_c * fiber.kappa)).clamp(-1.0, 1.0).asin();
-            let f = fresnel_reflectance_unpolarized(s.eta_m / s.eta_c, cos_tc * gi2.cos());
-            (f, 1.0 - f)
-        } else {
-            (0.0, 0.0)
-        };
-        let a_c = (-sca * fiber.cortex_pass(h)).exp();
-        let gt = (h / fiber.eta_c).asin();
-        let a_cc = (-sca * 2.0 * gt.cos()).exp();
-        let hp = fiber.medulla_offset(h);
-        let a_tt = if h.abs() < fiber.kappa * fiber.eta_m {
-            (-sigma_med * 2.0 * (1.0 - hp * hp).max(0.0).sqrt()).exp()
-        } else {
-            1.0
-        };
-        for (k, &p) in PATHS.iter().enumerate() {
-            let Some(phi) = fiber.exit_azimuth(p, h) else {
-                continue;
-            };
-            let a = match p {
-                Path::R => f_o,
-                Path::TT => t_o * t_o * a_cc,
-                Path::TRT => t_o * t_o * f_o * a_cc * a_cc,
-                Path::TrT => t_o * t_o * a_c * a_c * f_m,
-                Path::TttT => t_o * t_o * a_c * a_c * t_m * t_m * a_tt,
-                Path::TtrtT => t_o * t_o * a_c * a_c * t_m * t_m * f_m * a_tt * a_tt,
-                Path::TrRrT => t_o * t_o * a_c.powi(4) * f_m * f_m * f_o,
-                Path::TttRttT => t_o * t_o * a_c.powi(4) * t_m.powi(4) * f_o * a_tt * a_tt,
-            };
-            if a > 0.0 {
-                let sd = beta * lobe_params(p).2.sqrt();
-                add_wrapped_gaussian(&mut n_u[k], phi, sd, w * a);
-            }
-        }
-        // Medulla-scattered lobes (Eq. 5.8/5.9, App. A): energy entering the scattering chord
-        // × (1 − A_tt) × exit cortex attenuation, shaped by C^N around the chord's entry
-        // direction (exit refraction ignored), a fraction λ spread uniformly.
-        if fiber.exists(Path::TttT, h) && a_tt < 1.0 {
-            let gi_ = h.asin();
-            let gi2 = (h / (fiber.eta_c * fiber.kappa)).asin();
-            let gt2 = hp.clamp(-1.0, 1.0).asin();
-            let delta = (gt - gi_) + (gt2 - gi2); // T then t deflection
-            let into = t_o * a_c * t_m;
-            // (energy into the chord, propagation direction entering it)
-            let chords = [
-                (into, delta),
-                (into * a_tt * f_m, delta + 2.0 * gt2 - PI),
-                (
-                    into * a_tt * t_m * a_c * f_o * a_c * t_m,
-                    delta + 2.0 * (gt2 - gi2) + (2.0 * gt - PI) + (gt2 - gi2),
-                ),
-            ];
-            let shape = shapes.at(hp);
-            for (e_in, psi_in) in chords {
-                let e = w * e_in * (1.0 - a_tt) * a_exit;
-                if e <= 0.0 {
-                    continue;
-                }
-                for (kb, &sh) in shape.iter().enumerate() {
-                    if sh > 0.0 {
-                        let phi_prime = -PI + (kb as f64 + 0.5) * dw;
-                        deposit(&mut n_s, psi_in + phi_prime - PI, e * (1.0 - lambda) * sh);
-                    }
-                }
-                let u = e * lambda / np as f64;
-                n_s.iter_mut().for_each(|v| *v += u);
-            }
+/// What every path of one incidence shares: the coaxial fibre at the Bravais indices, the
+/// projected absorption and scattering coefficients and the exit attenuation.
+struct FarFieldGeometry {
+    fiber: CoaxialFiber,
+    /// cos θ_t in the cortex and the medulla (longitudinal refraction, no tilt).
+    cos_tc: f64,
+    cos_tm: f64,
+    cos_i: f64,
+    /// Cortex absorption per unit fibre radius projected onto the azimuthal plane.
+    sca: f64,
+    /// Medulla scattering per unit medulla radius, projected.
+    sigma_med: f64,
+    /// Fraction of medulla-scattered light spread uniformly in azimuth.
+    lambda: f64,
+    /// Attenuation through the cortex on the way out of the medulla.
+    a_exit: f64,
+}
+
+impl FarFieldGeometry {
+    fn new(s: &FurSample, theta_i_rad: f64, set: &FarFieldSettings) -> Self {
+        let sin_ti = theta_i_rad.sin();
+        let cos_tc = (1.0 - (sin_ti / s.eta_c).powi(2)).sqrt();
+        let cos_tm = (1.0 - (sin_ti / s.eta_m).powi(2)).sqrt();
+        let sca = s.sigma_ca / 2.0 / cos_tc;
+        FarFieldGeometry {
+            fiber: CoaxialFiber {
+                kappa: s.kappa,
+                eta_c: bravais(s.eta_c, theta_i_rad),
+                eta_m: bravais(s.eta_m, theta_i_rad),
+            },
+            cos_tc,
+            cos_tm,
+            cos_i: theta_i_rad.cos(),
+            sca,
+            sigma_med: medulla_sigma(s, set.sigma_scaling) / cos_tm,
+            lambda: isotropic_fraction(s),
+            a_exit: (-sca * (1.0 - s.kappa)).exp(),
         }
     }
 
-    // Longitudinal lobes.
+    /// Azimuthal energy profiles (cell masses × energy), h-averaged: one per unscattered path
+    /// and the medulla-scattered one.
+    fn azimuthal_profiles(
+        &self,
+        s: &FurSample,
+        shapes: &MedullaShapes,
+        set: &FarFieldSettings,
+    ) -> (Vec<Vec<f64>>, Vec<f64>) {
+        let np = set.phi_cells;
+        let beta = s.beta_deg.to_radians();
+        let FarFieldGeometry {
+            fiber,
+            cos_tc,
+            cos_i,
+            sca,
+            sigma_med,
+            lambda,
+            a_exit,
+            ..
+        } = *self;
+        let mut n_u: Vec<Vec<f64>> = vec![vec![0.0; np]; 8];
+        let mut n_s = vec![0.0; np];
+        let nb = shapes.bins;
+        let dw = 2.0 * PI / nb as f64;
+        let nh = set.h_samples;
+        let dg = PI / nh as f64;
+        for ih in 0..nh {
+            let gi = -FRAC_PI_2 + (ih as f64 + 0.5) * dg;
+            let h = gi.sin();
+            let w = 0.5 * gi.cos() * dg; // (1/2)∫ dh, h = sin γ_i
+            let f_o = cuticle_reflectance(cos_i * gi.cos(), s.layers);
+            let t_o = 1.0 - f_o;
+            let hits = h.abs() < fiber.kappa * fiber.eta_c;
+            let (f_m, t_m) = if hits {
+                let gi2 = (h / (fiber.eta_c * fiber.kappa)).clamp(-1.0, 1.0).asin();
+                let f = fresnel_reflectance_unpolarized(s.eta_m / s.eta_c, cos_tc * gi2.cos());
+                (f, 1.0 - f)
+            } else {
+                (0.0, 0.0)
+            };
+            let a_c = (-sca * fiber.cortex_pass(h)).exp();
+            let gt = (h / fiber.eta_c).asin();
+            let a_cc = (-sca * 2.0 * gt.cos()).exp();
+            let hp = fiber.medulla_offset(h);
+            let a_tt = if h.abs() < fiber.kappa * fiber.eta_m {
+                (-sigma_med * 2.0 * (1.0 - hp * hp).max(0.0).sqrt()).exp()
+            } else {
+                1.0
+            };
+            for (k, &p) in PATHS.iter().enumerate() {
+                let Some(phi) = fiber.exit_azimuth(p, h) else {
+                    continue;
+                };
+                let a = match p {
+                    Path::R => f_o,
+                    Path::TT => t_o * t_o * a_cc,
+                    Path::TRT => t_o * t_o * f_o * a_cc * a_cc,
+                    Path::TrT => t_o * t_o * a_c * a_c * f_m,
+                    Path::TttT => t_o * t_o * a_c * a_c * t_m * t_m * a_tt,
+                    Path::TtrtT => t_o * t_o * a_c * a_c * t_m * t_m * f_m * a_tt * a_tt,
+                    Path::TrRrT => t_o * t_o * a_c.powi(4) * f_m * f_m * f_o,
+                    Path::TttRttT => t_o * t_o * a_c.powi(4) * t_m.powi(4) * f_o * a_tt * a_tt,
+                };
+                if a > 0.0 {
+                    let sd = beta * lobe_params(p).2.sqrt();
+                    add_wrapped_gaussian(&mut n_u[k], phi, sd, w * a);
+                }
+            }
+            // Medulla-scattered lobes (Eq. 5.8/5.9, App. A): energy entering the scattering chord
+            // × (1 − A_tt) × exit cortex attenuation, shaped by C^N around the chord's entry
+            // direction (exit refraction ignored), a fraction λ spread uniformly.
+            if fiber.exists(Path::TttT, h) && a_tt < 1.0 {
+                let gi_ = h.asin();
+                let gi2 = (h / (fiber.eta_c * fiber.kappa)).asin();
+                let gt2 = hp.clamp(-1.0, 1.0).asin();
+                let delta = (gt - gi_) + (gt2 - gi2); // T then t deflection
+                let into = t_o * a_c * t_m;
+                // (energy into the chord, propagation direction entering it)
+                let chords = [
+                    (into, delta),
+                    (into * a_tt * f_m, delta + 2.0 * gt2 - PI),
+                    (
+                        into * a_tt * t_m * a_c * f_o * a_c * t_m,
+                        delta + 2.0 * (gt2 - gi2) + (2.0 * gt - PI) + (gt2 - gi2),
+                    ),
+                ];
+                let shape = shapes.at(hp);
+                for (e_in, psi_in) in chords {
+                    let e = w * e_in * (1.0 - a_tt) * a_exit;
+                    if e <= 0.0 {
+                        continue;
+                    }
+                    for (kb, &sh) in shape.iter().enumerate() {
+                        if sh > 0.0 {
+                            let phi_prime = -PI + (kb as f64 + 0.5) * dw;
+                            deposit(&mut n_s, psi_in + phi_prime - PI, e * (1.0 - lambda) * sh);
+                        }
+                    }
+                    let u = e * lambda / np as f64;
+                    n_s.iter_mut().for_each(|v| *v += u);
+                }
+            }
+        }
+
+        (n_u, n_s)
+    }
+}
+
+/// The longitudinal × azimuthal cells of the unscattered paths, summed per component.
+fn unscattered_lobes(
+    s: &FurSample,
+    theta_i_rad: f64,
+    set: &FarFieldSettings,
+    n_u: &[Vec<f64>],
+) -> [Vec<f64>; 5] {
+    let (nt, np) = (set.theta_r_cells, set.phi_cells);
+    let (alpha, beta) = (s.alpha_deg.to_radians(), s.beta_deg.to_radians());
     let mut comps: [Vec<f64>; 5] = std::array::from_fn(|_| vec![0.0; nt * np]);
     let dt = PI / nt as f64;
     let dp = 2.0 * PI / np as f64;
@@ -677,7 +743,25 @@ pub fn far_field_with(
             }
         }
     }
-    // Scattered longitudinal lobes M^s (Eq. 5.11) with μ computed numerically (decision FUR-11).
+    comps
+}
+
+/// The longitudinal profiles M^s of the medulla-scattered light, back (0) and forward (1)
+/// lobes, per θ_r cell, each normalised to unit integral (thesis eq. 5.11 with μ computed
+/// numerically, decision FUR-11). `dw` is the medulla table's bin width (rad).
+fn scattered_longitudinal_lobes(
+    s: &FurSample,
+    theta_i_rad: f64,
+    set: &FarFieldSettings,
+    geo: &FarFieldGeometry,
+    dw: f64,
+    source: MedullaSource<'_>,
+) -> Result<[Vec<f64>; 2], FurError> {
+    let nt = set.theta_r_cells;
+    let dt = PI / nt as f64;
+    let alpha = s.alpha_deg.to_radians();
+    let sin_ti = theta_i_rad.sin();
+    let cos_tm = geo.cos_tm;
     let theta_i_med = (sin_ti / s.eta_m).asin();
     let pdf = longitudinal_lobe_pdf(
         source,
@@ -713,19 +797,22 @@ pub fn far_field_with(
             m.iter_mut().for_each(|v| *v /= tot);
         }
     }
+    Ok(ms)
+}
+
+/// Add the medulla-scattered component: its azimuthal profile `n_s` spread over θ_r by the
+/// back lobe toward φ = 0 and the forward lobe toward |φ| = π, linearly in |φ|.
+fn add_scattered_lobe(comp: &mut [f64], ms: &[Vec<f64>; 2], n_s: &[f64], set: &FarFieldSettings) {
+    let (nt, np) = (set.theta_r_cells, set.phi_cells);
+    let dp = 2.0 * PI / np as f64;
     for j in 0..np {
         let phi = -PI + (j as f64 + 0.5) * dp;
         let wf = phi.abs() / PI;
         let nsd = n_s[j] / dp;
         for i in 0..nt {
-            comps[4][i * np + j] += ((1.0 - wf) * ms[0][i] + wf * ms[1][i]) * nsd;
+            comp[i * np + j] += ((1.0 - wf) * ms[0][i] + wf * ms[1][i]) * nsd;
         }
     }
-    Ok(FarField {
-        theta_r_cells: nt,
-        phi_cells: np,
-        components: comps,
-    })
 }
 
 #[cfg(test)]

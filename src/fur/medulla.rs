@@ -254,6 +254,64 @@ pub fn simulate(sigma: f64, g: f64, geom: Geometry, s: &McSettings) -> Profile {
     }
 }
 
+/// Next-event estimation of the expected-value estimator: scores the escape toward every exit
+/// bin from a collision and samples the next direction among the bins.
+struct NextEvent {
+    /// Centre direction of each exit bin.
+    dirs: Vec<[f64; 2]>,
+    /// Bin width (rad).
+    dw: f64,
+    g: f64,
+    sigma: f64,
+    geom: Geometry,
+}
+
+impl NextEvent {
+    /// Score weight `ws` from position `p` after travelling `len` in direction `d`: per bin the
+    /// phase-function mass times the transmittance to the boundary into `e` (and the path
+    /// length into `sum_len`), the cumulative "scatter and collide again" masses into `q`.
+    /// Returns (scored total, Σ q).
+    #[allow(clippy::too_many_arguments)]
+    fn score(
+        &self,
+        p: [f64; 2],
+        d: [f64; 2],
+        ws: f64,
+        len: f64,
+        e: &mut [f64],
+        sum_len: &mut [f64],
+        q: &mut [f64],
+    ) -> (f64, f64) {
+        let mut total = 0.0;
+        let mut acc_q = 0.0;
+        for (k, wk) in self.dirs.iter().enumerate() {
+            let rho_dw = planar_hg_density_cos(wk[0] * d[0] + wk[1] * d[1], self.g) * self.dw;
+            let sk = self.geom.dist(p, *wk);
+            let tr = (-self.sigma * sk).exp();
+            let c = ws * rho_dw * tr;
+            e[k] += c;
+            sum_len[k] += c * (len + sk);
+            total += c;
+            acc_q += rho_dw * (1.0 - tr);
+            q[k] = acc_q;
+        }
+        (total, acc_q)
+    }
+
+    /// A direction with probability proportional to the bin masses `q` (cumulative, total
+    /// `acc_q`), uniform inside its bin; returns it with its density.
+    fn sample_direction(&self, q: &[f64], acc_q: f64, rng: &mut SplitMix64) -> ([f64; 2], f64) {
+        let bins = self.dirs.len();
+        let u = rng.uniform() * acc_q;
+        let k = q.partition_point(|&c| c <= u).min(bins - 1);
+        let qk = q[k] - if k > 0 { q[k - 1] } else { 0.0 };
+        (
+            self.geom.direction_in_bin(k, rng.uniform(), bins),
+            qk / (acc_q * self.dw),
+        )
+    }
+}
+
 fn simulate_expected(
     sigma: f64,
     g: f64,
@@ -264,8 +322,13 @@ fn simulate_expected(
     rng: &mut SplitMix64,
 ) -> Profile {
     let bins = s.bins;
-    let dw = 2.0 * PI / bins as f64;
-    let dirs = geom.bin_directions(bins);
+    let nee = NextEvent {
+        dirs: geom.bin_directions(bins),
+        dw: 2.0 * PI / bins as f64,
+        g,
+        sigma,
+        geom,
+    };
     let n = s.photons as f64;
     // Scattered fraction, accurately for small σ·L.
     let w0 = -(-sigma * chord).exp_m1();
@@ -298,22 +361,13 @@ fn simulate_expected(
             let depth = sigma * geom.depth(p);
             let pi_nee = (NEE_DEPTH - depth).exp().min(1.0);
             let evaluate = pi_nee >= 1.0 || rng.uniform() < pi_nee;
-            let mut acc_q = 0.0;
-            if evaluate {
-                let ws = w / pi_nee;
-                for k in 0..bins {
-                    let wk = dirs[k];
-                    let rho_dw = planar_hg_density_cos(wk[0] * d[0] + wk[1] * d[1], g) * dw;
-                    let sk = geom.dist(p, wk);
-                    let tr = (-sigma * sk).exp();
-                    let c = ws * rho_dw * tr;
-                    e[k] += c;
-                    sum_len[k] += c * (len + sk);
-                    photon_total += c;
-                    acc_q += rho_dw * (1.0 - tr);
-                    q[k] = acc_q;
-                }
-            }
+            let acc_q = if evaluate {
+                let scored = nee.score(p, d, w / pi_nee, len, &mut e, &mut sum_len, &mut q);
+                photon_total += scored.0;
+                scored.1
+            } else {
+                0.0
+            };
             if s.max_order.is_some_and(|m| order >= m) {
                 break;
             }
@@ -322,13 +376,7 @@ fn simulate_expected(
             // Either way the weight takes the exact ratio ρ(ω)(1 − e^{−σ s(ω)}) / pdf(ω), so
             // that the collision-before-escape event is forced without bias.
             let (nd, pdf) = if evaluate && pi_nee >= 1.0 && acc_q > 0.0 {
-                let u = rng.uniform() * acc_q;
-                let k = q.partition_point(|&c| c <= u).min(bins - 1);
-                let qk = q[k] - if k > 0 { q[k - 1] } else { 0.0 };
-                (
-                    geom.direction_in_bin(k, rng.uniform(), bins),
-                    qk / (acc_q * dw),
-                )
+                nee.sample_direction(&q, acc_q, rng)
             } else {
                 let nd = rotate(d, sample_planar_hg(rng.uniform(), g));
                 (nd, planar_hg_density_cos(nd[0] * d[0] + nd[1] * d[1], g))

@@ -23,10 +23,7 @@
 //! `f_s^scatter = Σ_X M'^G_X N^G_X` uses `f'^norm` as the thesis requires;
 //! [`bare_forward_average`] gives the bare constants.
 
-use super::dual::{
-    DualScattering, average_backscatter_attenuation, average_backscatter_shift,
-    average_backscatter_variance,
-};
+use super::dual::{DualScattering, from_lobe_energies};
 use super::longitudinal::{gaussian_unit_height, lobe_energy};
 use crate::math::quadrature::gauss_legendre;
 use serde::{Deserialize, Serialize};
@@ -78,6 +75,10 @@ pub struct ArtistParams {
     pub glint_width_deg: f64,
     /// Range of the per-strand random glint half-angle G_angle, averaged uniformly (DS-14).
     pub glint_angle_deg: [f64; 2],
+    /// Colour of the glints (linear RGB). `None` (the default): the glints share `colour_trt`,
+    /// as in thesis eqs. 4.13–4.15; a colour makes the glint part of the TRT lobe
+    /// `colour_glint · intensity_trt · glint_intensity` (decision DS-15).
+    pub colour_glint: Option<[f64; 3]>,
     /// Normalisation of eq. 4.17 (`per-inclination` or `normal-incidence`).
     pub normalisation: ArtistNormalisation,
 }
@@ -101,6 +102,7 @@ impl Default for ArtistParams {
             glint_intensity: 2.5,
             glint_width_deg: 10.0,
             glint_angle_deg: [30.0, 45.0],
+            colour_glint: None,
             normalisation: ArtistNormalisation::PerInclination,
         }
     }
@@ -133,6 +135,7 @@ impl ArtistParams {
             ("colour_r", self.colour_r),
             ("colour_tt", self.colour_tt),
             ("colour_trt", self.colour_trt),
+            ("colour_glint", self.colour_glint.unwrap_or(self.colour_trt)),
         ] {
             if c.iter().any(|x| !(x.is_finite() && *x >= 0.0)) {
                 return Err((k, "colours must be finite and ≥ 0 (linear RGB)".into()));
@@ -181,29 +184,43 @@ impl ArtistParams {
         match lobe {
             0 => (0.5 * phi).cos(),
             1 => gaussian_unit_height(PI - phi, self.azimuthal_width_tt_deg.to_radians().powi(2)),
-            _ => {
-                let v = self.glint_width_deg.to_radians().powi(2);
-                let [g0, g1] = self.glint_angle_deg.map(f64::to_radians);
-                let glint = if g1 - g0 < 1e-12 {
-                    gaussian_unit_height(g0 - phi, v)
-                } else {
-                    let (x, w) = gauss_legendre(16);
-                    x.iter()
-                        .zip(&w)
-                        .map(|(xi, wi)| {
-                            let g = g0 + 0.5 * (g1 - g0) * (xi + 1.0);
-                            0.5 * wi * gaussian_unit_height(g - phi, v)
-                        })
-                        .sum()
-                };
-                (0.5 * phi).cos() + self.glint_intensity * glint
-            }
+            _ => (0.5 * phi).cos() + self.glints(phi),
         }
+    }
+
+    /// The glint part of `N'_TRT(φ)`: `I_g` times two unit-height peaks at ±G_angle (G_angle
+    /// averaged over its range, DS-14), `φ` folded into `[0, π]`.
+    pub fn glints(&self, phi: f64) -> f64 {
+        let phi = super::fiber::wrap_angle(phi).abs();
+        let v = self.glint_width_deg.to_radians().powi(2);
+        let [g0, g1] = self.glint_angle_deg.map(f64::to_radians);
+        let glint = if g1 - g0 < 1e-12 {
+            gaussian_unit_height(g0 - phi, v)
+        } else {
+            let (x, w) = gauss_legendre(16);
+            x.iter()
+                .zip(&w)
+                .map(|(xi, wi)| {
+                    let g = g0 + 0.5 * (g1 - g0) * (xi + 1.0);
+                    0.5 * wi * gaussian_unit_height(g - phi, v)
+                })
+                .sum()
+        };
+        self.glint_intensity * glint
     }
 
     /// `(∫_{|φ|<π/2} N'_X dφ, ∫_{|φ|≥π/2} N'_X dφ)` over both signs of φ, by composite
     /// Gauss–Legendre with panels ≤ a quarter of the narrowest azimuthal width.
     pub fn azimuthal_hemispheres(&self, lobe: usize) -> (f64, f64) {
+        self.hemispheres_of(|phi| self.azimuthal(lobe, phi))
+    }
+
+    /// The same integrals of the glint part alone ([`Self::glints`]).
+    pub fn glint_hemispheres(&self) -> (f64, f64) {
+        self.hemispheres_of(|phi| self.glints(phi))
+    }
+
+    fn hemispheres_of(&self, azimuthal: impl Fn(f64) -> f64) -> (f64, f64) {
         let narrow = self
             .azimuthal_width_tt_deg
             .min(self.glint_width_deg)
@@ -216,7 +233,7 @@ impl ArtistParams {
             for k in 0..n {
                 let lo = a + step * k as f64;
                 for (xi, wi) in x.iter().zip(&w) {
-                    s += 0.5 * step * wi * self.azimuthal(lobe, lo + 0.5 * step * (xi + 1.0));
+                    s += 0.5 * step * wi * azimuthal(lo + 0.5 * step * (xi + 1.0));
                 }
             }
             2.0 * s
@@ -242,16 +259,33 @@ fn longitudinal_energies(params: &ArtistParams, theta_i: f64) -> [f64; 3] {
     })
 }
 
+/// Colour-weighted azimuthal hemisphere integrals `C_X I_X ∫ N'_X` of each lobe in channel
+/// `c`, from the bare integrals `hemi` of each lobe and `glint` of the glints alone: the glint
+/// part of TRT takes `colour_glint` when it is set.
+fn weighted_hemispheres(
+    params: &ArtistParams,
+    hemi: &[(f64, f64); 3],
+    glint: (f64, f64),
+    c: usize,
+) -> [(f64, f64); 3] {
+    let w = params.weights(c);
+    let mut out: [(f64, f64); 3] = std::array::from_fn(|x| (w[x] * hemi[x].0, w[x] * hemi[x].1));
+    if let Some(cg) = params.colour_glint {
+        let (ct, i) = (params.colour_trt[c], params.intensity_trt);
+        out[2] = (
+            i * (ct * (hemi[2].0 - glint.0) + cg[c] * glint.0),
+            i * (ct * (hemi[2].1 - glint.1) + cg[c] * glint.1),
+        );
+    }
+    out
+}
+
 /// Largest energy over the RGB channels of `f'_s` given the lobe longitudinal energies `l` and
-/// the azimuthal hemisphere integrals `hemi`.
-fn brightest_channel_energy(params: &ArtistParams, l: &[f64; 3], hemi: &[(f64, f64); 3]) -> f64 {
-    (0..3)
-        .map(|c| {
-            let w = params.weights(c);
-            (0..3)
-                .map(|x| w[x] * l[x] * (hemi[x].0 + hemi[x].1))
-                .sum::<f64>()
-        })
+/// the colour-weighted hemisphere integrals of each channel.
+fn brightest_channel_energy(l: &[f64; 3], weighted: &[[(f64, f64); 3]; 3]) -> f64 {
+    weighted
+        .iter()
+        .map(|wh| (0..3).map(|x| l[x] * (wh[x].0 + wh[x].1)).sum::<f64>())
         .fold(0.0, f64::max)
 }
 
@@ -260,7 +294,9 @@ fn brightest_channel_energy(params: &ArtistParams, l: &[f64; 3], hemi: &[(f64, f
 pub fn normalisation_at(params: &ArtistParams, theta_i: f64) -> f64 {
     let l = longitudinal_energies(params, theta_i);
     let hemi: [(f64, f64); 3] = std::array::from_fn(|x| params.azimuthal_hemispheres(x));
-    brightest_channel_energy(params, &l, &hemi)
+    let glint = params.glint_hemispheres();
+    let weighted = std::array::from_fn(|c| weighted_hemispheres(params, &hemi, glint, c));
+    brightest_channel_energy(&l, &weighted)
 }
 
 /// The normaliser at normal incidence, `K(0)` (the constant of
@@ -275,22 +311,27 @@ pub struct ArtistModel {
     pub params: ArtistParams,
     /// `K(0)`, the normaliser at normal incidence.
     pub k: f64,
-    hemi: [(f64, f64); 3],
+    /// Colour-weighted hemisphere integrals per channel ([`weighted_hemispheres`]).
+    weighted: [[(f64, f64); 3]; 3],
 }
 
 impl ArtistModel {
     pub fn new(params: ArtistParams) -> Self {
         let k = normalisation(&params);
         let hemi = std::array::from_fn(|x| params.azimuthal_hemispheres(x));
-        ArtistModel { params, k, hemi }
+        let glint = params.glint_hemispheres();
+        let weighted = std::array::from_fn(|c| weighted_hemispheres(&params, &hemi, glint, c));
+        ArtistModel {
+            params,
+            k,
+            weighted,
+        }
     }
 
     /// The normaliser used at `θ_i` given the lobe longitudinal energies `l` there.
     fn k_at(&self, l: &[f64; 3]) -> f64 {
         let k = match self.params.normalisation {
-            ArtistNormalisation::PerInclination => {
-                brightest_channel_energy(&self.params, l, &self.hemi)
-            }
+            ArtistNormalisation::PerInclination => brightest_channel_energy(l, &self.weighted),
             ArtistNormalisation::NormalIncidence => self.k,
         };
         // All lobes black at this inclination: nothing to normalise (every energy is 0).
@@ -310,38 +351,11 @@ impl ArtistModel {
         let beta = self.params.widths();
         let k = self.k_at(&l);
         std::array::from_fn(|c| {
-            let w = self.params.weights(c);
-            let eb: [f64; 3] = std::array::from_fn(|x| w[x] * l[x] * self.hemi[x].0 / k);
-            let ef: [f64; 3] = std::array::from_fn(|x| w[x] * l[x] * self.hemi[x].1 / k);
-            let mean = |e: &[f64; 3], v: &dyn Fn(usize) -> f64| {
-                let s: f64 = e.iter().sum();
-                if s <= 0.0 {
-                    (0..3).map(v).sum::<f64>() / 3.0
-                } else {
-                    (0..3).map(|x| e[x] * v(x)).sum::<f64>() / s
-                }
-            };
-            let a_f = ef.iter().sum::<f64>().min(clamp);
-            let a_b = eb.iter().sum::<f64>().min(clamp);
-            let alpha_f = mean(&ef, &|x| alpha[x]);
-            let alpha_b = mean(&eb, &|x| alpha[x]);
-            let beta_f2 = mean(&ef, &|x| beta[x] * beta[x]);
-            let beta_b2 = mean(&eb, &|x| beta[x] * beta[x]);
-            let ng: [f64; 3] = std::array::from_fn(|x| w[x] / k * self.hemi[x].1 / PI);
-            let ds = DualScattering {
-                a_f,
-                a_b,
-                alpha_f,
-                alpha_b,
-                beta_f2,
-                beta_b2,
-                big_a_b: average_backscatter_attenuation(a_f, a_b),
-                delta_b: average_backscatter_shift(a_f, a_b, alpha_f, alpha_b),
-                sigma_b2: average_backscatter_variance(a_f, a_b, beta_f2, beta_b2, d_b),
-                n_g_r: ng[0],
-                n_g_tt: ng[1],
-                n_g_trt: ng[2],
-            };
+            let wh = &self.weighted[c];
+            let eb: [f64; 3] = std::array::from_fn(|x| l[x] * wh[x].0 / k);
+            let ef: [f64; 3] = std::array::from_fn(|x| l[x] * wh[x].1 / k);
+            let ng: [f64; 3] = std::array::from_fn(|x| wh[x].1 / (k * PI));
+            let ds = from_lobe_energies(&eb, &ef, &alpha, &beta, ng, d_b, clamp);
             (ds, std::array::from_fn(|x| eb[x] + ef[x]))
         })
     }
@@ -430,12 +444,58 @@ mod tests {
         }
     }
 
+    /// Glints of the TRT colour are the thesis's model exactly; glints of another colour change
+    /// only the glint part of TRT: with red glints, the green and blue TRT hemisphere integrals
+    /// are those of the model without glints.
+    #[test]
+    fn glint_colour_changes_only_the_glints() {
+        let p = ArtistParams::default();
+        let same = ArtistParams {
+            colour_glint: Some(p.colour_trt),
+            ..p.clone()
+        };
+        for theta in [-0.7, 0.0, 0.4] {
+            let (a, b) = (
+                ArtistModel::new(p.clone()).dual_scattering(theta, 0.7, 0.99),
+                ArtistModel::new(same.clone()).dual_scattering(theta, 0.7, 0.99),
+            );
+            for c in 0..3 {
+                for (x, y) in a[c].0.to_array().iter().zip(b[c].0.to_array()) {
+                    assert!((x - y).abs() < 1e-12, "θ={theta} c={c}: {x} vs {y}");
+                }
+            }
+        }
+        let red = ArtistParams {
+            colour_glint: Some([1.0, 0.0, 0.0]),
+            ..p.clone()
+        };
+        let no_glints = ArtistParams {
+            glint_intensity: 0.0,
+            ..p.clone()
+        };
+        let hemi = |q: &ArtistParams| -> [(f64, f64); 3] {
+            std::array::from_fn(|x| q.azimuthal_hemispheres(x))
+        };
+        for c in 1..3 {
+            let with = weighted_hemispheres(&red, &hemi(&red), red.glint_hemispheres(), c)[2];
+            let without = weighted_hemispheres(&no_glints, &hemi(&no_glints), (0.0, 0.0), c)[2];
+            assert!(
+                (with.0 - without.0).abs() < 1e-12 * without.0,
+                "{with:?} {without:?}"
+            );
+            assert!((with.1 - without.1).abs() < 1e-12 * without.1.max(1e-300));
+        }
+        let r_with = weighted_hemispheres(&red, &hemi(&red), red.glint_hemispheres(), 0)[2];
+        let r_without = weighted_hemispheres(&no_glints, &hemi(&no_glints), (0.0, 0.0), 0)[2];
+        assert!(r_with.0 > r_without.0, "red glints add red backward energy");
+    }
+
     /// Default and five random parameter sets (fixed seed).
     fn parameter_sets() -> Vec<ArtistParams> {
         let mut rng = crate::fur::rng::SplitMix64::new(0x5ade_2012);
         let mut u = |lo: f64, hi: f64| lo + (hi - lo) * rng.uniform();
         let mut sets = vec![ArtistParams::default()];
-        for _ in 0..5 {
+        for set in 0..5 {
             let mut colour = || [u(0.05, 1.0), u(0.05, 1.0), u(0.05, 1.0)];
             let (c_r, c_tt, c_trt) = (colour(), colour(), colour());
             let g0 = u(20.0, 40.0);
@@ -456,6 +516,8 @@ mod tests {
                 glint_intensity: u(0.0, 5.0),
                 glint_width_deg: u(5.0, 25.0),
                 glint_angle_deg: [g0, g0 + u(0.0, 15.0)],
+                // Two sets with glints of their own colour.
+                colour_glint: (set >= 3).then(|| [u(0.05, 1.0), u(0.05, 1.0), u(0.05, 1.0)]),
                 normalisation: ArtistNormalisation::PerInclination,
             });
         }

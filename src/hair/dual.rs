@@ -147,23 +147,41 @@ pub fn combine(
     d_b: f64,
     clamp: f64,
 ) -> DualScattering {
-    let sum = |e: &[f64; LOBES]| e.iter().sum::<f64>();
-    let mean = |e: &[f64; LOBES], v: &dyn Fn(usize) -> f64| {
+    let n_g = [ef[0] / PI, ef[1] / PI, ef[2] / PI];
+    from_lobe_energies(eb, ef, &lobes.alpha_rad, &lobes.beta_rad, n_g, d_b, clamp)
+}
+
+/// The twelve quantities from the backward (`eb`) and forward (`ef`) energy of each of `N`
+/// lobes with shifts `alpha_rad` and widths `beta_rad` (rad), and the forward-averaged
+/// azimuthal functions `n_g` (R, TT, TRT, per radian): ā clamped to `clamp`, ᾱ and β̄²
+/// energy-weighted means of α_p and β_p² (ZYWK08 eq. 9–12 with variances), then the closed
+/// forms Ā_b, Δ̄_b, σ̄_b² with backscatter density `d_b`.
+pub fn from_lobe_energies<const N: usize>(
+    eb: &[f64; N],
+    ef: &[f64; N],
+    alpha_rad: &[f64; N],
+    beta_rad: &[f64; N],
+    n_g: [f64; 3],
+    d_b: f64,
+    clamp: f64,
+) -> DualScattering {
+    let sum = |e: &[f64; N]| e.iter().sum::<f64>();
+    let mean = |e: &[f64; N], v: &dyn Fn(usize) -> f64| {
         let s = sum(e);
         if s <= 0.0 {
-            // No energy in this half-space: fall back to the plain lobe mean (never used by a
-            // shader since ā = 0 there, but keeps the table finite and convex).
+            // No energy in this half-space: fall back to the plain mean of R, TT, TRT (never
+            // used by a shader since ā = 0 there, but keeps the table finite and convex).
             (0..3).map(v).sum::<f64>() / 3.0
         } else {
-            (0..LOBES).map(|p| e[p] * v(p)).sum::<f64>() / s
+            (0..N).map(|p| e[p] * v(p)).sum::<f64>() / s
         }
     };
     let a_f = sum(ef).min(clamp);
     let a_b = sum(eb).min(clamp);
-    let alpha_f = mean(ef, &|p| lobes.alpha_rad[p]);
-    let alpha_b = mean(eb, &|p| lobes.alpha_rad[p]);
-    let beta_f2 = mean(ef, &|p| lobes.beta_rad[p].powi(2));
-    let beta_b2 = mean(eb, &|p| lobes.beta_rad[p].powi(2));
+    let alpha_f = mean(ef, &|p| alpha_rad[p]);
+    let alpha_b = mean(eb, &|p| alpha_rad[p]);
+    let beta_f2 = mean(ef, &|p| beta_rad[p].powi(2));
+    let beta_b2 = mean(eb, &|p| beta_rad[p].powi(2));
     DualScattering {
         a_f,
         a_b,
@@ -174,9 +192,9 @@ pub fn combine(
         big_a_b: average_backscatter_attenuation(a_f, a_b),
         delta_b: average_backscatter_shift(a_f, a_b, alpha_f, alpha_b),
         sigma_b2: average_backscatter_variance(a_f, a_b, beta_f2, beta_b2, d_b),
-        n_g_r: ef[0] / PI,
-        n_g_tt: ef[1] / PI,
-        n_g_trt: ef[2] / PI,
+        n_g_r: n_g[0],
+        n_g_tt: n_g[1],
+        n_g_trt: n_g[2],
     }
 }
 

@@ -9,6 +9,8 @@
 //! - [`dual`]: Dual Scattering averages and closed forms;
 //! - [`artist`]: the artist-friendly model with the scalar normalisation of thesis eq. 4.17;
 //! - [`melanin`]: eumelanin/pheomelanin concentration → `σ_a`;
+//! - [`shading`]: the shading-time half of Dual Scattering (T_f, σ̄_f², f_back, f_s^scatter, F)
+//!   as a reference to port;
 //!
 //! The `hair-azimuthal` and `hair-dual` stages are [`crate::stages::hair`]; the EXR LUT and
 //! JSON exports [`crate::consumers::export::hair_lut`].
@@ -18,3 +20,4 @@ pub mod dual;
 pub mod fiber;
 pub mod longitudinal;
 pub mod melanin;
+pub mod shading;

@@ -356,116 +356,89 @@ impl DropShape {
     /// (`inside = true`) the exit point.
     pub fn intersect(&self, o: [f64; 3], d: [f64; 3], inside: bool) -> Option<Hit> {
         match self {
-            DropShape::Sphere { radius_um } => {
-                let r = *radius_um;
-                let b = dot(o, d);
-                let c = dot(o, o) - r * r;
-                let disc = b * b - c;
-                let t = if inside {
-                    -b + disc.max(0.0).sqrt()
-                } else {
-                    if disc <= 0.0 || c <= 0.0 {
-                        return None;
-                    }
-                    // Stable root: c / (−b + sqrt(disc)) = −b − sqrt(disc).
-                    let q = -b + disc.sqrt();
-                    c / q
-                };
-                if !t.is_finite() || (!inside && t <= 0.0) {
-                    return None;
-                }
-                let p = add(o, scale(d, t));
-                let n = normalize(p);
-                Some(Hit {
-                    t,
-                    point: scale(n, r),
-                    normal: n,
-                })
+            DropShape::Sphere { radius_um } => sphere_intersect(*radius_um, o, d, inside),
+            DropShape::Series(s) => self.series_intersect(s, o, d, inside),
+        }
+    }
+
+    /// [`Self::intersect`] for a cosine-series surface: bracketed between the inscribed and
+    /// bounding spheres when the chord allows, otherwise marched in 32 steps across the bounding
+    /// sphere; the root is refined by the Illinois method.
+    fn series_intersect(
+        &self,
+        s: &CosineSeries,
+        o: [f64; 3],
+        d: [f64; 3],
+        inside: bool,
+    ) -> Option<Hit> {
+        let miss = || {
+            if inside {
+                Some(self.degenerate_exit(s, o))
+            } else {
+                None
             }
-            DropShape::Series(s) => {
-                let rb = s.r_max_um;
-                let b = dot(o, d);
-                let c = dot(o, o) - rb * rb;
-                let disc = b * b - c;
-                if disc <= 0.0 {
-                    return if inside {
-                        Some(self.degenerate_exit(s, o))
-                    } else {
-                        None
-                    };
-                }
-                let sq = disc.sqrt();
-                let g_at = |t: f64| s.g(add(o, scale(d, t)));
-                let hit_at = |t: f64| {
-                    let p = add(o, scale(d, t));
-                    Hit {
-                        t,
-                        point: p,
-                        normal: s.normal(p),
-                    }
-                };
-                // Fast path: a chord through the inscribed sphere brackets the crossing between
-                // the two spheres (g > 0 outside the bounding sphere, g < 0 inside the
-                // inscribed one).
-                let ri = s.r_min_um;
-                let disc_in = b * b - (dot(o, o) - ri * ri);
-                if disc_in > 0.0 {
-                    let sqi = disc_in.sqrt();
-                    let (ta, tb) = if inside {
-                        (-b + sqi, -b + sq)
-                    } else {
-                        (-b - sq, -b - sqi)
-                    };
-                    if tb > ta && ta >= 0.0 {
-                        let (ga, gb) = (g_at(ta), g_at(tb));
-                        if (ga <= 0.0) != (gb <= 0.0) {
-                            return Some(hit_at(illinois(g_at, ta, ga, tb, gb)));
-                        }
-                    }
-                }
-                let (t0, t1) = if inside {
-                    (0.0, -b + sq)
-                } else {
-                    (-b - sq, -b + sq)
-                };
-                if t1 <= t0 {
-                    return if inside {
-                        Some(self.degenerate_exit(s, o))
-                    } else {
-                        None
-                    };
-                }
-                const M: usize = 32;
-                let dt = (t1 - t0) / M as f64;
-                let mut ta = t0;
-                let mut ga = if inside {
-                    -0.01 * dt
-                } else {
-                    s.g(add(o, scale(d, t0)))
-                };
-                for k in 1..=M {
-                    let tb = if k == M { t1 } else { t0 + dt * k as f64 };
-                    let gb = s.g(add(o, scale(d, tb)));
-                    let crossing = if inside { gb >= 0.0 } else { gb <= 0.0 };
-                    if crossing {
-                        let t = illinois(|t| s.g(add(o, scale(d, t))), ta, ga, tb, gb);
-                        let p = add(o, scale(d, t));
-                        return Some(Hit {
-                            t,
-                            point: p,
-                            normal: s.normal(p),
-                        });
-                    }
-                    ta = tb;
-                    ga = gb;
-                }
-                if inside {
-                    Some(self.degenerate_exit(s, o))
-                } else {
-                    None
+        };
+        let rb = s.r_max_um;
+        let b = dot(o, d);
+        let disc = b * b - (dot(o, o) - rb * rb);
+        if disc <= 0.0 {
+            return miss();
+        }
+        let sq = disc.sqrt();
+        let g_at = |t: f64| s.g(add(o, scale(d, t)));
+        let hit_at = |t: f64| {
+            let p = add(o, scale(d, t));
+            Hit {
+                t,
+                point: p,
+                normal: s.normal(p),
+            }
+        };
+        // Fast path: a chord through the inscribed sphere brackets the crossing between the two
+        // spheres (g > 0 outside the bounding sphere, g < 0 inside the inscribed one).
+        let ri = s.r_min_um;
+        let disc_in = b * b - (dot(o, o) - ri * ri);
+        if disc_in > 0.0 {
+            let sqi = disc_in.sqrt();
+            let (ta, tb) = if inside {
+                (-b + sqi, -b + sq)
+            } else {
+                (-b - sq, -b - sqi)
+            };
+            if tb > ta && ta >= 0.0 {
+                let (ga, gb) = (g_at(ta), g_at(tb));
+                if (ga <= 0.0) != (gb <= 0.0) {
+                    return Some(hit_at(illinois(g_at, ta, ga, tb, gb)));
                 }
             }
         }
+        let (t0, t1) = if inside {
+            (0.0, -b + sq)
+        } else {
+            (-b - sq, -b + sq)
+        };
+        if t1 <= t0 {
+            return miss();
+        }
+        const MARCH_STEPS: usize = 32;
+        let dt = (t1 - t0) / MARCH_STEPS as f64;
+        let mut ta = t0;
+        let mut ga = if inside { -0.01 * dt } else { g_at(t0) };
+        for k in 1..=MARCH_STEPS {
+            let tb = if k == MARCH_STEPS {
+                t1
+            } else {
+                t0 + dt * k as f64
+            };
+            let gb = g_at(tb);
+            let crossing = if inside { gb >= 0.0 } else { gb <= 0.0 };
+            if crossing {
+                return Some(hit_at(illinois(g_at, ta, ga, tb, gb)));
+            }
+            ta = tb;
+            ga = gb;
+        }
+        miss()
     }
 
     fn degenerate_exit(&self, s: &CosineSeries, o: [f64; 3]) -> Hit {
@@ -518,6 +491,33 @@ fn illinois(g: impl Fn(f64) -> f64, mut a: f64, mut ga: f64, mut b: f64, mut gb:
 }
 
 pub(crate) use crate::math::vec3::{add, cross, dot, norm, normalize, scale, sub};
+
+/// First intersection of the ray `o + t d` with the sphere of radius `r` (µm) about the origin
+/// (see [`DropShape::intersect`]), with the numerically stable root for the entry point.
+fn sphere_intersect(r: f64, o: [f64; 3], d: [f64; 3], inside: bool) -> Option<Hit> {
+    let b = dot(o, d);
+    let c = dot(o, o) - r * r;
+    let disc = b * b - c;
+    let t = if inside {
+        -b + disc.max(0.0).sqrt()
+    } else {
+        if disc <= 0.0 || c <= 0.0 {
+            return None;
+        }
+        // Stable root: c / (−b + sqrt(disc)) = −b − sqrt(disc).
+        let q = -b + disc.sqrt();
+        c / q
+    };
+    if !t.is_finite() || (!inside && t <= 0.0) {
+        return None;
+    }
+    let n = normalize(add(o, scale(d, t)));
+    Some(Hit {
+        t,
+        point: scale(n, r),
+        normal: n,
+    })
+}
 
 #[cfg(test)]
 mod tests {

@@ -473,97 +473,15 @@ pub fn sphere_phase_1d(
     angles_deg: &[f64],
     opts: Phase1dOptions,
 ) -> (Vec<Vec<f64>>, f64) {
-    use rayon::prelude::*;
     let a = go.radius_um;
     let out_step = if angles_deg.len() > 1 {
         (angles_deg[1] - angles_deg[0]).abs().to_radians()
     } else {
         0.1f64.to_radians()
     };
-    // Fine internal grid resolving the cross-order (p = 0 / p = 2) ripple.
-    let fine_target = (go.wavelength_nm * 1e-3 / (10.0 * a)).min(out_step);
-    let nf = (PI / fine_target).ceil() as usize + 1;
-    let fstep = PI / (nf - 1) as f64;
-    let orders = go.max_order + 1;
-    // Per fine angle: [i_perp_total, i_par_total, phase_p0.., ] as dσ/dΩ (µm²/sr).
-    let fine: Vec<Vec<f64>> = (0..nf)
-        .into_par_iter()
-        .map(|j| {
-            let mut th = fstep * j as f64;
-            th = th.clamp(0.25 * fstep, PI - 0.25 * fstep);
-            let mut tot = OrderField::default();
-            let mut tot_u = OrderField::default();
-            // [i_perp, i_par, per order..., i_perp_airy, i_par_airy, per order airy...]
-            let mut row = vec![0.0; 2 * (2 + orders)];
-            let airy = opts.model == DiffractionModel::AiryUniform && opts.diffraction_filter;
-            for p in 0..orders {
-                let br = go.branches(p, th);
-                let f = go_sum(&br);
-                tot.perp += f.perp;
-                tot.par += f.par;
-                row[2 + p] = 0.5 * (f.perp.norm_sqr() + f.par.norm_sqr());
-                let u = if airy {
-                    go.order_field_uniform_from(p, th, br)
-                } else {
-                    f
-                };
-                tot_u.perp += u.perp;
-                tot_u.par += u.par;
-                row[2 + orders + 2 + p] = 0.5 * (u.perp.norm_sqr() + u.par.norm_sqr());
-            }
-            row[0] = tot.perp.norm_sqr();
-            row[1] = tot.par.norm_sqr();
-            row[2 + orders] = tot_u.perp.norm_sqr();
-            row[2 + orders + 1] = tot_u.par.norm_sqr();
-            row
-        })
-        .collect();
-    let column = |c: usize| -> Vec<f64> { fine.iter().map(|r| r[c]).collect() };
+    let grid = FineGrid::new(go, out_step, opts);
     let out_rad: Vec<f64> = angles_deg.iter().map(|d| d.to_radians()).collect();
-    let sigma = crate::raytrace::post::filter_sigma_deg(a * 1e-3).to_radians();
-    let split = match (go.rainbow_angle_rad(2), go.rainbow_angle_rad(3)) {
-        (Some(p), Some(s)) => 0.5 * (p + s),
-        _ => 133.5f64.to_radians(),
-    };
-    let sigma_at = |th: f64| {
-        if !opts.diffraction_filter {
-            0.0
-        } else if th > split {
-            sigma
-        } else {
-            2.0 * sigma
-        }
-    };
-    let unfiltered =
-        |c: usize| crate::raytrace::post::gaussian_blur(&column(c), 0.0, fstep, &out_rad, |_| 0.0);
-    let bows: Vec<f64> = [go.rainbow_angle_rad(2), go.rainbow_angle_rad(3)]
-        .into_iter()
-        .flatten()
-        .collect();
-    let filtered = |c: usize| {
-        if opts.model == DiffractionModel::AiryUniform && opts.diffraction_filter {
-            return unfiltered(c + 2 + orders);
-        }
-        let blurred =
-            crate::raytrace::post::gaussian_blur(&column(c), 0.0, fstep, &out_rad, sigma_at);
-        if opts.caustic_window_sigmas <= 0.0 || !opts.diffraction_filter {
-            return blurred;
-        }
-        let raw = unfiltered(c);
-        out_rad
-            .iter()
-            .enumerate()
-            .map(|(j, &th)| {
-                let w = crate::raytrace::post::caustic_weight(
-                    th,
-                    &bows,
-                    sigma_at(th) * opts.caustic_window_sigmas,
-                );
-                w * blurred[j] + (1.0 - w) * raw[j]
-            })
-            .collect::<Vec<f64>>()
-    };
-    let sigma_go: f64 = (0..orders).map(|p| go.energy_fraction(p)).sum::<f64>() * PI * a * a;
+    let sigma_go: f64 = (0..grid.orders).map(|p| go.energy_fraction(p)).sum::<f64>() * PI * a * a;
     let sigma_total = sigma_go + if opts.forward_lobe { PI * a * a } else { 0.0 };
     let lobe: Vec<f64> = out_rad
         .iter()
@@ -581,8 +499,24 @@ pub fn sphere_phase_1d(
             .map(|(x, l)| (x + if with_lobe { *l } else { 0.0 }) / sigma_total)
             .collect()
     };
-    let i_perp = norm(filtered(0), true);
-    let i_par = norm(filtered(1), true);
+    let i_perp = norm(grid.filtered(0, &out_rad), true);
+    let i_par = norm(grid.filtered(1, &out_rad), true);
+    let mut channels = stokes_channels(i_perp, i_par, true);
+    for p in 0..grid.orders {
+        channels.push(norm(grid.filtered(2 + p, &out_rad), false));
+    }
+    let unfiltered = stokes_channels(
+        norm(grid.unfiltered(0, &out_rad), true),
+        norm(grid.unfiltered(1, &out_rad), true),
+        false,
+    );
+    channels.extend(unfiltered);
+    (channels, sigma_total)
+}
+
+/// `[phase, i_perp, i_par]` (and `dolp` after them when `with_dolp`) from the two polarised
+/// intensities, phase = (i_perp + i_par)/2.
+fn stokes_channels(i_perp: Vec<f64>, i_par: Vec<f64>, with_dolp: bool) -> Vec<Vec<f64>> {
     let phase: Vec<f64> = i_perp
         .iter()
         .zip(&i_par)
@@ -593,21 +527,140 @@ pub fn sphere_phase_1d(
         .zip(&i_par)
         .map(|(a, b)| if a + b > 0.0 { (a - b) / (a + b) } else { 0.0 })
         .collect();
-    let mut channels = vec![phase, i_perp, i_par, dolp];
-    for p in 0..orders {
-        channels.push(norm(filtered(2 + p), false));
+    let mut out = vec![phase, i_perp, i_par];
+    if with_dolp {
+        out.push(dolp);
     }
-    let ip_u = norm(unfiltered(0), true);
-    let ipar_u = norm(unfiltered(1), true);
-    channels.push(
-        ip_u.iter()
-            .zip(&ipar_u)
-            .map(|(a, b)| 0.5 * (a + b))
-            .collect(),
-    );
-    channels.push(ip_u);
-    channels.push(ipar_u);
-    (channels, sigma_total)
+    out
+}
+
+/// The geometric-optics fields of a sphere on a fine internal angle grid that resolves the
+/// cross-order (p = 0 / p = 2) ripple, and their diffraction filtering onto output angles.
+struct FineGrid {
+    /// Per fine angle: `[i_perp, i_par, phase_p0.., i_perp_airy, i_par_airy, phase_p0_airy..]`
+    /// as dσ/dΩ (µm²/sr); the `_airy` half holds the uniform-caustic fields.
+    rows: Vec<Vec<f64>>,
+    /// Fine grid step (rad), from 0 to π.
+    step: f64,
+    orders: usize,
+    opts: Phase1dOptions,
+    /// Gaussian filter width of the primary (rad), the secondary's is twice it.
+    sigma: f64,
+    /// Angle (rad) between the primary and secondary bows where the filter width changes.
+    split: f64,
+    /// Rainbow angles (rad) of the primary and secondary, where the filter applies.
+    bows: Vec<f64>,
+}
+
+impl FineGrid {
+    fn new(go: &SphereGo, out_step: f64, opts: Phase1dOptions) -> Self {
+        use rayon::prelude::*;
+        let a = go.radius_um;
+        let fine_target = (go.wavelength_nm * 1e-3 / (10.0 * a)).min(out_step);
+        let nf = (PI / fine_target).ceil() as usize + 1;
+        let step = PI / (nf - 1) as f64;
+        let orders = go.max_order + 1;
+        let airy = opts.model == DiffractionModel::AiryUniform && opts.diffraction_filter;
+        let rows = (0..nf)
+            .into_par_iter()
+            .map(|j| {
+                let th = (step * j as f64).clamp(0.25 * step, PI - 0.25 * step);
+                fine_row(go, th, orders, airy)
+            })
+            .collect();
+        FineGrid {
+            rows,
+            step,
+            orders,
+            opts,
+            sigma: crate::raytrace::post::filter_sigma_deg(a * 1e-3).to_radians(),
+            split: match (go.rainbow_angle_rad(2), go.rainbow_angle_rad(3)) {
+                (Some(p), Some(s)) => 0.5 * (p + s),
+                _ => 133.5f64.to_radians(),
+            },
+            bows: [go.rainbow_angle_rad(2), go.rainbow_angle_rad(3)]
+                .into_iter()
+                .flatten()
+                .collect(),
+        }
+    }
+
+    fn column(&self, c: usize) -> Vec<f64> {
+        self.rows.iter().map(|r| r[c]).collect()
+    }
+
+    /// Gaussian filter width (rad) at `th`: σ past the split, 2σ before it, 0 unfiltered.
+    fn sigma_at(&self, th: f64) -> f64 {
+        if !self.opts.diffraction_filter {
+            0.0
+        } else if th > self.split {
+            self.sigma
+        } else {
+            2.0 * self.sigma
+        }
+    }
+
+    /// Column `c` bin-averaged onto the output angles without diffraction filtering.
+    fn unfiltered(&self, c: usize, out_rad: &[f64]) -> Vec<f64> {
+        crate::raytrace::post::gaussian_blur(&self.column(c), 0.0, self.step, out_rad, |_| 0.0)
+    }
+
+    /// Column `c` with the diffraction model: the uniform-caustic fields, or the Gaussian
+    /// post-filter blended into the raw values outside the caustic windows.
+    fn filtered(&self, c: usize, out_rad: &[f64]) -> Vec<f64> {
+        let opts = self.opts;
+        if opts.model == DiffractionModel::AiryUniform && opts.diffraction_filter {
+            return self.unfiltered(c + 2 + self.orders, out_rad);
+        }
+        let blurred =
+            crate::raytrace::post::gaussian_blur(&self.column(c), 0.0, self.step, out_rad, |th| {
+                self.sigma_at(th)
+            });
+        if opts.caustic_window_sigmas <= 0.0 || !opts.diffraction_filter {
+            return blurred;
+        }
+        let raw = self.unfiltered(c, out_rad);
+        out_rad
+            .iter()
+            .enumerate()
+            .map(|(j, &th)| {
+                let w = crate::raytrace::post::caustic_weight(
+                    th,
+                    &self.bows,
+                    self.sigma_at(th) * opts.caustic_window_sigmas,
+                );
+                w * blurred[j] + (1.0 - w) * raw[j]
+            })
+            .collect()
+    }
+}
+
+/// One fine-grid row at scattering angle `th` (rad): coherent totals and per-order intensities,
+/// geometric optics and (when `airy`) the uniform caustic approximation.
+fn fine_row(go: &SphereGo, th: f64, orders: usize, airy: bool) -> Vec<f64> {
+    let mut tot = OrderField::default();
+    let mut tot_u = OrderField::default();
+    let mut row = vec![0.0; 2 * (2 + orders)];
+    for p in 0..orders {
+        let br = go.branches(p, th);
+        let f = go_sum(&br);
+        tot.perp += f.perp;
+        tot.par += f.par;
+        row[2 + p] = 0.5 * (f.perp.norm_sqr() + f.par.norm_sqr());
+        let u = if airy {
+            go.order_field_uniform_from(p, th, br)
+        } else {
+            f
+        };
+        tot_u.perp += u.perp;
+        tot_u.par += u.par;
+        row[2 + orders + 2 + p] = 0.5 * (u.perp.norm_sqr() + u.par.norm_sqr());
+    }
+    row[0] = tot.perp.norm_sqr();
+    row[1] = tot.par.norm_sqr();
+    row[2 + orders] = tot_u.perp.norm_sqr();
+    row[2 + orders + 1] = tot_u.par.norm_sqr();
+    row
 }
 
 /// Geometric-optics sum of branches with the corrected focal-line phase.

@@ -475,68 +475,27 @@ impl ThetaRows for HairDualJob {
             self.n_roughness() * self.n_absorption(),
             DUAL_TABLE_CHANNELS,
         )?;
-        let mut channels: Vec<Channel> = Vec::new();
-        let meanings = [
-            (
-                "1",
-                "ā_f: fraction of the light arriving at inclination θ scattered into |φ| ≥ π/2 (forward), clamped to ≤ clamp",
-            ),
-            (
-                "1",
-                "ā_b: fraction scattered into |φ| < π/2 (backward), clamped to ≤ clamp",
-            ),
-            (
-                "rad",
-                "ᾱ_f: energy-weighted mean longitudinal shift of the forward lobes (θ_h convention)",
-            ),
-            (
-                "rad",
-                "ᾱ_b: energy-weighted mean longitudinal shift of the backward lobes",
-            ),
-            (
-                "rad^2",
-                "β̄_f²: energy-weighted mean longitudinal variance β_p² of the forward lobes",
-            ),
-            (
-                "rad^2",
-                "β̄_b²: energy-weighted mean longitudinal variance of the backward lobes",
-            ),
-            (
-                "1",
-                "Ā_b = ā_b ā_f²/(1−ā_f²) + ā_b³ ā_f²/(1−ā_f²)³ (ZYWK08 eq. 14)",
-            ),
-            ("rad", "Δ̄_b (ZYWK08 eq. 16 / thesis 4.28)"),
-            (
-                "rad^2",
-                "σ̄_b²: square of ZYWK08 eq. 17 with sqrt(2β̄_f² + 3β̄_b²) and d_b",
-            ),
-            (
-                "1/rad",
-                "N^G_R = (2/π)∫_{π/2}^{π} N_R dφ (artist: × C_R I_R / K)",
-            ),
-            (
-                "1/rad",
-                "N^G_TT = (2/π)∫_{π/2}^{π} N_TT dφ (artist: × C_TT I_TT / K)",
-            ),
-            (
-                "1/rad",
-                "N^G_TRT = (2/π)∫_{π/2}^{π} N_TRT dφ (artist: × C_TRT I_TRT / K)",
-            ),
-            ("1", "energy of lobe R, ∫∫ f_R cos²θ_o dθ_o dφ (unclamped)"),
-            ("1", "energy of lobe TT"),
-            ("1", "energy of lobe TRT"),
-            (
-                "1",
-                "energy of the residual p ≥ 3 lobe (physical; 0 for the artist model)",
-            ),
-        ];
-        let names = DUAL_CHANNELS
-            .iter()
-            .copied()
-            .chain(["E_R", "E_TT", "E_TRT", "E_residual"]);
-        for (name, (unit, meaning)) in names.zip(meanings) {
-            channels.push(Channel::new(name, unit, meaning));
+        let mut attributes = self.common_attributes();
+        match &self.artist {
+            Some(m) => artist_attributes(m, &mut attributes)?,
+            None => self.physical_attributes(doubling, &mut attributes),
         }
+        self.absorption.describe(&mut attributes);
+        Ok(TableContent {
+            schema: Schema::new("hair-dual", 1),
+            description: "Dual Scattering averages of a hair fibre per light inclination".into(),
+            axes: self.dual_axes(),
+            channels: dual_channels(),
+            attributes,
+            data,
+        })
+    }
+}
+
+impl HairDualJob {
+    /// Axes: roughness (physical model only) × absorption × θ_i.
+    fn dual_axes(&self) -> Vec<Axis> {
+        let nt = self.params.theta_count;
         let mut axes = Vec::new();
         if self.artist.is_none() {
             axes.push(Axis::values(
@@ -553,6 +512,11 @@ impl ThetaRows for HairDualJob {
             180.0 / (nt - 1) as f64,
             nt,
         ));
+        axes
+    }
+
+    /// Attributes of both models: conventions of θ, the tangent, the azimuth and the measures.
+    fn common_attributes(&self) -> Map<String, Value> {
         let mut attributes = Map::new();
         attributes.insert(
             "model".into(),
@@ -573,46 +537,112 @@ impl ThetaRows for HairDualJob {
             "angles".into(),
             "radians inside the data; axis coordinates in degrees".into(),
         );
-        if let Some(m) = &self.artist {
-            attributes.insert("artist_params".into(), serde_json::to_value(&m.params)?);
-            attributes.insert("normalization_k".into(), json!(m.k));
-            attributes.insert("normalization".into(), match m.params.normalisation {
-                ArtistNormalisation::PerInclination => "per-inclination: eq. 4.17 with one scalar per θ_i, K(θ_i) = max over RGB of the energy of f'_s at θ_i under the energy measure, glints included (G_angle averaged uniformly over its range), so ā_f + ā_b ≤ 1 for every θ_i and channel, = 1 for the brightest; normalization_k is K(0) (docs/decisions.md DS-4, DS-14)",
-                ArtistNormalisation::NormalIncidence => "normal-incidence: eq. 4.17 with one scalar K = normalization_k = max over RGB of the energy of f'_s at θ_i = 0 under the energy measure, glints included (G_angle averaged uniformly over its range); ā_f + ā_b exceeds 1 toward grazing light (docs/decisions.md DS-4, DS-14)",
-            }.into());
-            attributes.insert(
-                "longitudinal".into(),
-                "unit-height g'(θ_h − α_X, β_X²)/cos²θ_d, cos²θ_d ≥ 1e-3 (docs/decisions.md DS-9, DS-18)".into(),
-            );
-        } else {
-            attributes.insert("eta".into(), json!(self.params.eta));
-            attributes.insert("fresnel".into(), json!(self.params.fresnel.name()));
-            attributes.insert(
-                "cuticle_tilt_deg".into(),
-                json!(self.params.cuticle_tilt_deg),
-            );
-            attributes.insert("lobes".into(), "α_R = −α, α_TT = α/2, α_TRT = 3α/2, residual 0; β_TT = β_R/2, β_TRT = β_residual = 2β_R (Marschner 2003 Table 1)".into());
-            attributes.insert(
-                "azimuthal_width_ratio".into(),
-                json!(self.params.azimuthal_width_ratio),
-            );
-            attributes.insert("fiber_model".into(), "smooth dielectric cylinder integrated over h (Zinke & Weber 2007 far field), Bravais geometry, internal chord 2cosγ_t/cosθ_t, orders p ≥ 3 lumped in a residual lobe uniform in φ, wrapped-normal azimuthal roughness w_φ = ratio·β_R; N_p evaluated at the incident inclination and longitudinal lobes normalised per lobe under the energy measure, so a lossless fibre conserves energy exactly".into());
-            attributes.insert("quadrature".into(), json!({
+        attributes
+    }
+
+    /// Attributes of the physical model: fibre, lobes, quadrature and its doubling check.
+    fn physical_attributes(&self, doubling: f64, attributes: &mut Map<String, Value>) {
+        attributes.insert("eta".into(), json!(self.params.eta));
+        attributes.insert("fresnel".into(), json!(self.params.fresnel.name()));
+        attributes.insert(
+            "cuticle_tilt_deg".into(),
+            json!(self.params.cuticle_tilt_deg),
+        );
+        attributes.insert("lobes".into(), "α_R = −α, α_TT = α/2, α_TRT = 3α/2, residual 0; β_TT = β_R/2, β_TRT = β_residual = 2β_R (Marschner 2003 Table 1)".into());
+        attributes.insert(
+            "azimuthal_width_ratio".into(),
+            json!(self.params.azimuthal_width_ratio),
+        );
+        attributes.insert("fiber_model".into(), "smooth dielectric cylinder integrated over h (Zinke & Weber 2007 far field), Bravais geometry, internal chord 2cosγ_t/cosθ_t, orders p ≥ 3 lumped in a residual lobe uniform in φ, wrapped-normal azimuthal roughness w_φ = ratio·β_R; N_p evaluated at the incident inclination and longitudinal lobes normalised per lobe under the energy measure, so a lossless fibre conserves energy exactly".into());
+        attributes.insert("quadrature".into(), json!({
                 "rule": "composite Gauss–Legendre in γ_i = asin h, panels ≤ min(0.05 rad, w_φ/2), split where any exit azimuth crosses |φ| = π/2; closed-form (erf) azimuthal windows",
                 "order": self.params.quadrature_order,
                 "doubling_max_abs_change": doubling,
             }));
-        }
-        self.absorption.describe(&mut attributes);
-        Ok(TableContent {
-            schema: Schema::new("hair-dual", 1),
-            description: "Dual Scattering averages of a hair fibre per light inclination".into(),
-            axes,
-            channels,
-            attributes,
-            data,
-        })
     }
+}
+
+/// Attributes of the artist-friendly model: its parameters and normalisation.
+fn artist_attributes(m: &ArtistModel, attributes: &mut Map<String, Value>) -> Result<(), JobError> {
+    attributes.insert("artist_params".into(), serde_json::to_value(&m.params)?);
+    attributes.insert("normalization_k".into(), json!(m.k));
+    attributes.insert("normalization".into(), match m.params.normalisation {
+            ArtistNormalisation::PerInclination => "per-inclination: eq. 4.17 with one scalar per θ_i, K(θ_i) = max over RGB of the energy of f'_s at θ_i under the energy measure, glints included (G_angle averaged uniformly over its range), so ā_f + ā_b ≤ 1 for every θ_i and channel, = 1 for the brightest; normalization_k is K(0) (docs/decisions.md DS-4, DS-14)",
+            ArtistNormalisation::NormalIncidence => "normal-incidence: eq. 4.17 with one scalar K = normalization_k = max over RGB of the energy of f'_s at θ_i = 0 under the energy measure, glints included (G_angle averaged uniformly over its range); ā_f + ā_b exceeds 1 toward grazing light (docs/decisions.md DS-4, DS-14)",
+        }.into());
+    attributes.insert(
+        "longitudinal".into(),
+        "unit-height g'(θ_h − α_X, β_X²)/cos²θ_d, cos²θ_d ≥ 1e-3 (docs/decisions.md DS-9, DS-18)"
+            .into(),
+    );
+    Ok(())
+}
+
+/// The 16 channels of a `hair-dual` table: the twelve Dual Scattering averages, then the
+/// energy of each lobe.
+fn dual_channels() -> Vec<Channel> {
+    let meanings = [
+        (
+            "1",
+            "ā_f: fraction of the light arriving at inclination θ scattered into |φ| ≥ π/2 (forward), clamped to ≤ clamp",
+        ),
+        (
+            "1",
+            "ā_b: fraction scattered into |φ| < π/2 (backward), clamped to ≤ clamp",
+        ),
+        (
+            "rad",
+            "ᾱ_f: energy-weighted mean longitudinal shift of the forward lobes (θ_h convention)",
+        ),
+        (
+            "rad",
+            "ᾱ_b: energy-weighted mean longitudinal shift of the backward lobes",
+        ),
+        (
+            "rad^2",
+            "β̄_f²: energy-weighted mean longitudinal variance β_p² of the forward lobes",
+        ),
+        (
+            "rad^2",
+            "β̄_b²: energy-weighted mean longitudinal variance of the backward lobes",
+        ),
+        (
+            "1",
+            "Ā_b = ā_b ā_f²/(1−ā_f²) + ā_b³ ā_f²/(1−ā_f²)³ (ZYWK08 eq. 14)",
+        ),
+        ("rad", "Δ̄_b (ZYWK08 eq. 16 / thesis 4.28)"),
+        (
+            "rad^2",
+            "σ̄_b²: square of ZYWK08 eq. 17 with sqrt(2β̄_f² + 3β̄_b²) and d_b",
+        ),
+        (
+            "1/rad",
+            "N^G_R = (2/π)∫_{π/2}^{π} N_R dφ (artist: × C_R I_R / K)",
+        ),
+        (
+            "1/rad",
+            "N^G_TT = (2/π)∫_{π/2}^{π} N_TT dφ (artist: × C_TT I_TT / K)",
+        ),
+        (
+            "1/rad",
+            "N^G_TRT = (2/π)∫_{π/2}^{π} N_TRT dφ (artist: × C_TRT I_TRT / K)",
+        ),
+        ("1", "energy of lobe R, ∫∫ f_R cos²θ_o dθ_o dφ (unclamped)"),
+        ("1", "energy of lobe TT"),
+        ("1", "energy of lobe TRT"),
+        (
+            "1",
+            "energy of the residual p ≥ 3 lobe (physical; 0 for the artist model)",
+        ),
+    ];
+    let names = DUAL_CHANNELS
+        .iter()
+        .copied()
+        .chain(["E_R", "E_TT", "E_TRT", "E_residual"]);
+    names
+        .zip(meanings)
+        .map(|(name, (unit, meaning))| Channel::new(name, unit, meaning))
+        .collect()
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -51,6 +51,19 @@ pub struct ValueStats {
     pub negative: Vec<u64>,
 }
 
+impl ValueStats {
+    /// Count one sample `v` of channel `ch`.
+    fn count(&mut self, ch: usize, v: f32) {
+        if v.is_nan() {
+            self.nan[ch] += 1;
+        } else if v.is_infinite() {
+            self.infinite[ch] += 1;
+        } else if v < 0.0 {
+            self.negative[ch] += 1;
+        }
+    }
+}
+
 /// Result of [`verify_file`]: the verified header and the value statistics.
 #[derive(Debug, Clone)]
 pub struct Verified {
@@ -496,6 +509,23 @@ fn read_table(
     keep: bool,
 ) -> Result<(Header, Vec<f32>, ValueStats), TableError> {
     let HeaderPart { header, header_len } = read_header_part(r, file_len, path, limits)?;
+    let compressed = read_compressed_payload(r, file_len, path, &header, header_len)?;
+    let (data, stats) = decompress_payload(&compressed, path, &header, keep)?;
+    for a in &header.axes {
+        check_axis_coords(a).map_err(|m| bad(path, m))?;
+    }
+    Ok((header, data, stats))
+}
+
+/// The compressed payload after the header, checked for its declared size (nothing missing,
+/// nothing after it) and its SHA-256.
+fn read_compressed_payload(
+    r: &mut impl Read,
+    file_len: Option<u64>,
+    path: &Path,
+    header: &Header,
+    header_len: u64,
+) -> Result<Vec<u8>, TableError> {
     let p = &header.payload;
     let start = PREAMBLE as u64 + header_len;
     let end = start.checked_add(p.compressed_bytes).ok_or_else(|| {
@@ -507,16 +537,16 @@ fn read_table(
             ),
         )
     })?;
+    let truncated = |present: u64| TableError::Truncated {
+        path: path.into(),
+        what: format!(
+            "payload needs {} bytes, {present} present",
+            p.compressed_bytes
+        ),
+    };
     if let Some(len) = file_len {
         if len < end {
-            return Err(TableError::Truncated {
-                path: path.into(),
-                what: format!(
-                    "payload needs {} bytes, {} present",
-                    p.compressed_bytes,
-                    len - start
-                ),
-            });
+            return Err(truncated(len - start));
         }
         if len > end {
             return Err(TableError::TrailingBytes {
@@ -527,14 +557,7 @@ fn read_table(
     }
     let compressed = read_exact_vec(r, p.compressed_bytes).map_err(io_err(path))?;
     if (compressed.len() as u64) < p.compressed_bytes {
-        return Err(TableError::Truncated {
-            path: path.into(),
-            what: format!(
-                "payload needs {} bytes, {} present",
-                p.compressed_bytes,
-                compressed.len()
-            ),
-        });
+        return Err(truncated(compressed.len() as u64));
     }
     if file_len.is_none() {
         let extra =
@@ -552,11 +575,24 @@ fn read_table(
             which: "compressed",
         });
     }
+    Ok(compressed)
+}
+
+/// Decompress the single zstd frame of a payload in [`CHUNK`]-sized pieces, checking its
+/// decompressed size and SHA-256 against the header and counting non-finite and negative values
+/// per channel; the samples are returned when `keep` is true (otherwise an empty vector).
+fn decompress_payload(
+    compressed: &[u8],
+    path: &Path,
+    header: &Header,
+    keep: bool,
+) -> Result<(Vec<f32>, ValueStats), TableError> {
+    let p = &header.payload;
     let decompress_err = |message: String| TableError::Decompress {
         path: path.into(),
         message,
     };
-    check_zstd_frame(&compressed, p.uncompressed_bytes).map_err(decompress_err)?;
+    check_zstd_frame(compressed, p.uncompressed_bytes).map_err(decompress_err)?;
     let nc = header.channels.len();
     let mut stats = ValueStats {
         nan: vec![0; nc],
@@ -564,7 +600,7 @@ fn read_table(
         negative: vec![0; nc],
     };
     let mut data = Vec::new();
-    let mut dec = zstd::stream::read::Decoder::with_buffer(&compressed[..])
+    let mut dec = zstd::stream::read::Decoder::with_buffer(compressed)
         .map_err(|e| decompress_err(e.to_string()))?
         .single_frame();
     let mut hasher = Sha256::new();
@@ -572,8 +608,8 @@ fn read_table(
     let mut got = 0u64;
     let mut flat = 0usize;
     loop {
-        let want = (p.uncompressed_bytes - got).min(CHUNK as u64) as usize;
-        let want = if want == 0 { 1 } else { want };
+        // One byte past the declared size proves the frame holds no more.
+        let want = ((p.uncompressed_bytes - got).min(CHUNK as u64) as usize).max(1);
         let n =
             read_up_to(&mut dec, &mut buf[..want]).map_err(|e| decompress_err(e.to_string()))?;
         if got == p.uncompressed_bytes {
@@ -596,14 +632,7 @@ fn read_table(
         got += n as u64;
         for c in buf[..n].chunks_exact(4) {
             let v = f32::from_le_bytes([c[0], c[1], c[2], c[3]]);
-            let ch = flat % nc;
-            if v.is_nan() {
-                stats.nan[ch] += 1;
-            } else if v.is_infinite() {
-                stats.infinite[ch] += 1;
-            } else if v < 0.0 {
-                stats.negative[ch] += 1;
-            }
+            stats.count(flat % nc, v);
             flat += 1;
             if keep {
                 data.push(v);
@@ -616,10 +645,7 @@ fn read_table(
             which: "uncompressed",
         });
     }
-    for a in &header.axes {
-        check_axis_coords(a).map_err(|m| bad(path, m))?;
-    }
-    Ok((header, data, stats))
+    Ok((data, stats))
 }
 
 fn open_file(path: &Path) -> Result<(std::fs::File, Option<u64>), TableError> {

@@ -154,6 +154,10 @@ impl From<NormalisationArg> for ArtistNormalisation {
 pub enum FormatArg {
     Json,
     Csv,
+    /// RenderMan Shading Language arrays and lookup for the thesis's App. C shader.
+    Rsl,
+    /// A C99 header with the same arrays and lookup.
+    C,
 }
 
 /// `scatterbake dual-scattering` (alias `hair-json`): the 1-D Dual Scattering set of one
@@ -290,6 +294,8 @@ pub fn run_dual_scattering(args: &DualScatteringArgs) -> anyhow::Result<()> {
     let text = match args.format {
         FormatArg::Json => serde_json::to_string_pretty(&dual_json(&t)?)?,
         FormatArg::Csv => dual_csv(&t)?,
+        FormatArg::Rsl => dual_shader_tables(&t, ShaderLanguage::Rsl)?,
+        FormatArg::C => dual_shader_tables(&t, ShaderLanguage::C)?,
     };
     match &args.out {
         Some(p) => std::fs::write(p, text).with_context(|| format!("writing {}", p.display()))?,

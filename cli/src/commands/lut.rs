@@ -60,17 +60,22 @@ pub fn run_lut(args: &LutArgs) -> anyhow::Result<()> {
     let disc = SunDisc::plan(&pt.table, args.sun_diameter_deg)?;
     eprintln!("{}", disc.describe());
     let lut = rgb_lut(&pt, &args.entry, &disc, args.samples)?;
+    eprintln!("{}", lut.negatives.describe());
     match format {
         LutFormat::Csv => {
-            let mut s = format!("# sun_disc: {}\nangle_deg,r,g,b\n", disc.describe());
-            for (k, v) in lut.iter().enumerate() {
+            let mut s = format!(
+                "# sun_disc: {}\n# negative_values: {}\nangle_deg,r,g,b\n",
+                disc.describe(),
+                lut.negatives.describe()
+            );
+            for (k, v) in lut.rows.iter().enumerate() {
                 let a = 180.0 * k as f64 / (args.samples - 1) as f64;
                 let _ = writeln!(s, "{a},{:e},{:e},{:e}", v[0], v[1], v[2]);
             }
             std::fs::write(&args.out, s)?;
         }
         LutFormat::Png => {
-            let (codes, l0, l1) = log_encode(&lut);
+            let (codes, l0, l1) = log_encode(&lut.rows);
             let f = std::io::BufWriter::new(std::fs::File::create(&args.out)?);
             let mut enc = png::Encoder::new(f, args.samples as u32, 1);
             enc.set_color(png::ColorType::Rgb);
@@ -79,6 +84,7 @@ pub fn run_lut(args: &LutArgs) -> anyhow::Result<()> {
             enc.add_text_chunk("scatterbake_log10_min".into(), format!("{l0:e}"))?;
             enc.add_text_chunk("scatterbake_log10_max".into(), format!("{l1:e}"))?;
             enc.add_text_chunk("scatterbake_sun_disc".into(), disc.describe())?;
+            enc.add_text_chunk("negative_values".into(), lut.negatives.describe())?;
             let mut w = enc.write_header()?;
             let bytes: Vec<u8> = codes.iter().flat_map(|c| c.to_be_bytes()).collect();
             w.write_image_data(&bytes)?;
@@ -148,10 +154,15 @@ mod tests {
         let (l0, l1) = (text("scatterbake_log10_min"), text("scatterbake_log10_max"));
         let mut buf = vec![0; reader.output_buffer_size().unwrap()];
         reader.next_frame(&mut buf).unwrap();
-        let lo = lut.iter().flatten().cloned().fold(f64::INFINITY, f64::min);
-        let hi = lut.iter().flatten().cloned().fold(0.0, f64::max);
+        let lo = lut
+            .rows
+            .iter()
+            .flatten()
+            .cloned()
+            .fold(f64::INFINITY, f64::min);
+        let hi = lut.rows.iter().flatten().cloned().fold(0.0, f64::max);
         assert!(hi / lo > 5e3, "test needs a wide range: {lo} .. {hi}");
-        for (k, v) in lut.iter().flatten().enumerate() {
+        for (k, v) in lut.rows.iter().flatten().enumerate() {
             let code = u16::from_be_bytes([buf[2 * k], buf[2 * k + 1]]);
             let got = log_decode(code, l0, l1);
             assert!((got / v - 1.0).abs() < 3e-4, "{k}: {got} vs {v}");

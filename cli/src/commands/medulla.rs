@@ -1,7 +1,7 @@
 //! `scatterbake medulla`: one medulla profile on the command line. Option names are the keys
 //! of the `fur-medulla-*` stages (`photons`, `seed`, `bins`).
 
-use scatterbake::fur::medulla::{Estimator, Geometry, McSettings, simulate};
+use scatterbake::fur::medulla::{Estimator, Geometry, McSettings, Profile, simulate};
 use serde_json::json;
 use std::io::Write;
 
@@ -58,28 +58,7 @@ pub fn run_medulla(args: &MedullaArgs) -> anyhow::Result<()> {
 
 /// The text `run_medulla` prints.
 pub fn medulla_report(args: &MedullaArgs) -> anyhow::Result<String> {
-    anyhow::ensure!(
-        args.sigma >= 0.0 && args.sigma.is_finite(),
-        "--sigma must be ≥ 0"
-    );
-    anyhow::ensure!((0.0..1.0).contains(&args.g), "--g must be in [0, 1)");
-    anyhow::ensure!(
-        args.bins >= 4 && args.bins.is_multiple_of(4),
-        "--bins must be a multiple of 4"
-    );
-    let geom = match (args.h, args.theta_i_deg) {
-        (Some(h), None) => {
-            anyhow::ensure!((-1.0..=1.0).contains(&h), "--h must be in [−1, 1]");
-            Geometry::Azimuthal { h }
-        }
-        (None, Some(t)) => {
-            anyhow::ensure!(t > -90.0 && t < 90.0, "--theta-i-deg must be in (−90, 90)");
-            Geometry::Longitudinal {
-                theta_i_rad: t.to_radians(),
-            }
-        }
-        _ => anyhow::bail!("give exactly one of --h and --theta-i-deg"),
-    };
+    let geom = checked_geometry(args)?;
     let s = McSettings {
         photons: args.photons,
         seed: args.seed,
@@ -91,90 +70,123 @@ pub fn medulla_report(args: &MedullaArgs) -> anyhow::Result<String> {
         max_order: None,
     };
     let p = simulate(args.sigma, args.g, geom, &s);
-    let dw = 360.0 / args.bins as f64;
-    let (convention, centres): (&str, Vec<f64>) = match geom {
+    Ok(match args.format {
+        MedullaFormat::Json => json_report(args, geom, &s, &p)?,
+        MedullaFormat::Csv => csv_report(args, geom, &s, &p),
+    })
+}
+
+/// The geometry the arguments select, after checking every argument's range.
+fn checked_geometry(args: &MedullaArgs) -> anyhow::Result<Geometry> {
+    anyhow::ensure!(
+        args.sigma >= 0.0 && args.sigma.is_finite(),
+        "--sigma must be ≥ 0"
+    );
+    anyhow::ensure!((0.0..1.0).contains(&args.g), "--g must be in [0, 1)");
+    anyhow::ensure!(
+        args.bins >= 4 && args.bins.is_multiple_of(4),
+        "--bins must be a multiple of 4"
+    );
+    match (args.h, args.theta_i_deg) {
+        (Some(h), None) => {
+            anyhow::ensure!((-1.0..=1.0).contains(&h), "--h must be in [−1, 1]");
+            Ok(Geometry::Azimuthal { h })
+        }
+        (None, Some(t)) => {
+            anyhow::ensure!(t > -90.0 && t < 90.0, "--theta-i-deg must be in (−90, 90)");
+            Ok(Geometry::Longitudinal {
+                theta_i_rad: t.to_radians(),
+            })
+        }
+        _ => anyhow::bail!("give exactly one of --h and --theta-i-deg"),
+    }
+}
+
+/// The bin convention (in words) and the bin centres (deg) of a profile with `bins` bins.
+fn bin_convention(geom: Geometry, bins: usize) -> (&'static str, Vec<f64>) {
+    let dw = 360.0 / bins as f64;
+    match geom {
         Geometry::Azimuthal { .. } => (
             "phi' in deg of the exit direction from the entering direction (0 = unscattered continuation), counter-clockwise towards +h'; bin k covers [-180 + k*w, -180 + (k+1)*w)",
-            (0..args.bins)
-                .map(|k| -180.0 + (k as f64 + 0.5) * dw)
-                .collect(),
+            (0..bins).map(|k| -180.0 + (k as f64 + 0.5) * dw).collect(),
         ),
         Geometry::Longitudinal { .. } => (
             "bins 0..bins/2: back lobe (exits the entry face), bins/2..bins: forward lobe; theta_r in deg from the exit face normal, sin(theta_r) = exit direction along the fiber axis, unscattered continuation at theta_r = -theta_i; bin j of a lobe covers [-90 + j*w, -90 + (j+1)*w)",
-            (0..args.bins)
-                .map(|k| -90.0 + ((k % (args.bins / 2)) as f64 + 0.5) * dw)
+            (0..bins)
+                .map(|k| -90.0 + ((k % (bins / 2)) as f64 + 0.5) * dw)
                 .collect(),
         ),
+    }
+}
+
+fn json_report(
+    args: &MedullaArgs,
+    geom: Geometry,
+    s: &McSettings,
+    p: &Profile,
+) -> anyhow::Result<String> {
+    let (convention, centres) = bin_convention(geom, args.bins);
+    let mut v = json!({
+        "sigma": args.sigma,
+        "g": args.g,
+        "bins": args.bins,
+        "bin_width_deg": 360.0 / args.bins as f64,
+        "bin_convention": convention,
+        "estimator": format!("{:?}", s.estimator).to_lowercase(),
+        "photons": args.photons,
+        "seed": args.seed,
+        "bin_centre_deg": centres,
+        "profile": p.energy,
+        "path_length": p.path_length,
+        "std_error": p.std_error,
+        "ballistic": p.ballistic,
+        "ballistic_mc": p.ballistic_mc,
+        "scattered": p.scattered,
+        "scattered_std_error": p.scattered_std_error,
+    });
+    match geom {
+        Geometry::Azimuthal { h } => v["h"] = json!(h),
+        Geometry::Longitudinal { .. } => v["theta_i_deg"] = json!(args.theta_i_deg),
+    }
+    Ok(serde_json::to_string_pretty(&v)? + "\n")
+}
+
+fn csv_report(args: &MedullaArgs, geom: Geometry, s: &McSettings, p: &Profile) -> String {
+    let (convention, centres) = bin_convention(geom, args.bins);
+    let entry = match geom {
+        Geometry::Azimuthal { h } => format!("h={h}"),
+        Geometry::Longitudinal { .. } => {
+            format!("theta_i_deg={}", args.theta_i_deg.unwrap_or(0.0))
+        }
     };
-    Ok(match args.format {
-        MedullaFormat::Json => {
-            let mut v = json!({
-                "sigma": args.sigma,
-                "g": args.g,
-                "bins": args.bins,
-                "bin_width_deg": dw,
-                "bin_convention": convention,
-                "estimator": format!("{:?}", s.estimator).to_lowercase(),
-                "photons": args.photons,
-                "seed": args.seed,
-                "bin_centre_deg": centres,
-                "profile": p.energy,
-                "path_length": p.path_length,
-                "std_error": p.std_error,
-                "ballistic": p.ballistic,
-                "ballistic_mc": p.ballistic_mc,
-                "scattered": p.scattered,
-                "scattered_std_error": p.scattered_std_error,
-            });
-            match geom {
-                Geometry::Azimuthal { h } => v["h"] = json!(h),
-                Geometry::Longitudinal { .. } => v["theta_i_deg"] = json!(args.theta_i_deg),
-            }
-            serde_json::to_string_pretty(&v)? + "\n"
-        }
-        MedullaFormat::Csv => {
-            let mut o = format!(
-                "# sigma={} g={} {} photons={} seed={} estimator={:?}\n# ballistic={:.8} ballistic_mc={:.8} scattered={:.8} scattered_std_error={:.3e}\n# {convention}\n",
-                args.sigma,
-                args.g,
-                match geom {
-                    Geometry::Azimuthal { h } => format!("h={h}"),
-                    Geometry::Longitudinal { .. } =>
-                        format!("theta_i_deg={}", args.theta_i_deg.unwrap_or(0.0)),
-                },
-                args.photons,
-                args.seed,
-                s.estimator,
-                p.ballistic,
-                p.ballistic_mc,
-                p.scattered,
-                p.scattered_std_error
-            );
-            o.push_str(match geom {
-                Geometry::Azimuthal { .. } => "bin,phi_deg,energy,path_length,std_error\n",
-                Geometry::Longitudinal { .. } => {
-                    "bin,lobe,theta_r_deg,energy,path_length,std_error\n"
-                }
-            });
-            for (k, centre) in centres.iter().enumerate() {
-                match geom {
-                    Geometry::Azimuthal { .. } => o.push_str(&format!(
-                        "{k},{:.3},{:.6e},{:.6e},{:.3e}\n",
-                        centre, p.energy[k], p.path_length[k], p.std_error[k]
-                    )),
-                    Geometry::Longitudinal { .. } => o.push_str(&format!(
-                        "{k},{},{:.3},{:.6e},{:.6e},{:.3e}\n",
-                        if k < args.bins / 2 { "back" } else { "forward" },
-                        centre,
-                        p.energy[k],
-                        p.path_length[k],
-                        p.std_error[k]
-                    )),
-                }
-            }
-            o
-        }
-    })
+    let mut o = format!(
+        "# sigma={} g={} {entry} photons={} seed={} estimator={:?}\n# ballistic={:.8} ballistic_mc={:.8} scattered={:.8} scattered_std_error={:.3e}\n# {convention}\n",
+        args.sigma,
+        args.g,
+        args.photons,
+        args.seed,
+        s.estimator,
+        p.ballistic,
+        p.ballistic_mc,
+        p.scattered,
+        p.scattered_std_error
+    );
+    o.push_str(match geom {
+        Geometry::Azimuthal { .. } => "bin,phi_deg,energy,path_length,std_error\n",
+        Geometry::Longitudinal { .. } => "bin,lobe,theta_r_deg,energy,path_length,std_error\n",
+    });
+    for (k, centre) in centres.iter().enumerate() {
+        let lobe = match geom {
+            Geometry::Azimuthal { .. } => String::new(),
+            Geometry::Longitudinal { .. } if k < args.bins / 2 => "back,".into(),
+            Geometry::Longitudinal { .. } => "forward,".into(),
+        };
+        o.push_str(&format!(
+            "{k},{lobe}{:.3},{:.6e},{:.6e},{:.3e}\n",
+            centre, p.energy[k], p.path_length[k], p.std_error[k]
+        ));
+    }
+    o
 }
 
 #[cfg(test)]

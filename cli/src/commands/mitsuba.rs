@@ -67,17 +67,13 @@ pub fn run_mitsuba(args: &MitsubaArgs) -> anyhow::Result<()> {
             );
         }
         eprintln!(
-            "{}: {} values, normalisation ratio {:.6}, 90-180 deg: max rel. error {:.3e}, relative L1 error {:.3e}{}",
+            "{}: {} values, normalisation ratio {:.6}, 90-180 deg: max rel. error {:.3e}, relative L1 error {:.3e}; {}",
             l.id,
             l.values.len(),
             l.quality.normalisation_ratio,
             l.quality.max_rel_error_back,
             l.quality.l1_rel_error_back,
-            if l.clamped > 0 {
-                format!(", {} negative values clamped", l.clamped)
-            } else {
-                String::new()
-            }
+            l.negatives.describe()
         );
     }
     Ok(())

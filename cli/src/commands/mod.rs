@@ -1,6 +1,7 @@
 //! One module per subcommand family; each holds the clap argument struct and the glue that
 //! calls the library.
 
+pub mod build;
 pub mod debye;
 pub mod hair;
 pub mod legendre;
@@ -13,6 +14,7 @@ pub mod plot;
 pub mod plot_raytrace;
 pub mod raytrace;
 pub mod render;
+pub mod table;
 
 /// A clap value parser for a library enum that names its variants (`NAMES`) and parses them
 /// (`FromStr`): `--help` lists the names and a wrong one is refused with the list.

@@ -96,6 +96,7 @@ pub fn run_plot(args: &PlotArgs) -> anyhow::Result<()> {
                 args.angle_range,
                 &args.out,
                 size,
+                &crate::progress::TerminalProgress::new("lee"),
             )?;
             eprintln!("{}", disc.describe());
         }

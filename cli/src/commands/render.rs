@@ -173,9 +173,12 @@ pub fn run_render_rainbow(args: &RenderRainbowArgs) -> anyhow::Result<()> {
     );
     let (camera, scene) = camera_and_scene(args, sun_elevation_deg, &disc);
     let t0 = std::time::Instant::now();
-    let r = match &source {
-        Source::OneD(pt) => render(pt, &args.entry, &scene, &camera)?,
-        Source::TwoD(slice) => render_2d(slice, &scene, &camera)?,
+    let r = {
+        let progress = crate::progress::TerminalProgress::new("render");
+        match &source {
+            Source::OneD(pt) => render(pt, &args.entry, &scene, &camera, &progress)?,
+            Source::TwoD(slice) => render_2d(slice, &scene, &camera, &progress)?,
+        }
     };
     let seconds = t0.elapsed().as_secs_f64();
     let exposure = args

@@ -193,6 +193,133 @@ pub fn dual_csv(t: &TableContent) -> Result<String, ConsumerError> {
     Ok(s)
 }
 
+/// Shader language of [`dual_shader_tables`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ShaderLanguage {
+    /// RenderMan Shading Language, the language of Sadeghi 2012 App. C.
+    Rsl,
+    /// C99 (a header: `static const` arrays and an inline lookup), also a model for GLSL/HLSL.
+    C,
+}
+
+/// The 1-D set of a one-colour `hair-dual` table as arrays for the thesis's App. C shader
+/// (Sadeghi 2012): one RGB array per quantity under the App. C names (`a_f`, `a_b`, `alpha_f`,
+/// `alpha_b`, `beta_f2`, `beta_b2`, `A_b`, `delta_b`, `sigma_b2`, `N_G_R`, `N_G_TT`, `N_G_TRT`),
+/// the angle grid `ds_theta_deg`, the unit-area Gaussian `g(x, variance)` and a linear lookup
+/// `ds_lookup(table, angle_rad)` clamped at ±90°. App. C indexes some arrays `[θ_h]` and others
+/// `[θ_d]`; the tables are functions of the light inclination θ_i (decision DS-1). Calling
+/// `ds_lookup` with the angle App. C names runs its pseudo-code unchanged; calling it with θ_i is
+/// the tables' own convention (DS-31). Both are stated in the file's comment.
+pub fn dual_shader_tables(
+    t: &TableContent,
+    language: ShaderLanguage,
+) -> Result<String, ConsumerError> {
+    use std::fmt::Write as _;
+    let j = dual_json(t)?;
+    let theta: Vec<f64> = j["theta_deg"]
+        .as_array()
+        .expect("theta")
+        .iter()
+        .map(|v| v.as_f64().unwrap_or(f64::NAN))
+        .collect();
+    let n = theta.len();
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "/* Dual Scattering tables (scatterbake, schema hair-dual/1) for the shader of Sadeghi 2012\n \
+         * App. C. {n} samples of the light inclination theta_i, -90..90 deg (ds_theta_deg, uniform).\n \
+         * App. C indexes a_f, a_b, alpha_*, beta_*2, N_G_* by theta_h and A_b, delta_b, sigma_b2\n \
+         * by theta_d: ds_lookup(table, angle_rad) with those angles runs its pseudo-code unchanged;\n \
+         * with theta_i it follows the tables' own convention (the quantities are functions of the\n \
+         * light inclination). Angles in rad, variances in rad^2, N_G per rad; RGB triples.\n \
+         * Model: {} */",
+        t.attributes
+            .get("model")
+            .and_then(|v| v.as_str())
+            .unwrap_or("?")
+    );
+    let list = |v: &[f64]| {
+        v.iter()
+            .map(|x| format!("{x:e}"))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    match language {
+        ShaderLanguage::Rsl => {
+            let _ = writeln!(
+                s,
+                "uniform float ds_theta_deg[{n}] = {{ {} }};",
+                list(&theta)
+            );
+        }
+        ShaderLanguage::C => {
+            let _ = writeln!(s, "#include <math.h>");
+            let _ = writeln!(s, "#define DS_N {n}");
+            let _ = writeln!(
+                s,
+                "static const double ds_theta_deg[DS_N] = {{ {} }};",
+                list(&theta)
+            );
+        }
+    }
+    for name in DUAL_CHANNELS {
+        let rows: Vec<[f64; 3]> = (0..n)
+            .map(|i| std::array::from_fn(|c| j[name][i][c].as_f64().unwrap_or(f64::NAN)))
+            .collect();
+        match language {
+            ShaderLanguage::Rsl => {
+                let body: Vec<String> = rows
+                    .iter()
+                    .map(|v| format!("color({:e}, {:e}, {:e})", v[0], v[1], v[2]))
+                    .collect();
+                let _ = writeln!(s, "uniform color {name}[{n}] = {{ {} }};", body.join(", "));
+            }
+            ShaderLanguage::C => {
+                let body: Vec<String> = rows
+                    .iter()
+                    .map(|v| format!("{{{:e}, {:e}, {:e}}}", v[0], v[1], v[2]))
+                    .collect();
+                let _ = writeln!(
+                    s,
+                    "static const double {name}[DS_N][3] = {{ {} }};",
+                    body.join(", ")
+                );
+            }
+        }
+    }
+    let (first, step) = (theta[0], (theta[n - 1] - theta[0]) / (n - 1) as f64);
+    match language {
+        ShaderLanguage::Rsl => {
+            let _ = writeln!(
+                s,
+                "float g(float x; float variance) {{ return exp(-x * x / (2 * variance)) / sqrt(2 * PI * variance); }}\n\
+                 color ds_lookup(uniform color tab[]; float angle) {{\n    \
+                 float u = clamp((degrees(angle) - ({first:e})) / {step:e}, 0, {last});\n    \
+                 float i = min(floor(u), {last_cell});\n    \
+                 return mix(tab[i], tab[i + 1], u - i);\n}}",
+                last = n - 1,
+                last_cell = n - 2
+            );
+        }
+        ShaderLanguage::C => {
+            let _ = writeln!(
+                s,
+                "static inline double g(double x, double variance) {{ return exp(-x * x / (2 * variance)) / sqrt(2 * M_PI * variance); }}\n\
+                 /* Channel c (0 = R, 1 = G, 2 = B) of table tab at angle (rad), linear, clamped at +-90 deg. */\n\
+                 static inline double ds_lookup(const double tab[DS_N][3], double angle, int c) {{\n    \
+                 double u = (angle * 180.0 / M_PI - ({first:e})) / {step:e};\n    \
+                 if (u < 0) u = 0;\n    \
+                 if (u > DS_N - 1) u = DS_N - 1;\n    \
+                 int i = (int)floor(u);\n    \
+                 if (i > DS_N - 2) i = DS_N - 2;\n    \
+                 double t = u - i;\n    \
+                 return (1 - t) * tab[i][c] + t * tab[i + 1][c];\n}}"
+            );
+        }
+    }
+    Ok(s)
+}
+
 pub fn content_of(table: Table) -> TableContent {
     TableContent {
         schema: table.header.schema,

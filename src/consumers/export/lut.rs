@@ -12,8 +12,10 @@
 //! in the reference renderer. A shader multiplies it by the sun's irradiance and the medium's
 //! in-scattering factor: `L = lut[θ] · E_sun · σ_s · (path integral)`, θ = acos(dot(sun_dir,
 //! view_dir)) (the angle between the direction toward the sun and the view direction; 180° at
-//! the antisolar point), interpolating linearly between rows. Channels can be slightly negative
-//! where the colour is outside the sRGB gamut; they are written as computed.
+//! the antisolar point), interpolating linearly between rows. A channel that comes out negative
+//! (a colour outside the sRGB gamut) is written as 0, and the count and most negative value are
+//! printed and stored with the texture (EXR attribute and PNG `tEXt` chunk `negative_values`, CSV
+//! line `# negative_values: …`): the policy of every export ([`NegativeClamp`]).
 //!
 //! The disc is the table's own (`sun_diameter_deg`, already averaged: nothing more is
 //! convolved) unless `--sun-diameter-deg` asks for a wider one ([`SunDisc`]); what was done is
@@ -27,13 +29,13 @@
 //! - `.png`: 16-bit RGB, N × 1 pixels, **log-encoded** because a drop's phase function spans
 //!   ~6 decades (forward peak vs the bows; a linear 16-bit PNG quantises everything beyond a
 //!   few degrees to 0): `v = (log10(rgb) − L0)/(L1 − L0)` in [0, 1] (stored as round(v·65535)),
-//!   `L1 = log10(max)`, `L0 = L1 − 8` (`LOG_DECADES`); a stored 0 means `rgb ≤ 10^L0` (also
-//!   out-of-gamut negatives). Decode in a shader: `rgb = v > 0 ? pow(10, L0 + v·(L1 − L0)) : 0`.
+//!   `L1 = log10(max)`, `L0 = L1 − 8` (`LOG_DECADES`); a stored 0 means `rgb ≤ 10^L0`. Decode in a shader: `rgb = v > 0 ? pow(10, L0 + v·(L1 − L0)) : 0`.
 //!   L0 and L1 are printed and stored in the `tEXt` chunks `scatterbake_log10_min`,
 //!   `scatterbake_log10_max` (with `scatterbake_encoding = log10`). Step: 8/65535 decades
 //!   = 0.028 % relative.
 
 use crate::consumers::ConsumerError;
+use crate::consumers::export::NegativeClamp;
 use crate::consumers::read::operators::SunDisc;
 use crate::consumers::read::phase::{EntrySelection, PhaseTable};
 use crate::consumers::read::spectrum::{THETA_STEP_DEG, xyz_vs_angle};
@@ -79,14 +81,15 @@ pub fn log_decode(code: u16, l0: f64, l1: f64) -> f64 {
 
 /// The LUT as a 1-D table (axis `scattering_angle`, channels `R`, `G`, `B`) for the EXR writer.
 pub fn lut_table(
-    lut: &[[f64; 3]],
+    lut: &RgbLut,
     source: &str,
     entry: &str,
     disc: &SunDisc,
 ) -> Result<Table, ConsumerError> {
-    let n = lut.len();
+    let n = lut.rows.len();
     let mut attributes = serde_json::Map::new();
     attributes.insert("sun_disc".into(), disc.describe().into());
+    attributes.insert("negative_values".into(), lut.negatives.describe().into());
     attributes.insert("sun_diameter_deg".into(), disc.target_deg.into());
     attributes.insert("source_table".into(), source.into());
     attributes.insert("entry".into(), entry.into());
@@ -106,21 +109,29 @@ pub fn lut_table(
             .map(|c| Channel::new(c, "1/sr", &format!("linear sRGB {c} per unit sun irradiance")))
             .collect(),
         attributes,
-        data: lut.iter().flatten().map(|&v| v as f32).collect(),
+        data: lut.rows.iter().flatten().map(|&v| v as f32).collect(),
     };
     Ok(Table::from_content(content, Provenance::default())?)
 }
 
+/// An RGB lookup texture: rows of linear sRGB and what clamping negatives changed.
+#[derive(Debug, Clone)]
+pub struct RgbLut {
+    pub rows: Vec<[f64; 3]>,
+    pub negatives: NegativeClamp,
+}
+
 /// Linear sRGB vs angle on `n` uniform angles over [0, 180], convolving only the disc the
-/// table has not applied (`disc.extra_deg`).
+/// table has not applied (`disc.extra_deg`); negative channels (outside the sRGB gamut) are
+/// clamped at 0 and counted.
 pub fn rgb_lut(
     pt: &PhaseTable,
     entry: &[EntrySelection],
     disc: &SunDisc,
     n: usize,
-) -> Result<Vec<[f64; 3]>, ConsumerError> {
+) -> Result<RgbLut, ConsumerError> {
     let xyz = xyz_vs_angle(pt, entry, disc.extra_deg)?;
-    Ok((0..n)
+    let mut rows: Vec<[f64; 3]> = (0..n)
         .map(|k| {
             let a = 180.0 * k as f64 / (n - 1) as f64;
             let u = a / THETA_STEP_DEG;
@@ -128,7 +139,9 @@ pub fn rgb_lut(
             let t = u - i as f64;
             xyz_to_linear_srgb([0, 1, 2].map(|c| xyz[i][c] * (1.0 - t) + xyz[i + 1][c] * t))
         })
-        .collect())
+        .collect();
+    let negatives = NegativeClamp::apply(rows.iter_mut().flatten());
+    Ok(RgbLut { rows, negatives })
 }
 
 #[cfg(test)]
@@ -145,13 +158,34 @@ mod tests {
             PhaseTable::new(henyey_greenstein_table(&wl, &[1.0], |_, _| 0.5, 1801, 0.0)).unwrap();
         let disc = SunDisc::plan(&pt.table, Some(0.0)).unwrap();
         let lut = rgb_lut(&pt, &[], &disc, 181).unwrap();
-        for (k, v) in lut.iter().enumerate() {
+        assert_eq!(lut.negatives.count, 0);
+        for (k, v) in lut.rows.iter().enumerate() {
             let p =
                 crate::consumers::synthetic::henyey_greenstein(0.5, (k as f64).to_radians().cos());
             for c in v {
                 assert!((c - p).abs() < 5e-3 * p, "angle {k}: {v:?} vs {p}");
             }
         }
+    }
+
+    /// Nearly monochromatic light (a narrow peak whose angle moves with wavelength) lies outside
+    /// the sRGB gamut: the LUT holds no negative value and says how many it clamped.
+    #[test]
+    fn out_of_gamut_colours_are_clamped_and_counted() {
+        let wl: Vec<f64> = (0..33).map(|i| 380.0 + 10.0 * i as f64).collect();
+        let t = crate::consumers::synthetic::peak_table(
+            &wl,
+            |l| 100.0 + (l - 380.0) / 4.0,
+            0.3,
+            1e-6,
+            3601,
+        );
+        let pt = PhaseTable::new(t).unwrap();
+        let disc = SunDisc::plan(&pt.table, Some(0.0)).unwrap();
+        let lut = rgb_lut(&pt, &[], &disc, 1801).unwrap();
+        assert!(lut.negatives.count > 10, "{:?}", lut.negatives);
+        assert!(lut.negatives.most_negative < 0.0);
+        assert!(lut.rows.iter().flatten().all(|v| *v >= 0.0));
     }
 
     /// The PNG's log encoding keeps the bows of a drop whose forward peak is ~6 decades
@@ -182,7 +216,15 @@ mod tests {
             .map(|k| [1e3 / (1.0 + k as f64), 0.1, 1e-5])
             .collect();
         let disc = SunDisc::from_applied(0.5, true, None).unwrap();
+        let lut = RgbLut {
+            rows: lut,
+            negatives: NegativeClamp::default(),
+        };
         let t = lut_table(&lut, "x.sbt", "radius=1 um", &disc).unwrap();
+        assert_eq!(
+            t.header.attributes["negative_values"],
+            "negative values: none"
+        );
         assert_eq!(t.header.attributes["sun_diameter_deg"], 0.5);
         let d = tempfile::tempdir().unwrap();
         let path = d.path().join("lut.exr");
@@ -202,7 +244,7 @@ mod tests {
             .find(|c| c.name.to_string() == "R")
             .unwrap();
         for (k, v) in r.sample_data.values_as_f32().enumerate() {
-            assert_eq!(v, lut[k][0] as f32);
+            assert_eq!(v, lut.rows[k][0] as f32);
         }
     }
 }

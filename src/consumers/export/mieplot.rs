@@ -8,7 +8,7 @@
 //! Written format (what [`write_mieplot`] produces and [`read_mieplot`] reads):
 //! ```text
 //! # scatterbake mieplot export
-//! # table: tables/mie.sbt
+//! # table: tables/rainbow-mie.sbt
 //! # entry: radius=500 um
 //! # wavelength_nm: 650
 //! # units: angle in deg (0 = forward); i_perp, i_par, phase in 1/sr, phase = (i_perp + i_par)/2, integral over 4pi of phase = 1

@@ -30,9 +30,11 @@
 //! w_ck = (M_XYZ→sRGB · W_k)_c and W_k the CIE 1931 XYZ weights of wavelength sample k under D65
 //! ([`SpectralWeights`]); since a flat spectrum of 1 gives sRGB (1, 1, 1), p_c(θ) = Σ_k w_ck p_k(θ)
 //! is again normalised to 1. Colour-matching lobes make some w_ck negative, so p_c can dip
-//! below 0 where the spectrum is very uneven; such values are clamped to 0 and counted.
+//! below 0 where the spectrum is very uneven; such values are clamped to 0 and reported, the
+//! policy of every export ([`NegativeClamp`]).
 
 use crate::consumers::ConsumerError;
+use crate::consumers::export::NegativeClamp;
 use crate::consumers::read::phase::PhaseCurves;
 use crate::optics::colour::{Illuminant1931, SpectralWeights, xyz_to_linear_srgb};
 use std::f64::consts::PI;
@@ -238,7 +240,8 @@ pub struct NamedList {
     pub label: String,
     pub values: Vec<f64>,
     pub quality: TabphaseQuality,
-    pub clamped: usize,
+    /// Negative values written as 0 (see [`NegativeClamp`]).
+    pub negatives: NegativeClamp,
 }
 
 /// Weighted sum of the per-wavelength curves (on the table angle grid).
@@ -257,17 +260,14 @@ pub fn build_lists(
 ) -> Result<Vec<NamedList>, ConsumerError> {
     let mk = |id: String, label: String, curve: Vec<f64>| {
         let mut values = tabphase_values(&c.angles_deg, &curve, n);
-        let clamped = values.iter().filter(|v| **v < 0.0).count();
-        for v in &mut values {
-            *v = v.max(0.0);
-        }
+        let negatives = NegativeClamp::apply(values.iter_mut());
         let quality = quality(&values, &c.angles_deg, &curve);
         NamedList {
             id,
             label,
             values,
             quality,
-            clamped,
+            negatives,
         }
     };
     let sw = SpectralWeights::new(&c.wavelengths_nm, Illuminant1931::D65);
@@ -344,17 +344,13 @@ pub fn xml_snippet(lists: &[NamedList], source: &str) -> String {
     for l in lists {
         let _ = writeln!(
             s,
-            "<!-- {}: {} values, 2pi*int v dmu = {:.6}, 90-180 deg: max rel. error {:.3e}, relative L1 error {:.3e}{} -->",
+            "<!-- {}: {} values, 2pi*int v dmu = {:.6}, 90-180 deg: max rel. error {:.3e}, relative L1 error {:.3e}; {} -->",
             l.label,
             l.values.len(),
             l.quality.normalisation_ratio,
             l.quality.max_rel_error_back,
             l.quality.l1_rel_error_back,
-            if l.clamped > 0 {
-                format!(", {} negative values clamped to 0", l.clamped)
-            } else {
-                String::new()
-            }
+            l.negatives.describe()
         );
         let _ = writeln!(s, "<phase type=\"tabphase\" id=\"{}\">", l.id);
         let _ = writeln!(

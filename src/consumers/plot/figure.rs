@@ -412,14 +412,25 @@ fn draw_heat<DB: DrawingBackend<ErrorType: 'static>>(
         &|i, r| p.scale.colour(p.values[(ny - 1 - r) * nx + i]),
         vector,
     )?;
-    // Colour bar.
+    draw_colour_bar(&bar, p, bar_w, vector)?;
+    Ok(rect)
+}
+
+/// The colour bar of a heatmap panel: the scale's full range in 256 steps, labelled with the
+/// value label (and the scale's transform) on the right.
+fn draw_colour_bar<DB: DrawingBackend<ErrorType: 'static>>(
+    bar: &DrawingArea<DB, Shift>,
+    p: &HeatPanel,
+    bar_w: u32,
+    vector: bool,
+) -> Result<(), ConsumerError> {
     let (t0, t1) = (p.scale.transform(p.scale.lo), p.scale.transform(p.scale.hi));
     let (t0, t1) = if t1 > t0 {
         (t0, t1)
     } else {
         (t0 - 0.5, t0 + 0.5)
     };
-    let mut bc = ChartBuilder::on(&bar)
+    let mut bc = ChartBuilder::on(bar)
         .margin_top(6 + TITLE_FONT + 6)
         .margin_bottom(6)
         .margin_right(12)
@@ -455,7 +466,7 @@ fn draw_heat<DB: DrawingBackend<ErrorType: 'static>>(
         },
         vector,
     )?;
-    Ok(rect)
+    Ok(())
 }
 
 /// Draw a line panel.

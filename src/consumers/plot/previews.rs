@@ -50,7 +50,15 @@ pub fn previews(table_path: &Path, out_dir: &Path) -> Result<Vec<PathBuf>, Consu
             .any(|&i| pt.table.axes()[i].name == "radius" && pt.table.axes()[i].len() > 1)
         {
             let p = name("lee");
-            plot_lee(&pt, &[], None, (120.0, 145.0), &p, (900, 600))?;
+            plot_lee(
+                &pt,
+                &[],
+                None,
+                (120.0, 145.0),
+                &p,
+                (900, 600),
+                &crate::consumers::Silent,
+            )?;
             written.push(p);
         }
         if pt.table.channel_index("phase_p2").is_ok() {
@@ -355,137 +363,181 @@ fn mid_non_zero(v: &View, axis: usize) -> usize {
     }
 }
 
+/// One curve per pick of `axis` (labelled `name`), each a line of channel `ch` along `along`
+/// through the index `at(pick)`.
+fn sweep_series(
+    v: &View,
+    axis: usize,
+    picks: &[usize],
+    name: &str,
+    along: usize,
+    ch: usize,
+    at: impl Fn(usize) -> Vec<usize>,
+) -> Vec<Series> {
+    picks
+        .iter()
+        .enumerate()
+        .map(|(k, &i)| {
+            series(
+                v.at_text(axis, i, name),
+                seq_colour(k, picks.len()),
+                Dash::Solid,
+                v.line(&at(i), along, ch),
+            )
+        })
+        .collect()
+}
+
+/// Axes, channels and the default slice of a `fur-medulla-azimuthal` table.
+struct MedullaAzimuthalView {
+    sa: usize,
+    ga: usize,
+    ha: usize,
+    pa: usize,
+    energy: usize,
+    path: usize,
+    /// Default σ, g and h' samples.
+    s0: usize,
+    g0: usize,
+    h_half: usize,
+    /// " per X° bin" when the table says its bin width.
+    bin: String,
+    at_sg: String,
+    x_label: String,
+}
+
+impl MedullaAzimuthalView {
+    fn new(v: &View) -> Result<Self, ConsumerError> {
+        let (sa, ga, ha, pa) = (v.ax("sigma")?, v.ax("g")?, v.ax("h")?, v.ax("phi")?);
+        let (s0, g0) = (mid_non_zero(v, sa), v.mid(ga));
+        let bin =
+            v.t.header
+                .attributes
+                .get("bin_width_deg")
+                .and_then(|b| b.as_f64())
+                .map(|b| format!(" per {}° bin", short_number(b)))
+                .unwrap_or_default();
+        Ok(Self {
+            sa,
+            ga,
+            ha,
+            pa,
+            energy: v.ch("energy")?,
+            path: v.ch("path_length")?,
+            s0,
+            g0,
+            h_half: v.nearest(ha, 0.5),
+            bin,
+            at_sg: format!("{}, {}", v.at_text(sa, s0, "σ"), v.at_text(ga, g0, "g")),
+            x_label: v.axis_label(pa, "φ' (0 = straight through)"),
+        })
+    }
+
+    /// Index with σ, g, h' set (φ' left at 0).
+    fn index(&self, s: usize, g: usize, h: usize) -> Vec<usize> {
+        let mut i = vec![0; 4];
+        i[self.sa] = s;
+        i[self.ga] = g;
+        i[self.ha] = h;
+        i
+    }
+
+    /// Energy and path length vs φ' for several h', σ and g.
+    fn profiles(&self, v: &View) -> Figure {
+        let (s0, g0, h_half, pa) = (self.s0, self.g0, self.h_half, self.pa);
+        let hs = spread(&non_negative(v, self.ha, true), 5);
+        let by_h = |ch| sweep_series(v, self.ha, &hs, "h'", pa, ch, |h| self.index(s0, g0, h));
+        let sigmas = spread(&non_zero(v, self.sa), 5);
+        let by_sigma = sweep_series(v, self.sa, &sigmas, "σ", pa, self.energy, |s| {
+            self.index(s, g0, h_half)
+        });
+        let gs = spread(&(0..v.len(self.ga)).collect::<Vec<_>>(), 5);
+        let by_g = sweep_series(v, self.ga, &gs, "g", pa, self.energy, |g| {
+            self.index(s0, g, h_half)
+        });
+        let e_label = format!("scattered energy{} (1)", self.bin);
+        let at_sg = &self.at_sg;
+        let xl = &self.x_label;
+        Figure {
+            title: v.title("azimuthal profile C^N(φ'; h', σ, g) of the medulla"),
+            cols: 2,
+            size: (1400, 900),
+            panels: vec![
+                lines(
+                    format!("energy vs φ' for several h', {at_sg}"),
+                    xl.clone(),
+                    e_label.clone(),
+                    by_h(self.energy),
+                    false,
+                ),
+                lines(
+                    format!(
+                        "energy vs φ' for several σ, {}, {}",
+                        v.at_text(self.ha, h_half, "h'"),
+                        v.at_text(self.ga, g0, "g")
+                    ),
+                    xl.clone(),
+                    e_label.clone(),
+                    by_sigma,
+                    false,
+                ),
+                lines(
+                    format!(
+                        "energy vs φ' for several g, {}, {}",
+                        v.at_text(self.sa, s0, "σ"),
+                        v.at_text(self.ha, h_half, "h'")
+                    ),
+                    xl.clone(),
+                    e_label,
+                    by_g,
+                    false,
+                ),
+                lines(
+                    format!("mean path length in the medulla, {at_sg}"),
+                    xl.clone(),
+                    v.channel_label(self.path, "path length"),
+                    by_h(self.path),
+                    false,
+                ),
+            ],
+        }
+    }
+
+    /// Energy and path length over h' × φ' at the default σ, g.
+    fn map(&self, v: &View) -> Figure {
+        let idx = self.index(self.s0, self.g0, 0);
+        let at_sg = &self.at_sg;
+        let y_label = v.axis_label(self.ha, "h' (entry offset)");
+        Figure {
+            title: v.title(&format!("entry offset h' × exit azimuth φ', {at_sg}")),
+            cols: 1,
+            size: (1200, 900),
+            panels: vec![
+                heat(
+                    format!("scattered energy{}, {at_sg}", self.bin),
+                    self.x_label.clone(),
+                    y_label.clone(),
+                    v.grid(&idx, self.pa, self.ha, self.energy),
+                    Scale::FromZero,
+                    "energy".into(),
+                ),
+                heat(
+                    format!("mean in-medulla path length, {at_sg}"),
+                    self.x_label.clone(),
+                    y_label,
+                    v.grid(&idx, self.pa, self.ha, self.path),
+                    Scale::FromZero,
+                    v.channel_label(self.path, "path length"),
+                ),
+            ],
+        }
+    }
+}
+
 /// `fur-medulla-azimuthal/1`: profile plots and an h' × φ' map.
 pub fn medulla_azimuthal(v: &View) -> Result<Vec<(&'static str, Figure)>, ConsumerError> {
-    let (sa, ga, ha, pa) = (v.ax("sigma")?, v.ax("g")?, v.ax("h")?, v.ax("phi")?);
-    let (energy, path) = (v.ch("energy")?, v.ch("path_length")?);
-    let (s0, g0) = (mid_non_zero(v, sa), v.mid(ga));
-    let h_half = v.nearest(ha, 0.5);
-    let base = |s: usize, g: usize, h: usize| {
-        let mut i = vec![0; 4];
-        i[sa] = s;
-        i[ga] = g;
-        i[ha] = h;
-        i
-    };
-    let bin =
-        v.t.header
-            .attributes
-            .get("bin_width_deg")
-            .and_then(|b| b.as_f64())
-            .map(|b| format!(" per {}° bin", short_number(b)))
-            .unwrap_or_default();
-    let at_sg = format!("{}, {}", v.at_text(sa, s0, "σ"), v.at_text(ga, g0, "g"));
-    let xl = v.axis_label(pa, "φ' (0 = straight through)");
-    let hs = spread(&non_negative(v, ha, true), 5);
-    let by_h = |ch: usize| -> Vec<Series> {
-        hs.iter()
-            .enumerate()
-            .map(|(k, &h)| {
-                series(
-                    v.at_text(ha, h, "h'"),
-                    seq_colour(k, hs.len()),
-                    Dash::Solid,
-                    v.line(&base(s0, g0, h), pa, ch),
-                )
-            })
-            .collect()
-    };
-    let sigmas = spread(&non_zero(v, sa), 5);
-    let by_sigma: Vec<Series> = sigmas
-        .iter()
-        .enumerate()
-        .map(|(k, &s)| {
-            series(
-                v.at_text(sa, s, "σ"),
-                seq_colour(k, sigmas.len()),
-                Dash::Solid,
-                v.line(&base(s, g0, h_half), pa, energy),
-            )
-        })
-        .collect();
-    let gs = spread(&(0..v.len(ga)).collect::<Vec<_>>(), 5);
-    let by_g: Vec<Series> = gs
-        .iter()
-        .enumerate()
-        .map(|(k, &g)| {
-            series(
-                v.at_text(ga, g, "g"),
-                seq_colour(k, gs.len()),
-                Dash::Solid,
-                v.line(&base(s0, g, h_half), pa, energy),
-            )
-        })
-        .collect();
-    let e_label = format!("scattered energy{bin} (1)");
-    let profiles = Figure {
-        title: v.title("azimuthal profile C^N(φ'; h', σ, g) of the medulla"),
-        cols: 2,
-        size: (1400, 900),
-        panels: vec![
-            lines(
-                format!("energy vs φ' for several h', {at_sg}"),
-                xl.clone(),
-                e_label.clone(),
-                by_h(energy),
-                false,
-            ),
-            lines(
-                format!(
-                    "energy vs φ' for several σ, {}, {}",
-                    v.at_text(ha, h_half, "h'"),
-                    v.at_text(ga, g0, "g")
-                ),
-                xl.clone(),
-                e_label.clone(),
-                by_sigma,
-                false,
-            ),
-            lines(
-                format!(
-                    "energy vs φ' for several g, {}, {}",
-                    v.at_text(sa, s0, "σ"),
-                    v.at_text(ha, h_half, "h'")
-                ),
-                xl.clone(),
-                e_label.clone(),
-                by_g,
-                false,
-            ),
-            lines(
-                format!("mean path length in the medulla, {at_sg}"),
-                xl.clone(),
-                v.channel_label(path, "path length"),
-                by_h(path),
-                false,
-            ),
-        ],
-    };
-    let idx = base(s0, g0, 0);
-    let map = Figure {
-        title: v.title(&format!("entry offset h' × exit azimuth φ', {at_sg}")),
-        cols: 1,
-        size: (1200, 900),
-        panels: vec![
-            heat(
-                format!("scattered energy{bin}, {at_sg}"),
-                xl.clone(),
-                v.axis_label(ha, "h' (entry offset)"),
-                v.grid(&idx, pa, ha, energy),
-                Scale::FromZero,
-                "energy".into(),
-            ),
-            heat(
-                format!("mean in-medulla path length, {at_sg}"),
-                xl,
-                v.axis_label(ha, "h' (entry offset)"),
-                v.grid(&idx, pa, ha, path),
-                Scale::FromZero,
-                v.channel_label(path, "path length"),
-            ),
-        ],
-    };
-    Ok(vec![("profiles", profiles), ("map", map)])
+    let m = MedullaAzimuthalView::new(v)?;
+    Ok(vec![("profiles", m.profiles(v)), ("map", m.map(v))])
 }
 
 /// `fur-medulla-longitudinal/1`: back and forward lobes vs θ'_r.
@@ -684,106 +736,177 @@ fn rgb_colour(c: f64) -> RGBColor {
     }
 }
 
+/// How a `hair-dual` channel is drawn: as stored, radians → degrees, or the square root of a
+/// variance (rad²) in degrees.
+#[derive(Clone, Copy)]
+enum DualPlotted {
+    AsStored,
+    Degrees,
+    SqrtDegrees,
+}
+
+impl DualPlotted {
+    fn apply(self, y: f64) -> f64 {
+        let deg = 180.0 / std::f64::consts::PI;
+        match self {
+            DualPlotted::AsStored => y,
+            DualPlotted::Degrees => y * deg,
+            DualPlotted::SqrtDegrees => y.max(0.0).sqrt() * deg,
+        }
+    }
+}
+
+/// One panel of [`hair_dual_colour`].
+struct DualPanel {
+    title: &'static str,
+    y_label: &'static str,
+    /// Channels drawn solid, dashed, dotted.
+    channels: &'static [(&'static str, DualPlotted)],
+    /// Legend at the upper middle (else upper right).
+    upper_middle: bool,
+}
+
+/// The panels of [`hair_dual_colour`].
+const HAIR_DUAL_PANELS: [DualPanel; 6] = [
+    DualPanel {
+        title: "a_f (solid: forward), a_b (dashed: backward)",
+        y_label: "average attenuation (1)",
+        channels: &[
+            ("a_f", DualPlotted::AsStored),
+            ("a_b", DualPlotted::AsStored),
+        ],
+        upper_middle: true,
+    },
+    DualPanel {
+        title: "alpha_f (solid), alpha_b (dashed): mean longitudinal shifts",
+        y_label: "shift (deg)",
+        channels: &[
+            ("alpha_f", DualPlotted::Degrees),
+            ("alpha_b", DualPlotted::Degrees),
+        ],
+        upper_middle: false,
+    },
+    DualPanel {
+        title: "sqrt(beta_f2) (solid), sqrt(beta_b2) (dashed): mean widths",
+        y_label: "width (deg)",
+        channels: &[
+            ("beta_f2", DualPlotted::SqrtDegrees),
+            ("beta_b2", DualPlotted::SqrtDegrees),
+        ],
+        upper_middle: false,
+    },
+    DualPanel {
+        title: "A_b: multiple backscattering attenuation",
+        y_label: "A_b (1)",
+        channels: &[("A_b", DualPlotted::AsStored)],
+        upper_middle: true,
+    },
+    DualPanel {
+        title: "delta_b (solid), sigma_b = sqrt(sigma_b2) (dashed)",
+        y_label: "backscattering shift, width (deg)",
+        channels: &[
+            ("delta_b", DualPlotted::Degrees),
+            ("sigma_b2", DualPlotted::SqrtDegrees),
+        ],
+        upper_middle: false,
+    },
+    DualPanel {
+        title: "lobe energies E_R (solid), E_TT (dashed), E_TRT (dotted)",
+        y_label: "energy (1)",
+        channels: &[
+            ("E_R", DualPlotted::AsStored),
+            ("E_TT", DualPlotted::AsStored),
+            ("E_TRT", DualPlotted::AsStored),
+        ],
+        upper_middle: true,
+    },
+];
+
+/// Curves of a per-colour `hair-dual` table along θ at a fixed index of the other axes.
+struct RgbCurves<'v, 'a> {
+    v: &'v View<'a>,
+    colour_axis: usize,
+    theta_axis: usize,
+    idx: Vec<usize>,
+}
+
+impl RgbCurves<'_, '_> {
+    /// One curve of channel `name` per colour; legend "R", "G", "B" when `label`.
+    fn curves(
+        &self,
+        name: &str,
+        plotted: DualPlotted,
+        dash: Dash,
+        label: bool,
+    ) -> Result<Vec<Series>, ConsumerError> {
+        let (v, ca) = (self.v, self.colour_axis);
+        let ch = v.ch(name)?;
+        Ok((0..v.len(ca))
+            .map(|c| {
+                let mut k = self.idx.clone();
+                k[ca] = c;
+                let cc = v.coord(ca, c);
+                let rgb = ["R", "G", "B"].get(cc.round() as usize).unwrap_or(&"?");
+                series(
+                    if label {
+                        rgb.to_string()
+                    } else {
+                        String::new()
+                    },
+                    rgb_colour(cc),
+                    dash,
+                    v.line(&k, self.theta_axis, ch)
+                        .into_iter()
+                        .map(|(x, y)| (x, plotted.apply(y)))
+                        .collect(),
+                )
+            })
+            .collect())
+    }
+
+    /// The curves of several channels, told apart by line style (solid, dashed, dotted).
+    fn group(&self, names: &[(&str, DualPlotted)]) -> Result<Vec<Series>, ConsumerError> {
+        let dashes = [Dash::Solid, Dash::Dashed, Dash::Dotted];
+        let mut s = Vec::new();
+        for (k, &(name, plotted)) in names.iter().enumerate() {
+            s.extend(self.curves(name, plotted, dashes[k % 3], k == 0)?);
+        }
+        Ok(s)
+    }
+}
+
 /// `hair-dual/1` per colour: the Dual Scattering quantities vs θ, one curve per RGB channel
 /// (line style = which quantity; the legend names the colours once per panel).
 fn hair_dual_colour(v: &View) -> Result<Vec<(&'static str, Figure)>, ConsumerError> {
-    let ca = v.ax("colour_channel")?;
-    let ta = v.ax("theta")?;
-    let na = v.t.axes().len();
-    let mut idx = vec![0; na];
+    let mut rgb = RgbCurves {
+        v,
+        colour_axis: v.ax("colour_channel")?,
+        theta_axis: v.ax("theta")?,
+        idx: vec![0; v.t.axes().len()],
+    };
     let mut slice = String::new();
     if let Ok(r) = v.ax("roughness") {
-        idx[r] = v.mid(r);
-        slice = format!(", {}", v.at_text(r, idx[r], "roughness"));
+        rgb.idx[r] = v.mid(r);
+        slice = format!(", {}", v.at_text(r, rgb.idx[r], "roughness"));
     }
-    let xl = v.axis_label(ta, "θ_i (light inclination)");
-    let deg = 180.0 / std::f64::consts::PI;
-    // Curves of channel `name` (transformed by `f`) per colour; legend "R", "G", "B" when
-    // `label`.
-    let curve = |name: &str, f: &dyn Fn(f64) -> f64, dash: Dash, label: bool| {
-        let ch = v.ch(name)?;
-        Ok::<Vec<Series>, ConsumerError>(
-            (0..v.len(ca))
-                .map(|c| {
-                    let mut k = idx.clone();
-                    k[ca] = c;
-                    let cc = v.coord(ca, c);
-                    let rgb = ["R", "G", "B"].get(cc.round() as usize).unwrap_or(&"?");
-                    series(
-                        if label {
-                            rgb.to_string()
-                        } else {
-                            String::new()
-                        },
-                        rgb_colour(cc),
-                        dash,
-                        v.line(&k, ta, ch)
-                            .into_iter()
-                            .map(|(x, y)| (x, f(y)))
-                            .collect(),
-                    )
-                })
-                .collect(),
-        )
-    };
-    let id = |y: f64| y;
-    let to_deg = |y: f64| y * deg;
-    let sqrt_deg = |y: f64| y.max(0.0).sqrt() * deg;
-    let group = |names: &[(&str, &dyn Fn(f64) -> f64)]| -> Result<Vec<Series>, ConsumerError> {
-        let dashes = [Dash::Solid, Dash::Dashed, Dash::Dotted];
-        let mut s = Vec::new();
-        for (k, (name, f)) in names.iter().enumerate() {
-            s.extend(curve(name, *f, dashes[k % 3], k == 0)?);
-        }
-        Ok(s)
-    };
-    let panels = vec![
-        lines_at(
-            "a_f (solid: forward), a_b (dashed: backward)".into(),
-            xl.clone(),
-            "average attenuation (1)".into(),
-            group(&[("a_f", &id), ("a_b", &id)])?,
-            false,
-            Legend::UpperMiddle,
-        ),
-        lines(
-            "alpha_f (solid), alpha_b (dashed): mean longitudinal shifts".into(),
-            xl.clone(),
-            "shift (deg)".into(),
-            group(&[("alpha_f", &to_deg), ("alpha_b", &to_deg)])?,
-            false,
-        ),
-        lines(
-            "sqrt(beta_f2) (solid), sqrt(beta_b2) (dashed): mean widths".into(),
-            xl.clone(),
-            "width (deg)".into(),
-            group(&[("beta_f2", &sqrt_deg), ("beta_b2", &sqrt_deg)])?,
-            false,
-        ),
-        lines_at(
-            "A_b: multiple backscattering attenuation".into(),
-            xl.clone(),
-            "A_b (1)".into(),
-            group(&[("A_b", &id)])?,
-            false,
-            Legend::UpperMiddle,
-        ),
-        lines(
-            "delta_b (solid), sigma_b = sqrt(sigma_b2) (dashed)".into(),
-            xl.clone(),
-            "backscattering shift, width (deg)".into(),
-            group(&[("delta_b", &to_deg), ("sigma_b2", &sqrt_deg)])?,
-            false,
-        ),
-        lines_at(
-            "lobe energies E_R (solid), E_TT (dashed), E_TRT (dotted)".into(),
-            xl,
-            "energy (1)".into(),
-            group(&[("E_R", &id), ("E_TT", &id), ("E_TRT", &id)])?,
-            false,
-            Legend::UpperMiddle,
-        ),
-    ];
+    let xl = v.axis_label(rgb.theta_axis, "θ_i (light inclination)");
+    let panels = HAIR_DUAL_PANELS
+        .iter()
+        .map(|p| {
+            Ok(lines_at(
+                p.title.into(),
+                xl.clone(),
+                p.y_label.into(),
+                rgb.group(p.channels)?,
+                false,
+                if p.upper_middle {
+                    Legend::UpperMiddle
+                } else {
+                    Legend::UpperRight
+                },
+            ))
+        })
+        .collect::<Result<Vec<Panel>, ConsumerError>>()?;
     Ok(vec![(
         "curves",
         Figure {

@@ -113,6 +113,111 @@ fn raster<DB: DrawingBackend<ErrorType: 'static>>(
     Ok(())
 }
 
+/// Curves, colour strips and peaks of a bows figure, per input and per [`BOW_DIRECTIONS`] entry.
+struct BowSeries {
+    /// Outgoing polar angles (deg) of the strips, [`THETA_STEP_DEG`] apart.
+    polar: Vec<f64>,
+    /// `[input][direction]` → (θ, p) at every second strip angle.
+    curves: Vec<Vec<Vec<(f64, f64)>>>,
+    /// `[input][direction]` → disc-averaged XYZ at every strip angle.
+    strips: Vec<Vec<Vec<[f64; 3]>>>,
+    peaks: Vec<Vec<BowPeak>>,
+    /// Smallest and largest positive phase value over every curve.
+    lo: f64,
+    hi: f64,
+}
+
+/// Primary-bow window (outgoing polar, deg) searched for the phase and luminance maxima:
+/// between Alexander's band and the bright inside (the geometric primary of water is at
+/// 137.5°–138.5°).
+const PRIMARY_WINDOW_DEG: (f64, f64) = (133.0, 146.0);
+
+fn bow_series(
+    inputs: &[BowInput],
+    wavelength_nm: f64,
+    disc: &SunDisc,
+    range: (f64, f64),
+) -> BowSeries {
+    let n_strip = ((range.1 - range.0) / THETA_STEP_DEG).round() as usize + 1;
+    let polar: Vec<f64> = (0..n_strip)
+        .map(|i| range.0 + i as f64 * THETA_STEP_DEG)
+        .collect();
+    let mut series = BowSeries {
+        curves: Vec::new(),
+        strips: Vec::new(),
+        peaks: Vec::new(),
+        lo: f64::INFINITY,
+        hi: 0.0,
+        polar: Vec::new(),
+    };
+    for inp in inputs {
+        let k = nearest(&inp.slice.wavelengths_nm, wavelength_nm);
+        let (mut cs, mut ss, mut ps) = (vec![], vec![], vec![]);
+        for &(phi, _) in &BOW_DIRECTIONS {
+            let c: Vec<(f64, f64)> = polar
+                .iter()
+                .step_by(2)
+                .map(|&t| (t, inp.slice.value(k, t, phi)))
+                .collect();
+            for &(_, v) in c.iter().filter(|(_, v)| *v > 0.0) {
+                series.lo = series.lo.min(v);
+                series.hi = series.hi.max(v);
+            }
+            let xyz = strip_xyz(&inp.slice, phi, &polar, disc.extra_deg);
+            ps.push(bow_peak(inp, k, phi, &polar, &xyz, range));
+            cs.push(c);
+            ss.push(xyz);
+        }
+        series.curves.push(cs);
+        series.strips.push(ss);
+        series.peaks.push(ps);
+    }
+    series.polar = polar;
+    series
+}
+
+/// Peaks of one input along azimuth `phi` (deg): phase and luminance maxima in
+/// [`PRIMARY_WINDOW_DEG`] (clipped to the plotted range), and the primary order's maximum.
+fn bow_peak(
+    inp: &BowInput,
+    k: usize,
+    phi: f64,
+    polar: &[f64],
+    xyz: &[[f64; 3]],
+    range: (f64, f64),
+) -> BowPeak {
+    let (plo, phi_hi) = (
+        PRIMARY_WINDOW_DEG.0.max(range.0),
+        PRIMARY_WINDOW_DEG.1.min(range.1),
+    );
+    let lum_peak = polar
+        .iter()
+        .zip(xyz)
+        .filter(|(t, _)| **t >= plo && **t <= phi_hi)
+        .fold((f64::NAN, f64::NEG_INFINITY), |b, (t, v)| {
+            if v[1] > b.1 { (*t, v[1]) } else { b }
+        })
+        .0;
+    BowPeak {
+        azimuth_deg: phi,
+        phase_peak_deg: peak_polar_deg(&inp.slice, k, phi, plo, phi_hi),
+        luminance_peak_deg: lum_peak,
+        order2_peak_deg: inp.primary_order.as_ref().map(|p2| {
+            let (a, b) = PRIMARY_SEARCH_DEG;
+            peak_polar_deg(p2, k, phi, a, b)
+        }),
+    }
+}
+
+/// Colour of the `i`-th of `n` inputs.
+fn bow_palette(i: usize, n: usize) -> RGBColor {
+    ViridisRGB.get_color(if n > 1 {
+        0.9 * i as f32 / (n - 1) as f32
+    } else {
+        0.0
+    })
+}
+
 /// The bows figure (see the module doc); returns the peaks per input and direction. The colour
 /// strips convolve `disc.extra_deg`, the disc the tables have not applied ([`SunDisc::plan`]).
 pub fn plot_bows(
@@ -126,74 +231,16 @@ pub fn plot_bows(
     if inputs.is_empty() {
         return Err(ConsumerError::invalid("no tables to plot"));
     }
-    let n_strip = ((range.1 - range.0) / THETA_STEP_DEG).round() as usize + 1;
-    let polar: Vec<f64> = (0..n_strip)
-        .map(|i| range.0 + i as f64 * THETA_STEP_DEG)
-        .collect();
-    // Curves, strips and peaks.
-    let mut curves = Vec::new(); // [input][dir] -> Vec<(θ, p)>
-    let mut strips = Vec::new(); // [input][dir] -> Vec<[f64; 3]>
-    let mut peaks = Vec::new();
-    let (mut lo, mut hi) = (f64::INFINITY, 0.0f64);
-    for inp in inputs {
-        let k = nearest(&inp.slice.wavelengths_nm, wavelength_nm);
-        let (mut cs, mut ss, mut ps) = (vec![], vec![], vec![]);
-        for &(phi, _) in &BOW_DIRECTIONS {
-            let c: Vec<(f64, f64)> = polar
-                .iter()
-                .step_by(2)
-                .map(|&t| (t, inp.slice.value(k, t, phi)))
-                .collect();
-            for &(_, v) in &c {
-                if v > 0.0 {
-                    lo = lo.min(v);
-                    hi = hi.max(v);
-                }
-            }
-            let xyz = strip_xyz(&inp.slice, phi, &polar, disc.extra_deg);
-            // Primary bow: brightest angle in 133°–146° (between Alexander's band and the
-            // bright inside; the geometric primary of water is at 137.5°–138.5°).
-            let (plo, phi_hi) = (133.0f64.max(range.0), 146.0f64.min(range.1));
-            let lum_peak = polar
-                .iter()
-                .zip(&xyz)
-                .filter(|(t, _)| **t >= plo && **t <= phi_hi)
-                .fold((f64::NAN, f64::NEG_INFINITY), |b, (t, v)| {
-                    if v[1] > b.1 { (*t, v[1]) } else { b }
-                })
-                .0;
-            ps.push(BowPeak {
-                azimuth_deg: phi,
-                phase_peak_deg: peak_polar_deg(&inp.slice, k, phi, plo, phi_hi),
-                luminance_peak_deg: lum_peak,
-                order2_peak_deg: inp.primary_order.as_ref().map(|p2| {
-                    let (a, b) = PRIMARY_SEARCH_DEG;
-                    peak_polar_deg(p2, k, phi, a, b)
-                }),
-            });
-            cs.push(c);
-            ss.push(xyz);
-        }
-        curves.push(cs);
-        strips.push(ss);
-        peaks.push(ps);
-    }
-    if !(hi > 0.0) {
+    let mut series = bow_series(inputs, wavelength_nm, disc, range);
+    if !(series.hi > 0.0) {
         return Err(ConsumerError::invalid(format!(
             "no positive phase values in {range:?}"
         )));
     }
-    let lo = lo.max(hi * 1e-8);
+    series.lo = series.lo.max(series.hi * 1e-8);
     let k0 = nearest(&inputs[0].slice.wavelengths_nm, wavelength_nm);
     let wl_label = inputs[0].slice.wavelengths_nm[k0];
     let n = inputs.len();
-    let palette = |i: usize| -> RGBColor {
-        ViridisRGB.get_color(if n > 1 {
-            0.9 * i as f32 / (n - 1) as f32
-        } else {
-            0.0
-        })
-    };
     with_backend!(out, size, |root| {
         root.fill(&WHITE).map_err(perr)?;
         let title = format!(
@@ -208,82 +255,108 @@ pub fn plot_bows(
         let ups = upper.split_evenly((1, 3));
         let lows = lower.split_evenly((1, 3));
         for (d, &(_, name)) in BOW_DIRECTIONS.iter().enumerate() {
-            let mut chart = ChartBuilder::on(&ups[d])
-                .caption(name, ("sans-serif", 15))
-                .margin(8)
-                .x_label_area_size(35)
-                .y_label_area_size(60)
-                .build_cartesian_2d(range.0..range.1, (lo * 0.8..hi * 1.25).log_scale())
-                .map_err(perr)?;
-            chart
-                .configure_mesh()
-                .x_desc("outgoing polar angle (deg)")
-                .y_desc("p (1/sr)")
-                .y_label_formatter(&|v| format!("{v:.0e}"))
-                .draw()
-                .map_err(perr)?;
-            for (i, inp) in inputs.iter().enumerate() {
-                let col = palette(i);
-                let s = chart
-                    .draw_series(LineSeries::new(
-                        curves[i][d].iter().map(|&(t, v)| (t, v.max(lo))),
-                        col.stroke_width(1),
-                    ))
-                    .map_err(perr)?;
-                if d == 0 {
-                    s.label(inp.label.clone()).legend(move |(x, y)| {
-                        PathElement::new(vec![(x, y), (x + 20, y)], col.stroke_width(2))
-                    });
-                }
-            }
-            if d == 0 {
-                chart
-                    .configure_series_labels()
-                    .background_style(WHITE.mix(0.8))
-                    .border_style(BLACK)
-                    .position(SeriesLabelPosition::UpperLeft)
-                    .draw()
-                    .map_err(perr)?;
-            }
-            // Strips: one row per input (first input at the top), each normalised to its
-            // brightest angle, labelled at the left.
-            let mut sc = ChartBuilder::on(&lows[d])
-                .margin(8)
-                .x_label_area_size(35)
-                .y_label_area_size(60)
-                .build_cartesian_2d(range.0..range.1, 0f64..n as f64)
-                .map_err(perr)?;
-            sc.configure_mesh()
-                .disable_mesh()
-                .disable_y_axis()
-                .x_desc("outgoing polar angle (deg)")
-                .draw()
-                .map_err(perr)?;
-            for (i, inp) in inputs.iter().enumerate() {
-                let (x, y) = sc.backend_coord(&(range.0, (n - i) as f64 - 0.5));
-                root.draw(&Text::new(
-                    inp.label.replace("a = ", ""),
-                    (x - 56, y - 7),
-                    ("sans-serif", 13),
-                ))
-                .map_err(perr)?;
-            }
-            let scales: Vec<f64> = (0..n)
-                .map(|i| {
-                    let m = strips[i][d].iter().map(|v| v[1]).fold(0.0, f64::max);
-                    if m > 0.0 { 1.0 / m } else { 1.0 }
-                })
-                .collect();
-            raster(&root, &sc, |t, y| {
-                let i = n - 1 - (y.floor().max(0.0) as usize).min(n - 1);
-                let j =
-                    (((t - range.0) / THETA_STEP_DEG).round().max(0.0) as usize).min(n_strip - 1);
-                xyz_colour(strips[i][d][j], scales[i])
-            })?;
+            draw_bow_curves(&ups[d], name, d, inputs, &series, range)?;
+            draw_bow_strips(&root, &lows[d], d, inputs, &series, range)?;
         }
         Ok::<(), ConsumerError>(())
     })?;
-    Ok(peaks)
+    Ok(series.peaks)
+}
+
+/// The log-scale phase panel of direction `d`: one curve per input, legend on the first.
+fn draw_bow_curves<DB: DrawingBackend<ErrorType: 'static>>(
+    area: &DrawingArea<DB, plotters::coord::Shift>,
+    name: &str,
+    d: usize,
+    inputs: &[BowInput],
+    series: &BowSeries,
+    range: (f64, f64),
+) -> Result<(), ConsumerError> {
+    let (lo, hi) = (series.lo, series.hi);
+    let mut chart = ChartBuilder::on(area)
+        .caption(name, ("sans-serif", 15))
+        .margin(8)
+        .x_label_area_size(35)
+        .y_label_area_size(60)
+        .build_cartesian_2d(range.0..range.1, (lo * 0.8..hi * 1.25).log_scale())
+        .map_err(perr)?;
+    chart
+        .configure_mesh()
+        .x_desc("outgoing polar angle (deg)")
+        .y_desc("p (1/sr)")
+        .y_label_formatter(&|v| format!("{v:.0e}"))
+        .draw()
+        .map_err(perr)?;
+    for (i, inp) in inputs.iter().enumerate() {
+        let col = bow_palette(i, inputs.len());
+        let s = chart
+            .draw_series(LineSeries::new(
+                series.curves[i][d].iter().map(|&(t, v)| (t, v.max(lo))),
+                col.stroke_width(1),
+            ))
+            .map_err(perr)?;
+        if d == 0 {
+            s.label(inp.label.clone()).legend(move |(x, y)| {
+                PathElement::new(vec![(x, y), (x + 20, y)], col.stroke_width(2))
+            });
+        }
+    }
+    if d == 0 {
+        chart
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.8))
+            .border_style(BLACK)
+            .position(SeriesLabelPosition::UpperLeft)
+            .draw()
+            .map_err(perr)?;
+    }
+    Ok(())
+}
+
+/// The colour strips of direction `d`: one row per input (first input at the top), each
+/// normalised to its brightest angle, labelled at the left.
+fn draw_bow_strips<DB: DrawingBackend<ErrorType: 'static>>(
+    root: &DrawingArea<DB, plotters::coord::Shift>,
+    area: &DrawingArea<DB, plotters::coord::Shift>,
+    d: usize,
+    inputs: &[BowInput],
+    series: &BowSeries,
+    range: (f64, f64),
+) -> Result<(), ConsumerError> {
+    let n = inputs.len();
+    let n_strip = series.polar.len();
+    let mut sc = ChartBuilder::on(area)
+        .margin(8)
+        .x_label_area_size(35)
+        .y_label_area_size(60)
+        .build_cartesian_2d(range.0..range.1, 0f64..n as f64)
+        .map_err(perr)?;
+    sc.configure_mesh()
+        .disable_mesh()
+        .disable_y_axis()
+        .x_desc("outgoing polar angle (deg)")
+        .draw()
+        .map_err(perr)?;
+    for (i, inp) in inputs.iter().enumerate() {
+        let (x, y) = sc.backend_coord(&(range.0, (n - i) as f64 - 0.5));
+        root.draw(&Text::new(
+            inp.label.replace("a = ", ""),
+            (x - 56, y - 7),
+            ("sans-serif", 13),
+        ))
+        .map_err(perr)?;
+    }
+    let scales: Vec<f64> = (0..n)
+        .map(|i| {
+            let m = series.strips[i][d].iter().map(|v| v[1]).fold(0.0, f64::max);
+            if m > 0.0 { 1.0 / m } else { 1.0 }
+        })
+        .collect();
+    raster(root, &sc, |t, y| {
+        let i = n - 1 - (y.floor().max(0.0) as usize).min(n - 1);
+        let j = (((t - range.0) / THETA_STEP_DEG).round().max(0.0) as usize).min(n_strip - 1);
+        xyz_colour(series.strips[i][d][j], scales[i])
+    })
 }
 
 /// Lat-long raster of log10 of one slice's phase at wavelength index k.

@@ -21,12 +21,13 @@
 //! (other axes at their middle sample) or a line plot for 1-D tables.
 
 use super::style::{PALETTE, axis_label, short_number, wavelength_colour, xyz_colour};
-use crate::consumers::ConsumerError;
 use crate::consumers::read::operators::SunDisc;
-use crate::consumers::read::phase::{EntrySelection, PhaseTable};
+use crate::consumers::read::phase::{EntrySelection, PhaseCurves, PhaseTable};
 use crate::consumers::read::spectrum::{THETA_STEP_DEG, xyz_vs_angle};
+use crate::consumers::{ConsumerError, Progress};
 use crate::table::Table;
 use plotters::prelude::*;
+use rayon::prelude::*;
 use std::path::Path;
 
 use super::figure::{
@@ -56,6 +57,60 @@ fn pick_wavelengths(all: &[f64], wanted: &[f64]) -> Vec<usize> {
     v
 }
 
+/// A log-scale chart of a quantity over the scattering angle 0–180° filling `root`.
+type AngleLogChart<'a, DB> = ChartContext<
+    'a,
+    DB,
+    Cartesian2d<
+        plotters::coord::types::RangedCoordf64,
+        plotters::coord::combinators::LogCoord<f64>,
+    >,
+>;
+
+/// The axes shared by every phase-vs-angle figure: 0–180° against `lo`–`hi` on a log scale,
+/// with `title` as caption and `y_desc` on the y axis.
+fn angle_log_chart<'a, DB: DrawingBackend<ErrorType: 'static>>(
+    root: &'a DrawingArea<DB, plotters::coord::Shift>,
+    title: &str,
+    (lo, hi): (f64, f64),
+    y_desc: &str,
+) -> Result<AngleLogChart<'a, DB>, ConsumerError> {
+    let mut chart = ChartBuilder::on(root)
+        .caption(title, ("sans-serif", 20))
+        .margin(10)
+        .x_label_area_size(40)
+        .y_label_area_size(70)
+        .build_cartesian_2d(0f64..180f64, (lo * 0.8..hi * 1.25).log_scale())
+        .map_err(perr)?;
+    chart
+        .configure_mesh()
+        .x_desc("scattering angle (deg, 0 = forward)")
+        .y_desc(y_desc)
+        .y_label_formatter(&|v| format!("{v:.0e}"))
+        .draw()
+        .map_err(perr)?;
+    Ok(chart)
+}
+
+/// Smallest and largest positive value of the curves plotted for wavelength indices `ks`
+/// (phase, and i_perp/i_par when `polarised`).
+fn positive_range(c: &PhaseCurves, ks: &[usize], polarised: bool) -> (f64, f64) {
+    let mut lo = f64::INFINITY;
+    let mut hi: f64 = 0.0;
+    for &k in ks {
+        let series: Vec<&Vec<f64>> = if polarised {
+            vec![&c.phase[k], &c.i_perp[k], &c.i_par[k]]
+        } else {
+            vec![&c.phase[k]]
+        };
+        for &v in series.into_iter().flatten().filter(|v| **v > 0.0) {
+            lo = lo.min(v);
+            hi = hi.max(v);
+        }
+    }
+    (lo, hi)
+}
+
 /// Phase function vs angle.
 pub fn plot_phase(
     pt: &PhaseTable,
@@ -67,49 +122,20 @@ pub fn plot_phase(
 ) -> Result<(), ConsumerError> {
     let c = pt.curves(entry)?;
     let ks = pick_wavelengths(&c.wavelengths_nm, wavelengths);
-    let mut lo = f64::INFINITY;
-    let mut hi: f64 = 0.0;
-    for &k in &ks {
-        let series: Vec<&Vec<f64>> = if polarised {
-            vec![&c.phase[k], &c.i_perp[k], &c.i_par[k]]
-        } else {
-            vec![&c.phase[k]]
-        };
-        for s in series {
-            for &v in s {
-                if v > 0.0 {
-                    lo = lo.min(v);
-                    hi = hi.max(v);
-                }
-            }
-        }
-    }
+    let (lo, hi) = positive_range(&c, &ks, polarised);
     if hi.is_nan() || hi <= 0.0 {
         return Err(ConsumerError::invalid(
             "no positive values to plot on a log scale",
         ));
     }
-    lo = lo.max(hi * 1e-12);
+    let lo = lo.max(hi * 1e-12);
     let title = format!(
         "phase function, {}",
         crate::consumers::read::phase::describe_entry(&pt.table, &c.entry)
     );
     with_backend!(out, size, |root| {
         root.fill(&WHITE).map_err(perr)?;
-        let mut chart = ChartBuilder::on(&root)
-            .caption(&title, ("sans-serif", 20))
-            .margin(10)
-            .x_label_area_size(40)
-            .y_label_area_size(70)
-            .build_cartesian_2d(0f64..180f64, (lo * 0.8..hi * 1.25).log_scale())
-            .map_err(perr)?;
-        chart
-            .configure_mesh()
-            .x_desc("scattering angle (deg, 0 = forward)")
-            .y_desc("p (1/sr)")
-            .y_label_formatter(&|v| format!("{v:.0e}"))
-            .draw()
-            .map_err(perr)?;
+        let mut chart = angle_log_chart(&root, &title, (lo, hi), "p (1/sr)")?;
         for &k in &ks {
             let col = wavelength_colour(c.wavelengths_nm[k]);
             let pts = |v: &Vec<f64>| {
@@ -127,22 +153,17 @@ pub fn plot_phase(
                     PathElement::new(vec![(x, y), (x + 20, y)], col.stroke_width(2))
                 });
             if polarised {
-                chart
-                    .draw_series(DashedLineSeries::new(
-                        pts(&c.i_perp[k]),
-                        6,
-                        4,
-                        col.stroke_width(1),
-                    ))
-                    .map_err(perr)?;
-                chart
-                    .draw_series(DashedLineSeries::new(
-                        pts(&c.i_par[k]),
-                        2,
-                        3,
-                        col.stroke_width(1),
-                    ))
-                    .map_err(perr)?;
+                // i_perp dashed, i_par dotted.
+                for (v, dash, gap) in [(&c.i_perp[k], 6, 4), (&c.i_par[k], 2, 3)] {
+                    chart
+                        .draw_series(DashedLineSeries::new(
+                            pts(v),
+                            dash,
+                            gap,
+                            col.stroke_width(1),
+                        ))
+                        .map_err(perr)?;
+                }
             }
         }
         chart
@@ -234,6 +255,7 @@ pub fn plot_lee(
     range: (f64, f64),
     out: &Path,
     size: (u32, u32),
+    progress: &dyn Progress,
 ) -> Result<SunDisc, ConsumerError> {
     let disc = SunDisc::plan(&pt.table, sun_diameter_deg)?;
     let axes = pt.table.axes();
@@ -250,19 +272,25 @@ pub fn plot_lee(
         ));
     }
     let unit = axes[ai].unit.clone();
-    let mut cols = Vec::new();
-    for &r in &radii {
-        let mut sel: Vec<EntrySelection> = entry
-            .iter()
-            .filter(|e| e.axis != "radius")
-            .cloned()
-            .collect();
-        sel.push(EntrySelection {
-            axis: "radius".into(),
-            value: r,
-        });
-        cols.push(strip_xyz(pt, &sel, &disc)?);
-    }
+    // One colour column per radius, in parallel.
+    progress.start(radii.len() as u64, "radii");
+    let cols = radii
+        .par_iter()
+        .map(|&r| {
+            let mut sel: Vec<EntrySelection> = entry
+                .iter()
+                .filter(|e| e.axis != "radius")
+                .cloned()
+                .collect();
+            sel.push(EntrySelection {
+                axis: "radius".into(),
+                value: r,
+            });
+            let col = strip_xyz(pt, &sel, &disc);
+            progress.advance(1);
+            col
+        })
+        .collect::<Result<Vec<_>, ConsumerError>>()?;
     let idx = |a: f64| ((a / THETA_STEP_DEG).round() as usize).min(cols[0].len() - 1);
     let log_x = radii[0] > 0.0 && radii[radii.len() - 1] / radii[0] > 20.0;
     let fx = |r: f64| if log_x { r.log10() } else { r };
@@ -491,19 +519,9 @@ pub fn plot_line(
     )
 }
 
-/// MiePlot's "Mie with its Debye components" figure for a table with per-order channels
-/// `phase_p<k>` (the `debye` stage): at one wavelength (nearest to `wavelength_nm`) and entry,
-/// the coherent sum of the tabulated orders (`phase`, black) and each order alone, log scale.
-pub fn plot_debye_components(
-    pt: &PhaseTable,
-    entry: &[EntrySelection],
-    wavelength_nm: f64,
-    out: &Path,
-    size: (u32, u32),
-) -> Result<(), ConsumerError> {
-    let t = &pt.table;
-    let orders: Vec<(String, usize)> = t
-        .header
+/// The per-order channels `phase_p<k>` of a table: (name, channel index).
+fn order_channels(t: &Table) -> Vec<(String, usize)> {
+    t.header
         .channels
         .iter()
         .enumerate()
@@ -513,16 +531,84 @@ pub fn plot_debye_components(
                 .is_some_and(|k| k.parse::<u32>().is_ok())
         })
         .map(|(i, c)| (c.name.clone(), i))
-        .collect();
+        .collect()
+}
+
+/// (θ, value) of the total `phase` (first) and of each order channel at one wavelength `w`
+/// (nm) and a resolved entry.
+fn order_series(
+    pt: &PhaseTable,
+    entry: &[(String, f64)],
+    w: f64,
+    orders: &[(String, usize)],
+) -> Result<Vec<Vec<(f64, f64)>>, ConsumerError> {
+    let t = &pt.table;
+    let ch_sum = t.channel_index("phase")?;
+    let mut coords = vec![0.0; t.axes().len()];
+    coords[pt.wavelength_axis] = w;
+    for (&i, e) in pt.entry_axes.iter().zip(entry) {
+        coords[i] = e.1;
+    }
+    let mut series: Vec<Vec<(f64, f64)>> = vec![Vec::new(); orders.len() + 1];
+    for a in pt.angles_deg() {
+        coords[pt.angle_axis] = a;
+        let v = t.sample(&coords)?;
+        series[0].push((a, v[ch_sum]));
+        for (k, (_, c)) in orders.iter().enumerate() {
+            series[k + 1].push((a, v[*c]));
+        }
+    }
+    Ok(series)
+}
+
+/// Legend text of an order channel `phase_p<p>`.
+fn order_label(name: &str) -> String {
+    let p = &name["phase_p".len()..];
+    let what = match p {
+        "0" => " (diffraction + external reflection)",
+        "1" => " (direct transmission)",
+        "2" => " (primary bow)",
+        "3" => " (secondary bow)",
+        _ => "",
+    };
+    format!("p = {p}{what}")
+}
+
+/// The contiguous runs of a curve above `floor`, each its own polyline: a component outside
+/// its geometric zone leaves the plot instead of running along its bottom.
+fn runs_above(curve: &[(f64, f64)], floor: f64) -> Vec<Vec<(f64, f64)>> {
+    let mut runs: Vec<Vec<(f64, f64)>> = vec![Vec::new()];
+    for &(a, v) in curve {
+        if v > floor {
+            runs.last_mut().expect("run").push((a, v));
+        } else if !runs.last().expect("run").is_empty() {
+            runs.push(Vec::new());
+        }
+    }
+    runs.retain(|r| r.len() > 1);
+    runs
+}
+
+/// MiePlot's "Mie with its Debye components" figure for a table with per-order channels
+/// `phase_p<k>` (the `debye` stage): at one wavelength (nearest to `wavelength_nm`) and entry,
+/// the coherent sum of the tabulated orders (`phase`, grey) and each order alone, log scale.
+pub fn plot_debye_components(
+    pt: &PhaseTable,
+    entry: &[EntrySelection],
+    wavelength_nm: f64,
+    out: &Path,
+    size: (u32, u32),
+) -> Result<(), ConsumerError> {
+    let t = &pt.table;
+    let orders = order_channels(t);
     if orders.is_empty() {
         return Err(ConsumerError::layout(
             "table has no per-order channels `phase_p<k>`",
         ));
     }
-    let ch_sum = t.channel_index("phase")?;
     let entry = pt.resolve_entry(entry)?;
-    let wl = pt.wavelengths_nm();
-    let w = wl
+    let w = pt
+        .wavelengths_nm()
         .iter()
         .cloned()
         .min_by(|a, b| {
@@ -531,29 +617,14 @@ pub fn plot_debye_components(
                 .total_cmp(&(b - wavelength_nm).abs())
         })
         .ok_or_else(|| ConsumerError::layout("the table has no wavelengths"))?;
-    let angles = pt.angles_deg();
-    let mut coords = vec![0.0; t.axes().len()];
-    coords[pt.wavelength_axis] = w;
-    for (&i, e) in pt.entry_axes.iter().zip(&entry) {
-        coords[i] = e.1;
-    }
-    let mut series: Vec<Vec<(f64, f64)>> = vec![Vec::new(); orders.len() + 1];
-    for &a in &angles {
-        coords[pt.angle_axis] = a;
-        let v = t.sample(&coords)?;
-        series[0].push((a, v[ch_sum]));
-        for (k, (_, c)) in orders.iter().enumerate() {
-            series[k + 1].push((a, v[*c]));
-        }
-    }
+    let series = order_series(pt, &entry, w, &orders)?;
     let hi = series.iter().flatten().map(|p| p.1).fold(0.0, f64::max);
     if hi <= 0.0 {
         return Err(ConsumerError::invalid(
             "no positive values to plot on a log scale",
         ));
     }
-    // Floor: a decade below the smallest value of the total; components that fall below it
-    // (outside their geometric zones) leave the plot instead of running along its bottom.
+    // Floor: a decade below the smallest value of the total.
     let lo = series[0]
         .iter()
         .map(|p| p.1)
@@ -562,75 +633,41 @@ pub fn plot_debye_components(
         .max(hi * 1e-9)
         * 0.1;
     let debye = t.header.schema.name.starts_with("debye");
+    let (what, total_label, y_desc) = if debye {
+        (
+            "Debye components",
+            "coherent sum of these orders",
+            "p (1/sr), over the full Mie C_sca",
+        )
+    } else {
+        (
+            "per-order contributions",
+            "phase (all orders, filtered, + diffraction lobe)",
+            "p (1/sr)",
+        )
+    };
     let title = format!(
-        "{}, {}, {w} nm",
-        if debye {
-            "Debye components"
-        } else {
-            "per-order contributions"
-        },
+        "{what}, {}, {w} nm",
         crate::consumers::read::phase::describe_entry(t, &entry)
     );
-    let total_label = if debye {
-        "coherent sum of these orders"
-    } else {
-        "phase (all orders, filtered, + diffraction lobe)"
-    };
     with_backend!(out, size, |root| {
         root.fill(&WHITE).map_err(perr)?;
-        let mut chart = ChartBuilder::on(&root)
-            .caption(&title, ("sans-serif", 20))
-            .margin(10)
-            .x_label_area_size(40)
-            .y_label_area_size(70)
-            .build_cartesian_2d(0f64..180f64, (lo * 0.8..hi * 1.25).log_scale())
-            .map_err(perr)?;
-        chart
-            .configure_mesh()
-            .x_desc("scattering angle (deg, 0 = forward)")
-            .y_desc(if debye {
-                "p (1/sr), over the full Mie C_sca"
-            } else {
-                "p (1/sr)"
-            })
-            .y_label_formatter(&|v| format!("{v:.0e}"))
-            .draw()
-            .map_err(perr)?;
+        let mut chart = angle_log_chart(&root, &title, (lo, hi), y_desc)?;
         // The total first (grey, underneath), then each order on top of it.
         for (k, s) in series.iter().enumerate() {
-            let (col, width, label) = if k == 0 {
-                (RGBColor(110, 110, 110), 1, total_label.to_string())
+            let (col, label) = if k == 0 {
+                (RGBColor(110, 110, 110), total_label.to_string())
             } else {
-                let name = &orders[k - 1].0;
-                let p = &name["phase_p".len()..];
-                let what = match p {
-                    "0" => " (diffraction + external reflection)",
-                    "1" => " (direct transmission)",
-                    "2" => " (primary bow)",
-                    "3" => " (secondary bow)",
-                    _ => "",
-                };
                 (
                     PALETTE[(k - 1) % PALETTE.len()],
-                    1,
-                    format!("p = {p}{what}"),
+                    order_label(&orders[k - 1].0),
                 )
             };
-            // Contiguous runs above the floor, each its own polyline.
-            let mut runs: Vec<Vec<(f64, f64)>> = vec![Vec::new()];
-            for &(a, v) in s {
-                if v > lo {
-                    runs.last_mut().expect("run").push((a, v));
-                } else if !runs.last().expect("run").is_empty() {
-                    runs.push(Vec::new());
-                }
-            }
-            let mut first = true;
-            for run in runs.into_iter().filter(|r| r.len() > 1) {
+            for (i, run) in runs_above(s, lo).into_iter().enumerate() {
                 let drawn = chart
-                    .draw_series(LineSeries::new(run, col.stroke_width(width)))
+                    .draw_series(LineSeries::new(run, col.stroke_width(1)))
                     .map_err(perr)?;
-                if std::mem::take(&mut first) {
+                if i == 0 {
                     drawn.label(label.clone()).legend(move |(x, y)| {
                         PathElement::new(vec![(x, y), (x + 20, y)], col.stroke_width(2))
                     });

@@ -37,11 +37,11 @@
 //! `fov_deg` across the width) — the thesis does not say which fisheye mapping; we choose the
 //! equidistant one because bow radii can then be read off linearly.
 
-use crate::consumers::ConsumerError;
 use crate::consumers::read::phase::{EntrySelection, PhaseTable};
 use crate::consumers::read::spectrum::{
     THETA_STEP_DEG, disc_average_spectrum, disc_samples, xyz_along, xyz_vs_angle,
 };
+use crate::consumers::{ConsumerError, Progress};
 use crate::math::vec3::{V3, dot, normalize};
 use crate::optics::colour::{
     Illuminant1931, SpectralWeights, linear_srgb_luminance, srgb_encode, xyz_to_linear_srgb,
@@ -220,23 +220,31 @@ pub struct Rendered {
 pub fn render_with(
     scene: &Scene,
     camera: &Camera,
+    progress: &dyn Progress,
     xyz_of_view: impl Fn(V3) -> [f64; 3] + Sync,
 ) -> Rendered {
-    let px: Vec<[f64; 3]> = (0..camera.width * camera.height)
+    progress.start(camera.height as u64, "image rows");
+    let rows: Vec<Vec<[f64; 3]>> = (0..camera.height)
         .into_par_iter()
-        .map(|p| {
-            let (i, j) = (p % camera.width, p / camera.width);
-            let Some(d) = camera.direction(i, j) else {
-                return [0.0; 3];
-            };
-            let m = scene.march(d);
-            if m == 0.0 {
-                return [0.0; 3];
-            }
-            let v = xyz_of_view(d).map(|c| c * m);
-            xyz_to_linear_srgb(v)
+        .map(|j| {
+            let row = (0..camera.width)
+                .map(|i| {
+                    let Some(d) = camera.direction(i, j) else {
+                        return [0.0; 3];
+                    };
+                    let m = scene.march(d);
+                    if m == 0.0 {
+                        return [0.0; 3];
+                    }
+                    let v = xyz_of_view(d).map(|c| c * m);
+                    xyz_to_linear_srgb(v)
+                })
+                .collect();
+            progress.advance(1);
+            row
         })
         .collect();
+    let px: Vec<[f64; 3]> = rows.into_iter().flatten().collect();
     Rendered {
         camera: *camera,
         linear_srgb: px,
@@ -250,10 +258,11 @@ pub fn render(
     entry: &[EntrySelection],
     scene: &Scene,
     camera: &Camera,
+    progress: &dyn Progress,
 ) -> Result<Rendered, ConsumerError> {
     let xyz = xyz_vs_angle(pt, entry, scene.sun_diameter_deg)?;
     let s = scene.sun_direction();
-    Ok(render_with(scene, camera, |d| {
+    Ok(render_with(scene, camera, progress, |d| {
         let big = dot(s, d).clamp(-1.0, 1.0).acos().to_degrees();
         let u = big / THETA_STEP_DEG;
         let k = (u.floor() as usize).min(xyz.len() - 2);
@@ -269,6 +278,7 @@ pub fn render_2d(
     slice: &crate::consumers::read::phase2d::PhaseSlice,
     scene: &Scene,
     camera: &Camera,
+    progress: &dyn Progress,
 ) -> Result<Rendered, ConsumerError> {
     if !((slice.sun_elevation_deg - scene.sun_elevation_deg).abs() < 1e-9) {
         return Err(ConsumerError::invalid(format!(
@@ -280,7 +290,7 @@ pub fn render_2d(
     let disc = disc_samples(scene.sun_diameter_deg);
     let s = scene.sun_direction();
     let nw = slice.wavelengths_nm.len();
-    Ok(render_with(scene, camera, |d| {
+    Ok(render_with(scene, camera, progress, |d| {
         let mut spec = vec![0.0; nw];
         disc_average_spectrum(slice, s, d, &disc, &mut spec);
         sw.xyz(&spec)
@@ -491,6 +501,7 @@ pub fn table_bow_radius(xyz: &[[f64; 3]], lo_deg: f64, hi_deg: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::consumers::Silent;
     use crate::consumers::synthetic::peak_table;
 
     fn cam() -> Camera {
@@ -515,11 +526,39 @@ mod tests {
         }
     }
 
+    /// Counts what a render reports.
+    #[derive(Default)]
+    struct Counting {
+        total: std::sync::atomic::AtomicU64,
+        done: std::sync::atomic::AtomicU64,
+    }
+
+    impl Progress for Counting {
+        fn start(&self, total: u64, _what: &str) {
+            self.total
+                .store(total, std::sync::atomic::Ordering::Relaxed);
+        }
+        fn advance(&self, n: u64) {
+            self.done.fetch_add(n, std::sync::atomic::Ordering::Relaxed);
+        }
+    }
+
+    #[test]
+    fn render_reports_every_row_once() {
+        let wl: Vec<f64> = (0..33).map(|i| 380.0 + 10.0 * i as f64).collect();
+        let pt = PhaseTable::new(peak_table(&wl, |_| 138.0, 0.2, 1e-4, 3601)).unwrap();
+        let p = Counting::default();
+        render(&pt, &[], &scene(0.5), &cam(), &p).unwrap();
+        let rows = cam().height as u64;
+        assert_eq!(p.total.load(std::sync::atomic::Ordering::Relaxed), rows);
+        assert_eq!(p.done.load(std::sync::atomic::Ordering::Relaxed), rows);
+    }
+
     #[test]
     fn peak_at_138_deg_renders_ring_of_42_deg() {
         let wl: Vec<f64> = (0..33).map(|i| 380.0 + 10.0 * i as f64).collect();
         let pt = PhaseTable::new(peak_table(&wl, |_| 138.0, 0.2, 1e-4, 3601)).unwrap();
-        let r = render(&pt, &[], &scene(0.5), &cam()).unwrap();
+        let r = render(&pt, &[], &scene(0.5), &cam(), &Silent).unwrap();
         let m = measure_bow(&r, 25.0, 30.0, 60.0).unwrap();
         let pix = cam().pixel_deg();
         assert!((m.radius_deg - 42.0).abs() <= pix, "{m:?}, pixel {pix}");
@@ -567,7 +606,7 @@ mod tests {
             v[3] = 0.0;
         }
         let pt = PhaseTable::new(t).unwrap();
-        let r = render(&pt, &[], &scene(0.5), &cam()).unwrap();
+        let r = render(&pt, &[], &scene(0.5), &cam(), &Silent).unwrap();
         let pix = cam().pixel_deg();
         let p = measure_bow(&r, 25.0, 36.0, 46.0).unwrap();
         let s = measure_bow(&r, 25.0, 47.0, 58.0).unwrap();
@@ -620,8 +659,8 @@ mod tests {
         let t2 = crate::consumers::synthetic::lat_long_from_1d(&t1, &[0.0, 10.0], 10.0, |_, _| 1.0);
         let pt = PhaseTable::new(t1).unwrap();
         let (sc, cam) = (horizon_scene(0.5), horizon_cam());
-        let r1 = render(&pt, &[], &sc, &cam).unwrap();
-        let r2 = render_2d(&slice_of(t2, 0.0), &sc, &cam).unwrap();
+        let r1 = render(&pt, &[], &sc, &cam, &Silent).unwrap();
+        let r2 = render_2d(&slice_of(t2, 0.0), &sc, &cam, &Silent).unwrap();
         let pix = cam.pixel_deg();
         let m1 = measure_bow(&r1, 0.0, 36.0, 46.0).unwrap();
         let m2 = measure_bow(&r2, 0.0, 36.0, 46.0).unwrap();
@@ -671,13 +710,20 @@ mod tests {
         use crate::consumers::read::phase2d::table_angles;
         let (sc, cam) = (horizon_scene(0.0), horizon_cam());
         let t1 = dispersive_1d();
-        let r1 = render(&PhaseTable::new(t1.clone()).unwrap(), &[], &sc, &cam).unwrap();
+        let r1 = render(
+            &PhaseTable::new(t1.clone()).unwrap(),
+            &[],
+            &sc,
+            &cam,
+            &Silent,
+        )
+        .unwrap();
         let f_sym = |_: f64, phi: f64| 1.0 + 0.8 * phi.to_radians().cos();
         let f_asym = |_: f64, phi: f64| 1.0 + 0.5 * phi.to_radians().sin();
         let sym = crate::consumers::synthetic::lat_long_from_1d(&t1, &[0.0], 10.0, f_sym);
         let asym = crate::consumers::synthetic::lat_long_from_1d(&t1, &[0.0], 10.0, f_asym);
-        let rs = render_2d(&slice_of(sym, 0.0), &sc, &cam).unwrap();
-        let ra = render_2d(&slice_of(asym, 0.0), &sc, &cam).unwrap();
+        let rs = render_2d(&slice_of(sym, 0.0), &sc, &cam, &Silent).unwrap();
+        let ra = render_2d(&slice_of(asym, 0.0), &sc, &cam, &Silent).unwrap();
         let (w, h) = (cam.width, cam.height);
         let max = r1
             .linear_srgb
