@@ -65,7 +65,7 @@ fn full_grid() {
         let el = t.elapsed().as_secs_f64();
         println!(
             "sphere 0.4 mm: 3000² rays, 14401 × 1800 directions, {threads} thread(s): {el:.1} s ({} values); ×33 wavelengths = {:.1} min",
-            f.data.len(),
+            f.len(),
             33.0 * el / 60.0
         );
     }

@@ -324,6 +324,15 @@ pub fn read_checkpoint(
     Ok(Some(c.values))
 }
 
+/// The encoding of a [`Checkpoint`] from borrowed values (the same bytes, without copying the
+/// values first).
+#[derive(Serialize)]
+struct CheckpointRef<'a> {
+    key: &'a str,
+    sha256: String,
+    values: &'a [f32],
+}
+
 /// Write the checkpoint of task `task_key` (values and their keyed hash) atomically at `path`.
 pub fn write_checkpoint(
     path: &Path,
@@ -331,10 +340,10 @@ pub fn write_checkpoint(
     secret: &CheckpointKey,
     values: &[f32],
 ) -> Result<(), PipelineError> {
-    let c = Checkpoint {
-        key: task_key.to_string(),
+    let c = CheckpointRef {
+        key: task_key,
         sha256: crate::workdir::checkpoint_hash(secret, task_key, values),
-        values: values.to_vec(),
+        values,
     };
     let bytes = bincode::serde::encode_to_vec(&c, bincode_config()).map_err(|source| {
         PipelineError::CheckpointEncode {

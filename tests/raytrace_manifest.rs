@@ -40,6 +40,19 @@ fn default_and_full_manifests_plan() {
     let bows = plan_all("manifests/full/beard-chuang-bows.toml");
     assert_eq!(bows.len(), 6);
     assert!(bows.iter().all(|(_, j)| j.tasks().len() == 12 * 2));
+    // Seed configuration: one wavelength, and 33 one-wavelength tables (one task each).
+    assert_eq!(plan_all("manifests/full/raytrace-seed-1wl.toml").len(), 1);
+    let seed = plan_all("manifests/full/raytrace-seed-33wl.toml");
+    assert_eq!(seed.len(), 33);
+    assert!(seed.iter().all(|(_, j)| j.tasks().len() == 1));
+    // Colour Beard–Chuang database: 11 radii × 33 wavelengths × 4 sun elevations.
+    let colour = plan_all("manifests/full/beard-chuang-colour.toml");
+    assert_eq!(colour.len(), 11);
+    assert!(colour.iter().all(|(_, j)| j.tasks().len() == 33 * 4));
+    // Twinned bow: 4 distributions × 9 wavelengths × 1 sun elevation.
+    let twin = plan_all("manifests/full/twinned-bow.toml");
+    assert_eq!(twin.len(), 1);
+    assert_eq!(twin[0].1.tasks().len(), 4 * 9);
 }
 
 /// Every table of the default manifest builds on 2 threads (timing printed) and keeps the

@@ -10,6 +10,7 @@
 //! The `raytrace` stage (schemas `raytrace-phase/2` and `raytrace-phase-2d/2`) is
 //! [`crate::stages::raytrace`].
 
+pub mod caustic;
 pub mod post;
 pub mod shape;
 pub mod sphere1d;

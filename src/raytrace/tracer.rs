@@ -78,8 +78,11 @@ impl DirectionGrid {
 pub struct FieldGrid {
     pub grid: DirectionGrid,
     pub orders: usize,
-    /// Row-major `[polar][azimuth][order][4]`.
-    pub data: Vec<Complex32>,
+    /// Polar rows per band of [`FieldGrid::bands`].
+    pub band_rows: usize,
+    /// Row-major `[polar][azimuth][order][4]`, split into bands of `band_rows` polar rows (the
+    /// last may be shorter), so a consumer can release the accumulators band by band.
+    pub bands: Vec<Vec<Complex32>>,
     /// Flux per order that left the drop (µm², ray-based: Σ cell area × |ε|²).
     pub order_cross_section_um2: Vec<f64>,
     /// Flux per order carried by the retained (complete) triangles (µm²).
@@ -90,27 +93,64 @@ pub struct FieldGrid {
     pub rays_traced: usize,
 }
 
+/// Bytes of accumulators per band of [`FieldGrid::bands`] (at least one polar row): above
+/// glibc's largest mmap threshold (32 MiB), so a released band returns to the system at once.
+const FIELD_BAND_BYTES: usize = 64 << 20;
+
+/// `(i_perp, i_par)` dσ/dΩ of one pixel's accumulators `px` (`[order][4]`), coherent over
+/// orders, with each order's unpolarised dσ/dΩ written to `per` (length `orders`);
+/// allocation-free.
+pub fn pixel_intensities(px: &[Complex32], per: &mut [f64]) -> (f64, f64) {
+    let mut tot = [Complex64::new(0.0, 0.0); 4];
+    for (o, c) in px.chunks_exact(4).enumerate() {
+        let mut s = 0.0;
+        for (t, z) in tot.iter_mut().zip(c) {
+            let z = Complex64::new(z.re as f64, z.im as f64);
+            *t += z;
+            s += z.norm_sqr();
+        }
+        per[o] = 0.5 * s;
+    }
+    (
+        tot[0].norm_sqr() + tot[2].norm_sqr(),
+        tot[1].norm_sqr() + tot[3].norm_sqr(),
+    )
+}
+
 impl FieldGrid {
+    /// Values per polar row of the accumulators.
+    pub fn row_len(&self) -> usize {
+        self.grid.n_azimuth * self.orders * 4
+    }
+
+    /// The accumulators `[order][4]` of pixel (j, k).
+    pub fn pixel(&self, j: usize, k: usize) -> &[Complex32] {
+        let stride = self.orders * 4;
+        let base = ((j % self.band_rows) * self.grid.n_azimuth + k) * stride;
+        &self.bands[j / self.band_rows][base..base + stride]
+    }
+
+    /// `(i_perp, i_par)` dσ/dΩ at pixel (j, k), coherent over orders, with each order's
+    /// unpolarised dσ/dΩ written to `per` (length `orders`); allocation-free.
+    pub fn intensities_into(&self, j: usize, k: usize, per: &mut [f64]) -> (f64, f64) {
+        pixel_intensities(self.pixel(j, k), per)
+    }
+
     /// `(i_perp, i_par, per-order unpolarised)` dσ/dΩ at pixel (j, k), coherent over orders.
     pub fn intensities(&self, j: usize, k: usize) -> (f64, f64, Vec<f64>) {
-        let base = (j * self.grid.n_azimuth + k) * self.orders * 4;
-        let mut tot = [Complex64::new(0.0, 0.0); 4];
-        let mut per = Vec::with_capacity(self.orders);
-        for o in 0..self.orders {
-            let c = &self.data[base + o * 4..base + o * 4 + 4];
-            let mut s = 0.0;
-            for q in 0..4 {
-                let z = Complex64::new(c[q].re as f64, c[q].im as f64);
-                tot[q] += z;
-                s += z.norm_sqr();
-            }
-            per.push(0.5 * s);
-        }
-        (
-            tot[0].norm_sqr() + tot[2].norm_sqr(),
-            tot[1].norm_sqr() + tot[3].norm_sqr(),
-            per,
-        )
+        let mut per = vec![0.0; self.orders];
+        let (a, b) = self.intensities_into(j, k, &mut per);
+        (a, b, per)
+    }
+
+    /// Number of accumulator values (all bands).
+    pub fn len(&self) -> usize {
+        self.bands.iter().map(Vec::len).sum()
+    }
+
+    /// Whether the grid has no accumulators.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
     }
 }
 
@@ -335,311 +375,427 @@ fn inside(t: &Tri, r: [f64; 3]) -> Option<[f64; 3]> {
     Some([w[1] / sum, w[2] / sum, w[0] / sum])
 }
 
-/// Trace the drop and accumulate the coherent far fields of every order on `grid`.
-#[allow(clippy::needless_range_loop)]
+/// The emitting-plane ray grid and the quantities shared by every step of one trace.
+struct RayGrid {
+    fr: Frame,
+    /// Rays per side.
+    nr: usize,
+    orders: usize,
+    /// Lower corner and spacing of the grid in (e1, e2) coordinates (µm).
+    w1: f64,
+    w2: f64,
+    h1: f64,
+    h2: f64,
+    /// Area of one grid cell (µm²).
+    cell: f64,
+    /// Distance of the emitting plane from the drop centre (µm).
+    dist: f64,
+    k_wave: f64,
+    /// Reference path removed from every phase (µm).
+    l_ref: f64,
+}
+
+/// Rays traced per band, summed over orders: bounds the band's memory (RayOut ≈ 150 bytes).
+const RAYS_PER_BAND: usize = 200_000;
+
+impl RayGrid {
+    fn new(shape: &DropShape, cfg: &TraceConfig) -> Self {
+        let nr = cfg.rays.max(2);
+        let (w1, w2) = shape.silhouette_half_extents(cfg.sun_elevation_rad);
+        let h1 = 2.0 * w1 / (nr - 1) as f64;
+        let h2 = 2.0 * w2 / (nr - 1) as f64;
+        let dist = 2.0 * shape.bounding_radius_um() + 1.0;
+        RayGrid {
+            fr: frame(cfg.sun_elevation_rad),
+            nr,
+            orders: cfg.max_order + 1,
+            w1,
+            w2,
+            h1,
+            h2,
+            cell: h1 * h2,
+            dist,
+            k_wave: 2.0 * PI / (cfg.wavelength_nm * 1e-3),
+            l_ref: 2.0 * dist,
+        }
+    }
+    fn u_at(&self, i: usize) -> f64 {
+        -self.w1 + self.h1 * i as f64
+    }
+    fn v_at(&self, j: usize) -> f64 {
+        -self.w2 + self.h2 * j as f64
+    }
+}
+
+/// One band of traced grid rows: per row, the outgoing rays `[column][order]` and the hit count.
+type Band = Vec<(Vec<RayOut>, usize)>;
+
+/// Mean of the two inputs' |E|² carried by an outgoing ray.
+fn ray_flux(r: &RayOut) -> f64 {
+    0.5 * (r.ea.iter().map(|z| z.norm_sqr()).sum::<f64>()
+        + r.eb.iter().map(|z| z.norm_sqr()).sum::<f64>())
+}
+
+/// Step 1: trace grid rows `row0..=row1` (rayon over rows).
+fn trace_band(g: &RayGrid, shape: &DropShape, cfg: &TraceConfig, row0: usize, row1: usize) -> Band {
+    (row0..=row1)
+        .into_par_iter()
+        .map(|i| {
+            let mut row = vec![INVALID; g.nr * g.orders];
+            let mut hit = 0;
+            for (j, slot) in row.chunks_mut(g.orders).enumerate() {
+                let (u, v) = (g.u_at(i), g.v_at(j));
+                if trace_ray(shape, &g.fr, g.dist, cfg.n, cfg.max_order, u, v, slot) {
+                    hit += 1;
+                }
+            }
+            (row, hit)
+        })
+        .collect()
+}
+
+/// Direction-space extent of a triangle: polar rows `j0..=j1`, azimuth columns `k0..=k1`
+/// (wrapping modulo the azimuth count) or every column.
+struct Extent {
+    j0: u32,
+    j1: u32,
+    k0: i64,
+    k1: i64,
+    full: bool,
+}
+
+/// The table rows and columns a triangle with (oriented) vertices `v` and their (polar,
+/// azimuth) `pa` may cover, or `None` when it falls between grid directions.
+fn triangle_extent(
+    fr: &Frame,
+    grid: DirectionGrid,
+    v: &[[f64; 3]; 3],
+    edges: &[[f64; 3]; 3],
+    pa: &[(f64, f64); 3],
+) -> Option<Extent> {
+    let (dth, dph) = (grid.polar_step(), grid.azimuth_step());
+    let lmax = (0..3)
+        .map(|e| {
+            let c = sub(v[e], v[(e + 1) % 3]);
+            dot(c, c).sqrt()
+        })
+        .fold(0.0, f64::max);
+    let th_min = pa.iter().map(|x| x.0).fold(f64::MAX, f64::min);
+    let th_max = pa.iter().map(|x| x.0).fold(f64::MIN, f64::max);
+    let sin_min = th_min.sin().min(th_max.sin()).max(1e-9);
+    let margin = lmax * lmax * (0.5 + 0.5 / sin_min) + 1e-12;
+    let in_tri = |r: [f64; 3]| edges.iter().all(|e| dot(*e, r) >= 0.0);
+    let (mut tlo, mut thi) = (th_min - margin, th_max + margin);
+    let mut full = false;
+    if in_tri(fr.d) {
+        tlo = 0.0;
+        full = true;
+    }
+    if in_tri(scale(fr.d, -1.0)) {
+        thi = PI;
+        full = true;
+    }
+    let j0 = (tlo / dth).ceil().max(0.0) as i64;
+    let j1 = ((thi / dth).floor() as i64).min(grid.n_polar as i64 - 1);
+    if j1 < j0 {
+        return None;
+    }
+    let (mut k0, mut k1) = (0i64, grid.n_azimuth as i64 - 1);
+    if !full {
+        let ph0 = pa[0].1;
+        let (mut lo, mut hi) = (ph0, ph0);
+        for x in &pa[1..] {
+            let dphi = (x.1 - ph0 + PI).rem_euclid(2.0 * PI) - PI;
+            lo = lo.min(ph0 + dphi);
+            hi = hi.max(ph0 + dphi);
+        }
+        // The azimuth along a minor great-circle arc that avoids the pole is monotonic, so a
+        // triangle not containing a pole spans exactly its vertices' azimuth range (unwrapping
+        // is unambiguous below π/2).
+        lo -= 1e-9;
+        hi += 1e-9;
+        if hi - lo >= 0.5 * PI {
+            full = true;
+        } else {
+            k0 = (lo / dph).ceil() as i64;
+            k1 = (hi / dph).floor() as i64;
+            if k1 < k0 {
+                return None;
+            }
+        }
+    }
+    Some(Extent {
+        j0: j0 as u32,
+        j1: j1 as u32,
+        k0,
+        k1,
+        full,
+    })
+}
+
+/// Whether the longer-path branch is crossed: `∇l · ∇b > 0` over the emitting-plane triangle
+/// with corners `uv`, path lengths `l` (RT-1).
+fn focal_flag(uv: [(f64, f64); 3], l: [f64; 3]) -> bool {
+    let b = uv.map(|(u, v)| u * u + v * v);
+    let grad = |f: [f64; 3]| {
+        let (x0, y0) = uv[0];
+        let (x1, y1) = uv[1];
+        let (x2, y2) = uv[2];
+        let det = (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0);
+        let gx = ((f[1] - f[0]) * (y2 - y0) - (f[2] - f[0]) * (y1 - y0)) / det;
+        let gy = ((x1 - x0) * (f[2] - f[0]) - (x2 - x0) * (f[1] - f[0])) / det;
+        (gx, gy)
+    };
+    let (gl, gb) = (grad(l), grad(b));
+    gl.0 * gb.0 + gl.1 * gb.1 > 0.0
+}
+
+/// One grid triangle `tri` (band-local (row, column) corners) of order `o`, ready for
+/// rasterisation, with the flux it carries; `None` for an incomplete or degenerate triangle.
+fn make_triangle(
+    g: &RayGrid,
+    grid: DirectionGrid,
+    band: &Band,
+    row0: usize,
+    tri: [(usize, usize); 3],
+    o: usize,
+) -> Option<(Tri, f64)> {
+    let rs = tri.map(|(ii, jj)| &band[ii].0[jj * g.orders + o]);
+    if !rs.iter().all(|r| r.valid) {
+        return None;
+    }
+    let uv = tri.map(|(ii, jj)| (g.u_at(row0 + ii), g.v_at(jj)));
+    let focal = focal_flag(uv, rs.map(|r| r.l));
+    let mut v = rs.map(|r| r.dir);
+    let mut corners = tri.map(|(ii, jj)| ((ii * g.nr + jj) * g.orders + o) as u32);
+    let mut pa = rs.map(|r| r.pa);
+    // Signed solid angle (Van Oosterom–Strackee).
+    let num = dot(v[0], cross(v[1], v[2]));
+    let den = 1.0 + dot(v[0], v[1]) + dot(v[1], v[2]) + dot(v[2], v[0]);
+    let omega = 2.0 * num.atan2(den);
+    if omega < 0.0 {
+        v.swap(1, 2);
+        corners.swap(1, 2);
+        pa.swap(1, 2);
+    }
+    let s = omega.abs();
+    if s.is_nan() || s <= 1e-300 {
+        return None;
+    }
+    let area = 0.5 * g.cell;
+    let flux = rs.iter().map(|r| ray_flux(r)).sum::<f64>() / 3.0 * area;
+    let edges = [cross(v[0], v[1]), cross(v[1], v[2]), cross(v[2], v[0])];
+    let ties = [
+        lex_less(v[0], v[1]),
+        lex_less(v[1], v[2]),
+        lex_less(v[2], v[0]),
+    ];
+    let ext = triangle_extent(&g.fr, grid, &v, &edges, &pa)?;
+    let omega_floor = 0.5 * grid.polar_step() * grid.polar_step();
+    let t = Tri {
+        order: o as u8,
+        corners,
+        edges,
+        ties,
+        // Solid-angle floor (RT-7): slivers folded across a caustic (|Ω| → 0) are point-sampled
+        // by the table; their weight is capped at sqrt(a / (½Δθ²)) so a single pixel cannot
+        // carry more than the patch's flux (expected flux is conserved or reduced, never
+        // inflated).
+        amp: (area / s.max(omega_floor)).sqrt(),
+        phase0: if focal { -FRAC_PI_2 } else { 0.0 },
+        j0: ext.j0,
+        j1: ext.j1,
+        k0: ext.k0,
+        k1: ext.k1,
+        full: ext.full,
+    };
+    Some((t, flux))
+}
+
+/// Step 2: the triangles of a band (rayon over grid rows) and the flux per order they carry.
+fn build_triangles(
+    g: &RayGrid,
+    grid: DirectionGrid,
+    band: &Band,
+    row0: usize,
+) -> (Vec<Tri>, Vec<f64>) {
+    let built: Vec<(Vec<Tri>, Vec<f64>)> = (0..band.len() - 1)
+        .into_par_iter()
+        .map(|i| {
+            let mut tris: Vec<Tri> = Vec::new();
+            let mut flux = vec![0.0; g.orders];
+            for j in 0..g.nr - 1 {
+                let (a, b, c, d) = ((i, j), (i + 1, j), (i + 1, j + 1), (i, j + 1));
+                for (o, flux_o) in flux.iter_mut().enumerate() {
+                    for tri in [[a, b, c], [a, c, d]] {
+                        if let Some((t, f)) = make_triangle(g, grid, band, row0, tri, o) {
+                            *flux_o += f;
+                            tris.push(t);
+                        }
+                    }
+                }
+            }
+            (tris, flux)
+        })
+        .collect();
+    let mut tris = Vec::new();
+    let mut flux = vec![0.0; g.orders];
+    for (t, f) in built {
+        tris.extend(t);
+        flux.iter_mut().zip(f).for_each(|(a, b)| *a += b);
+    }
+    (tris, flux)
+}
+
+/// Step 3: triangle indices binned by polar table row (CSR: row `j` lists
+/// `idx[counts[j]..counts[j + 1]]`).
+fn bin_by_polar_row(tris: &[Tri], n_polar: usize) -> (Vec<u32>, Vec<u32>) {
+    let mut counts = vec![0u32; n_polar + 1];
+    for t in tris {
+        for j in t.j0..=t.j1 {
+            counts[j as usize + 1] += 1;
+        }
+    }
+    for j in 0..n_polar {
+        counts[j + 1] += counts[j];
+    }
+    let mut fill = counts.clone();
+    let mut idx = vec![0u32; counts[n_polar] as usize];
+    for (ti, t) in tris.iter().enumerate() {
+        for j in t.j0..=t.j1 {
+            idx[fill[j as usize] as usize] = ti as u32;
+            fill[j as usize] += 1;
+        }
+    }
+    (counts, idx)
+}
+
+/// Coherent contribution of triangle `t` at direction `r` (polar row sin/cos `st`, `ct`,
+/// azimuth column `k`), or `None` when `r` lies outside it: `[a⊥, a∥, b⊥, b∥]`.
+fn triangle_field(
+    g: &RayGrid,
+    t: &Tri,
+    flat: &[&RayOut],
+    r: [f64; 3],
+    (sin_ph, cos_ph): (f64, f64),
+) -> Option<[Complex64; 4]> {
+    let w = inside(t, r)?;
+    let c = t.corners.map(|ci| flat[ci as usize]);
+    let l = w[0] * c[0].l + w[1] * c[1].l + w[2] * c[2].l - g.l_ref;
+    let ph = Complex64::from_polar(t.amp, g.k_wave * l + t.phase0);
+    let fr = &g.fr;
+    let perp = sub(scale(fr.e2, cos_ph), scale(fr.e1, sin_ph));
+    let par = cross(perp, r);
+    let mut ea = [Complex64::new(0.0, 0.0); 3];
+    let mut eb = [Complex64::new(0.0, 0.0); 3];
+    for q in 0..3 {
+        for (cw, cc) in w.iter().zip(&c) {
+            ea[q] += cc.ea[q] * *cw;
+            eb[q] += cc.eb[q] * *cw;
+        }
+    }
+    Some([
+        cdot(&ea, perp) * ph,
+        cdot(&ea, par) * ph,
+        cdot(&eb, perp) * ph,
+        cdot(&eb, par) * ph,
+    ])
+}
+
+/// Step 4: rasterise a band's triangles into the field accumulators `data` (bands of
+/// `band_rows` polar rows; rayon over table rows).
+fn rasterise(
+    g: &RayGrid,
+    grid: DirectionGrid,
+    band: &Band,
+    tris: &[Tri],
+    data: &mut [Vec<Complex32>],
+    band_rows: usize,
+) {
+    let (counts, idx) = bin_by_polar_row(tris, grid.n_polar);
+    let flat: Vec<&RayOut> = band.iter().flat_map(|(r, _)| r.iter()).collect();
+    let (dth, dph) = (grid.polar_step(), grid.azimuth_step());
+    let sc_ph: Vec<(f64, f64)> = (0..grid.n_azimuth)
+        .map(|k| (dph * k as f64).sin_cos())
+        .collect();
+    let stride = g.orders * 4;
+    let na = grid.n_azimuth as i64;
+    let row_len = grid.n_azimuth * stride;
+    let rows = data.par_iter_mut().enumerate().flat_map(|(b, acc)| {
+        acc.par_chunks_mut(row_len)
+            .enumerate()
+            .map(move |(jj, row)| (b * band_rows + jj, row))
+    });
+    rows.for_each(|(j, row)| {
+        let (st, ct) = (dth * j as f64).sin_cos();
+        for &ti in &idx[counts[j] as usize..counts[j + 1] as usize] {
+            let t = &tris[ti as usize];
+            let (ka, kb) = if t.full { (0, na - 1) } else { (t.k0, t.k1) };
+            for kk in ka..=kb {
+                let k = kk.rem_euclid(na) as usize;
+                let (sp, cp) = sc_ph[k];
+                let radial = add(scale(g.fr.e1, cp), scale(g.fr.e2, sp));
+                let r = add(scale(g.fr.d, ct), scale(radial, st));
+                let Some(vals) = triangle_field(g, t, &flat, r, (sp, cp)) else {
+                    continue;
+                };
+                let base = k * stride + t.order as usize * 4;
+                for (acc, v) in row[base..base + 4].iter_mut().zip(vals) {
+                    *acc += Complex32::new(v.re as f32, v.im as f32);
+                }
+            }
+        }
+    });
+}
+
+/// Trace the drop and accumulate the coherent far fields of every order on `grid`: rows of
+/// the ray grid are processed in bands (trace, build triangles, rasterise), so memory stays
+/// bounded by one band plus the accumulators.
 pub fn trace_fields(shape: &DropShape, cfg: &TraceConfig, grid: DirectionGrid) -> FieldGrid {
-    let fr = frame(cfg.sun_elevation_rad);
-    let nr = cfg.rays.max(2);
-    let orders = cfg.max_order + 1;
-    let (w1, w2) = shape.silhouette_half_extents(cfg.sun_elevation_rad);
-    let h1 = 2.0 * w1 / (nr - 1) as f64;
-    let h2 = 2.0 * w2 / (nr - 1) as f64;
-    let cell = h1 * h2;
-    let dist = 2.0 * shape.bounding_radius_um() + 1.0;
-    let k_wave = 2.0 * PI / (cfg.wavelength_nm * 1e-3);
-    let l_ref = 2.0 * dist;
-    let u_at = |i: usize| -w1 + h1 * i as f64;
-    let v_at = |j: usize| -w2 + h2 * j as f64;
-    let npix = grid.n_polar * grid.n_azimuth;
-    let stride = orders * 4;
-    let mut data = vec![Complex32::new(0.0, 0.0); npix * stride];
+    let g = RayGrid::new(shape, cfg);
+    let (nr, orders) = (g.nr, g.orders);
+    let row_len = grid.n_azimuth * orders * 4;
+    let field_rows =
+        (FIELD_BAND_BYTES / (row_len * std::mem::size_of::<Complex32>())).clamp(1, grid.n_polar);
+    let mut data: Vec<Vec<Complex32>> = (0..grid.n_polar.div_ceil(field_rows))
+        .map(|b| {
+            let rows = field_rows.min(grid.n_polar - b * field_rows);
+            vec![Complex32::new(0.0, 0.0); rows * row_len]
+        })
+        .collect();
     let mut order_flux = vec![0.0; orders];
     let mut patch_flux = vec![0.0; orders];
     let mut hits = 0usize;
-    let dth = grid.polar_step();
-    let dph = grid.azimuth_step();
-    let omega_floor = 0.5 * dth * dth;
-    // Precomputed pixel directions.
-    let (sin_ph, cos_ph): (Vec<f64>, Vec<f64>) = (0..grid.n_azimuth)
-        .map(|k| (dph * k as f64).sin_cos())
-        .unzip();
-    let band = (200_000 / (nr * orders)).clamp(2, nr - 1);
+    let band_rows = (RAYS_PER_BAND / (nr * orders)).clamp(2, nr - 1);
     let mut row0 = 0usize;
     while row0 < nr - 1 {
-        let row1 = (row0 + band).min(nr - 1); // rows row0..=row1 traced, cells row0..row1
-        let nrows = row1 - row0 + 1;
-        // Trace (rayon over grid rows).
-        let traced: Vec<(Vec<RayOut>, usize)> = (row0..=row1)
-            .into_par_iter()
-            .map(|i| {
-                let mut row = vec![INVALID; nr * orders];
-                let mut hit = 0;
-                for j in 0..nr {
-                    if trace_ray(
-                        shape,
-                        &fr,
-                        dist,
-                        cfg.n,
-                        cfg.max_order,
-                        u_at(i),
-                        v_at(j),
-                        &mut row[j * orders..(j + 1) * orders],
-                    ) {
-                        hit += 1;
-                    }
-                }
-                (row, hit)
-            })
-            .collect();
-        for (ri, (row, hit)) in traced.iter().enumerate() {
+        let row1 = (row0 + band_rows).min(nr - 1); // rows row0..=row1 traced, cells row0..row1
+        let band = trace_band(&g, shape, cfg, row0, row1);
+        for (ri, (row, hit)) in band.iter().enumerate() {
             // Count each grid row once (the band's last row is the next band's first).
             if row0 + ri == row1 && row1 != nr - 1 {
                 continue;
             }
             hits += hit;
             for r in row.chunks(orders) {
-                for (o, ro) in r.iter().enumerate() {
-                    if ro.valid {
-                        let f = 0.5
-                            * (ro.ea.iter().map(|z| z.norm_sqr()).sum::<f64>()
-                                + ro.eb.iter().map(|z| z.norm_sqr()).sum::<f64>());
-                        order_flux[o] += f * cell;
-                    }
+                for (o, ro) in r.iter().enumerate().filter(|(_, ro)| ro.valid) {
+                    order_flux[o] += ray_flux(ro) * g.cell;
                 }
             }
         }
-        let ray = |i: usize, j: usize, o: usize| -> &RayOut { &traced[i].0[j * orders + o] };
-        // Build triangles (rayon over grid rows).
-        let built: Vec<(Vec<Tri>, Vec<f64>)> = (0..nrows - 1)
-            .into_par_iter()
-            .map(|i| {
-                let mut tris: Vec<Tri> = Vec::new();
-                let mut patch_flux = vec![0.0; orders];
-                for j in 0..nr - 1 {
-                    for o in 0..orders {
-                        let a = (i, j);
-                        let b = (i + 1, j);
-                        let c = (i + 1, j + 1);
-                        let dd = (i, j + 1);
-                        for tri in [[a, b, c], [a, c, dd]] {
-                            let rs = tri.map(|(ii, jj)| ray(ii, jj, o));
-                            if !rs.iter().all(|r| r.valid) {
-                                continue;
-                            }
-                            // Gradients of l and b over the emitting-plane triangle.
-                            let uv = tri.map(|(ii, jj)| (u_at(row0 + ii), v_at(jj)));
-                            let bval = uv.map(|(u, v)| u * u + v * v);
-                            let lval = rs.map(|r| r.l);
-                            let grad = |f: [f64; 3]| {
-                                let (x0, y0) = uv[0];
-                                let (x1, y1) = uv[1];
-                                let (x2, y2) = uv[2];
-                                let det = (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0);
-                                let gx =
-                                    ((f[1] - f[0]) * (y2 - y0) - (f[2] - f[0]) * (y1 - y0)) / det;
-                                let gy =
-                                    ((x1 - x0) * (f[2] - f[0]) - (x2 - x0) * (f[1] - f[0])) / det;
-                                (gx, gy)
-                            };
-                            let gl = grad(lval);
-                            let gb = grad(bval);
-                            let focal = gl.0 * gb.0 + gl.1 * gb.1 > 0.0;
-                            let mut v = rs.map(|r| r.dir);
-                            let mut corners =
-                                tri.map(|(ii, jj)| ((ii * nr + jj) * orders + o) as u32);
-                            // Signed solid angle (Van Oosterom–Strackee).
-                            let num = dot(v[0], cross(v[1], v[2]));
-                            let den = 1.0 + dot(v[0], v[1]) + dot(v[1], v[2]) + dot(v[2], v[0]);
-                            let omega = 2.0 * num.atan2(den);
-                            if omega < 0.0 {
-                                v.swap(1, 2);
-                                corners.swap(1, 2);
-                            }
-                            let s = omega.abs();
-                            if s.is_nan() || s <= 1e-300 {
-                                continue;
-                            }
-                            let area = 0.5 * cell;
-                            let mean_flux = rs
-                                .iter()
-                                .map(|r| {
-                                    0.5 * (r.ea.iter().map(|z| z.norm_sqr()).sum::<f64>()
-                                        + r.eb.iter().map(|z| z.norm_sqr()).sum::<f64>())
-                                })
-                                .sum::<f64>()
-                                / 3.0;
-                            patch_flux[o] += mean_flux * area;
-                            let edges = [cross(v[0], v[1]), cross(v[1], v[2]), cross(v[2], v[0])];
-                            let ties = [
-                                lex_less(v[0], v[1]),
-                                lex_less(v[1], v[2]),
-                                lex_less(v[2], v[0]),
-                            ];
-                            // Direction-space bounding box.
-                            let mut pa = rs.map(|r| r.pa);
-                            if omega < 0.0 {
-                                pa.swap(1, 2);
-                            }
-                            let lmax = (0..3)
-                                .map(|e| {
-                                    let c = sub(v[e], v[(e + 1) % 3]);
-                                    dot(c, c).sqrt()
-                                })
-                                .fold(0.0, f64::max);
-                            let th_min = pa.iter().map(|x| x.0).fold(f64::MAX, f64::min);
-                            let th_max = pa.iter().map(|x| x.0).fold(f64::MIN, f64::max);
-                            let sin_min = th_min.sin().min(th_max.sin()).max(1e-9);
-                            let margin = lmax * lmax * (0.5 + 0.5 / sin_min) + 1e-12;
-                            let in_tri = |r: [f64; 3]| edges.iter().all(|e| dot(*e, r) >= 0.0);
-                            let fwd_pole = in_tri(fr.d);
-                            let back_pole = in_tri(scale(fr.d, -1.0));
-                            let (mut tlo, mut thi) = (th_min - margin, th_max + margin);
-                            let mut full = false;
-                            if fwd_pole {
-                                tlo = 0.0;
-                                full = true;
-                            }
-                            if back_pole {
-                                thi = PI;
-                                full = true;
-                            }
-                            let j0 = (tlo / dth).ceil().max(0.0) as i64;
-                            let j1 = ((thi / dth).floor() as i64).min(grid.n_polar as i64 - 1);
-                            if j1 < j0 {
-                                continue;
-                            }
-                            let (mut k0, mut k1) = (0i64, grid.n_azimuth as i64 - 1);
-                            if !full {
-                                let ph0 = pa[0].1;
-                                let mut lo = ph0;
-                                let mut hi = ph0;
-                                for x in &pa[1..] {
-                                    let dphi = (x.1 - ph0 + PI).rem_euclid(2.0 * PI) - PI;
-                                    lo = lo.min(ph0 + dphi);
-                                    hi = hi.max(ph0 + dphi);
-                                }
-                                // The azimuth along a minor great-circle arc that avoids the pole
-                                // is monotonic, so a triangle not containing a pole spans exactly its
-                                // vertices' azimuth range (unwrapping is unambiguous below π/2).
-                                lo -= 1e-9;
-                                hi += 1e-9;
-                                if hi - lo >= 0.5 * PI {
-                                    full = true;
-                                } else {
-                                    k0 = (lo / dph).ceil() as i64;
-                                    k1 = (hi / dph).floor() as i64;
-                                    if k1 < k0 {
-                                        continue;
-                                    }
-                                }
-                            }
-                            tris.push(Tri {
-                                order: o as u8,
-                                corners,
-
-                                edges,
-                                ties,
-                                // Solid-angle floor (RT-7): slivers folded across a
-                                // caustic (|Ω| → 0) are point-sampled by the table; their weight
-                                // is capped at sqrt(a / (½Δθ²)) so a single pixel cannot carry
-                                // more than the patch's flux (expected flux is conserved or
-                                // reduced, never inflated).
-                                amp: (area / s.max(omega_floor)).sqrt(),
-                                phase0: if focal { -FRAC_PI_2 } else { 0.0 },
-                                j0: j0 as u32,
-                                j1: j1 as u32,
-                                k0,
-                                k1,
-                                full,
-                            });
-                        }
-                    }
-                }
-                (tris, patch_flux)
-            })
-            .collect();
-        let mut tris: Vec<Tri> = Vec::new();
-        for (t, pf) in built {
-            tris.extend(t);
-            for o in 0..orders {
-                patch_flux[o] += pf[o];
-            }
-        }
-        // Bin triangles by polar row (CSR).
-        let mut counts = vec![0u32; grid.n_polar + 1];
-        for t in &tris {
-            for j in t.j0..=t.j1 {
-                counts[j as usize + 1] += 1;
-            }
-        }
-        for j in 0..grid.n_polar {
-            counts[j + 1] += counts[j];
-        }
-        let mut fill = counts.clone();
-        let mut idx = vec![0u32; counts[grid.n_polar] as usize];
-        for (ti, t) in tris.iter().enumerate() {
-            for j in t.j0..=t.j1 {
-                idx[fill[j as usize] as usize] = ti as u32;
-                fill[j as usize] += 1;
-            }
-        }
-        let flat: Vec<&RayOut> = traced.iter().flat_map(|(r, _)| r.iter()).collect();
-        // Rasterise, rayon over table rows.
-        data.par_chunks_mut(grid.n_azimuth * stride)
-            .enumerate()
-            .for_each(|(j, row)| {
-                let list = &idx[counts[j] as usize..counts[j + 1] as usize];
-                if list.is_empty() {
-                    return;
-                }
-                let (st, ct) = (dth * j as f64).sin_cos();
-                for &ti in list {
-                    let t = &tris[ti as usize];
-                    let (ka, kb) = if t.full {
-                        (0, grid.n_azimuth as i64 - 1)
-                    } else {
-                        (t.k0, t.k1)
-                    };
-                    for kk in ka..=kb {
-                        let k = kk.rem_euclid(grid.n_azimuth as i64) as usize;
-                        let radial = add(scale(fr.e1, cos_ph[k]), scale(fr.e2, sin_ph[k]));
-                        let r = add(scale(fr.d, ct), scale(radial, st));
-                        let Some(w) = inside(t, r) else { continue };
-                        let c = t.corners.map(|ci| flat[ci as usize]);
-                        let l = w[0] * c[0].l + w[1] * c[1].l + w[2] * c[2].l - l_ref;
-                        let ph = Complex64::from_polar(t.amp, k_wave * l + t.phase0);
-                        let perp = sub(scale(fr.e2, cos_ph[k]), scale(fr.e1, sin_ph[k]));
-                        let par = cross(perp, r);
-                        let mut ea = [Complex64::new(0.0, 0.0); 3];
-                        let mut eb = [Complex64::new(0.0, 0.0); 3];
-                        for q in 0..3 {
-                            for (cw, cc) in w.iter().zip(&c) {
-                                ea[q] += cc.ea[q] * *cw;
-                                eb[q] += cc.eb[q] * *cw;
-                            }
-                        }
-                        let vals = [
-                            cdot(&ea, perp) * ph,
-                            cdot(&ea, par) * ph,
-                            cdot(&eb, perp) * ph,
-                            cdot(&eb, par) * ph,
-                        ];
-                        let base = k * stride + t.order as usize * 4;
-                        for q in 0..4 {
-                            row[base + q] += Complex32::new(vals[q].re as f32, vals[q].im as f32);
-                        }
-                    }
-                }
-            });
+        let (tris, flux) = build_triangles(&g, grid, &band, row0);
+        patch_flux.iter_mut().zip(flux).for_each(|(a, b)| *a += b);
+        rasterise(&g, grid, &band, &tris, &mut data, field_rows);
         row0 = row1;
     }
     FieldGrid {
         grid,
         orders,
-        data,
+        band_rows: field_rows,
+        bands: data,
         order_cross_section_um2: order_flux,
         patch_cross_section_um2: patch_flux,
-        projected_area_um2: hits as f64 * cell,
+        projected_area_um2: hits as f64 * g.cell,
         rays_traced: nr * nr,
     }
 }

@@ -8,6 +8,8 @@ pub mod fur_farfield;
 pub mod fur_medulla;
 pub mod hair;
 pub mod mie;
+pub mod mixture;
+pub mod mixture_2d;
 pub mod phase_contract;
 pub mod raytrace;
 mod stage;
@@ -27,6 +29,8 @@ pub fn registry() -> Vec<Box<dyn Stage>> {
         Box::new(crate::stages::fur_medulla::FurMedullaAzimuthalStage),
         Box::new(crate::stages::fur_medulla::FurMedullaLongitudinalStage),
         Box::new(crate::stages::raytrace::RaytraceStage),
+        Box::new(crate::stages::mixture::MixtureStage),
+        Box::new(crate::stages::mixture_2d::Mixture2dStage),
         Box::new(crate::stages::fur_farfield::FurFarFieldStage),
     ]
 }

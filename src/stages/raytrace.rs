@@ -26,16 +26,17 @@
 //! i_perp = |S1|²/(π x² Q_sca).
 
 use crate::optics::water::{SADEGHI_WAVELENGTHS_NM, WaterIndexModel};
-use crate::raytrace::post::{
-    DEFAULT_CAUSTIC_WINDOW_SIGMAS, bin_edges, caustic_weight, filter_sigma_deg,
-    fraunhofer_bin_average, gaussian_blur,
-};
+use crate::raytrace::caustic::{CausticWindow, ColumnFilter};
+use crate::raytrace::post::{bin_edges, filter_sigma_deg, fraunhofer_bin_average};
 use crate::raytrace::shape::{CosineSeries, DropShape};
 use crate::raytrace::sphere1d::{DiffractionModel, Phase1dOptions, SphereGo, sphere_phase_1d};
-use crate::raytrace::tracer::{DirectionGrid, TraceConfig, trace_fields};
+use crate::raytrace::tracer::{
+    DirectionGrid, FieldGrid, TraceConfig, pixel_intensities, trace_fields,
+};
 use crate::stages::phase_contract;
 use crate::stages::{Job, JobError, PlanError, StageSpec, TaskSpec, checks, stage_params};
 use crate::table::{Axis, Channel, Schema, TableContent};
+use rayon::prelude::*;
 use std::f64::consts::PI;
 
 /// The stage.
@@ -73,6 +74,9 @@ stage_params! {
             "outgoing azimuth step (divides 360), 2-D shapes";
         pub diffraction_filter: bool = default(true), "bool",
             "apply the Table 3.3 Gaussian filter to the main channels (unfiltered channels are always written)";
+        /// Average each 2-D table pixel with its mirror image φ ↔ 360° − φ (decision RT-24).
+        pub mirror_symmetrise: bool = default(true), "bool",
+            "2-D shapes: replace the values at φ and 360° − φ by their mean (the drop and the sun are mirror-symmetric about the vertical plane φ = 0), removing the ray-noise asymmetry";
         /// Diffraction model of the main channels: `airy-uniform` (spheres only, default for
         /// spheres) or `gaussian` (thesis Table 3.3 filter, windowed around the caustics; the only
         /// choice for 2-D shapes).
@@ -127,7 +131,8 @@ impl StageSpec for RaytraceStage {
     const NAME: &'static str = "raytrace";
     /// 2: 2-D tables renormalised to ∫ p dΩ = 1 on their grid. 3: Table 3.2 of Sadeghi (2012)
     /// corrected at 580–650 nm; axes radius × wavelength × …, keys `radii_um`, `wavelengths_nm`.
-    const VERSION: u32 = 3;
+    /// 4: 2-D tables mirror-symmetrised in azimuth by default (`mirror_symmetrise`).
+    const VERSION: u32 = 4;
     const SUMMARY: &'static str =
         "wave-optics patch ray tracer: phase functions of spherical and Beard–Chuang raindrops";
     type Params = RaytraceParams;
@@ -338,8 +343,16 @@ impl RaytraceJob {
     }
 
     /// Run the 2-D tracer for one (wavelength, elevation): values [polar][azimuth][channel].
-    #[allow(clippy::needless_range_loop)]
+    /// Steps: trace (rayon over ray rows, then table rows), filter the caustic windows (rayon
+    /// over azimuth columns), normalise and write the channels (rayon over polar rows).
     fn run_2d(&self, lambda: f64, elevation_deg: f64) -> Result<Vec<f32>, JobError> {
+        Ok(self.trace_2d(lambda, elevation_deg)?.0)
+    }
+
+    /// 2-D shapes: the values `[polar][azimuth][channel]` of one (wavelength, sun elevation) as
+    /// a task returns them (divided by σ, before the renormalisation of `assemble`) and the
+    /// scattering cross-section σ = σ_GO + A (µm²) they were divided by.
+    pub fn trace_2d(&self, lambda: f64, elevation_deg: f64) -> Result<(Vec<f32>, f64), JobError> {
         let shape = self.shape.as_ref().expect("2-D job has a shape");
         let n = self.index(lambda)?;
         let grid = self.direction_grid();
@@ -352,112 +365,161 @@ impl RaytraceJob {
         };
         let f = trace_fields(shape, &cfg, grid);
         let a_um = shape.radius_um();
-        let area = f.projected_area_um2;
-        let a_eff = (area / PI).sqrt();
-        let sigma_total: f64 = f.order_cross_section_um2.iter().sum::<f64>() + area;
-        let (np, na) = (grid.n_polar, grid.n_azimuth);
-        let orders = self.p.max_order + 1;
-        let dth = grid.polar_step();
-        let theta: Vec<f64> = (0..np).map(|j| dth * j as f64).collect();
         let go = SphereGo::new(a_um, lambda, n, 3);
         let split = 0.5
-            * (go.rainbow_angle_rad(2).unwrap_or(2.4) + go.rainbow_angle_rad(3).unwrap_or(2.26));
-        let sigma = filter_sigma_deg(a_um * 1e-3).to_radians();
-        let filt = self.p.diffraction_filter;
-        let sigma_at = |th: f64| {
-            if !filt {
-                0.0
-            } else if th > split {
-                sigma
-            } else {
-                2.0 * sigma
-            }
-        };
-        let lobe: Vec<f64> = theta
-            .iter()
-            .map(|&th| {
-                let (lo, hi) = bin_edges(th, dth);
-                fraunhofer_bin_average(a_eff, lambda, lo, hi)
-            })
-            .collect();
-        let nch = 4 + orders + 3;
-        let mut out = vec![0f32; np * na * nch];
-        for k in 0..na {
-            // Columns of dσ/dΩ: i_perp, i_par, per order.
-            let mut cols = vec![vec![0.0; np]; 2 + orders];
-            for j in 0..np {
-                let (ip, ipar, per) = f.intensities(j, k);
-                cols[0][j] = ip;
-                cols[1][j] = ipar;
-                for o in 0..orders {
-                    cols[2 + o][j] = per[o];
+            * (go.rainbow_angle_rad(2).unwrap_or(PRIMARY_FALLBACK_RAD)
+                + go.rainbow_angle_rad(3).unwrap_or(SECONDARY_FALLBACK_RAD));
+        let filter = ColumnFilter::new(
+            grid.n_polar,
+            grid.polar_step(),
+            filter_sigma_deg(a_um * 1e-3).to_radians(),
+            split,
+            self.p.diffraction_filter,
+        );
+        let windows = caustic_windows(&f, &filter);
+        let sigma_total = f.order_cross_section_um2.iter().sum::<f64>() + f.projected_area_um2;
+        let mut out = write_channels(f, &windows, lambda);
+        if self.p.mirror_symmetrise {
+            mirror_symmetrise(
+                &mut out,
+                grid.n_azimuth,
+                n_channels_2d(self.p.max_order + 1),
+            );
+        }
+        Ok((out, sigma_total))
+    }
+}
+
+/// Index of the `dolp` channel (not an intensity: never renormalised).
+pub const DOLP_CHANNEL: usize = 3;
+
+/// Geometric primary and secondary bow angles used when the index admits no bow (rad).
+const PRIMARY_FALLBACK_RAD: f64 = 2.4;
+const SECONDARY_FALLBACK_RAD: f64 = 2.26;
+
+/// Channels per pixel of a 2-D table with `orders` orders: phase, i_perp, i_par, dolp, the
+/// per-order phases, and the three unfiltered channels.
+pub fn n_channels_2d(orders: usize) -> usize {
+    4 + orders + 3
+}
+
+/// The filtered caustic window of every azimuth column (rayon over columns): columns of
+/// dσ/dΩ i_perp, i_par and per order over the rows the filter needs.
+fn caustic_windows(f: &FieldGrid, filter: &ColumnFilter) -> Vec<CausticWindow> {
+    let orders = f.orders;
+    let rows = filter.needed_rows();
+    (0..f.grid.n_azimuth)
+        .into_par_iter()
+        .map(|k| {
+            let mut cols = vec![Vec::with_capacity(rows.1 + 1 - rows.0); 2 + orders];
+            let mut per = vec![0.0; orders];
+            for j in rows.0..=rows.1 {
+                let (ip, ipar) = f.intensities_into(j, k, &mut per);
+                cols[0].push(ip);
+                cols[1].push(ipar);
+                for (c, v) in cols[2..].iter_mut().zip(&per) {
+                    c.push(*v);
                 }
             }
-            // Caustics of this column: the peaks of the unfiltered primary and secondary orders
-            // ("very sharp transitions"), searched in 130–150° and 115–135°.
-            let peak = |o: usize, lo: f64, hi: f64| -> Option<f64> {
-                if o >= orders {
-                    return None;
-                }
-                let (j0, j1) = (
-                    (lo.to_radians() / dth) as usize,
-                    ((hi.to_radians() / dth) as usize).min(np - 1),
-                );
-                (j0..=j1)
-                    .max_by(|&x, &y| cols[2 + o][x].total_cmp(&cols[2 + o][y]))
-                    .map(|j| theta[j])
-            };
-            let bows: Vec<f64> = [peak(2, 130.0, 150.0), peak(3, 115.0, 135.0)]
-                .into_iter()
-                .flatten()
-                .collect();
-            let filtered: Vec<Vec<f64>> = cols
-                .iter()
-                .map(|c| {
-                    let b = gaussian_blur(c, 0.0, dth, &theta, sigma_at);
-                    (0..np)
-                        .map(|j| {
-                            let w = caustic_weight(
-                                theta[j],
-                                &bows,
-                                sigma_at(theta[j]) * DEFAULT_CAUSTIC_WINDOW_SIGMAS,
-                            );
-                            if filt {
-                                w * b[j] + (1.0 - w) * c[j]
-                            } else {
-                                c[j]
-                            }
-                        })
-                        .collect()
-                })
-                .collect();
-            for j in 0..np {
-                let ip = (filtered[0][j] + lobe[j]) / sigma_total;
-                let ipar = (filtered[1][j] + lobe[j]) / sigma_total;
-                let ipu = (cols[0][j] + lobe[j]) / sigma_total;
-                let iparu = (cols[1][j] + lobe[j]) / sigma_total;
-                let base = (j * na + k) * nch;
-                let mut row = vec![
-                    0.5 * (ip + ipar),
-                    ip,
-                    ipar,
-                    if ip + ipar > 0.0 {
+            let order = |o: usize| (o < orders).then_some(2 + o);
+            filter.filter_column(rows, &cols, order(2), order(3))
+        })
+        .collect()
+}
+
+/// The table values `[polar][azimuth][channel]` of one entry (rayon over polar rows): filtered
+/// values inside each column's caustic window, unfiltered outside, plus the forward lobe of the
+/// equal-area disc, all divided by σ = σ_GO + A. Consumes the accumulators band by band (each
+/// band is released once its rows are written), so the accumulators and the output are not
+/// held in full at the same time.
+fn write_channels(mut f: FieldGrid, windows: &[CausticWindow], lambda: f64) -> Vec<f32> {
+    let grid = f.grid;
+    let (np, na, orders) = (grid.n_polar, grid.n_azimuth, f.orders);
+    let area = f.projected_area_um2;
+    let a_eff = (area / PI).sqrt();
+    let sigma_total: f64 = f.order_cross_section_um2.iter().sum::<f64>() + area;
+    let dth = grid.polar_step();
+    let nch = n_channels_2d(orders);
+    let (band_rows, row_len, stride) = (f.band_rows, f.row_len(), orders * 4);
+    let mut out = vec![0f32; np * na * nch];
+    let bands = std::mem::take(&mut f.bands);
+    for (b, (band, out_band)) in bands
+        .into_iter()
+        .zip(out.chunks_mut(band_rows * na * nch))
+        .enumerate()
+    {
+        out_band
+            .par_chunks_mut(na * nch)
+            .zip(band.par_chunks(row_len))
+            .enumerate()
+            .for_each(|(jj, (row, acc))| {
+                let j = b * band_rows + jj;
+                let (lo, hi) = bin_edges(dth * j as f64, dth);
+                let lobe = fraunhofer_bin_average(a_eff, lambda, lo, hi);
+                let mut per = vec![0.0; orders];
+                let mut unf = vec![0.0; 2 + orders];
+                for (k, (px, a)) in row
+                    .chunks_exact_mut(nch)
+                    .zip(acc.chunks_exact(stride))
+                    .enumerate()
+                {
+                    let (ip_u, ipar_u) = pixel_intensities(a, &mut per);
+                    unf[0] = ip_u;
+                    unf[1] = ipar_u;
+                    unf[2..].copy_from_slice(&per);
+                    let filt = windows[k].get(j).unwrap_or(&unf);
+                    let ip = (filt[0] + lobe) / sigma_total;
+                    let ipar = (filt[1] + lobe) / sigma_total;
+                    let ipu = (ip_u + lobe) / sigma_total;
+                    let iparu = (ipar_u + lobe) / sigma_total;
+                    let dolp = if ip + ipar > 0.0 {
                         (ip - ipar) / (ip + ipar)
                     } else {
                         0.0
-                    },
-                ];
-                for o in 0..orders {
-                    row.push(filtered[2 + o][j] / sigma_total);
+                    };
+                    let head = [0.5 * (ip + ipar), ip, ipar, dolp];
+                    let tail = [0.5 * (ipu + iparu), ipu, iparu];
+                    let per_order = filt[2..].iter().map(|v| v / sigma_total);
+                    for (dst, v) in px
+                        .iter_mut()
+                        .zip(head.into_iter().chain(per_order).chain(tail))
+                    {
+                        *dst = v as f32;
+                    }
                 }
-                row.extend([0.5 * (ipu + iparu), ipu, iparu]);
-                for (c, v) in row.iter().enumerate() {
-                    out[base + c] = *v as f32;
+            });
+        // `band` is dropped here: its accumulators return to the system before the next band.
+    }
+    out
+}
+
+/// Mirror symmetrisation φ ↔ 360° − φ of table values `[polar][azimuth][channel]` (rayon over
+/// polar rows; decision RT-24): every channel but `dolp` of columns k and `na − k` is replaced
+/// by the pair's mean and `dolp` is recomputed from the mean i_perp and i_par. Columns 0 and
+/// na/2 (φ = 0°, 180°) are their own mirror images. The pair has equal solid angles, so
+/// ∫ p dΩ is unchanged.
+pub fn mirror_symmetrise(values: &mut [f32], na: usize, nch: usize) {
+    values.par_chunks_mut(na * nch).for_each(|row| {
+        for k in 1..na.div_ceil(2) {
+            let (head, tail) = row.split_at_mut((na - k) * nch);
+            let a = &mut head[k * nch..(k + 1) * nch];
+            let b = &mut tail[..nch];
+            for (c, (x, y)) in a.iter_mut().zip(b.iter_mut()).enumerate() {
+                if c != DOLP_CHANNEL {
+                    let m = 0.5 * (*x as f64 + *y as f64);
+                    (*x, *y) = (m as f32, m as f32);
                 }
             }
+            let (ip, ipar) = (a[1] as f64, a[2] as f64);
+            let dolp = if ip + ipar > 0.0 {
+                ((ip - ipar) / (ip + ipar)) as f32
+            } else {
+                0.0
+            };
+            a[DOLP_CHANNEL] = dolp;
+            b[DOLP_CHANNEL] = dolp;
         }
-        Ok(out)
-    }
+    });
 }
 
 /// ∫ p dΩ of a 1-D phase function on a uniform [0, π] grid (bin-sum with exact bin solid angles).
@@ -525,7 +587,15 @@ impl Job for RaytraceJob {
     }
 
     fn assemble(&self, chunks: Vec<Vec<f32>>) -> Result<TableContent, JobError> {
-        let data: Vec<f32> = chunks.into_iter().flatten().collect();
+        // The first chunk becomes the table (grown in place), each further chunk is dropped once
+        // copied: a one-task table is never copied, larger ones hold one spare chunk at most.
+        let total: usize = chunks.iter().map(Vec::len).sum();
+        let mut chunks = chunks.into_iter();
+        let mut data = chunks.next().unwrap_or_default();
+        data.reserve_exact(total - data.len());
+        for c in chunks {
+            data.extend_from_slice(&c);
+        }
         let channels = self.channels();
         let nch = channels.len();
         let mut at = serde_json::Map::new();
@@ -589,18 +659,22 @@ impl Job for RaytraceJob {
         let grid = self.direction_grid();
         let (np, na) = (grid.n_polar, grid.n_azimuth);
         let dth = grid.polar_step();
-        let mut data = data;
         let mut ints = vec![];
         for e in 0..self.task_pairs().len() {
             let base = e * np * na * nch;
-            let mut s = 0.0;
-            for j in 0..np {
-                let (lo, hi) = bin_edges(dth * j as f64, dth);
-                let om = (lo.cos() - hi.cos()) * grid.azimuth_step();
-                for k in 0..na {
-                    s += data[base + (j * na + k) * nch] as f64 * om;
-                }
-            }
+            // Row sums in parallel, added in row order (deterministic, so rebuilt tables are
+            // byte-identical).
+            let rows: Vec<f64> = (0..np)
+                .into_par_iter()
+                .map(|j| {
+                    let (lo, hi) = bin_edges(dth * j as f64, dth);
+                    let om = (lo.cos() - hi.cos()) * grid.azimuth_step();
+                    (0..na)
+                        .map(|k| data[base + (j * na + k) * nch] as f64 * om)
+                        .sum::<f64>()
+                })
+                .collect();
+            let s: f64 = rows.iter().sum();
             ints.push(s);
             // Renormalisation of 2-D tables (decision RT-21 in docs/decisions.md): the bin-sum
             // deviates from 1 by the flux of discarded silhouette triangles (−0.1…−0.5 %) and,
@@ -614,19 +688,32 @@ impl Job for RaytraceJob {
                     integral: s,
                 });
             }
-            for v in data[base..base + np * na * nch].chunks_mut(nch) {
-                for (c, x) in v.iter_mut().enumerate() {
-                    if c != 3 {
-                        *x = (*x as f64 / s) as f32;
+            data[base..base + np * na * nch]
+                .par_chunks_mut(na * nch)
+                .for_each(|row| {
+                    for v in row.chunks_mut(nch) {
+                        for (c, x) in v.iter_mut().enumerate() {
+                            if c != DOLP_CHANNEL {
+                                *x = (*x as f64 / s) as f32;
+                            }
+                        }
                     }
-                }
-            }
+                });
         }
         at.insert("integral_check".into(), serde_json::json!({"what": "bin-sum of phase over 4π per entry before renormalisation (below 1 by the flux of triangles discarded at the silhouette, above 1 where cusp caustics are point-sampled); every channel but dolp was divided by it, so the stored table integrates to 1 on its grid", "values": ints}));
         at.insert("angular_resampling".into(), "point samples of the coherent patch sum at the grid directions; filtered channels are Gaussian averages along the polar angle per azimuth column; the forward lobe is the exact average over each polar bin".into());
         at.insert(
             phase_contract::INTERPOLABLE_AXES.into(),
             serde_json::json!(["wavelength", "outgoing_polar", "outgoing_azimuth"]),
+        );
+        at.insert(
+            "mirror_symmetrisation".into(),
+            if self.p.mirror_symmetrise {
+                "applied: the values at outgoing_azimuth φ and 360° − φ were replaced by their mean (every channel but dolp, which was recomputed from the mean i_perp and i_par); the drop (a surface of revolution about the vertical axis) and the sun (in the vertical plane φ = 0) are symmetric under y → −y, so the exact table has this symmetry and the averaging removes ray noise only (docs/decisions.md RT-24)"
+            } else {
+                "not applied: values at φ and 360° − φ differ by ray noise"
+            }
+            .into(),
         );
         at.insert("frame".into(), "drop axis vertical (z up); sun at elevation e in the +x half-space, incident direction d = (−cos e, 0, −sin e); outgoing_polar = angle from d; outgoing_azimuth about d from e1 = (−sin e, 0, cos e) (vertical plane, upwards) towards e2 = +y".into());
         at.insert("shape".into(), self.p.shape.clone().into());
@@ -787,5 +874,51 @@ mod tests {
             }
         }
         assert!((s - 1.0).abs() < 1e-5, "stored ∫p = {s}");
+    }
+
+    /// Mirror symmetrisation (RT-24): without it a Beard–Chuang table breaks φ ↔ 360° − φ by ray
+    /// noise; with it every channel is symmetric (dolp recomputed), the unsymmetrised table's
+    /// pair means are kept and the header says so.
+    #[test]
+    fn two_d_tables_are_mirror_symmetric_in_azimuth() {
+        let lines = |on: bool| {
+            format!(
+                "shape = \"beard-chuang\"\nradii_um = [1500.0]\nwavelengths_nm = [550.0]\nsun_elevation_deg = [10.0]\nrays = 60\npolar_step_deg = 1.0\nazimuth_step_deg = 20.0\nmirror_symmetrise = {on}"
+            )
+        };
+        let raw = crate::stages::table_from_lines(&RaytraceStage, &lines(false));
+        let sym = crate::stages::table_from_lines(&RaytraceStage, &lines(true));
+        let (np, na, nch) = (raw.axes[3].len(), raw.axes[4].len(), raw.channels.len());
+        assert_eq!(na, 18);
+        fn at(t: &TableContent, na: usize, nch: usize, j: usize, k: usize) -> &[f32] {
+            &t.data[(j * na + k) * nch..][..nch]
+        }
+        let (mut asym_raw, mut asym_sym, mut norm) = (0.0f64, 0.0f64, 0.0f64);
+        for j in 0..np {
+            for k in 1..na / 2 {
+                let (a, b) = (at(&raw, na, nch, j, k), at(&raw, na, nch, j, na - k));
+                let (c, d) = (at(&sym, na, nch, j, k), at(&sym, na, nch, j, na - k));
+                asym_raw += ((a[0] - b[0]) as f64).powi(2);
+                asym_sym += ((c[0] - d[0]) as f64).powi(2);
+                norm += ((a[0] + b[0]) as f64 / 2.0).powi(2);
+                assert_eq!(c, d, "row {j}, column {k}");
+                // Same renormalisation factor up to f32 rounding of the sums: pair means agree.
+                let mean = 0.5 * (a[1] as f64 + b[1] as f64);
+                assert!(
+                    (c[1] as f64 - mean).abs() <= 1e-4 * mean + 1e-12,
+                    "{} vs {mean}",
+                    c[1]
+                );
+            }
+        }
+        let rel = (asym_raw / norm).sqrt();
+        assert!(rel > 1e-5, "unsymmetrised table already symmetric: {rel}");
+        assert_eq!(asym_sym, 0.0);
+        assert!(
+            sym.attributes["mirror_symmetrisation"]
+                .as_str()
+                .unwrap()
+                .starts_with("applied")
+        );
     }
 }

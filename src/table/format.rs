@@ -67,6 +67,40 @@ pub(crate) fn sha256_hex(bytes: &[u8]) -> String {
     hex::encode(Sha256::digest(bytes))
 }
 
+/// zstd level of every payload.
+const ZSTD_LEVEL: i32 = 9;
+/// Payloads above this many bytes are compressed by [`ZSTD_WORKERS`] zstd worker threads.
+const MULTITHREAD_PAYLOAD_BYTES: usize = 64 << 20;
+/// A fixed worker count, so the compressed bytes do not depend on the machine.
+const ZSTD_WORKERS: u32 = 2;
+/// Values converted to little-endian bytes per step of the streaming compressor (1 MiB).
+const PAYLOAD_CHUNK_VALUES: usize = 1 << 18;
+
+/// One zstd frame of `data` as f32 LE, streamed in chunks (no full byte copy of the payload),
+/// with the uncompressed size and SHA-256.
+fn compress_payload(data: &[f32]) -> Result<(Vec<u8>, u64, String), TableError> {
+    let err = |e: std::io::Error| TableError::Inconsistent(e.to_string());
+    let raw_len = std::mem::size_of_val(data);
+    let mut enc = zstd::stream::Encoder::new(Vec::new(), ZSTD_LEVEL).map_err(err)?;
+    enc.include_checksum(true)
+        .and_then(|_| enc.include_contentsize(true))
+        .and_then(|_| enc.set_pledged_src_size(Some(raw_len as u64)))
+        .map_err(err)?;
+    if raw_len > MULTITHREAD_PAYLOAD_BYTES {
+        enc.multithread(ZSTD_WORKERS).map_err(err)?;
+    }
+    let mut sha = Sha256::new();
+    let mut buf = Vec::with_capacity(PAYLOAD_CHUNK_VALUES * 4);
+    for chunk in data.chunks(PAYLOAD_CHUNK_VALUES) {
+        buf.clear();
+        buf.extend(chunk.iter().flat_map(|v| v.to_le_bytes()));
+        sha.update(&buf);
+        enc.write_all(&buf).map_err(err)?;
+    }
+    let compressed = enc.finish().map_err(err)?;
+    Ok((compressed, raw_len as u64, hex::encode(sha.finalize())))
+}
+
 impl Table {
     /// Build a table from stage content and provenance (computes layout and checksums on write).
     pub fn from_content(content: TableContent, provenance: Provenance) -> Result<Self, TableError> {
@@ -119,24 +153,13 @@ impl Table {
 
     /// Serialise to the exact file bytes (fills in the payload section of the header).
     pub fn to_bytes(&mut self) -> Result<Vec<u8>, TableError> {
-        let raw: Vec<u8> = self.data.iter().flat_map(|v| v.to_le_bytes()).collect();
-        let mut enc = zstd::stream::Encoder::new(Vec::new(), 9)
-            .map_err(|e| TableError::Inconsistent(e.to_string()))?;
-        enc.include_checksum(true)
-            .and_then(|_| enc.include_contentsize(true))
-            .and_then(|_| enc.set_pledged_src_size(Some(raw.len() as u64)))
-            .map_err(|e| TableError::Inconsistent(e.to_string()))?;
-        enc.write_all(&raw)
-            .map_err(|e| TableError::Inconsistent(e.to_string()))?;
-        let compressed = enc
-            .finish()
-            .map_err(|e| TableError::Inconsistent(e.to_string()))?;
+        let (compressed, uncompressed_bytes, sha_raw) = compress_payload(&self.data)?;
         self.header.payload = PayloadInfo {
             compression: "zstd".into(),
             compressed_bytes: compressed.len() as u64,
-            uncompressed_bytes: raw.len() as u64,
+            uncompressed_bytes,
             sha256_compressed: sha256_hex(&compressed),
-            sha256_uncompressed: sha256_hex(&raw),
+            sha256_uncompressed: sha_raw,
         };
         let header_json = serde_json::to_vec_pretty(&self.header)
             .map_err(|e| TableError::Inconsistent(e.to_string()))?;

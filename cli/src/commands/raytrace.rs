@@ -90,6 +90,7 @@ pub fn raytrace_columns(args: &RaytraceArgs) -> anyhow::Result<RaytraceColumns> 
         polar_step_deg: step,
         azimuth_step_deg: 5.0,
         diffraction_filter: !args.no_diffraction_filter,
+        mirror_symmetrise: true,
         diffraction_model: None,
         profile_theta_deg: None,
         profile_r: None,
