@@ -178,9 +178,7 @@ pub fn simulate_adaptive(sigma: f64, g: f64, h: f64, s: &AdaptiveSettings) -> Ad
     ));
     let mut sum = vec![0.0; bins];
     let mut sum_len = vec![0.0; bins];
-    let mut batch_means: Vec<Vec<f64>> = Vec::new();
-    let mut batch_size = s.batch_photons;
-    let mut pending: Option<Vec<f64>> = None;
+    let mut batches = BatchMeans::new(s.batch_photons, bins);
     let mut photons = 0u64;
     let mut worst;
     let mut bsum = vec![0.0; bins];
@@ -191,42 +189,11 @@ pub fn simulate_adaptive(sigma: f64, g: f64, h: f64, s: &AdaptiveSettings) -> Ad
         for (a, b) in sum.iter_mut().zip(&bsum) {
             *a += b;
         }
-        // Batch means of `batch_size` photons; two consecutive batches merge once the store is
-        // full (the merged means are again i.i.d.).
-        let m: Vec<f64> = bsum.iter().map(|v| v / s.batch_photons as f64).collect();
-        let m = if batch_size == s.batch_photons {
-            Some(m)
-        } else {
-            // Accumulate `batch_size / batch_photons` small batches into one mean.
-            let need = (batch_size / s.batch_photons) as usize;
-            let acc = pending.get_or_insert_with(|| vec![0.0; bins + 1]);
-            for (a, v) in acc.iter_mut().zip(&m) {
-                *a += v / need as f64;
-            }
-            acc[bins] += 1.0;
-            if acc[bins] as usize == need {
-                let mut full = pending.take().unwrap();
-                full.truncate(bins);
-                Some(full)
-            } else {
-                None
-            }
-        };
-        if let Some(m) = m {
-            batch_means.push(m);
-            if batch_means.len() == MAX_BATCHES {
-                batch_means = batch_means
-                    .chunks(2)
-                    .map(|p| p[0].iter().zip(&p[1]).map(|(a, b)| 0.5 * (a + b)).collect())
-                    .collect();
-                batch_size *= 2;
-            }
-        }
-        let nb = batch_means.len();
-        if nb < s.min_batches {
+        batches.add(&bsum);
+        if batches.means.len() < s.min_batches {
             continue;
         }
-        let se = batch_std_error(&batch_means);
+        let se = batch_std_error(&batches.means);
         let energy: Vec<f64> = (0..bins).map(|k| e1[k] + sum[k] / photons as f64).collect();
         let max = energy.iter().cloned().fold(0.0, f64::max);
         worst = (0..bins)
@@ -248,6 +215,7 @@ pub fn simulate_adaptive(sigma: f64, g: f64, h: f64, s: &AdaptiveSettings) -> Ad
             }
         })
         .collect();
+    let batch_means = batches.means;
     let std_error = batch_std_error(&batch_means);
     let totals: Vec<Vec<f64>> = batch_means.iter().map(|m| vec![m.iter().sum()]).collect();
     let scattered_std_error = batch_std_error(&totals)[0];
@@ -262,6 +230,65 @@ pub fn simulate_adaptive(sigma: f64, g: f64, h: f64, s: &AdaptiveSettings) -> Ad
         scattered_std_error,
         photons,
         worst_rel_error: worst,
+    }
+}
+
+/// Batch means of a running estimate: means of `batch_size` photons, made of consecutive
+/// small batches of `base` photons; when the store is full two consecutive means merge and the
+/// batch size doubles (the merged means are again i.i.d.).
+struct BatchMeans {
+    means: Vec<Vec<f64>>,
+    batch_size: u64,
+    base: u64,
+    bins: usize,
+    /// Small batches accumulated toward the next mean (last element: how many).
+    pending: Option<Vec<f64>>,
+}
+
+impl BatchMeans {
+    fn new(base: u64, bins: usize) -> Self {
+        BatchMeans {
+            means: Vec::new(),
+            batch_size: base,
+            base,
+            bins,
+            pending: None,
+        }
+    }
+
+    /// Add the per-bin sums `bsum` of one small batch of `base` photons.
+    fn add(&mut self, bsum: &[f64]) {
+        let bins = self.bins;
+        let m: Vec<f64> = bsum.iter().map(|v| v / self.base as f64).collect();
+        let m = if self.batch_size == self.base {
+            Some(m)
+        } else {
+            // Accumulate `batch_size / base` small batches into one mean.
+            let need = (self.batch_size / self.base) as usize;
+            let acc = self.pending.get_or_insert_with(|| vec![0.0; bins + 1]);
+            for (a, v) in acc.iter_mut().zip(&m) {
+                *a += v / need as f64;
+            }
+            acc[bins] += 1.0;
+            if acc[bins] as usize == need {
+                let mut full = self.pending.take().expect("pending batch");
+                full.truncate(bins);
+                Some(full)
+            } else {
+                None
+            }
+        };
+        if let Some(m) = m {
+            self.means.push(m);
+            if self.means.len() == MAX_BATCHES {
+                self.means = self
+                    .means
+                    .chunks(2)
+                    .map(|p| p[0].iter().zip(&p[1]).map(|(a, b)| 0.5 * (a + b)).collect())
+                    .collect();
+                self.batch_size *= 2;
+            }
+        }
     }
 }
 

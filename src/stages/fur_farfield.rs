@@ -110,70 +110,74 @@ impl StageSpec for FurFarFieldStage {
         }
         let tables = match &p.medulla_tables {
             None => None,
-            Some(paths) => {
-                let open = |path: &str, schema: &str| -> Result<Table, PlanError> {
-                    // The table error names the file.
-                    let t = Table::open(path)
-                        .map_err(|e| PlanError::invalid("medulla_tables", e.to_string()))?;
-                    if t.header.schema.name != schema {
-                        return Err(PlanError::invalid(
-                            "medulla_tables",
-                            format!(
-                                "{path}: schema {} (expected {schema})",
-                                t.header.schema.name
-                            ),
-                        ));
-                    }
-                    Ok(t)
-                };
-                let tables = Arc::new((
-                    open(&paths.azimuthal, "fur-medulla-azimuthal")?,
-                    open(&paths.longitudinal, "fur-medulla-longitudinal")?,
-                ));
-                // Every lookup must be inside the tables' grids: check them at plan time.
-                let set = FarFieldJob {
-                    p: p.clone(),
-                    samples: samples.clone(),
-                    tables: Some(tables.clone()),
-                }
-                .settings();
-                for s in &samples {
-                    let source = MedullaSource::Tables {
-                        azimuthal: &tables.0,
-                        longitudinal: &tables.1,
-                    };
-                    let sigma = medulla_sigma(s, p.medulla_sigma_scaling);
-                    MedullaShapes::from_table(&tables.0, sigma, s.g, &set).map_err(|e| {
-                        PlanError::invalid_because(
-                            "medulla_tables",
-                            &format!("sample {}", s.name),
-                            &e,
-                        )
-                    })?;
-                    for &ti in &p.theta_i_deg {
-                        let sin_ti = ti.to_radians().sin();
-                        let cos_tm = (1.0 - (sin_ti / s.eta_m).powi(2)).sqrt();
-                        crate::fur::farfield::longitudinal_lobe_pdf(
-                            source,
-                            sigma / cos_tm,
-                            s.g,
-                            (sin_ti / s.eta_m).asin(),
-                            &set,
-                        )
-                        .map_err(|e| {
-                            PlanError::invalid_because(
-                                "medulla_tables",
-                                &format!("sample {} at theta_i {ti}", s.name),
-                                &e,
-                            )
-                        })?;
-                    }
-                }
-                Some(tables)
-            }
+            Some(paths) => Some(open_medulla_tables(paths, &p, &samples)?),
         };
         Ok(Box::new(FarFieldJob { p, samples, tables }))
     }
+}
+
+/// Open the medulla tables a far-field plan names, check their schemas, and check that every
+/// lookup the plan will make (each sample's σ and g, each θ_i) lies inside their grids.
+fn open_medulla_tables(
+    paths: &MedullaTablePaths,
+    p: &FarFieldParams,
+    samples: &[FurSample],
+) -> Result<Arc<(Table, Table)>, PlanError> {
+    let open = |path: &str, schema: &str| -> Result<Table, PlanError> {
+        // The table error names the file.
+        let t =
+            Table::open(path).map_err(|e| PlanError::invalid("medulla_tables", e.to_string()))?;
+        if t.header.schema.name != schema {
+            return Err(PlanError::invalid(
+                "medulla_tables",
+                format!(
+                    "{path}: schema {} (expected {schema})",
+                    t.header.schema.name
+                ),
+            ));
+        }
+        Ok(t)
+    };
+    let tables = Arc::new((
+        open(&paths.azimuthal, "fur-medulla-azimuthal")?,
+        open(&paths.longitudinal, "fur-medulla-longitudinal")?,
+    ));
+    // Every lookup must be inside the tables' grids: check them at plan time.
+    let set = FarFieldJob {
+        p: p.clone(),
+        samples: samples.to_vec(),
+        tables: Some(tables.clone()),
+    }
+    .settings();
+    for s in samples {
+        let source = MedullaSource::Tables {
+            azimuthal: &tables.0,
+            longitudinal: &tables.1,
+        };
+        let sigma = medulla_sigma(s, p.medulla_sigma_scaling);
+        MedullaShapes::from_table(&tables.0, sigma, s.g, &set).map_err(|e| {
+            PlanError::invalid_because("medulla_tables", &format!("sample {}", s.name), &e)
+        })?;
+        for &ti in &p.theta_i_deg {
+            let sin_ti = ti.to_radians().sin();
+            let cos_tm = (1.0 - (sin_ti / s.eta_m).powi(2)).sqrt();
+            crate::fur::farfield::longitudinal_lobe_pdf(
+                source,
+                sigma / cos_tm,
+                s.g,
+                (sin_ti / s.eta_m).asin(),
+                &set,
+            )
+            .map_err(|e| {
+                PlanError::invalid_because(
+                    "medulla_tables",
+                    &format!("sample {} at theta_i {ti}", s.name),
+                    &e,
+                )
+            })?;
+        }
+    }
+    Ok(tables)
 }
 
 struct FarFieldJob {

@@ -189,7 +189,9 @@ pub struct FurMedullaAzimuthalStage;
 /// Stage for the longitudinal family C^M(θ'_r; θ'_i, σ, g).
 pub struct FurMedullaLongitudinalStage;
 
-fn plan(family: Family, mut p: MedullaParams) -> Result<Box<dyn Job>, PlanError> {
+/// The method of a plan (explicit, or the family's default) after checking it against the
+/// family and its own settings; sets `p.method` and the adaptive method's default target.
+fn checked_method(family: Family, p: &mut MedullaParams) -> Result<Method, PlanError> {
     let method = match (family, p.method) {
         (Family::Azimuthal, Some(Method::AddingDoubling)) => {
             return Err(PlanError::invalid(
@@ -220,11 +222,12 @@ fn plan(family: Family, mut p: MedullaParams) -> Result<Box<dyn Job>, PlanError>
             ));
         }
     }
-    let sigma = p.sigma.points();
-    let g = p.g.points();
-    check_grid("sigma", &sigma, 0.0, 200.0, false, false)?;
-    check_grid("g", &g, 0.0, 0.95, false, false)?;
-    let entries = match family {
+    Ok(method)
+}
+
+/// The entry axis of the family: h' (azimuthal) or θ'_i in degrees (longitudinal), checked.
+fn entry_points(family: Family, p: &MedullaParams) -> Result<Vec<f64>, PlanError> {
+    Ok(match family {
         Family::Azimuthal => {
             if p.theta_i_deg.is_some() {
                 return Err(PlanError::invalid(
@@ -251,7 +254,16 @@ fn plan(family: Family, mut p: MedullaParams) -> Result<Box<dyn Job>, PlanError>
             check_grid("theta_i_deg", &t, -90.0, 90.0, true, true)?;
             t
         }
-    };
+    })
+}
+
+fn plan(family: Family, mut p: MedullaParams) -> Result<Box<dyn Job>, PlanError> {
+    let method = checked_method(family, &mut p)?;
+    let sigma = p.sigma.points();
+    let g = p.g.points();
+    check_grid("sigma", &sigma, 0.0, 200.0, false, false)?;
+    check_grid("g", &g, 0.0, 0.95, false, false)?;
+    let entries = entry_points(family, &p)?;
     if p.bins < 8 || !p.bins.is_multiple_of(4) || p.bins > 36_000 {
         return Err(PlanError::invalid(
             "bins",
@@ -559,52 +571,8 @@ impl Job for MedullaJob {
                 }
             }
         }
-        // Energy-identity check over the whole table, in standard errors.
-        let mut max_dev_se: f64 = 0.0;
-        let mut max_dev_abs: f64 = 0.0;
-        for ((ballistic, scattered), se) in scal[0].iter().zip(&scal[1]).zip(&scal[2]) {
-            let dev = (scattered - (1.0 - ballistic)).abs();
-            max_dev_abs = max_dev_abs.max(dev);
-            if *se > 0.0 {
-                max_dev_se = max_dev_se.max(dev / se);
-            }
-        }
         let dw_deg = 360.0 / b as f64;
-        let mut a = serde_json::Map::new();
-        a.insert("model".into(), "2-D volumetric Monte Carlo, Tseng 2015 §5 / App. A: purely scattering medium, planar Henyey–Greenstein phase function rho(theta) = (1-g^2)/(2 pi (1+g^2-2g cos theta)), no absorption, index-matched boundary (no Fresnel, no refraction), unit incident energy".into());
-        a.insert("sigma_convention".into(), "sigma is the scattering coefficient per unit MEDULLA radius (dimensionless optical coefficient; azimuthal disc radius 1, slab thickness 2). Renderer mapping (docs/fur.md): sigma = sigma_ms[per fiber radius] * kappa = sigma_ms[per fiber diameter] * kappa / 2; the thesis's sigma_ms/kappa lookup is NOT used".into());
-        a.insert("length_unit".into(), "medulla radius".into());
-        a.insert("estimator".into(), serde_json::to_value(self.p.estimator)?);
-        a.insert("estimator_description".into(), match self.p.estimator {
-            Estimator::Expected => "expected value: forced first collision (weight 1 - exp(-sigma chord)), next-event estimate to every bin at every collision (phase density at bin centre x bin width x exp(-sigma s)), analog continuation",
-            Estimator::Histogram => "analog histogram of exit directions",
-        }.into());
-        a.insert("photons_per_entry".into(), self.p.photons.into());
-        a.insert("method".into(), "monte-carlo".into());
-        a.insert("seed".into(), self.p.seed.into());
-        a.insert("rng".into(), "SplitMix64, one stream per entry derived from (seed, family, sigma, g, entry) bit patterns: independent of threads and sharding".into());
-        a.insert("grid_endpoints".into(), "axis values are exactly the listed sample points; {start, stop, count} ranges include both endpoints unless centred = true".into());
-        a.insert("bin_width_deg".into(), dw_deg.into());
-        a.insert("bin_rule".into(), "bins are half-open cells [lower, upper) of equal width 360/bins deg; the axis coordinate is the cell centre; values are averages over the cell (midpoint rule for the expected-value estimator)".into());
-        a.insert("energy_convention".into(), "channel `energy` is scattered exiting energy per bin per unit incident energy (NOT a density: divide by the bin width in rad for per-radian density); it sums over bins to the scattered fraction 1 - ballistic".into());
-        a.insert("path_length_convention".into(), "channel `path_length` is the energy-weighted mean in-medulla path length (medulla radii) of the light exiting in the bin; 0 where the bin is empty. Medulla absorption at render time: multiply energy by exp(-sigma_a * path_length) (first-order; exact only for a narrow length distribution)".into());
-        a.insert("std_error_convention".into(), "channel `std_error` is the Monte Carlo standard error of `energy` in the bin (from per-photon second moments)".into());
-        a.insert("symmetry".into(), "rows with a negative entry (h or theta_i) whose positive mirror is on the grid are stored as the exact mirror of that row (bins reversed, within each lobe for the longitudinal family)".into());
-        a.insert(
-            "scalars_layout".into(),
-            "per-entry arrays below are flat row-major over (sigma, g, entry)".into(),
-        );
-        a.insert("ballistic_fraction".into(), scal[0].clone().into());
-        a.insert("scattered_fraction".into(), scal[1].clone().into());
-        a.insert(
-            "scattered_fraction_std_error".into(),
-            scal[2].clone().into(),
-        );
-        a.insert("energy_identity_max_deviation".into(), max_dev_abs.into());
-        a.insert(
-            "energy_identity_max_deviation_std_errors".into(),
-            max_dev_se.into(),
-        );
+        let mut a = self.monte_carlo_attributes(&scal, dw_deg)?;
         let sigma_ax = Axis::values("sigma", "1/medulla_radius", self.sigma.clone());
         let g_ax = Axis::values("g", "1", self.g.clone());
         let content = match self.family {
@@ -669,6 +637,64 @@ impl Job for MedullaJob {
             }
         };
         Ok(content)
+    }
+}
+
+impl MedullaJob {
+    /// Attributes of every Monte Carlo medulla table: model, conventions, estimator, the
+    /// per-entry scalars `scal` (ballistic, scattered, its standard error, …) and the energy
+    /// identity over the whole table, in absolute terms and in standard errors.
+    fn monte_carlo_attributes(
+        &self,
+        scal: &[Vec<f64>],
+        dw_deg: f64,
+    ) -> Result<serde_json::Map<String, serde_json::Value>, JobError> {
+        // Energy-identity check over the whole table, in standard errors.
+        let mut max_dev_se: f64 = 0.0;
+        let mut max_dev_abs: f64 = 0.0;
+        for ((ballistic, scattered), se) in scal[0].iter().zip(&scal[1]).zip(&scal[2]) {
+            let dev = (scattered - (1.0 - ballistic)).abs();
+            max_dev_abs = max_dev_abs.max(dev);
+            if *se > 0.0 {
+                max_dev_se = max_dev_se.max(dev / se);
+            }
+        }
+        let mut a = serde_json::Map::new();
+        a.insert("model".into(), "2-D volumetric Monte Carlo, Tseng 2015 §5 / App. A: purely scattering medium, planar Henyey–Greenstein phase function rho(theta) = (1-g^2)/(2 pi (1+g^2-2g cos theta)), no absorption, index-matched boundary (no Fresnel, no refraction), unit incident energy".into());
+        a.insert("sigma_convention".into(), "sigma is the scattering coefficient per unit MEDULLA radius (dimensionless optical coefficient; azimuthal disc radius 1, slab thickness 2). Renderer mapping (docs/fur.md): sigma = sigma_ms[per fiber radius] * kappa = sigma_ms[per fiber diameter] * kappa / 2; the thesis's sigma_ms/kappa lookup is NOT used".into());
+        a.insert("length_unit".into(), "medulla radius".into());
+        a.insert("estimator".into(), serde_json::to_value(self.p.estimator)?);
+        a.insert("estimator_description".into(), match self.p.estimator {
+            Estimator::Expected => "expected value: forced first collision (weight 1 - exp(-sigma chord)), next-event estimate to every bin at every collision (phase density at bin centre x bin width x exp(-sigma s)), analog continuation",
+            Estimator::Histogram => "analog histogram of exit directions",
+        }.into());
+        a.insert("photons_per_entry".into(), self.p.photons.into());
+        a.insert("method".into(), "monte-carlo".into());
+        a.insert("seed".into(), self.p.seed.into());
+        a.insert("rng".into(), "SplitMix64, one stream per entry derived from (seed, family, sigma, g, entry) bit patterns: independent of threads and sharding".into());
+        a.insert("grid_endpoints".into(), "axis values are exactly the listed sample points; {start, stop, count} ranges include both endpoints unless centred = true".into());
+        a.insert("bin_width_deg".into(), dw_deg.into());
+        a.insert("bin_rule".into(), "bins are half-open cells [lower, upper) of equal width 360/bins deg; the axis coordinate is the cell centre; values are averages over the cell (midpoint rule for the expected-value estimator)".into());
+        a.insert("energy_convention".into(), "channel `energy` is scattered exiting energy per bin per unit incident energy (NOT a density: divide by the bin width in rad for per-radian density); it sums over bins to the scattered fraction 1 - ballistic".into());
+        a.insert("path_length_convention".into(), "channel `path_length` is the energy-weighted mean in-medulla path length (medulla radii) of the light exiting in the bin; 0 where the bin is empty. Medulla absorption at render time: multiply energy by exp(-sigma_a * path_length) (first-order; exact only for a narrow length distribution)".into());
+        a.insert("std_error_convention".into(), "channel `std_error` is the Monte Carlo standard error of `energy` in the bin (from per-photon second moments)".into());
+        a.insert("symmetry".into(), "rows with a negative entry (h or theta_i) whose positive mirror is on the grid are stored as the exact mirror of that row (bins reversed, within each lobe for the longitudinal family)".into());
+        a.insert(
+            "scalars_layout".into(),
+            "per-entry arrays below are flat row-major over (sigma, g, entry)".into(),
+        );
+        a.insert("ballistic_fraction".into(), scal[0].clone().into());
+        a.insert("scattered_fraction".into(), scal[1].clone().into());
+        a.insert(
+            "scattered_fraction_std_error".into(),
+            scal[2].clone().into(),
+        );
+        a.insert("energy_identity_max_deviation".into(), max_dev_abs.into());
+        a.insert(
+            "energy_identity_max_deviation_std_errors".into(),
+            max_dev_se.into(),
+        );
+        Ok(a)
     }
 }
 

@@ -156,6 +156,44 @@ pub struct RaytraceJob {
     profile_fit_residual: Option<f64>,
 }
 
+/// The checks of a 2-D (non-spherical) plan: one radius, direction grid steps that divide the
+/// sphere, ray count and sun elevations.
+fn check_two_d_grid(p: &RaytraceParams) -> Result<(), PlanError> {
+    if p.radii_um.len() != 1 {
+        return Err(PlanError::invalid(
+            "radii_um",
+            "2-D shapes take exactly one radius per table",
+        ));
+    }
+    if divides(180.0, p.polar_step_deg).is_none() {
+        return Err(PlanError::invalid(
+            "polar_step_deg",
+            "must be > 0 and divide 180",
+        ));
+    }
+    if divides(360.0, p.azimuth_step_deg).is_none() {
+        return Err(PlanError::invalid(
+            "azimuth_step_deg",
+            "must be > 0 and divide 360",
+        ));
+    }
+    if !(8..=20_000).contains(&p.rays) {
+        return Err(PlanError::invalid("rays", "must be within 8–20000"));
+    }
+    if p.sun_elevation_deg.is_empty()
+        || p.sun_elevation_deg.windows(2).any(|w| w[1] <= w[0])
+        || p.sun_elevation_deg
+            .iter()
+            .any(|e| !(0.0..=90.0).contains(e))
+    {
+        return Err(PlanError::invalid(
+            "sun_elevation_deg",
+            "must be strictly increasing within 0–90",
+        ));
+    }
+    Ok(())
+}
+
 impl RaytraceJob {
     /// Validate parameters and plan.
     pub fn new(p: RaytraceParams) -> Result<Self, PlanError> {
@@ -210,39 +248,8 @@ impl RaytraceJob {
             }
             return Ok(job);
         }
+        check_two_d_grid(&job.p)?;
         let p = &job.p;
-        if p.radii_um.len() != 1 {
-            return Err(PlanError::invalid(
-                "radii_um",
-                "2-D shapes take exactly one radius per table",
-            ));
-        }
-        if divides(180.0, p.polar_step_deg).is_none() {
-            return Err(PlanError::invalid(
-                "polar_step_deg",
-                "must be > 0 and divide 180",
-            ));
-        }
-        if divides(360.0, p.azimuth_step_deg).is_none() {
-            return Err(PlanError::invalid(
-                "azimuth_step_deg",
-                "must be > 0 and divide 360",
-            ));
-        }
-        if !(8..=20_000).contains(&p.rays) {
-            return Err(PlanError::invalid("rays", "must be within 8–20000"));
-        }
-        if p.sun_elevation_deg.is_empty()
-            || p.sun_elevation_deg.windows(2).any(|w| w[1] <= w[0])
-            || p.sun_elevation_deg
-                .iter()
-                .any(|e| !(0.0..=90.0).contains(e))
-        {
-            return Err(PlanError::invalid(
-                "sun_elevation_deg",
-                "must be strictly increasing within 0–90",
-            ));
-        }
         let r_um = p.radii_um[0];
         let shape = if p.shape == "beard-chuang" {
             DropShape::beard_chuang(r_um * 1e-3)
@@ -587,17 +594,35 @@ impl Job for RaytraceJob {
     }
 
     fn assemble(&self, chunks: Vec<Vec<f32>>) -> Result<TableContent, JobError> {
-        // The first chunk becomes the table (grown in place), each further chunk is dropped once
-        // copied: a one-task table is never copied, larger ones hold one spare chunk at most.
-        let total: usize = chunks.iter().map(Vec::len).sum();
-        let mut chunks = chunks.into_iter();
-        let mut data = chunks.next().unwrap_or_default();
-        data.reserve_exact(total - data.len());
-        for c in chunks {
-            data.extend_from_slice(&c);
-        }
+        let data = concat_chunks(chunks);
         let channels = self.channels();
-        let nch = channels.len();
+        let at = self.common_attributes();
+        if self.two_d {
+            self.assemble_2d(data, channels, at)
+        } else {
+            Ok(self.assemble_1d(data, channels, at))
+        }
+    }
+}
+
+/// The chunks of a job in order as one vector: the first chunk becomes the table (grown in
+/// place), each further chunk is dropped once copied, so a one-task table is never copied and
+/// larger ones hold one spare chunk at most.
+fn concat_chunks(chunks: Vec<Vec<f32>>) -> Vec<f32> {
+    let total: usize = chunks.iter().map(Vec::len).sum();
+    let mut chunks = chunks.into_iter();
+    let mut data = chunks.next().unwrap_or_default();
+    data.reserve_exact(total - data.len());
+    for c in chunks {
+        data.extend_from_slice(&c);
+    }
+    data
+}
+
+impl RaytraceJob {
+    /// Attributes of 1-D and 2-D tables: the phase contract, index, orders, normalisation,
+    /// focal-line rule, diffraction model and Fresnel conventions.
+    fn common_attributes(&self) -> serde_json::Map<String, serde_json::Value> {
         let mut at = serde_json::Map::new();
         at.extend(phase_contract::attributes(
             "integral over 4pi sr equals 1",
@@ -623,39 +648,56 @@ impl Job for RaytraceJob {
         );
         at.insert("fresnel".into(), "complex Fresnel amplitudes, Born–Wolf signs, power-consistent transmission (src/optics/fresnel.rs)".into());
         at.insert("cross_order_phase".into(), "orders summed coherently without per-order constant (axial focal line) phases, as in the thesis: the fine cross-order ripple of the unfiltered channels is not Mie-exact".into());
-        if !self.two_d {
-            let na = self.n_angles();
-            let step = self.p.angle_step_deg.to_radians();
-            let mut ints = vec![];
-            for e in 0..self.task_pairs().len() {
-                let base = e * na * nch;
-                ints.push(integral_1d(
-                    (0..na).map(|j| data[base + j * nch] as f64),
-                    step,
-                ));
-            }
-            at.insert(
-                "integral_check".into(),
-                serde_json::json!({"what": "bin-sum of phase over 4π per entry", "values": ints}),
-            );
-            at.insert("angular_resampling".into(), format!("point samples of the GO+phase field on an internal grid of step ≤ λ/(10a); filtered channels are Gaussian averages of it; the forward lobe is the exact average over each {}° bin", self.p.angle_step_deg).into());
-            at.insert("method".into(), "exact 1-D geometric optics plus phase for spheres (two-branch phasor sum of Airy theory), validated against the 2-D patch tracer and Lorenz–Mie (docs/raytrace.md)".into());
-            at.insert("validated_domain".into(), "spheres of radius 0.1–1 mm in 380–700 nm (x ≳ 1000): supernumerary positions within 0.02° (primary) and 0.05° (secondary) of Lorenz–Mie; not valid within ~1° of 0° (forward lobe only approximate) and near 180° (glory, axial caustic clamped at a quarter bin)".into());
-            let axes = vec![
-                Axis::values("radius", "um", self.p.radii_um.clone()),
-                Axis::values("wavelength", "nm", self.p.wavelengths_nm.clone()),
-                Axis::uniform("scattering_angle", "deg", 0.0, self.p.angle_step_deg, na),
-            ];
-            return Ok(TableContent {
-                schema: Schema::new("raytrace-phase", 2),
-                description:
-                    "ray-traced (geometric optics + phase) phase function of water spheres".into(),
-                axes,
-                channels,
-                attributes: at,
-                data,
-            });
+        at
+    }
+
+    /// The 1-D table of spheres: radius × wavelength × scattering angle.
+    fn assemble_1d(
+        &self,
+        data: Vec<f32>,
+        channels: Vec<Channel>,
+        mut at: serde_json::Map<String, serde_json::Value>,
+    ) -> TableContent {
+        let nch = channels.len();
+        let na = self.n_angles();
+        let step = self.p.angle_step_deg.to_radians();
+        let mut ints = vec![];
+        for e in 0..self.task_pairs().len() {
+            let base = e * na * nch;
+            ints.push(integral_1d(
+                (0..na).map(|j| data[base + j * nch] as f64),
+                step,
+            ));
         }
+        at.insert(
+            "integral_check".into(),
+            serde_json::json!({"what": "bin-sum of phase over 4π per entry", "values": ints}),
+        );
+        at.insert("angular_resampling".into(), format!("point samples of the GO+phase field on an internal grid of step ≤ λ/(10a); filtered channels are Gaussian averages of it; the forward lobe is the exact average over each {}° bin", self.p.angle_step_deg).into());
+        at.insert("method".into(), "exact 1-D geometric optics plus phase for spheres (two-branch phasor sum of Airy theory), validated against the 2-D patch tracer and Lorenz–Mie (docs/raytrace.md)".into());
+        at.insert("validated_domain".into(), "spheres of radius 0.1–1 mm in 380–700 nm (x ≳ 1000): supernumerary positions within 0.02° (primary) and 0.05° (secondary) of Lorenz–Mie; not valid within ~1° of 0° (forward lobe only approximate) and near 180° (glory, axial caustic clamped at a quarter bin)".into());
+        let axes = vec![
+            Axis::values("radius", "um", self.p.radii_um.clone()),
+            Axis::values("wavelength", "nm", self.p.wavelengths_nm.clone()),
+            Axis::uniform("scattering_angle", "deg", 0.0, self.p.angle_step_deg, na),
+        ];
+        TableContent {
+            schema: Schema::new("raytrace-phase", 2),
+            description: "ray-traced (geometric optics + phase) phase function of water spheres"
+                .into(),
+            axes,
+            channels,
+            attributes: at,
+            data,
+        }
+    }
+
+    /// Divide every intensity channel (all but `dolp`) of each entry of a 2-D table by its
+    /// bin-sum over 4π, so ∫ p dΩ = 1 exactly on the table grid (decision RT-21); returns the
+    /// bin-sums before renormalisation. The bin-sum deviates from 1 by the flux of discarded
+    /// silhouette triangles (−0.1…−0.5 %) and, for strongly flattened drops, by point-sampled
+    /// cusp caustics (+3.9 % at 3 mm, sun 0°).
+    fn renormalise_2d(&self, data: &mut [f32], nch: usize) -> Result<Vec<f64>, JobError> {
         let grid = self.direction_grid();
         let (np, na) = (grid.n_polar, grid.n_azimuth);
         let dth = grid.polar_step();
@@ -676,12 +718,6 @@ impl Job for RaytraceJob {
                 .collect();
             let s: f64 = rows.iter().sum();
             ints.push(s);
-            // Renormalisation of 2-D tables (decision RT-21 in docs/decisions.md): the bin-sum
-            // deviates from 1 by the flux of discarded silhouette triangles (−0.1…−0.5 %) and,
-            // for strongly flattened drops, by point-sampled cusp caustics (+3.9 % at 3 mm,
-            // sun 0°); every intensity channel (all but `dolp`) is divided by it, so ∫ p dΩ = 1
-            // exactly on the table grid, as the phase-function contract requires, and the
-            // factor is kept in `integral_check`.
             if !(s > 0.0 && s.is_finite()) {
                 return Err(JobError::NotNormalisable {
                     entry: e,
@@ -700,6 +736,20 @@ impl Job for RaytraceJob {
                     }
                 });
         }
+        Ok(ints)
+    }
+
+    /// The 2-D table of one drop: radius × wavelength × sun elevation × outgoing polar ×
+    /// outgoing azimuth, renormalised ([`Self::renormalise_2d`]).
+    fn assemble_2d(
+        &self,
+        mut data: Vec<f32>,
+        channels: Vec<Channel>,
+        mut at: serde_json::Map<String, serde_json::Value>,
+    ) -> Result<TableContent, JobError> {
+        let ints = self.renormalise_2d(&mut data, channels.len())?;
+        let grid = self.direction_grid();
+        let (np, na) = (grid.n_polar, grid.n_azimuth);
         at.insert("integral_check".into(), serde_json::json!({"what": "bin-sum of phase over 4π per entry before renormalisation (below 1 by the flux of triangles discarded at the silhouette, above 1 where cusp caustics are point-sampled); every channel but dolp was divided by it, so the stored table integrates to 1 on its grid", "values": ints}));
         at.insert("angular_resampling".into(), "point samples of the coherent patch sum at the grid directions; filtered channels are Gaussian averages along the polar angle per azimuth column; the forward lobe is the exact average over each polar bin".into());
         at.insert(

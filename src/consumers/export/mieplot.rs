@@ -144,6 +144,60 @@ pub fn read_mieplot(text: &str) -> Result<MiePlotData, ConsumerError> {
     read_mieplot_layout(text).map(|(d, _)| d)
 }
 
+/// The numbers of a data row (line `line`, 1-based): every field a number, at least three
+/// (angle, i_perp, i_par).
+fn row_numbers(
+    fields: &[String],
+    number: impl Fn(&str) -> Result<f64, std::num::ParseFloatError>,
+    line: usize,
+) -> Result<Vec<f64>, ConsumerError> {
+    let nums: Vec<f64> = fields
+        .iter()
+        .map(|f| number(f))
+        .collect::<Result<_, _>>()
+        .map_err(|e| ConsumerError::Parse {
+            line,
+            message: "not all fields are numbers",
+            source: Some(e),
+        })?;
+    if nums.len() < 3 {
+        return Err(ConsumerError::Parse {
+            line,
+            message: "need at least angle, i_perp, i_par",
+            source: None,
+        });
+    }
+    Ok(nums)
+}
+
+/// The role of each of `n` columns: from the header `labels` when they name one column each,
+/// including both polarisations (an unnamed first column is the angle), else by position
+/// (angle, perpendicular, parallel, unpolarised, others). The flag says whether the labels were
+/// used.
+fn column_roles(labels: &[String], n: usize) -> (Vec<ColumnRole>, bool) {
+    let named: Vec<ColumnRole> = labels.iter().map(|l| ColumnRole::from_label(l)).collect();
+    let has = |r| named.contains(&r);
+    if named.len() == n && has(ColumnRole::Perpendicular) && has(ColumnRole::Parallel) {
+        let angle = has(ColumnRole::Angle);
+        let mut named = named;
+        if !angle {
+            named[0] = ColumnRole::Angle;
+        }
+        (named, true)
+    } else {
+        let mut r = vec![
+            ColumnRole::Angle,
+            ColumnRole::Perpendicular,
+            ColumnRole::Parallel,
+        ];
+        if n >= 4 {
+            r.push(ColumnRole::Unpolarised);
+        }
+        r.resize(n, ColumnRole::Other);
+        (r, false)
+    }
+}
+
 /// Parse a MiePlot-style table and report what was recognised.
 ///
 /// Accepted: our own export (`#` comments, a `# wavelength_nm:` line, `angle i_perp i_par phase`),
@@ -200,48 +254,11 @@ pub fn read_mieplot_layout(text: &str) -> Result<(MiePlotData, MiePlotLayout), C
             continue;
         }
         layout.decimal_comma |= comma;
-        let nums: Vec<f64> = fields
-            .iter()
-            .map(|f| number(f))
-            .collect::<Result<_, _>>()
-            .map_err(|e| ConsumerError::Parse {
-                line: ln + 1,
-                message: "not all fields are numbers",
-                source: Some(e),
-            })?;
-        if nums.len() < 3 {
-            return Err(ConsumerError::Parse {
-                line: ln + 1,
-                message: "need at least angle, i_perp, i_par",
-                source: None,
-            });
-        }
+        let nums = row_numbers(&fields, number, ln + 1)?;
         let roles = roles.get_or_insert_with(|| {
-            let named: Vec<ColumnRole> = labels.iter().map(|l| ColumnRole::from_label(l)).collect();
-            let has = |r| named.contains(&r);
-            if named.len() == nums.len()
-                && has(ColumnRole::Perpendicular)
-                && has(ColumnRole::Parallel)
-            {
-                layout.named = true;
-                let angle = has(ColumnRole::Angle);
-                let mut named = named;
-                if !angle {
-                    named[0] = ColumnRole::Angle;
-                }
-                named
-            } else {
-                let mut r = vec![
-                    ColumnRole::Angle,
-                    ColumnRole::Perpendicular,
-                    ColumnRole::Parallel,
-                ];
-                if nums.len() >= 4 {
-                    r.push(ColumnRole::Unpolarised);
-                }
-                r.resize(nums.len(), ColumnRole::Other);
-                r
-            }
+            let (r, named) = column_roles(&labels, nums.len());
+            layout.named = named;
+            r
         });
         if nums.len() < roles.len() {
             return Err(ConsumerError::Parse {
