@@ -154,7 +154,7 @@ pub enum PipelineError {
         limit: u64,
     },
     /// Every task or table that failed (each with its cause chain); the others were built.
-    #[error("{} task(s) failed:\n  {}", .0.len(), .0.iter().map(|e| error_chain(e)).collect::<Vec<_>>().join("\n  "))]
+    #[error("{} failure(s):\n  {}", .0.len(), .0.iter().map(|e| error_chain(e)).collect::<Vec<_>>().join("\n  "))]
     Failed(Vec<PipelineError>),
 }
 
@@ -540,11 +540,27 @@ pub fn build(opts: &BuildOptions) -> Result<BuildReport, PipelineError> {
             report.tables_pending.push(s.planned.name.clone());
         }
     }
-    update_catalog(&opts.out_dir)?;
-    if !run.errors.is_empty() {
-        return Err(PipelineError::Failed(run.errors));
-    }
+    build_outcome(run.errors, update_catalog(&opts.out_dir))?;
     Ok(report)
+}
+
+/// The outcome of a build from its task and table errors and the catalog update: a catalog
+/// that cannot be written is reported with the task errors, never instead of them.
+fn build_outcome(
+    mut errors: Vec<PipelineError>,
+    catalog: Result<(), PipelineError>,
+) -> Result<(), PipelineError> {
+    if let Err(e) = catalog {
+        if errors.is_empty() {
+            return Err(e);
+        }
+        errors.push(e);
+    }
+    if errors.is_empty() {
+        Ok(())
+    } else {
+        Err(PipelineError::Failed(errors))
+    }
 }
 
 /// Plan every table of the manifests; a table name may appear only once across them, and a
@@ -860,8 +876,45 @@ mod tests {
         let e = PipelineError::Failed(vec![task, finish]);
         assert_eq!(
             e.to_string(),
-            "2 task(s) failed:\n  w task 3 (T=20 °C): expected 2 chunks (one per task), got 1\n  \
+            "2 failure(s):\n  w task 3 (T=20 °C): expected 2 chunks (one per task), got 1\n  \
              m: writing checkpoint out/.work/m/k.chunk: disk full"
         );
+    }
+
+    /// A catalog that cannot be written does not hide the task errors, and alone it is the
+    /// build's error.
+    #[test]
+    fn catalog_failure_keeps_the_task_errors() {
+        let task = || PipelineError::Task {
+            table: "w".into(),
+            index: 0,
+            label: "T=0 °C".into(),
+            source: Box::new(PipelineError::Job(JobError::ChunkCount {
+                expected: 2,
+                got: 1,
+            })),
+        };
+        let catalog = || {
+            Err(PipelineError::Io(IoError::doing(
+                "writing catalog",
+                Path::new("out/index.json"),
+            )(std::io::Error::other(
+                "read-only",
+            ))))
+        };
+        let e = build_outcome(vec![task()], catalog())
+            .unwrap_err()
+            .to_string();
+        assert!(e.starts_with("2 failure(s):"), "{e}");
+        assert!(
+            e.contains("w task 0") && e.contains("out/index.json"),
+            "{e}"
+        );
+        let alone = build_outcome(Vec::new(), catalog())
+            .unwrap_err()
+            .to_string();
+        assert!(alone.contains("out/index.json"), "{alone}");
+        assert!(build_outcome(Vec::new(), Ok(())).is_ok());
+        assert!(build_outcome(vec![task()], Ok(())).is_err());
     }
 }
