@@ -823,9 +823,11 @@ fn recompute(s: &TableState, task: usize, ctx: &Context) -> Result<Vec<f32>, Pip
 }
 
 /// Remove the work directory if no table uses it any more (ignoring failure: another build
-/// may be using it) and rebuild the catalog of `out_dir`.
+/// may be using it) and the temporary files killed builds left in `out_dir`
+/// ([`crate::workdir::remove_orphan_temp_files`]), and rebuild the catalog of `out_dir`.
 fn update_catalog(out_dir: &Path) -> Result<(), PipelineError> {
     let _ = std::fs::remove_dir(out_dir.join(WORK_DIR));
+    crate::workdir::remove_orphan_temp_files(out_dir);
     crate::catalog::rebuild(out_dir)?;
     Ok(())
 }

@@ -57,6 +57,44 @@ fn gone_is_fine(e: std::io::Error, path: &Path) -> Result<(), WorkdirError> {
     }
 }
 
+/// Remove the temporary files that a killed process left in `dir`: names
+/// `.<file>.<host>.<pid>.<random>.tmp` ([`crate::table::format::temp_file_owner`]) written on
+/// this host by a process that no longer exists. Files of live processes and of other hosts
+/// (a shared directory) are kept. Needs `/proc` (Linux); elsewhere nothing is removed. Returns
+/// how many files were removed.
+pub fn remove_orphan_temp_files(dir: &Path) -> usize {
+    if !Path::new("/proc/self").exists() {
+        return 0;
+    }
+    let host = crate::table::format::host_tag();
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return 0;
+    };
+    let mut removed = 0;
+    for e in entries.flatten() {
+        let name = e.file_name().to_string_lossy().into_owned();
+        let Some(inner) = name.strip_prefix('.').and_then(|n| n.strip_suffix(".tmp")) else {
+            continue;
+        };
+        // [random, pid, host, file name]
+        let parts: Vec<&str> = inner.rsplitn(4, '.').collect();
+        if parts.len() != 4 || parts[2] != host {
+            continue;
+        }
+        let Ok(pid) = parts[1].parse::<u32>() else {
+            continue;
+        };
+        let is_file = e.file_type().is_ok_and(|t| t.is_file());
+        if is_file
+            && !Path::new("/proc").join(pid.to_string()).exists()
+            && std::fs::remove_file(e.path()).is_ok()
+        {
+            removed += 1;
+        }
+    }
+    removed
+}
+
 /// Refuse symbolic links at the build's own paths of `out`: `.work`, `.lock`, `index.json`,
 /// `.checkpoint-key`.
 pub fn check_out_dir(out: &Path) -> Result<(), WorkdirError> {
@@ -206,6 +244,38 @@ pub fn lock_out_dir(out: &Path) -> Result<OutLock, WorkdirError> {
 #[cfg(all(test, unix))]
 mod tests {
     use super::*;
+
+    /// A temporary table file of a process that has exited is removed; those of this process
+    /// and of another host are kept, as are other files.
+    #[test]
+    fn orphan_temp_files_of_dead_processes_are_removed() {
+        let d = tempfile::tempdir().unwrap();
+        let host = crate::table::format::host_tag();
+        let mut child = std::process::Command::new("true").spawn().unwrap();
+        let dead = child.id();
+        child.wait().unwrap();
+        let me = std::process::id();
+        let names = [
+            format!(".w.sbt.{host}.{dead}.a1B2c3.tmp"),
+            format!(".w.sbt.{host}.{me}.a1B2c3.tmp"),
+            format!(".w.sbt.otherhost.{dead}.a1B2c3.tmp"),
+            "w.sbt".to_string(),
+            ".w.sbt.tmp".to_string(),
+        ];
+        for n in &names {
+            std::fs::write(d.path().join(n), b"x").unwrap();
+        }
+        assert_eq!(remove_orphan_temp_files(d.path()), 1);
+        assert!(!d.path().join(&names[0]).exists());
+        for n in &names[1..] {
+            assert!(d.path().join(n).exists(), "{n} kept");
+        }
+        // What write_atomic leaves behind is recognised: the owner part is this host and pid.
+        assert_eq!(
+            crate::table::format::temp_file_owner(),
+            format!("{host}.{me}")
+        );
+    }
 
     #[test]
     fn symlinked_work_dir_is_refused_and_its_target_kept() {

@@ -214,9 +214,16 @@ fn killed_build_resumes_to_identical_tables_without_recomputing() {
     while chunk_count(&out) < 6 && t0.elapsed() < Duration::from_secs(60) {
         std::thread::sleep(Duration::from_millis(20));
     }
+    let killed_pid = child.id();
     child.kill().unwrap();
     child.wait().unwrap();
     let done = chunk_count(&out);
+    // What a kill during a table or catalog write leaves: a temporary file of the dead process.
+    let orphan = out.join(format!(
+        ".w.sbt.{}.{killed_pid}.Ab12Cd.tmp",
+        scatterbake::table::format::host_tag()
+    ));
+    std::fs::write(&orphan, b"partial").unwrap();
     assert!(
         done >= 6 && done < n,
         "killed with {done} of {n} tasks done"
@@ -242,6 +249,10 @@ fn killed_build_resumes_to_identical_tables_without_recomputing() {
         "resumed table must be byte-identical"
     );
     assert!(!out.join(".work").exists(), "checkpoints cleaned up");
+    assert!(
+        !orphan.exists(),
+        "the killed build's temporary file is removed"
+    );
 }
 
 #[test]

@@ -179,9 +179,28 @@ impl Table {
     }
 }
 
+/// The owner part `<host>.<pid>` of the temporary file names of [`write_atomic`]
+/// (`.<file name>.<host>.<pid>.<random>.tmp`): a later build on the same host can tell a file
+/// that a killed process left behind from one that is being written.
+pub fn temp_file_owner() -> String {
+    format!("{}.{}", host_tag(), std::process::id())
+}
+
+/// This host's name with only ASCII letters, digits and `-` kept ("host" when unknown).
+pub fn host_tag() -> String {
+    let raw = std::fs::read_to_string("/proc/sys/kernel/hostname").unwrap_or_default();
+    let tag: String = raw
+        .trim()
+        .chars()
+        .filter(|c| c.is_ascii_alphanumeric() || *c == '-')
+        .collect();
+    if tag.is_empty() { "host".into() } else { tag }
+}
+
 /// Write `bytes` to `path` atomically: a temporary file in the same directory, fsync, rename,
 /// fsync of the directory. A crash at any point leaves either the old file or the new one under
-/// `path`, never a partial file.
+/// `path`, never a partial file; the temporary file a crash leaves is named after its host and
+/// process ([`temp_file_owner`]) so that the next build removes it.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     let dir = path
         .parent()
@@ -193,7 +212,7 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_else(|| "table".into());
     let mut tmp = tempfile::Builder::new()
-        .prefix(&format!(".{name}."))
+        .prefix(&format!(".{name}.{}.", temp_file_owner()))
         .suffix(".tmp")
         .tempfile_in(dir)?;
     tmp.write_all(bytes)?;
