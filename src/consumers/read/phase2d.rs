@@ -160,7 +160,8 @@ impl Phase2dTable {
     }
 
     /// Drop radius for labels: the entry's `radius` (in its axis unit) or, for version 1
-    /// tables without a radius axis, the `radius_mm` attribute.
+    /// tables without a radius axis, the `radius_mm` attribute; for a drop-size mixture (entry
+    /// axis `distribution`, no single radius) the entry itself, e.g. `distribution 1`.
     pub fn radius_label(&self, entry: &[(String, f64)]) -> String {
         if let Some((_, v)) = entry.iter().find(|e| e.0 == "radius") {
             let unit = self
@@ -174,6 +175,11 @@ impl Phase2dTable {
         }
         match self.table.header.attributes.get("radius_mm") {
             Some(v) => format!("{v} mm"),
+            None if !entry.is_empty() => entry
+                .iter()
+                .map(|(name, v)| format!("{name} {v}"))
+                .collect::<Vec<_>>()
+                .join(", "),
             None => "?".into(),
         }
     }
@@ -502,6 +508,11 @@ mod tests {
         let s = t.slice(20.0, &[sel], "phase").unwrap();
         assert_eq!(s.wavelengths_nm, wl.to_vec());
         assert_eq!(t.radius_label(&s.entry), "800 um");
+        assert_eq!(
+            t.radius_label(&[("distribution".to_string(), 1.0)]),
+            "distribution 1",
+            "a mixture entry is named, not shown as `?`"
+        );
         for (k, w) in wl.iter().enumerate() {
             let v = s.value(k, 90.0, 90.0);
             let want = 800.0 + w / 1000.0 + 200.0 + 0.09 + 90.0 / 1e5;
