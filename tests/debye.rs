@@ -1,6 +1,6 @@
 //! Validation of the Debye series (`scatterbake::debye`) against the independent Lorenz–Mie
 //! module, geometric optics and Airy theory. Fast tests run by default (with `--nocapture` they
-//! print the figures recorded in `docs/debye.md`); the slow one is `#[ignore]`d:
+//! print the figures recorded in `docs/debye.md`); the slow one is ignored by default (with a reason):
 //! `cargo test --release --test debye -- --ignored --nocapture`.
 
 use num_complex::Complex64;

@@ -3,7 +3,7 @@
 //! rainbow maxima computed independently with miepython 3.3.0.
 //!
 //! Fast tests run by default (including the x = 25000 reference); the scatrs grid up to 2e4 and
-//! the convergence checks up to x = 1e5 are `#[ignore]`d:
+//! the convergence checks up to x = 1e5 are ignored by default (with a reason):
 //! `cargo test --release --test mie_reference -- --ignored --nocapture`.
 
 use num_complex::Complex64;

@@ -24,15 +24,6 @@ const NAMES: [&str; 12] = [
     "N_G_R", "N_G_TT", "N_G_TRT",
 ];
 
-/// Linear interpolation of `values` on the JSON's θ grid at `deg`, clamped at the ends.
-fn interp(theta: &[f64], values: &[f64], deg: f64) -> f64 {
-    let n = theta.len();
-    let u = ((deg - theta[0]) / (theta[1] - theta[0])).clamp(0.0, (n - 1) as f64);
-    let i = (u.floor() as usize).min(n - 2);
-    let t = u - i as f64;
-    (1.0 - t) * values[i] + t * values[i + 1]
-}
-
 #[test]
 fn c_header_lookup_matches_the_table_and_rsl_holds_the_same_arrays() {
     let d = tempfile::tempdir().unwrap();
@@ -105,7 +96,7 @@ fn c_header_lookup_matches_the_table_and_rsl_holds_the_same_arrays() {
         for name in NAMES {
             for c in 0..3 {
                 let v = channel(name, c);
-                let want = interp(&theta, &v, *a);
+                let want = scatterbake::math::interp::interp1(&theta, &v, *a);
                 let scale = v.iter().fold(0.0f64, |m, x| m.max(x.abs())).max(1e-300);
                 worst = worst.max((got[k] - want).abs() / scale);
                 k += 1;

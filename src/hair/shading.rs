@@ -18,7 +18,7 @@
 //!   it is negative at a fully lit point (T_f = d_f = 0.7 < directFraction = 1).
 
 use super::dual::DualScattering;
-use super::longitudinal::gaussian;
+use super::longitudinal::{cos2_theta_d, gaussian};
 use std::f64::consts::PI;
 
 /// Forward scattering density factor d_f of Zinke et al. 2008.
@@ -74,9 +74,10 @@ impl ShadingAngles {
         }
     }
 
-    /// cos²θ_d, kept ≥ 1e-3 like the tables (decision DS-10).
+    /// cos²θ_d, kept ≥ 1e-3 like the tables (decision DS-10): θ_d = (θ_o − θ_i)/2 of
+    /// [`cos2_theta_d`] with the difference angle itself.
     pub fn cos2_theta_d(&self) -> f64 {
-        self.theta_d.cos().powi(2).max(1e-3)
+        cos2_theta_d(0.0, 2.0 * self.theta_d)
     }
 }
 
@@ -139,7 +140,6 @@ pub fn dual_scattering(
 mod tests {
     use super::*;
     use crate::hair::dual::{LobeShape, combine};
-    use crate::math::quadrature::gauss_legendre;
 
     /// Averages of a plausible brown fibre at one θ_i from per-lobe energies.
     fn averages() -> (DualScattering, LobeShape) {
@@ -156,19 +156,13 @@ mod tests {
         )
     }
 
-    /// ∫ h(θ_h) dθ_h over a wide window by 64-point Gauss–Legendre panels.
+    /// ∫ h(θ_h) dθ_h over [−4, 4] rad by 80 panels of 64-point Gauss–Legendre.
     fn integrate(h: impl Fn(f64) -> f64) -> f64 {
-        let (x, w) = gauss_legendre(64);
-        let panels = 80;
-        let (lo, hi) = (-4.0, 4.0);
-        let width = (hi - lo) / panels as f64;
-        (0..panels)
+        let width = 8.0 / 80.0;
+        (0..80)
             .map(|p| {
-                let a = lo + p as f64 * width;
-                x.iter()
-                    .zip(&w)
-                    .map(|(xi, wi)| 0.5 * width * wi * h(a + 0.5 * width * (xi + 1.0)))
-                    .sum::<f64>()
+                let a = -4.0 + p as f64 * width;
+                crate::math::quadrature::integrate(&h, a, a + width, 64)
             })
             .sum()
     }

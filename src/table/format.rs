@@ -188,13 +188,17 @@ pub fn temp_file_owner() -> String {
 
 /// This host's name with only ASCII letters, digits and `-` kept ("host" when unknown).
 pub fn host_tag() -> String {
-    let raw = std::fs::read_to_string("/proc/sys/kernel/hostname").unwrap_or_default();
-    let tag: String = raw
-        .trim()
-        .chars()
-        .filter(|c| c.is_ascii_alphanumeric() || *c == '-')
-        .collect();
-    if tag.is_empty() { "host".into() } else { tag }
+    static TAG: std::sync::OnceLock<String> = std::sync::OnceLock::new();
+    TAG.get_or_init(|| {
+        let raw = std::fs::read_to_string("/proc/sys/kernel/hostname").unwrap_or_default();
+        let tag: String = raw
+            .trim()
+            .chars()
+            .filter(|c| c.is_ascii_alphanumeric() || *c == '-')
+            .collect();
+        if tag.is_empty() { "host".into() } else { tag }
+    })
+    .clone()
 }
 
 /// Write `bytes` to `path` atomically: a temporary file in the same directory, fsync, rename,

@@ -224,27 +224,21 @@ pub fn render_with(
     xyz_of_view: impl Fn(V3) -> [f64; 3] + Sync,
 ) -> Rendered {
     progress.start(camera.height as u64, "image rows");
-    let rows: Vec<Vec<[f64; 3]>> = (0..camera.height)
-        .into_par_iter()
-        .map(|j| {
-            let row = (0..camera.width)
-                .map(|i| {
-                    let Some(d) = camera.direction(i, j) else {
-                        return [0.0; 3];
-                    };
-                    let m = scene.march(d);
-                    if m == 0.0 {
-                        return [0.0; 3];
-                    }
-                    let v = xyz_of_view(d).map(|c| c * m);
-                    xyz_to_linear_srgb(v)
-                })
-                .collect();
+    let mut px = vec![[0.0; 3]; camera.width * camera.height];
+    px.par_chunks_mut(camera.width.max(1))
+        .enumerate()
+        .for_each(|(j, row)| {
+            for (i, out) in row.iter_mut().enumerate() {
+                let Some(d) = camera.direction(i, j) else {
+                    continue;
+                };
+                let m = scene.march(d);
+                if m != 0.0 {
+                    *out = xyz_to_linear_srgb(xyz_of_view(d).map(|c| c * m));
+                }
+            }
             progress.advance(1);
-            row
-        })
-        .collect();
-    let px: Vec<[f64; 3]> = rows.into_iter().flatten().collect();
+        });
     Rendered {
         camera: *camera,
         linear_srgb: px,
