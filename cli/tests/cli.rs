@@ -746,3 +746,138 @@ fn validate_reads_a_mieplot_file_for_one_sphere() {
     );
     assert_clean_failure(&off, &["REAL DIFFERENCE", "exceeds tolerance"]);
 }
+
+/// `validate TABLE --reference POINTS` compares like with like: the point output of
+/// `scatterbake mie` is taken through the table's bin and sun-disc averages (read from its
+/// header), the entry and wavelength come from the reference's own lines, and the default
+/// table settings agree to 1e-4. The same data in a MiePlot layout (raw |S|², titles giving the
+/// radius in mm and the wavelength in µm) agrees after --rescale; without it, compared point
+/// by point, or sampled too coarsely, the failure says why.
+#[test]
+fn validate_a_table_against_point_references_like_with_like() {
+    let d = tempfile::tempdir().unwrap();
+    std::fs::write(
+        d.path().join("m.toml"),
+        "[[table]]\nname = \"bow\"\nstage = \"mie\"\n[table.params]\nradii_um = [40.0, 50.0]\n\
+         wavelengths_nm = [650.0]\nangle_step_deg = 0.05\nsun_diameter_deg = 0.5\n",
+    )
+    .unwrap();
+    let b = run(&["build", "m.toml", "--out", "t"], d.path());
+    assert!(b.status.success(), "{}", text(&b));
+    let mie = run(
+        &[
+            "mie",
+            "--radius-um",
+            "50",
+            "--wavelength-nm",
+            "650",
+            "--angle-step-deg",
+            "0.005",
+        ],
+        d.path(),
+    );
+    assert!(mie.status.success(), "{}", text(&mie));
+    let points = String::from_utf8(mie.stdout).unwrap();
+    std::fs::write(d.path().join("points.txt"), &points).unwrap();
+    let ok = run(
+        &[
+            "validate",
+            "t/bow.sbt",
+            "--reference",
+            "points.txt",
+            "--tolerance",
+            "1e-4",
+        ],
+        d.path(),
+    );
+    let t = text(&ok);
+    assert!(ok.status.success(), "{t}");
+    assert!(
+        t.contains("[radius=50 um]") && t.contains("at 650 nm"),
+        "{t}"
+    );
+    assert!(t.contains("taken through the table's operators"), "{t}");
+    assert!(t.contains("0.5 deg uniform sun disc"), "{t}");
+    // the same numbers in a MiePlot layout: raw intensities (any scale), titles in mm and µm
+    let mut mieplot = String::from(
+        "MiePlot-style export\nRadius = 0.05 mm\nWavelength = 0.65 um\n\nAngle\tIntensity (perpendicular)\tIntensity (parallel)\n",
+    );
+    for line in points.lines().filter(|l| !l.starts_with('#')) {
+        let f: Vec<f64> = line
+            .split_whitespace()
+            .map(|v| v.parse().unwrap())
+            .collect();
+        mieplot.push_str(&format!(
+            "{}\t{:e}\t{:e}\n",
+            f[0],
+            3.7e4 * f[1],
+            3.7e4 * f[2]
+        ));
+    }
+    std::fs::write(d.path().join("mieplot.txt"), mieplot).unwrap();
+    let args = |extra: &[&'static str]| {
+        let mut a = vec![
+            "validate",
+            "t/bow.sbt",
+            "--reference",
+            "mieplot.txt",
+            "--tolerance",
+            "1e-4",
+        ];
+        a.extend_from_slice(extra);
+        a
+    };
+    let rescaled = run(&args(&["--rescale"]), d.path());
+    assert!(rescaled.status.success(), "{}", text(&rescaled));
+    assert!(text(&rescaled).contains("[radius=50 um]"));
+    assert_clean_failure(&run(&args(&[]), d.path()), &["try --rescale"]);
+    assert_clean_failure(
+        &run(
+            &args(&["--rescale", "--reference-kind", "binned"]),
+            d.path(),
+        ),
+        &["--reference-kind point"],
+    );
+    // a coarse reference: the sampling error is named
+    let coarse = run(
+        &[
+            "mie",
+            "--radius-um",
+            "50",
+            "--wavelength-nm",
+            "650",
+            "--angle-step-deg",
+            "0.05",
+        ],
+        d.path(),
+    );
+    std::fs::write(d.path().join("coarse.txt"), coarse.stdout).unwrap();
+    assert_clean_failure(
+        &run(
+            &[
+                "validate",
+                "t/bow.sbt",
+                "--reference",
+                "coarse.txt",
+                "--tolerance",
+                "1e-4",
+            ],
+            d.path(),
+        ),
+        &["angle step (0.05 deg) limits"],
+    );
+    // a table of two radii and a reference that does not say which: refused, not guessed
+    let bare: String = points
+        .lines()
+        .filter(|l| !l.starts_with("# radius_um"))
+        .map(|l| format!("{l}\n"))
+        .collect();
+    std::fs::write(d.path().join("bare.txt"), bare).unwrap();
+    assert_clean_failure(
+        &run(
+            &["validate", "t/bow.sbt", "--reference", "bare.txt"],
+            d.path(),
+        ),
+        &["--entry radius=VALUE"],
+    );
+}

@@ -8,6 +8,8 @@
 //! - [`plot`]: figures of tables (phase functions, colour strips, Lee diagrams, heatmaps,
 //!   previews per table family);
 //! - [`render`]: a reference spectral renderer of rainbows in a rain volume;
+//! - [`validate`]: a table against a reference curve, like with like (a point reference is
+//!   taken through the table's own angular operators first);
 //! - [`image`]: PNG writing shared by `plot` and `render`.
 //!
 //! Every consumer reports failures as a [`ConsumerError`].
@@ -24,6 +26,7 @@ pub mod read;
 pub mod render;
 #[cfg(any(test, feature = "fixtures"))]
 pub mod synthetic;
+pub mod validate;
 
 pub use error::ConsumerError;
 

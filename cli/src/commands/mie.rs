@@ -339,6 +339,9 @@ pub struct MieQuery {
     pub index: Complex64,
     /// The core of a coated sphere.
     pub core: Option<CoreQuery>,
+    /// Radius (µm) and vacuum wavelength (nm) when the query gave them.
+    pub radius_um: Option<f64>,
+    pub wavelength_nm: Option<f64>,
     pub sphere: Sphere,
     pub angles_deg: Vec<f64>,
     /// |S1|² (dimensionless).
@@ -426,6 +429,8 @@ impl MieQuery {
             n_medium,
             index,
             core,
+            radius_um: args.radius_um,
+            wavelength_nm: wavelength,
             angles_deg,
             s1_sq: s1.iter().map(|v| v.norm_sqr()).collect(),
             s2_sq: s2.iter().map(|v| v.norm_sqr()).collect(),
@@ -454,6 +459,13 @@ impl MieQuery {
                 "medium index n_medium = {}; sphere index {} + {}i; x = 2 pi r n_medium / lambda_vacuum",
                 self.n_medium, self.index.re, self.index.im
             ));
+        }
+        // machine-readable lines (read back by `validate` to find the table entry)
+        if let Some(r) = self.radius_um {
+            h.push(format!("radius_um: {r}"));
+        }
+        if let Some(l) = self.wavelength_nm {
+            h.push(format!("wavelength_nm: {l}"));
         }
         if let Some(c) = self.core {
             h.push(format!(

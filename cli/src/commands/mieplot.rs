@@ -4,6 +4,9 @@ use anyhow::{Context, bail};
 #[allow(unused_imports)]
 use scatterbake::consumers::export::mieplot::*;
 use scatterbake::consumers::read::phase::{EntrySelection, PhaseTable, describe_entry};
+use scatterbake::consumers::validate::{
+    OperatedReference, ReferenceKind, ReferenceMetadata, TableOperators, apply_table_operators,
+};
 #[allow(unused_imports)]
 use scatterbake::table::Table;
 use std::path::PathBuf;
@@ -80,6 +83,20 @@ pub struct ValidateArgs {
     /// Fail (non-zero exit) when any column's max relative error exceeds this.
     #[arg(long)]
     pub tolerance: Option<f64>,
+    /// Table mode: what the reference holds. `point`: values of the curve at its angles
+    /// (`scatterbake mie`, MiePlot), taken through the table's own bin and sun-disc averages
+    /// before comparing; `binned`: values averaged like the table's (an export of a table),
+    /// compared as they are; `auto`: `binned` when the file has a `# table:` line.
+    #[arg(long, value_enum, default_value_t = ReferenceKindArg::Auto)]
+    pub reference_kind: ReferenceKindArg,
+}
+
+/// `--reference-kind`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum ReferenceKindArg {
+    Auto,
+    Point,
+    Binned,
 }
 
 /// Sphere mode of `validate`: the sphere's raw |S1|², |S2|² at the reference's angles against
@@ -180,31 +197,211 @@ pub fn run_validate_sphere(args: &ValidateArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// The reference of table mode: its data (on the table's bins for a point reference), what it
+/// is, and what was done to it.
+struct TableReference {
+    data: MiePlotData,
+    meta: ReferenceMetadata,
+    operated: Option<(TableOperators, OperatedReference)>,
+}
+
+/// Read the reference and, for a point reference, apply the table's operators.
+fn table_reference(pt: &PhaseTable, args: &ValidateArgs) -> anyhow::Result<TableReference> {
+    let text = std::fs::read_to_string(&args.reference)
+        .with_context(|| format!("reading {}", args.reference.display()))?;
+    let (data, layout) = read_mieplot_layout(&text)
+        .with_context(|| format!("parsing {}", args.reference.display()))?;
+    let meta = ReferenceMetadata::parse(&layout.header);
+    let kind = match args.reference_kind {
+        ReferenceKindArg::Auto => meta.kind(),
+        ReferenceKindArg::Point => ReferenceKind::Point,
+        ReferenceKindArg::Binned => ReferenceKind::Binned,
+    };
+    let operated = match kind {
+        ReferenceKind::Binned => None,
+        ReferenceKind::Point => {
+            let ops = TableOperators::of(pt)?;
+            let o = apply_table_operators(&data, &ops).with_context(|| {
+                format!("averaging {} like the table", args.reference.display())
+            })?;
+            Some((ops, o))
+        }
+    };
+    Ok(TableReference {
+        data,
+        meta,
+        operated,
+    })
+}
+
+/// The entry to compare: `--entry`, else what the reference says; a table with several entries
+/// and neither is an error (taking the first entry would compare the wrong drop).
+fn validation_entry(
+    pt: &PhaseTable,
+    args: &ValidateArgs,
+    meta: &ReferenceMetadata,
+) -> anyhow::Result<Vec<EntrySelection>> {
+    if !args.entry.is_empty() {
+        return Ok(args.entry.clone());
+    }
+    let from_file = meta.entry_for(pt);
+    let axes = pt.table.axes();
+    for &i in &pt.entry_axes {
+        let a = &axes[i];
+        if a.len() > 1 && !from_file.iter().any(|e| e.axis == a.name) {
+            bail!(
+                "the reference does not say which `{}` it is for (no `# radius_um:` or `# entry:` line) \
+                 and the table has {} of them: pass --entry {}=VALUE",
+                a.name,
+                a.len(),
+                a.name
+            );
+        }
+    }
+    Ok(from_file)
+}
+
+/// Notes on whether the reference describes the same sphere as the table entry (size parameter
+/// and index from a `scatterbake mie` header line).
+fn sphere_notes(
+    pt: &PhaseTable,
+    entry: &[(String, f64)],
+    wl: f64,
+    meta: &ReferenceMetadata,
+) -> Vec<String> {
+    let mut notes = Vec::new();
+    let h = &pt.table.header.attributes;
+    let n_medium = h.get("n_medium").and_then(|v| v.as_f64()).unwrap_or(1.0);
+    let radius = entry.iter().find(|(n, _)| n == "radius").map(|e| e.1);
+    if let (Some(xr), Some(r)) = (meta.size_parameter, radius) {
+        let xt = scatterbake::mie::size_parameter(r, wl / n_medium);
+        if (xr - xt).abs() > 1e-6 * xt {
+            notes.push(format!(
+                "the reference is for size parameter x = {xr}, the table entry ({r} um at {wl} nm) has x = {xt}"
+            ));
+        }
+    }
+    let wavelengths = pt.wavelengths_nm();
+    let Some(k) = (0..wavelengths.len()).min_by(|&a, &b| {
+        (wavelengths[a] - wl)
+            .abs()
+            .total_cmp(&(wavelengths[b] - wl).abs())
+    }) else {
+        return notes;
+    };
+    let table_n = h
+        .get("refractive_index_real")
+        .and_then(|v| v.as_array())
+        .and_then(|a| a.get(k))
+        .and_then(|v| v.as_f64());
+    if let (Some((nr, _)), Some(nt)) = (meta.relative_index, table_n)
+        && (wavelengths[k] - wl).abs() < 1e-9 * wl
+        && (nr - nt / n_medium).abs() > 1e-9
+    {
+        notes.push(format!(
+            "the reference's relative index {nr} differs from the table's {} at {wl} nm (another water model or temperature?)",
+            nt / n_medium
+        ));
+    }
+    notes
+}
+
+/// Why a comparison failed, in the terms of the data: scale, sampling, sphere.
+fn failure_hints(
+    rep: &ValidationReport,
+    reference: &TableReference,
+    notes: &[String],
+    tolerance: f64,
+    rescale: bool,
+) -> Vec<String> {
+    let mut hints: Vec<String> = notes.to_vec();
+    if !rescale {
+        // the least-squares scale, had it been fitted
+        let scale = rep.fitted_scale;
+        if (scale - 1.0).abs() > 10.0 * tolerance {
+            hints.push(format!(
+                "the reference is about {scale:.4e} times the table: another normalisation (MiePlot prints raw |S|^2)? try --rescale"
+            ));
+        }
+    }
+    match &reference.operated {
+        Some((_, o)) if o.resolution_error > 0.1 * tolerance => hints.push(format!(
+            "the reference's own angle step ({} deg) limits the comparison to about {:.1e}: use a finer step",
+            o.reference_step_deg, o.resolution_error
+        )),
+        None if reference.meta.kind() == ReferenceKind::Point => hints.push(
+            "the reference was compared as binned values but has no `# table:` line: if it is a point \
+             evaluation (scatterbake mie, MiePlot), use --reference-kind point"
+                .into(),
+        ),
+        _ => {}
+    }
+    if hints.is_empty() {
+        hints.push(format!(
+            "largest difference at {} deg; the curves differ beyond the reference's sampling error",
+            rep.worst_angle_deg
+        ));
+    }
+    hints
+}
+
 /// Run the validation; prints the figures, errors out when over `--tolerance`.
 pub fn run_validate(args: &ValidateArgs) -> anyhow::Result<()> {
     let Some(table) = &args.table else {
         return run_validate_sphere(args);
     };
     let pt = PhaseTable::open(table)?;
-    let r = read_mieplot_file(&args.reference)?;
-    let wl = args.wavelength_nm.or(r.wavelength_nm).ok_or_else(|| {
-        anyhow::anyhow!("reference has no `# wavelength_nm:` line: pass --wavelength-nm")
-    })?;
-    let rep = compare(&pt, &args.entry, wl, &r, args.rescale)?;
+    let reference = table_reference(&pt, args)?;
+    let wl = args
+        .wavelength_nm
+        .or(reference.meta.wavelength_nm)
+        .or(reference.data.wavelength_nm)
+        .ok_or_else(|| {
+            anyhow::anyhow!(
+                "the reference states no wavelength (`# wavelength_nm:` line): pass --wavelength-nm"
+            )
+        })?;
+    let selection = validation_entry(&pt, args, &reference.meta)?;
+    let entry = pt.resolve_entry(&selection)?;
+    let compared = match &reference.operated {
+        Some((_, o)) => &o.data,
+        None => &reference.data,
+    };
+    let rep = compare(&pt, &selection, wl, compared, args.rescale)?;
     println!(
-        "{} vs {} at {wl} nm: {} rows, scale {:.6e}, max rel. error i_perp {:.3e}, i_par {:.3e}, phase {:.3e} (worst at {} deg)",
+        "{} [{}] vs {} at {wl} nm",
         table.display(),
+        describe_entry(&pt.table, &entry),
         args.reference.display(),
-        rep.rows,
-        rep.scale,
+    );
+    match &reference.operated {
+        Some((ops, o)) => println!(
+            "  reference: point values every {} deg over [{}, {}] deg, taken through the table's operators ({}); \
+             its own sampling error ~{:.1e}; {} bins compared, {} not covered",
+            o.reference_step_deg,
+            reference.data.angle_deg[0],
+            reference.data.angle_deg[reference.data.angle_deg.len() - 1],
+            ops.describe(),
+            o.resolution_error,
+            rep.rows,
+            o.bins_left_out
+        ),
+        None => println!(
+            "  reference: values compared as they are (binned like the table), {} angles",
+            rep.rows
+        ),
+    }
+    println!(
+        "  max rel. error i_perp {:.3e}, i_par {:.3e}, phase {:.3e} (worst at {} deg); rms {:.3e}, {:.3e}, {:.3e}; correlation {:.9}; scale {:.6e}",
         rep.max_rel_error[0],
         rep.max_rel_error[1],
         rep.max_rel_error[2],
-        rep.worst_angle_deg
-    );
-    println!(
-        "  rms rel. error i_perp {:.3e}, i_par {:.3e}, phase {:.3e}; correlation {:.9}",
-        rep.rms_rel_error[0], rep.rms_rel_error[1], rep.rms_rel_error[2], rep.correlation
+        rep.worst_angle_deg,
+        rep.rms_rel_error[0],
+        rep.rms_rel_error[1],
+        rep.rms_rel_error[2],
+        rep.correlation,
+        rep.scale
     );
     let show = |name: &str, m: Option<(f64, f64)>| match m {
         Some((t, r)) => println!("  {name} bow maximum: table {t:.4} deg, reference {r:.4} deg"),
@@ -212,11 +409,19 @@ pub fn run_validate(args: &ValidateArgs) -> anyhow::Result<()> {
     };
     show("primary", rep.primary_max_deg);
     show("secondary", rep.secondary_max_deg);
+    let notes = sphere_notes(&pt, &entry, wl, &reference.meta);
+    for n in &notes {
+        println!("  note: {n}");
+    }
     if let Some(t) = args.tolerance {
         let worst = rep.max_rel_error.iter().cloned().fold(0.0, f64::max);
         if worst > t {
+            for h in failure_hints(&rep, &reference, &notes, t, args.rescale) {
+                eprintln!("  why: {h}");
+            }
             bail!("max relative error {worst:.3e} exceeds tolerance {t:.3e}");
         }
+        println!("  within tolerance {t:.1e}");
     }
     Ok(())
 }

@@ -413,6 +413,9 @@ pub struct ValidationReport {
     pub rows: usize,
     /// Scale applied to the reference (1 unless rescaled).
     pub scale: f64,
+    /// Least-squares scale of the reference onto the table (phase column), whether applied or
+    /// not: far from 1, the two are in different units or normalisations.
+    pub fitted_scale: f64,
     /// max |table − ref| / |ref| per column (i_perp, i_par, phase).
     pub max_rel_error: [f64; 3],
     /// Angle (deg) of the largest phase relative error.
@@ -453,15 +456,16 @@ pub fn compare(
         .iter()
         .map(|&a| pt.sample_at(wavelength_nm, &e, a))
         .collect::<Result<_, _>>()?;
+    let num: f64 = vals.iter().zip(&r.phase).map(|(v, u)| v[0] * u).sum();
+    let den: f64 = r.phase.iter().map(|u| u * u).sum();
+    let fitted_scale = num / den;
     let scale = if rescale {
-        let num: f64 = vals.iter().zip(&r.phase).map(|(v, u)| v[0] * u).sum();
-        let den: f64 = r.phase.iter().map(|u| u * u).sum();
         if !(den > 0.0) {
             return Err(ConsumerError::invalid(
                 "cannot rescale: the reference is all zero",
             ));
         }
-        num / den
+        fitted_scale
     } else {
         1.0
     };
@@ -523,6 +527,7 @@ pub fn compare(
     Ok(ValidationReport {
         rows: r.angle_deg.len(),
         scale,
+        fitted_scale,
         max_rel_error: max,
         worst_angle_deg: worst,
         rms_rel_error: rms,
