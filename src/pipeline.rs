@@ -783,7 +783,7 @@ fn finish_table(s: &TableState, out_dir: &Path, ctx: &Context) -> Result<(), Pip
                 None => recompute(s, i, ctx),
             })
             .collect::<Result<Vec<_>, _>>()?;
-        match s.planned.job.assemble(chunks) {
+        match crate::stages::assemble_checked(s.planned.job.as_ref(), chunks) {
             Err(JobError::ChunkLength {
                 index,
                 got,

@@ -34,8 +34,19 @@ fn plan_all(path: &str) -> Vec<(String, Box<dyn scatterbake::stages::Job>)> {
 fn default_and_full_manifests_plan() {
     assert_eq!(plan_all("manifests/rainbow-raytraced.toml").len(), 4);
     let full = plan_all("manifests/full/rainbow-raytraced-full.toml");
-    assert_eq!(full.len(), 4);
-    assert_eq!(full[1].1.tasks().len(), 33 * 4);
+    assert_eq!(full.len(), 1);
+    assert_eq!(full[0].1.tasks().len(), 10 * 33);
+    // Thesis-size Beard–Chuang tables: 3 radii × 4 sun elevations × 33 wavelengths, one task
+    // each, every one below the reader's default payload limit (which the build checks when
+    // it plans).
+    let thesis = plan_all("manifests/full/beard-chuang-thesis.toml");
+    assert_eq!(thesis.len(), 3 * 4 * 33);
+    let limit = scatterbake::table::ReadLimits::default().max_payload_bytes;
+    for (name, job) in &thesis {
+        assert_eq!(job.tasks().len(), 1, "{name}");
+        let bytes = job.payload_bytes().expect("raytrace states its size");
+        assert!(bytes <= limit && bytes > limit / 8, "{name}: {bytes}");
+    }
     // Beard–Chuang bow study: 6 radii, 12 wavelengths × 2 sun elevations each.
     let bows = plan_all("manifests/full/beard-chuang-bows.toml");
     assert_eq!(bows.len(), 6);

@@ -44,3 +44,39 @@ fn a_36_gb_water_index_grid_is_refused_at_plan_time() {
     }
     assert!(!d.path().join("out").exists(), "nothing is written");
 }
+
+/// A thesis-resolution Beard–Chuang table of 33 wavelengths and 4 sun elevations (140 GiB) is
+/// refused when planned, like every stage's table over the limit, and nothing else in the
+/// manifest is built.
+#[test]
+fn a_140_gib_ray_traced_table_is_refused_at_plan_time() {
+    let d = tempfile::tempdir().unwrap();
+    let m = d.path().join("bc.toml");
+    std::fs::write(
+        &m,
+        "[[table]]\nname = \"small\"\nstage = \"water-index\"\n[table.params]\n\
+         wavelength_nm = [400.0, 700.0, 10.0]\ntemperature_c = [20.0]\n\n\
+         [[table]]\nname = \"bc-huge\"\nstage = \"raytrace\"\n[table.params]\n\
+         shape = \"beard-chuang\"\nradii_um = [1000.0]\nsun_elevation_deg = [0.0, 20.0, 25.0, 40.0]\n\
+         rays = 3000\npolar_step_deg = 0.0125\nazimuth_step_deg = 0.2\n",
+    )
+    .unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_scatterbake"))
+        .args(["build", m.to_str().unwrap(), "--out", "out", "-q"])
+        .current_dir(d.path())
+        .env_remove("SLURM_ARRAY_TASK_ID")
+        .env_remove("JOB_COMPLETION_INDEX")
+        .output()
+        .unwrap();
+    let t = format!(
+        "{}{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert!(!o.status.success(), "{t}");
+    assert!(!t.contains("panicked"), "{t}");
+    for part in ["table `bc-huge`", "bc.toml", "GiB", "reader's limit"] {
+        assert!(t.contains(part), "missing `{part}`: {t}");
+    }
+    assert!(!d.path().join("out").exists(), "nothing is written");
+}

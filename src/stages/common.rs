@@ -160,6 +160,16 @@ impl FilteredPhase {
         self.settings.output_intervals + 1
     }
 
+    /// Bytes of the table: `entries` × wavelengths × angles × `channels` f32 values.
+    pub fn payload_bytes(&self, entries: usize, channels: usize) -> u64 {
+        crate::stages::f32_payload_bytes(&[
+            entries,
+            self.wavelengths_nm.len(),
+            self.angles(),
+            channels,
+        ])
+    }
+
     /// The sun-disc operator (built on first use).
     pub fn sun(&self) -> &SunDiscOperator {
         self.sun.get_or_init(|| self.settings.sun_operator())

@@ -130,6 +130,13 @@ impl StageSpec for DebyeStage {
 }
 
 impl Job for DebyeJob {
+    /// Known at plan time (checked against the reader's limit before any task runs).
+    fn payload_bytes(&self) -> Option<u64> {
+        Some(self.filter.payload_bytes(
+            self.p.radii_um.len(),
+            CONTRACT_CHANNELS + self.p.orders.len(),
+        ))
+    }
     fn parameters(&self) -> serde_json::Value {
         serde_json::to_value(&self.p).expect("params serialise")
     }

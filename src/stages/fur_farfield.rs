@@ -208,6 +208,13 @@ impl FarFieldJob {
 const CHANNELS: usize = 1 + COMPONENTS.len();
 
 impl Job for FarFieldJob {
+    /// Known at plan time: samples × θ_i × θ_r cells × φ cells × channels.
+    fn payload_bytes(&self) -> Option<u64> {
+        Some(crate::stages::f32_payload_bytes(&[
+            self.samples.len(),
+            self.chunk_len(),
+        ]))
+    }
     fn parameters(&self) -> serde_json::Value {
         let mut v = serde_json::to_value(&self.p).expect("params serialise");
         if let Some(t) = &self.tables {

@@ -524,6 +524,16 @@ impl MedullaJob {
 }
 
 impl Job for MedullaJob {
+    /// Known at plan time: σ × g × entries × bins × channels.
+    fn payload_bytes(&self) -> Option<u64> {
+        Some(crate::stages::f32_payload_bytes(&[
+            self.sigma.len(),
+            self.g.len(),
+            self.entries.len(),
+            self.p.bins,
+            self.channels(),
+        ]))
+    }
     fn parameters(&self) -> serde_json::Value {
         serde_json::to_value(&self.p).expect("params serialise")
     }

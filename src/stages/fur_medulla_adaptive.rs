@@ -37,6 +37,10 @@ impl AdaptiveJob {
 }
 
 impl Job for AdaptiveJob {
+    /// The table of the Monte Carlo job it replaces.
+    fn payload_bytes(&self) -> Option<u64> {
+        self.inner.payload_bytes()
+    }
     fn parameters(&self) -> serde_json::Value {
         self.inner.parameters()
     }

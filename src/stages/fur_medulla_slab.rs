@@ -38,6 +38,10 @@ impl SlabJob {
 }
 
 impl Job for SlabJob {
+    /// The table of the Monte Carlo job it replaces.
+    fn payload_bytes(&self) -> Option<u64> {
+        self.inner.payload_bytes()
+    }
     fn parameters(&self) -> serde_json::Value {
         self.inner.parameters()
     }

@@ -189,6 +189,8 @@ trait ThetaRows: Send + Sync {
     fn row_with_change(&self, theta_rad: f64) -> (Vec<f64>, f64);
     /// See [`Job::assemble`]; each chunk is a row (f32) followed by its change.
     fn assemble_rows(&self, chunks: Vec<Vec<f32>>) -> Result<TableContent, JobError>;
+    /// Values per row (per θ) of the table.
+    fn row_len(&self) -> usize;
 }
 
 impl<T: ThetaRows> Job for T {
@@ -212,6 +214,12 @@ impl<T: ThetaRows> Job for T {
     }
     fn assemble(&self, chunks: Vec<Vec<f32>>) -> Result<TableContent, JobError> {
         self.assemble_rows(chunks)
+    }
+    fn payload_bytes(&self) -> Option<u64> {
+        Some(crate::stages::f32_payload_bytes(&[
+            self.theta_deg().len(),
+            self.row_len(),
+        ]))
     }
 }
 
@@ -445,6 +453,9 @@ impl HairDualJob {
 }
 
 impl ThetaRows for HairDualJob {
+    fn row_len(&self) -> usize {
+        self.n_roughness() * self.n_absorption() * DUAL_TABLE_CHANNELS
+    }
     fn params_json(&self) -> Value {
         serde_json::to_value(&self.params).expect("params serialise")
     }
@@ -723,6 +734,9 @@ impl HairAzimuthalJob {
 }
 
 impl ThetaRows for HairAzimuthalJob {
+    fn row_len(&self) -> usize {
+        self.absorption.sigma_values().len() * self.params.phi_count * AZ_CHANNELS
+    }
     fn params_json(&self) -> Value {
         serde_json::to_value(&self.params).expect("params serialise")
     }

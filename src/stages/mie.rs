@@ -264,6 +264,13 @@ impl MieJob {
 }
 
 impl Job for MieJob {
+    /// Known at plan time (checked against the reader's limit before any task runs).
+    fn payload_bytes(&self) -> Option<u64> {
+        Some(
+            self.filter
+                .payload_bytes(self.entries.len(), CONTRACT_CHANNELS),
+        )
+    }
     fn parameters(&self) -> serde_json::Value {
         serde_json::to_value(&self.p).expect("params serialise")
     }

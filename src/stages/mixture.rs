@@ -227,6 +227,13 @@ fn mix_entry(job: &MixtureJob, index: usize) -> Result<(PolarisedPhase, f64), Jo
 }
 
 impl Job for MixtureJob {
+    /// Known at plan time (checked against the reader's limit before any task runs).
+    fn payload_bytes(&self) -> Option<u64> {
+        Some(
+            self.filter
+                .payload_bytes(self.p.distributions.len(), CONTRACT_CHANNELS),
+        )
+    }
     fn parameters(&self) -> serde_json::Value {
         serde_json::to_value(&self.p).expect("params serialise")
     }

@@ -167,6 +167,11 @@ impl Mixture2dJob {
 }
 
 impl Job for Mixture2dJob {
+    /// One entry per distribution, each the size of its first radius's `raytrace` table.
+    fn payload_bytes(&self) -> Option<u64> {
+        let one = self.jobs.first()?.first()?.payload_bytes()?;
+        Some(one.saturating_mul(self.jobs.len() as u64))
+    }
     fn parameters(&self) -> serde_json::Value {
         serde_json::to_value(&self.p).expect("params serialise")
     }

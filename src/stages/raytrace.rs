@@ -541,6 +541,17 @@ fn integral_1d(values: impl Iterator<Item = f64>, step: f64) -> f64 {
 }
 
 impl Job for RaytraceJob {
+    /// Known at plan time: tasks × (angles, or polar × azimuth directions) × channels.
+    fn payload_bytes(&self) -> Option<u64> {
+        let tasks = self.task_pairs().len();
+        let channels = self.channels().len();
+        Some(if self.two_d {
+            let grid = self.direction_grid();
+            crate::stages::f32_payload_bytes(&[tasks, grid.n_polar, grid.n_azimuth, channels])
+        } else {
+            crate::stages::f32_payload_bytes(&[tasks, self.n_angles(), channels])
+        })
+    }
     fn parameters(&self) -> serde_json::Value {
         serde_json::to_value(&self.p).expect("params serialise")
     }

@@ -84,6 +84,10 @@ pub enum JobError {
     /// A table entry whose phase function cannot be normalised to ∫ p dΩ = 1.
     #[error("entry {entry}: ∫ p dΩ = {integral}, not positive and finite; cannot normalise")]
     NotNormalisable { entry: usize, integral: f64 },
+    /// The assembled table is not the size the job announced at plan time (a stage bug: the
+    /// plan-time size check would have been wrong).
+    #[error("the table has {assembled} bytes of values, but the job planned {planned}")]
+    PlannedSize { planned: u64, assembled: u64 },
     /// A header attribute that does not encode as JSON.
     #[error("encoding the table attributes as JSON")]
     Attributes(#[from] serde_json::Error),
@@ -135,6 +139,14 @@ pub trait Job: Send + Sync {
     }
 }
 
+/// `4 · Π dims`: the bytes of a table of f32 values with these dimensions (axes, then
+/// channels), `u64::MAX` when the count overflows; for [`Job::payload_bytes`].
+pub fn f32_payload_bytes(dims: &[usize]) -> u64 {
+    dims.iter()
+        .try_fold(4u64, |acc, &d| acc.checked_mul(d as u64))
+        .unwrap_or(u64::MAX)
+}
+
 /// Run a planned job in memory, tasks in parallel (rayon), without checkpoints or files: the
 /// runner for tests, examples and library users who want a table's content directly. The
 /// pipeline's resumable runner gives identical content.
@@ -144,7 +156,19 @@ pub fn run_in_memory(job: &dyn Job) -> Result<TableContent, JobError> {
         .into_par_iter()
         .map(|i| job.run_task(i))
         .collect::<Result<Vec<_>, _>>()?;
-    job.assemble(chunks)
+    assemble_checked(job, chunks)
+}
+
+/// [`Job::assemble`], then check that the table has the size [`Job::payload_bytes`] announced
+/// (every run checks the plan-time estimate the pipeline relies on).
+pub fn assemble_checked(job: &dyn Job, chunks: Vec<Vec<f32>>) -> Result<TableContent, JobError> {
+    let planned = job.payload_bytes();
+    let content = job.assemble(chunks)?;
+    let assembled = 4 * content.data.len() as u64;
+    match planned {
+        Some(planned) if planned != assembled => Err(JobError::PlannedSize { planned, assembled }),
+        _ => Ok(content),
+    }
 }
 
 /// A computation stage, registered in [`crate::stages::registry`]. Implemented for every

@@ -102,12 +102,10 @@ impl Job for WaterIndexJob {
     }
     /// Temperatures × wavelengths × one channel of f32.
     fn payload_bytes(&self) -> Option<u64> {
-        Some(
-            (self.p.temperature_c.len() as u64)
-                .checked_mul(self.count as u64)
-                .and_then(|v| v.checked_mul(4))
-                .unwrap_or(u64::MAX),
-        )
+        Some(crate::stages::f32_payload_bytes(&[
+            self.p.temperature_c.len(),
+            self.count,
+        ]))
     }
     fn assemble(&self, chunks: Vec<Vec<f32>>) -> Result<TableContent, JobError> {
         // chunks are per temperature; the table is temperature × wavelength.
