@@ -200,12 +200,41 @@ impl Phase2dTable {
         let polar_deg = axes[self.ax_polar].coords();
         let azimuth_deg = axes[self.ax_az].coords();
         let (np, na) = (polar_deg.len(), azimuth_deg.len());
+        // Entry and elevation are stored samples whenever their axes are not interpolable
+        // (`resolve_entry`/`resolve_elevation` refuse anything else): then the slice is read
+        // straight from the grid; otherwise each value is interpolated.
+        let stored = |axis: usize, v: f64| {
+            let c = axes[axis].coords();
+            c.iter()
+                .position(|&x| (x - v).abs() <= 1e-9 * v.abs().max(1.0))
+        };
+        let mut fixed: Vec<Option<usize>> = vec![None; axes.len()];
+        for (&i, e) in self.entry_axes.iter().zip(&entry) {
+            fixed[i] = stored(i, e.1);
+        }
+        fixed[self.ax_elev] = stored(self.ax_elev, elevation_deg);
+        let on_grid = self
+            .entry_axes
+            .iter()
+            .chain([&self.ax_elev])
+            .all(|&i| fixed[i].is_some());
         let rows: Vec<(usize, usize)> = (0..wavelengths_nm.len())
             .flat_map(|k| (0..np).map(move |j| (k, j)))
             .collect();
         let values: Vec<f32> = rows
             .par_iter()
             .map(|&(k, j)| {
+                if on_grid {
+                    let mut idx: Vec<usize> = fixed.iter().map(|f| f.unwrap_or(0)).collect();
+                    idx[self.ax_wavelength] = k;
+                    idx[self.ax_polar] = j;
+                    return Ok((0..na)
+                        .map(|i| {
+                            idx[self.ax_az] = i;
+                            self.table.at(&idx, ch)
+                        })
+                        .collect());
+                }
                 let mut c = vec![0.0; axes.len()];
                 c[self.ax_wavelength] = wavelengths_nm[k];
                 for (&i, e) in self.entry_axes.iter().zip(&entry) {
@@ -454,6 +483,16 @@ mod tests {
         assert!((v - (800.0 + 0.09 + 0.5 * 270.0 / 1e5)).abs() < 1e-3, "{v}");
         let bad: EntrySelection = "size=1".parse().unwrap();
         assert!(t.slice(5.0, &[bad], "phase").is_err());
+        // On stored samples the slice is read from the grid: every value as stored.
+        let at: EntrySelection = "radius=1000".parse().unwrap();
+        let s = t.slice(20.0, &[at], "phase").unwrap();
+        assert_eq!(s.values.len(), 3 * 4);
+        for (j, p) in polar.iter().enumerate() {
+            for i in 0..az {
+                let expected = (1000.0 + 200.0 + p / 1000.0 + 90.0 * i as f64 / 1e5) as f32;
+                assert_eq!(s.values[j * az + i], expected, "polar {p}, azimuth {i}");
+            }
+        }
     }
 
     fn table_2d(version: u32, axes: Vec<crate::table::Axis>, data: Vec<f32>) -> Table {
