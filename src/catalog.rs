@@ -1,10 +1,12 @@
 //! The catalog `tables/index.json`: every built table with its schema, size, checksum and
 //! origin. Rebuilt from the directory contents (so shards and concurrent builds converge) under
-//! an exclusive lock on `<dir>/.lock`, and written atomically.
+//! an exclusive lock on `<dir>/.lock`, and written atomically. A table is listed when it is
+//! sealed as written ([`crate::table::verify_sealed`]: header rules, compressed payload size,
+//! SHA-256 and zstd frame); decompressing every table on every build is left to `verify`.
 
 use crate::error::IoError;
 use crate::table::format::write_atomic;
-use crate::table::{FORMAT_MAJOR, FORMAT_MINOR, TableError, read_header_only};
+use crate::table::{FORMAT_MAJOR, FORMAT_MINOR, TableError};
 use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
 use std::path::{Path, PathBuf};
@@ -63,7 +65,7 @@ pub struct CatalogEntry {
 pub struct Catalog {
     pub format: String,
     pub tables: Vec<CatalogEntry>,
-    /// Files ending in `.sbt` that failed verification (name and reason).
+    /// Files ending in `.sbt` that are not sealed tables (name and reason).
     pub invalid: Vec<(String, String)>,
 }
 
@@ -96,11 +98,13 @@ pub fn rebuild(dir: &Path) -> Result<Catalog, CatalogError> {
                 continue;
             }
         };
-        if let Err(e) = crate::table::Table::from_bytes(&bytes, &p) {
-            invalid.push((file, e.to_string()));
-            continue;
-        }
-        let h = read_header_only(&p)?;
+        let h = match crate::table::verify_sealed_bytes(&bytes, &p) {
+            Ok(h) => h,
+            Err(e) => {
+                invalid.push((file, e.to_string()));
+                continue;
+            }
+        };
         let v = &bytes[VERSION_BYTES];
         let major = u16::from_le_bytes([v[0], v[1]]);
         let minor = u16::from_le_bytes([v[2], v[3]]);

@@ -11,7 +11,7 @@ mod sample;
 pub use format::{FORMAT_MAJOR, FORMAT_MINOR, MAGIC, TableError, write_table_atomic};
 pub use read::{
     DEFAULT_MAX_PAYLOAD_BYTES, MAX_AXES, MAX_HEADER_BYTES, MAX_JSON_DEPTH, ReadLimits, ValueStats,
-    Verified, read_header_only, verify_file,
+    Verified, read_header_only, verify_file, verify_sealed, verify_sealed_bytes,
 };
 
 use serde::{Deserialize, Serialize};

@@ -699,6 +699,41 @@ pub fn verify_file(path: &Path, limits: &ReadLimits) -> Result<Verified, TableEr
     Ok(Verified { header, values })
 }
 
+/// Check that a table is sealed as its writer left it, without decompressing: preamble, header
+/// and every structural rule of the header, the compressed payload's size and SHA-256, its
+/// single zstd frame and the axis coordinates. A table that passes holds exactly the bytes
+/// the writer checksummed (accidental damage, truncation and a half-written file are caught);
+/// the full check with the uncompressed checksum and the values is [`verify_file`]. Used for
+/// "is this table up to date" and the catalog, where decompressing every table on every build
+/// cost seconds per large table.
+pub fn verify_sealed(path: &Path) -> Result<Header, TableError> {
+    let (f, len) = open_file(path)?;
+    let mut r = std::io::BufReader::new(f);
+    sealed(&mut r, len, path)
+}
+
+/// [`verify_sealed`] of table bytes in memory (`path` only names them in errors).
+pub fn verify_sealed_bytes(bytes: &[u8], path: &Path) -> Result<Header, TableError> {
+    let mut r = bytes;
+    sealed(&mut r, Some(bytes.len() as u64), path)
+}
+
+fn sealed(r: &mut impl Read, len: Option<u64>, path: &Path) -> Result<Header, TableError> {
+    let HeaderPart { header, header_len } =
+        read_header_part(r, len, path, &ReadLimits::default())?;
+    let compressed = read_compressed_payload(r, len, path, &header, header_len)?;
+    check_zstd_frame(&compressed, header.payload.uncompressed_bytes).map_err(|message| {
+        TableError::Decompress {
+            path: path.into(),
+            message,
+        }
+    })?;
+    for a in &header.axes {
+        check_axis_coords(a).map_err(|m| bad(path, m))?;
+    }
+    Ok(header)
+}
+
 /// Read and verify only the preamble and header of a table (cheap; used for resume checks and
 /// the catalog). The payload is not checked.
 pub fn read_header_only(path: &Path) -> Result<Header, TableError> {
