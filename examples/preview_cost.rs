@@ -13,13 +13,21 @@ fn cpu_seconds() -> f64 {
         .rsplit_once(')')
         .map(|(_, r)| r.split_whitespace().collect())
         .unwrap_or_default();
-    let tick = |i: usize| fields.get(i).and_then(|v| v.parse::<f64>().ok()).unwrap_or(0.0);
+    let tick = |i: usize| {
+        fields
+            .get(i)
+            .and_then(|v| v.parse::<f64>().ok())
+            .unwrap_or(0.0)
+    };
     (tick(11) + tick(12)) / 100.0
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut args = std::env::args().skip(1);
-    let table = PathBuf::from(args.next().ok_or("usage: preview_cost TABLE.sbt [OUT_DIR]")?);
+    let table = PathBuf::from(
+        args.next()
+            .ok_or("usage: preview_cost TABLE.sbt [OUT_DIR]")?,
+    );
     let out = PathBuf::from(args.next().unwrap_or_else(|| "/tmp/preview-cost".into()));
     let (w0, c0) = (Instant::now(), cpu_seconds());
     let t = scatterbake::table::Table::open(&table)?;

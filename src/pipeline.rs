@@ -416,9 +416,7 @@ pub fn table_path(out_dir: &Path, name: &str) -> PathBuf {
 /// ([`crate::table::verify_sealed`]: checksummed compressed payload, not decompressed).
 fn up_to_date(path: &Path, key: &str) -> bool {
     match crate::table::read_header_only(path) {
-        Ok(h) if h.provenance.parameters_digest == key => {
-            crate::table::verify_sealed(path).is_ok()
-        }
+        Ok(h) if h.provenance.parameters_digest == key => crate::table::verify_sealed(path).is_ok(),
         _ => false,
     }
 }

@@ -1,7 +1,27 @@
 //! A table larger than the reader accepts is refused when the build is planned, before any task
 //! runs or any file is written.
 
+use std::path::Path;
 use std::process::Command;
+
+/// Build manifest `m` into `dir/out`; the build must fail cleanly. Returns its output.
+fn refused_build(dir: &Path, m: &Path) -> String {
+    let o = Command::new(env!("CARGO_BIN_EXE_scatterbake"))
+        .args(["build", m.to_str().unwrap(), "--out", "out", "-q"])
+        .current_dir(dir)
+        .env_remove("SLURM_ARRAY_TASK_ID")
+        .env_remove("JOB_COMPLETION_INDEX")
+        .output()
+        .unwrap();
+    let t = format!(
+        "{}{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert!(!o.status.success(), "{t}");
+    assert!(!t.contains("panicked"), "{t}");
+    t
+}
 
 #[test]
 fn a_36_gb_water_index_grid_is_refused_at_plan_time() {
@@ -20,20 +40,7 @@ fn a_36_gb_water_index_grid_is_refused_at_plan_time() {
         ),
     )
     .unwrap();
-    let o = Command::new(env!("CARGO_BIN_EXE_scatterbake"))
-        .args(["build", m.to_str().unwrap(), "--out", "out", "-q"])
-        .current_dir(d.path())
-        .env_remove("SLURM_ARRAY_TASK_ID")
-        .env_remove("JOB_COMPLETION_INDEX")
-        .output()
-        .unwrap();
-    let t = format!(
-        "{}{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    );
-    assert!(!o.status.success(), "{t}");
-    assert!(!t.contains("panicked"), "{t}");
+    let t = refused_build(d.path(), &m);
     for part in [
         "table `water-huge`",
         "huge.toml",
@@ -61,20 +68,7 @@ fn a_140_gib_ray_traced_table_is_refused_at_plan_time() {
          rays = 3000\npolar_step_deg = 0.0125\nazimuth_step_deg = 0.2\n",
     )
     .unwrap();
-    let o = Command::new(env!("CARGO_BIN_EXE_scatterbake"))
-        .args(["build", m.to_str().unwrap(), "--out", "out", "-q"])
-        .current_dir(d.path())
-        .env_remove("SLURM_ARRAY_TASK_ID")
-        .env_remove("JOB_COMPLETION_INDEX")
-        .output()
-        .unwrap();
-    let t = format!(
-        "{}{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    );
-    assert!(!o.status.success(), "{t}");
-    assert!(!t.contains("panicked"), "{t}");
+    let t = refused_build(d.path(), &m);
     for part in ["table `bc-huge`", "bc.toml", "GiB", "reader's limit"] {
         assert!(t.contains(part), "missing `{part}`: {t}");
     }

@@ -719,8 +719,7 @@ pub fn verify_sealed_bytes(bytes: &[u8], path: &Path) -> Result<Header, TableErr
 }
 
 fn sealed(r: &mut impl Read, len: Option<u64>, path: &Path) -> Result<Header, TableError> {
-    let HeaderPart { header, header_len } =
-        read_header_part(r, len, path, &ReadLimits::default())?;
+    let HeaderPart { header, header_len } = read_header_part(r, len, path, &ReadLimits::default())?;
     let compressed = read_compressed_payload(r, len, path, &header, header_len)?;
     check_zstd_frame(&compressed, header.payload.uncompressed_bytes).map_err(|message| {
         TableError::Decompress {
