@@ -32,7 +32,10 @@ fn plan_all(path: &str) -> Vec<(String, Box<dyn scatterbake::stages::Job>)> {
 
 #[test]
 fn default_and_full_manifests_plan() {
-    assert_eq!(plan_all("manifests/rainbow-raytraced.toml").len(), 4);
+    let default = plan_all("manifests/rainbow-raytraced.toml");
+    assert_eq!(default.len(), 4);
+    // the Beard–Chuang tables render in colour: 9 wavelengths × 2 sun elevations each, 3 radii
+    assert!(default[1..].iter().all(|(_, j)| j.tasks().len() == 9 * 2));
     let full = plan_all("manifests/full/rainbow-raytraced-full.toml");
     assert_eq!(full.len(), 1);
     assert_eq!(full[0].1.tasks().len(), 10 * 33);
