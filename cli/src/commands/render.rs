@@ -73,6 +73,10 @@ pub struct RenderRainbowArgs {
     /// Background sRGB colour added to the render, R,G,B in 0–255 (Table 3.4).
     #[arg(long, default_value = "0,0,0", value_parser = parse_rgb)]
     pub background: [u8; 3],
+    /// Ideal linear polariser in front of the camera: transmission axis at this angle from the
+    /// image's vertical (0 = vertical, 90 = horizontal). Uses the table's i_perp and i_par.
+    #[arg(long)]
+    pub polariser_deg: Option<f64>,
     /// Output PNG (`.png`; other extensions are refused).
     #[arg(long)]
     pub out: PathBuf,
@@ -81,7 +85,8 @@ pub struct RenderRainbowArgs {
 /// The table a render reads: a 1-D phase table, or a 2-D ray-traced slice at the sun elevation.
 enum Source {
     OneD(Box<PhaseTable>),
-    TwoD(Box<PhaseSlice>),
+    /// The `phase` slice, and the `i_perp` and `i_par` slices for a polarised render.
+    TwoD(Box<PhaseSlice>, Option<Box<(PhaseSlice, PhaseSlice)>>),
 }
 
 fn check_args(args: &RenderRainbowArgs) -> anyhow::Result<()> {
@@ -93,6 +98,12 @@ fn check_args(args: &RenderRainbowArgs) -> anyhow::Result<()> {
         args.fov_deg > 0.0 && (args.lens == Lens::Fisheye || args.fov_deg < 179.0),
         "fov must be positive (and below 179° for a rectilinear lens)"
     );
+    if let Some(p) = args.polariser_deg {
+        anyhow::ensure!(
+            p.is_finite() && (-360.0..=360.0).contains(&p),
+            "--polariser-deg {p} must be an angle within -360…360°"
+        );
+    }
     image_format(&args.out)
 }
 
@@ -118,6 +129,13 @@ fn load_source(args: &RenderRainbowArgs) -> anyhow::Result<(Source, f64, SunDisc
         let t2 = Phase2dTable::new(table).with_context(|| args.table.display().to_string())?;
         let e = t2.resolve_elevation(args.sun_elevation_deg)?;
         let slice = t2.slice(e, &args.entry, "phase")?;
+        let polarised = match args.polariser_deg {
+            Some(_) => Some(Box::new((
+                t2.slice(e, &args.entry, "i_perp")?,
+                t2.slice(e, &args.entry, "i_par")?,
+            ))),
+            None => None,
+        };
         let default = if args.sun_elevation_deg.is_none() {
             " (table default)"
         } else {
@@ -127,7 +145,7 @@ fn load_source(args: &RenderRainbowArgs) -> anyhow::Result<(Source, f64, SunDisc
             "2-D table, radius {}, sun elevation {e} deg{default}",
             t2.radius_label(&slice.entry)
         );
-        Ok((Source::TwoD(Box::new(slice)), e, disc, label))
+        Ok((Source::TwoD(Box::new(slice), polarised), e, disc, label))
     } else {
         let pt = PhaseTable::new(table).with_context(|| args.table.display().to_string())?;
         let label = describe_entry(&pt.table, &pt.resolve_entry(&args.entry)?);
@@ -175,9 +193,19 @@ pub fn run_render_rainbow(args: &RenderRainbowArgs) -> anyhow::Result<()> {
     let t0 = std::time::Instant::now();
     let r = {
         let progress = crate::progress::TerminalProgress::new("render");
-        match &source {
-            Source::OneD(pt) => render(pt, &args.entry, &scene, &camera, &progress)?,
-            Source::TwoD(slice) => render_2d(slice, &scene, &camera, &progress)?,
+        let polariser = args.polariser_deg.map(|angle_deg| Polariser { angle_deg });
+        match (&source, polariser) {
+            (Source::OneD(pt), None) => render(pt, &args.entry, &scene, &camera, &progress)?,
+            (Source::OneD(pt), Some(p)) => {
+                render_polarised(pt, &args.entry, &scene, &camera, p, &progress)?
+            }
+            (Source::TwoD(slice, _), None) => render_2d(slice, &scene, &camera, &progress)?,
+            (Source::TwoD(_, Some(pair)), Some(p)) => {
+                render_2d_polarised(&pair.0, &pair.1, &scene, &camera, p, &progress)?
+            }
+            (Source::TwoD(_, None), Some(_)) => {
+                anyhow::bail!("internal: polarised slices were not loaded")
+            }
         }
     };
     let seconds = t0.elapsed().as_secs_f64();
@@ -203,7 +231,7 @@ pub fn run_render_rainbow(args: &RenderRainbowArgs) -> anyhow::Result<()> {
             let xyz = xyz_vs_angle(pt, &args.entry, disc.extra_deg)?;
             measure_rainbow(&r, sun_elevation_deg, &TableReference::OneD(&xyz))
         }
-        Source::TwoD(slice) => measure_rainbow(
+        Source::TwoD(slice, _) => measure_rainbow(
             &r,
             sun_elevation_deg,
             &TableReference::TwoD(slice, disc.extra_deg),

@@ -23,8 +23,17 @@ pub trait SkyPhase: Sync {
     fn add_phase(&self, inc: V3, out: V3, spec: &mut [f64]);
 }
 
-/// A 1-D phase function (phase contract) at one entry.
-struct Curves1d(crate::consumers::read::phase::PhaseCurves);
+/// Which light of an unpolarised sun a renderer follows: all of it (`phase`), or the part
+/// polarised perpendicular (`i_perp`) or parallel (`i_par`) to the scattering plane.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Polarisation {
+    Unpolarised,
+    Perpendicular,
+    Parallel,
+}
+
+/// A 1-D phase function (phase contract) at one entry, one polarisation channel.
+struct Curves1d(crate::consumers::read::phase::PhaseCurves, Polarisation);
 
 impl SkyPhase for Curves1d {
     fn wavelengths_nm(&self) -> &[f64] {
@@ -34,7 +43,12 @@ impl SkyPhase for Curves1d {
         let th = dot(inc, out).clamp(-1.0, 1.0).acos().to_degrees();
         // All wavelengths share the angle grid: locate once, interpolate each.
         let (j, t) = self.0.locate_angle(th);
-        for (s, p) in spec.iter_mut().zip(&self.0.phase) {
+        let curves = match self.1 {
+            Polarisation::Unpolarised => &self.0.phase,
+            Polarisation::Perpendicular => &self.0.i_perp,
+            Polarisation::Parallel => &self.0.i_par,
+        };
+        for (s, p) in spec.iter_mut().zip(curves) {
             *s += p[j] * (1.0 - t) + p[j + 1] * t;
         }
     }
@@ -115,7 +129,17 @@ pub fn xyz_vs_angle(
     entry: &[EntrySelection],
     sun_diameter_deg: f64,
 ) -> Result<Vec<[f64; 3]>, ConsumerError> {
-    let c = Curves1d(pt.curves(entry)?);
+    xyz_vs_angle_of(pt, entry, sun_diameter_deg, Polarisation::Unpolarised)
+}
+
+/// [`xyz_vs_angle`] of one polarisation channel (`i_perp` or `i_par` instead of `phase`).
+pub fn xyz_vs_angle_of(
+    pt: &PhaseTable,
+    entry: &[EntrySelection],
+    sun_diameter_deg: f64,
+    polarisation: Polarisation,
+) -> Result<Vec<[f64; 3]>, ConsumerError> {
+    let c = Curves1d(pt.curves(entry)?, polarisation);
     let n = (180.0 / THETA_STEP_DEG).round() as usize + 1;
     // Sun at the pole, view rays at angle Θ from it: the average depends on Θ only.
     let views: Vec<V3> = (0..n)

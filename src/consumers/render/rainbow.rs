@@ -39,10 +39,11 @@
 
 use crate::consumers::read::phase::{EntrySelection, PhaseTable};
 use crate::consumers::read::spectrum::{
-    THETA_STEP_DEG, disc_average_spectrum, disc_samples, xyz_along, xyz_vs_angle,
+    Polarisation, THETA_STEP_DEG, disc_average_spectrum, disc_samples, xyz_along, xyz_vs_angle,
+    xyz_vs_angle_of,
 };
 use crate::consumers::{ConsumerError, Progress};
-use crate::math::vec3::{V3, dot, normalize};
+use crate::math::vec3::{V3, cross, dot, normalize};
 use crate::optics::colour::{
     Illuminant1931, SpectralWeights, linear_srgb_luminance, srgb_encode, xyz_to_linear_srgb,
 };
@@ -143,6 +144,47 @@ impl Camera {
                 .to_degrees(),
         }
     }
+}
+
+/// An ideal linear polariser in front of the camera, its transmission axis at `angle_deg` from
+/// the image's vertical (0 = vertical, 90 = horizontal, positive toward the image's right).
+///
+/// Sunlight is unpolarised, so single scattering splits it into light polarised perpendicular
+/// to the scattering plane (intensity `i_perp/2`, electric field along `n = s × d`) and parallel
+/// to it (`i_par/2`); the polariser passes `i_perp/2 · cos²χ + i_par/2 · sin²χ`, χ the angle
+/// between its axis and `n` (Malus). The two halves sum to the unpolarised `phase`, so renders at
+/// ψ and ψ + 90° add up to the render without a polariser. At the top of a bow the scattering
+/// plane is vertical: a horizontal polariser passes the strongly perpendicular bow light, a
+/// vertical one nearly extinguishes it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Polariser {
+    pub angle_deg: f64,
+}
+
+impl Polariser {
+    /// cos²χ for the view direction `d` (unit) with the sun centre at `sun` (unit, toward the
+    /// sun): the fraction of the perpendicular light passed (the parallel light passes 1 − it).
+    /// Along the sun–antisolar axis, where the scattering plane is undefined, ½.
+    pub fn perpendicular_fraction(&self, camera: &Camera, sun: V3, d: V3) -> f64 {
+        let (_, right, up) = camera.basis();
+        let n = cross(sun, d);
+        let nn = dot(n, n).sqrt();
+        if nn < 1e-12 {
+            return 0.5;
+        }
+        // the image's vertical and right at this pixel, perpendicular to d
+        let ud = normalize(sub_along(up, d));
+        let rd = normalize(sub_along(sub_along(right, d), ud));
+        let (s, c) = self.angle_deg.to_radians().sin_cos();
+        let p = [0, 1, 2].map(|k| c * ud[k] + s * rd[k]);
+        (dot(p, n) / nn).powi(2)
+    }
+}
+
+/// `v` minus its component along the unit vector `u`.
+fn sub_along(v: V3, u: V3) -> V3 {
+    let a = dot(v, u);
+    [0, 1, 2].map(|k| v[k] - a * u[k])
 }
 
 /// The rain layer and sun.
@@ -262,6 +304,62 @@ pub fn render(
         let k = (u.floor() as usize).min(xyz.len() - 2);
         let t = u - k as f64;
         [0, 1, 2].map(|c| xyz[k][c] * (1.0 - t) + xyz[k + 1][c] * t)
+    }))
+}
+
+/// [`render`] through a linear [`Polariser`]: the `i_perp` and `i_par` channels, each averaged
+/// over the sun disc like `phase`, weighted per pixel by Malus's law.
+pub fn render_polarised(
+    pt: &PhaseTable,
+    entry: &[EntrySelection],
+    scene: &Scene,
+    camera: &Camera,
+    polariser: Polariser,
+    progress: &dyn Progress,
+) -> Result<Rendered, ConsumerError> {
+    let perp = xyz_vs_angle_of(
+        pt,
+        entry,
+        scene.sun_diameter_deg,
+        Polarisation::Perpendicular,
+    )?;
+    let par = xyz_vs_angle_of(pt, entry, scene.sun_diameter_deg, Polarisation::Parallel)?;
+    let s = scene.sun_direction();
+    let at = |xyz: &[[f64; 3]], big: f64| {
+        let u = big / THETA_STEP_DEG;
+        let k = (u.floor() as usize).min(xyz.len() - 2);
+        let t = u - k as f64;
+        [0, 1, 2].map(|c| xyz[k][c] * (1.0 - t) + xyz[k + 1][c] * t)
+    };
+    Ok(render_with(scene, camera, progress, |d| {
+        let big = dot(s, d).clamp(-1.0, 1.0).acos().to_degrees();
+        let f = polariser.perpendicular_fraction(camera, s, d);
+        let (a, b) = (at(&perp, big), at(&par, big));
+        [0, 1, 2].map(|c| 0.5 * (f * a[c] + (1.0 - f) * b[c]))
+    }))
+}
+
+/// [`render_2d`] through a linear [`Polariser`], from the `i_perp` and `i_par` slices of the
+/// table (same elevation and entry).
+pub fn render_2d_polarised(
+    perp: &crate::consumers::read::phase2d::PhaseSlice,
+    par: &crate::consumers::read::phase2d::PhaseSlice,
+    scene: &Scene,
+    camera: &Camera,
+    polariser: Polariser,
+    progress: &dyn Progress,
+) -> Result<Rendered, ConsumerError> {
+    let sw = SpectralWeights::new(&perp.wavelengths_nm, Illuminant1931::D65);
+    let disc = disc_samples(scene.sun_diameter_deg);
+    let s = scene.sun_direction();
+    let nw = perp.wavelengths_nm.len();
+    Ok(render_with(scene, camera, progress, |d| {
+        let (mut a, mut b) = (vec![0.0; nw], vec![0.0; nw]);
+        disc_average_spectrum(perp, s, d, &disc, &mut a);
+        disc_average_spectrum(par, s, d, &disc, &mut b);
+        let f = polariser.perpendicular_fraction(camera, s, d);
+        let (xa, xb) = (sw.xyz(&a), sw.xyz(&b));
+        [0, 1, 2].map(|c| 0.5 * (f * xa[c] + (1.0 - f) * xb[c]))
     }))
 }
 
@@ -546,6 +644,50 @@ mod tests {
         let rows = cam().height as u64;
         assert_eq!(p.total.load(std::sync::atomic::Ordering::Relaxed), rows);
         assert_eq!(p.done.load(std::sync::atomic::Ordering::Relaxed), rows);
+    }
+
+    /// Malus per pixel: renders through crossed polarisers add up to the unpolarised render,
+    /// and at the top of the bow (vertical scattering plane) a vertical polariser passes the
+    /// table's i_par, a horizontal one its i_perp.
+    #[test]
+    fn polariser_follows_malus_and_the_scattering_plane() {
+        let wl: Vec<f64> = (0..9).map(|i| 380.0 + 40.0 * i as f64).collect();
+        let pt = PhaseTable::new(peak_table(&wl, |_| 138.0, 0.3, 1e-4, 3601)).unwrap();
+        let (sc, c) = (scene(0.0), cam());
+        let plain = render(&pt, &[], &sc, &c, &Silent).unwrap();
+        let pol = |a: f64| {
+            render_polarised(&pt, &[], &sc, &c, Polariser { angle_deg: a }, &Silent).unwrap()
+        };
+        let (v, h, d45, d135) = (pol(0.0), pol(90.0), pol(45.0), pol(135.0));
+        let mut worst: f64 = 0.0;
+        for k in 0..plain.linear_srgb.len() {
+            for ch in 0..3 {
+                let p = plain.linear_srgb[k][ch];
+                for (x, y) in [(&v, &h), (&d45, &d135)] {
+                    let s = x.linear_srgb[k][ch] + y.linear_srgb[k][ch];
+                    worst = worst.max((s - p).abs() / p.abs().max(1e-12));
+                }
+            }
+        }
+        // phase and (i_perp + i_par)/2 are stored separately as f32
+        assert!(worst < 1e-6, "crossed polarisers do not add up: {worst}");
+        // top of the bow: centre column, the pixel nearest 42° above the antisolar point
+        let col = |r: &Rendered| centre_column(r, 25.0).unwrap();
+        let (cv, ch) = (col(&v), col(&h));
+        let j = (0..cv.len())
+            .min_by(|&a, &b| (cv[a].0 - 42.0).abs().total_cmp(&(cv[b].0 - 42.0).abs()))
+            .unwrap();
+        let lum = |p: [f64; 3]| linear_srgb_luminance(p);
+        let ratio = lum(cv[j].1) / lum(ch[j].1);
+        let curves = pt.curves(&[]).unwrap();
+        let (i, _) = curves.locate_angle(138.0);
+        let k = curves.wavelengths_nm.len() / 2;
+        let expected = curves.i_par[k][i] / curves.i_perp[k][i];
+        assert!(expected < 0.9, "the synthetic bow is polarised: {expected}");
+        assert!(
+            (ratio - expected).abs() < 0.05 * expected,
+            "vertical/horizontal {ratio} vs i_par/i_perp {expected}"
+        );
     }
 
     #[test]
