@@ -62,8 +62,22 @@ impl MixtureEntry {
         }
     }
 
+    /// A short name with the parameters, for the labels of the `distribution` axis.
+    pub fn label(&self) -> String {
+        match self {
+            MixtureEntry::Distribution(d) => d.label(),
+            MixtureEntry::Explicit(e) => {
+                let (lo, hi) = self.support_um();
+                match e.radii_um.len() {
+                    1 => format!("explicit r={lo} um"),
+                    n => format!("explicit {n} radii r={lo}-{hi} um"),
+                }
+            }
+        }
+    }
+
     /// Smallest and largest radius (µm).
-    fn support_um(&self) -> (f64, f64) {
+    pub(crate) fn support_um(&self) -> (f64, f64) {
         match self {
             MixtureEntry::Explicit(e) => e
                 .radii_um
@@ -232,7 +246,7 @@ impl Job for MixtureJob {
     }
     fn tasks(&self) -> Vec<TaskSpec> {
         self.filter.tasks(self.p.distributions.len(), |e, l, n| TaskSpec {
-            label: format!("distribution {e} λ={l} nm"),
+            label: format!("{} λ={l} nm", self.p.distributions[e].label()),
             params: serde_json::json!({ "wavelength_nm": l, "n": n, "entry": self.p.distributions[e] }),
         })
     }
@@ -265,10 +279,11 @@ impl Job for MixtureJob {
             description:
                 "phase functions of drop-size mixtures (Lorenz–Mie small drops, traced large drops)"
                     .into(),
-            axes: self.filter.axes(Axis::values(
+            axes: self.filter.axes(Axis::labelled(
                 "distribution",
                 "1",
                 (0..entries).map(|i| i as f64).collect(),
+                self.p.distributions.iter().map(MixtureEntry::label).collect(),
             )),
             channels: phase_contract::channels("over the mixture's scattering cross-section"),
             attributes: a,
@@ -285,7 +300,8 @@ mod tests {
     const MP: &str = "{ kind = \"marshall-palmer\", rain_rate_mm_h = 5.0, min_radius_um = 20.0, max_radius_um = 80.0 }";
 
     /// Identity: a Marshall–Palmer mixture whose radii all lie below the handover equals the
-    /// `mie` stage's own Marshall–Palmer table (same quadrature radii, same weights) to 1e-3.
+    /// `mie` stage's own Marshall–Palmer table with its Gauss–Legendre rule (`radius_tolerance =
+    /// 0`: same quadrature radii, same weights) to 1e-3.
     #[test]
     fn mie_only_marshall_palmer_mixture_equals_the_mie_stage() {
         let common = "wavelengths_nm = [550.0]\nangle_step_deg = 0.5\nradius_points = 8\n";
@@ -296,7 +312,7 @@ mod tests {
         .unwrap();
         let mie = plan_from_lines(
             &crate::stages::mie::MieStage,
-            &format!("{common}distributions = [{MP}]"),
+            &format!("{common}distributions = [{MP}]\nradius_tolerance = 0.0"),
         )
         .unwrap();
         let (a, b) = (run_in_memory(&*mix).unwrap(), run_in_memory(&*mie).unwrap());
