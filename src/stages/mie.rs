@@ -725,6 +725,32 @@ mod tests {
         assert!(g > 0.7 && g < 0.9, "g {g}");
     }
 
+    /// Sampled distributions (default `radius_tolerance`): the `distribution` axis names its
+    /// entries, and the header gives each entry's node count and error estimate, which meets
+    /// the tolerance.
+    #[test]
+    fn distribution_axis_is_labelled_and_error_stated() {
+        let t = crate::stages::table_from_lines(
+            &MieStage,
+            "distributions = [{ kind = \"gamma\", effective_radius_um = 3.0, effective_variance = 0.1 }, { kind = \"marshall-palmer\", rain_rate_mm_h = 5.0, min_radius_um = 50.0, max_radius_um = 60.0 }]\nwavelengths_nm = [550.0]\nangle_step_deg = 1.0\nradius_tolerance = 0.05",
+        );
+        assert_eq!(t.axes[0].name, "distribution");
+        assert_eq!(
+            t.axes[0].labels,
+            [
+                "gamma r_eff=3 um v_eff=0.1",
+                "marshall-palmer R=5 mm/h r=50-60 um"
+            ]
+        );
+        for e in 0..2 {
+            let nodes = t.attributes["radius_nodes"][e][0].as_f64().unwrap();
+            let err = t.attributes["radius_error_rms"][e][0].as_f64().unwrap();
+            assert!(nodes >= (STRATA * MIN_ROUNDS) as f64, "{nodes}");
+            assert!(err > 0.0 && err <= 0.05, "{err}");
+        }
+        assert_eq!(t.attributes["radius_tolerance"].as_f64(), Some(0.05));
+    }
+
     /// Drops in a medium (`n_medium`): the header Q_sca is the sphere of relative index
     /// n_water/n_medium and size parameter 2π r n_medium/λ; the key is recorded in the header
     /// and kept out of the parameters (and so of the content key) when 1.

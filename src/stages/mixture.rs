@@ -318,6 +318,10 @@ mod tests {
         let (a, b) = (run_in_memory(&*mix).unwrap(), run_in_memory(&*mie).unwrap());
         assert_eq!(a.data.len(), b.data.len());
         assert_eq!(a.attributes["traced_fraction"][0][0], 0.0);
+        // both name the entry on the distribution axis
+        for t in [&a, &b] {
+            assert_eq!(t.axes[0].labels, ["marshall-palmer R=5 mm/h r=20-80 um"]);
+        }
         let mut worst = 0.0f64;
         for (x, y) in a.data.iter().zip(&b.data).step_by(4) {
             worst = worst.max(((x - y) / y).abs() as f64);
