@@ -81,7 +81,13 @@ fn timed<T>(f: impl FnOnce() -> anyhow::Result<T>) -> anyhow::Result<(T, f64, f6
 
 fn entry(wavelength_nm: f64, s: &FilterSettings) -> anyhow::Result<EntryResult> {
     let sun = s.sun_operator();
-    Ok(compute_entry(&RAIN, wavelength_nm, index(wavelength_nm)?, s, &sun)?)
+    Ok(compute_entry(
+        &RAIN,
+        wavelength_nm,
+        index(wavelength_nm)?,
+        s,
+        &sun,
+    )?)
 }
 
 fn read_curve(path: &str) -> anyhow::Result<PolarisedPhase> {
@@ -106,7 +112,10 @@ fn report(what: &str, a: &PolarisedPhase, reference: &PolarisedPhase) {
 fn main() -> anyhow::Result<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let num = |i: usize| -> anyhow::Result<Option<f64>> {
-        args.get(i).map(|s| s.parse::<f64>()).transpose().map_err(Into::into)
+        args.get(i)
+            .map(|s| s.parse::<f64>())
+            .transpose()
+            .map_err(Into::into)
     };
     println!(
         "load average at start: {} ({} rayon threads)",

@@ -30,7 +30,10 @@ fn settings(output_intervals: usize, tolerance: f64, points: usize) -> FilterSet
 }
 
 fn water(wavelength_nm: f64) -> Complex64 {
-    Complex64::new(WaterIndexModel::default().index(wavelength_nm).unwrap(), 0.0)
+    Complex64::new(
+        WaterIndexModel::default().index(wavelength_nm).unwrap(),
+        0.0,
+    )
 }
 
 #[test]
@@ -58,8 +61,14 @@ fn fog_lognormal_matches_dense_gauss_legendre() {
         sampled.radius_nodes, sampled.error_rms
     );
     assert!(sampled.error_rms <= tol, "estimate {}", sampled.error_rms);
-    assert!(rms <= 2.0 * tol, "rms relative error {rms:.2e} vs tolerance {tol}");
-    assert!(max <= 10.0 * tol, "max relative error {max:.2e} at {at} deg ({ch})");
+    assert!(
+        rms <= 2.0 * tol,
+        "rms relative error {rms:.2e} vs tolerance {tol}"
+    );
+    assert!(
+        max <= 10.0 * tol,
+        "max relative error {max:.2e} at {at} deg ({ch})"
+    );
     for (a, b, what) in [
         (sampled.q_sca, dense.q_sca, "Q_sca"),
         (sampled.q_ext, dense.q_ext, "Q_ext"),
@@ -102,5 +111,8 @@ fn marshall_palmer_matches_reference() {
     );
     // the reference's own noise (half of the halves' difference) adds to the comparison
     assert!(rms <= 2.0 * tol + 0.5 * ref_rms, "rms {rms:.2e}");
-    assert!(max <= 10.0 * tol + 0.5 * ref_rms * 10.0, "max {max:.2e} at {at} deg");
+    assert!(
+        max <= 10.0 * tol + 0.5 * ref_rms * 10.0,
+        "max {max:.2e} at {at} deg"
+    );
 }

@@ -100,7 +100,9 @@ impl SizeDistribution {
     /// `marshall-palmer R=5 mm/h r=50-3000 um`.
     pub fn label(&self) -> String {
         match *self {
-            SizeDistribution::Monodisperse { radius_um } => format!("monodisperse r={radius_um} um"),
+            SizeDistribution::Monodisperse { radius_um } => {
+                format!("monodisperse r={radius_um} um")
+            }
             SizeDistribution::Lognormal {
                 median_radius_um,
                 geometric_sigma,

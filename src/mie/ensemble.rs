@@ -134,7 +134,10 @@ impl RadiusSampler {
     /// `n(r)·r/q_ln(ln r)` (`q_ln` the sampling density in `ln r`), i.e. `n(r) dr` per unit
     /// probability: `Σ weight · g(r)/N` estimates `∫ n(r) g(r) dr` over the kept support.
     pub fn sample(&self, distribution: &SizeDistribution, u: f64) -> (f64, f64) {
-        let k = self.cdf.partition_point(|c| *c <= u).clamp(1, self.cdf.len() - 1);
+        let k = self
+            .cdf
+            .partition_point(|c| *c <= u)
+            .clamp(1, self.cdf.len() - 1);
         let (c0, c1) = (self.cdf[k - 1], self.cdf[k]);
         let (l0, l1) = (self.ln_r[k - 1], self.ln_r[k]);
         // q_ln constant on the segment; empty segments are never selected (c1 > u ≥ c0)
@@ -176,7 +179,7 @@ pub fn sample_sphere(
     let mut mu = Vec::new();
     let mut target = Vec::new();
     let mut weight = Vec::new();
-    for c in 0..=ce {
+    for (c, cell) in cells.iter().enumerate().take(ce + 1) {
         let lo = ((c as f64 - 0.5) * d).max(0.0);
         let hi = (c as f64 + 0.5) * d;
         let w_sub = (hi - lo) / sub as f64;
@@ -187,7 +190,7 @@ pub fn sample_sphere(
                 let t = mid + h * x;
                 mu.push(t.cos());
                 target.push(c);
-                weight.push(2.0 * PI * w * h * t.sin() / cells[c]);
+                weight.push(2.0 * PI * w * h * t.sin() / cell);
             }
         }
     }

@@ -281,9 +281,7 @@ fn sampled_entry(
     settings: &FilterSettings,
     sun: &SunDiscOperator,
 ) -> Result<EntryResult, crate::mie::MieError> {
-    use crate::mie::ensemble::{
-        RadiusSampler, SplitMix64, TRUNCATION, fnv1a, sample_sphere,
-    };
+    use crate::mie::ensemble::{RadiusSampler, SplitMix64, TRUNCATION, fnv1a, sample_sphere};
     let mid = settings.intermediate_intervals();
     let sampler = RadiusSampler::new(distribution, TRUNCATION);
     let seed = fnv1a(
@@ -380,7 +378,12 @@ pub fn reference_entry(
 ) -> Result<[PolarisedPhase; 3], crate::mie::MieError> {
     let mid = settings.intermediate_intervals();
     let sampler = crate::mie::ensemble::RadiusSampler::new(distribution, 0.0);
-    let zero = || ([PolarisedPhase::zeros(mid), PolarisedPhase::zeros(mid)], [0.0; 2]);
+    let zero = || {
+        (
+            [PolarisedPhase::zeros(mid), PolarisedPhase::zeros(mid)],
+            [0.0; 2],
+        )
+    };
     let (mixes, totals) = (0..nodes)
         .into_par_iter()
         .map(|i| {
@@ -596,7 +599,8 @@ impl Job for MieJob {
             s(crate::mie::VALIDATED_DOMAIN_TEXT),
         );
         a.insert("conventions".into(), s("Bohren & Huffman: exp(-i omega t), m = n + ik; i_perp = |S1|^2, i_par = |S2|^2 over (pi x^2 Q_sca); phase = (i_perp + i_par)/2; dolp = (i_perp - i_par)/(i_perp + i_par)"));
-        let sampled = matches!(self.entries, Entries::Distributions(_)) && self.p.radius_tolerance > 0.0;
+        let sampled =
+            matches!(self.entries, Entries::Distributions(_)) && self.p.radius_tolerance > 0.0;
         a.insert("size_distribution_weighting".into(), s(if sampled {
             "normalised phase functions mixed with weights n(r) dr * C_sca(r); radius x angle sampled jointly (importance density n(r) r^2, jittered strata, jittered angles per intermediate cell, exact cells within 1 deg of 0 and 180 deg) until the RMS relative standard error over bins and i_perp, i_par (relative to phase) is <= radius_tolerance; radius_nodes and radius_error_rms per [entry][wavelength]"
         } else {

@@ -283,7 +283,11 @@ impl Job for MixtureJob {
                 "distribution",
                 "1",
                 (0..entries).map(|i| i as f64).collect(),
-                self.p.distributions.iter().map(MixtureEntry::label).collect(),
+                self.p
+                    .distributions
+                    .iter()
+                    .map(MixtureEntry::label)
+                    .collect(),
             )),
             channels: phase_contract::channels("over the mixture's scattering cross-section"),
             attributes: a,

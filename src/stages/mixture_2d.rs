@@ -250,7 +250,11 @@ impl Job for Mixture2dJob {
             "distribution",
             "1",
             (0..self.nodes.len()).map(|i| i as f64).collect(),
-            self.p.distributions.iter().map(MixtureEntry::label).collect(),
+            self.p
+                .distributions
+                .iter()
+                .map(MixtureEntry::label)
+                .collect(),
         );
         let a = &mut t.attributes;
         a.remove("radius_um");
