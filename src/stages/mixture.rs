@@ -9,7 +9,9 @@
 //! σ_GO + π r² (traced orders plus the forward Fraunhofer lobe) for traced drops. The mix is
 //! formed on the `mie` stage's intermediate grid, convolved with the sun's disc and averaged
 //! over the output bins exactly as the `mie` stage does, so a mixture whose radii all lie below
-//! the handover is the `mie` stage's table of the same distribution (tested to 1e-3).
+//! the handover is the `mie` stage's table of the same distribution with its Gauss–Legendre rule
+//! (`radius_tolerance = 0`; tested to 1e-3). The `mie` stage's default, the sampled radius ×
+//! angle average (decision MIE-16), is not used here.
 //!
 //! Output follows the phase-function contract (`docs/consumers.md`): axes distribution ×
 //! wavelength × scattering_angle, channels phase, i_perp, i_par, dolp, so every 1-D consumer
