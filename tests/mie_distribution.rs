@@ -90,7 +90,7 @@ fn fog_lognormal_matches_dense_gauss_legendre() {
 }
 
 #[test]
-#[ignore = "long validation: a 1024-node exact reference of Marshall–Palmer rain at 650 nm (≈10 min on 2 cores); cargo test --release --test mie_distribution -- --ignored --nocapture"]
+#[ignore = "long validation: a 1024-node exact reference of Marshall–Palmer rain at 650 nm (380 s on the shared 2-core machine at load average ~9); cargo test --release --test mie_distribution -- --ignored --nocapture"]
 fn marshall_palmer_matches_reference() {
     let rain = SizeDistribution::MarshallPalmer {
         rain_rate_mm_h: 5.0,
