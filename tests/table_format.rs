@@ -345,3 +345,27 @@ fn declared_sizes_are_not_allocated() {
     let e = Table::from_bytes(&case.bytes, Path::new("t.sbt")).unwrap_err();
     assert!(e.to_string().contains("zstd frame declares 72"), "{e}");
 }
+
+/// Axis labels (decision MIE-17) survive a round trip, are absent from the header when unused,
+/// and a label count that differs from the samples' is refused.
+#[test]
+fn axis_labels_round_trip_and_are_checked() {
+    let content = |labels: Vec<String>| TableContent {
+        schema: Schema::new("x", 1),
+        description: String::new(),
+        axes: vec![Axis::labelled("distribution", "1", vec![0.0, 1.0], labels)],
+        channels: vec![Channel::new("c", "1", "")],
+        attributes: Default::default(),
+        data: vec![1.0, 2.0],
+    };
+    let names = vec!["gamma r_eff=3 um v_eff=0.1".to_string(), "fog".to_string()];
+    let mut t = Table::from_content(content(names.clone()), Provenance::default()).unwrap();
+    let bytes = t.to_bytes().unwrap();
+    let r = Table::from_bytes(&bytes, Path::new("t.sbt")).unwrap();
+    assert_eq!(r.header.axes[0].labels, names);
+    assert_eq!(r.header.axes[0].label(1), Some("fog"));
+    let mut plain = sample_table();
+    let text = String::from_utf8_lossy(&plain.to_bytes().unwrap()).to_string();
+    assert!(!text.contains("\"labels\""), "no labels key when unused");
+    assert!(Table::from_content(content(vec!["one".into()]), Provenance::default()).is_err());
+}

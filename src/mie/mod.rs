@@ -28,6 +28,7 @@ pub mod angular;
 pub mod coated;
 pub mod coefficients;
 pub mod distributions;
+pub mod ensemble;
 pub mod filters;
 pub mod riccati;
 

@@ -129,6 +129,7 @@ impl FilteredPhase {
                 sun_diameter_deg: k.sun_diameter_deg,
                 gaussian_sigma_deg: k.gaussian_sigma_deg,
                 radius_points: k.radius_points,
+                radius_tolerance: 0.0,
             },
             angle_step_deg: k.angle_step_deg,
             sun: OnceLock::new(),

@@ -36,9 +36,13 @@ filtered_phase_params! {
         /// Optional extra 1-D Gaussian blur (deg, standard deviation); 0 = off.
         pub gaussian_sigma_deg: f64 = default(0.0),
             "float, deg", "optional extra Gaussian blur in angle";
-        /// Gauss–Legendre points in ln r for distributions.
+        /// Gauss–Legendre points in ln r for distributions when `radius_tolerance = 0`.
         pub radius_points: usize = default(24),
-            "integer", "Gauss–Legendre nodes in ln r per distribution";
+            "integer", "Gauss–Legendre nodes in ln r per distribution (only with radius_tolerance = 0)";
+        /// Target RMS relative standard error of the sampled size-distribution average
+        /// (decision MIE-16); 0 selects the Gauss–Legendre rule of `radius_points` nodes.
+        pub radius_tolerance: f64 = default(DEFAULT_RADIUS_TOLERANCE),
+            "float", "distributions: target RMS (over bins and i_perp, i_par) standard error of the sampled radius x angle average, relative to the phase function; 0 = Gauss–Legendre rule of radius_points nodes";
         /// Real refractive index of the (non-absorbing) medium around the drops; the water
         /// index and the vacuum wavelength are divided by it. Left out of the content key when 1.
         #[serde(skip_serializing_if = "is_vacuum")]
@@ -53,8 +57,28 @@ fn is_vacuum(n_medium: &f64) -> bool {
 }
 
 /// The f64 scalars at the end of each task chunk (as f32 pairs, see
-/// [`phase_chunk`]), stored in the header as `[entry][wavelength]` arrays.
-const SCALARS: [&str; 4] = ["q_ext", "q_sca", "q_back", "g"];
+/// [`phase_chunk`]), stored in the header as `[entry][wavelength]` arrays (the last two only
+/// for sampled distributions).
+const SCALARS: [&str; 6] = [
+    "q_ext",
+    "q_sca",
+    "q_back",
+    "g",
+    "radius_nodes",
+    "radius_error_rms",
+];
+
+/// Default of `radius_tolerance` (decision MIE-16).
+pub const DEFAULT_RADIUS_TOLERANCE: f64 = 0.02;
+
+/// Strata (radius nodes) per round of the sampled average.
+pub const STRATA: usize = 16;
+/// Rounds before the first error estimate.
+pub const MIN_ROUNDS: usize = 4;
+/// Largest number of radius nodes of one sampled entry (the estimate is then reported as is).
+pub const MAX_NODES: usize = 4096;
+/// Intermediate cells per angular sample of a radius node (outside the exact polar caps).
+pub const ANGLE_BLOCK_CELLS: usize = 8;
 
 /// The entries (second axis) of a job.
 #[derive(Debug, Clone)]
@@ -91,6 +115,11 @@ pub struct EntryResult {
     pub q_back: f64,
     /// `⟨C_sca g⟩/⟨C_sca⟩`.
     pub g: f64,
+    /// Radius nodes used (1 for a single sphere).
+    pub radius_nodes: usize,
+    /// Estimated RMS relative standard error of the curve (sampled distributions; 0 for a
+    /// single sphere and for the Gauss–Legendre rule, which has no estimate).
+    pub error_rms: f64,
 }
 
 /// Filter settings of one job.
@@ -100,6 +129,9 @@ pub struct FilterSettings {
     pub sun_diameter_deg: f64,
     pub gaussian_sigma_deg: f64,
     pub radius_points: usize,
+    /// Target RMS relative standard error of sampled distribution entries; 0 = Gauss–Legendre
+    /// rule of `radius_points` nodes (decision MIE-16).
+    pub radius_tolerance: f64,
 }
 
 /// The smallest odd integer ≥ `k` (odd refinements keep every output bin centre on a cell
@@ -143,7 +175,32 @@ impl FilterSettings {
 /// over the output bins. `sun` must be [`FilterSettings::sun_operator`] of `settings`.
 /// `wavelength_nm` is the wavelength in the medium around the drops and `m` the index relative
 /// to it (see [`crate::mie::in_medium`]).
+///
+/// A monodisperse entry is its one sphere (exact cell averages). A distribution is averaged by
+/// joint sampling of radius and angle to `settings.radius_tolerance`
+/// ([`crate::mie::ensemble`], decision MIE-16), or, when that is 0, by the Gauss–Legendre rule
+/// in ln r of `settings.radius_points` nodes with exact cell averages per node.
 pub fn compute_entry(
+    distribution: &SizeDistribution,
+    wavelength_nm: f64,
+    m: Complex64,
+    settings: &FilterSettings,
+    sun: &SunDiscOperator,
+) -> Result<EntryResult, crate::mie::MieError> {
+    match distribution {
+        SizeDistribution::Monodisperse { .. } => {
+            gauss_legendre_entry(distribution, wavelength_nm, m, settings, sun)
+        }
+        _ if settings.radius_tolerance > 0.0 => {
+            sampled_entry(distribution, wavelength_nm, m, settings, sun)
+        }
+        _ => gauss_legendre_entry(distribution, wavelength_nm, m, settings, sun),
+    }
+}
+
+/// The Gauss–Legendre rule in ln r (one node for a monodisperse entry), every node's curve as
+/// exact cell averages on its fine grid.
+fn gauss_legendre_entry(
     distribution: &SizeDistribution,
     wavelength_nm: f64,
     m: Complex64,
@@ -199,7 +256,220 @@ pub fn compute_entry(
         q_sca: sums[2] / sums[0],
         q_back: sums[3] / sums[0],
         g: sums[4] / sums[2],
+        radius_nodes: radii.len(),
+        error_rms: 0.0,
     })
+}
+
+/// One round of the sampled average: `Σ w_k p_k` on the intermediate grid and the sums
+/// `Σ w_k π r² · [1, Q_ext, Q_sca, Q_back, Q_sca g]` (`w_k = n(r_k)/q(r_k)`).
+struct Round {
+    mix: PolarisedPhase,
+    sums: [f64; 5],
+}
+
+/// The sampled size-distribution average (module doc of [`crate::mie::ensemble`]): rounds of
+/// [`STRATA`] jittered radius strata, each node's curve sampled on the intermediate grid, until
+/// the spread of the rounds' outputs (after sun disc, blur, bins) gives an RMS relative standard
+/// error ≤ `settings.radius_tolerance` (relative to the phase function of the bin, over every
+/// bin and both `i_perp` and `i_par`), or [`MAX_NODES`] nodes. [`MIN_ROUNDS`] rounds first, then
+/// the number of rounds the estimate predicts (it falls like `1/√rounds`), plus 10 %.
+fn sampled_entry(
+    distribution: &SizeDistribution,
+    wavelength_nm: f64,
+    m: Complex64,
+    settings: &FilterSettings,
+    sun: &SunDiscOperator,
+) -> Result<EntryResult, crate::mie::MieError> {
+    use crate::mie::ensemble::{RadiusSampler, SplitMix64, TRUNCATION, fnv1a, sample_sphere};
+    let mid = settings.intermediate_intervals();
+    let sampler = RadiusSampler::new(distribution, TRUNCATION);
+    let seed = fnv1a(
+        format!(
+            "{distribution:?} {} {} {}",
+            wavelength_nm.to_bits(),
+            m.re.to_bits(),
+            m.im.to_bits()
+        )
+        .as_bytes(),
+    );
+    let finish = |mix: &PolarisedPhase, scale: f64| {
+        let mut c = PolarisedPhase::zeros(mid);
+        c.add_scaled(mix, scale);
+        let c = gaussian_blur(&sun.apply(&c), settings.gaussian_sigma_deg);
+        resample_bins(&c, settings.output_intervals)
+    };
+    let round = |k: usize| -> Result<Round, crate::mie::MieError> {
+        let mut mix = PolarisedPhase::zeros(mid);
+        let mut sums = [0.0; 5];
+        for s in 0..STRATA {
+            let mut rng = SplitMix64::new(seed ^ fnv1a(&((k * STRATA + s) as u64).to_le_bytes()));
+            let u = (s as f64 + rng.next_f64()) / STRATA as f64;
+            let (r, w) = sampler.sample(distribution, u);
+            let sphere = Sphere::new(size_parameter(r, wavelength_nm), m)?;
+            let curve = sample_sphere(&sphere, mid, ANGLE_BLOCK_CELLS, &mut rng);
+            let e = sphere.efficiencies;
+            let wa = w * std::f64::consts::PI * r * r;
+            mix.add_scaled(&curve, wa * e.q_sca);
+            for (a, b) in sums
+                .iter_mut()
+                .zip([1.0, e.q_ext, e.q_sca, e.q_back, e.q_sca * e.g])
+            {
+                *a += wa * b;
+            }
+        }
+        Ok(Round { mix, sums })
+    };
+    let mut outputs: Vec<PolarisedPhase> = Vec::new();
+    let mut pooled = PolarisedPhase::zeros(mid);
+    let mut sums = [0.0; 5];
+    let mut add = MIN_ROUNDS;
+    loop {
+        let start = outputs.len();
+        let batch = (start..start + add)
+            .into_par_iter()
+            .map(round)
+            .collect::<Result<Vec<Round>, _>>()?;
+        for r in batch {
+            outputs.push(finish(&r.mix, 1.0 / r.sums[2]));
+            pooled.add_scaled(&r.mix, 1.0);
+            for (a, b) in sums.iter_mut().zip(r.sums) {
+                *a += b;
+            }
+        }
+        let curve = finish(&pooled, 1.0 / sums[2]);
+        let error_rms = rounds_error_rms(&outputs, &curve);
+        let nodes = outputs.len() * STRATA;
+        if error_rms <= settings.radius_tolerance || nodes + STRATA > MAX_NODES {
+            return Ok(EntryResult {
+                curve,
+                q_ext: sums[1] / sums[0],
+                q_sca: sums[2] / sums[0],
+                q_back: sums[3] / sums[0],
+                g: sums[4] / sums[2],
+                radius_nodes: nodes,
+                error_rms,
+            });
+        }
+        // the standard error falls like 1/√rounds: add the rounds the estimate asks for (+10 %),
+        // at least one, at most four times those done, within MAX_NODES
+        let rounds = outputs.len();
+        let wanted = (rounds as f64 * 1.1 * (error_rms / settings.radius_tolerance).powi(2)).ceil();
+        add = (wanted as usize)
+            .saturating_sub(rounds)
+            .clamp(1, 4 * rounds)
+            .min(MAX_NODES / STRATA - rounds);
+    }
+}
+
+/// A brute-force reference for a distribution entry (validation only; slow): `nodes` radii at
+/// the midpoints `u = (i + ½)/nodes` of the cumulative distribution of `n(r) r²` (no
+/// truncation), every node's curve as exact cell averages on its fine grid (the single-sphere
+/// path), mixed with weights `n(r) dr · C_sca(r)`, then sun disc, blur and bins. Returns the
+/// whole rule and its even and odd halves (two interleaved rules of `nodes/2`; their difference
+/// bounds the reference's own error).
+pub fn reference_entry(
+    distribution: &SizeDistribution,
+    wavelength_nm: f64,
+    m: Complex64,
+    settings: &FilterSettings,
+    sun: &SunDiscOperator,
+    nodes: usize,
+) -> Result<[PolarisedPhase; 3], crate::mie::MieError> {
+    let mid = settings.intermediate_intervals();
+    let sampler = crate::mie::ensemble::RadiusSampler::new(distribution, 0.0);
+    let zero = || {
+        (
+            [PolarisedPhase::zeros(mid), PolarisedPhase::zeros(mid)],
+            [0.0; 2],
+        )
+    };
+    let (mixes, totals) = (0..nodes)
+        .into_par_iter()
+        .map(|i| {
+            let (r, w) = sampler.sample(distribution, (i as f64 + 0.5) / nodes as f64);
+            let sphere = Sphere::new(size_parameter(r, wavelength_nm), m)?;
+            let fine_cells = FilterSettings::fine_grid_intervals(mid, sphere.coefficients.n_stop());
+            let fine = PolarisedPhase::from_sphere(&sphere, fine_cells, FINE_CELL_POINTS, false);
+            let c = w * std::f64::consts::PI * r * r * sphere.efficiencies.q_sca;
+            Ok((i % 2, resample_bins(&fine, mid), c))
+        })
+        .try_fold(zero, |mut acc, item: Result<_, crate::mie::MieError>| {
+            let (half, curve, c) = item?;
+            acc.0[half].add_scaled(&curve, c);
+            acc.1[half] += c;
+            Ok(acc)
+        })
+        .try_reduce(zero, |mut a, b| {
+            for h in 0..2 {
+                a.0[h].add_scaled(&b.0[h], 1.0);
+                a.1[h] += b.1[h];
+            }
+            Ok(a)
+        })?;
+    let finish = |mix: &PolarisedPhase, scale: f64| {
+        let mut c = PolarisedPhase::zeros(mid);
+        c.add_scaled(mix, scale);
+        let c = gaussian_blur(&sun.apply(&c), settings.gaussian_sigma_deg);
+        resample_bins(&c, settings.output_intervals)
+    };
+    let mut all = mixes[0].clone();
+    all.add_scaled(&mixes[1], 1.0);
+    Ok([
+        finish(&all, 1.0 / (totals[0] + totals[1])),
+        finish(&mixes[0], 1.0 / totals[0]),
+        finish(&mixes[1], 1.0 / totals[1]),
+    ])
+}
+
+/// Relative differences of `a` against `reference` over the bins, for `i_perp` and `i_par`:
+/// `(max, angle of the max in degrees, channel name of the max, rms)`.
+pub fn relative_difference(
+    a: &PolarisedPhase,
+    reference: &PolarisedPhase,
+) -> (f64, f64, &'static str, f64) {
+    let (mut max, mut at, mut ch, mut sq, mut n) = (0.0, 0.0, "i_perp", 0.0, 0usize);
+    for (name, x, y) in [
+        ("i_perp", &a.i_perp, &reference.i_perp),
+        ("i_par", &a.i_par, &reference.i_par),
+    ] {
+        for (j, (p, q)) in x.iter().zip(y.iter()).enumerate() {
+            if !(q.abs() > 0.0) {
+                continue;
+            }
+            let e = ((p - q) / q).abs();
+            sq += e * e;
+            n += 1;
+            if e > max {
+                (max, at, ch) = (e, reference.angle_deg(j), name);
+            }
+        }
+    }
+    (max, at, ch, (sq / n.max(1) as f64).sqrt())
+}
+
+/// RMS over bins and the channels `i_perp`, `i_par` of the standard error of the mean of
+/// independent `rounds`, relative to the phase function of `pooled` in the bin.
+pub fn rounds_error_rms(rounds: &[PolarisedPhase], pooled: &PolarisedPhase) -> f64 {
+    let n = rounds.len() as f64;
+    if rounds.len() < 2 {
+        return f64::INFINITY;
+    }
+    let phase = pooled.phase();
+    let (mut acc, mut count) = (0.0, 0usize);
+    for (b, p) in phase.iter().enumerate() {
+        if !(*p > 0.0) {
+            continue;
+        }
+        for ch in 0..2 {
+            let get = |r: &PolarisedPhase| if ch == 0 { r.i_perp[b] } else { r.i_par[b] };
+            let mean = rounds.iter().map(get).sum::<f64>() / n;
+            let var = rounds.iter().map(|r| (get(r) - mean).powi(2)).sum::<f64>() / (n - 1.0);
+            acc += var / n / (p * p);
+            count += 1;
+        }
+    }
+    (acc / count.max(1) as f64).sqrt()
 }
 
 struct MieJob {
@@ -212,12 +482,19 @@ impl StageSpec for MieStage {
     const NAME: &'static str = "mie";
     /// 2: axes radius × wavelength × angle, Q and g kept in f64. 3: `sadeghi-table-3.2`
     /// corrected at 580–650 nm; attribute `sun_diameter_deg`. 4: key and attribute `n_medium`.
-    const VERSION: u32 = 4;
+    /// 5: distributions averaged by joint radius × angle sampling to `radius_tolerance`
+    /// (MIE-16), attributes `radius_nodes`, `radius_error_rms`, labelled `distribution` axis.
+    const VERSION: u32 = 5;
     const SUMMARY: &'static str = "Lorenz–Mie phase functions of water drops (radii or size distributions), sun-disc smoothed, bin-integrated";
     type Params = MieParams;
     fn plan_params(&self, p: MieParams) -> Result<Box<dyn Job>, PlanError> {
         let filter = FilteredPhase::plan(p.filter_keys(p.gaussian_sigma_deg, p.radius_points))?;
+        let mut filter = filter;
         checks::within("n_medium", p.n_medium, 1.0, 3.0, "")?;
+        if p.radius_tolerance != 0.0 {
+            checks::within("radius_tolerance", p.radius_tolerance, 1e-4, 0.5, " (or 0)")?;
+        }
+        filter.settings.radius_tolerance = p.radius_tolerance;
         let (entries, entries_key) = match (&p.radii_um, &p.distributions) {
             (Some(r), None) => {
                 checks::increasing("radii_um", r, true)?;
@@ -254,10 +531,11 @@ impl MieJob {
     fn entry_axis(&self) -> Axis {
         match &self.entries {
             Entries::Radii(r) => Axis::values("radius", "um", r.clone()),
-            Entries::Distributions(d) => Axis::values(
+            Entries::Distributions(d) => Axis::labelled(
                 "distribution",
                 "1",
                 (0..d.len()).map(|i| i as f64).collect(),
+                d.iter().map(SizeDistribution::label).collect(),
             ),
         }
     }
@@ -296,7 +574,14 @@ impl Job for MieJob {
         Ok(phase_chunk(
             &r.curve,
             &[],
-            &[r.q_ext, r.q_sca, r.q_back, r.g],
+            &[
+                r.q_ext,
+                r.q_sca,
+                r.q_back,
+                r.g,
+                r.radius_nodes as f64,
+                r.error_rms,
+            ],
         ))
     }
     fn assemble(&self, chunks: Vec<Vec<f32>>) -> Result<TableContent, JobError> {
@@ -321,11 +606,21 @@ impl Job for MieJob {
             s(crate::mie::VALIDATED_DOMAIN_TEXT),
         );
         a.insert("conventions".into(), s("Bohren & Huffman: exp(-i omega t), m = n + ik; i_perp = |S1|^2, i_par = |S2|^2 over (pi x^2 Q_sca); phase = (i_perp + i_par)/2; dolp = (i_perp - i_par)/(i_perp + i_par)"));
-        a.insert("size_distribution_weighting".into(), s("normalised phase functions mixed with weights n(r) dr * C_sca(r); Gauss-Legendre in ln r"));
+        let sampled =
+            matches!(self.entries, Entries::Distributions(_)) && self.p.radius_tolerance > 0.0;
+        a.insert("size_distribution_weighting".into(), s(if sampled {
+            "normalised phase functions mixed with weights n(r) dr * C_sca(r); radius x angle sampled jointly (importance density n(r) r^2, jittered strata, jittered angles per intermediate cell, exact cells within 1 deg of 0 and 180 deg) until the RMS relative standard error over bins and i_perp, i_par (relative to phase) is <= radius_tolerance; radius_nodes and radius_error_rms per [entry][wavelength]"
+        } else {
+            "normalised phase functions mixed with weights n(r) dr * C_sca(r); Gauss-Legendre in ln r"
+        }));
         if let Entries::Distributions(d) = &self.entries {
             a.insert("distributions".into(), serde_json::to_value(d)?);
+            a.insert("radius_tolerance".into(), self.p.radius_tolerance.into());
         }
         for (k, name) in SCALARS.iter().enumerate() {
+            if k >= 4 && !sampled {
+                continue;
+            }
             a.insert(
                 (*name).into(),
                 serde_json::to_value(scalar_arrays(&tails, k))?,
@@ -439,6 +734,32 @@ mod tests {
         assert!(q_sca > 1.8 && q_sca < 2.6, "Q_sca {q_sca}");
         let g = join_f64(chunk[361 * 4 + 6], chunk[361 * 4 + 7]);
         assert!(g > 0.7 && g < 0.9, "g {g}");
+    }
+
+    /// Sampled distributions (default `radius_tolerance`): the `distribution` axis names its
+    /// entries, and the header gives each entry's node count and error estimate, which meets
+    /// the tolerance.
+    #[test]
+    fn distribution_axis_is_labelled_and_error_stated() {
+        let t = crate::stages::table_from_lines(
+            &MieStage,
+            "distributions = [{ kind = \"gamma\", effective_radius_um = 3.0, effective_variance = 0.1 }, { kind = \"marshall-palmer\", rain_rate_mm_h = 5.0, min_radius_um = 50.0, max_radius_um = 60.0 }]\nwavelengths_nm = [550.0]\nangle_step_deg = 1.0\nradius_tolerance = 0.05",
+        );
+        assert_eq!(t.axes[0].name, "distribution");
+        assert_eq!(
+            t.axes[0].labels,
+            [
+                "gamma r_eff=3 um v_eff=0.1",
+                "marshall-palmer R=5 mm/h r=50-60 um"
+            ]
+        );
+        for e in 0..2 {
+            let nodes = t.attributes["radius_nodes"][e][0].as_f64().unwrap();
+            let err = t.attributes["radius_error_rms"][e][0].as_f64().unwrap();
+            assert!(nodes >= (STRATA * MIN_ROUNDS) as f64, "{nodes}");
+            assert!(err > 0.0 && err <= 0.05, "{err}");
+        }
+        assert_eq!(t.attributes["radius_tolerance"].as_f64(), Some(0.05));
     }
 
     /// Drops in a medium (`n_medium`): the header Q_sca is the sphere of relative index

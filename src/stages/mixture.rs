@@ -9,7 +9,9 @@
 //! σ_GO + π r² (traced orders plus the forward Fraunhofer lobe) for traced drops. The mix is
 //! formed on the `mie` stage's intermediate grid, convolved with the sun's disc and averaged
 //! over the output bins exactly as the `mie` stage does, so a mixture whose radii all lie below
-//! the handover is the `mie` stage's table of the same distribution (tested to 1e-3).
+//! the handover is the `mie` stage's table of the same distribution with its Gauss–Legendre rule
+//! (`radius_tolerance = 0`; tested to 1e-3). The `mie` stage's default, the sampled radius ×
+//! angle average (decision MIE-16), is not used here.
 //!
 //! Output follows the phase-function contract (`docs/consumers.md`): axes distribution ×
 //! wavelength × scattering_angle, channels phase, i_perp, i_par, dolp, so every 1-D consumer
@@ -62,8 +64,22 @@ impl MixtureEntry {
         }
     }
 
+    /// A short name with the parameters, for the labels of the `distribution` axis.
+    pub fn label(&self) -> String {
+        match self {
+            MixtureEntry::Distribution(d) => d.label(),
+            MixtureEntry::Explicit(e) => {
+                let (lo, hi) = self.support_um();
+                match e.radii_um.len() {
+                    1 => format!("explicit r={lo} um"),
+                    n => format!("explicit {n} radii r={lo}-{hi} um"),
+                }
+            }
+        }
+    }
+
     /// Smallest and largest radius (µm).
-    fn support_um(&self) -> (f64, f64) {
+    pub(crate) fn support_um(&self) -> (f64, f64) {
         match self {
             MixtureEntry::Explicit(e) => e
                 .radii_um
@@ -239,7 +255,7 @@ impl Job for MixtureJob {
     }
     fn tasks(&self) -> Vec<TaskSpec> {
         self.filter.tasks(self.p.distributions.len(), |e, l, n| TaskSpec {
-            label: format!("distribution {e} λ={l} nm"),
+            label: format!("{} λ={l} nm", self.p.distributions[e].label()),
             params: serde_json::json!({ "wavelength_nm": l, "n": n, "entry": self.p.distributions[e] }),
         })
     }
@@ -272,10 +288,15 @@ impl Job for MixtureJob {
             description:
                 "phase functions of drop-size mixtures (Lorenz–Mie small drops, traced large drops)"
                     .into(),
-            axes: self.filter.axes(Axis::values(
+            axes: self.filter.axes(Axis::labelled(
                 "distribution",
                 "1",
                 (0..entries).map(|i| i as f64).collect(),
+                self.p
+                    .distributions
+                    .iter()
+                    .map(MixtureEntry::label)
+                    .collect(),
             )),
             channels: phase_contract::channels("over the mixture's scattering cross-section"),
             attributes: a,
@@ -292,7 +313,8 @@ mod tests {
     const MP: &str = "{ kind = \"marshall-palmer\", rain_rate_mm_h = 5.0, min_radius_um = 20.0, max_radius_um = 80.0 }";
 
     /// Identity: a Marshall–Palmer mixture whose radii all lie below the handover equals the
-    /// `mie` stage's own Marshall–Palmer table (same quadrature radii, same weights) to 1e-3.
+    /// `mie` stage's own Marshall–Palmer table with its Gauss–Legendre rule (`radius_tolerance =
+    /// 0`: same quadrature radii, same weights) to 1e-3.
     #[test]
     fn mie_only_marshall_palmer_mixture_equals_the_mie_stage() {
         let common = "wavelengths_nm = [550.0]\nangle_step_deg = 0.5\nradius_points = 8\n";
@@ -303,12 +325,16 @@ mod tests {
         .unwrap();
         let mie = plan_from_lines(
             &crate::stages::mie::MieStage,
-            &format!("{common}distributions = [{MP}]"),
+            &format!("{common}distributions = [{MP}]\nradius_tolerance = 0.0"),
         )
         .unwrap();
         let (a, b) = (run_in_memory(&*mix).unwrap(), run_in_memory(&*mie).unwrap());
         assert_eq!(a.data.len(), b.data.len());
         assert_eq!(a.attributes["traced_fraction"][0][0], 0.0);
+        // both name the entry on the distribution axis
+        for t in [&a, &b] {
+            assert_eq!(t.axes[0].labels, ["marshall-palmer R=5 mm/h r=20-80 um"]);
+        }
         let mut worst = 0.0f64;
         for (x, y) in a.data.iter().zip(&b.data).step_by(4) {
             worst = worst.max(((x - y) / y).abs() as f64);

@@ -251,10 +251,15 @@ impl Job for Mixture2dJob {
             }
         }
         let mut t = content.expect("at least one distribution");
-        t.axes[0] = Axis::values(
+        t.axes[0] = Axis::labelled(
             "distribution",
             "1",
             (0..self.nodes.len()).map(|i| i as f64).collect(),
+            self.p
+                .distributions
+                .iter()
+                .map(MixtureEntry::label)
+                .collect(),
         );
         let a = &mut t.attributes;
         a.remove("radius_um");

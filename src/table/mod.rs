@@ -59,6 +59,11 @@ pub struct Axis {
     pub unit: String,
     /// Sample coordinates.
     pub points: AxisPoints,
+    /// Optional names of the samples (one per sample), for axes whose coordinates are only
+    /// entry numbers, e.g. `distribution`: `"marshall-palmer R=5 mm/h, r 50–3000 um"`. Absent
+    /// from the header when empty.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub labels: Vec<String>,
 }
 
 impl Axis {
@@ -68,7 +73,19 @@ impl Axis {
             name: name.into(),
             unit: unit.into(),
             points: AxisPoints::Values(values),
+            labels: Vec::new(),
         }
+    }
+    /// Axis with explicit values and one label per value.
+    pub fn labelled(name: &str, unit: &str, values: Vec<f64>, labels: Vec<String>) -> Self {
+        Axis {
+            labels,
+            ..Axis::values(name, unit, values)
+        }
+    }
+    /// Label of sample `i` when the axis has labels.
+    pub fn label(&self, i: usize) -> Option<&str> {
+        self.labels.get(i).map(String::as_str)
     }
     /// Axis with a uniform range.
     pub fn uniform(name: &str, unit: &str, start: f64, step: f64, count: usize) -> Self {
@@ -76,6 +93,7 @@ impl Axis {
             name: name.into(),
             unit: unit.into(),
             points: AxisPoints::Uniform { start, step, count },
+            labels: Vec::new(),
         }
     }
     /// Number of samples.

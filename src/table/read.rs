@@ -384,6 +384,14 @@ pub(crate) fn check_axis_coords(a: &Axis) -> Result<(), String> {
     if let AxisPoints::Uniform { start, step, .. } = a.points {
         check_uniform_params(a, start, step)?;
     }
+    if !a.labels.is_empty() && a.labels.len() != a.len() {
+        return Err(format!(
+            "axis `{}` has {} labels for {} samples",
+            a.name,
+            a.labels.len(),
+            a.len()
+        ));
+    }
     let mut prev = f64::NEG_INFINITY;
     for k in 0..a.len() {
         let x = a.coord(k);

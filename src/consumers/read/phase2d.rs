@@ -161,7 +161,8 @@ impl Phase2dTable {
 
     /// Drop radius for labels: the entry's `radius` (in its axis unit) or, for version 1
     /// tables without a radius axis, the `radius_mm` attribute; for a drop-size mixture (entry
-    /// axis `distribution`, no single radius) the entry itself, e.g. `distribution 1`.
+    /// axis `distribution`, no single radius) the entry's label when the axis has labels (e.g.
+    /// `marshall-palmer R=5 mm/h r=50-3000 um`), else the entry itself, e.g. `distribution 1`.
     pub fn radius_label(&self, entry: &[(String, f64)]) -> String {
         if let Some((_, v)) = entry.iter().find(|e| e.0 == "radius") {
             let unit = self
@@ -177,7 +178,16 @@ impl Phase2dTable {
             Some(v) => format!("{v} mm"),
             None if !entry.is_empty() => entry
                 .iter()
-                .map(|(name, v)| format!("{name} {v}"))
+                .map(|(name, v)| {
+                    // a labelled axis (e.g. `distribution`) names its entries
+                    let axis = self.table.axes().iter().find(|a| &a.name == name);
+                    let label = axis.and_then(|a| {
+                        (0..a.len())
+                            .find(|i| a.coord(*i) == *v)
+                            .and_then(|i| a.label(i))
+                    });
+                    label.map_or_else(|| format!("{name} {v}"), str::to_string)
+                })
                 .collect::<Vec<_>>()
                 .join(", "),
             None => "?".into(),
