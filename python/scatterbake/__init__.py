@@ -5,8 +5,8 @@ the scatterbake library (Rust) through PyO3.
 Conventions (Bohren & Huffman 1983): time dependence exp(-iωt), refractive index m = n + ik with
 k ≥ 0 absorbing; radii in µm (``radius_um``), vacuum wavelengths in nm (``wavelength_nm``),
 angles in degrees (``angles_deg``); ``S1`` is the amplitude perpendicular to the scattering
-plane, ``S2`` parallel; efficiencies are cross-sections over πr²; ``q_back`` is the radar
-convention 4|S1(180°)|²/x² and ``q_back_per_sr = q_back/(4π)`` MiePlot's per steradian.
+plane, ``S2`` parallel; efficiencies are cross-sections over πr²; ``qback`` is the radar
+convention 4|S1(180°)|²/x² and ``qback_per_sr = qback/(4π)`` MiePlot's per steradian.
 A medium of real index ``n_medium`` (default 1) follows ``scatterbake mie --n-medium``: ``m`` is
 the sphere's own index, the relative index is ``m/n_medium`` and, from a radius and a vacuum
 wavelength, x = 2π r n_medium/λ; a given ``x`` is the size parameter in the medium.

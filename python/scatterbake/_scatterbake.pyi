@@ -9,8 +9,8 @@ Conventions everywhere (Bohren & Huffman 1983):
   both dimensionless, ``|S1|²``, ``|S2|²`` as in Bohren & Huffman;
 - ``i_perp = |S1|²/(π x² Q_sca)``, ``i_par = |S2|²/(π x² Q_sca)``, ``phase = (i_perp + i_par)/2``
   in 1/sr with ∫4π phase dΩ = 1, ``dolp = (i_perp − i_par)/(i_perp + i_par)``;
-- efficiencies are cross-sections over π r² (dimensionless); ``q_back`` is the radar convention
-  ``4π (dC_sca/dΩ)(180°)/(π r²) = 4|S1(180°)|²/x²``; ``q_back_per_sr = q_back/(4π)`` is
+- efficiencies are cross-sections over π r² (dimensionless); ``qback`` is the radar convention
+  ``4π (dC_sca/dΩ)(180°)/(π r²) = 4|S1(180°)|²/x²``; ``qback_per_sr = qback/(4π)`` is
   MiePlot's per-steradian value;
 - radii in µm, wavelengths in nm (vacuum), angles in degrees;
 - medium: ``m`` is the sphere's own (absolute) index and ``n_medium`` (default 1, real) the
@@ -72,16 +72,16 @@ class MieResult:
     """(i_perp + i_par)/2 (1/sr); integrates to 1 over 4π sr."""
     dolp: npt.NDArray[np.float64]
     """Degree of linear polarisation (i_perp − i_par)/(i_perp + i_par)."""
-    q_ext: float
+    qext: float
     """Extinction efficiency C_ext/(π r²)."""
-    q_sca: float
+    qsca: float
     """Scattering efficiency C_sca/(π r²)."""
-    q_abs: float
+    qabs: float
     """Absorption efficiency C_abs/(π r²) (exactly 0 for real m)."""
-    q_back: float
+    qback: float
     """Backscattering efficiency, radar convention 4|S1(180°)|²/x²."""
-    q_back_per_sr: float
-    """Backscattering per steradian (MiePlot), q_back/(4π) = |S1(180°)|²/(π x²)."""
+    qback_per_sr: float
+    """Backscattering per steradian (MiePlot), qback/(4π) = |S1(180°)|²/(π x²)."""
     g: float
     """Asymmetry parameter ⟨cos θ⟩."""
 
@@ -142,16 +142,16 @@ class DebyeResult:
     """(i_perp + i_par)/2 of each order (1/sr), on the full Mie scale."""
     mie_phase: npt.NDArray[np.float64]
     """Full Mie phase function (1/sr)."""
-    q_sca_orders: npt.NDArray[np.float64]
+    qsca_orders: npt.NDArray[np.float64]
     """Scattering efficiency of each order alone, (2/x²) Σ (2n+1)(|a_n^p|² + |b_n^p|²)."""
-    q_ext: float
+    qext: float
     """Full sphere's extinction efficiency."""
-    q_sca: float
+    qsca: float
     """Full sphere's scattering efficiency."""
-    q_back: float
+    qback: float
     """Full sphere's backscattering efficiency (radar convention)."""
-    q_back_per_sr: float
-    """Full sphere's backscattering per steradian (MiePlot), q_back/(4π)."""
+    qback_per_sr: float
+    """Full sphere's backscattering per steradian (MiePlot), qback/(4π)."""
     g: float
     """Full sphere's asymmetry parameter."""
 
@@ -187,14 +187,14 @@ class DistributionResult:
     phase: npt.NDArray[np.float64]
     """(i_perp + i_par)/2 (1/sr); integrates to 1 over 4π sr."""
     dolp: npt.NDArray[np.float64]
-    q_ext: float
+    qext: float
     """⟨C_ext⟩/⟨π r²⟩."""
-    q_sca: float
+    qsca: float
     """⟨C_sca⟩/⟨π r²⟩."""
-    q_back: float
+    qback: float
     """⟨C_back⟩/⟨π r²⟩, radar convention."""
-    q_back_per_sr: float
-    """q_back/(4π), per steradian (MiePlot)."""
+    qback_per_sr: float
+    """qback/(4π), per steradian (MiePlot)."""
     g: float
     """⟨C_sca g⟩/⟨C_sca⟩."""
     radii_um: npt.NDArray[np.float64]

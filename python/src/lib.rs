@@ -121,8 +121,8 @@ fn dolp(i_perp: &[f64], i_par: &[f64]) -> Vec<f64> {
 /// Conventions (Bohren & Huffman 1983): `e^{-iωt}`, `m = n + ik` with `k ≥ 0` absorbing;
 /// `S1` ⟂, `S2` ∥ to the scattering plane, dimensionless; `i_perp = |S1|²/(π x² Q_sca)`,
 /// `i_par = |S2|²/(π x² Q_sca)` and `phase = (i_perp + i_par)/2` in 1/sr (∫4π phase dΩ = 1);
-/// efficiencies are cross-sections over π r²; `q_back` is the radar convention
-/// `4|S1(180°)|²/x²`, `q_back_per_sr = q_back/(4π)` MiePlot's per-steradian one.
+/// efficiencies are cross-sections over π r²; `qback` is the radar convention
+/// `4|S1(180°)|²/x²`, `qback_per_sr = qback/(4π)` MiePlot's per-steradian one.
 #[pyclass(frozen, get_all, module = "scatterbake._scatterbake")]
 pub struct MieResult {
     /// Size parameter in the medium, `2π r n_medium/λ` (outer one for a coated sphere).
@@ -152,15 +152,15 @@ pub struct MieResult {
     /// `(i_perp − i_par)/(i_perp + i_par)`.
     dolp: Py<PyArray1<f64>>,
     /// Extinction efficiency.
-    q_ext: f64,
+    qext: f64,
     /// Scattering efficiency.
-    q_sca: f64,
+    qsca: f64,
     /// Absorption efficiency.
-    q_abs: f64,
+    qabs: f64,
     /// Backscattering efficiency, radar convention `4|S1(180°)|²/x²`.
-    q_back: f64,
-    /// Backscattering per steradian (MiePlot), `q_back/(4π)`.
-    q_back_per_sr: f64,
+    qback: f64,
+    /// Backscattering per steradian (MiePlot), `qback/(4π)`.
+    qback_per_sr: f64,
     /// Asymmetry parameter ⟨cos θ⟩.
     g: f64,
 }
@@ -169,13 +169,13 @@ pub struct MieResult {
 impl MieResult {
     fn __repr__(&self, py: Python<'_>) -> String {
         format!(
-            "MieResult(x={}, m={}, n_medium={}, q_ext={}, q_sca={}, q_back={}, g={}, angles={})",
+            "MieResult(x={}, m={}, n_medium={}, qext={}, qsca={}, qback={}, g={}, angles={})",
             self.x,
             self.m,
             self.n_medium,
-            self.q_ext,
-            self.q_sca,
-            self.q_back,
+            self.qext,
+            self.qsca,
+            self.qback,
             self.g,
             self.angles_deg.bind(py).len().unwrap_or(0)
         )
@@ -268,11 +268,11 @@ fn mie(
         i_perp: f1(py, i_perp),
         i_par: f1(py, i_par),
         phase: f1(py, phase),
-        q_ext: e.q_ext,
-        q_sca: e.q_sca,
-        q_abs: e.q_abs,
-        q_back: e.q_back,
-        q_back_per_sr: e.q_back_per_sr(),
+        qext: e.q_ext,
+        qsca: e.q_sca,
+        qabs: e.q_abs,
+        qback: e.q_back,
+        qback_per_sr: e.q_back_per_sr(),
         g: e.g,
     })
 }
@@ -304,15 +304,15 @@ pub struct DebyeResult {
     /// Full Mie phase function (1/sr) on the same scale.
     mie_phase: Py<PyArray1<f64>>,
     /// Scattering efficiency of each order alone, `(2/x²) Σ (2n+1)(|a_n^p|² + |b_n^p|²)`.
-    q_sca_orders: Py<PyArray1<f64>>,
+    qsca_orders: Py<PyArray1<f64>>,
     /// Full sphere: extinction efficiency.
-    q_ext: f64,
+    qext: f64,
     /// Full sphere: scattering efficiency.
-    q_sca: f64,
+    qsca: f64,
     /// Full sphere: backscattering efficiency, radar convention.
-    q_back: f64,
-    /// Full sphere: backscattering per steradian (MiePlot), `q_back/(4π)`.
-    q_back_per_sr: f64,
+    qback: f64,
+    /// Full sphere: backscattering per steradian (MiePlot), `qback/(4π)`.
+    qback_per_sr: f64,
     /// Full sphere: asymmetry parameter.
     g: f64,
 }
@@ -398,11 +398,11 @@ fn debye(
         i_par: rows(py, &ia, n)?,
         phase: rows(py, &ph, n)?,
         mie_phase: f1(py, mie_phase),
-        q_sca_orders: f1(py, q),
-        q_ext: e.q_ext,
-        q_sca: e.q_sca,
-        q_back: e.q_back,
-        q_back_per_sr: e.q_back_per_sr(),
+        qsca_orders: f1(py, q),
+        qext: e.q_ext,
+        qsca: e.q_sca,
+        qback: e.q_back,
+        qback_per_sr: e.q_back_per_sr(),
         g: e.g,
     })
 }
@@ -427,13 +427,13 @@ pub struct DistributionResult {
     /// `(i_perp − i_par)/(i_perp + i_par)`.
     dolp: Py<PyArray1<f64>>,
     /// `⟨C_ext⟩/⟨π r²⟩`.
-    q_ext: f64,
+    qext: f64,
     /// `⟨C_sca⟩/⟨π r²⟩`.
-    q_sca: f64,
+    qsca: f64,
     /// `⟨C_back⟩/⟨π r²⟩`, radar convention.
-    q_back: f64,
-    /// `q_back/(4π)`, per steradian (MiePlot).
-    q_back_per_sr: f64,
+    qback: f64,
+    /// `qback/(4π)`, per steradian (MiePlot).
+    qback_per_sr: f64,
     /// `⟨C_sca g⟩/⟨C_sca⟩`.
     g: f64,
     /// Quadrature radii (µm).
@@ -488,10 +488,10 @@ fn mie_distribution(
         i_perp: f1(py, e.i_perp),
         i_par: f1(py, e.i_par),
         phase: f1(py, e.phase),
-        q_ext: e.q_ext,
-        q_sca: e.q_sca,
-        q_back: e.q_back,
-        q_back_per_sr: e.q_back / (4.0 * std::f64::consts::PI),
+        qext: e.q_ext,
+        qsca: e.q_sca,
+        qback: e.q_back,
+        qback_per_sr: e.q_back / (4.0 * std::f64::consts::PI),
         g: e.g,
         radii_um: f1(py, e.radii_um),
         weights: f1(py, e.weights),
