@@ -100,11 +100,11 @@ fn sphere_in_medium(
     Ok((x, index / n_medium))
 }
 
-fn c1<'py>(py: Python<'py>, v: Vec<Complex64>) -> Py<PyArray1<Complex64>> {
+fn c1(py: Python<'_>, v: Vec<Complex64>) -> Py<PyArray1<Complex64>> {
     v.into_pyarray(py).unbind()
 }
 
-fn f1<'py>(py: Python<'py>, v: Vec<f64>) -> Py<PyArray1<f64>> {
+fn f1(py: Python<'_>, v: Vec<f64>) -> Py<PyArray1<f64>> {
     v.into_pyarray(py).unbind()
 }
 
