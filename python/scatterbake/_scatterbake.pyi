@@ -215,7 +215,7 @@ def mie_distribution(
     wavelength ``wavelength_nm``.
 
     ``distribution`` is the manifest form of the ``mie`` stage's ``distributions`` entries
-    (helpers :func:`scatterbake.lognormal`, :func:`scatterbake.gamma`,
+    (constructors :func:`scatterbake.lognormal`, :func:`scatterbake.gamma`,
     :func:`scatterbake.marshall_palmer`, :func:`scatterbake.monodisperse`), e.g.
     ``{"kind": "lognormal", "median_radius_um": 10, "geometric_sigma": 1.5}``.
     Radii from a ``radius_points``-point Gauss–Legendre rule in ln r over the support; the

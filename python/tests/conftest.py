@@ -1,4 +1,4 @@
-"""Shared helpers of the Python package's tests (run: `python -m pytest python/tests` in a venv
+"""Shared fixtures and functions of the Python package's tests (run: `python -m pytest python/tests` in a venv
 where `pip install ./python` and `pip install pytest miepython zstandard` were run; .ci/run does
 this). Every dependency is imported unconditionally: a missing one fails the run, never skips."""
 
@@ -27,7 +27,7 @@ def cli_path() -> pathlib.Path:
     return p
 
 
-@pytest.fixture(scope="session")
+@pytest.fixture(scope="module")
 def pure_reader():
     """The pure-Python reader python/scatterbake_table.py (numpy + zstandard)."""
     sys.path.insert(0, str(ROOT / "python"))
