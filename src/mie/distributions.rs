@@ -194,6 +194,121 @@ impl SizeDistribution {
     }
 }
 
+/// The ensemble of a size distribution at point angles (unfiltered): the normalised phase
+/// function and its polarised components on an arbitrary angle grid, with the averaged
+/// efficiencies. The weights are those of the `mie` stage (decision MIE-2): single-sphere
+/// phase functions mixed with `n(r) dr · C_sca(r)`; Q values are `⟨C⟩/⟨π r²⟩`, g is weighted by
+/// `C_sca`. Point values are not bin averages: at large size parameters each radius node
+/// contributes its own fine ripple, which the table's cell averages remove.
+#[derive(Debug, Clone, PartialEq)]
+pub struct EnsemblePhase {
+    /// Scattering angles (deg).
+    pub angles_deg: Vec<f64>,
+    /// `⟨|S_1|²⟩ / ⟨π x² Q_sca⟩` (1/sr).
+    pub i_perp: Vec<f64>,
+    /// `⟨|S_2|²⟩ / ⟨π x² Q_sca⟩` (1/sr).
+    pub i_par: Vec<f64>,
+    /// `(i_perp + i_par)/2` (1/sr), `∫_{4π} phase dΩ = 1`.
+    pub phase: Vec<f64>,
+    /// `⟨C_ext⟩/⟨π r²⟩`.
+    pub q_ext: f64,
+    /// `⟨C_sca⟩/⟨π r²⟩`.
+    pub q_sca: f64,
+    /// `⟨C_back⟩/⟨π r²⟩` (radar convention, as [`super::Efficiencies::q_back`]).
+    pub q_back: f64,
+    /// `⟨C_sca g⟩/⟨C_sca⟩`.
+    pub g: f64,
+    /// Quadrature radii (µm).
+    pub radii_um: Vec<f64>,
+    /// Quadrature weights `≈ n(r) dr` (arbitrary scale).
+    pub weights: Vec<f64>,
+}
+
+/// Errors of [`ensemble_at_angles`].
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum EnsembleError {
+    #[error("size distribution: {0}")]
+    Distribution(String),
+    #[error("radius {radius_um} um: {source}")]
+    Sphere {
+        radius_um: f64,
+        source: super::MieError,
+    },
+    #[error("the distribution scatters nothing (sum of n(r) dr C_sca(r) is {0})")]
+    NoScattering(f64),
+}
+
+/// [`EnsemblePhase`] of `distribution` for drops of relative index `m` at the wavelength
+/// `wavelength_nm` in the medium around them (see [`super::in_medium`]), from a
+/// `radius_points`-point quadrature ([`SizeDistribution::quadrature`]), at `angles_deg`.
+pub fn ensemble_at_angles(
+    distribution: &SizeDistribution,
+    wavelength_nm: f64,
+    m: num_complex::Complex64,
+    radius_points: usize,
+    angles_deg: &[f64],
+) -> Result<EnsemblePhase, EnsembleError> {
+    distribution
+        .validate()
+        .map_err(EnsembleError::Distribution)?;
+    if radius_points == 0 {
+        return Err(EnsembleError::Distribution(
+            "radius_points must be at least 1".into(),
+        ));
+    }
+    let (radii_um, weights) = distribution.quadrature(radius_points);
+    let n = angles_deg.len();
+    let (mut i_perp, mut i_par) = (vec![0.0; n], vec![0.0; n]);
+    // sums of w·π r² times 1, Q_ext, Q_sca, Q_back, Q_sca g
+    let mut sums = [0.0; 5];
+    for (&r, &w) in radii_um.iter().zip(&weights) {
+        let x = super::size_parameter(r, wavelength_nm);
+        let sphere = super::Sphere::new(x, m).map_err(|source| EnsembleError::Sphere {
+            radius_um: r,
+            source,
+        })?;
+        let e = sphere.efficiencies;
+        let area = w * std::f64::consts::PI * r * r;
+        for (s, v) in sums
+            .iter_mut()
+            .zip([1.0, e.q_ext, e.q_sca, e.q_back, e.q_sca * e.g])
+        {
+            *s += area * v;
+        }
+        // |S|²/(π x² Q_sca) · C_sca = |S|² r²/x²: the cross-section-weighted phase function
+        let scale = area / (std::f64::consts::PI * x * x);
+        let (s1, s2) = sphere.amplitudes_deg(angles_deg);
+        for j in 0..n {
+            i_perp[j] += scale * s1[j].norm_sqr();
+            i_par[j] += scale * s2[j].norm_sqr();
+        }
+    }
+    let c_sca = sums[2];
+    if !(c_sca > 0.0) {
+        return Err(EnsembleError::NoScattering(c_sca));
+    }
+    for v in i_perp.iter_mut().chain(i_par.iter_mut()) {
+        *v /= c_sca;
+    }
+    let phase = i_perp
+        .iter()
+        .zip(&i_par)
+        .map(|(a, b)| 0.5 * (a + b))
+        .collect();
+    Ok(EnsemblePhase {
+        angles_deg: angles_deg.to_vec(),
+        i_perp,
+        i_par,
+        phase,
+        q_ext: sums[1] / sums[0],
+        q_sca: c_sca / sums[0],
+        q_back: sums[3] / sums[0],
+        g: sums[4] / c_sca,
+        radii_um,
+        weights,
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -242,5 +357,42 @@ mod tests {
         let c = 4.1 * 5f64.powf(-0.21) * 2.0 * 1e-3; // per µm
         let exact = ((-c * 50.0).exp() - (-c * 3000.0).exp()) / c;
         assert!((moment(&mp, 0) / exact - 1.0).abs() < 1e-10);
+    }
+    /// A monodisperse ensemble is the single sphere: Q values and the normalised phase function
+    /// `(|S_1|² + |S_2|²)/(2π x² Q_sca)`; a lognormal ensemble integrates to 1 over 4π.
+    #[test]
+    fn ensemble_at_angles_matches_single_sphere_and_normalises() {
+        let m = num_complex::Complex64::new(1.33, 0.001);
+        let angles: Vec<f64> = (0..=3600).map(|j| j as f64 * 0.05).collect();
+        let d = SizeDistribution::Monodisperse { radius_um: 2.0 };
+        let e = ensemble_at_angles(&d, 550.0, m, 24, &angles).unwrap();
+        let s = crate::mie::Sphere::new(crate::mie::size_parameter(2.0, 550.0), m).unwrap();
+        assert!((e.q_ext / s.efficiencies.q_ext - 1.0).abs() < 1e-12);
+        assert!((e.g / s.efficiencies.g - 1.0).abs() < 1e-12);
+        let (s1, s2) = s.amplitudes_deg(&angles);
+        for j in [0, 1000, 3600] {
+            let p = 0.5 * (s1[j].norm_sqr() + s2[j].norm_sqr()) / s.phase_normalisation();
+            assert!((e.phase[j] / p - 1.0).abs() < 1e-12, "{j}");
+        }
+        let ln = SizeDistribution::Lognormal {
+            median_radius_um: 1.0,
+            geometric_sigma: 1.4,
+        };
+        let e = ensemble_at_angles(&ln, 550.0, m, 24, &angles).unwrap();
+        // trapezoid in θ of 2π p sin θ
+        let h = 0.05f64.to_radians();
+        let integral: f64 = (0..3600)
+            .map(|j| {
+                let f = |k: usize| e.phase[k] * (angles[k].to_radians()).sin();
+                std::f64::consts::PI * h * (f(j) + f(j + 1))
+            })
+            .sum();
+        assert!((integral - 1.0).abs() < 2e-3, "{integral}");
+        assert!(ensemble_at_angles(&ln, 550.0, m, 0, &angles).is_err());
+        let bad = SizeDistribution::Gamma {
+            effective_radius_um: 1.0,
+            effective_variance: 0.7,
+        };
+        assert!(ensemble_at_angles(&bad, 550.0, m, 24, &angles).is_err());
     }
 }

@@ -1,0 +1,128 @@
+"""scatterbake.build and scatterbake.open_table against the command line and the pure-Python
+reader (python/scatterbake_table.py, an independent implementation of the table format)."""
+
+import json
+import subprocess
+
+import numpy as np
+import pytest
+
+import scatterbake as sb
+from conftest import cli_path
+
+MANIFEST = """
+[[table]]
+name = "py-mie"
+stage = "mie"
+[table.params]
+radii_um = [1.0, 2.5]
+wavelengths_nm = [550.0, 650.0]
+angle_step_deg = 1.0
+sun_diameter_deg = 0.0
+"""
+
+
+@pytest.fixture(scope="module")
+def built(tmp_path_factory):
+    d = tmp_path_factory.mktemp("build")
+    (d / "py.toml").write_text(MANIFEST)
+    report = sb.build(d / "py.toml", d / "tables", jobs=1)
+    return d, report
+
+
+def test_build_writes_then_reuses(built):
+    d, report = built
+    assert report["tables_written"] == ["py-mie"]
+    assert report["tasks_computed"] == 4
+    again = sb.build([str(d / "py.toml")], str(d / "tables"))
+    assert again["tables_up_to_date"] == ["py-mie"] and again["tables_written"] == []
+    assert (d / "tables" / "index.json").is_file()
+
+
+def test_binding_reader_equals_pure_python_reader(built, pure_reader):
+    d, _ = built
+    path = d / "tables" / "py-mie.sbt"
+    t = sb.open_table(path)
+    p = pure_reader.open_table(path)
+    assert t.schema.startswith("mie-phase/")
+    assert t.schema == f"{p.header['schema']['name']}/{p.header['schema']['version']}"
+    assert [(a.name, a.unit) for a in t.axes] == [(a.name, a.unit) for a in p.axes]
+    for a, b in zip(t.axes, p.axes):
+        assert np.array_equal(a.coords, b.coords)
+    assert [c.name for c in t.channels] == [c.name for c in p.channels]
+    assert t.data.dtype == np.float32 and np.array_equal(t.data, p.data)
+    assert np.array_equal(t.channel("phase"), p.channel("phase"))
+    assert t.header == p.header
+    for coords in ([1.0, 550.0, 0.0], [1.7, 600.0, 137.3], [9.0, 700.0, 180.0]):
+        assert np.allclose(t.sample(coords), p.sample(coords), rtol=1e-12, atol=0)
+    assert t.sample_channel("phase", [1.7, 600.0, 137.3]) == pytest.approx(
+        p.sample([1.7, 600.0, 137.3])[p.channel_index("phase")], rel=1e-12
+    )
+
+
+def test_table_efficiencies_equal_mie(built):
+    """The table's f64 Q values ([radius][wavelength]) are those of sb.mie at the table's water
+    index (attribute refractive_index_real, one per wavelength)."""
+    d, _ = built
+    t = sb.open_table(d / "tables" / "py-mie.sbt")
+    a = t.attributes
+    n = a["refractive_index_real"]
+    for i, r in enumerate(t.axis("radius").coords):
+        for j, lam in enumerate(t.axis("wavelength").coords):
+            s = sb.mie(n[j], radius_um=r, wavelength_nm=lam, angles_deg=[0.0])
+            assert a["q_ext"][i][j] == pytest.approx(s.qext, rel=1e-12)
+            assert a["q_back"][i][j] == pytest.approx(s.qback, rel=1e-12)
+            assert a["g"][i][j] == pytest.approx(s.g, rel=1e-12)
+    # the table's phase is the solid-angle average over each 1° bin (no sun disc here): the
+    # same average of sb.mie's point values over the interior bins
+    centres = t.axis("scattering_angle").coords[1:-1]
+    offsets = np.linspace(-0.5, 0.5, 201)
+    fine = (centres[:, None] + offsets[None, :]).ravel()
+    s = sb.mie(n[0], radius_um=1.0, wavelength_nm=550.0, angles_deg=fine)
+    w = np.sin(np.radians(fine)).reshape(len(centres), -1)
+    trap = np.full(len(offsets), 1.0)
+    trap[[0, -1]] = 0.5
+    avg = (s.phase.reshape(len(centres), -1) * w * trap).sum(1) / (w * trap).sum(1)
+    ph = t.channel("phase")[0, 0, 1:-1]
+    assert np.max(np.abs(ph - avg) / avg) < 1e-4
+
+
+def test_mie_equals_the_command_line():
+    """`scatterbake mie --format json` and sb.mie give the same sphere (medium and coated)."""
+    ang = [0.0, 30.0, 90.0, 138.0, 180.0]
+    for args, kw in [
+        (["--x", "30", "--index", "1.33+0.05i"], dict(m=1.33 + 0.05j, x=30.0)),
+        (["--radius-um", "2", "--wavelength-nm", "633", "--index", "1.5+0.001i",
+          "--n-medium", "1.333"],
+         dict(m=1.5 + 0.001j, radius_um=2.0, wavelength_nm=633.0, n_medium=1.333)),
+        (["--x", "20", "--index", "1.33", "--core-x", "8", "--core-index", "1.95+0.79i"],
+         dict(m=1.33, x=20.0, core_x=8.0, core_m=1.95 + 0.79j)),
+    ]:
+        out = subprocess.run(
+            [str(cli_path()), "mie", *args, "--angles-deg", ",".join(map(str, ang)),
+             "--format", "json"],
+            check=True, capture_output=True, text=True,
+        ).stdout
+        j = json.loads(out)
+        r = sb.mie(angles_deg=ang, **kw)
+        assert j["x"] == pytest.approx(r.x, rel=1e-15)
+        assert complex(*j["m"]) == pytest.approx(r.m, rel=1e-15)
+        for key in ("qext", "qsca", "qback", "qback_per_sr", "g"):
+            assert j[key] == pytest.approx(getattr(r, key), rel=1e-12), key
+        assert np.allclose(j["s1_sq"], np.abs(r.s1) ** 2, rtol=1e-12, atol=0)
+        assert np.allclose(j["s2_sq"], np.abs(r.s2) ** 2, rtol=1e-12, atol=0)
+        assert np.allclose(j["phase"], r.phase, rtol=1e-12, atol=0)
+
+
+def test_table_errors(tmp_path):
+    with pytest.raises(OSError):
+        sb.open_table(tmp_path / "missing.sbt")
+    bad = tmp_path / "bad.sbt"
+    bad.write_bytes(b"not a table at all, not a table at all")
+    with pytest.raises(sb.TableError, match="not a scatterbake table"):
+        sb.open_table(bad)
+    m = tmp_path / "bad.toml"
+    m.write_text('[[table]]\nname = "x"\nstage = "mie"\n[table.params]\nradii_um = [-1.0]\n'
+                 'wavelengths_nm = [550.0]\n')
+    with pytest.raises(ValueError, match="bad.toml"):
+        sb.build(m, tmp_path / "out")
