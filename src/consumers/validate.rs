@@ -256,6 +256,7 @@ impl TableOperators {
             sun_diameter_deg: self.sun_diameter_deg,
             gaussian_sigma_deg: self.gaussian_sigma_deg,
             radius_points: 1,
+            radius_tolerance: 0.0,
         }
     }
 

@@ -273,6 +273,12 @@ fn sphere_notes(
     let h = &pt.table.header.attributes;
     let n_medium = h.get("n_medium").and_then(|v| v.as_f64()).unwrap_or(1.0);
     let radius = entry.iter().find(|(n, _)| n == "radius").map(|e| e.1);
+    if entry.iter().any(|(n, _)| n == "distribution") && meta.size_parameter.is_some() {
+        notes.push(
+            "the table entry is a size distribution and the reference one sphere: not like with like"
+                .into(),
+        );
+    }
     if let (Some(xr), Some(r)) = (meta.size_parameter, radius) {
         let xt = scatterbake::mie::size_parameter(r, wl / n_medium);
         if (xr - xt).abs() > 1e-6 * xt {
