@@ -37,7 +37,7 @@ filtered_phase_params! {
         pub gaussian_sigma_deg: f64 = default(0.0),
             "float, deg", "optional extra Gaussian blur in angle";
         /// Gauss–Legendre points in ln r for distributions when `radius_tolerance = 0`.
-        pub radius_points: usize = default(24),
+        pub radius_points: usize = default(DEFAULT_RADIUS_POINTS),
             "integer", "Gauss–Legendre nodes in ln r per distribution (only with radius_tolerance = 0)";
         /// Target RMS relative standard error of the sampled size-distribution average
         /// (decision MIE-16); 0 selects the Gauss–Legendre rule of `radius_points` nodes.
@@ -67,6 +67,9 @@ const SCALARS: [&str; 6] = [
     "radius_nodes",
     "radius_error_rms",
 ];
+
+/// Default of `radius_points`.
+pub const DEFAULT_RADIUS_POINTS: usize = 24;
 
 /// Default of `radius_tolerance` (decision MIE-16).
 pub const DEFAULT_RADIUS_TOLERANCE: f64 = 0.02;
@@ -493,6 +496,18 @@ impl StageSpec for MieStage {
         checks::within("n_medium", p.n_medium, 1.0, 3.0, "")?;
         if p.radius_tolerance != 0.0 {
             checks::within("radius_tolerance", p.radius_tolerance, 1e-4, 0.5, " (or 0)")?;
+            // a node count the sampler would ignore is a mistake, not a setting
+            if p.radius_points != DEFAULT_RADIUS_POINTS {
+                return Err(PlanError::invalid(
+                    "radius_points",
+                    format!(
+                        "{} has no effect while radius_tolerance = {} (distributions are sampled to \
+                         that tolerance); set radius_tolerance = 0 to use a Gauss–Legendre rule of \
+                         radius_points nodes, or leave radius_points out",
+                        p.radius_points, p.radius_tolerance
+                    ),
+                ));
+            }
         }
         filter.settings.radius_tolerance = p.radius_tolerance;
         let (entries, entries_key) = match (&p.radii_um, &p.distributions) {
@@ -673,8 +688,13 @@ mod tests {
                 "radii_um = [10.0]\nwater_index_model = \"sadeghi-table-3.2\"\nwavelengths_nm = [750.0]",
                 "radii_um = [10.0]\nn_medium = 0.5",
                 "radii_um = [10.0]\nn_medium = 3.5",
+                // a node count the sampler would ignore
+                "radii_um = [10.0]\nradius_points = 12",
             ],
-            &["radii_um = [10.0]"],
+            &[
+                "radii_um = [10.0]",
+                "radii_um = [10.0]\nradius_points = 12\nradius_tolerance = 0.0",
+            ],
         );
     }
 
@@ -723,7 +743,7 @@ mod tests {
     fn distribution_entry_is_normalised() {
         let job = plan_from_lines(
             &MieStage,
-            "distributions = [{ kind = \"gamma\", effective_radius_um = 3.0, effective_variance = 0.1 }]\nwavelengths_nm = [550.0]\nangle_step_deg = 0.5\nradius_points = 8",
+            "distributions = [{ kind = \"gamma\", effective_radius_um = 3.0, effective_variance = 0.1 }]\nwavelengths_nm = [550.0]\nangle_step_deg = 0.5",
         )
         .unwrap();
         let chunk = job.run_task(0).unwrap();
