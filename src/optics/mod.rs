@@ -8,6 +8,7 @@
 //! - wavelengths in nanometres (`_nm`) at interfaces.
 
 pub mod airy_function;
+pub mod atmosphere;
 pub mod colour;
 pub mod fresnel;
 pub mod henyey_greenstein;

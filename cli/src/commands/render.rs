@@ -73,6 +73,12 @@ pub struct RenderRainbowArgs {
     /// Background sRGB colour added to the render, R,G,B in 0–255 (Table 3.4).
     #[arg(long, default_value = "0,0,0", value_parser = parse_rgb)]
     pub background: [u8; 3],
+    /// The sun's spectrum: `d65` (a high sun, the default) or `reddened`: D65 reddened by the
+    /// extra air mass of the sun at --sun-elevation-deg through a clear atmosphere (Rayleigh,
+    /// Hansen & Travis 1974, plus Ångström aerosol β = 0.05, α = 1.3; air mass of Kasten & Young
+    /// 1989).
+    #[arg(long, default_value = "d65", value_parser = ["d65", "reddened"])]
+    pub sun_spectrum: String,
     /// Ideal linear polariser in front of the camera: transmission axis at this angle from the
     /// image's vertical (0 = vertical, 90 = horizontal). Uses the table's i_perp and i_par.
     #[arg(long)]
@@ -177,6 +183,13 @@ fn camera_and_scene(
         rain_near_m: args.rain_near_m,
         camera_height_m: 1.7,
         steps: args.steps,
+        sun_spectrum: match args.sun_spectrum.as_str() {
+            "reddened" => SunSpectrum::Reddened {
+                elevation_deg: sun_elevation_deg,
+                atmosphere: scatterbake::optics::atmosphere::ClearAtmosphere::CLEAN,
+            },
+            _ => SunSpectrum::D65,
+        },
     };
     (camera, scene)
 }

@@ -23,6 +23,40 @@ pub trait SkyPhase: Sync {
     fn add_phase(&self, inc: V3, out: V3, spec: &mut [f64]);
 }
 
+/// The spectrum of the sun a renderer lights the rain with.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum SunSpectrum {
+    /// CIE D65, standing for a high sun (the thesis's renders).
+    D65,
+    /// D65 reddened by the extra air mass of a sun at `elevation_deg` through `atmosphere`
+    /// ([`crate::optics::atmosphere::ClearAtmosphere::reddening`]): dimmer and redder, on the
+    /// same absolute scale as [`SunSpectrum::D65`].
+    Reddened {
+        elevation_deg: f64,
+        atmosphere: crate::optics::atmosphere::ClearAtmosphere,
+    },
+}
+
+impl SunSpectrum {
+    /// XYZ weights of spectral samples at `wavelengths_nm` under this sun. Normalised so that a
+    /// flat spectrum of 1 under D65 has Y = 1; the reddened sun multiplies each sample's weight
+    /// by its transmission factor (smooth over a sample's cell), so it keeps that scale.
+    pub fn weights(&self, wavelengths_nm: &[f64]) -> SpectralWeights {
+        let mut sw = SpectralWeights::new(wavelengths_nm, Illuminant1931::D65);
+        if let SunSpectrum::Reddened {
+            elevation_deg,
+            atmosphere,
+        } = *self
+        {
+            for (w, &l) in sw.weights.iter_mut().zip(wavelengths_nm) {
+                let t = atmosphere.reddening(l, elevation_deg);
+                w.iter_mut().for_each(|c| *c *= t);
+            }
+        }
+        sw
+    }
+}
+
 /// Which light of an unpolarised sun a renderer follows: all of it (`phase`), or the part
 /// polarised perpendicular (`i_perp`) or parallel (`i_par`) to the scattering plane.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -108,7 +142,18 @@ pub fn xyz_along(
     views: &[V3],
     sun_diameter_deg: f64,
 ) -> Vec<[f64; 3]> {
-    let sw = SpectralWeights::new(phase.wavelengths_nm(), Illuminant1931::D65);
+    xyz_along_under(phase, sun, views, sun_diameter_deg, SunSpectrum::D65)
+}
+
+/// [`xyz_along`] under any [`SunSpectrum`].
+pub fn xyz_along_under(
+    phase: &dyn SkyPhase,
+    sun: V3,
+    views: &[V3],
+    sun_diameter_deg: f64,
+    spectrum: SunSpectrum,
+) -> Vec<[f64; 3]> {
+    let sw = spectrum.weights(phase.wavelengths_nm());
     let disc = disc_samples(sun_diameter_deg);
     views
         .par_iter()
@@ -129,15 +174,23 @@ pub fn xyz_vs_angle(
     entry: &[EntrySelection],
     sun_diameter_deg: f64,
 ) -> Result<Vec<[f64; 3]>, ConsumerError> {
-    xyz_vs_angle_of(pt, entry, sun_diameter_deg, Polarisation::Unpolarised)
+    xyz_vs_angle_of(
+        pt,
+        entry,
+        sun_diameter_deg,
+        Polarisation::Unpolarised,
+        SunSpectrum::D65,
+    )
 }
 
-/// [`xyz_vs_angle`] of one polarisation channel (`i_perp` or `i_par` instead of `phase`).
+/// [`xyz_vs_angle`] of one polarisation channel (`i_perp` or `i_par` instead of `phase`) under
+/// any [`SunSpectrum`].
 pub fn xyz_vs_angle_of(
     pt: &PhaseTable,
     entry: &[EntrySelection],
     sun_diameter_deg: f64,
     polarisation: Polarisation,
+    spectrum: SunSpectrum,
 ) -> Result<Vec<[f64; 3]>, ConsumerError> {
     let c = Curves1d(pt.curves(entry)?, polarisation);
     let n = (180.0 / THETA_STEP_DEG).round() as usize + 1;
@@ -148,5 +201,11 @@ pub fn xyz_vs_angle_of(
             [s, 0.0, c]
         })
         .collect();
-    Ok(xyz_along(&c, [0.0, 0.0, 1.0], &views, sun_diameter_deg))
+    Ok(xyz_along_under(
+        &c,
+        [0.0, 0.0, 1.0],
+        &views,
+        sun_diameter_deg,
+        spectrum,
+    ))
 }

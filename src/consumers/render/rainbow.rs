@@ -38,15 +38,13 @@
 //! equidistant one because bow radii can then be read off linearly.
 
 use crate::consumers::read::phase::{EntrySelection, PhaseTable};
+pub use crate::consumers::read::spectrum::SunSpectrum;
 use crate::consumers::read::spectrum::{
-    Polarisation, THETA_STEP_DEG, disc_average_spectrum, disc_samples, xyz_along, xyz_vs_angle,
-    xyz_vs_angle_of,
+    Polarisation, THETA_STEP_DEG, disc_average_spectrum, disc_samples, xyz_along, xyz_vs_angle_of,
 };
 use crate::consumers::{ConsumerError, Progress};
 use crate::math::vec3::{V3, cross, dot, normalize};
-use crate::optics::colour::{
-    Illuminant1931, SpectralWeights, linear_srgb_luminance, srgb_encode, xyz_to_linear_srgb,
-};
+use crate::optics::colour::{linear_srgb_luminance, srgb_encode, xyz_to_linear_srgb};
 use rayon::prelude::*;
 
 /// Camera lens model.
@@ -197,6 +195,8 @@ pub struct Scene {
     pub rain_near_m: f64,
     pub camera_height_m: f64,
     pub steps: usize,
+    /// The sun's spectrum (D65, or reddened by the air mass of a low sun).
+    pub sun_spectrum: SunSpectrum,
 }
 
 impl Scene {
@@ -296,7 +296,13 @@ pub fn render(
     camera: &Camera,
     progress: &dyn Progress,
 ) -> Result<Rendered, ConsumerError> {
-    let xyz = xyz_vs_angle(pt, entry, scene.sun_diameter_deg)?;
+    let xyz = xyz_vs_angle_of(
+        pt,
+        entry,
+        scene.sun_diameter_deg,
+        Polarisation::Unpolarised,
+        scene.sun_spectrum,
+    )?;
     let s = scene.sun_direction();
     Ok(render_with(scene, camera, progress, |d| {
         let big = dot(s, d).clamp(-1.0, 1.0).acos().to_degrees();
@@ -317,13 +323,11 @@ pub fn render_polarised(
     polariser: Polariser,
     progress: &dyn Progress,
 ) -> Result<Rendered, ConsumerError> {
-    let perp = xyz_vs_angle_of(
-        pt,
-        entry,
-        scene.sun_diameter_deg,
-        Polarisation::Perpendicular,
-    )?;
-    let par = xyz_vs_angle_of(pt, entry, scene.sun_diameter_deg, Polarisation::Parallel)?;
+    let of = |p| xyz_vs_angle_of(pt, entry, scene.sun_diameter_deg, p, scene.sun_spectrum);
+    let (perp, par) = (
+        of(Polarisation::Perpendicular)?,
+        of(Polarisation::Parallel)?,
+    );
     let s = scene.sun_direction();
     let at = |xyz: &[[f64; 3]], big: f64| {
         let u = big / THETA_STEP_DEG;
@@ -349,7 +353,7 @@ pub fn render_2d_polarised(
     polariser: Polariser,
     progress: &dyn Progress,
 ) -> Result<Rendered, ConsumerError> {
-    let sw = SpectralWeights::new(&perp.wavelengths_nm, Illuminant1931::D65);
+    let sw = scene.sun_spectrum.weights(&perp.wavelengths_nm);
     let disc = disc_samples(scene.sun_diameter_deg);
     let s = scene.sun_direction();
     let nw = perp.wavelengths_nm.len();
@@ -378,7 +382,7 @@ pub fn render_2d(
             slice.sun_elevation_deg, scene.sun_elevation_deg
         )));
     }
-    let sw = SpectralWeights::new(&slice.wavelengths_nm, Illuminant1931::D65);
+    let sw = scene.sun_spectrum.weights(&slice.wavelengths_nm);
     let disc = disc_samples(scene.sun_diameter_deg);
     let s = scene.sun_direction();
     let nw = slice.wavelengths_nm.len();
@@ -615,6 +619,7 @@ mod tests {
             rain_near_m: 300.0,
             camera_height_m: 1.7,
             steps: 32,
+            sun_spectrum: SunSpectrum::D65,
         }
     }
 
@@ -687,6 +692,48 @@ mod tests {
         assert!(
             (ratio - expected).abs() < 0.05 * expected,
             "vertical/horizontal {ratio} vs i_par/i_perp {expected}"
+        );
+    }
+
+    /// A sun 2° above the horizon through a clear atmosphere: the same bow, redder (R/B of the
+    /// bow pixel up by the transmission ratio's order) and dimmer than under D65.
+    #[test]
+    fn reddened_sun_renders_a_red_dim_bow() {
+        let wl: Vec<f64> = (0..9).map(|i| 380.0 + 40.0 * i as f64).collect();
+        let pt = PhaseTable::new(peak_table(&wl, |_| 138.0, 0.3, 1e-4, 3601)).unwrap();
+        let low = Scene {
+            sun_elevation_deg: 2.0,
+            ..scene(0.0)
+        };
+        let red = Scene {
+            sun_spectrum: SunSpectrum::Reddened {
+                elevation_deg: 2.0,
+                atmosphere: crate::optics::atmosphere::ClearAtmosphere::CLEAN,
+            },
+            ..low
+        };
+        let c = Camera {
+            view_elevation_deg: 20.0,
+            ..cam()
+        };
+        let (a, b) = (
+            render(&pt, &[], &low, &c, &Silent).unwrap(),
+            render(&pt, &[], &red, &c, &Silent).unwrap(),
+        );
+        let bow = |r: &Rendered| {
+            let col = centre_column(r, 2.0).unwrap();
+            let j = (0..col.len())
+                .min_by(|&x, &y| (col[x].0 - 42.0).abs().total_cmp(&(col[y].0 - 42.0).abs()))
+                .unwrap();
+            col[j].1
+        };
+        let (pa, pb) = (bow(&a), bow(&b));
+        assert!(pa[0] > 0.0 && pa[2] > 0.0 && pb[0] > 0.0, "{pa:?} {pb:?}");
+        let (ra, rb) = (pa[0] / pa[2].max(1e-300), pb[0] / pb[2].max(1e-300));
+        assert!(rb > 5.0 * ra, "R/B under D65 {ra}, reddened {rb}");
+        assert!(
+            linear_srgb_luminance(pb) < 0.5 * linear_srgb_luminance(pa),
+            "{pa:?} {pb:?}"
         );
     }
 
@@ -800,7 +847,7 @@ mod tests {
         let pix = cam.pixel_deg();
         let m1 = measure_bow(&r1, 0.0, 36.0, 46.0).unwrap();
         let m2 = measure_bow(&r2, 0.0, 36.0, 46.0).unwrap();
-        let xyz = xyz_vs_angle(&pt, &[], 0.5).unwrap();
+        let xyz = crate::consumers::read::spectrum::xyz_vs_angle(&pt, &[], 0.5).unwrap();
         let t_max = table_bow_radius(&xyz, 36.0, 46.0);
         assert!(
             (m1.radius_deg - m2.radius_deg).abs() <= pix,
