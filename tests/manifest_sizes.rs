@@ -13,13 +13,17 @@ fn every_shipped_table_states_its_size_and_fits_the_reader() {
     for dir in ["manifests", "manifests/full"] {
         for e in std::fs::read_dir(root.join(dir)).unwrap() {
             let p = e.unwrap().path();
-            if p.extension().is_some_and(|x| x == "toml") {
+            // planning this one reads medulla tables a build writes first (tables/…): it is
+            // checked where those exist, by the build itself; its stage is covered by
+            // manifests/fur-farfield.toml here
+            let needs_built_tables = p.ends_with("full/fur-farfield-from-tables.toml");
+            if p.extension().is_some_and(|x| x == "toml") && !needs_built_tables {
                 manifests.push(p);
             }
         }
     }
     manifests.sort();
-    assert!(manifests.len() >= 20, "{manifests:?}");
+    assert!(manifests.len() >= 19, "{manifests:?}");
     let mut stages = std::collections::BTreeSet::new();
     for m in &manifests {
         for t in load_manifest(m).unwrap_or_else(|e| panic!("{}: {e}", m.display())) {

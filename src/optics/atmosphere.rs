@@ -73,7 +73,10 @@ mod tests {
         assert!((air_mass(30.0) - 1.995).abs() < 0.01, "{}", air_mass(30.0));
         // λ⁻⁴ (steepened by the dispersion of air: ≈ λ^−4.08) between 400 and 700 nm
         let r = rayleigh_optical_depth(400.0) / rayleigh_optical_depth(700.0);
-        assert!((r / (700.0f64 / 400.0).powf(4.08) - 1.0).abs() < 0.01, "{r}");
+        assert!(
+            (r / (700.0f64 / 400.0).powf(4.08) - 1.0).abs() < 0.01,
+            "{r}"
+        );
     }
 
     #[test]
