@@ -15,6 +15,33 @@ use crate::consumers::ConsumerError;
 use crate::table::Table;
 use std::path::Path;
 
+/// Refuse a table whose channels `channels` hold NaN or infinite values: no consumer can show,
+/// export or compare a phase function that is not a number (`scatterbake verify --strict`
+/// lists them). The message names the channel, the count and the first grid index.
+pub fn check_finite(table: &Table, channels: &[usize]) -> Result<(), ConsumerError> {
+    let nc = table.header.channels.len();
+    for &c in channels {
+        let bad: Vec<usize> = table
+            .data
+            .iter()
+            .skip(c)
+            .step_by(nc)
+            .enumerate()
+            .filter(|(_, v)| !v.is_finite())
+            .map(|(i, _)| i)
+            .collect();
+        if let Some(&first) = bad.first() {
+            return Err(ConsumerError::invalid(format!(
+                "channel `{}` holds {} NaN or infinite value(s) (the first at flat grid index {first}); \
+                 a phase function must be finite: run `scatterbake verify --strict` on the table",
+                table.header.channels[c].name,
+                bad.len()
+            )));
+        }
+    }
+    Ok(())
+}
+
 /// One `name=value` entry selection (value in the axis unit).
 #[derive(Debug, Clone, PartialEq)]
 pub struct EntrySelection {
@@ -130,6 +157,7 @@ impl PhaseTable {
             })
         };
         let (ch_phase, ch_perp, ch_par) = (ch("phase")?, ch("i_perp")?, ch("i_par")?);
+        check_finite(&table, &[ch_phase, ch_perp, ch_par])?;
         Ok(PhaseTable {
             entry_axes: (0..last).filter(|&i| i != wavelength_axis).collect(),
             angle_axis: last,
@@ -380,6 +408,30 @@ mod tests {
             data,
         };
         Table::from_content(content, Provenance::default()).unwrap()
+    }
+
+    /// NaN or inf in a contract channel: every phase consumer refuses the table with the
+    /// channel named (not a panic, not a NaN picture); the dolp channel may hold anything.
+    #[test]
+    fn non_finite_phase_values_are_refused_naming_the_channel() {
+        assert!(PhaseTable::new(raytrace_table(2)).is_ok());
+        for (k, bad) in [
+            (0usize, f32::NAN),
+            (1, f32::INFINITY),
+            (2, f32::NEG_INFINITY),
+        ] {
+            let mut t = raytrace_table(2);
+            t.data[4 * 5 + k] = bad;
+            let e = PhaseTable::new(t).err().expect("refused").to_string();
+            let name = ["phase", "i_perp", "i_par"][k];
+            assert!(
+                e.contains(&format!("channel `{name}`")) && e.contains("1 NaN or infinite"),
+                "{e}"
+            );
+        }
+        let mut t = raytrace_table(2);
+        t.data[3] = f32::NAN; // dolp
+        assert!(PhaseTable::new(t).is_ok());
     }
 
     #[test]

@@ -97,9 +97,10 @@ impl Phase2dTable {
                  outgoing_polar × outgoing_azimuth (version 1), found {names:?}"
             )));
         };
-        table
+        let ch_phase = table
             .channel_index("phase")
             .map_err(|_| ConsumerError::layout("table has no channel `phase`"))?;
+        crate::consumers::read::phase::check_finite(&table, &[ch_phase])?;
         let p = axes[n - 2].coords();
         if p[0] > 1e-9 || p[p.len() - 1] < 180.0 - 1e-9 {
             return Err(ConsumerError::layout(
