@@ -412,7 +412,7 @@ impl PointSamples<'_> {
 }
 
 /// The table's operators on a point reference (grid of `m` intervals from sample `first`,
-/// every `stride`-th sample): cell averages on the table's intermediate grid, the disc, the
+/// every `stride`-th sample): cell averages on the table's intermediate grid, the disc `sun`, the
 /// Gaussian, the bins. NaN propagates to every bin whose support touches an uncovered piece.
 fn operate(
     r: &MiePlotData,
@@ -420,6 +420,7 @@ fn operate(
     first: usize,
     stride: usize,
     ops: &TableOperators,
+    sun: Option<&SunDiscOperator>,
 ) -> PolarisedPhase {
     let mid = ops.settings().intermediate_intervals();
     let cells = |v: &[f64]| {
@@ -436,8 +437,8 @@ fn operate(
         i_perp: cells(&r.i_perp),
         i_par: cells(&r.i_par),
     };
-    if ops.sun_diameter_deg > 0.0 {
-        c = SunDiscOperator::new(mid, ops.sun_diameter_deg).apply(&c);
+    if let Some(sun) = sun {
+        c = sun.apply(&c);
     }
     let c = gaussian_blur(&c, ops.gaussian_sigma_deg);
     resample_bins(&c, ops.intervals())
@@ -458,10 +459,12 @@ pub fn apply_table_operators(
             ops.bin_step_deg
         )));
     }
-    let fine = operate(r, m, first, 1, ops);
+    // the disc operator depends only on the grid and the diameter: built once for both passes
+    let sun = (ops.sun_diameter_deg > 0.0).then(|| ops.settings().sun_operator());
+    let fine = operate(r, m, first, 1, ops, sun.as_ref());
     // the coarse estimate needs the grid of every other sample
-    let coarse =
-        (m.is_multiple_of(2) && first.is_multiple_of(2)).then(|| operate(r, m, first, 2, ops));
+    let coarse = (m.is_multiple_of(2) && first.is_multiple_of(2))
+        .then(|| operate(r, m, first, 2, ops, sun.as_ref()));
     let phase = fine.phase();
     let coarse_phase = coarse.as_ref().map(|c| c.phase());
     let mut data = MiePlotData {

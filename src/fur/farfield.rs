@@ -657,20 +657,20 @@ impl FarFieldGeometry {
             } else {
                 1.0
             };
+            let factors = PathFactors {
+                f_o,
+                t_o,
+                f_m,
+                t_m,
+                a_c,
+                a_cc,
+                a_tt,
+            };
             for (k, &p) in PATHS.iter().enumerate() {
                 let Some(phi) = fiber.exit_azimuth(p, h) else {
                     continue;
                 };
-                let a = PathFactors {
-                    f_o,
-                    t_o,
-                    f_m,
-                    t_m,
-                    a_c,
-                    a_cc,
-                    a_tt,
-                }
-                .attenuation(p);
+                let a = factors.attenuation(p);
                 if a > 0.0 {
                     let sd = beta * lobe_params(p).2.sqrt();
                     add_wrapped_gaussian(&mut n_u[k], phi, sd, w * a);
@@ -678,16 +678,7 @@ impl FarFieldGeometry {
             }
             // Medulla-scattered lobes (Eq. 5.8/5.9, App. A).
             if fiber.exists(Path::TttT, h) && a_tt < 1.0 {
-                let f = PathFactors {
-                    f_o,
-                    t_o,
-                    f_m,
-                    t_m,
-                    a_c,
-                    a_cc,
-                    a_tt,
-                };
-                self.deposit_medulla_scattering(h, gt, hp, w, f, shapes, &mut n_s);
+                self.deposit_medulla_scattering(h, gt, hp, w, factors, shapes, &mut n_s);
             }
         }
 

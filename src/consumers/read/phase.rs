@@ -21,21 +21,20 @@ use std::path::Path;
 pub fn check_finite(table: &Table, channels: &[usize]) -> Result<(), ConsumerError> {
     let nc = table.header.channels.len();
     for &c in channels {
-        let bad: Vec<usize> = table
+        let mut bad = table
             .data
             .iter()
             .skip(c)
             .step_by(nc)
             .enumerate()
             .filter(|(_, v)| !v.is_finite())
-            .map(|(i, _)| i)
-            .collect();
-        if let Some(&first) = bad.first() {
+            .map(|(i, _)| i);
+        if let Some(first) = bad.next() {
+            let count = 1 + bad.count();
             return Err(ConsumerError::invalid(format!(
                 "channel `{}` holds {} NaN or infinite value(s) (the first at flat grid index {first}); \
                  a phase function must be finite: run `scatterbake verify --strict` on the table",
-                table.header.channels[c].name,
-                bad.len()
+                table.header.channels[c].name, count
             )));
         }
     }

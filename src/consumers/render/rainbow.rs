@@ -287,6 +287,14 @@ pub fn render_with(
     }
 }
 
+/// Linear interpolation of a table of XYZ on the Θ grid of [`THETA_STEP_DEG`] at `big_deg`.
+fn xyz_at_angle(xyz: &[[f64; 3]], big_deg: f64) -> [f64; 3] {
+    let u = big_deg / THETA_STEP_DEG;
+    let k = (u.floor() as usize).min(xyz.len() - 2);
+    let t = u - k as f64;
+    [0, 1, 2].map(|c| xyz[k][c] * (1.0 - t) + xyz[k + 1][c] * t)
+}
+
 /// Render linear sRGB radiance (unit sun irradiance) of a 1-D (axisymmetric) phase table: the
 /// disc average depends on the angle to the sun only, so it is precomputed on a Θ grid.
 pub fn render(
@@ -305,11 +313,7 @@ pub fn render(
     )?;
     let s = scene.sun_direction();
     Ok(render_with(scene, camera, progress, |d| {
-        let big = dot(s, d).clamp(-1.0, 1.0).acos().to_degrees();
-        let u = big / THETA_STEP_DEG;
-        let k = (u.floor() as usize).min(xyz.len() - 2);
-        let t = u - k as f64;
-        [0, 1, 2].map(|c| xyz[k][c] * (1.0 - t) + xyz[k + 1][c] * t)
+        xyz_at_angle(&xyz, dot(s, d).clamp(-1.0, 1.0).acos().to_degrees())
     }))
 }
 
@@ -329,16 +333,10 @@ pub fn render_polarised(
         of(Polarisation::Parallel)?,
     );
     let s = scene.sun_direction();
-    let at = |xyz: &[[f64; 3]], big: f64| {
-        let u = big / THETA_STEP_DEG;
-        let k = (u.floor() as usize).min(xyz.len() - 2);
-        let t = u - k as f64;
-        [0, 1, 2].map(|c| xyz[k][c] * (1.0 - t) + xyz[k + 1][c] * t)
-    };
     Ok(render_with(scene, camera, progress, |d| {
         let big = dot(s, d).clamp(-1.0, 1.0).acos().to_degrees();
         let f = polariser.perpendicular_fraction(camera, s, d);
-        let (a, b) = (at(&perp, big), at(&par, big));
+        let (a, b) = (xyz_at_angle(&perp, big), xyz_at_angle(&par, big));
         [0, 1, 2].map(|c| 0.5 * (f * a[c] + (1.0 - f) * b[c]))
     }))
 }
