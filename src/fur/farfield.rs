@@ -256,17 +256,19 @@ impl FarFieldSettings {
 }
 
 /// How Table 4.2's σ_ms maps onto the medulla tables' coefficient per unit medulla radius
-/// (decisions FUR-1, FUR-1f in `docs/decisions.md`).
+/// (decisions FUR-1, FUR-1f and FUR-1g in `docs/decisions.md`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum SigmaScaling {
     /// σ_ms per fibre diameter (Table 4.2's unit) → σ_ms·κ/2 (optical depth preserved; the
-    /// medulla tables' convention, decision FUR-1). Default.
-    #[default]
+    /// medulla tables' convention, decision FUR-1). The physical reading for a fibre whose σ_ms
+    /// was measured rather than fitted.
     KappaHalf,
     /// σ_ms read as per fibre radius → σ_ms·κ (the 2017 follow-up's code).
     Kappa,
-    /// The thesis's printed lookup σ_ms/κ (Eq. 5.10/5.11).
+    /// The thesis's printed lookup σ_ms/κ (Eq. 5.10/5.11). Default: Table 4.2 was fitted through
+    /// this lookup, and it reproduces five of the six measured features (decision FUR-1g).
+    #[default]
     ThesisOverKappa,
 }
 
@@ -440,6 +442,77 @@ impl FarField {
     /// Energy of component `c` over the sphere.
     pub fn energy(&self, c: usize) -> f64 {
         self.energy_where(c, |_, _| true)
+    }
+}
+
+/// The qualitative features Tseng 2015 reports for the measured fur profiles (Figure 4.3),
+/// measured on a far field so that readings of the model can be compared by number
+/// (docs/fur.md, "Readings of eq. 5.10"). Densities are per unit θ_r per unit φ.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ProfileFeatures {
+    /// Peak density of the R lobe over the peak density of the whole profile ("bright R").
+    pub r_prominence: f64,
+    /// Energy of the unscattered forward light, `tt` + `medulla_paths` over |φ| > 150° ("no TT").
+    pub forward_unscattered: f64,
+    /// θ_r (deg) of the maximum of the medulla-scattered light summed over |φ| < 20° (back
+    /// lobe) and over |φ| > 160° (forward lobe) ("diffuse lobes centred on θ = 0").
+    pub back_diffuse_peak_deg: f64,
+    pub forward_diffuse_peak_deg: f64,
+    /// Brightest cell of the whole profile in the forward window |φ| ≥ 165°, θ_r within 15° of
+    /// the specular cone −θ_i, over the brightest cell of the band beside it (|φ| ∈ [90°, 120°],
+    /// same θ_r): above 1 a spot stands out at (−θ_i, 180°) ("glow near (40°, 180°)" at
+    /// θ_i = −40°; for the cat, the visible through-medulla TT).
+    pub forward_spot: f64,
+}
+
+impl FarField {
+    /// Column of the summed components `comps` over the φ cells whose |φ| (deg) satisfies `keep`.
+    fn column_sum(&self, comps: &[usize], keep: impl Fn(f64) -> bool) -> Vec<f64> {
+        let phis: Vec<usize> = (0..self.phi_cells)
+            .filter(|&j| keep(self.phi(j).to_degrees().abs()))
+            .collect();
+        (0..self.theta_r_cells)
+            .map(|i| {
+                let row = i * self.phi_cells;
+                phis.iter()
+                    .map(|&j| {
+                        comps
+                            .iter()
+                            .map(|&c| self.components[c][row + j])
+                            .sum::<f64>()
+                    })
+                    .sum()
+            })
+            .collect()
+    }
+
+    /// [`ProfileFeatures`] of this far field, computed at incidence `theta_i_rad`.
+    pub fn features(&self, theta_i_rad: f64) -> ProfileFeatures {
+        let nt = self.theta_r_cells;
+        let deg = |i: usize| self.theta_r(i).to_degrees();
+        let peak_deg = |v: &[f64]| deg((0..nt).max_by(|&a, &b| v[a].total_cmp(&v[b])).unwrap_or(0));
+        let max_total = (0..nt)
+            .flat_map(|i| (0..self.phi_cells).map(move |j| (i, j)))
+            .map(|(i, j)| self.total(i, j))
+            .fold(0.0, f64::max);
+        let max_r = self.components[0].iter().cloned().fold(0.0, f64::max);
+        let cone = -theta_i_rad.to_degrees();
+        let window_max = |lo: f64, hi: f64| {
+            (0..nt)
+                .filter(|&i| (deg(i) - cone).abs() <= 15.0)
+                .flat_map(|i| (0..self.phi_cells).map(move |j| (i, j)))
+                .filter(|&(_, j)| (lo..=hi).contains(&self.phi(j).to_degrees().abs()))
+                .map(|(i, j)| self.total(i, j))
+                .fold(0.0, f64::max)
+        };
+        let forward = |_: f64, p: f64| p.abs() > 150f64.to_radians();
+        ProfileFeatures {
+            r_prominence: max_r / max_total,
+            forward_unscattered: self.energy_where(1, forward) + self.energy_where(3, forward),
+            back_diffuse_peak_deg: peak_deg(&self.column_sum(&[4], |p| p < 20.0)),
+            forward_diffuse_peak_deg: peak_deg(&self.column_sum(&[4], |p| p > 160.0)),
+            forward_spot: window_max(165.0, 180.0) / window_max(90.0, 120.0),
+        }
     }
 }
 
@@ -1056,6 +1129,59 @@ mod tests {
             let fwd = ff.energy_where(4, |_, p| p.abs() > FRAC_PI_2);
             let tot = ff.energy(4);
             assert!(fwd > 0.3 * tot && fwd < 0.9 * tot, "{name}: {fwd} of {tot}");
+        }
+    }
+
+    /// Readings of eq. 5.10 (decision FUR-1g, figures in docs/fur.md). Under every σ mapping the
+    /// mouse's forward spot at (40°, 180°) is weaker than the cat's and the red fox's at most
+    /// 25 % above it, so no mapping gives the cat no visible TT and the mouse/red fox a glow at
+    /// once; the thesis's σ/κ centres the diffuse lobes on θ_r = 0 (within two cells) and removes the cat's
+    /// through-medulla light, σκ/2 leaves the cat's and the mouse's diffuse lobes ≥ 10° off.
+    #[test]
+    fn no_sigma_mapping_gives_both_the_cats_missing_tt_and_the_mouse_glow() {
+        let ti = (-40f64).to_radians();
+        let features = |name: &str, scaling: SigmaScaling| {
+            let s = sample(name);
+            let set = FarFieldSettings {
+                sigma_scaling: scaling,
+                photons: 400,
+                ..settings()
+            };
+            let shapes = MedullaShapes::compute(medulla_sigma(&s, scaling), s.g, &set);
+            far_field(&s, ti, &shapes, &set).features(ti)
+        };
+        for scaling in [
+            SigmaScaling::KappaHalf,
+            SigmaScaling::Kappa,
+            SigmaScaling::ThesisOverKappa,
+        ] {
+            let (cat, mouse, fox) = (
+                features("cat", scaling),
+                features("mouse", scaling),
+                features("red_fox", scaling),
+            );
+            assert!(
+                mouse.forward_spot < cat.forward_spot && fox.forward_spot < 1.25 * cat.forward_spot,
+                "{scaling:?}: forward spot cat {} mouse {} red fox {}",
+                cat.forward_spot,
+                mouse.forward_spot,
+                fox.forward_spot
+            );
+            if scaling == SigmaScaling::ThesisOverKappa {
+                for f in [cat, mouse, fox] {
+                    // Two 3° cells of the test grid.
+                    assert!(f.back_diffuse_peak_deg.abs() <= 6.0, "{f:?}");
+                    assert!(f.forward_diffuse_peak_deg.abs() <= 6.0, "{f:?}");
+                }
+                assert!(cat.forward_unscattered < 0.002, "{cat:?}");
+                assert!(cat.forward_spot < 1.1, "{cat:?}");
+            }
+            if scaling == SigmaScaling::KappaHalf {
+                for f in [cat, mouse] {
+                    assert!(f.forward_diffuse_peak_deg >= 10.0, "{f:?}");
+                }
+                assert!(cat.forward_spot > 1.5, "{cat:?}");
+            }
         }
     }
 

@@ -147,12 +147,10 @@ impl SphereGo {
         2.0 - 2.0 * p as f64 * i.cos() / (self.n * t.cos())
     }
 
-    /// Geometric rainbow (scattering) angle of order `p ≥ 2` in radians, if it exists.
+    /// Geometric rainbow (scattering) angle of order `p ≥ 2` in radians, if it exists and the
+    /// order is traced (`p ≤ max_order`).
     pub fn rainbow_angle_rad(&self, p: usize) -> Option<f64> {
-        if p < 2 {
-            return None;
-        }
-        let iv = &self.intervals[p];
+        let iv = self.intervals.get(p).filter(|_| p >= 2)?;
         if iv.len() < 2 {
             return None;
         }
@@ -712,6 +710,20 @@ mod tests {
         let s = go.rainbow_angle_rad(3).unwrap().to_degrees();
         assert!((p - 137.630).abs() < 2e-3, "{p}");
         assert!((s - 129.635).abs() < 2e-3, "{s}");
+    }
+
+    /// Fewer traced orders than the secondary bow needs: no rainbow angle for untraced orders,
+    /// and the 1-D phase function is still computed (it used to index past the traced orders).
+    #[test]
+    fn untraced_orders_have_no_rainbow_angle() {
+        for max_order in [0, 1, 2] {
+            let go = SphereGo::new(400.0, 650.0, 1.331, max_order);
+            assert_eq!(go.rainbow_angle_rad(3), None);
+            assert_eq!(go.rainbow_angle_rad(2).is_some(), max_order >= 2);
+            let (ch, sigma) =
+                sphere_phase_1d(&go, &[120.0, 130.0, 140.0], Phase1dOptions::default());
+            assert!(sigma > 0.0 && ch[0].iter().all(|v| v.is_finite() && *v >= 0.0));
+        }
     }
 
     #[test]

@@ -41,8 +41,8 @@ stage_params! {
         photons: u64 = required, "integer",
             "Monte Carlo photons per medulla profile (expected-value estimator)";
         seed: u64 = default(0), "integer", "random seed of the medulla profiles";
-        medulla_sigma_scaling: SigmaScaling = default(SigmaScaling::KappaHalf), "string",
-            "σ_ms → table σ per medulla radius: kappa_half (σκ/2, σ per diameter), kappa (σκ), thesis_over_kappa (σ/κ)";
+        medulla_sigma_scaling: SigmaScaling = default(SigmaScaling::ThesisOverKappa), "string",
+            "σ_ms → table σ per medulla radius: thesis_over_kappa (σ/κ, the lookup Table 4.2 was fitted with; default), kappa_half (σκ/2, optical depth of σ per diameter), kappa (σκ)";
         /// Take the medulla profiles from shipped tables instead of the on-the-fly Monte Carlo.
         #[serde(skip_serializing_if = "Option::is_none")]
         medulla_tables: Option<MedullaTablePaths> = optional("none (Monte Carlo on the fly)"),
@@ -297,7 +297,7 @@ impl Job for FarFieldJob {
         a.insert("model".into(), "practical shading model of Tseng 2015 ch. 5 / App. A (coaxial cylinder): unscattered Gaussian lobes of R, TT, TRT, TrT, TttT, TtrtT, TrRrT, TttRttT (chief-ray exit azimuths, Stokes-pile cuticle Fresnel, medulla-interface Fresnel, cortex absorption, medulla extinction) plus medulla-scattered lobes of the TttT, TtrtT and TttRttT chords shaped by 2-D medulla Monte Carlo profiles (C^N, C^M; on the fly or from medulla tables, see medulla_profiles), averaged over the fibre width (h uniform on (-1, 1)). Decisions: docs/decisions.md, fur far field (FUR-1f, FUR-11 … FUR-19)".into());
         a.insert("value_convention".into(), "every channel is the exiting energy per unit theta_r per unit phi (1/rad^2) per unit incident power intercepted by the fibre, AVERAGED over the cell (lobes integrated analytically over the cell, medulla bins split linearly between phi cells): sum over cells of value * dtheta_r * dphi = energy carried. Longitudinal lobes are normalised with int M dtheta_r = 1 (no cos weight). The thesis BCSDF S of Eq. 5.1 is sum_p M_p N_p / cos^2 theta_i with N_p the per-h azimuthal energy density; this table holds the h-average of sum_p M_p N_p, i.e. cos^2 theta_i * S averaged over h".into());
         a.insert("angle_convention".into(), "theta from the fibre's normal plane, root at +90 deg (thesis convention, theta flipped w.r.t. Marschner 2003; the specular cone is theta_r = -theta_i); phi = phi_r - phi_i, 0 = back towards the light, +/-180 = forward; theta_r cells over [-90, 90], phi cells over [-180, 180), axis coordinates are cell centres".into());
-        a.insert("units_convention".into(), format!("Table 4.2 sigma_ca is per fibre DIAMETER; internally fibre radius 1: cortex coefficient sigma_ca/2 per radius. Medulla table coefficient per unit medulla radius: medulla_sigma_scaling = {:?} (KappaHalf: sigma_ms*kappa/2, sigma_ms per diameter, the fur-medulla tables' convention; Kappa: sigma_ms*kappa; ThesisOverKappa: sigma_ms/kappa as printed in Eq. 5.10). Both coefficients divided by cos theta_t (longitudinal refraction into cortex / medulla) for the azimuthal projection", self.p.medulla_sigma_scaling).into());
+        a.insert("units_convention".into(), format!("Table 4.2 sigma_ca is per fibre DIAMETER; internally fibre radius 1: cortex coefficient sigma_ca/2 per radius. Medulla table coefficient per unit medulla radius: medulla_sigma_scaling = {:?} (ThesisOverKappa, the default: sigma_ms/kappa as printed in Eq. 5.10, the lookup Table 4.2 was fitted with; KappaHalf: sigma_ms*kappa/2, sigma_ms per diameter, optical depth preserved; Kappa: sigma_ms*kappa). Both coefficients divided by cos theta_t (longitudinal refraction into cortex / medulla) for the azimuthal projection", self.p.medulla_sigma_scaling).into());
         a.insert("components".into(), "energy = r + tt + trt + medulla_paths + scattered; r, tt, trt: classic unscattered lobes (tt and trt only where the chief ray misses the medulla, |h| >= kappa*eta_c'); medulla_paths: unscattered TrT, TttT, TtrtT, TrRrT, TttRttT; scattered: medulla-scattered light (App. A mix with the isotropic fraction lambda)".into());
         let source = match &self.p.medulla_tables {
             None => format!(
@@ -453,7 +453,7 @@ mod tests {
             d.path(),
             "lo.sbt",
         );
-        let common = "samples = [\"raccoon\"], theta_i_deg = [-40.0], theta_r_cells = 30, phi_cells = 60, h_samples = 100, medulla_rows = 5, medulla_bins = 120, photons = 4000, seed = 3";
+        let common = "samples = [\"raccoon\"], theta_i_deg = [-40.0], theta_r_cells = 30, phi_cells = 60, h_samples = 100, medulla_rows = 5, medulla_bins = 120, photons = 4000, seed = 3, medulla_sigma_scaling = \"kappa_half\"";
         let run = |extra: &str| {
             let job = plan_str(&format!("{{ {common}{extra} }}")).unwrap();
             let chunk = job.run_task(0).unwrap();
@@ -487,7 +487,7 @@ mod tests {
         assert!(l1 < 0.03, "relative L1 {l1}");
         // Cat at σ = 2.58·0.85/2 = 1.10 is inside, but g = 0.62 is not: refused at plan time.
         let e = match plan_str(&format!(
-            "{{ samples = [\"cat\"], theta_i_deg = [-40.0], photons = 10, medulla_tables = {{ azimuthal = \"{az}\", longitudinal = \"{lo}\" }} }}"
+            "{{ samples = [\"cat\"], theta_i_deg = [-40.0], photons = 10, medulla_sigma_scaling = \"kappa_half\", medulla_tables = {{ azimuthal = \"{az}\", longitudinal = \"{lo}\" }} }}"
         )) {
             Err(e) => e.to_string(),
             Ok(_) => panic!("cat's g = 0.62 is outside the tables' g range"),
