@@ -57,6 +57,69 @@ pub struct ColumnFilter {
     enabled: bool,
     /// Kernels for σ (primary side) and 2σ (secondary side).
     kernels: [Vec<f64>; 2],
+    /// With a transfer, columns get the sphere's Airy correction instead of the Gaussian blend.
+    airy: Option<AiryTransfer>,
+}
+
+/// Bright-side range (deg from the caustic) over which a column's caustic strength is compared
+/// with the sphere's.
+const STRENGTH_RANGE_DEG: (f64, f64) = (0.1, 1.5);
+
+/// The uniform-caustic (Airy) correction of the equal-volume sphere, transferred to the columns
+/// of a 2-D table (decision RT-28).
+///
+/// For a sphere the 1-D path's Airy-uniform channels differ from its geometric-optics (GO)
+/// channels only around the primary (p = 2) and secondary (p = 3) caustics: `Δ = Airy − GO`
+/// (dσ/dΩ per channel, bin averages on the table's polar rows) is the diffraction correction the
+/// GO field lacks there. Each azimuth column of a traced table gets `value + s·Δ(θ − δ)` per bow:
+/// δ moves the sphere's caustic (the GO peak of the order) onto the column's own, and `s` scales
+/// it to the column's caustic strength (the ratio of the column's order intensity to the
+/// sphere's over 0.1°–1.5° on the bright side). Rows above the Alexander-band midpoint take the
+/// primary's correction, rows below the secondary's. On a sphere δ = 0 and s = 1 up to ray noise,
+/// so the 2-D path reproduces the 1-D Airy path. Domain: fold caustics of drops close to the
+/// sphere; the Airy width stays the sphere's (the local curvature of a deformed drop's
+/// deviation function is not followed), and columns where a deformed drop's caustic splits or
+/// vanishes take a shifted, scaled sphere correction that is only as good as that picture.
+#[derive(Debug, Clone)]
+pub struct AiryTransfer {
+    /// First row of the arrays (the filter's [`ColumnFilter::needed_rows`]`.0`).
+    row0: usize,
+    /// Airy − GO (µm²/sr) of the columns' channels `[i_perp, i_par, p0, p1, …]`.
+    delta: Vec<Vec<f64>>,
+    /// Sphere's GO intensity of orders 2 and 3 (µm²/sr) and the row of its maximum.
+    go_bow: [Option<(Vec<f64>, usize)>; 2],
+}
+
+impl AiryTransfer {
+    /// From the sphere's Airy and GO channels on the rows `rows` of the filter: `airy[c]`,
+    /// `go[c]` for the columns' channels `[i_perp, i_par, p0, p1, …]` (µm²/sr); orders the
+    /// sphere does not have are zero.
+    pub fn new(
+        filter: &ColumnFilter,
+        rows: (usize, usize),
+        airy: &[Vec<f64>],
+        go: &[Vec<f64>],
+    ) -> Self {
+        let delta: Vec<Vec<f64>> = airy
+            .iter()
+            .zip(go)
+            .map(|(a, g)| a.iter().zip(g).map(|(x, y)| x - y).collect())
+            .collect();
+        let bow = |o: usize, (lo, hi): (f64, f64)| -> Option<(Vec<f64>, usize)> {
+            let v = go.get(2 + o)?.clone();
+            let (a, b) = (
+                filter.row(lo.to_radians()).max(rows.0),
+                filter.row(hi.to_radians()).min(rows.1),
+            );
+            let peak = (a..=b).max_by(|&x, &y| v[x - rows.0].total_cmp(&v[y - rows.0]))?;
+            (v[peak - rows.0] > 0.0).then_some((v, peak))
+        };
+        AiryTransfer {
+            row0: rows.0,
+            delta,
+            go_bow: [bow(2, PRIMARY_SEARCH_DEG), bow(3, SECONDARY_SEARCH_DEG)],
+        }
+    }
 }
 
 /// The filtered values of one column over the polar rows `start..start + len`, `nvals` values
@@ -88,6 +151,98 @@ impl ColumnFilter {
             sigma,
             enabled,
             kernels: [kernel(sigma, step), kernel(2.0 * sigma, step)],
+            airy: None,
+        }
+    }
+
+    /// Use the sphere's transferred Airy correction instead of the Gaussian blend.
+    pub fn with_airy_transfer(mut self, transfer: AiryTransfer) -> Self {
+        self.airy = Some(transfer);
+        self
+    }
+
+    /// The transferred Airy correction of one column (see [`AiryTransfer`]).
+    fn transfer_column(
+        &self,
+        t: &AiryTransfer,
+        rows: (usize, usize),
+        cols: &[Vec<f64>],
+        orders: [Option<usize>; 2],
+    ) -> CausticWindow {
+        let (j0, j1) = rows;
+        let range = |lo: f64, hi: f64| {
+            (
+                self.row(lo.to_radians()).max(j0),
+                self.row(hi.to_radians()).min(j1),
+            )
+        };
+        // Per bow: (shift in rows, strength, channel of the order).
+        let mut bows: [Option<(isize, f64, usize)>; 2] = [None, None];
+        for (b, ((search, sign), order)) in
+            [(PRIMARY_SEARCH_DEG, 1.0), (SECONDARY_SEARCH_DEG, -1.0)]
+                .into_iter()
+                .zip(orders)
+                .enumerate()
+        {
+            let (Some(c), Some((go, j_sphere))) = (order, &t.go_bow[b]) else {
+                continue;
+            };
+            let (a, z) = range(search.0, search.1);
+            let Some(jc) = (a..=z).max_by(|&x, &y| cols[c][x - j0].total_cmp(&cols[c][y - j0]))
+            else {
+                continue;
+            };
+            let shift = jc as isize - *j_sphere as isize;
+            let (d0, d1) = (
+                (STRENGTH_RANGE_DEG.0.to_radians() / self.step).round() as isize,
+                (STRENGTH_RANGE_DEG.1.to_radians() / self.step).round() as isize,
+            );
+            let (mut num, mut den) = (0.0, 0.0);
+            for d in d0..=d1 {
+                let j = jc as isize + (sign * d as f64) as isize;
+                let js = j - shift;
+                if j < j0 as isize
+                    || j > j1 as isize
+                    || js < t.row0 as isize
+                    || js as usize >= t.row0 + go.len()
+                {
+                    continue;
+                }
+                num += cols[c][j as usize - j0];
+                den += go[js as usize - t.row0];
+            }
+            if den > 0.0 {
+                bows[b] = Some((shift, num / den, c));
+            }
+        }
+        let nvals = cols.len();
+        let mut values = Vec::with_capacity((j1 + 1 - j0) * nvals);
+        for j in j0..=j1 {
+            let th = self.step * j as f64;
+            let bow = bows[usize::from(th <= self.split)];
+            for (c, col) in cols.iter().enumerate() {
+                let mut v = col[j - j0];
+                if let Some((shift, strength, order_channel)) = bow {
+                    // i_perp, i_par and the bow's own order; other orders have no caustic here.
+                    if c < 2 || c == order_channel {
+                        let js = j as isize - shift;
+                        if let Some(d) = t.delta.get(c).and_then(|d| {
+                            (js >= t.row0 as isize)
+                                .then(|| d.get(js as usize - t.row0))
+                                .flatten()
+                        }) {
+                            v = (v + strength * d).max(0.0);
+                        }
+                    }
+                }
+                values.push(v);
+            }
+        }
+        CausticWindow {
+            start: j0,
+            len: j1 + 1 - j0,
+            nvals,
+            values,
         }
     }
 
@@ -102,7 +257,7 @@ impl ColumnFilter {
         }
     }
 
-    fn row(&self, rad: f64) -> usize {
+    pub(crate) fn row(&self, rad: f64) -> usize {
         ((rad / self.step).round().max(0.0) as usize).min(self.n_polar - 1)
     }
 
@@ -128,6 +283,9 @@ impl ColumnFilter {
     ) -> CausticWindow {
         if !self.enabled {
             return CausticWindow::default();
+        }
+        if let Some(t) = &self.airy {
+            return self.transfer_column(t, rows, cols, [primary, secondary]);
         }
         let (j0, j1) = rows;
         let peak = |c: Option<usize>, (lo, hi): (f64, f64)| -> Option<f64> {

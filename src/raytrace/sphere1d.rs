@@ -448,6 +448,10 @@ pub enum DiffractionModel {
     AiryUniform,
     /// The thesis' Gaussian post-filter (Table 3.3 σ, 2σ for the secondary).
     Gaussian,
+    /// 2-D shapes: the equal-volume sphere's uniform-caustic correction (Airy − GO, per
+    /// channel) moved to each azimuth column's own primary and secondary caustic and scaled to
+    /// the column's caustic strength ([`crate::raytrace::caustic::AiryTransfer`]).
+    AiryLocal,
 }
 
 impl Default for Phase1dOptions {

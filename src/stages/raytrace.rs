@@ -26,7 +26,7 @@
 //! i_perp = |S1|²/(π x² Q_sca).
 
 use crate::optics::water::{SADEGHI_WAVELENGTHS_NM, WaterIndexModel};
-use crate::raytrace::caustic::{CausticWindow, ColumnFilter};
+use crate::raytrace::caustic::{AiryTransfer, CausticWindow, ColumnFilter};
 use crate::raytrace::post::{bin_edges, filter_sigma_deg, fraunhofer_bin_average};
 use crate::raytrace::shape::{CosineSeries, DropShape};
 use crate::raytrace::sphere1d::{DiffractionModel, Phase1dOptions, SphereGo, sphere_phase_1d};
@@ -218,7 +218,13 @@ impl RaytraceJob {
         if two_d_shape && p.diffraction_model == Some(DiffractionModel::AiryUniform) {
             return Err(PlanError::invalid(
                 "diffraction_model",
-                "airy-uniform is available for spheres only; use gaussian",
+                "airy-uniform is available for spheres only; use airy-local or gaussian",
+            ));
+        }
+        if !two_d_shape && p.diffraction_model == Some(DiffractionModel::AiryLocal) {
+            return Err(PlanError::invalid(
+                "diffraction_model",
+                "airy-local is for 2-D shapes (it transfers the sphere's airy-uniform correction); spheres use airy-uniform",
             ));
         }
         let two_d = match p.shape.as_str() {
@@ -376,13 +382,17 @@ impl RaytraceJob {
         let split = 0.5
             * (go.rainbow_angle_rad(2).unwrap_or(PRIMARY_FALLBACK_RAD)
                 + go.rainbow_angle_rad(3).unwrap_or(SECONDARY_FALLBACK_RAD));
-        let filter = ColumnFilter::new(
+        let mut filter = ColumnFilter::new(
             grid.n_polar,
             grid.polar_step(),
             filter_sigma_deg(a_um * 1e-3).to_radians(),
             split,
             self.p.diffraction_filter,
         );
+        if self.p.diffraction_filter && self.diffraction_model() == DiffractionModel::AiryLocal {
+            let transfer = sphere_airy_transfer(&go, &filter, grid.polar_step(), f.orders);
+            filter = filter.with_airy_transfer(transfer);
+        }
         let windows = caustic_windows(&f, &filter);
         let sigma_total = f.order_cross_section_um2.iter().sum::<f64>() + f.projected_area_um2;
         let mut out = write_channels(f, &windows, lambda);
@@ -395,6 +405,40 @@ impl RaytraceJob {
         }
         Ok((out, sigma_total))
     }
+}
+
+/// The equal-volume sphere's Airy and GO channels on the rows the column filter needs, as
+/// dσ/dΩ (µm²/sr) in the columns' layout `[i_perp, i_par, p0, …, p_{orders−1}]`.
+fn sphere_airy_transfer(
+    go: &SphereGo,
+    filter: &ColumnFilter,
+    step_rad: f64,
+    orders: usize,
+) -> AiryTransfer {
+    let rows = filter.needed_rows();
+    let angles: Vec<f64> = (rows.0..=rows.1)
+        .map(|j| (step_rad * j as f64).to_degrees())
+        .collect();
+    let channels = |diffraction_filter: bool| -> Vec<Vec<f64>> {
+        let opts = Phase1dOptions {
+            diffraction_filter,
+            model: DiffractionModel::AiryUniform,
+            ..Phase1dOptions::default()
+        };
+        let (ch, sigma_total) = sphere_phase_1d(go, &angles, opts);
+        // 1-D layout: phase, i_perp, i_par, dolp, p0 … p_max, then the unfiltered channels.
+        let scaled = |c: usize| ch[c].iter().map(|v| v * sigma_total).collect::<Vec<f64>>();
+        let mut out = vec![scaled(1), scaled(2)];
+        for p in 0..orders {
+            out.push(if p <= go.max_order {
+                scaled(4 + p)
+            } else {
+                vec![0.0; angles.len()]
+            });
+        }
+        out
+    };
+    AiryTransfer::new(filter, rows, &channels(true), &channels(false))
 }
 
 /// Index of the `dolp` channel (not an intensity: never renormalised).
@@ -651,6 +695,7 @@ impl RaytraceJob {
         let model = self.diffraction_model();
         let filter_text = match model {
             DiffractionModel::AiryUniform => "airy-uniform: uniform caustic (Airy) approximation of each order's rainbow (two-branch CUA on the bright side, Airy continuation on the dark side); GO elsewhere".to_string(),
+            DiffractionModel::AiryLocal => "airy-local: the equal-volume sphere's uniform-caustic correction (1-D Airy-uniform minus GO channels, bin averages) added to each azimuth column, moved onto the column's own primary/secondary caustic (GO peak of p = 2 / p = 3) and scaled to its caustic strength (bright side 0.1–1.5°); primary correction above the Alexander-band midpoint, secondary below; GO elsewhere (docs/decisions.md RT-28)".to_string(),
             DiffractionModel::Gaussian => format!("gaussian: thesis Table 3.3 Gaussian in polar angle (σ linear in radius, Airy a^(-2/3) outside 0.1–1 mm; σ = {:.4}° at the first radius) for θ above the Alexander-band midpoint, 2σ below, blended in only within a Gaussian window of half-width 2σ_local around each caustic (peaks of the p = 2 and p = 3 intensities)", filter_sigma_deg(self.p.radii_um[0] * 1e-3)),
         };
         at.insert(
