@@ -63,6 +63,16 @@ pub fn orientation_indices(eta: f64, axis_ratio: f64, nodes: usize) -> Vec<f64> 
         .collect()
 }
 
+/// Orientation nodes for pointwise `N_TRT(φ)` at azimuthal width `w` (rad): the TRT exit azimuth
+/// moves by up to ≈ 4.3 rad per unit of η* (|∂Φ_TRT/∂η| at the rim for η* ≈ 1.25) while η*
+/// sweeps η*₂ − η*₁ over a quarter turn, so `ceil(8 (η*₂ − η*₁)/w)` nodes keep consecutive
+/// nodes' lobes less than about one width apart (at least [`DEFAULT_ORIENTATION_NODES`], at most
+/// 1024). Hemisphere energies (Dual Scattering) are smooth in η* and use the default.
+pub fn orientation_nodes_for_width(eta: f64, axis_ratio: f64, w: f64) -> usize {
+    let (n1, n2) = elliptic_indices(eta, axis_ratio);
+    ((8.0 * (n2 - n1) / w).ceil() as usize).clamp(DEFAULT_ORIENTATION_NODES, 1024)
+}
+
 /// Range check of an axis ratio; `Err(message)`.
 pub fn validate_axis_ratio(axis_ratio: f64) -> Result<(), String> {
     if axis_ratio.is_finite() && (AXIS_RATIO_MIN..=1.0).contains(&axis_ratio) {
@@ -445,6 +455,44 @@ mod tests {
                 err_opposite_principal > 4.0 * err_principal,
                 "a = {a}: orientation convention"
             );
+        }
+    }
+
+    /// Inclined light: the normal-plane projection of the 3-D problem is the 2-D one with the
+    /// Bravais index n'(θ) for any cross-section, so the same tracer with n' checks the choice
+    /// "η* before the Bravais index" against the alternative "Marschner's formula applied to n'"
+    /// (decision FIB-23). Caustics the prediction lacks (n'* ≥ 2 there) are counted as missed.
+    #[test]
+    fn traced_ellipse_caustics_at_inclined_light() {
+        let eta = 1.55;
+        // (θ deg, a, bound on the error of η*-then-Bravais over matched caustics, degrees).
+        for (t_deg, a, bound) in [(30.0, 0.95, 1.5), (30.0, 0.9, 7.0), (40.0, 0.95, 1.4)] {
+            let theta = f64::to_radians(t_deg);
+            let n_prime = bravais_indices(eta, theta).0;
+            let (mut err_a, mut err_b, mut diff_ab) = (0.0f64, 0.0f64, 0.0f64);
+            let (mut matched, mut missed) = (0, 0);
+            for k in 0..=12 {
+                let phi_i = (15.0 * k as f64).to_radians();
+                let pa = elliptic_trt_caustics(eta, a, theta, phi_i);
+                let pb = elliptic_trt_caustics(n_prime, a, 0.0, phi_i);
+                for (_, traced) in traced_trt_caustics(a, n_prime, phi_i) {
+                    let pick = |p: (Option<f64>, Option<f64>)| if traced < 0.0 { p.0 } else { p.1 };
+                    match (pick(pa), pick(pb)) {
+                        (Some(x), Some(y)) => {
+                            matched += 1;
+                            err_a = err_a.max((x - traced).abs().to_degrees());
+                            err_b = err_b.max((y - traced).abs().to_degrees());
+                            diff_ab = diff_ab.max((x - y).abs().to_degrees());
+                        }
+                        _ => missed += 1,
+                    }
+                }
+            }
+            println!(
+                "θ = {t_deg}°, a = {a}: {matched} caustics matched, {missed} missed; max error η* then Bravais {err_a:.3}°, formula on n' {err_b:.3}°, the two differ by ≤ {diff_ab:.3}°"
+            );
+            assert!(matched >= 20, "{matched}");
+            assert!(err_a <= bound, "θ = {t_deg}°, a = {a}: {err_a}°");
         }
     }
 

@@ -450,6 +450,20 @@ impl FiberSlice {
         phi_step: f64,
         phi_count: usize,
     ) -> Vec<[f64; LOBES]> {
+        self.azimuthal_on_grid_lobes(sigma_a, w, phi_start, phi_step, phi_count, &[0, 1, 2])
+    }
+
+    /// [`Self::azimuthal_on_grid`] evaluating only the listed lobes among R, TT, TRT (the others
+    /// stay 0; the residual is always filled).
+    pub fn azimuthal_on_grid_lobes(
+        &self,
+        sigma_a: f64,
+        w: f64,
+        phi_start: f64,
+        phi_step: f64,
+        phi_count: usize,
+        lobes: &[usize],
+    ) -> Vec<[f64; LOBES]> {
         assert!(w > 0.0, "azimuthal grid evaluation needs a positive width");
         assert!(phi_step > 0.0 && phi_count > 0);
         let mut out = vec![[0.0; LOBES]; phi_count];
@@ -460,7 +474,7 @@ impl FiberSlice {
         for ((x, wt), ph) in self.crossing.iter().zip(&self.weight).zip(&self.phi) {
             let a = attenuations(x, sigma_a);
             residual += wt * a[3];
-            for p in 0..3 {
+            for &p in lobes {
                 if a[p] == 0.0 {
                     continue;
                 }

@@ -7,7 +7,10 @@ use crate::hair::dual::{
     DUAL_CHANNELS, HQuadrature, LobeShape, PhysicalFiber, combine_with_diffuse, elliptic_slices,
     orientation_averaged_energies,
 };
-use crate::hair::elliptic::{DEFAULT_ORIENTATION_NODES, orientation_indices, validate_axis_ratio};
+use crate::hair::elliptic::{
+    DEFAULT_ORIENTATION_NODES, orientation_indices, orientation_nodes_for_width,
+    validate_axis_ratio,
+};
 use crate::hair::fiber::{FresnelModel, LOBE_NAMES, LOBES, OffsetQuadrature};
 use crate::hair::melanin::{sigma_a_from_absorption_u, sigma_a_from_melanin};
 use crate::stages::{
@@ -212,6 +215,7 @@ fn fibre_features(
 fn feature_attributes(
     diffuse: &DiffuseTerms,
     axis_ratio: f64,
+    orientation_nodes: usize,
     attributes: &mut Map<String, Value>,
 ) {
     if !diffuse.is_zero() {
@@ -236,7 +240,7 @@ fn feature_attributes(
                 "axis_ratio": axis_ratio,
                 "model": "Marschner et al. 2003 first order: TRT exit azimuth with η*(ψ) = ½(η*₁+η*₂) − ½cos(2ψ)(η*₁−η*₂), η*₁ = 2(η−1)a² − η + 2, η*₂ = 2(η−1)/a² − η + 2, ψ = φ_h − φ_major; η* replaces η before the Bravais index; Fresnel and chords use η; R, TT, residual circular (docs/decisions.md FIB-22, FIB-23)",
                 "orientation": "TRT averaged over the orientation of the major axis (uniform), so the table stays a function of (θ, φ) (docs/decisions.md FIB-24)",
-                "orientation_nodes": DEFAULT_ORIENTATION_NODES,
+                "orientation_nodes": orientation_nodes,
             }),
         );
     }
@@ -596,7 +600,12 @@ impl ThetaRows for HairDualJob {
             Some(m) => artist_attributes(m, &mut attributes)?,
             None => {
                 self.physical_attributes(doubling, &mut attributes);
-                feature_attributes(&self.diffuse, self.axis_ratio, &mut attributes);
+                feature_attributes(
+                    &self.diffuse,
+                    self.axis_ratio,
+                    DEFAULT_ORIENTATION_NODES,
+                    &mut attributes,
+                );
                 if !self.diffuse.is_zero() {
                     attributes.insert("diffuse_in_averages".into(), json!(format!(
                         "ā_f, ā_b include the diffuse albedos (the E_p channels do not); ᾱ, β̄² include the diffuse term with its θ_h moments θ_i/2 and (π² − 6)/48 = {DIFFUSE_THETA_H_VARIANCE:.6} rad²; N^G are the lobes' only, add diffuse.forward_average in f_s^scatter (docs/decisions.md DS-32)"
@@ -833,6 +842,15 @@ impl HairAzimuthalJob {
         })
     }
 
+    /// Orientation nodes of the elliptic TRT average for this table's azimuthal width.
+    fn orientation_nodes(&self) -> usize {
+        orientation_nodes_for_width(
+            self.params.eta,
+            self.axis_ratio,
+            self.params.azimuthal_width_deg.to_radians(),
+        )
+    }
+
     /// Channels per (absorption, φ): R, TT, TRT, residual, sum, and `diffuse` when a diffuse term
     /// is set.
     fn channel_count(&self) -> usize {
@@ -849,7 +867,7 @@ impl HairAzimuthalJob {
             self.params.quadrature_order,
             &[],
         );
-        let nodes = (DEFAULT_ORIENTATION_NODES as f64 * panel_scale) as usize;
+        let nodes = (self.orientation_nodes() as f64 * panel_scale) as usize;
         let idx = orientation_indices(self.params.eta, self.axis_ratio, nodes);
         let fibre = PhysicalFiber {
             diffuse: self.diffuse,
@@ -874,7 +892,8 @@ impl HairAzimuthalJob {
                 // TRT averaged over the orientation nodes (FIB-24); R, TT, residual unchanged.
                 let mut trt = vec![0.0; n];
                 for v in &variants {
-                    for (t, g) in trt.iter_mut().zip(v.azimuthal_on_grid(s, w, 0.0, step, n)) {
+                    let g = v.azimuthal_on_grid_lobes(s, w, 0.0, step, n, &[2]);
+                    for (t, g) in trt.iter_mut().zip(g) {
                         *t += g[2];
                     }
                 }
@@ -956,7 +975,12 @@ impl ThetaRows for HairAzimuthalJob {
                 .into(),
         );
         attributes.insert("roughness".into(), "each lobe convolved with a wrapped normal of std azimuthal_width_deg (exactly normalised on the circle)".into());
-        feature_attributes(&self.diffuse, self.axis_ratio, &mut attributes);
+        feature_attributes(
+            &self.diffuse,
+            self.axis_ratio,
+            self.orientation_nodes(),
+            &mut attributes,
+        );
         attributes.insert(
             "quadrature".into(),
             json!({
@@ -1155,6 +1179,34 @@ mod tests {
             assert_eq!(t.data[j * 6 + 1], c0.data[j * 5 + 1]);
         }
         assert!(t.attributes["elliptic"]["axis_ratio"].as_f64() == Some(0.9));
+        // Quadrature doubling (h panels halved and 16 instead of 8 orientation nodes).
+        let dbl = t.attributes["quadrature"]["doubling_max_rel_change"]
+            .as_f64()
+            .unwrap();
+        println!("hair-azimuthal, axis_ratio 0.9, w_φ = 3°: doubling_max_rel_change {dbl:.2e}");
+        assert!(dbl < 1e-6, "{dbl}");
+        // hair-dual with the smallest axis ratio, smooth and rough fibre.
+        for ratio in ["0.0", "1.0"] {
+            let t = build(
+                &HairDualStage,
+                &format!(
+                    "sigma_a = [0.0, 0.3]\ntheta_count = 13\naxis_ratio = 0.85\nazimuthal_width_ratio = {ratio}\nroughness_deg = [5.0]"
+                ),
+            );
+            let dbl = t.attributes["quadrature"]["doubling_max_abs_change"]
+                .as_f64()
+                .unwrap();
+            println!(
+                "hair-dual, axis_ratio 0.85, w_φ/β_R = {ratio}: doubling_max_abs_change {dbl:.2e}"
+            );
+            assert!(dbl < 1e-6, "{dbl}");
+            // Lossless column: ā_f + ā_b = 1 (no clamp reached at β_R = 5°? checked via E_p).
+            for it in 0..13 {
+                let v = &t.data[it * DUAL_TABLE_CHANNELS..(it + 1) * DUAL_TABLE_CHANNELS];
+                let e: f32 = v[12..16].iter().sum();
+                assert!((e - 1.0).abs() < 1e-5, "{v:?}");
+            }
+        }
     }
 
     #[test]

@@ -451,5 +451,32 @@ mod tests {
         let csv = dual_csv(&t).unwrap();
         assert_eq!(csv.lines().count(), 10);
         assert_eq!(csv.lines().next().unwrap().split(',').count(), 1 + 16 * 3);
+
+        // The fibre-feature options carry the manifest keys' names and checks.
+        let mut with = args.clone();
+        with.higher_order_kd = Some(0.01);
+        with.axis_ratio = Some(0.9);
+        let job = HairDualJob::new(dual_params_from_args(&with, None).unwrap()).unwrap();
+        let t2 = scatterbake::stages::run_in_memory(&job).unwrap();
+        let j2 = dual_json(&t2).unwrap();
+        // θ = 0 (index 4): ā_b rises by π² k_d in every channel (below the clamp).
+        let pi2 = std::f64::consts::PI.powi(2);
+        for c in 0..3 {
+            let d = j2["a_b"][4][c].as_f64().unwrap() - j["a_b"][4][c].as_f64().unwrap();
+            assert!((d - pi2 * 0.01).abs() < 1e-6, "{d}");
+        }
+        for (lambertian, axis, key) in [
+            (Some(0.5), None, "lambertian_kd"),
+            (None, Some(0.5), "axis_ratio"),
+        ] {
+            let mut bad = args.clone();
+            bad.lambertian_kd = lambertian;
+            bad.axis_ratio = axis;
+            let err = HairDualJob::new(dual_params_from_args(&bad, None).unwrap())
+                .err()
+                .expect("refused")
+                .to_string();
+            assert!(err.contains(key), "{err}");
+        }
     }
 }
