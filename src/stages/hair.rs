@@ -869,6 +869,7 @@ impl HairAzimuthalJob {
         );
         let nodes = (self.orientation_nodes() as f64 * panel_scale) as usize;
         let idx = orientation_indices(self.params.eta, self.axis_ratio, nodes);
+        // Only the index, Fresnel model and axis ratio matter for the slices (lobes unused).
         let fibre = PhysicalFiber {
             diffuse: self.diffuse,
             axis_ratio: self.axis_ratio,
