@@ -40,6 +40,8 @@ fn one_cell(c: &mut Criterion) {
         fresnel: FresnelModel::ThreeD,
         lobes: LobeShape::marschner(5f64.to_radians(), 7.5f64.to_radians()),
         azimuthal_width_rad: 7.5f64.to_radians(),
+        diffuse: Default::default(),
+        axis_ratio: 1.0,
     };
     let theta = 0.4;
     let sigma = 0.3;

@@ -16,7 +16,12 @@
 //! of the azimuthal functions at the incident inclination; a lossless fibre then gives
 //! `a_f + a_b = 1` (up to the `h` quadrature).
 
-use super::fiber::{FiberSlice, FresnelModel, LOBES, OffsetQuadrature, hemisphere_breakpoints};
+use super::diffuse::{DIFFUSE_THETA_H_VARIANCE, DiffuseTerms};
+use super::elliptic::orientation_indices;
+use super::fiber::{
+    FiberSlice, FresnelModel, LOBES, OffsetQuadrature, hemisphere_breakpoints,
+    hemisphere_breakpoints_trt,
+};
 use serde::{Deserialize, Serialize};
 use std::f64::consts::PI;
 
@@ -151,6 +156,43 @@ pub fn combine(
     from_lobe_energies(eb, ef, &lobes.alpha_rad, &lobes.beta_rad, n_g, d_b, clamp)
 }
 
+/// [`combine`] with the fibre's diffuse terms (decision DS-32): their hemisphere albedos (closed
+/// forms, [`DiffuseTerms::hemisphere_albedos`]) are added to ā_b and ā_f as one more "lobe"
+/// whose shift and variance are the exact θ_h moments of a term constant in θ_o under the
+/// energy measure, `θ_i/2` and `(π² − 6)/48`; N^G stays per lobe (the diffuse forward average is
+/// [`DiffuseTerms::forward_average`]). Without diffuse terms this is [`combine`], bit for bit.
+pub fn combine_with_diffuse(
+    eb: &[f64; LOBES],
+    ef: &[f64; LOBES],
+    lobes: &LobeShape,
+    diffuse: &DiffuseTerms,
+    theta_i: f64,
+    d_b: f64,
+    clamp: f64,
+) -> DualScattering {
+    if diffuse.is_zero() {
+        return combine(eb, ef, lobes, d_b, clamp);
+    }
+    let (db, df) = diffuse.hemisphere_albedos();
+    let n_g = [ef[0] / PI, ef[1] / PI, ef[2] / PI];
+    let ext = |e: &[f64; LOBES], d: f64| [e[0], e[1], e[2], e[3], d];
+    let alpha = [
+        lobes.alpha_rad[0],
+        lobes.alpha_rad[1],
+        lobes.alpha_rad[2],
+        lobes.alpha_rad[3],
+        0.5 * theta_i,
+    ];
+    let beta = [
+        lobes.beta_rad[0],
+        lobes.beta_rad[1],
+        lobes.beta_rad[2],
+        lobes.beta_rad[3],
+        DIFFUSE_THETA_H_VARIANCE.sqrt(),
+    ];
+    from_lobe_energies(&ext(eb, db), &ext(ef, df), &alpha, &beta, n_g, d_b, clamp)
+}
+
 /// The twelve quantities from the backward (`eb`) and forward (`ef`) energy of each of `N`
 /// lobes with shifts `alpha_rad` and widths `beta_rad` (rad), and the forward-averaged
 /// azimuthal functions `n_g` (R, TT, TRT, per radian): ā clamped to `clamp`, ᾱ and β̄²
@@ -208,6 +250,36 @@ pub struct PhysicalFiber {
     pub lobes: LobeShape,
     /// Azimuthal roughness: standard deviation of the wrapped normal blur (rad), 0 = smooth.
     pub azimuthal_width_rad: f64,
+    /// Diffuse terms of the BCSDF (both 0: none; decisions FIB-21, DS-32).
+    #[serde(default)]
+    pub diffuse: DiffuseTerms,
+    /// Minor/major axis ratio of an elliptic cross-section, 0.85–1 (1: circular; TRT uses
+    /// Marschner's η*, averaged over the orientation of the major axis; FIB-22 … FIB-24).
+    #[serde(default = "circular")]
+    pub axis_ratio: f64,
+}
+
+fn circular() -> f64 {
+    1.0
+}
+
+impl PhysicalFiber {
+    /// A circular fibre without diffuse terms.
+    pub fn new(
+        eta: f64,
+        fresnel: FresnelModel,
+        lobes: LobeShape,
+        azimuthal_width_rad: f64,
+    ) -> Self {
+        PhysicalFiber {
+            eta,
+            fresnel,
+            lobes,
+            azimuthal_width_rad,
+            diffuse: DiffuseTerms::default(),
+            axis_ratio: 1.0,
+        }
+    }
 }
 
 /// Quadrature settings for the `h` integral: composite Gauss–Legendre in `γ_i = asin h` with
@@ -221,6 +293,8 @@ pub struct HQuadrature {
     /// Panel width as a fraction of the azimuthal width when that is smaller (|dΦ/dγ| ≤ 2 for
     /// p ≤ 2, so a panel of `w/2` spans at most one standard deviation in φ).
     pub panels_per_width: f64,
+    /// Orientation nodes of the major-axis average of an elliptic fibre (FIB-24).
+    pub orientation_nodes: usize,
 }
 
 impl Default for HQuadrature {
@@ -229,6 +303,7 @@ impl Default for HQuadrature {
             order: 8,
             max_panel_rad: 0.05,
             panels_per_width: 2.0,
+            orientation_nodes: super::elliptic::DEFAULT_ORIENTATION_NODES,
         }
     }
 }
@@ -239,6 +314,7 @@ impl HQuadrature {
         HQuadrature {
             max_panel_rad: self.max_panel_rad / 2.0,
             panels_per_width: self.panels_per_width * 2.0,
+            orientation_nodes: self.orientation_nodes * 2,
             ..self
         }
     }
@@ -258,6 +334,70 @@ impl HQuadrature {
             &hemisphere_breakpoints(eta, theta_rad),
         )
     }
+
+    /// [`Self::offsets`] split also where the TRT azimuth of every effective index in
+    /// `trt_indices` crosses the hemisphere boundary (elliptic fibre); identical to
+    /// [`Self::offsets`] for the single index `[eta]`.
+    pub fn offsets_for(
+        &self,
+        eta: f64,
+        trt_indices: &[f64],
+        theta_rad: f64,
+        min_width: f64,
+    ) -> OffsetQuadrature {
+        if trt_indices == [eta] {
+            return self.offsets(eta, theta_rad, min_width);
+        }
+        let mut b = hemisphere_breakpoints(eta, theta_rad);
+        for &n in trt_indices {
+            b.extend(hemisphere_breakpoints_trt(eta, n, theta_rad));
+        }
+        b.sort_by(f64::total_cmp);
+        OffsetQuadrature::new(self.panel_for(min_width), self.order, &b)
+    }
+}
+
+/// The fibre's slice at one inclination on `offs` and, for an elliptic fibre, its variants with
+/// the TRT index of every orientation node (empty for a circular fibre).
+pub fn elliptic_slices(
+    fiber: &PhysicalFiber,
+    theta_rad: f64,
+    trt_indices: &[f64],
+    offs: &OffsetQuadrature,
+) -> (FiberSlice, Vec<FiberSlice>) {
+    let slice = FiberSlice::new(fiber.eta, theta_rad, fiber.fresnel, offs);
+    let variants = if trt_indices == [fiber.eta] {
+        Vec::new()
+    } else {
+        trt_indices
+            .iter()
+            .map(|&n| slice.with_trt_index(n, offs))
+            .collect()
+    };
+    (slice, variants)
+}
+
+/// Hemisphere lobe energies of `slice`, with the TRT lobe averaged over the orientation
+/// `variants` (equal weights) when there are any; `wa` are the weighted attenuations,
+/// `wbs[0]` the backward fractions of `slice` and `wbs[1..]` those of the variants.
+pub fn orientation_averaged_energies(
+    slice: &FiberSlice,
+    variants: &[FiberSlice],
+    wa: &[[f64; LOBES]],
+    wbs: &[Vec<[f64; 3]>],
+) -> ([f64; LOBES], [f64; LOBES]) {
+    let (mut eb, mut ef) = slice.hemisphere_energies_from(wa, &wbs[0]);
+    if !variants.is_empty() {
+        let (mut tb, mut tf) = (0.0, 0.0);
+        for (v, wb) in variants.iter().zip(&wbs[1..]) {
+            let (b, f) = v.hemisphere_energies_from(wa, wb);
+            tb += b[2];
+            tf += f[2];
+        }
+        eb[2] = tb / variants.len() as f64;
+        ef[2] = tf / variants.len() as f64;
+    }
+    (eb, ef)
 }
 
 /// Hemisphere lobe energies `(E_b, E_f)` for one inclination and absorption.
@@ -267,10 +407,20 @@ pub fn hemisphere_lobe_energies(
     sigma_a: f64,
     quad: &HQuadrature,
 ) -> ([f64; LOBES], [f64; LOBES]) {
-    let offs = quad.offsets(fiber.eta, theta_rad, fiber.azimuthal_width_rad);
-    let slice = FiberSlice::new(fiber.eta, theta_rad, fiber.fresnel, &offs);
-    let wb = slice.backward_fractions(fiber.azimuthal_width_rad);
-    slice.hemisphere_energies(sigma_a, &wb)
+    let idx = orientation_indices(fiber.eta, fiber.axis_ratio, quad.orientation_nodes);
+    let offs = quad.offsets_for(fiber.eta, &idx, theta_rad, fiber.azimuthal_width_rad);
+    let (slice, variants) = elliptic_slices(fiber, theta_rad, &idx, &offs);
+    let w = fiber.azimuthal_width_rad;
+    let wbs: Vec<Vec<[f64; 3]>> = std::iter::once(&slice)
+        .chain(&variants)
+        .map(|s| s.backward_fractions(w))
+        .collect();
+    orientation_averaged_energies(
+        &slice,
+        &variants,
+        &slice.weighted_attenuations(sigma_a),
+        &wbs,
+    )
 }
 
 /// The twelve DS quantities of the physical fibre at inclination `theta_rad` for absorption
@@ -284,7 +434,15 @@ pub fn dual_scattering_physical(
     quad: &HQuadrature,
 ) -> DualScattering {
     let (eb, ef) = hemisphere_lobe_energies(fiber, theta_rad, sigma_a, quad);
-    combine(&eb, &ef, &fiber.lobes, d_b, clamp)
+    combine_with_diffuse(
+        &eb,
+        &ef,
+        &fiber.lobes,
+        &fiber.diffuse,
+        theta_rad,
+        d_b,
+        clamp,
+    )
 }
 
 /// The physical fibre's scattering function `f_s(θ_i, θ_o, φ)` at a fixed incident inclination
@@ -317,14 +475,20 @@ impl PhysicalBcsdf {
         }
     }
 
-    /// `f_s` at outgoing inclination `theta_o` and relative azimuth `phi` (rad).
+    /// `f_s` at outgoing inclination `theta_o` and relative azimuth `phi` (rad): the lobes plus
+    /// the diffuse terms; TRT of an elliptic fibre averaged over the orientation of the major
+    /// axis ([`super::elliptic::DEFAULT_ORIENTATION_NODES`] nodes).
     pub fn eval(&self, theta_o: f64, phi: f64) -> f64 {
-        use super::fiber::azimuthal_pointwise;
+        use super::elliptic::{
+            DEFAULT_ORIENTATION_NODES, azimuthal_orientation_averaged_pointwise,
+        };
         use super::longitudinal::{cos2_theta_d, gaussian};
         let f = &self.fiber;
         let panels = ((PI / (0.5 * f.azimuthal_width_rad)).ceil() as usize).max(64);
-        let n = azimuthal_pointwise(
+        let n = azimuthal_orientation_averaged_pointwise(
             f.eta,
+            f.axis_ratio,
+            DEFAULT_ORIENTATION_NODES,
             self.theta_i,
             phi,
             self.sigma_a,
@@ -340,7 +504,8 @@ impl PhysicalBcsdf {
                 let (a, b) = (f.lobes.alpha_rad[p], f.lobes.beta_rad[p]);
                 gaussian(t_h - a, b * b) * n[p] / (self.z[p] * c2)
             })
-            .sum()
+            .sum::<f64>()
+            + f.diffuse.bcsdf(phi)
     }
 }
 
@@ -386,6 +551,8 @@ mod tests {
             fresnel: FresnelModel::ThreeD,
             lobes: LobeShape::marschner(deg(5.0), deg(7.5)),
             azimuthal_width_rad: deg(7.5),
+            diffuse: Default::default(),
+            axis_ratio: 1.0,
         }
     }
 
@@ -509,6 +676,140 @@ mod tests {
         }
     }
 
+    /// The diffuse terms add exactly their closed-form hemisphere albedos to ā_b and ā_f
+    /// (π²k_d each for the higher-order constant, (π/2)k_d(1 ± π/4) for the Lambertian
+    /// cylinder), leave N^G alone and enter ᾱ, β̄² with weight = albedo; and a brute-force 2-D
+    /// integral of the pointwise f_s including f_d (white furnace: lossless fibre) gives
+    /// 1 + albedo split as predicted.
+    #[test]
+    fn diffuse_terms_add_their_albedo_exactly() {
+        use crate::math::quadrature::gauss_legendre_interval;
+        let q = HQuadrature::default();
+        let base = blond();
+        for (l, h) in [(0.2, 0.0), (0.0, 0.03), (0.1, 0.02)] {
+            let mut fiber = base;
+            fiber.diffuse = DiffuseTerms {
+                lambertian_kd: l,
+                higher_order_kd: h,
+            };
+            let (ab, af) = fiber.diffuse.hemisphere_albedos();
+            assert!((ab - (0.5 * PI * l * (1.0 + PI / 4.0) + PI * PI * h)).abs() < 1e-14);
+            assert!((af - (0.5 * PI * l * (1.0 - PI / 4.0) + PI * PI * h)).abs() < 1e-14);
+            for theta in [deg(-60.0), 0.0, deg(35.0)] {
+                let ds0 = dual_scattering_physical(&base, theta, 0.5, 0.7, 1.0, &q);
+                let ds = dual_scattering_physical(&fiber, theta, 0.5, 0.7, 1.0, &q);
+                assert!(
+                    (ds.a_b - ds0.a_b - ab).abs() < 1e-14,
+                    "{} {}",
+                    ds.a_b,
+                    ds0.a_b
+                );
+                assert!((ds.a_f - ds0.a_f - af).abs() < 1e-14);
+                assert_eq!(
+                    (ds.n_g_r, ds.n_g_tt, ds.n_g_trt),
+                    (ds0.n_g_r, ds0.n_g_tt, ds0.n_g_trt)
+                );
+                let want_alpha_b = (ds0.a_b * ds0.alpha_b + ab * 0.5 * theta) / (ds0.a_b + ab);
+                let want_beta_f2 =
+                    (ds0.a_f * ds0.beta_f2 + af * DIFFUSE_THETA_H_VARIANCE) / (ds0.a_f + af);
+                assert!((ds.alpha_b - want_alpha_b).abs() < 1e-14);
+                assert!((ds.beta_f2 - want_beta_f2).abs() < 1e-14);
+            }
+            // White furnace with the pointwise f_s (lobes + f_d), lossless fibre, θ_i = 20°.
+            let theta_i = deg(20.0);
+            let (eb, ef) = hemisphere_lobe_energies(&fiber, theta_i, 0.0, &q);
+            let f_s = PhysicalBcsdf::new(&fiber, theta_i, 0.0);
+            let (to, wo) = gauss_legendre_interval(48, -PI / 2.0, PI / 2.0);
+            let (pb, wb) = gauss_legendre_interval(24, 0.0, PI / 2.0);
+            let (pf, wf) = gauss_legendre_interval(24, PI / 2.0, PI);
+            let (mut back, mut fwd) = (0.0, 0.0);
+            for (t, w1) in to.iter().zip(&wo) {
+                for (p, w2) in pb.iter().zip(&wb) {
+                    back += 2.0 * w1 * w2 * f_s.eval(*t, *p) * t.cos().powi(2);
+                }
+                for (p, w2) in pf.iter().zip(&wf) {
+                    fwd += 2.0 * w1 * w2 * f_s.eval(*t, *p) * t.cos().powi(2);
+                }
+            }
+            let (sb, sf): (f64, f64) = (eb.iter().sum(), ef.iter().sum());
+            assert!((sb + sf - 1.0).abs() < 1e-12);
+            println!(
+                "white furnace, lambertian_kd = {l}, higher_order_kd = {h}: brute force {:.6} vs 1 + albedo {:.6}",
+                back + fwd,
+                1.0 + fiber.diffuse.albedo()
+            );
+            assert!(
+                (back - sb - ab).abs() < 2e-4 && (fwd - sf - af).abs() < 2e-4,
+                "{back} vs {} + {ab}, {fwd} vs {} + {af}",
+                sb,
+                sf
+            );
+        }
+    }
+
+    /// Elliptic fibre: a lossless fibre still conserves energy (η* moves TRT, it does not change
+    /// its energy), a = 1 reproduces the circular averages bit for bit, the factored
+    /// orientation-averaged energies match a brute-force 2-D integral of the pointwise,
+    /// orientation-averaged f_s, and the orientation rule is converged.
+    #[test]
+    fn elliptic_fibre_averages() {
+        use crate::math::quadrature::gauss_legendre_interval;
+        let q = HQuadrature::default();
+        let circ = blond();
+        let mut unit = circ;
+        unit.axis_ratio = 1.0;
+        let mut ell = circ;
+        ell.axis_ratio = 0.85;
+        for theta in [deg(-50.0), 0.0, deg(20.0), deg(80.0)] {
+            let a = dual_scattering_physical(&circ, theta, 0.3, 0.7, 0.99, &q);
+            assert_eq!(
+                a,
+                dual_scattering_physical(&unit, theta, 0.3, 0.7, 0.99, &q)
+            );
+            for w in [0.0, deg(7.5)] {
+                let mut f = ell;
+                f.azimuthal_width_rad = w;
+                let (eb, ef) = hemisphere_lobe_energies(&f, theta, 0.0, &q);
+                let total: f64 = eb.iter().chain(&ef).sum();
+                assert!((total - 1.0).abs() < 1e-12, "θ={theta} w={w}: {total}");
+            }
+        }
+        // Orientation rule: 8 against 16 nodes.
+        let (cb, _) = hemisphere_lobe_energies(&circ, 0.0, 0.0, &q);
+        let (xb, _) = hemisphere_lobe_energies(&ell, 0.0, 0.0, &q);
+        let mut nodes16 = q;
+        nodes16.orientation_nodes = 16;
+        let (yb, _) = hemisphere_lobe_energies(&ell, 0.0, 0.0, &nodes16);
+        println!(
+            "a = 0.85, θ = 0, lossless: backward TRT energy {:.6} (circular {:.6}); 8 vs 16 orientation nodes Δ = {:.1e}",
+            xb[2],
+            cb[2],
+            (xb[2] - yb[2]).abs()
+        );
+        assert!((xb[2] - yb[2]).abs() < 1e-6);
+        let theta_i = deg(15.0);
+        let (eb, ef) = hemisphere_lobe_energies(&ell, theta_i, 0.2, &q);
+        let f_s = PhysicalBcsdf::new(&ell, theta_i, 0.2);
+        let (to, wo) = gauss_legendre_interval(32, -PI / 2.0, PI / 2.0);
+        let (pb, wb) = gauss_legendre_interval(24, 0.0, PI / 2.0);
+        let (mut back, mut all) = (0.0, 0.0);
+        let (pa, wa) = gauss_legendre_interval(48, 0.0, PI);
+        for (t, w1) in to.iter().zip(&wo) {
+            for (p, w2) in pb.iter().zip(&wb) {
+                back += 2.0 * w1 * w2 * f_s.eval(*t, *p) * t.cos().powi(2);
+            }
+            for (p, w2) in pa.iter().zip(&wa) {
+                all += 2.0 * w1 * w2 * f_s.eval(*t, *p) * t.cos().powi(2);
+            }
+        }
+        let sb: f64 = eb.iter().sum();
+        let st: f64 = sb + ef.iter().sum::<f64>();
+        assert!(
+            (back - sb).abs() < 2e-4 && (all - st).abs() < 2e-4,
+            "{back} vs {sb}, {all} vs {st}"
+        );
+    }
+
     /// Independent check of the hemisphere split: integrate the pointwise N_p(φ) over φ with a
     /// plain Gauss–Legendre rule (no closed-form erf windows, no breakpoints).
     #[test]
@@ -561,6 +862,8 @@ mod accuracy {
             fresnel: FresnelModel::ThreeD,
             lobes: LobeShape::marschner(5f64.to_radians(), 7.5f64.to_radians()),
             azimuthal_width_rad: w_deg.to_radians(),
+            diffuse: Default::default(),
+            axis_ratio: 1.0,
         }
     }
 
@@ -607,6 +910,8 @@ mod accuracy {
             fresnel: FresnelModel::ThreeD,
             lobes: LobeShape::marschner(0.0, 0.1),
             azimuthal_width_rad: 0.0,
+            diffuse: Default::default(),
+            axis_ratio: 1.0,
         };
         let (eb, ef) = hemisphere_lobe_energies(&fiber, 0.0, 0.0, &q);
         let e: Vec<f64> = (0..LOBES).map(|p| eb[p] + ef[p]).collect();

@@ -83,6 +83,15 @@ pub struct Crossing {
     pub gamma_t: f64,
 }
 
+/// Refraction angle `γ_t` in the normal plane (`sin γ_t = h/n'`) for index `eta`, computed as
+/// in [`crossing`].
+pub fn refraction_angle(eta: f64, theta_rad: f64, h: f64) -> f64 {
+    let s = theta_rad.sin();
+    let c = theta_rad.cos().abs();
+    let root = (eta * eta - s * s).sqrt();
+    (h * c / root).clamp(-1.0, 1.0).asin()
+}
+
 /// Optical quantities at offset `h ∈ [−1, 1]` and inclination `theta_rad`.
 pub fn crossing(eta: f64, theta_rad: f64, h: f64, fresnel: FresnelModel) -> Crossing {
     let s = theta_rad.sin();
@@ -270,11 +279,21 @@ impl OffsetQuadrature {
 /// Values of `γ_i ∈ (0, π/2)` where some lobe's exit azimuth crosses the hemisphere boundary
 /// `|φ| = π/2` (where the hemisphere indicator of a smooth fibre jumps).
 pub fn hemisphere_breakpoints(eta: f64, theta_rad: f64) -> Vec<f64> {
+    hemisphere_breakpoints_trt(eta, eta, theta_rad)
+}
+
+/// [`hemisphere_breakpoints`] with the TRT exit azimuth computed for its own index `eta_trt`
+/// (the effective index η* of an elliptic fibre, [`super::elliptic`]); R and TT use `eta`.
+pub fn hemisphere_breakpoints_trt(eta: f64, eta_trt: f64, theta_rad: f64) -> Vec<f64> {
     let s = theta_rad.sin();
     let c = theta_rad.cos().abs();
     let root = (eta * eta - s * s).sqrt();
-    let gt = |g: f64| (g.sin() * c / root).asin();
-    let level = |p: usize, g: f64| wrap_angle(exit_azimuth(p, g, gt(g))).abs() - FRAC_PI_2;
+    let root_trt = (eta_trt * eta_trt - s * s).sqrt();
+    let gt = |g: f64, r: f64| (g.sin() * c / r).asin();
+    let level = |p: usize, g: f64| {
+        let r = if p == 2 { root_trt } else { root };
+        wrap_angle(exit_azimuth(p, g, gt(g, r))).abs() - FRAC_PI_2
+    };
     let n = 4096;
     let mut out = Vec::new();
     for p in 0..3 {
@@ -339,6 +358,18 @@ impl FiberSlice {
             crossing: crossing_v,
             phi,
         }
+    }
+
+    /// The same slice with the TRT exit azimuths recomputed for the index `eta_trt` (the
+    /// effective index η* of an elliptic fibre, [`super::elliptic`]); the attenuations (Fresnel
+    /// and chord of the true index) and the R, TT azimuths are kept (decision FIB-23).
+    /// `quad` must be the quadrature the slice was built on.
+    pub fn with_trt_index(&self, eta_trt: f64, quad: &OffsetQuadrature) -> Self {
+        let mut out = self.clone();
+        for (ph, &g) in out.phi.iter_mut().zip(&quad.gamma) {
+            ph[2] = exit_azimuth(2, g, refraction_angle(eta_trt, self.theta_rad, g.sin()));
+        }
+        out
     }
 
     /// Lobe energies `½∫ a_p dh` for absorption `sigma_a`.
@@ -419,6 +450,20 @@ impl FiberSlice {
         phi_step: f64,
         phi_count: usize,
     ) -> Vec<[f64; LOBES]> {
+        self.azimuthal_on_grid_lobes(sigma_a, w, phi_start, phi_step, phi_count, &[0, 1, 2])
+    }
+
+    /// [`Self::azimuthal_on_grid`] evaluating only the listed lobes among R, TT, TRT (the others
+    /// stay 0; the residual is always filled).
+    pub fn azimuthal_on_grid_lobes(
+        &self,
+        sigma_a: f64,
+        w: f64,
+        phi_start: f64,
+        phi_step: f64,
+        phi_count: usize,
+        lobes: &[usize],
+    ) -> Vec<[f64; LOBES]> {
         assert!(w > 0.0, "azimuthal grid evaluation needs a positive width");
         assert!(phi_step > 0.0 && phi_count > 0);
         let mut out = vec![[0.0; LOBES]; phi_count];
@@ -429,7 +474,7 @@ impl FiberSlice {
         for ((x, wt), ph) in self.crossing.iter().zip(&self.weight).zip(&self.phi) {
             let a = attenuations(x, sigma_a);
             residual += wt * a[3];
-            for p in 0..3 {
+            for &p in lobes {
                 if a[p] == 0.0 {
                     continue;
                 }
@@ -473,6 +518,25 @@ pub fn azimuthal_pointwise(
     panels: usize,
     order: usize,
 ) -> [f64; LOBES] {
+    azimuthal_pointwise_trt(
+        eta, eta, theta_rad, phi_rad, sigma_a, w, fresnel, panels, order,
+    )
+}
+
+/// [`azimuthal_pointwise`] with the TRT exit azimuth computed for its own index `eta_trt` (the
+/// effective index η* of an elliptic fibre); attenuations use `eta` (decision FIB-23).
+#[allow(clippy::too_many_arguments)]
+pub fn azimuthal_pointwise_trt(
+    eta: f64,
+    eta_trt: f64,
+    theta_rad: f64,
+    phi_rad: f64,
+    sigma_a: f64,
+    w: f64,
+    fresnel: FresnelModel,
+    panels: usize,
+    order: usize,
+) -> [f64; LOBES] {
     let (x, wq) = gauss_legendre(order);
     let step = PI / panels as f64;
     let mut out = [0.0; LOBES];
@@ -484,8 +548,12 @@ pub fn azimuthal_pointwise(
             let c = crossing(eta, theta_rad, g.sin(), fresnel);
             let a = attenuations(&c, sigma_a);
             for p in 0..3 {
-                out[p] +=
-                    weight * a[p] * wrapped_normal(phi_rad - exit_azimuth(p, g, c.gamma_t), w);
+                let gt = if p == 2 && eta_trt != eta {
+                    refraction_angle(eta_trt, theta_rad, g.sin())
+                } else {
+                    c.gamma_t
+                };
+                out[p] += weight * a[p] * wrapped_normal(phi_rad - exit_azimuth(p, g, gt), w);
             }
             out[3] += weight * a[3] / TAU;
         }

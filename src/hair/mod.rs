@@ -6,6 +6,8 @@
 //!
 //! - [`fiber`]: smooth/rough dielectric cylinder, Bravais indices, Fresnel, absorption, `N_p`;
 //! - [`longitudinal`]: longitudinal lobes `M_p` and their energy normalisation;
+//! - [`diffuse`]: the two diffuse `k_d` terms (Lambertian cylinder, higher-order constant);
+//! - [`elliptic`]: elliptic cross-sections (axis ratio, Marschner's effective TRT index η*);
 //! - [`dual`]: Dual Scattering averages and closed forms;
 //! - [`artist`]: the artist-friendly model with the scalar normalisation of thesis eq. 4.17;
 //! - [`melanin`]: eumelanin/pheomelanin concentration → `σ_a`;
@@ -16,7 +18,9 @@
 //! JSON exports [`crate::consumers::export::hair_lut`].
 
 pub mod artist;
+pub mod diffuse;
 pub mod dual;
+pub mod elliptic;
 pub mod fiber;
 pub mod longitudinal;
 pub mod melanin;

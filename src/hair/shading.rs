@@ -17,6 +17,7 @@
 //! - the F^scatter weight is the thesis's `(T_f − directFraction)·d_f`, clamped at 0: as printed
 //!   it is negative at a fully lit point (T_f = d_f = 0.7 < directFraction = 1).
 
+use super::diffuse::DiffuseTerms;
 use super::dual::DualScattering;
 use super::longitudinal::{cos2_theta_d, gaussian};
 use std::f64::consts::PI;
@@ -109,6 +110,15 @@ pub fn f_s_scatter(
         })
         .sum::<f64>()
         / a.cos2_theta_d()
+}
+
+/// The diffuse terms' part of f_s^scatter (decision DS-32): the forward azimuthal average
+/// (2/π)∫_{π/2}^{π} f_d dφ of the diffuse BCSDF, constant in θ_h — f_d has no longitudinal lobe
+/// and no 1/cos²θ_d, so the longitudinal broadening by σ̄_f² leaves it unchanged. Add it to
+/// [`f_s_scatter`] when the fibre has diffuse terms (the table's N^G are the lobes' only; the
+/// value is the header attribute `diffuse.forward_average`).
+pub fn f_s_scatter_diffuse(diffuse: &DiffuseTerms) -> f64 {
+    diffuse.forward_average()
 }
 
 /// Everything a light contributes at a shading point, per channel:
@@ -269,5 +279,21 @@ mod tests {
             * 0.3f64.cos();
         assert!((s - want).abs() < 1e-14 * want, "{s} vs {want}");
         assert!(s > 0.0 && s < l);
+    }
+
+    /// The diffuse part of f_s^scatter is the forward azimuthal average of f_d (plain
+    /// quadrature of the BCSDF over [π/2, π]).
+    #[test]
+    fn diffuse_scatter_is_the_forward_average_of_f_d() {
+        use crate::math::quadrature::gauss_legendre_interval;
+        let d = DiffuseTerms {
+            lambertian_kd: 0.15,
+            higher_order_kd: 0.01,
+        };
+        let (x, w) = gauss_legendre_interval(32, PI / 2.0, PI);
+        let avg: f64 = 2.0 / PI * x.iter().zip(&w).map(|(p, w)| w * d.bcsdf(*p)).sum::<f64>();
+        assert!((f_s_scatter_diffuse(&d) - avg).abs() < 1e-14, "{avg}");
+        let want = 2.0 * 0.01 + 0.15 * (1.0 - PI / 4.0) / PI;
+        assert!((avg - want).abs() < 1e-14);
     }
 }

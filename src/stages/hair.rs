@@ -2,8 +2,16 @@
 //! (azimuthal functions `N_p(θ, φ)`, schema `hair-azimuthal/1`). See `docs/hair.md`.
 
 use crate::hair::artist::{ArtistModel, ArtistNormalisation, ArtistParams};
-use crate::hair::dual::{DUAL_CHANNELS, HQuadrature, LobeShape, PhysicalFiber, combine};
-use crate::hair::fiber::{FiberSlice, FresnelModel, LOBE_NAMES, LOBES};
+use crate::hair::diffuse::{DIFFUSE_THETA_H_VARIANCE, DiffuseTerms};
+use crate::hair::dual::{
+    DUAL_CHANNELS, HQuadrature, LobeShape, PhysicalFiber, combine_with_diffuse, elliptic_slices,
+    orientation_averaged_energies,
+};
+use crate::hair::elliptic::{
+    DEFAULT_ORIENTATION_NODES, orientation_indices, orientation_nodes_for_width,
+    validate_axis_ratio,
+};
+use crate::hair::fiber::{FresnelModel, LOBE_NAMES, LOBES, OffsetQuadrature};
 use crate::hair::melanin::{sigma_a_from_absorption_u, sigma_a_from_melanin};
 use crate::stages::{
     Job, JobError, PlanError, StageSpec, TaskSpec, check_chunks, checks, stage_params,
@@ -160,6 +168,18 @@ macro_rules! hair_params {
                     "absorption_u = 1 − exp(−2σ_a) uniform on [0, 1] (LUT mode; give exactly one absorption key)";
                 pub sigma_a: Option<Vec<f64>> = optional("—"), "list of float, 1/radius",
                     "explicit absorption values, strictly increasing";
+                /// Lambertian surface BRDF k_d of an opaque fibre (FIB-21).
+                #[serde(skip_serializing_if = "Option::is_none")]
+                pub lambertian_kd: Option<f64> = optional("0 (none)"), "float",
+                    "Lambertian-cylinder term: BRDF value k_d of an opaque Lambertian fibre surface, BCSDF (k_d/4)(sin|φ| + (π−|φ|) cos φ), albedo π k_d; 0–1/π (physical fibre)";
+                /// Zinke & Weber eq. 52 higher-order diffuse constant (FIB-21).
+                #[serde(skip_serializing_if = "Option::is_none")]
+                pub higher_order_kd: Option<f64> = optional("0 (none)"), "float",
+                    "higher-order diffuse constant k_d of Zinke & Weber eq. 52: BCSDF 2k_d, albedo 2π² k_d; 0–1/(2π²) (physical fibre)";
+                /// Minor/major axis ratio of an elliptic fibre (FIB-22).
+                #[serde(skip_serializing_if = "Option::is_none")]
+                pub axis_ratio: Option<f64> = optional("1 (circular)"), "float",
+                    "elliptic cross-section: minor/major semi-axis ratio a (Marschner's \"eccentricity\"), 0.85–1; TRT uses η* = ½(η*₁+η*₂) − ½cos 2ψ (η*₁−η*₂), averaged over the major-axis orientation (physical fibre)";
                 $($fields)*
             }
         }
@@ -170,6 +190,60 @@ macro_rules! hair_params {
 fn check_fibre(eta: f64, quadrature_order: usize) -> Result<(), PlanError> {
     checks::within("eta", eta, 1.1, 2.5, "")?;
     checks::within("quadrature_order", quadrature_order, 2, 32, "")
+}
+
+/// The diffuse terms and the axis ratio from the optional keys, validated (both stages).
+fn fibre_features(
+    lambertian_kd: Option<f64>,
+    higher_order_kd: Option<f64>,
+    axis_ratio: Option<f64>,
+) -> Result<(DiffuseTerms, f64), PlanError> {
+    let diffuse = DiffuseTerms {
+        lambertian_kd: lambertian_kd.unwrap_or(0.0),
+        higher_order_kd: higher_order_kd.unwrap_or(0.0),
+    };
+    diffuse
+        .validate()
+        .map_err(|(k, m)| PlanError::invalid(k, m))?;
+    let a = axis_ratio.unwrap_or(1.0);
+    validate_axis_ratio(a).map_err(|m| PlanError::invalid("axis_ratio", m))?;
+    Ok((diffuse, a))
+}
+
+/// Header attributes of the diffuse terms and the elliptic cross-section (only when used, so
+/// that the headers of circular fibres without diffuse terms are unchanged).
+fn feature_attributes(
+    diffuse: &DiffuseTerms,
+    axis_ratio: f64,
+    orientation_nodes: usize,
+    attributes: &mut Map<String, Value>,
+) {
+    if !diffuse.is_zero() {
+        let (ab, af) = diffuse.hemisphere_albedos();
+        attributes.insert(
+            "diffuse".into(),
+            json!({
+                "lambertian_kd": diffuse.lambertian_kd,
+                "higher_order_kd": diffuse.higher_order_kd,
+                "bcsdf": "f_d(φ) = (lambertian_kd/4)(sin|φ| + (π−|φ|) cos φ) + 2·higher_order_kd, per radian, independent of θ_i and θ_o; f_s = Σ_p M_p N_p / cos²θ_d + f_d (docs/decisions.md FIB-21)",
+                "albedo": diffuse.albedo(),
+                "albedo_backward": ab,
+                "albedo_forward": af,
+                "forward_average": diffuse.forward_average(),
+            }),
+        );
+    }
+    if axis_ratio != 1.0 {
+        attributes.insert(
+            "elliptic".into(),
+            json!({
+                "axis_ratio": axis_ratio,
+                "model": "Marschner et al. 2003 first order: TRT exit azimuth with η*(ψ) = ½(η*₁+η*₂) − ½cos(2ψ)(η*₁−η*₂), η*₁ = 2(η−1)a² − η + 2, η*₂ = 2(η−1)/a² − η + 2, ψ = φ_h − φ_major; η* replaces η before the Bravais index; Fresnel and chords use η; R, TT, residual circular (docs/decisions.md FIB-22, FIB-23)",
+                "orientation": "TRT averaged over the orientation of the major axis (uniform), so the table stays a function of (θ, φ) (docs/decisions.md FIB-24)",
+                "orientation_nodes": orientation_nodes,
+            }),
+        );
+    }
 }
 
 fn theta_axis_deg(count: usize) -> Vec<f64> {
@@ -296,6 +370,8 @@ pub struct HairDualJob {
     pub params: HairDualParams,
     absorption: AbsorptionAxis,
     artist: Option<ArtistModel>,
+    diffuse: DiffuseTerms,
+    axis_ratio: f64,
 }
 
 /// Channels stored by `hair-dual`: the twelve DS quantities, then the lobe energies.
@@ -328,6 +404,8 @@ impl HairDualJob {
         checks::within("theta_count", p.theta_count, 2, 4096, "")?;
         checks::within("d_b", p.d_b, 0.0, 1.0, "")?;
         checks::within("clamp", p.clamp, 0.5, 1.0, "")?;
+        let (diffuse, axis_ratio) =
+            fibre_features(p.lambertian_kd, p.higher_order_kd, p.axis_ratio)?;
         let (absorption, artist) = match p.model {
             HairModel::Physical => {
                 if p.artist.is_some() {
@@ -363,6 +441,18 @@ impl HairDualJob {
                         "the artist model has its own widths; leave the default",
                     ));
                 }
+                for (key, given) in [
+                    ("lambertian_kd", p.lambertian_kd.is_some()),
+                    ("higher_order_kd", p.higher_order_kd.is_some()),
+                    ("axis_ratio", p.axis_ratio.is_some()),
+                ] {
+                    if given {
+                        return Err(PlanError::invalid(
+                            key,
+                            "a physical-fibre parameter: not used by the artist model (its glints play the role of the elliptic TRT caustics)",
+                        ));
+                    }
+                }
                 let a = p.artist.clone().unwrap_or_default();
                 a.validate()
                     .map_err(|(k, m)| PlanError::invalid(&format!("artist.{k}"), m))?;
@@ -373,6 +463,8 @@ impl HairDualJob {
             params: p,
             absorption,
             artist,
+            diffuse,
+            axis_ratio,
         })
     }
 
@@ -385,6 +477,8 @@ impl HairDualJob {
                 beta_r_deg.to_radians(),
             ),
             azimuthal_width_rad: self.params.azimuthal_width_ratio * beta_r_deg.to_radians(),
+            diffuse: self.diffuse,
+            axis_ratio: self.axis_ratio,
         }
     }
 
@@ -408,8 +502,8 @@ impl HairDualJob {
         }
         let sigmas = self.absorption.sigma_values();
         let w_min = self.params.azimuthal_width_ratio * self.params.roughness_deg[0].to_radians();
-        let offs = quad.offsets(self.params.eta, theta_rad, w_min);
-        let slice = FiberSlice::new(self.params.eta, theta_rad, self.params.fresnel, &offs);
+        let idx = orientation_indices(self.params.eta, self.axis_ratio, quad.orientation_nodes);
+        let offs = quad.offsets_for(self.params.eta, &idx, theta_rad, w_min);
         let na = sigmas.len();
         let fibers: Vec<PhysicalFiber> = self
             .params
@@ -417,16 +511,31 @@ impl HairDualJob {
             .iter()
             .map(|&b| self.fiber(b))
             .collect();
-        let wbs: Vec<Vec<[f64; 3]>> = fibers
+        let (slice, variants) = elliptic_slices(&fibers[0], theta_rad, &idx, &offs);
+        // Per roughness: the backward fractions of the slice, then of each orientation variant.
+        let wbs: Vec<Vec<Vec<[f64; 3]>>> = fibers
             .iter()
-            .map(|f| slice.backward_fractions(f.azimuthal_width_rad))
+            .map(|f| {
+                std::iter::once(&slice)
+                    .chain(&variants)
+                    .map(|s| s.backward_fractions(f.azimuthal_width_rad))
+                    .collect()
+            })
             .collect();
         let mut out = vec![0.0; fibers.len() * na * DUAL_TABLE_CHANNELS];
         for (ia, &s) in sigmas.iter().enumerate() {
             let wa = slice.weighted_attenuations(s);
             for (ir, (fiber, wb)) in fibers.iter().zip(&wbs).enumerate() {
-                let (eb, ef) = slice.hemisphere_energies_from(&wa, wb);
-                let ds = combine(&eb, &ef, &fiber.lobes, self.params.d_b, self.params.clamp);
+                let (eb, ef) = orientation_averaged_energies(&slice, &variants, &wa, wb);
+                let ds = combine_with_diffuse(
+                    &eb,
+                    &ef,
+                    &fiber.lobes,
+                    &fiber.diffuse,
+                    theta_rad,
+                    self.params.d_b,
+                    self.params.clamp,
+                );
                 let o = (ir * na + ia) * DUAL_TABLE_CHANNELS;
                 out[o..o + 12].copy_from_slice(&ds.to_array());
                 for p in 0..LOBES {
@@ -489,7 +598,20 @@ impl ThetaRows for HairDualJob {
         let mut attributes = self.common_attributes();
         match &self.artist {
             Some(m) => artist_attributes(m, &mut attributes)?,
-            None => self.physical_attributes(doubling, &mut attributes),
+            None => {
+                self.physical_attributes(doubling, &mut attributes);
+                feature_attributes(
+                    &self.diffuse,
+                    self.axis_ratio,
+                    DEFAULT_ORIENTATION_NODES,
+                    &mut attributes,
+                );
+                if !self.diffuse.is_zero() {
+                    attributes.insert("diffuse_in_averages".into(), json!(format!(
+                        "ā_f, ā_b include the diffuse albedos (the E_p channels do not); ᾱ, β̄² include the diffuse term with its θ_h moments θ_i/2 and (π² − 6)/48 = {DIFFUSE_THETA_H_VARIANCE:.6} rad²; N^G are the lobes' only, add diffuse.forward_average in f_s^scatter (docs/decisions.md DS-32)"
+                    )));
+                }
+            }
         }
         self.absorption.describe(&mut attributes);
         Ok(TableContent {
@@ -692,6 +814,8 @@ const AZ_CHANNELS: usize = 5;
 pub struct HairAzimuthalJob {
     pub params: HairAzimuthalParams,
     absorption: AbsorptionAxis,
+    diffuse: DiffuseTerms,
+    axis_ratio: f64,
 }
 
 impl HairAzimuthalJob {
@@ -708,25 +832,81 @@ impl HairAzimuthalJob {
         checks::within("phi_count", p.phi_count, 2, 8192, "")?;
         let absorption =
             AbsorptionAxis::from_keys(p.absorption_count, p.sigma_a.clone(), None, None)?;
+        let (diffuse, axis_ratio) =
+            fibre_features(p.lambertian_kd, p.higher_order_kd, p.axis_ratio)?;
         Ok(HairAzimuthalJob {
             params: p,
             absorption,
+            diffuse,
+            axis_ratio,
         })
+    }
+
+    /// Orientation nodes of the elliptic TRT average for this table's azimuthal width.
+    fn orientation_nodes(&self) -> usize {
+        orientation_nodes_for_width(
+            self.params.eta,
+            self.axis_ratio,
+            self.params.azimuthal_width_deg.to_radians(),
+        )
+    }
+
+    /// Channels per (absorption, φ): R, TT, TRT, residual, sum, and `diffuse` when a diffuse term
+    /// is set.
+    fn channel_count(&self) -> usize {
+        if self.diffuse.is_zero() {
+            AZ_CHANNELS
+        } else {
+            AZ_CHANNELS + 1
+        }
     }
     fn row(&self, theta_rad: f64, panel_scale: f64) -> Vec<f64> {
         let w = self.params.azimuthal_width_deg.to_radians();
-        let quad = crate::hair::fiber::OffsetQuadrature::new(
+        let quad = OffsetQuadrature::new(
             (0.05f64).min(0.5 * w) / panel_scale,
             self.params.quadrature_order,
             &[],
         );
-        let slice = FiberSlice::new(self.params.eta, theta_rad, self.params.fresnel, &quad);
+        let nodes = (self.orientation_nodes() as f64 * panel_scale) as usize;
+        let idx = orientation_indices(self.params.eta, self.axis_ratio, nodes);
+        // Only the index, Fresnel model and axis ratio matter for the slices (lobes unused).
+        let fibre = PhysicalFiber {
+            diffuse: self.diffuse,
+            axis_ratio: self.axis_ratio,
+            ..PhysicalFiber::new(
+                self.params.eta,
+                self.params.fresnel,
+                LobeShape::marschner(0.0, 0.1),
+                w,
+            )
+        };
+        let (slice, variants) = elliptic_slices(&fibre, theta_rad, &idx, &quad);
         let n = self.params.phi_count;
         let step = std::f64::consts::PI / (n - 1) as f64;
+        let diffuse: Vec<f64> = (0..n)
+            .map(|j| self.diffuse.bcsdf(step * j as f64))
+            .collect();
         let mut out = Vec::new();
         for s in self.absorption.sigma_values() {
-            for v in slice.azimuthal_on_grid(s, w, 0.0, step, n) {
+            let mut grid = slice.azimuthal_on_grid(s, w, 0.0, step, n);
+            if !variants.is_empty() {
+                // TRT averaged over the orientation nodes (FIB-24); R, TT, residual unchanged.
+                let mut trt = vec![0.0; n];
+                for v in &variants {
+                    let g = v.azimuthal_on_grid_lobes(s, w, 0.0, step, n, &[2]);
+                    for (t, g) in trt.iter_mut().zip(g) {
+                        *t += g[2];
+                    }
+                }
+                for (g, t) in grid.iter_mut().zip(&trt) {
+                    g[2] = t / variants.len() as f64;
+                }
+            }
+            for (j, v) in grid.iter().enumerate() {
                 out.extend([v[0], v[1], v[2], v[3], v.iter().sum()]);
+                if !self.diffuse.is_zero() {
+                    out.push(diffuse[j]);
+                }
             }
         }
         out
@@ -735,7 +915,7 @@ impl HairAzimuthalJob {
 
 impl ThetaRows for HairAzimuthalJob {
     fn row_len(&self) -> usize {
-        self.absorption.sigma_values().len() * self.params.phi_count * AZ_CHANNELS
+        self.absorption.sigma_values().len() * self.params.phi_count * self.channel_count()
     }
     fn params_json(&self) -> Value {
         serde_json::to_value(&self.params).expect("params serialise")
@@ -763,7 +943,7 @@ impl ThetaRows for HairAzimuthalJob {
         let nt = self.params.theta_count;
         let np = self.params.phi_count;
         let na = self.absorption.sigma_values().len();
-        let (data, change) = theta_inside_blocks(&chunks, nt, na, np * AZ_CHANNELS)?;
+        let (data, change) = theta_inside_blocks(&chunks, nt, na, np * self.channel_count())?;
         let mut channels: Vec<Channel> = LOBE_NAMES
             .iter()
             .map(|n| Channel::new(n, "1/rad", "azimuthal scattering function N_p(θ, φ); ∫_{−π}^{π} N_p dφ = ½∫ a_p dh (lobe energy)"))
@@ -774,6 +954,13 @@ impl ThetaRows for HairAzimuthalJob {
             "1/rad",
             "N_R + N_TT + N_TRT + residual; ∫_{−π}^{π} sum dφ = 1 for σ_a = 0",
         ));
+        if !self.diffuse.is_zero() {
+            channels.push(Channel::new(
+                "diffuse",
+                "1/rad",
+                "diffuse BCSDF f_d(φ) (lambertian_kd and higher_order_kd terms), added to Σ_p M_p N_p / cos²θ_d without a longitudinal lobe; not in sum; ∫_{−π}^{π} diffuse dφ = 2 lambertian_kd + 4π higher_order_kd (docs/decisions.md FIB-21)",
+            ));
+        }
         let mut attributes = Map::new();
         attributes.insert("eta".into(), json!(self.params.eta));
         attributes.insert("fresnel".into(), json!(self.params.fresnel.name()));
@@ -789,6 +976,12 @@ impl ThetaRows for HairAzimuthalJob {
                 .into(),
         );
         attributes.insert("roughness".into(), "each lobe convolved with a wrapped normal of std azimuthal_width_deg (exactly normalised on the circle)".into());
+        feature_attributes(
+            &self.diffuse,
+            self.axis_ratio,
+            self.orientation_nodes(),
+            &mut attributes,
+        );
         attributes.insert(
             "quadrature".into(),
             json!({
@@ -868,6 +1061,153 @@ mod tests {
         let t = build(&HairDualStage, "melanin = [0.3, 0.0]\ntheta_count = 5");
         assert_eq!(t.axes[1].name, "colour_channel");
         assert_eq!(t.attributes["sigma_a_rgb"][2].as_f64().unwrap(), 0.3 * 1.37);
+    }
+
+    /// Physically invalid diffuse terms and axis ratios are refused at plan time with an error
+    /// naming the key; the artist model refuses the physical-fibre keys.
+    #[test]
+    fn fibre_feature_keys_are_checked_at_plan_time() {
+        use crate::stages::plan_from_lines;
+        for (stage, base) in [
+            (
+                &HairDualStage as &dyn crate::stages::Stage,
+                "absorption_count = 3\ntheta_count = 3",
+            ),
+            (
+                &HairAzimuthalStage,
+                "sigma_a = [0.1]\ntheta_count = 2\nphi_count = 5",
+            ),
+        ] {
+            for (extra, key) in [
+                ("lambertian_kd = 0.4", "lambertian_kd"),
+                ("lambertian_kd = -0.01", "lambertian_kd"),
+                ("higher_order_kd = 0.06", "higher_order_kd"),
+                ("higher_order_kd = nan", "higher_order_kd"),
+                (
+                    "lambertian_kd = 0.2\nhigher_order_kd = 0.03",
+                    "higher_order_kd",
+                ),
+                ("axis_ratio = 0.8", "axis_ratio"),
+                ("axis_ratio = 1.2", "axis_ratio"),
+            ] {
+                let err = match plan_from_lines(stage, &format!("{base}\n{extra}")) {
+                    Ok(_) => panic!("{extra} accepted"),
+                    Err(e) => e.to_string(),
+                };
+                assert!(err.contains(&format!("`{key}`")), "{extra}: {err}");
+            }
+            for ok in [
+                "lambertian_kd = 0.3",
+                "higher_order_kd = 0.05",
+                "axis_ratio = 0.85",
+                "axis_ratio = 1.0",
+            ] {
+                assert!(
+                    plan_from_lines(stage, &format!("{base}\n{ok}")).is_ok(),
+                    "{ok}"
+                );
+            }
+        }
+        for key in [
+            "lambertian_kd = 0.1",
+            "higher_order_kd = 0.01",
+            "axis_ratio = 0.9",
+        ] {
+            let err = plan_from_lines(&HairDualStage, &format!("model = \"artist\"\n{key}"))
+                .err()
+                .expect("refused")
+                .to_string();
+            assert!(err.contains(key.split(' ').next().unwrap()), "{err}");
+        }
+    }
+
+    /// Without the new keys the parameters recorded in the header are those of earlier
+    /// versions (no new entries), and a = 1 written explicitly gives the same data.
+    #[test]
+    fn defaults_leave_tables_unchanged() {
+        let job =
+            HairDualJob::new(toml::from_str("absorption_count = 3\ntheta_count = 5").unwrap())
+                .unwrap();
+        let p = crate::stages::Job::parameters(&job);
+        for key in ["lambertian_kd", "higher_order_kd", "axis_ratio"] {
+            assert!(p.get(key).is_none(), "{key} in {p}");
+        }
+        let a = build(&HairDualStage, "absorption_count = 3\ntheta_count = 5");
+        let b = build(
+            &HairDualStage,
+            "absorption_count = 3\ntheta_count = 5\naxis_ratio = 1.0\nlambertian_kd = 0.0",
+        );
+        assert_eq!(a.data, b.data);
+        assert!(b.attributes.get("diffuse").is_none() && b.attributes.get("elliptic").is_none());
+    }
+
+    /// hair-azimuthal with an elliptic fibre and diffuse terms: the lossless lobes still
+    /// integrate to 1, TRT moves, the `diffuse` channel holds f_d with ∫ f_d dφ =
+    /// 2 lambertian_kd + 4π higher_order_kd.
+    #[test]
+    fn azimuthal_table_with_fibre_features() {
+        let np = 721;
+        let t = build(
+            &HairAzimuthalStage,
+            "sigma_a = [0.0]\ntheta_count = 2\nphi_count = 721\nazimuthal_width_deg = 3.0\naxis_ratio = 0.9\nlambertian_kd = 0.2\nhigher_order_kd = 0.01",
+        );
+        let c0 = build(
+            &HairAzimuthalStage,
+            "sigma_a = [0.0]\ntheta_count = 2\nphi_count = 721\nazimuthal_width_deg = 3.0",
+        );
+        assert_eq!(t.channels.len(), 6);
+        assert_eq!(t.channels[5].name, "diffuse");
+        let step = std::f64::consts::PI / 720.0;
+        let integral = |data: &[f32], nc: usize, c: usize| {
+            (0..np)
+                .map(|j| {
+                    let w = if j == 0 || j == np - 1 { 0.5 } else { 1.0 };
+                    2.0 * w * step * data[j * nc + c] as f64
+                })
+                .sum::<f64>()
+        };
+        let sum = integral(&t.data, 6, 4);
+        assert!((sum - 1.0).abs() < 1e-5, "{sum}");
+        let d = integral(&t.data, 6, 5);
+        let want = 2.0 * 0.2 + 4.0 * std::f64::consts::PI * 0.01;
+        assert!((d - want).abs() < 1e-5, "{d} vs {want}");
+        let moved = (0..np)
+            .map(|j| (t.data[j * 6 + 2] - c0.data[j * 5 + 2]).abs())
+            .fold(0.0f32, f32::max);
+        assert!(moved > 1e-3, "{moved}");
+        for j in 0..np {
+            assert_eq!(t.data[j * 6], c0.data[j * 5]);
+            assert_eq!(t.data[j * 6 + 1], c0.data[j * 5 + 1]);
+        }
+        assert!(t.attributes["elliptic"]["axis_ratio"].as_f64() == Some(0.9));
+        // Quadrature doubling (h panels halved and 16 instead of 8 orientation nodes).
+        let dbl = t.attributes["quadrature"]["doubling_max_rel_change"]
+            .as_f64()
+            .unwrap();
+        println!("hair-azimuthal, axis_ratio 0.9, w_φ = 3°: doubling_max_rel_change {dbl:.2e}");
+        assert!(dbl < 1e-6, "{dbl}");
+        // hair-dual with the smallest axis ratio, smooth and rough fibre.
+        for ratio in ["0.0", "1.0"] {
+            let t = build(
+                &HairDualStage,
+                &format!(
+                    "sigma_a = [0.0, 0.3]\ntheta_count = 13\naxis_ratio = 0.85\nazimuthal_width_ratio = {ratio}\nroughness_deg = [5.0]"
+                ),
+            );
+            let dbl = t.attributes["quadrature"]["doubling_max_abs_change"]
+                .as_f64()
+                .unwrap();
+            println!(
+                "hair-dual, axis_ratio 0.85, w_φ/β_R = {ratio}: doubling_max_abs_change {dbl:.2e}"
+            );
+            assert!(dbl < 1e-6, "{dbl}");
+            // Lossless column: ā_f + ā_b = 1 (no clamp reached at β_R = 5°? checked via E_p).
+            for it in 0..13 {
+                let v = &t.data[it * DUAL_TABLE_CHANNELS..(it + 1) * DUAL_TABLE_CHANNELS];
+                let e: f32 = v[12..16].iter().sum();
+                assert!((e - 1.0).abs() < 1e-5, "{v:?}");
+            }
+        }
     }
 
     #[test]

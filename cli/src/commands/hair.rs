@@ -198,6 +198,18 @@ pub struct DualScatteringArgs {
     pub d_b: f64,
     #[arg(long, default_value_t = 0.99)]
     pub clamp: f64,
+    /// Lambertian-cylinder term: BRDF value k_d of an opaque Lambertian fibre surface (BCSDF
+    /// (k_d/4)(sin|φ| + (π−|φ|) cos φ), albedo π k_d; 0–1/π). Physical model.
+    #[arg(long)]
+    pub lambertian_kd: Option<f64>,
+    /// Higher-order diffuse constant k_d of Zinke & Weber eq. 52 (BCSDF 2k_d, albedo 2π² k_d;
+    /// 0–1/(2π²)). Physical model.
+    #[arg(long)]
+    pub higher_order_kd: Option<f64>,
+    /// Elliptic cross-section: minor/major semi-axis ratio a, 0.85–1 (1 = circular; TRT uses
+    /// Marschner's η*, averaged over the major-axis orientation). Physical model.
+    #[arg(long)]
+    pub axis_ratio: Option<f64>,
     /// TOML file with artist-friendly parameters (model = artist), keys as in `[table.params.artist]`.
     #[arg(long)]
     pub artist_params: Option<PathBuf>,
@@ -264,6 +276,9 @@ pub fn dual_params_from_args(
         d_b: args.d_b,
         clamp: args.clamp,
         quadrature_order: 8,
+        lambertian_kd: args.lambertian_kd,
+        higher_order_kd: args.higher_order_kd,
+        axis_ratio: args.axis_ratio,
         artist: if physical {
             None
         } else {
@@ -384,6 +399,9 @@ mod tests {
             theta_samples: 5,
             d_b: 0.7,
             clamp: 0.99,
+            lambertian_kd: None,
+            higher_order_kd: None,
+            axis_ratio: None,
             artist_params: None,
             artist_normalisation: None,
             table: Some(one),
@@ -413,6 +431,9 @@ mod tests {
             theta_samples: 9,
             d_b: 0.7,
             clamp: 0.99,
+            lambertian_kd: None,
+            higher_order_kd: None,
+            axis_ratio: None,
             artist_params: None,
             artist_normalisation: None,
             table: None,
@@ -430,5 +451,32 @@ mod tests {
         let csv = dual_csv(&t).unwrap();
         assert_eq!(csv.lines().count(), 10);
         assert_eq!(csv.lines().next().unwrap().split(',').count(), 1 + 16 * 3);
+
+        // The fibre-feature options carry the manifest keys' names and checks.
+        let mut with = args.clone();
+        with.higher_order_kd = Some(0.01);
+        with.axis_ratio = Some(0.9);
+        let job = HairDualJob::new(dual_params_from_args(&with, None).unwrap()).unwrap();
+        let t2 = scatterbake::stages::run_in_memory(&job).unwrap();
+        let j2 = dual_json(&t2).unwrap();
+        // θ = 0 (index 4): ā_b rises by π² k_d in every channel (below the clamp).
+        let pi2 = std::f64::consts::PI.powi(2);
+        for c in 0..3 {
+            let d = j2["a_b"][4][c].as_f64().unwrap() - j["a_b"][4][c].as_f64().unwrap();
+            assert!((d - pi2 * 0.01).abs() < 1e-6, "{d}");
+        }
+        for (lambertian, axis, key) in [
+            (Some(0.5), None, "lambertian_kd"),
+            (None, Some(0.5), "axis_ratio"),
+        ] {
+            let mut bad = args.clone();
+            bad.lambertian_kd = lambertian;
+            bad.axis_ratio = axis;
+            let err = HairDualJob::new(dual_params_from_args(&bad, None).unwrap())
+                .err()
+                .expect("refused")
+                .to_string();
+            assert!(err.contains(key), "{err}");
+        }
     }
 }
