@@ -258,3 +258,76 @@ mod tests {
         );
     }
 }
+
+/// Arguments of `scatterbake medulla-assets`.
+#[derive(clap::Args, Debug)]
+pub struct MedullaAssetsArgs {
+    /// Directory holding the dense source tables built by
+    /// `scatterbake build manifests/full/fur-medulla-assets.toml --out DIR`.
+    #[arg(long, default_value = "tables/assets")]
+    pub tables: std::path::PathBuf,
+    /// Output directory of the assets.
+    #[arg(long, default_value = "assets/fur-medulla")]
+    pub out: std::path::PathBuf,
+    /// Override the azimuthal TT tolerance (exploration; the shipped value is the default).
+    #[arg(long)]
+    pub azimuthal_tol: Option<f64>,
+    /// Override the longitudinal TT tolerance (exploration; the shipped value is the default).
+    #[arg(long)]
+    pub longitudinal_tol: Option<f64>,
+}
+
+/// Compress the dense thesis-grid medulla tables into the shipped tensor-train assets
+/// (`scatterbake::fur::assets`), print their sizes and errors; refuses an asset above the size
+/// limit or whose reconstruction error is not below the source's own error.
+pub fn run_medulla_assets(a: &MedullaAssetsArgs) -> anyhow::Result<()> {
+    use anyhow::Context;
+    use scatterbake::fur::assets::{AssetSpec, MAX_ASSET_BYTES, compress_asset};
+    std::fs::create_dir_all(&a.out).with_context(|| a.out.display().to_string())?;
+    for (mut spec, tol) in [
+        (AssetSpec::AZIMUTHAL, a.azimuthal_tol),
+        (AssetSpec::LONGITUDINAL, a.longitudinal_tol),
+    ] {
+        if let Some(t) = tol {
+            spec.rel_tol = t;
+        }
+        let src = a.tables.join(format!("{}.sbt", spec.source_table));
+        let t0 = std::time::Instant::now();
+        let source = scatterbake::table::Table::open(&src)?;
+        let mut asset = compress_asset(&source, &spec)?;
+        drop(source);
+        let bytes = asset.to_bytes()?;
+        let at = &asset.header.attributes;
+        println!(
+            "{}: {} B, ranks {}, rel_tol {}; reconstruction error {}; source error {}; {:.1} s",
+            spec.file,
+            bytes.len(),
+            at["ranks"],
+            spec.rel_tol,
+            at["reconstruction_error"],
+            at["source_error"],
+            t0.elapsed().as_secs_f64()
+        );
+        anyhow::ensure!(
+            bytes.len() <= MAX_ASSET_BYTES,
+            "{}: {} bytes exceed the limit of {MAX_ASSET_BYTES}",
+            spec.file,
+            bytes.len()
+        );
+        let rec = at["reconstruction_error"]["rel_frobenius"]
+            .as_f64()
+            .unwrap_or(f64::INFINITY);
+        let limit = at["source_error"]["rel_frobenius"]
+            .as_f64()
+            .or_else(|| at["source_error"]["solver_error"].as_f64())
+            .unwrap_or(0.0);
+        anyhow::ensure!(
+            rec < limit,
+            "{}: reconstruction error {rec:.3e} is not below the source's error {limit:.3e}",
+            spec.file
+        );
+        scatterbake::table::format::write_atomic(&a.out.join(spec.file), &bytes)
+            .with_context(|| a.out.join(spec.file).display().to_string())?;
+    }
+    Ok(())
+}
