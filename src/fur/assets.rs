@@ -43,6 +43,10 @@ pub struct AssetSpec {
     pub max_rank: usize,
     /// `Some(f)`: compress ln(max(value, f × max)) (`compress_table_log`).
     pub log_floor_rel: Option<f64>,
+    /// Scale each azimuthal profile so that its bins sum to the analytic scattered fraction
+    /// 1 − exp(−σ·2√(1 − h'²)) before compressing (a ratio estimator: removes the Monte Carlo
+    /// noise of each entry's overall level, which the far field discards anyway; FUR-29).
+    pub normalise_to_analytic_total: bool,
 }
 
 impl AssetSpec {
@@ -53,8 +57,9 @@ impl AssetSpec {
         source_table: "fur-medulla-azimuthal-asset",
         channel: "energy",
         rel_tol: 2e-2,
-        max_rank: 256,
+        max_rank: 16,
         log_floor_rel: None,
+        normalise_to_analytic_total: true,
     };
     /// Longitudinal family: the logarithm of `pdf` (FUR-29).
     pub const LONGITUDINAL: AssetSpec = AssetSpec {
@@ -65,6 +70,7 @@ impl AssetSpec {
         rel_tol: 5e-4,
         max_rank: 256,
         log_floor_rel: Some(1e-12),
+        normalise_to_analytic_total: false,
     };
 }
 
@@ -137,6 +143,33 @@ pub fn reconstruction_errors(
     out
 }
 
+/// Scale every azimuthal profile (last axis) to the analytic scattered fraction.
+fn normalise_azimuthal(t: &mut TableContent, channel: &str) -> Result<(), FurError> {
+    let nc = t.channels.len();
+    let ci = t
+        .channels
+        .iter()
+        .position(|c| c.name == channel)
+        .ok_or_else(|| FurError::NoChannel(channel.to_string()))?;
+    let sig = t.axes[0].coords();
+    let ng = t.axes[1].len();
+    let hs = t.axes[2].coords();
+    let bins = t.axes[3].len();
+    for (e, row) in t.data.chunks_mut(bins * nc).enumerate() {
+        let sigma = sig[e / (ng * hs.len())];
+        let h = hs[e % hs.len()];
+        let want = 1.0 - (-sigma * 2.0 * (1.0 - h * h).max(0.0).sqrt()).exp();
+        let have: f64 = row.iter().skip(ci).step_by(nc).map(|&v| f64::from(v)).sum();
+        if have > 0.0 && want > 0.0 {
+            let f = want / have;
+            for v in row.iter_mut().skip(ci).step_by(nc) {
+                *v = (f64::from(*v) * f) as f32;
+            }
+        }
+    }
+    Ok(())
+}
+
 /// Compress the dense source table of one family into its asset (a sealed-ready table with
 /// provenance; write it with [`Table::to_bytes`]). The header records the source's content key
 /// and errors, the compression settings and the measured reconstruction errors.
@@ -148,7 +181,7 @@ pub fn compress_asset(source: &Table, spec: &AssetSpec) -> Result<Table, FurErro
             found: h.schema.name.clone(),
         });
     }
-    let content = TableContent {
+    let mut content = TableContent {
         schema: h.schema.clone(),
         description: h.description.clone(),
         axes: h.axes.clone(),
@@ -156,11 +189,20 @@ pub fn compress_asset(source: &Table, spec: &AssetSpec) -> Result<Table, FurErro
         attributes: h.attributes.clone(),
         data: source.data.clone(),
     };
+    if spec.normalise_to_analytic_total {
+        normalise_azimuthal(&mut content, spec.channel)?;
+    }
     let (mut tt, _) = match spec.log_floor_rel {
         Some(f) => compress_table_log(&content, spec.channel, spec.rel_tol, spec.max_rank, f)?,
         None => compress_table(&content, spec.channel, spec.rel_tol, spec.max_rank)?,
     };
     let dense = channel_values(&content, spec.channel)?;
+    // The source as built (before any normalisation): the asset's error against it.
+    let raw = TableContent {
+        data: source.data.clone(),
+        ..content.clone()
+    };
+    let raw_dense = channel_values(&raw, spec.channel)?;
     let back = super::tt::reconstruct_table(&tt)?;
     let approx: Vec<f64> = back.data.iter().map(|&v| f64::from(v)).collect();
     let profile = if spec.family == "fur-medulla-longitudinal" {
@@ -173,7 +215,12 @@ pub fn compress_asset(source: &Table, spec: &AssetSpec) -> Result<Table, FurErro
     } else {
         None
     };
-    let recon = reconstruction_errors(&dense, &approx, profile, std_error.as_deref());
+    let mut recon = reconstruction_errors(&raw_dense, &approx, profile, std_error.as_deref());
+    if spec.normalise_to_analytic_total {
+        recon["tensor_train_only"] = reconstruction_errors(&dense, &approx, profile, None);
+        recon["normalisation_only"] =
+            reconstruction_errors(&raw_dense, &dense, profile, std_error.as_deref());
+    }
     let a = &mut tt.attributes;
     // The per-entry arrays of the source header are summarised, not copied (size).
     let mut src_attrs = h.attributes.clone();
@@ -192,10 +239,13 @@ pub fn compress_asset(source: &Table, spec: &AssetSpec) -> Result<Table, FurErro
     );
     a.insert("source_attributes".into(), serde_json::Value::Object(src_attrs));
     a.insert("reconstruction_error".into(), recon.clone());
+    if spec.normalise_to_analytic_total {
+        a.insert("value_normalisation".into(), "each profile (sigma, g, h') of the source channel was scaled so that its bins sum to the analytic scattered fraction 1 - exp(-sigma 2 sqrt(1 - h'^2)) before compression (ratio estimator; removes the Monte Carlo noise of the profile's overall level); reconstruction_error is against the source as built, tensor_train_only against the scaled values".into());
+    }
     let source_error = match &std_error {
         Some(se) => {
             let (mut s2, mut n2) = (0.0f64, 0.0f64);
-            for (s, v) in se.iter().zip(&dense) {
+            for (s, v) in se.iter().zip(&raw_dense) {
                 s2 += s * s;
                 n2 += v * v;
             }
@@ -230,6 +280,7 @@ pub fn compress_asset(source: &Table, spec: &AssetSpec) -> Result<Table, FurErro
         "rel_tol": spec.rel_tol,
         "max_rank": spec.max_rank,
         "log_floor_rel": spec.log_floor_rel,
+        "normalise_to_analytic_total": spec.normalise_to_analytic_total,
     });
     let digest = {
         use sha2::{Digest, Sha256};
