@@ -7,7 +7,7 @@
 //! [`AssetSpec::AZIMUTHAL`] / [`AssetSpec::LONGITUDINAL`] and records in the header the
 //! reconstruction error next to the source's own error (Monte Carlo standard errors for the
 //! azimuthal family, the solver's discretisation error for the longitudinal one). Decisions:
-//! docs/decisions.md FUR-28 … FUR-32.
+//! docs/decisions.md FUR-28 … FUR-31.
 
 use super::FurError;
 use super::tt::{compress_table, compress_table_log};
