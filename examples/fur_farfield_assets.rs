@@ -16,7 +16,11 @@ fn main() -> anyhow::Result<()> {
         .skip(1)
         .map(|a| a.parse())
         .collect::<Result<_, _>>()?;
-    let thetas = if thetas.is_empty() { vec![-40.0] } else { thetas };
+    let thetas = if thetas.is_empty() {
+        vec![-40.0]
+    } else {
+        thetas
+    };
     let stage = find("fur-farfield").unwrap();
     let list = thetas
         .iter()

@@ -319,7 +319,11 @@ fn c_reader_reconstructs_tensor_trains() {
                 && stderr.contains(fragment)
         };
         if !ok {
-            wrong.push(format!("{}: exit {:?}: {stderr}", case.name, out.status.code()));
+            wrong.push(format!(
+                "{}: exit {:?}: {stderr}",
+                case.name,
+                out.status.code()
+            ));
         }
     }
     assert!(wrong.is_empty(), "{}", wrong.join("\n"));
@@ -337,7 +341,11 @@ fn c_reader_reconstructs_tensor_trains() {
             .args(coords.iter().map(|c| format!("{c:e}")))
             .output()
             .unwrap();
-        assert!(out.status.success(), "{file}: {}", String::from_utf8_lossy(&out.stderr));
+        assert!(
+            out.status.success(),
+            "{file}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
         assert!(
             std::fs::read(&dump).unwrap() == common::raw_bytes(&t),
             "{file}: reconstructed values differ from the Rust reader's"

@@ -44,7 +44,11 @@ fn assets_are_sealed_small_embedded_and_state_their_errors() {
         let p = asset_path(file);
         let on_disk = std::fs::read(&p).unwrap();
         assert_eq!(on_disk, bytes, "{file}: the library embeds another version");
-        assert!(on_disk.len() <= MAX_ASSET_BYTES, "{file}: {} B", on_disk.len());
+        assert!(
+            on_disk.len() <= MAX_ASSET_BYTES,
+            "{file}: {} B",
+            on_disk.len()
+        );
         verify_sealed(&p).unwrap();
         let v = verify_file(&p, &ReadLimits::default()).unwrap();
         assert_eq!(v.header.schema.name, "fur-medulla-tt");
@@ -122,16 +126,15 @@ fn channel(t: &TableContent, name: &str) -> Vec<f64> {
 fn longitudinal_entries_recomputed_agree_with_the_asset() {
     let (t, d) = decoded(ASSET_FILES[1]);
     let rec = &t.header.attributes["reconstruction_error"];
-    let max_rel = f(rec, &["per_bin_rel_on_bins_above_1e-3_of_profile_max", "max"]);
+    let max_rel = f(
+        rec,
+        &["per_bin_rel_on_bins_above_1e-3_of_profile_max", "max"],
+    );
     let frob = f(rec, &["rel_frobenius"]);
     let solver = f(&t.header.attributes["source_error"], &["solver_error"]);
     let stage = find("fur-medulla-longitudinal").unwrap();
     for (i, j, k) in [(10, 7, 20), (40, 2, 50), (63, 15, 33)] {
-        let (s, g, ti) = (
-            d.axes[0].coord(i),
-            d.axes[1].coord(j),
-            d.axes[2].coord(k),
-        );
+        let (s, g, ti) = (d.axes[0].coord(i), d.axes[1].coord(j), d.axes[2].coord(k));
         let job = plan_from_lines(
             stage.as_ref(),
             &format!(
@@ -160,14 +163,15 @@ fn longitudinal_entries_recomputed_agree_with_the_asset() {
             }
         }
         let l2 = (e2 / n2).sqrt();
-        println!(
-            "sigma {s:.3} g {g:.3} theta_i {ti:.2}: worst per-bin {worst:.2e}, L2 {l2:.2e}"
-        );
+        println!("sigma {s:.3} g {g:.3} theta_i {ti:.2}: worst per-bin {worst:.2e}, L2 {l2:.2e}");
         assert!(
             worst <= max_rel + solver,
             "sigma {s} g {g} theta_i {ti}: {worst}"
         );
-        assert!(l2 <= 3.0 * frob + solver, "sigma {s} g {g} theta_i {ti}: {l2}");
+        assert!(
+            l2 <= 3.0 * frob + solver,
+            "sigma {s} g {g} theta_i {ti}: {l2}"
+        );
     }
 }
 
@@ -184,11 +188,7 @@ fn azimuthal_entries_recomputed_agree_with_the_asset_within_error_bars() {
     );
     let stage = find("fur-medulla-azimuthal").unwrap();
     for (i, j, k) in [(7, 5, 40), (25, 12, 20)] {
-        let (s, g, h) = (
-            d.axes[0].coord(i),
-            d.axes[1].coord(j),
-            d.axes[2].coord(k),
-        );
+        let (s, g, h) = (d.axes[0].coord(i), d.axes[1].coord(j), d.axes[2].coord(k));
         let job = plan_from_lines(
             stage.as_ref(),
             &format!(

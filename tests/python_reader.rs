@@ -278,18 +278,28 @@ fn python_reader_reconstructs_tensor_trains() {
                 && stderr.contains(fragment)
         };
         if !ok {
-            wrong.push(format!("{}: exit {:?}: {stderr}", case.name, out.status.code()));
+            wrong.push(format!(
+                "{}: exit {:?}: {stderr}",
+                case.name,
+                out.status.code()
+            ));
         }
     }
     assert!(wrong.is_empty(), "{}", wrong.join("\n"));
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let crafted = dir.path().join("tt_valid.sbt");
-    let assets = scatterbake::fur::assets::ASSET_FILES.map(|f| root.join("assets/fur-medulla").join(f));
+    let assets =
+        scatterbake::fur::assets::ASSET_FILES.map(|f| root.join("assets/fur-medulla").join(f));
     for p in std::iter::once(&crafted).chain(assets.iter()) {
         let t = Table::open_reconstructed(p, &ReadLimits::default()).unwrap();
         let dump = dir.path().join("dump.bin");
         let out = run(p, &dump, &[]);
-        assert!(out.status.success(), "{}: {}", p.display(), String::from_utf8_lossy(&out.stderr));
+        assert!(
+            out.status.success(),
+            "{}: {}",
+            p.display(),
+            String::from_utf8_lossy(&out.stderr)
+        );
         let got = std::fs::read(&dump).unwrap();
         let want = common::raw_bytes(&t);
         assert_eq!(got.len(), want.len(), "{}", p.display());
@@ -307,6 +317,10 @@ fn python_reader_reconstructs_tensor_trains() {
             p.display(),
             want.len() / 4
         );
-        assert!(max_ulp <= 1, "{}: {differ} values differ, up to {max_ulp} ulp", p.display());
+        assert!(
+            max_ulp <= 1,
+            "{}: {differ} values differ, up to {max_ulp} ulp",
+            p.display()
+        );
     }
 }

@@ -111,7 +111,11 @@ pub fn reconstruction_errors(
     let (mut e2, mut n2) = (0.0f64, 0.0f64);
     let mut rel = Vec::new();
     let mut z = Vec::new();
-    for (p, (a, b)) in dense.chunks(profile).zip(approx.chunks(profile)).enumerate() {
+    for (p, (a, b)) in dense
+        .chunks(profile)
+        .zip(approx.chunks(profile))
+        .enumerate()
+    {
         let max = a.iter().cloned().fold(0.0f64, f64::max);
         for (k, (x, y)) in a.iter().zip(b).enumerate() {
             e2 += (x - y) * (x - y);
@@ -237,7 +241,10 @@ pub fn compress_asset(source: &Table, spec: &AssetSpec) -> Result<Table, FurErro
         "per_entry_arrays_summary".into(),
         serde_json::Value::Object(summaries),
     );
-    a.insert("source_attributes".into(), serde_json::Value::Object(src_attrs));
+    a.insert(
+        "source_attributes".into(),
+        serde_json::Value::Object(src_attrs),
+    );
     a.insert("reconstruction_error".into(), recon.clone());
     if spec.normalise_to_analytic_total {
         a.insert("value_normalisation".into(), "each profile (sigma, g, h') of the source channel was scaled so that its bins sum to the analytic scattered fraction 1 - exp(-sigma 2 sqrt(1 - h'^2)) before compression (ratio estimator; removes the Monte Carlo noise of the profile's overall level); reconstruction_error is against the source as built, tensor_train_only against the scaled values".into());

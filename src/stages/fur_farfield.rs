@@ -136,11 +136,9 @@ impl StageSpec for FurFarFieldStage {
                 &p,
                 &samples,
             )?),
-            (None, None | Some(MedullaSourceKind::Assets)) => Some(open_medulla_tables(
-                MedullaInputs::Assets,
-                &p,
-                &samples,
-            )?),
+            (None, None | Some(MedullaSourceKind::Assets)) => {
+                Some(open_medulla_tables(MedullaInputs::Assets, &p, &samples)?)
+            }
         };
         Ok(Box::new(FarFieldJob { p, samples, tables }))
     }
@@ -420,8 +418,12 @@ impl Job for FarFieldJob {
                 "multilinear lookup (sigma, g, h' or theta'_i, exit angle) in the shipped tensor-train compressed thesis-grid tables assets/fur-medulla/{} and {} (payload SHA-256 {} and {}) at {} bins",
                 crate::fur::assets::ASSET_FILES[0],
                 crate::fur::assets::ASSET_FILES[1],
-                self.tables.as_ref().map_or("", |t| t.payload_sha256[0].as_str()),
-                self.tables.as_ref().map_or("", |t| t.payload_sha256[1].as_str()),
+                self.tables
+                    .as_ref()
+                    .map_or("", |t| t.payload_sha256[0].as_str()),
+                self.tables
+                    .as_ref()
+                    .map_or("", |t| t.payload_sha256[1].as_str()),
                 self.p.medulla_bins
             ),
             (None, None) => format!(

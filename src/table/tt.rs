@@ -343,15 +343,16 @@ pub fn decode_tensor_train(
     if ranks[0] != 1 || ranks[d] != 1 {
         return Err(tt_err(
             path,
-            format!(
-                "inconsistent ranks: the first and last rank must be 1 (ranks {ranks:?})"
-            ),
+            format!("inconsistent ranks: the first and last rank must be 1 (ranks {ranks:?})"),
         ));
     }
     let dense_values = dims
         .iter()
         .try_fold(1u64, |acc, &n| acc.checked_mul(n as u64))
-        .filter(|&v| v.checked_mul(4).is_some_and(|b| b <= limits.max_payload_bytes))
+        .filter(|&v| {
+            v.checked_mul(4)
+                .is_some_and(|b| b <= limits.max_payload_bytes)
+        })
         .ok_or_else(|| {
             tt_err(
                 path,
@@ -470,7 +471,12 @@ pub fn decode_tensor_train(
     let mut attributes = match at.get("source_attributes") {
         Some(serde_json::Value::Object(m)) => m.clone(),
         None => serde_json::Map::new(),
-        Some(_) => return Err(tt_err(path, "attribute `source_attributes` is not an object")),
+        Some(_) => {
+            return Err(tt_err(
+                path,
+                "attribute `source_attributes` is not an object",
+            ));
+        }
     };
     for k in [
         "rel_frobenius_error",

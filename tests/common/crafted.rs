@@ -556,7 +556,10 @@ pub fn tensor_train_table() -> (Table, Vec<f32>) {
         data: data.clone(),
     };
     let (tt, _) = scatterbake::fur::tt::compress_table(&content, "energy", 1e-6, 16).unwrap();
-    (Table::from_content(tt, Provenance::default()).unwrap(), data)
+    (
+        Table::from_content(tt, Provenance::default()).unwrap(),
+        data,
+    )
 }
 
 /// Tensor-train tables that are valid `.sbt` files (every format reader opens them) but break
@@ -567,12 +570,13 @@ pub fn tensor_train_table() -> (Table, Vec<f32>) {
 pub fn tensor_train_cases() -> Vec<(Case, &'static str)> {
     let (base, _) = tensor_train_table();
     let mut out = Vec::new();
-    let mut add = |name: &'static str, valid: bool, fragment: &'static str, f: &dyn Fn(&mut Table)| {
-        let mut t = base.clone();
-        f(&mut t);
-        let bytes = t.to_bytes().unwrap();
-        out.push((Case { name, bytes, valid }, fragment));
-    };
+    let mut add =
+        |name: &'static str, valid: bool, fragment: &'static str, f: &dyn Fn(&mut Table)| {
+            let mut t = base.clone();
+            f(&mut t);
+            let bytes = t.to_bytes().unwrap();
+            out.push((Case { name, bytes, valid }, fragment));
+        };
     let set = |t: &mut Table, k: &str, v: Value| {
         t.header.attributes.insert(k.into(), v);
     };
@@ -585,35 +589,60 @@ pub fn tensor_train_cases() -> Vec<(Case, &'static str)> {
             .collect()
     };
     add("tt_valid", true, "", &|_| {});
-    add("tt_ranks_one_short", false, "inconsistent ranks/dims", &|t| {
-        let mut r = ranks(t);
-        r.pop();
-        set(t, "ranks", json!(r));
-    });
+    add(
+        "tt_ranks_one_short",
+        false,
+        "inconsistent ranks/dims",
+        &|t| {
+            let mut r = ranks(t);
+            r.pop();
+            set(t, "ranks", json!(r));
+        },
+    );
     add("tt_last_rank_not_one", false, "first and last rank", &|t| {
         let mut r = ranks(t);
         *r.last_mut().unwrap() = 2;
         set(t, "ranks", json!(r));
     });
-    add("tt_inner_rank_changed", false, "inconsistent ranks/dims", &|t| {
-        let mut r = ranks(t);
-        r[1] += 1;
-        set(t, "ranks", json!(r));
-    });
-    add("tt_rank_exceeds_unfolding", false, "exceeds its unfolding", &|t| {
-        let mut r = ranks(t);
-        r[1] = 1_000_000_000;
-        set(t, "ranks", json!(r));
-    });
-    add("tt_dims_disagree_with_cores", false, "inconsistent ranks/dims", &|t| {
-        set(t, "dims", json!([4, 3, 6]));
-    });
+    add(
+        "tt_inner_rank_changed",
+        false,
+        "inconsistent ranks/dims",
+        &|t| {
+            let mut r = ranks(t);
+            r[1] += 1;
+            set(t, "ranks", json!(r));
+        },
+    );
+    add(
+        "tt_rank_exceeds_unfolding",
+        false,
+        "exceeds its unfolding",
+        &|t| {
+            let mut r = ranks(t);
+            r[1] = 1_000_000_000;
+            set(t, "ranks", json!(r));
+        },
+    );
+    add(
+        "tt_dims_disagree_with_cores",
+        false,
+        "inconsistent ranks/dims",
+        &|t| {
+            set(t, "dims", json!([4, 3, 6]));
+        },
+    );
     add("tt_dims_beyond_limit", false, "limit", &|t| {
         set(t, "dims", json!([1u64 << 40, 1u64 << 40, 5]));
     });
-    add("tt_dims_not_integers", false, "not a non-negative integer", &|t| {
-        set(t, "dims", json!([4.5, 3, 5]));
-    });
+    add(
+        "tt_dims_not_integers",
+        false,
+        "not a non-negative integer",
+        &|t| {
+            set(t, "dims", json!([4.5, 3, 5]));
+        },
+    );
     add("tt_offsets_short_of_values", false, "core offsets", &|t| {
         let mut o: Vec<u64> = t.header.attributes["core_offsets"]
             .as_array()
@@ -625,7 +654,10 @@ pub fn tensor_train_cases() -> Vec<(Case, &'static str)> {
         set(t, "core_offsets", json!(o));
     });
     add("tt_source_axes_short", false, "source axes", &|t| {
-        let mut a = t.header.attributes["source_axes"].as_array().unwrap().clone();
+        let mut a = t.header.attributes["source_axes"]
+            .as_array()
+            .unwrap()
+            .clone();
         a.pop();
         set(t, "source_axes", json!(a));
     });
@@ -635,8 +667,13 @@ pub fn tensor_train_cases() -> Vec<(Case, &'static str)> {
     add("tt_negative_log_floor", false, "log_floor", &|t| {
         set(t, "log_floor", json!(-1.0));
     });
-    add("tt_missing_ranks", false, "missing attribute `ranks`", &|t| {
-        t.header.attributes.remove("ranks");
-    });
+    add(
+        "tt_missing_ranks",
+        false,
+        "missing attribute `ranks`",
+        &|t| {
+            t.header.attributes.remove("ranks");
+        },
+    );
     out
 }
