@@ -533,6 +533,36 @@ mod tests {
         }
     }
 
+    /// The default source is the shipped assets, and their payload digests are in the content
+    /// key (a changed asset changes the key, so the far field is rebuilt); the Monte Carlo
+    /// source has no table digest; giving both `medulla_source` and `medulla_tables` is refused.
+    #[test]
+    fn default_source_is_the_shipped_assets_and_enters_the_content_key() {
+        use crate::fur::assets::{AZIMUTHAL_BYTES, LONGITUDINAL_BYTES};
+        let base = "samples = [\"cat\", \"human\"], theta_i_deg = [-40.0, 20.0], photons = 10";
+        let job = plan_str(&format!("{{ {base} }}")).unwrap();
+        let want: Vec<String> = [AZIMUTHAL_BYTES, LONGITUDINAL_BYTES]
+            .iter()
+            .map(|b| {
+                Table::from_bytes(b, std::path::Path::new("asset"))
+                    .unwrap()
+                    .header
+                    .payload
+                    .sha256_uncompressed
+            })
+            .collect();
+        assert_eq!(job.parameters()["medulla_table_sha256"], json!(want));
+        let mc = plan_str(&format!("{{ {base}, medulla_source = \"monte-carlo\" }}")).unwrap();
+        assert!(mc.parameters().get("medulla_table_sha256").is_none());
+        let e = match plan_str(&format!(
+            "{{ {base}, medulla_source = \"assets\", medulla_tables = {{ azimuthal = \"a.sbt\", longitudinal = \"b.sbt\" }} }}"
+        )) {
+            Err(e) => e.to_string(),
+            Ok(_) => panic!("both keys must be refused"),
+        };
+        assert!(e.contains("medulla_source"), "{e}");
+    }
+
     #[test]
     fn rejects_bad_params() {
         crate::stages::assert_planning(
