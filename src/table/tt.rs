@@ -346,8 +346,7 @@ pub fn decode_tensor_train(
             format!("inconsistent ranks: the first and last rank must be 1 (ranks {ranks:?})"),
         ));
     }
-    let dense_values = dims
-        .iter()
+    dims.iter()
         .try_fold(1u64, |acc, &n| acc.checked_mul(n as u64))
         .filter(|&v| {
             v.checked_mul(4)
@@ -419,7 +418,6 @@ pub fn decode_tensor_train(
         }
         cores.push(core.iter().map(|&v| f64::from(v)).collect());
     }
-    let _ = dense_values;
     let axes: Vec<Axis> = serde_json::from_value(
         at.get("source_axes")
             .cloned()
