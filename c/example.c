@@ -4,7 +4,9 @@
  *     cc -std=c99 -Wall -I c c/example.c -L target/release -lscatterbake_table \
  *        -Wl,-rpath,$PWD/target/release -o sbt-example
  * Run:
- *     ./sbt-example tables/rainbow-mie.sbt [--dump out.bin] [COORD ...]
+ *     ./sbt-example tables/rainbow-mie.sbt [--reconstruct] [--dump out.bin] [COORD ...]
+ * With --reconstruct the table is opened with sbt_open_reconstructed (a tensor-train table is
+ * reconstructed into its dense table).
  * With --dump the payload is written as raw float32 little-endian (used by the tests to
  * compare bit for bit with the Rust writer). With COORDs (one per axis) every channel is
  * printed at that point, with the lookup formula of the library.
@@ -17,16 +19,21 @@
 
 int main(int argc, char **argv) {
     if (argc < 2) {
-        fprintf(stderr, "usage: %s TABLE.sbt [--dump OUT.bin] [COORD ...]\n", argv[0]);
+        fprintf(stderr, "usage: %s TABLE.sbt [--reconstruct] [--dump OUT.bin] [COORD ...]\n", argv[0]);
         return 2;
     }
+    int argi = 2, reconstruct = 0;
+    if (argi < argc && strcmp(argv[argi], "--reconstruct") == 0) {
+        reconstruct = 1;
+        ++argi;
+    }
     char err[512];
-    sbt_table *t = sbt_open(argv[1], err, sizeof err);
+    sbt_table *t = reconstruct ? sbt_open_reconstructed(argv[1], 0, err, sizeof err)
+                               : sbt_open(argv[1], err, sizeof err);
     if (!t) {
         fprintf(stderr, "error: %s\n", err);
         return 3;
     }
-    int argi = 2;
     const char *dump = NULL;
     if (argi + 1 < argc && strcmp(argv[argi], "--dump") == 0) {
         dump = argv[argi + 1];

@@ -482,9 +482,180 @@ def read_table_bytes(buf: bytes, name: str = "<bytes>", max_payload_bytes: int =
     return _read_table(io.BytesIO(buf), name, len(buf), max_payload_bytes)
 
 
-def open_table(path, max_payload_bytes: int = DEFAULT_MAX_PAYLOAD_BYTES) -> Table:
+#: Schema of tensor-train tables (docs/table-format.md, "Tensor-train tables").
+TT_SCHEMA = "fur-medulla-tt"
+TT_SCHEMA_VERSION = 1
+
+
+def _tt_uint_list(at: dict, key: str) -> list:
+    if key not in at:
+        raise _Bad(f"missing attribute `{key}`")
+    v = at[key]
+    if not isinstance(v, list):
+        raise _Bad(f"attribute `{key}` is not an array")
+    if len(v) > MAX_AXES + 1:
+        raise _Bad(f"attribute `{key}` has {len(v)} entries (at most {MAX_AXES + 1})")
+    out = []
+    for x in v:
+        if isinstance(x, bool) or not isinstance(x, int) or x < 0 or x >= _U64:
+            raise _Bad(f"attribute `{key}` holds {json.dumps(x)}, not a non-negative integer")
+        out.append(x)
+    return out
+
+
+def _tt_contract(cores, dims, ranks, first=None) -> np.ndarray:
+    """Left-to-right contraction in the order docs/table-format.md specifies (f64, multiply
+    then add, a = 0 .. r-1 in order), optionally for one index ``first`` of the first mode."""
+    m = np.ones((1, 1), dtype=np.float64)
+    for k, core in enumerate(cores):
+        r0, n, r1 = ranks[k], dims[k], ranks[k + 1]
+        c = core.reshape(r0, n, r1)
+        if k == 0 and first is not None:
+            c = c[:, first:first + 1, :]
+            n = 1
+        nxt = np.zeros((m.shape[0], n, r1), dtype=np.float64)
+        for a in range(r0):
+            nxt += m[:, a][:, None, None] * c[a][None, :, :]
+        m = nxt.reshape(-1, r1)
+    return m[:, 0]
+
+
+def reconstruct_tensor_train(t: Table, name: str = "<table>", max_payload_bytes: int = DEFAULT_MAX_PAYLOAD_BYTES) -> Table:
+    """The dense table a tensor-train table (``fur-medulla-tt/1``) holds, after checking every
+    rule of docs/table-format.md ("Tensor-train tables"); values bit-identical to the Rust
+    reader's up to the last bit of ``exp`` for the logarithmic form (measured: see
+    docs/python.md). Raises TableError naming the table and the rule."""
+    try:
+        return _reconstruct(t, max_payload_bytes)
+    except _Bad as e:
+        raise TableError(f"{name}: tensor-train table is not valid: {e}") from None
+
+
+def _reconstruct(t: Table, max_payload_bytes: int) -> Table:
+    h = t.header
+    schema = h["schema"]
+    if schema["name"] != TT_SCHEMA:
+        raise _Bad(f"schema {schema['name']}/{schema['version']} is not {TT_SCHEMA}")
+    if schema["version"] != TT_SCHEMA_VERSION:
+        raise _Bad(f"schema version {schema['version']} is not supported (this reader knows {TT_SCHEMA}/{TT_SCHEMA_VERSION})")
+    if len(t.axes) != 1 or len(t.channels) != 1:
+        raise _Bad(f"needs exactly one axis and one channel (has {len(t.axes)} and {len(t.channels)})")
+    at = h["attributes"]
+    dims = _tt_uint_list(at, "dims")
+    ranks = _tt_uint_list(at, "ranks")
+    offsets = _tt_uint_list(at, "core_offsets")
+    d = len(dims)
+    if d == 0 or d > MAX_AXES:
+        raise _Bad(f"{d} modes in `dims` (1 to {MAX_AXES})")
+    if len(ranks) != d + 1 or len(offsets) != d + 1:
+        raise _Bad(f"inconsistent ranks/dims: {d} dims need {d + 1} ranks and {d + 1} core offsets, found {len(ranks)} and {len(offsets)}")
+    for k, n in enumerate(dims):
+        if n == 0:
+            raise _Bad(f"dims[{k}] is 0")
+    if ranks[0] != 1 or ranks[d] != 1:
+        raise _Bad(f"inconsistent ranks: the first and last rank must be 1 (ranks {ranks})")
+    total = 1
+    for n in dims:
+        total *= n
+    if total * 4 > max_payload_bytes:
+        raise _Bad(f"dims {dims} describe more than the reader's limit of {max_payload_bytes} bytes")
+    for k in range(d):
+        if ranks[k] == 0:
+            raise _Bad(f"inconsistent ranks: ranks[{k}] is 0")
+        if ranks[k + 1] > ranks[k] * dims[k] or ranks[k] > dims[k] * ranks[k + 1]:
+            raise _Bad(f"inconsistent ranks/dims: core {k} is {ranks[k]} x {dims[k]} x {ranks[k + 1]}, a rank exceeds its unfolding")
+    values = t.data.reshape(-1)
+    nv = values.shape[0]
+    if offsets[0] != 0 or offsets[d] != nv:
+        raise _Bad(f"core offsets must run from 0 to the {nv} stored values (found {offsets[0]} .. {offsets[d]})")
+    cores = []
+    for k in range(d):
+        size = ranks[k] * dims[k] * ranks[k + 1]
+        stored = offsets[k + 1] - offsets[k]
+        if stored != size:
+            held = "a negative number of" if stored < 0 else str(stored)
+            raise _Bad(f"inconsistent ranks/dims: core {k} holds {held} values, ranks and dims imply {ranks[k]} x {dims[k]} x {ranks[k + 1]}")
+        core = values[offsets[k]:offsets[k + 1]]
+        bad = np.flatnonzero(~np.isfinite(core))
+        if bad.size:
+            raise _Bad(f"core {k} holds a non-finite value at {int(bad[0])}")
+        cores.append(core.astype(np.float64))
+    src_axes = at.get("source_axes")
+    if not isinstance(src_axes, list):
+        raise _Bad("missing attribute `source_axes`" if src_axes is None else "attribute `source_axes`: expected an array")
+    axes = []
+    for i, a in enumerate(src_axes):
+        a = _obj(a, f"source_axes[{i}]")
+        an = _str(a, "name", f"source_axes[{i}]")
+        unit = _str(a, "unit", f"source_axes[{i}]")
+        pts = _obj(_field(a, "points", f"source_axes[{i}]"), f"source_axes[{i}].points")
+        if len(pts) != 1 or next(iter(pts)) not in ("values", "uniform"):
+            raise _Bad(f"source_axes[{i}].points: expected exactly one of `values` or `uniform`")
+        if "values" in pts:
+            vals = pts["values"]
+            if not isinstance(vals, list):
+                raise _Bad(f"source_axes[{i}].points.values: expected an array")
+            axes.append((an, unit, "values", [_float(x, "points.values") for x in vals]))
+        else:
+            u = _obj(pts["uniform"], f"source_axes[{i}].points.uniform")
+            axes.append((an, unit, "uniform", (_float(_field(u, "start", "uniform"), "uniform.start"), _float(_field(u, "step", "uniform"), "uniform.step"), _uint(_field(u, "count", "uniform"), "uniform.count"))))
+    lens = [len(a[3]) if a[2] == "values" else a[3][2] for a in axes]
+    if len(axes) != d or lens != dims:
+        raise _Bad(f"inconsistent ranks/dims: source axes of lengths {lens} for dims {dims}")
+    for (an, unit, kind, pts) in axes:
+        if kind == "uniform":
+            start, step, count = pts
+            if not math.isfinite(start):
+                raise _Bad(f"source axis: axis `{an}`: uniform start {start} is not finite")
+            if not (math.isfinite(step) and step > 0.0):
+                raise _Bad(f"source axis: axis `{an}`: uniform step {step} is not finite and > 0")
+    axes = [Axis(an, unit, _axis_coords(an, kind, pts)) for (an, unit, kind, pts) in axes]
+    ch = _obj(at.get("source_channel"), "attribute `source_channel`")
+    channel = Channel(_str(ch, "name", "source_channel"), _str(ch, "unit", "source_channel"), _str(ch, "meaning", "source_channel"))
+    src_schema = at.get("source_schema")
+    m = re.fullmatch(r"(.+)/(\d+)", src_schema) if isinstance(src_schema, str) else None
+    if m is None:
+        raise _Bad(f"attribute `source_schema` is `{src_schema}`, not NAME/VERSION")
+    log_floor = at.get("log_floor")
+    if log_floor is not None and (isinstance(log_floor, bool) or not isinstance(log_floor, (int, float)) or not math.isfinite(log_floor) or log_floor <= 0):
+        raise _Bad(f"`log_floor` is {json.dumps(log_floor)}, not a positive number")
+    src_attrs = at.get("source_attributes", {})
+    if not isinstance(src_attrs, dict):
+        raise _Bad("attribute `source_attributes` is not an object")
+    out = np.empty(total, dtype=np.float32)
+    block = total // dims[0]
+    for i in range(dims[0]):
+        v = _tt_contract(cores, dims, ranks, first=i)
+        if log_floor is not None:
+            v = np.exp(v)
+        out[i * block:(i + 1) * block] = v.astype(np.float32)
+    attributes = dict(src_attrs)
+    for k in ("rel_frobenius_error", "max_abs_error", "max_abs_error_rel_to_max", "ranks", "rel_tol", "reconstruction_error"):
+        if k in at:
+            attributes[f"tt_{k}"] = at[k]
+    attributes["tt_payload_sha256"] = h["payload"]["sha256_uncompressed"]
+    header = {
+        "schema": {"name": m.group(1), "version": int(m.group(2))},
+        "description": f"{at.get('source_description', '')} (reconstructed from tensor train)",
+        "axes": src_axes,
+        "channels": [{"name": channel.name, "unit": channel.unit, "meaning": channel.meaning}],
+        "attributes": attributes,
+        "provenance": h["provenance"],
+    }
+    return Table(header=header, axes=axes, channels=[channel], data=out.reshape(tuple(dims) + (1,)), format_version=t.format_version)
+
+
+def open_table(path, max_payload_bytes: int = DEFAULT_MAX_PAYLOAD_BYTES, reconstruct: bool = True) -> Table:
     """Open and fully verify a ``.sbt`` file, streaming it (memory bounded by the data present
-    and by ``max_payload_bytes``)."""
+    and by ``max_payload_bytes``). A tensor-train table (``fur-medulla-tt/1``) is checked and
+    reconstructed into the dense table it holds unless ``reconstruct=False``."""
+    t = _open_raw(path, max_payload_bytes)
+    if reconstruct and t.header["schema"]["name"] == TT_SCHEMA:
+        return reconstruct_tensor_train(t, str(path), max_payload_bytes)
+    return t
+
+
+def _open_raw(path, max_payload_bytes: int) -> Table:
     import os
     import stat
 

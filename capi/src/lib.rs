@@ -95,7 +95,51 @@ pub unsafe extern "C" fn sbt_open_limit(
     }
 }
 
+/// Like `sbt_open_limit`, but a tensor-train table (`fur-medulla-tt/1`, e.g. the shipped
+/// `assets/fur-medulla/*.sbt`) is checked and reconstructed into the dense table it holds
+/// (`Table::open_reconstructed`; the limit also bounds the reconstruction); any other table is
+/// opened as by `sbt_open_limit`.
+///
+/// # Safety
+/// `path` must be a NUL-terminated string; `err` NULL or `err_len` writable bytes.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn sbt_open_reconstructed(
+    path: *const c_char,
+    max_payload_bytes: u64,
+    err: *mut c_char,
+    err_len: usize,
+) -> *mut SbtTable {
+    let r = catch_unwind(AssertUnwindSafe(|| {
+        // SAFETY: forwarded contract.
+        unsafe { open_table(path, max_payload_bytes, true) }
+    }));
+    match r {
+        Ok(Ok(t)) => Box::into_raw(Box::new(t)),
+        Ok(Err(msg)) => {
+            write_err(err, err_len, &msg);
+            std::ptr::null_mut()
+        }
+        Err(_) => {
+            write_err(
+                err,
+                err_len,
+                "internal error while reading the table (panic caught)",
+            );
+            std::ptr::null_mut()
+        }
+    }
+}
+
 unsafe fn open_inner(path: *const c_char, max_payload_bytes: u64) -> Result<SbtTable, String> {
+    // SAFETY: forwarded contract.
+    unsafe { open_table(path, max_payload_bytes, false) }
+}
+
+unsafe fn open_table(
+    path: *const c_char,
+    max_payload_bytes: u64,
+    reconstruct: bool,
+) -> Result<SbtTable, String> {
     if path.is_null() {
         return Err("path is NULL".into());
     }
@@ -107,7 +151,12 @@ unsafe fn open_inner(path: *const c_char, max_payload_bytes: u64) -> Result<SbtT
     if max_payload_bytes != 0 {
         limits.max_payload_bytes = max_payload_bytes;
     }
-    let table = Table::open_with_limits(&p, &limits).map_err(|e| e.to_string())?;
+    let table = if reconstruct {
+        Table::open_reconstructed(&p, &limits)
+    } else {
+        Table::open_with_limits(&p, &limits)
+    }
+    .map_err(|e| e.to_string())?;
     let header_json = cstring(&serde_json::to_string(&table.header).unwrap_or_default());
     let h = &table.header;
     Ok(SbtTable {

@@ -49,6 +49,8 @@ enum Command {
     Airy(crate::commands::debye::AiryArgs),
     /// Fur medulla scattering profile for one (σ, g, entry) by Monte Carlo, as CSV or JSON.
     Medulla(crate::commands::medulla::MedullaArgs),
+    /// Compress the dense thesis-grid medulla tables into the shipped assets (docs/fur.md).
+    MedullaAssets(crate::commands::medulla::MedullaAssetsArgs),
     /// Hair Dual Scattering table → engine EXR LUT (layout and shader lookup in docs/hair.md).
     HairLut(crate::commands::hair::HairLutArgs),
     /// Dual Scattering averages for one hair parameter set, as JSON or CSV.
@@ -219,6 +221,7 @@ fn run(cmd: Command) -> Result<i32> {
         Command::Raytrace(a) => crate::commands::raytrace::run_raytrace(&a).map(|_| 0),
         Command::Airy(a) => crate::commands::debye::run_airy(&a).map(|_| 0),
         Command::Medulla(a) => crate::commands::medulla::run_medulla(&a).map(|_| 0),
+        Command::MedullaAssets(a) => crate::commands::medulla::run_medulla_assets(&a).map(|_| 0),
         Command::HairLut(a) => crate::commands::hair::run_hair_lut(&a).map(|_| 0),
         Command::HairJson(a) => crate::commands::hair::run_dual_scattering(&a).map(|_| 0),
         Command::Validate(a) => crate::commands::mieplot::run_validate(&a).map(|_| 0),

@@ -264,9 +264,13 @@ class Table:
     def sample_channel(self, name: str, coords: Sequence[float]) -> float:
         """Interpolated value of one channel at ``coords``."""
 
-def open_table(path: _Path) -> Table:
-    """Open and verify a ``.sbt`` table (every checksum). OSError if it cannot be read,
-    TableError if it is not a valid table."""
+def open_table(path: _Path, *, reconstruct: bool = True) -> Table:
+    """Open and verify a ``.sbt`` table (every checksum). A tensor-train table
+    (schema ``fur-medulla-tt/1``, e.g. the shipped ``assets/fur-medulla/*.sbt``) is checked
+    and reconstructed into the dense table it holds (its source schema, axes and channel; values
+    bit-identical to the Rust and C readers) unless ``reconstruct=False``, which returns the
+    stored cores. OSError if it cannot be read, TableError if it is not a valid table (or not a
+    valid tensor train)."""
 
 def build(
     manifests: Union[_Path, Sequence[_Path]],

@@ -673,10 +673,19 @@ impl Table {
     }
 }
 
-/// Opens and fully verifies a `.sbt` table (every checksum) with the library's reader.
+/// Opens and fully verifies a `.sbt` table (every checksum) with the library's reader; a
+/// tensor-train table (`fur-medulla-tt/1`) is checked and reconstructed into the dense table
+/// it holds unless `reconstruct=False` (`Table::open_reconstructed`).
 #[pyfunction]
-fn open_table(py: Python<'_>, path: PathBuf) -> PyResult<Table> {
-    let r = py.detach(|| scatterbake::table::Table::open(&path));
+#[pyo3(signature = (path, *, reconstruct=true))]
+fn open_table(py: Python<'_>, path: PathBuf, reconstruct: bool) -> PyResult<Table> {
+    let r = py.detach(|| {
+        if reconstruct {
+            scatterbake::table::Table::open_reconstructed(&path, &Default::default())
+        } else {
+            scatterbake::table::Table::open(&path)
+        }
+    });
     match r {
         Ok(inner) => Ok(Table { inner }),
         Err(e @ scatterbake::table::TableError::Io { .. }) => {

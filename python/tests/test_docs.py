@@ -1,5 +1,6 @@
 """Every ```python block of docs/python.md runs (in a directory holding a small
-`tables/rainbow-mie.sbt` built with the default Mie table's stage) and prints what it says."""
+`tables/rainbow-mie.sbt` built with the default Mie table's stage and a copy of the shipped
+`assets/fur-medulla/`) and prints what it says."""
 
 import os
 import pathlib
@@ -32,6 +33,10 @@ def test_python_md_examples_run(tmp_path):
     assert found, "docs/python.md has no python example"
     (tmp_path / "fixture.toml").write_text(FIXTURE)
     sb.build(tmp_path / "fixture.toml", tmp_path / "tables")
+    # The shipped compressed medulla tables, at the path the examples name.
+    import shutil
+
+    shutil.copytree(ROOT / "assets" / "fur-medulla", tmp_path / "assets" / "fur-medulla")
     for code in found:
         o = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True,
                            text=True, env=dict(os.environ))

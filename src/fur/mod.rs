@@ -15,6 +15,7 @@
 //! [`crate::stages::fur_medulla`] and [`crate::stages::fur_farfield`].
 //! - [`tt`]: tensor-train (TT-SVD) compression and reconstruction of a table channel.
 
+pub mod assets;
 pub mod chief_ray;
 pub mod farfield;
 pub mod medulla;

@@ -19,69 +19,7 @@ use super::FurError;
 use crate::table::{Axis, Channel, Schema, TableContent};
 use nalgebra::{DMatrix, SymmetricEigen};
 
-/// A tensor train.
-#[derive(Debug, Clone, PartialEq)]
-pub struct TensorTrain {
-    /// Mode sizes n_k.
-    pub dims: Vec<usize>,
-    /// TT ranks r₀..r_d (r₀ = r_d = 1).
-    pub ranks: Vec<usize>,
-    /// Cores, each row-major r_{k−1} × n_k × r_k.
-    pub cores: Vec<Vec<f64>>,
-}
-
-impl TensorTrain {
-    /// Number of stored values.
-    pub fn parameter_count(&self) -> usize {
-        self.cores.iter().map(Vec::len).sum()
-    }
-
-    /// Dense reconstruction, row-major over `dims`.
-    pub fn reconstruct(&self) -> Vec<f64> {
-        // Left-to-right contraction: M has shape (n₁⋯n_k) × r_k.
-        let mut m = vec![1.0];
-        let mut rows = 1usize;
-        for (k, core) in self.cores.iter().enumerate() {
-            let (r0, n, r1) = (self.ranks[k], self.dims[k], self.ranks[k + 1]);
-            let mut next = vec![0.0; rows * n * r1];
-            for row in 0..rows {
-                for a in 0..r0 {
-                    let v = m[row * r0 + a];
-                    if v == 0.0 {
-                        continue;
-                    }
-                    for i in 0..n {
-                        let src = &core[(a * n + i) * r1..(a * n + i + 1) * r1];
-                        let dst = &mut next[(row * n + i) * r1..(row * n + i + 1) * r1];
-                        for (d, s) in dst.iter_mut().zip(src) {
-                            *d += v * s;
-                        }
-                    }
-                }
-            }
-            m = next;
-            rows *= n;
-        }
-        m
-    }
-
-    /// One entry.
-    pub fn get(&self, idx: &[usize]) -> f64 {
-        let mut v = vec![1.0];
-        for (k, core) in self.cores.iter().enumerate() {
-            let (r0, n, r1) = (self.ranks[k], self.dims[k], self.ranks[k + 1]);
-            let mut next = vec![0.0; r1];
-            for (a, &va) in v.iter().enumerate().take(r0) {
-                let s = &core[(a * n + idx[k]) * r1..(a * n + idx[k] + 1) * r1];
-                for (d, x) in next.iter_mut().zip(s) {
-                    *d += va * x;
-                }
-            }
-            v = next;
-        }
-        v[0]
-    }
-}
+pub use crate::table::tt::TensorTrain;
 
 /// TT-SVD of a row-major tensor.
 pub fn tt_svd(data: &[f64], dims: &[usize], rel_tol: f64, max_rank: usize) -> TensorTrain {
@@ -207,14 +145,6 @@ fn to_json<T: serde::Serialize>(
     value: &T,
 ) -> Result<serde_json::Value, FurError> {
     serde_json::to_value(value).map_err(|source| FurError::TensorTrainAttribute { key, source })
-}
-
-/// Decode a header attribute of a `fur-medulla-tt/1` table.
-fn from_json<T: serde::de::DeserializeOwned>(
-    key: &'static str,
-    value: &serde_json::Value,
-) -> Result<T, FurError> {
-    T::deserialize(value).map_err(|source| FurError::TensorTrainAttribute { key, source })
 }
 
 /// Compress channel `channel` of `table` into a `fur-medulla-tt/1` table (cores stored as f32;
@@ -360,7 +290,8 @@ fn error_report(dense: &[f64], approx: &[f64], parameters: usize) -> Compression
     }
 }
 
-/// Rebuild the dense single-channel table from a `fur-medulla-tt/1` table.
+/// Rebuild the dense single-channel table from a `fur-medulla-tt/1` table (every rule of
+/// [`crate::table::tt::decode_tensor_train`] is checked first).
 pub fn reconstruct_table(tt_table: &TableContent) -> Result<TableContent, FurError> {
     if tt_table.schema.name != "fur-medulla-tt" {
         return Err(FurError::WrongSchema {
@@ -368,73 +299,23 @@ pub fn reconstruct_table(tt_table: &TableContent) -> Result<TableContent, FurErr
             found: tt_table.schema.name.clone(),
         });
     }
-    let at = &tt_table.attributes;
-    let get = |k: &'static str| {
-        at.get(k)
-            .ok_or_else(|| FurError::TensorTrain(format!("missing attribute `{k}`")))
-    };
-    let dims: Vec<usize> = from_json("dims", get("dims")?)?;
-    let ranks: Vec<usize> = from_json("ranks", get("ranks")?)?;
-    let offsets: Vec<usize> = from_json("core_offsets", get("core_offsets")?)?;
-    if ranks.len() != dims.len() + 1 || offsets.len() != dims.len() + 1 {
-        return Err(FurError::TensorTrain(format!(
-            "inconsistent header: {} dims, {} ranks, {} core offsets",
-            dims.len(),
-            ranks.len(),
-            offsets.len()
-        )));
-    }
-    let mut cores = Vec::new();
-    for k in 0..dims.len() {
-        if offsets[k + 1] - offsets[k] != ranks[k] * dims[k] * ranks[k + 1] {
-            return Err(FurError::TensorTrain(format!("core {k} size mismatch")));
-        }
-        cores.push(
-            tt_table.data[offsets[k]..offsets[k + 1]]
-                .iter()
-                .map(|&v| v as f64)
-                .collect(),
-        );
-    }
-    let tt = TensorTrain { dims, ranks, cores };
-    let axes: Vec<Axis> = from_json("source_axes", get("source_axes")?)?;
-    let channel: Channel = from_json("source_channel", get("source_channel")?)?;
-    let schema_str = get("source_schema")?
-        .as_str()
-        .unwrap_or_default()
-        .to_string();
-    let (name, ver) = schema_str
-        .rsplit_once('/')
-        .unwrap_or((schema_str.as_str(), "1"));
-    let mut attributes = match get("source_attributes")? {
-        serde_json::Value::Object(m) => m.clone(),
-        _ => serde_json::Map::new(),
-    };
-    for k in [
-        "rel_frobenius_error",
-        "max_abs_error",
-        "max_abs_error_rel_to_max",
-        "ranks",
-    ] {
-        attributes.insert(format!("tt_{k}"), get(k)?.clone());
-    }
+    let t = crate::table::Table::from_content(tt_table.clone(), Default::default())
+        .map_err(|e| FurError::TensorTrain(e.to_string()))?;
+    let dense = crate::table::tt::decode_tensor_train(
+        &t,
+        std::path::Path::new("(in memory)"),
+        &Default::default(),
+    )
+    .and_then(|d| d.dense_table())
+    .map_err(|e| FurError::TensorTrain(e.to_string()))?;
+    let h = dense.header;
     Ok(TableContent {
-        schema: Schema::new(name, ver.parse().unwrap_or(1)),
-        description: format!(
-            "{} (reconstructed from tensor train)",
-            get("source_description")?.as_str().unwrap_or("")
-        ),
-        axes,
-        channels: vec![channel],
-        attributes,
-        data: match at.get("log_floor") {
-            None => tt.reconstruct().into_iter().map(|v| v as f32).collect(),
-            Some(_) => tt
-                .reconstruct()
-                .into_iter()
-                .map(|v| v.exp() as f32)
-                .collect(),
-        },
+        schema: h.schema,
+        description: h.description,
+        axes: h.axes,
+        channels: h.channels,
+        attributes: h.attributes,
+        data: dense.data,
     })
 }
 

@@ -43,12 +43,27 @@ stage_params! {
         seed: u64 = default(0), "integer", "random seed of the medulla profiles";
         medulla_sigma_scaling: SigmaScaling = default(SigmaScaling::ThesisOverKappa), "string",
             "σ_ms → table σ per medulla radius: thesis_over_kappa (σ/κ, the lookup Table 4.2 was fitted with; default), kappa_half (σκ/2, optical depth of σ per diameter), kappa (σκ)";
-        /// Take the medulla profiles from shipped tables instead of the on-the-fly Monte Carlo.
+        /// Where the medulla profiles come from when `medulla_tables` is not given.
         #[serde(skip_serializing_if = "Option::is_none")]
-        medulla_tables: Option<MedullaTablePaths> = optional("none (Monte Carlo on the fly)"),
+        medulla_source: Option<MedullaSourceKind> = optional("assets"),
+            "string",
+            "assets (default: multilinear lookup in the shipped compressed thesis-grid tables assets/fur-medulla/, embedded in the library) or monte-carlo (expected-value Monte Carlo on the fly, `photons` per profile)";
+        /// Take the medulla profiles from other tables instead of the shipped assets.
+        #[serde(skip_serializing_if = "Option::is_none")]
+        medulla_tables: Option<MedullaTablePaths> = optional("none (the shipped assets)"),
             "table { azimuthal = path, longitudinal = path }",
-            "look the medulla profiles up in fur-medulla-azimuthal/1 and fur-medulla-longitudinal/1 tables (their grids must cover every sample's σ, g and θ'_i); the tables' payload digests enter the content key";
+            "look the medulla profiles up in fur-medulla-azimuthal/1 and fur-medulla-longitudinal/1 tables, dense or tensor-train compressed (fur-medulla-tt/1; their grids must cover every sample's σ, g and θ'_i); the tables' payload digests enter the content key";
     }
+}
+
+/// The medulla profile sources selectable by `medulla_source`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum MedullaSourceKind {
+    /// The shipped compressed thesis-grid tables (`crate::fur::assets`).
+    Assets,
+    /// The expected-value Monte Carlo on the fly.
+    MonteCarlo,
 }
 
 /// Paths (relative to the working directory of the build) of the medulla tables a far field
@@ -108,40 +123,142 @@ impl StageSpec for FurFarFieldStage {
         if p.photons == 0 || p.photons > 100_000_000 {
             return Err(PlanError::invalid("photons", "must be in 1..=1e8"));
         }
-        let tables = match &p.medulla_tables {
-            None => None,
-            Some(paths) => Some(open_medulla_tables(paths, &p, &samples)?),
+        let tables = match (&p.medulla_tables, p.medulla_source) {
+            (Some(_), Some(_)) => {
+                return Err(PlanError::invalid(
+                    "medulla_source",
+                    "give either medulla_source or medulla_tables, not both",
+                ));
+            }
+            (None, Some(MedullaSourceKind::MonteCarlo)) => None,
+            (Some(paths), None) => Some(open_medulla_tables(
+                MedullaInputs::Files(paths),
+                &p,
+                &samples,
+            )?),
+            (None, None | Some(MedullaSourceKind::Assets)) => {
+                Some(open_medulla_tables(MedullaInputs::Assets, &p, &samples)?)
+            }
         };
         Ok(Box::new(FarFieldJob { p, samples, tables }))
     }
 }
 
-/// Open the medulla tables a far-field plan names, check their schemas, and check that every
+/// Where a plan's medulla tables come from.
+#[derive(Clone, Copy)]
+enum MedullaInputs<'a> {
+    /// The shipped assets embedded in the library.
+    Assets,
+    /// Files named by `medulla_tables`.
+    Files(&'a MedullaTablePaths),
+}
+
+/// The medulla tables a far field reads: (azimuthal, longitudinal) dense tables, restricted
+/// to the σ and g grid points the plan's lookups touch when the source is a tensor train
+/// (reconstructed at those points only, bit-identical to the full reconstruction there), and
+/// the payload SHA-256 of each source file (the content key's input).
+pub struct MedullaTables {
+    pub azimuthal: Table,
+    pub longitudinal: Table,
+    pub payload_sha256: [String; 2],
+}
+
+/// Indices of the grid points of `coords` that bracket every value of `xs` (multilinear
+/// lookup touches exactly these); values outside the axis are left to the range check.
+fn bracket_indices(coords: &[f64], xs: &[f64]) -> Vec<usize> {
+    let mut set = std::collections::BTreeSet::new();
+    let n = coords.len();
+    for &x in xs {
+        let k = coords.partition_point(|&c| c <= x).saturating_sub(1);
+        let k = k.min(n.saturating_sub(2));
+        set.insert(k);
+        if k + 1 < n {
+            set.insert(k + 1);
+        }
+    }
+    set.into_iter().collect()
+}
+
+/// One medulla table of `schema` from `bytes` or a file, reconstructed at the σ values
+/// `sigmas` and g values `gs` if it is a tensor train.
+fn load_medulla_table(
+    input: MedullaInputs<'_>,
+    which: usize,
+    schema: &str,
+    sigmas: &[f64],
+    gs: &[f64],
+) -> Result<(Table, String), PlanError> {
+    use crate::fur::assets::{ASSET_FILES, AZIMUTHAL_BYTES, LONGITUDINAL_BYTES};
+    use crate::table::tt::{TT_SCHEMA, decode_tensor_train};
+    let bad = |m: String| PlanError::invalid("medulla_tables", m);
+    let (t, name) = match input {
+        MedullaInputs::Assets => {
+            let name = format!("assets/fur-medulla/{}", ASSET_FILES[which]);
+            let bytes = [AZIMUTHAL_BYTES, LONGITUDINAL_BYTES][which];
+            let t = Table::from_bytes(bytes, std::path::Path::new(&name))
+                .map_err(|e| PlanError::invalid("medulla_source", e.to_string()))?;
+            (t, name)
+        }
+        MedullaInputs::Files(paths) => {
+            let path = [&paths.azimuthal, &paths.longitudinal][which].clone();
+            // The table error names the file.
+            (Table::open(&path).map_err(|e| bad(e.to_string()))?, path)
+        }
+    };
+    let sha = t.header.payload.sha256_uncompressed.clone();
+    if t.header.schema.name != TT_SCHEMA {
+        if t.header.schema.name != schema {
+            return Err(bad(format!(
+                "{name}: schema {} (expected {schema})",
+                t.header.schema.name
+            )));
+        }
+        return Ok((t, sha));
+    }
+    let path = std::path::Path::new(&name);
+    let d = decode_tensor_train(&t, path, &Default::default()).map_err(|e| bad(e.to_string()))?;
+    if d.schema.name != schema || d.axes.len() < 2 {
+        return Err(bad(format!(
+            "{name}: holds a {} table (expected {schema})",
+            d.schema.name
+        )));
+    }
+    let mut sel = vec![None; d.axes.len()];
+    sel[0] = Some(bracket_indices(&d.axes[0].coords(), sigmas));
+    sel[1] = Some(bracket_indices(&d.axes[1].coords(), gs));
+    let sub = d.sub_table(&sel).map_err(|e| bad(e.to_string()))?;
+    Ok((sub, sha))
+}
+
+/// Open the medulla tables a far-field plan uses, check their schemas, and check that every
 /// lookup the plan will make (each sample's σ and g, each θ_i) lies inside their grids.
 fn open_medulla_tables(
-    paths: &MedullaTablePaths,
+    input: MedullaInputs<'_>,
     p: &FarFieldParams,
     samples: &[FurSample],
-) -> Result<Arc<(Table, Table)>, PlanError> {
-    let open = |path: &str, schema: &str| -> Result<Table, PlanError> {
-        // The table error names the file.
-        let t =
-            Table::open(path).map_err(|e| PlanError::invalid("medulla_tables", e.to_string()))?;
-        if t.header.schema.name != schema {
-            return Err(PlanError::invalid(
-                "medulla_tables",
-                format!(
-                    "{path}: schema {} (expected {schema})",
-                    t.header.schema.name
-                ),
-            ));
+) -> Result<Arc<MedullaTables>, PlanError> {
+    // The lookups: azimuthal at (σ, g) of each sample, longitudinal at (σ/cos θ_t, g) for
+    // each θ_i (the same expressions as the lookups themselves, below and in run_task).
+    let mut az_sigma = Vec::new();
+    let mut lo_sigma = Vec::new();
+    let mut gs = Vec::new();
+    for s in samples {
+        let sigma = medulla_sigma(s, p.medulla_sigma_scaling);
+        az_sigma.push(sigma);
+        gs.push(s.g);
+        for &ti in &p.theta_i_deg {
+            let sin_ti = ti.to_radians().sin();
+            let cos_tm = (1.0 - (sin_ti / s.eta_m).powi(2)).sqrt();
+            lo_sigma.push(sigma / cos_tm);
         }
-        Ok(t)
-    };
-    let tables = Arc::new((
-        open(&paths.azimuthal, "fur-medulla-azimuthal")?,
-        open(&paths.longitudinal, "fur-medulla-longitudinal")?,
-    ));
+    }
+    let (az, az_sha) = load_medulla_table(input, 0, "fur-medulla-azimuthal", &az_sigma, &gs)?;
+    let (lo, lo_sha) = load_medulla_table(input, 1, "fur-medulla-longitudinal", &lo_sigma, &gs)?;
+    let tables = Arc::new(MedullaTables {
+        azimuthal: az,
+        longitudinal: lo,
+        payload_sha256: [az_sha, lo_sha],
+    });
     // Every lookup must be inside the tables' grids: check them at plan time.
     let set = FarFieldJob {
         p: p.clone(),
@@ -151,11 +268,11 @@ fn open_medulla_tables(
     .settings();
     for s in samples {
         let source = MedullaSource::Tables {
-            azimuthal: &tables.0,
-            longitudinal: &tables.1,
+            azimuthal: &tables.azimuthal,
+            longitudinal: &tables.longitudinal,
         };
         let sigma = medulla_sigma(s, p.medulla_sigma_scaling);
-        MedullaShapes::from_table(&tables.0, sigma, s.g, &set).map_err(|e| {
+        MedullaShapes::from_table(&tables.azimuthal, sigma, s.g, &set).map_err(|e| {
             PlanError::invalid_because("medulla_tables", &format!("sample {}", s.name), &e)
         })?;
         for &ti in &p.theta_i_deg {
@@ -183,8 +300,8 @@ fn open_medulla_tables(
 struct FarFieldJob {
     p: FarFieldParams,
     samples: Vec<FurSample>,
-    /// (azimuthal, longitudinal) medulla tables when `medulla_tables` is given.
-    tables: Option<Arc<(Table, Table)>>,
+    /// The medulla tables (shipped assets or `medulla_tables`); `None`: Monte Carlo.
+    tables: Option<Arc<MedullaTables>>,
 }
 
 impl FarFieldJob {
@@ -219,10 +336,7 @@ impl Job for FarFieldJob {
         let mut v = serde_json::to_value(&self.p).expect("params serialise");
         if let Some(t) = &self.tables {
             // The content of the looked-up tables is part of the result.
-            v["medulla_table_sha256"] = json!([
-                t.0.header.payload.sha256_uncompressed,
-                t.1.header.payload.sha256_uncompressed
-            ]);
+            v["medulla_table_sha256"] = json!(t.payload_sha256);
         }
         v
     }
@@ -245,10 +359,10 @@ impl Job for FarFieldJob {
                 MedullaSource::Simulate,
             ),
             Some(t) => (
-                MedullaShapes::from_table(&t.0, sigma, s.g, &set)?,
+                MedullaShapes::from_table(&t.azimuthal, sigma, s.g, &set)?,
                 MedullaSource::Tables {
-                    azimuthal: &t.0,
-                    longitudinal: &t.1,
+                    azimuthal: &t.azimuthal,
+                    longitudinal: &t.longitudinal,
                 },
             ),
         };
@@ -299,12 +413,24 @@ impl Job for FarFieldJob {
         a.insert("angle_convention".into(), "theta from the fibre's normal plane, root at +90 deg (thesis convention, theta flipped w.r.t. Marschner 2003; the specular cone is theta_r = -theta_i); phi = phi_r - phi_i, 0 = back towards the light, +/-180 = forward; theta_r cells over [-90, 90], phi cells over [-180, 180), axis coordinates are cell centres".into());
         a.insert("units_convention".into(), format!("Table 4.2 sigma_ca is per fibre DIAMETER; internally fibre radius 1: cortex coefficient sigma_ca/2 per radius. Medulla table coefficient per unit medulla radius: medulla_sigma_scaling = {:?} (ThesisOverKappa, the default: sigma_ms/kappa as printed in Eq. 5.10, the lookup Table 4.2 was fitted with; KappaHalf: sigma_ms*kappa/2, sigma_ms per diameter, optical depth preserved; Kappa: sigma_ms*kappa). Both coefficients divided by cos theta_t (longitudinal refraction into cortex / medulla) for the azimuthal projection", self.p.medulla_sigma_scaling).into());
         a.insert("components".into(), "energy = r + tt + trt + medulla_paths + scattered; r, tt, trt: classic unscattered lobes (tt and trt only where the chief ray misses the medulla, |h| >= kappa*eta_c'); medulla_paths: unscattered TrT, TttT, TtrtT, TrRrT, TttRttT; scattered: medulla-scattered light (App. A mix with the isotropic fraction lambda)".into());
-        let source = match &self.p.medulla_tables {
-            None => format!(
+        let source = match (&self.p.medulla_tables, &self.tables) {
+            (None, Some(_)) => format!(
+                "multilinear lookup (sigma, g, h' or theta'_i, exit angle) in the shipped tensor-train compressed thesis-grid tables assets/fur-medulla/{} and {} (payload SHA-256 {} and {}) at {} bins",
+                crate::fur::assets::ASSET_FILES[0],
+                crate::fur::assets::ASSET_FILES[1],
+                self.tables
+                    .as_ref()
+                    .map_or("", |t| t.payload_sha256[0].as_str()),
+                self.tables
+                    .as_ref()
+                    .map_or("", |t| t.payload_sha256[1].as_str()),
+                self.p.medulla_bins
+            ),
+            (None, None) => format!(
                 "expected-value Monte Carlo on the fly, {} photons, {} bins, seed {}",
                 self.p.photons, self.p.medulla_bins, self.p.seed
             ),
-            Some(t) => format!(
+            (Some(t), _) => format!(
                 "multilinear lookup (sigma, g, h' or theta'_i, exit angle) in the tables {} and {} at {} bins",
                 t.azimuthal, t.longitudinal, self.p.medulla_bins
             ),
@@ -407,6 +533,36 @@ mod tests {
         }
     }
 
+    /// The default source is the shipped assets, and their payload digests are in the content
+    /// key (a changed asset changes the key, so the far field is rebuilt); the Monte Carlo
+    /// source has no table digest; giving both `medulla_source` and `medulla_tables` is refused.
+    #[test]
+    fn default_source_is_the_shipped_assets_and_enters_the_content_key() {
+        use crate::fur::assets::{AZIMUTHAL_BYTES, LONGITUDINAL_BYTES};
+        let base = "samples = [\"cat\", \"human\"], theta_i_deg = [-40.0, 20.0], photons = 10";
+        let job = plan_str(&format!("{{ {base} }}")).unwrap();
+        let want: Vec<String> = [AZIMUTHAL_BYTES, LONGITUDINAL_BYTES]
+            .iter()
+            .map(|b| {
+                Table::from_bytes(b, std::path::Path::new("asset"))
+                    .unwrap()
+                    .header
+                    .payload
+                    .sha256_uncompressed
+            })
+            .collect();
+        assert_eq!(job.parameters()["medulla_table_sha256"], json!(want));
+        let mc = plan_str(&format!("{{ {base}, medulla_source = \"monte-carlo\" }}")).unwrap();
+        assert!(mc.parameters().get("medulla_table_sha256").is_none());
+        let e = match plan_str(&format!(
+            "{{ {base}, medulla_source = \"assets\", medulla_tables = {{ azimuthal = \"a.sbt\", longitudinal = \"b.sbt\" }} }}"
+        )) {
+            Err(e) => e.to_string(),
+            Ok(_) => panic!("both keys must be refused"),
+        };
+        assert!(e.contains("medulla_source"), "{e}");
+    }
+
     #[test]
     fn rejects_bad_params() {
         crate::stages::assert_planning(
@@ -459,7 +615,7 @@ mod tests {
             let chunk = job.run_task(0).unwrap();
             (job.parameters(), chunk)
         };
-        let (p_fly, fly) = run("");
+        let (p_fly, fly) = run(", medulla_source = \"monte-carlo\"");
         let (p_tab, tab) = run(&format!(
             ", medulla_tables = {{ azimuthal = \"{az}\", longitudinal = \"{lo}\" }}"
         ));

@@ -61,6 +61,8 @@ pub enum TableError {
     Limit { path: PathBuf, message: String },
     #[error("table content is inconsistent: {0}")]
     Inconsistent(String),
+    #[error("{path}: tensor-train table is not valid: {message}")]
+    TensorTrain { path: PathBuf, message: String },
 }
 
 pub(crate) fn sha256_hex(bytes: &[u8]) -> String {

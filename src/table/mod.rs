@@ -7,6 +7,7 @@
 pub mod format;
 pub mod read;
 mod sample;
+pub mod tt;
 
 pub use format::{FORMAT_MAJOR, FORMAT_MINOR, MAGIC, TableError, write_table_atomic};
 pub use read::{

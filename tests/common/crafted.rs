@@ -529,3 +529,151 @@ pub fn cases() -> Vec<Case> {
     );
     v
 }
+
+/// A small valid tensor-train table (`fur-medulla-tt/1`) of a 3-D channel, with the dense
+/// values it must reconstruct to (within the f32 core rounding).
+pub fn tensor_train_table() -> (Table, Vec<f32>) {
+    let (n0, n1, n2) = (4, 3, 5);
+    let mut data = Vec::new();
+    for i in 0..n0 {
+        for j in 0..n1 {
+            for k in 0..n2 {
+                let (x, y, z) = (i as f32, j as f32, k as f32);
+                data.push((1.0 + x) * (0.5 + y) * (0.3 * z).cos() + 0.1 * x * (z + 1.0));
+            }
+        }
+    }
+    let content = TableContent {
+        schema: Schema::new("fur-medulla-azimuthal", 1),
+        description: "crafted tensor-train source".into(),
+        axes: vec![
+            Axis::values("sigma", "1", vec![0.0, 1.0, 2.5, 4.0]),
+            Axis::uniform("g", "1", 0.0, 0.4, 3),
+            Axis::uniform("phi", "deg", -144.0, 72.0, 5),
+        ],
+        channels: vec![Channel::new("energy", "1", "test")],
+        attributes: serde_json::Map::new(),
+        data: data.clone(),
+    };
+    let (tt, _) = scatterbake::fur::tt::compress_table(&content, "energy", 1e-6, 16).unwrap();
+    (
+        Table::from_content(tt, Provenance::default()).unwrap(),
+        data,
+    )
+}
+
+/// Tensor-train tables that are valid `.sbt` files (every format reader opens them) but break
+/// one rule of the tensor-train layout (`docs/table-format.md`, "Tensor-train tables"): every
+/// reader that reconstructs (Rust `Table::open_reconstructed`, C `sbt_open_reconstructed`,
+/// Python `open_table`) must refuse them with an error containing "tensor-train table is not
+/// valid" and the case's fragment of the rule, and accept the valid one.
+pub fn tensor_train_cases() -> Vec<(Case, &'static str)> {
+    let (base, _) = tensor_train_table();
+    let mut out = Vec::new();
+    let mut add =
+        |name: &'static str, valid: bool, fragment: &'static str, f: &dyn Fn(&mut Table)| {
+            let mut t = base.clone();
+            f(&mut t);
+            let bytes = t.to_bytes().unwrap();
+            out.push((Case { name, bytes, valid }, fragment));
+        };
+    let set = |t: &mut Table, k: &str, v: Value| {
+        t.header.attributes.insert(k.into(), v);
+    };
+    let ranks = |t: &Table| -> Vec<u64> {
+        t.header.attributes["ranks"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|v| v.as_u64().unwrap())
+            .collect()
+    };
+    add("tt_valid", true, "", &|_| {});
+    add(
+        "tt_ranks_one_short",
+        false,
+        "inconsistent ranks/dims",
+        &|t| {
+            let mut r = ranks(t);
+            r.pop();
+            set(t, "ranks", json!(r));
+        },
+    );
+    add("tt_last_rank_not_one", false, "first and last rank", &|t| {
+        let mut r = ranks(t);
+        *r.last_mut().unwrap() = 2;
+        set(t, "ranks", json!(r));
+    });
+    add(
+        "tt_inner_rank_changed",
+        false,
+        "inconsistent ranks/dims",
+        &|t| {
+            let mut r = ranks(t);
+            r[1] += 1;
+            set(t, "ranks", json!(r));
+        },
+    );
+    add(
+        "tt_rank_exceeds_unfolding",
+        false,
+        "exceeds its unfolding",
+        &|t| {
+            let mut r = ranks(t);
+            r[1] = 1_000_000_000;
+            set(t, "ranks", json!(r));
+        },
+    );
+    add(
+        "tt_dims_disagree_with_cores",
+        false,
+        "inconsistent ranks/dims",
+        &|t| {
+            set(t, "dims", json!([4, 3, 6]));
+        },
+    );
+    add("tt_dims_beyond_limit", false, "limit", &|t| {
+        set(t, "dims", json!([1u64 << 40, 1u64 << 40, 5]));
+    });
+    add(
+        "tt_dims_not_integers",
+        false,
+        "not a non-negative integer",
+        &|t| {
+            set(t, "dims", json!([4.5, 3, 5]));
+        },
+    );
+    add("tt_offsets_short_of_values", false, "core offsets", &|t| {
+        let mut o: Vec<u64> = t.header.attributes["core_offsets"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|v| v.as_u64().unwrap())
+            .collect();
+        *o.last_mut().unwrap() -= 1;
+        set(t, "core_offsets", json!(o));
+    });
+    add("tt_source_axes_short", false, "source axes", &|t| {
+        let mut a = t.header.attributes["source_axes"]
+            .as_array()
+            .unwrap()
+            .clone();
+        a.pop();
+        set(t, "source_axes", json!(a));
+    });
+    add("tt_nan_core_value", false, "non-finite", &|t| {
+        t.data[1] = f32::NAN;
+    });
+    add("tt_negative_log_floor", false, "log_floor", &|t| {
+        set(t, "log_floor", json!(-1.0));
+    });
+    add(
+        "tt_missing_ranks",
+        false,
+        "missing attribute `ranks`",
+        &|t| {
+            t.header.attributes.remove("ranks");
+        },
+    );
+    out
+}

@@ -1,0 +1,535 @@
+//! Tensor-train tables (schema `fur-medulla-tt/1`): one channel of a dense table stored as the
+//! cores of a tensor train (Oseledets 2011), reconstructed by the reader on load.
+//! Layout and validation rules: `docs/table-format.md`, "Tensor-train tables".
+//!
+//! A d-way tensor A[i₁,…,i_d] is A ≈ G₁[:, i₁, :] · G₂[:, i₂, :] ⋯ G_d[:, i_d, :], core G_k of
+//! shape r_{k−1} × n_k × r_k (r₀ = r_d = 1), row-major, all cores concatenated along the table's
+//! single `value` axis at the offsets `core_offsets`. The header also carries the source
+//! table's schema, axes, channel and attributes, so the reconstruction is a complete dense
+//! table. The values reconstructed here are bit-identical in every reader built on this module
+//! (the C library, the Python extension); the evaluation order is specified so that other
+//! readers can reproduce it (the pure-Python reader does, see `docs/table-format.md`).
+//!
+//! Every rule is checked before anything is allocated from a declared size: the rank
+//! conditions r_k ≤ r_{k−1}·n_k and r_k ≤ n_{k+1}·r_{k+1} bound every intermediate of the
+//! contraction by the dense size, and the dense size is bounded by the reader's payload limit.
+
+use super::format::TableError;
+use super::read::{ReadLimits, check_axis_coords};
+use super::{Axis, Channel, Provenance, Schema, Table, TableContent};
+use std::path::Path;
+
+/// Schema name of tensor-train tables.
+pub const TT_SCHEMA: &str = "fur-medulla-tt";
+/// Schema version of tensor-train tables this reader implements.
+pub const TT_SCHEMA_VERSION: u32 = 1;
+/// Largest number of tensor-train modes (the dense table's axes).
+pub const TT_MAX_MODES: usize = super::read::MAX_AXES;
+
+/// A tensor train.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TensorTrain {
+    /// Mode sizes n_k.
+    pub dims: Vec<usize>,
+    /// TT ranks r₀..r_d (r₀ = r_d = 1).
+    pub ranks: Vec<usize>,
+    /// Cores, each row-major r_{k−1} × n_k × r_k.
+    pub cores: Vec<Vec<f64>>,
+}
+
+impl TensorTrain {
+    /// Number of stored values.
+    pub fn parameter_count(&self) -> usize {
+        self.cores.iter().map(Vec::len).sum()
+    }
+
+    /// Dense reconstruction, row-major over `dims`.
+    ///
+    /// Evaluation order (the specification other readers follow for bit-identical values):
+    /// left to right, M₀ = [1] (1 × 1); M_k[(row, i), :] = Σ_{a = 0 … r_{k−1}−1, in order}
+    /// M_{k−1}[row, a] · G_k[a, i, :], accumulated in f64 from 0 by separate multiply and add
+    /// (no fused multiply-add).
+    pub fn reconstruct(&self) -> Vec<f64> {
+        // Left-to-right contraction: M has shape (n₁⋯n_k) × r_k.
+        let mut m = vec![1.0];
+        let mut rows = 1usize;
+        for (k, core) in self.cores.iter().enumerate() {
+            let (r0, n, r1) = (self.ranks[k], self.dims[k], self.ranks[k + 1]);
+            let mut next = vec![0.0; rows * n * r1];
+            for row in 0..rows {
+                for a in 0..r0 {
+                    let v = m[row * r0 + a];
+                    if v == 0.0 {
+                        continue;
+                    }
+                    for i in 0..n {
+                        let src = &core[(a * n + i) * r1..(a * n + i + 1) * r1];
+                        let dst = &mut next[(row * n + i) * r1..(row * n + i + 1) * r1];
+                        for (d, s) in dst.iter_mut().zip(src) {
+                            *d += v * s;
+                        }
+                    }
+                }
+            }
+            m = next;
+            rows *= n;
+        }
+        m
+    }
+
+    /// One entry.
+    pub fn get(&self, idx: &[usize]) -> f64 {
+        let mut v = vec![1.0];
+        for (k, core) in self.cores.iter().enumerate() {
+            let (r0, n, r1) = (self.ranks[k], self.dims[k], self.ranks[k + 1]);
+            let mut next = vec![0.0; r1];
+            for (a, &va) in v.iter().enumerate().take(r0) {
+                let s = &core[(a * n + idx[k]) * r1..(a * n + idx[k] + 1) * r1];
+                for (d, x) in next.iter_mut().zip(s) {
+                    *d += va * x;
+                }
+            }
+            v = next;
+        }
+        v[0]
+    }
+
+    /// The tensor train of the sub-tensor at the given indices of each mode (`None`: the whole
+    /// mode). Its [`Self::reconstruct`] gives exactly (bit for bit) the selected entries of the
+    /// full reconstruction. Indices must be in range (panics otherwise; callers check).
+    pub fn select(&self, idx: &[Option<Vec<usize>>]) -> TensorTrain {
+        let mut dims = Vec::with_capacity(self.dims.len());
+        let mut cores = Vec::with_capacity(self.dims.len());
+        for (k, core) in self.cores.iter().enumerate() {
+            let (r0, n, r1) = (self.ranks[k], self.dims[k], self.ranks[k + 1]);
+            match idx.get(k).and_then(Option::as_ref) {
+                None => {
+                    dims.push(n);
+                    cores.push(core.clone());
+                }
+                Some(sel) => {
+                    let mut c = Vec::with_capacity(r0 * sel.len() * r1);
+                    for a in 0..r0 {
+                        for &i in sel {
+                            c.extend_from_slice(&core[(a * n + i) * r1..(a * n + i + 1) * r1]);
+                        }
+                    }
+                    dims.push(sel.len());
+                    cores.push(c);
+                }
+            }
+        }
+        TensorTrain {
+            dims,
+            ranks: self.ranks.clone(),
+            cores,
+        }
+    }
+}
+
+/// A validated tensor-train table: the train and the description of the dense table it holds.
+#[derive(Debug, Clone)]
+pub struct DecodedTensorTrain {
+    pub tt: TensorTrain,
+    /// Schema of the dense table (from `source_schema`).
+    pub schema: Schema,
+    /// Description of the dense table.
+    pub description: String,
+    /// Axes of the dense table (one per mode, lengths = `dims`).
+    pub axes: Vec<Axis>,
+    /// The single channel of the dense table.
+    pub channel: Channel,
+    /// Attributes of the dense table: the source attributes plus `tt_*` entries (ranks,
+    /// reconstruction errors, the compressed payload's SHA-256).
+    pub attributes: serde_json::Map<String, serde_json::Value>,
+    /// `Some(floor)`: the train holds ln(max(value, floor)); values are exp of it.
+    pub log_floor: Option<f64>,
+}
+
+impl DecodedTensorTrain {
+    /// Map reconstructed train values to table values (exp for the logarithmic form).
+    fn value(&self, x: f64) -> f32 {
+        match self.log_floor {
+            None => x as f32,
+            Some(_) => x.exp() as f32,
+        }
+    }
+
+    /// The whole dense channel, row-major over the axes (reconstructed one index of the first
+    /// mode at a time, so the f64 intermediates stay small; bit-identical to a whole
+    /// [`TensorTrain::reconstruct`]).
+    pub fn dense(&self) -> Vec<f32> {
+        let total: usize = self.tt.dims.iter().product();
+        let mut out = Vec::with_capacity(total);
+        for i in 0..self.tt.dims[0] {
+            let mut sel = vec![None; self.tt.dims.len()];
+            sel[0] = Some(vec![i]);
+            out.extend(
+                self.tt
+                    .select(&sel)
+                    .reconstruct()
+                    .into_iter()
+                    .map(|v| self.value(v)),
+            );
+        }
+        out
+    }
+
+    /// The dense table restricted to the given indices of each axis (`None`: the whole axis),
+    /// as an in-memory table whose selected axes hold the selected coordinates. Values are
+    /// bit-identical to those of [`Self::dense`] at the same grid points. Errors on an empty
+    /// or out-of-range selection.
+    pub fn sub_table(&self, idx: &[Option<Vec<usize>>]) -> Result<Table, TableError> {
+        let mut axes = Vec::with_capacity(self.axes.len());
+        for (k, a) in self.axes.iter().enumerate() {
+            match idx.get(k).and_then(Option::as_ref) {
+                None => axes.push(a.clone()),
+                Some(sel) => {
+                    if sel.is_empty()
+                        || sel.iter().any(|&i| i >= a.len())
+                        || sel.windows(2).any(|w| w[1] <= w[0])
+                    {
+                        return Err(TableError::Inconsistent(format!(
+                            "selection on axis `{}` must be increasing indices below {}",
+                            a.name,
+                            a.len()
+                        )));
+                    }
+                    let c = a.coords();
+                    axes.push(Axis::values(
+                        &a.name,
+                        &a.unit,
+                        sel.iter().map(|&i| c[i]).collect(),
+                    ));
+                }
+            }
+        }
+        let data: Vec<f32> = if self.tt.dims.is_empty() {
+            Vec::new()
+        } else {
+            self.tt
+                .select(idx)
+                .reconstruct()
+                .into_iter()
+                .map(|v| self.value(v))
+                .collect()
+        };
+        self.table(axes, data)
+    }
+
+    /// The whole dense table in memory.
+    pub fn dense_table(&self) -> Result<Table, TableError> {
+        self.table(self.axes.clone(), self.dense())
+    }
+
+    fn table(&self, axes: Vec<Axis>, data: Vec<f32>) -> Result<Table, TableError> {
+        Table::from_content(
+            TableContent {
+                schema: self.schema.clone(),
+                description: self.description.clone(),
+                axes,
+                channels: vec![self.channel.clone()],
+                attributes: self.attributes.clone(),
+                data,
+            },
+            Provenance::default(),
+        )
+    }
+}
+
+fn tt_err(path: &Path, message: impl Into<String>) -> TableError {
+    TableError::TensorTrain {
+        path: path.into(),
+        message: message.into(),
+    }
+}
+
+/// A non-negative integer array attribute.
+fn usize_array(
+    at: &serde_json::Map<String, serde_json::Value>,
+    key: &str,
+    path: &Path,
+) -> Result<Vec<usize>, TableError> {
+    let v = at
+        .get(key)
+        .ok_or_else(|| tt_err(path, format!("missing attribute `{key}`")))?;
+    let arr = v
+        .as_array()
+        .ok_or_else(|| tt_err(path, format!("attribute `{key}` is not an array")))?;
+    if arr.len() > TT_MAX_MODES + 1 {
+        return Err(tt_err(
+            path,
+            format!(
+                "attribute `{key}` has {} entries (at most {})",
+                arr.len(),
+                TT_MAX_MODES + 1
+            ),
+        ));
+    }
+    arr.iter()
+        .map(|x| {
+            x.as_u64()
+                .and_then(|u| usize::try_from(u).ok())
+                .ok_or_else(|| {
+                    tt_err(
+                        path,
+                        format!("attribute `{key}` holds {x}, not a non-negative integer"),
+                    )
+                })
+        })
+        .collect()
+}
+
+/// Check every rule of a tensor-train table (`docs/table-format.md`, "Tensor-train tables")
+/// and decode it. `path` names the table in errors; `limits.max_payload_bytes` bounds the
+/// dense reconstruction (4 bytes per value).
+pub fn decode_tensor_train(
+    table: &Table,
+    path: &Path,
+    limits: &ReadLimits,
+) -> Result<DecodedTensorTrain, TableError> {
+    let h = &table.header;
+    if h.schema.name != TT_SCHEMA {
+        return Err(tt_err(
+            path,
+            format!("schema {} is not {TT_SCHEMA}", h.schema),
+        ));
+    }
+    if h.schema.version != TT_SCHEMA_VERSION {
+        return Err(tt_err(
+            path,
+            format!(
+                "schema version {} is not supported (this reader knows {TT_SCHEMA}/{TT_SCHEMA_VERSION})",
+                h.schema.version
+            ),
+        ));
+    }
+    if h.axes.len() != 1 || h.channels.len() != 1 {
+        return Err(tt_err(
+            path,
+            format!(
+                "needs exactly one axis and one channel (has {} and {})",
+                h.axes.len(),
+                h.channels.len()
+            ),
+        ));
+    }
+    let at = &h.attributes;
+    let dims = usize_array(at, "dims", path)?;
+    let ranks = usize_array(at, "ranks", path)?;
+    let offsets = usize_array(at, "core_offsets", path)?;
+    let d = dims.len();
+    if d == 0 || d > TT_MAX_MODES {
+        return Err(tt_err(
+            path,
+            format!("{d} modes in `dims` (1 to {TT_MAX_MODES})"),
+        ));
+    }
+    if ranks.len() != d + 1 || offsets.len() != d + 1 {
+        return Err(tt_err(
+            path,
+            format!(
+                "inconsistent ranks/dims: {d} dims need {} ranks and {} core offsets, found {} and {}",
+                d + 1,
+                d + 1,
+                ranks.len(),
+                offsets.len()
+            ),
+        ));
+    }
+    if let Some(k) = dims.iter().position(|&n| n == 0) {
+        return Err(tt_err(path, format!("dims[{k}] is 0")));
+    }
+    if ranks[0] != 1 || ranks[d] != 1 {
+        return Err(tt_err(
+            path,
+            format!("inconsistent ranks: the first and last rank must be 1 (ranks {ranks:?})"),
+        ));
+    }
+    dims.iter()
+        .try_fold(1u64, |acc, &n| acc.checked_mul(n as u64))
+        .filter(|&v| {
+            v.checked_mul(4)
+                .is_some_and(|b| b <= limits.max_payload_bytes)
+        })
+        .ok_or_else(|| {
+            tt_err(
+                path,
+                format!(
+                    "dims {dims:?} describe more than the reader's limit of {} bytes",
+                    limits.max_payload_bytes
+                ),
+            )
+        })?;
+    for k in 0..d {
+        if ranks[k] == 0 {
+            return Err(tt_err(path, format!("inconsistent ranks: ranks[{k}] is 0")));
+        }
+        // r_{k+1} ≤ r_k·n_k and r_k ≤ n_k·r_{k+1}: no rank exceeds what its unfolding allows,
+        // which bounds every intermediate of the contraction by the dense size.
+        let left = (ranks[k] as u64).saturating_mul(dims[k] as u64);
+        let right = (dims[k] as u64).saturating_mul(ranks[k + 1] as u64);
+        if ranks[k + 1] as u64 > left || ranks[k] as u64 > right {
+            return Err(tt_err(
+                path,
+                format!(
+                    "inconsistent ranks/dims: core {k} is {} x {} x {}, a rank exceeds its unfolding",
+                    ranks[k],
+                    dims[k],
+                    ranks[k + 1]
+                ),
+            ));
+        }
+    }
+    let n_values = table.data.len();
+    if offsets[0] != 0 || offsets[d] != n_values {
+        return Err(tt_err(
+            path,
+            format!(
+                "core offsets must run from 0 to the {n_values} stored values (found {} .. {})",
+                offsets[0], offsets[d]
+            ),
+        ));
+    }
+    let mut cores = Vec::with_capacity(d);
+    for k in 0..d {
+        let size = (ranks[k] as u64)
+            .checked_mul(dims[k] as u64)
+            .and_then(|v| v.checked_mul(ranks[k + 1] as u64));
+        let stored = offsets[k + 1].checked_sub(offsets[k]);
+        if size.is_none() || stored.map(|s| s as u64) != size {
+            return Err(tt_err(
+                path,
+                format!(
+                    "inconsistent ranks/dims: core {k} holds {} values, ranks and dims imply {} x {} x {}",
+                    stored.map_or("a negative number of".to_string(), |s| s.to_string()),
+                    ranks[k],
+                    dims[k],
+                    ranks[k + 1]
+                ),
+            ));
+        }
+        let core = &table.data[offsets[k]..offsets[k + 1]];
+        if let Some(j) = core.iter().position(|v| !v.is_finite()) {
+            return Err(tt_err(
+                path,
+                format!("core {k} holds a non-finite value at {j}"),
+            ));
+        }
+        cores.push(core.iter().map(|&v| f64::from(v)).collect());
+    }
+    let axes: Vec<Axis> = serde_json::from_value(
+        at.get("source_axes")
+            .cloned()
+            .ok_or_else(|| tt_err(path, "missing attribute `source_axes`"))?,
+    )
+    .map_err(|e| tt_err(path, format!("attribute `source_axes`: {e}")))?;
+    if axes.len() != d || axes.iter().zip(&dims).any(|(a, &n)| a.len() != n) {
+        return Err(tt_err(
+            path,
+            format!(
+                "inconsistent ranks/dims: source axes of lengths {:?} for dims {dims:?}",
+                axes.iter().map(Axis::len).collect::<Vec<_>>()
+            ),
+        ));
+    }
+    for a in &axes {
+        check_axis_coords(a).map_err(|m| tt_err(path, format!("source axis: {m}")))?;
+    }
+    let channel: Channel = serde_json::from_value(
+        at.get("source_channel")
+            .cloned()
+            .ok_or_else(|| tt_err(path, "missing attribute `source_channel`"))?,
+    )
+    .map_err(|e| tt_err(path, format!("attribute `source_channel`: {e}")))?;
+    let schema_str = at
+        .get("source_schema")
+        .and_then(|v| v.as_str())
+        .ok_or_else(|| tt_err(path, "attribute `source_schema` is not a string"))?;
+    let schema = schema_str
+        .rsplit_once('/')
+        .and_then(|(n, v)| Some(Schema::new(n, v.parse().ok()?)))
+        .filter(|s| !s.name.is_empty())
+        .ok_or_else(|| {
+            tt_err(
+                path,
+                format!("attribute `source_schema` is `{schema_str}`, not NAME/VERSION"),
+            )
+        })?;
+    let log_floor = match at.get("log_floor") {
+        None => None,
+        Some(v) => Some(
+            v.as_f64()
+                .filter(|f| f.is_finite() && *f > 0.0)
+                .ok_or_else(|| {
+                    tt_err(path, format!("`log_floor` is {v}, not a positive number"))
+                })?,
+        ),
+    };
+    let mut attributes = match at.get("source_attributes") {
+        Some(serde_json::Value::Object(m)) => m.clone(),
+        None => serde_json::Map::new(),
+        Some(_) => {
+            return Err(tt_err(
+                path,
+                "attribute `source_attributes` is not an object",
+            ));
+        }
+    };
+    for k in [
+        "rel_frobenius_error",
+        "max_abs_error",
+        "max_abs_error_rel_to_max",
+        "ranks",
+        "rel_tol",
+        "reconstruction_error",
+    ] {
+        if let Some(v) = at.get(k) {
+            attributes.insert(format!("tt_{k}"), v.clone());
+        }
+    }
+    attributes.insert(
+        "tt_payload_sha256".into(),
+        h.payload.sha256_uncompressed.clone().into(),
+    );
+    let description = format!(
+        "{} (reconstructed from tensor train)",
+        at.get("source_description")
+            .and_then(|v| v.as_str())
+            .unwrap_or("")
+    );
+    Ok(DecodedTensorTrain {
+        tt: TensorTrain { dims, ranks, cores },
+        schema,
+        description,
+        axes,
+        channel,
+        attributes,
+        log_floor,
+    })
+}
+
+impl Table {
+    /// Open and verify a table; a tensor-train table (`fur-medulla-tt/1`) is checked
+    /// ([`decode_tensor_train`]) and reconstructed into the dense table it holds (its payload
+    /// limited by `limits` as well), any other table is returned as read.
+    pub fn open_reconstructed(
+        path: impl AsRef<Path>,
+        limits: &ReadLimits,
+    ) -> Result<Table, TableError> {
+        let path = path.as_ref();
+        let t = Table::open_with_limits(path, limits)?;
+        t.reconstructed(path, limits)
+    }
+
+    /// [`Table::open_reconstructed`] for a table already in memory (`path` names it in errors).
+    pub fn reconstructed(self, path: &Path, limits: &ReadLimits) -> Result<Table, TableError> {
+        if self.header.schema.name != TT_SCHEMA {
+            return Ok(self);
+        }
+        let provenance = self.header.provenance.clone();
+        let mut dense = decode_tensor_train(&self, path, limits)?.dense_table()?;
+        dense.header.provenance = provenance;
+        Ok(dense)
+    }
+}
