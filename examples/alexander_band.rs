@@ -2,35 +2,11 @@
 //! traced order: mean phase over the band after a 0.5° sun disc.
 //!
 //! `cargo run --release --example alexander_band`
-use num_complex::Complex;
-use scatrs::mie::{AmplitudeBuffers, Mie, MieOptions};
+#[path = "common/mie_reference.rs"]
+#[allow(dead_code)] // sun_disc is used by the other example
+mod mie_reference;
+use mie_reference::mie_phase;
 use scatterbake::raytrace::sphere1d::{Phase1dOptions, SphereGo, sphere_phase_1d};
-use std::f64::consts::PI;
-
-fn mie_phase(a_um: f64, lambda_nm: f64, n: f64, angles_deg: &[f64]) -> Vec<f64> {
-    let k = 2.0 * PI / (lambda_nm * 1e-3);
-    let mut m = Mie::<f64>::new();
-    let sol = m
-        .compute(k * a_um, Complex::new(n, 0.0), &MieOptions::new())
-        .expect("mie");
-    let q = sol.efficiencies().q_sca;
-    let mu: Vec<f64> = angles_deg.iter().map(|d| d.to_radians().cos()).collect();
-    let mut s1 = vec![Complex::new(0.0, 0.0); mu.len()];
-    let mut s2 = vec![Complex::new(0.0, 0.0); mu.len()];
-    sol.amplitudes(
-        &mu,
-        AmplitudeBuffers {
-            s1: &mut s1,
-            s2: &mut s2,
-        },
-    )
-    .expect("amplitudes");
-    let norm = k * k * q * PI * a_um * a_um;
-    s1.iter()
-        .zip(&s2)
-        .map(|(a, b)| 0.5 * (a.norm_sqr() + b.norm_sqr()) / norm)
-        .collect()
-}
 
 fn main() {
     let (lambda, n) = (650.0, 1.331);
