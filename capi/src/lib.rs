@@ -74,25 +74,8 @@ pub unsafe extern "C" fn sbt_open_limit(
     err: *mut c_char,
     err_len: usize,
 ) -> *mut SbtTable {
-    let r = catch_unwind(AssertUnwindSafe(|| {
-        // SAFETY: forwarded contract.
-        unsafe { open_inner(path, max_payload_bytes) }
-    }));
-    match r {
-        Ok(Ok(t)) => Box::into_raw(Box::new(t)),
-        Ok(Err(msg)) => {
-            write_err(err, err_len, &msg);
-            std::ptr::null_mut()
-        }
-        Err(_) => {
-            write_err(
-                err,
-                err_len,
-                "internal error while reading the table (panic caught)",
-            );
-            std::ptr::null_mut()
-        }
-    }
+    // SAFETY: forwarded contract.
+    unsafe { open_boxed(path, max_payload_bytes, false, err, err_len) }
 }
 
 /// Like `sbt_open_limit`, but a tensor-train table (`fur-medulla-tt/1`, e.g. the shipped
@@ -109,9 +92,25 @@ pub unsafe extern "C" fn sbt_open_reconstructed(
     err: *mut c_char,
     err_len: usize,
 ) -> *mut SbtTable {
+    // SAFETY: forwarded contract.
+    unsafe { open_boxed(path, max_payload_bytes, true, err, err_len) }
+}
+
+/// Open (and, with `reconstruct`, rebuild a tensor-train table) behind `catch_unwind`: a boxed
+/// table, or NULL with the message written to `err`.
+///
+/// # Safety
+/// As `sbt_open_limit`.
+unsafe fn open_boxed(
+    path: *const c_char,
+    max_payload_bytes: u64,
+    reconstruct: bool,
+    err: *mut c_char,
+    err_len: usize,
+) -> *mut SbtTable {
     let r = catch_unwind(AssertUnwindSafe(|| {
         // SAFETY: forwarded contract.
-        unsafe { open_table(path, max_payload_bytes, true) }
+        unsafe { open_table(path, max_payload_bytes, reconstruct) }
     }));
     match r {
         Ok(Ok(t)) => Box::into_raw(Box::new(t)),
@@ -128,11 +127,6 @@ pub unsafe extern "C" fn sbt_open_reconstructed(
             std::ptr::null_mut()
         }
     }
-}
-
-unsafe fn open_inner(path: *const c_char, max_payload_bytes: u64) -> Result<SbtTable, String> {
-    // SAFETY: forwarded contract.
-    unsafe { open_table(path, max_payload_bytes, false) }
 }
 
 unsafe fn open_table(
