@@ -7,6 +7,9 @@
 //! - `cargo run --release --example raytrace_perf -- full` — the full 14401 × 1800 direction
 //!   grid for the sphere (≈ 3.3 GB of accumulators), on 2 threads and on 1, with the time
 //!   extrapolated to 33 wavelengths;
+//! - `cargo run --release --example raytrace_perf -- seed THREADS` — the full grid for the
+//!   sphere once, with a fingerprint of the accumulated fields (sums of |field|² per order),
+//!   to compare two versions of the tracer;
 //! - `cargo run --release --example raytrace_perf -- profile` — a 600² sphere onto
 //!   3601 × 1800 directions, a target for `perf record`.
 
@@ -71,6 +74,29 @@ fn full_grid() {
     }
 }
 
+fn seed_once(threads: usize) {
+    let shape = DropShape::Sphere { radius_um: 400.0 };
+    let grid = DirectionGrid {
+        n_polar: 14401,
+        n_azimuth: 1800,
+    };
+    let t = std::time::Instant::now();
+    let f = pool(threads).install(|| trace_fields(&shape, &config(3000), grid));
+    let el = t.elapsed().as_secs_f64();
+    let mut power = vec![0.0f64; f.orders];
+    for j in 0..grid.n_polar {
+        for k in 0..grid.n_azimuth {
+            for (o, px) in f.pixel(j, k).chunks(4).enumerate() {
+                power[o] += px.iter().map(|z| z.norm_sqr() as f64).sum::<f64>();
+            }
+        }
+    }
+    println!(
+        "sphere 0.4 mm, seed grid, {threads} thread(s): {el:.2} s; Σ|field|² per order {:?}",
+        power.iter().map(|p| format!("{p:.9e}")).collect::<Vec<_>>()
+    );
+}
+
 fn profile() {
     let t = std::time::Instant::now();
     let f = trace_fields(
@@ -93,6 +119,12 @@ fn main() {
         None => thesis_resolution(),
         Some("full") => full_grid(),
         Some("profile") => profile(),
+        Some("seed") => seed_once(
+            std::env::args()
+                .nth(2)
+                .and_then(|s| s.parse().ok())
+                .unwrap_or(2),
+        ),
         Some(other) => {
             eprintln!("unknown mode `{other}`: expected no argument, `full` or `profile`");
             std::process::exit(2);

@@ -14,7 +14,11 @@
 //!   named in the report and its task recomputed. So killing a build at any moment loses at most the tasks in flight, and the
 //!   tables produced are byte-identical to an uninterrupted build (set `SOURCE_DATE_EPOCH` to
 //!   make the creation time identical too). When its last task finishes, a table is assembled,
-//!   written atomically, and its checkpoints are removed.
+//!   written atomically, and its checkpoints are removed. The task that completes a table hands
+//!   its values to the assembly in memory, and a table of **one task** writes no checkpoint at
+//!   all: the table file is its checkpoint (for the 1.1 GB tables of the seed-resolution ray
+//!   tracer the round trip through `.work` cost more CPU than the rasteriser). Killing such a
+//!   build while it writes the table loses that one task, as for any task in flight.
 //! - **Sharding.** `--shard I/N` (or `SLURM_ARRAY_TASK_ID`/`SLURM_ARRAY_TASK_COUNT`, or
 //!   `JOB_COMPLETION_INDEX` with a count) computes only global tasks `k` with `k mod N = I`,
 //!   `k` counting the tasks of every planned table (also those already up to date, so shards
@@ -702,13 +706,19 @@ fn run_tasks(
     let written = Mutex::new(Vec::<String>::new());
     let computed = AtomicUsize::new(0);
     let delay = test_delay();
-    let finish = |s: &TableState| match finish_table(s, &opts.out_dir, ctx) {
+    let finish_with = |s: &TableState, in_memory: Option<(usize, Vec<f32>)>| match finish_table(
+        s,
+        in_memory,
+        &opts.out_dir,
+        ctx,
+    ) {
         Ok(()) => written.lock().expect("lock").push(s.planned.name.clone()),
         Err(e) => errors.lock().expect("lock").push(PipelineError::Finish {
             table: s.planned.name.clone(),
             source: Box::new(e),
         }),
     };
+    let finish = |s: &TableState| finish_with(s, None);
     pool.install(|| {
         states
             .par_iter()
@@ -716,13 +726,18 @@ fn run_tasks(
             .for_each(finish);
         pending.par_iter().for_each(|&(ti, k)| {
             let s = &states[ti];
+            // A one-task table is assembled from the values in memory, without a checkpoint.
+            let one_task = s.task_keys.len() == 1;
             let result = s
                 .planned
                 .job
                 .run_task(k)
                 .map_err(PipelineError::from)
                 .and_then(|values| {
-                    write_checkpoint(&s.checkpoint(k), &s.task_keys[k], &ctx.secret, &values)
+                    if !one_task {
+                        write_checkpoint(&s.checkpoint(k), &s.task_keys[k], &ctx.secret, &values)?;
+                    }
+                    Ok(values)
                 });
             if let Some(d) = delay {
                 std::thread::sleep(d);
@@ -736,10 +751,10 @@ fn run_tasks(
                     label: s.task_labels[k].clone(),
                     source: Box::new(e),
                 }),
-                Ok(()) => {
+                Ok(values) => {
                     if s.remaining.fetch_sub(1, Ordering::SeqCst) == 1 {
                         bar.set_message(format!("writing {}", s.planned.name));
-                        finish(s);
+                        finish_with(s, Some((k, values)));
                     }
                 }
             }
@@ -768,8 +783,14 @@ fn progress_bar(tasks: usize, quiet: bool) -> ProgressBar {
 /// Assemble a table whose tasks are all done from its checkpoints (recomputing any that a
 /// concurrent build removed or that is unusable), write it atomically into `out_dir` and remove
 /// its checkpoints. A checkpoint whose number of values the stage refuses (e.g. written by a
-/// build with another layout) is named in the report and its task recomputed.
-fn finish_table(s: &TableState, out_dir: &Path, ctx: &Context) -> Result<(), PipelineError> {
+/// build with another layout) is named in the report and its task recomputed. `in_memory` is
+/// the task just computed by this build (index, values): it is used as it is, not read back.
+fn finish_table(
+    s: &TableState,
+    mut in_memory: Option<(usize, Vec<f32>)>,
+    out_dir: &Path,
+    ctx: &Context,
+) -> Result<(), PipelineError> {
     // Each pass reads every checkpoint; a task without a usable one is computed and its
     // checkpoint written. A pass ends with another pass only when the stage refused a chunk
     // read from a checkpoint, which is then replaced: at most one extra pass per task.
@@ -777,12 +798,17 @@ fn finish_table(s: &TableState, out_dir: &Path, ctx: &Context) -> Result<(), Pip
     let mut content = loop {
         let mut from_checkpoint = vec![false; s.task_keys.len()];
         let chunks = (0..s.task_keys.len())
-            .map(|i| match s.read(i, ctx) {
-                Some(v) => {
-                    from_checkpoint[i] = true;
-                    Ok(v)
+            .map(|i| {
+                if let Some((_, v)) = in_memory.take_if(|(k, _)| *k == i) {
+                    return Ok(v);
                 }
-                None => recompute(s, i, ctx),
+                match s.read(i, ctx) {
+                    Some(v) => {
+                        from_checkpoint[i] = true;
+                        Ok(v)
+                    }
+                    None => recompute(s, i, ctx),
+                }
             })
             .collect::<Result<Vec<_>, _>>()?;
         match crate::stages::assemble_checked(s.planned.job.as_ref(), chunks) {
