@@ -326,6 +326,10 @@ impl AiryTransfer {
     }
 }
 
+/// Per channel [i_perp, i_par, order], the (row, deviation) at either edge of a replacement
+/// window.
+type WindowEdges = [[(f64, f64); 2]; 3];
+
 /// Rows averaged on either side of the replacement window for its edge values.
 const EDGE_ROWS: isize = 3;
 
@@ -479,7 +483,7 @@ impl ColumnFilter {
         };
         // Per bow and channel [i_perp, i_par, order]: the deviation on either edge of the
         // replacement window (mean over EDGE_ROWS rows just outside it) as (row, value) pairs.
-        let edges: [Option<[[(f64, f64); 2]; 3]>; 2] = bows.map(|bw| {
+        let edges: [Option<WindowEdges>; 2] = bows.map(|bw| {
             let bw = bw?;
             let lo = (bw.position - bw.window.1).floor() as isize;
             let hi = (bw.position + bw.window.1).ceil() as isize;
