@@ -5,6 +5,8 @@
 //! supernumerary maxima (both smoothed by σ = 0.04°·(0.4 mm/a)).
 //!
 //! `cargo run --release --example sphere_2d_vs_mie -- [rays] [polar_step_deg] [azimuth_step_deg] [radius_um]`
+//! (with `SPREAD_CSV_DIR=dir`, the per-row spread and the azimuth mean over 120–150° are written
+//! to `dir/<model>.csv`)
 //! (default 600 0.0125 5 400; the seed resolution is 3000 0.0125 0.2).
 #[path = "common/mie_reference.rs"]
 mod mie_reference;
@@ -96,18 +98,43 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             .iter()
             .map(|c| rel_l2(&win(&sun_disc(c, pstep, 0.5)), &win(&mie_disc)))
             .fold(0.0, f64::max);
-        let spread = |cs: &[Vec<f64>]| -> (f64, f64) {
-            let mut s: Vec<f64> = (lo..=hi)
+        let row_spread = |cs: &[Vec<f64>]| -> Vec<f64> {
+            (lo..=hi)
                 .map(|j| {
                     let m = cs.iter().map(|c| c[j]).sum::<f64>() / na as f64;
                     let var = cs.iter().map(|c| (c[j] - m).powi(2)).sum::<f64>() / na as f64;
                     var.sqrt() / m
                 })
-                .collect();
+                .collect()
+        };
+        let spread = |cs: &[Vec<f64>]| -> (f64, f64) {
+            let mut s = row_spread(cs);
             s.sort_by(f64::total_cmp);
             (s[s.len() / 2], s[s.len() - 1])
         };
         let (sm, sx) = spread(&cols);
+        let raw_rows = row_spread(&cols);
+        if let Some(dir) = std::env::var_os("SPREAD_CSV_DIR") {
+            let mut csv = String::from("theta_deg,spread_raw,mean,mie\n");
+            for (i, r) in raw_rows.iter().enumerate() {
+                let j = lo + i;
+                csv += &format!("{},{r},{},{}\n", angles[j], mean[j], mie[j]);
+            }
+            std::fs::write(std::path::Path::new(&dir).join(format!("{model}.csv")), csv)?;
+        }
+        // Largest raw spread around the primary and secondary caustics.
+        let caustic_spread = raw_rows
+            .iter()
+            .enumerate()
+            .filter(|(i, _)| {
+                let t = angles[lo + i];
+                (136.8..=138.5).contains(&t) || (128.8..=130.4).contains(&t)
+            })
+            .map(|(_, s)| *s)
+            .fold(0.0, f64::max);
+        let worst_row = (0..raw_rows.len())
+            .max_by(|&x, &y| raw_rows[x].total_cmp(&raw_rows[y]))
+            .unwrap_or(0);
         let discs: Vec<Vec<f64>> = cols.iter().map(|c| sun_disc(c, pstep, 0.5)).collect();
         let (dm, dx) = spread(&discs);
         let s2 = gaussian_blur_1d(&mean, 1.0, sig);
@@ -118,12 +145,28 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             145.0,
             0.1 * win(&s2).into_iter().fold(0.0, f64::max),
         );
+        // Maxima of the mean on the dark side of the primary (137–137.9°), which Mie lacks.
+        let dark: Vec<String> = maxima(
+            &angles,
+            &s2,
+            137.0,
+            137.9,
+            0.01 * win(&s2).into_iter().fold(0.0, f64::max),
+        )
+        .iter()
+        .map(|x| format!("{x:.3}"))
+        .collect();
         let dev = mx
             .iter()
             .zip(&mie_max)
             .take(5)
             .map(|(x, y)| (x - y).abs())
             .fold(0.0, f64::max);
+        println!(
+            "{model:>10}: worst raw-spread row {:.4}°, largest raw spread at the caustics (136.8–138.5°, 128.8–130.4°) {:.2} %, dark-side (137–137.9°) maxima of the mean {dark:?}",
+            angles[lo + worst_row],
+            100.0 * caustic_spread
+        );
         println!(
             "{model:>10}: L2 (mean, disc) {:.2} %, worst column {:.2} %, spread raw median {:.2} % max {:.2} %, after disc median {:.3} % max {:.3} %, maxima {:?} (max dev {:.3}°), trace {secs:.1} s",
             100.0 * l2,

@@ -65,29 +65,206 @@ pub struct ColumnFilter {
 /// with the sphere's.
 const STRENGTH_RANGE_DEG: (f64, f64) = (0.1, 1.5);
 
+/// Airy argument z of the maximum of Ai(−z)² (the main bow of the uniform caustic).
+const AIRY_PEAK_Z: f64 = 1.018_793;
+
+/// Bright-side range of the caustic-position fit, in Airy units z (see [`fold_position`]).
+const FIT_Z: f64 = 0.5;
+
+/// Around a caustic, within `REPLACE_Z.0` Airy units the column's own order intensity is
+/// replaced by the sphere's (shifted, scaled) GO intensity before the correction is added, with
+/// a cosine taper to the column's own values at `REPLACE_Z.1`.
+const REPLACE_Z: (f64, f64) = (0.25, 0.5);
+
+/// The GO intensity of a fold caustic at distance `x` (in Airy units z) on the bright side, up
+/// to a factor: the two-branch phasor sum z^(−1/2)·(1 + sin(4/3·z^(3/2))) (the asymptotic form
+/// of Ai(−z)², whose branches are π/2 apart at the caustic).
+fn fold_shape(z: f64) -> f64 {
+    (1.0 + (4.0 / 3.0 * z.powf(1.5)).sin()) / z.sqrt()
+}
+
+/// Sub-row position (fractional row index) of a fold caustic in the intensity `v` (rows
+/// `row0..row0 + v.len()`), given its peak row `jc`, the side of its bright side (`sign` = +1:
+/// bright towards larger rows) and the Airy unit in rows `ell`: the caustic position `p` (within
+/// 4.5 rows behind the peak row to half a row in front of it: the peak row may lie a few rows
+/// into the bright side where the solid-angle floor of the patches caps the rows nearest the
+/// caustic) whose fold shape
+/// `C·fold_shape(sign·(j − p)/ell)` best fits the rows 1..=K past the peak (K rows ≈ `FIT_Z`
+/// Airy units, at least 3), in relative least squares. The peak row itself is left out (it
+/// carries the sampling of the singularity). `None` when fewer than 3 rows are usable.
+fn fold_position(v: &[f64], row0: usize, jc: usize, sign: f64, ell: f64) -> Option<f64> {
+    let k = ((FIT_Z * ell).round() as isize).max(3);
+    let samples: Vec<(f64, f64)> = (1..=k)
+        .filter_map(|d| {
+            let j = jc as isize + sign as isize * d;
+            let i = j - row0 as isize;
+            (i >= 0 && (i as usize) < v.len() && v[i as usize] > 0.0)
+                .then(|| (d as f64, v[i as usize]))
+        })
+        .collect();
+    if samples.len() < 3 {
+        return None;
+    }
+    // t: distance (rows) of the caustic behind the peak row, towards the dark side.
+    let cost = |t: f64| -> f64 {
+        let r: Vec<f64> = samples
+            .iter()
+            .map(|&(d, y)| y / fold_shape((d + t) / ell))
+            .collect();
+        let m = r.iter().sum::<f64>() / r.len() as f64;
+        r.iter().map(|x| (x / m - 1.0).powi(2)).sum::<f64>()
+    };
+    let (lo, hi, n) = (-0.5, 4.5, 500usize);
+    let h = (hi - lo) / n as f64;
+    let costs: Vec<f64> = (0..=n).map(|i| cost(lo + h * i as f64)).collect();
+    let i = (0..=n).min_by(|&a, &b| costs[a].total_cmp(&costs[b]))?;
+    let mut t = lo + h * i as f64;
+    if i > 0 && i < n {
+        let (a, b, c) = (costs[i - 1], costs[i], costs[i + 1]);
+        let den = a - 2.0 * b + c;
+        if den > 0.0 {
+            t += 0.5 * h * (a - c) / den;
+        }
+    }
+    Some(jc as f64 - sign * t)
+}
+
+/// Azimuth half-width (deg) over which [`smooth_over_azimuth`] fits the caustic positions.
+pub const POSITION_SMOOTHING_DEG: f64 = 5.0;
+
+/// Smooth the caustic positions of the columns `positions[k]` (per bow, fractional rows;
+/// columns k·`azimuth_step_deg` around the full circle) over azimuth: each is replaced by the
+/// value at its own azimuth of a weighted least-squares quadratic in φ through the columns within
+/// ±[`POSITION_SMOOTHING_DEG`] (tricube weights), which leaves a position varying smoothly with
+/// azimuth (a deformed drop's) unbiased to second order and averages the ray noise of the
+/// per-column fits. Columns without a position keep none; with fewer than 7 positions in the
+/// window a column keeps its own.
+pub fn smooth_over_azimuth(
+    positions: &[[Option<f64>; 2]],
+    azimuth_step_deg: f64,
+) -> Vec<[Option<f64>; 2]> {
+    let na = positions.len();
+    let half =
+        ((POSITION_SMOOTHING_DEG / azimuth_step_deg).floor() as isize).min((na as isize - 1) / 2);
+    (0..na)
+        .map(|k| {
+            let mut out = positions[k];
+            for (b, slot) in out.iter_mut().enumerate() {
+                if slot.is_none() || half < 3 {
+                    continue;
+                }
+                // Normal equations of y ≈ c0 + c1 x + c2 x² (x in columns from k).
+                let mut m = [[0.0f64; 3]; 3];
+                let mut r = [0.0f64; 3];
+                let mut n = 0;
+                for d in -half..=half {
+                    let i = (k as isize + d).rem_euclid(na as isize) as usize;
+                    let Some(y) = positions[i][b] else {
+                        continue;
+                    };
+                    let u = d as f64 / (half + 1) as f64;
+                    let w = (1.0 - u.abs().powi(3)).powi(3);
+                    let x = d as f64;
+                    let p = [1.0, x, x * x];
+                    for a in 0..3 {
+                        r[a] += w * p[a] * y;
+                        for c in 0..3 {
+                            m[a][c] += w * p[a] * p[c];
+                        }
+                    }
+                    n += 1;
+                }
+                if n < 7 {
+                    continue;
+                }
+                if let Some(c0) = solve3(m, r) {
+                    *slot = Some(c0);
+                }
+            }
+            out
+        })
+        .collect()
+}
+
+/// The first unknown of the 3×3 system `m·c = r` (Cramer's rule), if it is well conditioned.
+fn solve3(m: [[f64; 3]; 3], r: [f64; 3]) -> Option<f64> {
+    let det = |a: [[f64; 3]; 3]| {
+        a[0][0] * (a[1][1] * a[2][2] - a[1][2] * a[2][1])
+            - a[0][1] * (a[1][0] * a[2][2] - a[1][2] * a[2][0])
+            + a[0][2] * (a[1][0] * a[2][1] - a[1][1] * a[2][0])
+    };
+    let d = det(m);
+    if !(d.abs() > 1e-12 * m[0][0].powi(3).max(1e-300)) {
+        return None;
+    }
+    let mut a = m;
+    for (row, v) in a.iter_mut().zip(r) {
+        row[0] = v;
+    }
+    Some(det(a) / d)
+}
+
+/// Linear interpolation of `v` (rows `row0..row0 + v.len()`) at the fractional row `u`; `None`
+/// outside. At a constant fractional offset it conserves the sum over rows.
+fn interp(v: &[f64], row0: usize, u: f64) -> Option<f64> {
+    let x = u - row0 as f64;
+    if !(x >= 0.0) {
+        return None;
+    }
+    let i = x.floor() as usize;
+    let f = x - i as f64;
+    match (v.get(i), v.get(i + 1)) {
+        (Some(a), Some(b)) => Some(a + f * (b - a)),
+        (Some(a), None) if f == 0.0 => Some(*a),
+        _ => None,
+    }
+}
+
+/// The sphere's caustic of one bow, as the transfer needs it.
+#[derive(Debug, Clone)]
+struct SphereBow {
+    /// Fractional row of the fold caustic ([`fold_position`] on the sphere's GO intensity).
+    position: f64,
+    /// Airy unit (rows): distance of the Airy maximum from the caustic / [`AIRY_PEAK_Z`].
+    ell: f64,
+}
+
 /// The uniform-caustic (Airy) correction of the equal-volume sphere, transferred to the columns
 /// of a 2-D table (decision RT-28).
 ///
 /// For a sphere the 1-D path's Airy-uniform channels differ from its geometric-optics (GO)
 /// channels only around the primary (p = 2) and secondary (p = 3) caustics: `Δ = Airy − GO`
 /// (dσ/dΩ per channel, bin averages on the table's polar rows) is the diffraction correction the
-/// GO field lacks there. Each azimuth column of a traced table gets `value + s·Δ(θ − δ)` per bow:
-/// δ moves the sphere's caustic (the GO peak of the order) onto the column's own, and `s` scales
-/// it to the column's caustic strength (the ratio of the column's order intensity to the
-/// sphere's over 0.1°–1.5° on the bright side). Rows above the Alexander-band midpoint take the
-/// primary's correction, rows below the secondary's. On a sphere δ = 0 and s = 1 up to ray noise,
-/// so the 2-D path reproduces the 1-D Airy path. Domain: fold caustics of drops close to the
-/// sphere; the Airy width stays the sphere's (the local curvature of a deformed drop's
-/// deviation function is not followed), and columns where a deformed drop's caustic splits or
-/// vanishes take a shifted, scaled sphere correction that is only as good as that picture.
+/// GO field lacks there. Each azimuth column of a traced table gets, per bow,
+///
+/// `value_c(θ) = col_c(θ) + s·Δ_c(θ − δ) − w(θ)·κ_c·(col_o(θ) − s·GO_o(θ − δ))`:
+///
+/// δ moves the sphere's fold caustic onto the column's own, both located to a fraction of a row
+/// by fitting the fold shape of the GO intensity of the order `o` past its peak
+/// ([`fold_position`]); the sphere's channels are interpolated linearly at the fractional shift
+/// (which conserves their sum over rows). `s` scales the correction to the column's caustic
+/// strength (the ratio of the column's order intensity to the shifted sphere's over 0.1°–1.5° on
+/// the bright side). Within `REPLACE_Z` Airy units of the caustic (weight `w`, 1 inside
+/// `REPLACE_Z.0`, cosine taper to 0 at `REPLACE_Z.1`), the column's own order intensity is
+/// replaced by the shifted, scaled sphere's GO intensity (`κ_c`: the order's share of channel
+/// `c`), so the result there is the sphere's Airy intensity rather than a difference of two
+/// differently sampled GO singularities (the column's point samples against the sphere's bin
+/// averages). Rows above the Alexander-band midpoint take the primary's correction, rows below the
+/// secondary's. On a sphere δ = 0 and s = 1 up to ray noise, so the 2-D path reproduces the 1-D
+/// Airy path. Domain: fold caustics of drops close to the sphere; the Airy width stays the
+/// sphere's (the local curvature of a deformed drop's deviation function is not followed), and
+/// columns where a deformed drop's caustic splits or vanishes take a shifted, scaled sphere
+/// correction that is only as good as that picture.
 #[derive(Debug, Clone)]
 pub struct AiryTransfer {
     /// First row of the arrays (the filter's [`ColumnFilter::needed_rows`]`.0`).
     row0: usize,
     /// Airy − GO (µm²/sr) of the columns' channels `[i_perp, i_par, p0, p1, …]`.
     delta: Vec<Vec<f64>>,
-    /// Sphere's GO intensity of orders 2 and 3 (µm²/sr) and the row of its maximum.
-    go_bow: [Option<(Vec<f64>, usize)>; 2],
+    /// GO (µm²/sr) of the same channels.
+    go: Vec<Vec<f64>>,
+    /// The primary's and the secondary's caustic.
+    bows: [Option<SphereBow>; 2],
 }
 
 impl AiryTransfer {
@@ -105,21 +282,68 @@ impl AiryTransfer {
             .zip(go)
             .map(|(a, g)| a.iter().zip(g).map(|(x, y)| x - y).collect())
             .collect();
-        let bow = |o: usize, (lo, hi): (f64, f64)| -> Option<(Vec<f64>, usize)> {
-            let v = go.get(2 + o)?.clone();
+        let argmax = |v: &[f64], (lo, hi): (f64, f64)| -> Option<usize> {
             let (a, b) = (
                 filter.row(lo.to_radians()).max(rows.0),
                 filter.row(hi.to_radians()).min(rows.1),
             );
-            let peak = (a..=b).max_by(|&x, &y| v[x - rows.0].total_cmp(&v[y - rows.0]))?;
-            (v[peak - rows.0] > 0.0).then_some((v, peak))
+            (a..=b).max_by(|&x, &y| v[x - rows.0].total_cmp(&v[y - rows.0]))
+        };
+        let bow = |b: usize, search: (f64, f64), sign: f64| -> Option<SphereBow> {
+            let c = 2 + 2 + b;
+            let (g, a) = (go.get(c)?, airy.get(c)?);
+            let jc = argmax(g, search)?;
+            let ja = argmax(a, search)?;
+            if !(g[jc - rows.0] > 0.0) || ja == rows.0 || ja >= rows.1 {
+                return None;
+            }
+            // Airy maximum to a fraction of a row (parabola through three rows).
+            let (y0, y1, y2) = (a[ja - 1 - rows.0], a[ja - rows.0], a[ja + 1 - rows.0]);
+            let den = y0 - 2.0 * y1 + y2;
+            let peak = ja as f64
+                + if den < 0.0 {
+                    0.5 * (y0 - y2) / den
+                } else {
+                    0.0
+                };
+            let rough = sign * (peak - jc as f64) / AIRY_PEAK_Z;
+            if !(rough > 0.0) {
+                return None;
+            }
+            let position = fold_position(g, rows.0, jc, sign, rough).unwrap_or(jc as f64);
+            let ell = sign * (peak - position) / AIRY_PEAK_Z;
+            (ell > 0.0).then_some(SphereBow { position, ell })
         };
         AiryTransfer {
             row0: rows.0,
             delta,
-            go_bow: [bow(2, PRIMARY_SEARCH_DEG), bow(3, SECONDARY_SEARCH_DEG)],
+            go: go.to_vec(),
+            bows: [
+                bow(0, PRIMARY_SEARCH_DEG, 1.0),
+                bow(1, SECONDARY_SEARCH_DEG, -1.0),
+            ],
         }
     }
+}
+
+/// Per channel [i_perp, i_par, order], the (row, deviation) at either edge of a replacement
+/// window.
+type WindowEdges = [[(f64, f64); 2]; 3];
+
+/// Rows averaged on either side of the replacement window for its edge values.
+const EDGE_ROWS: isize = 3;
+
+/// One bow of one column: what [`ColumnFilter::transfer_column`] applies.
+#[derive(Debug, Clone, Copy)]
+struct ColumnBow {
+    /// Column row of the caustic (fractional) and the shift δ (rows) from the sphere's.
+    position: f64,
+    shift: f64,
+    strength: f64,
+    /// Channel of the bow's order in the column.
+    channel: usize,
+    /// Replacement window half-widths (rows).
+    window: (f64, f64),
 }
 
 /// The filtered values of one column over the polar rows `start..start + len`, `nvals` values
@@ -161,81 +385,166 @@ impl ColumnFilter {
         self
     }
 
-    /// The transferred Airy correction of one column (see [`AiryTransfer`]).
+    /// Whether [`ColumnFilter::filter_column_at`] uses caustic positions (the airy-local
+    /// transfer, filter enabled).
+    pub fn uses_fold_positions(&self) -> bool {
+        self.enabled && self.airy.is_some()
+    }
+
+    /// The sub-row caustic positions (fractional rows) of one column's primary and secondary
+    /// ([`fold_position`] past the column's peak row of the order; the peak row when the fit
+    /// fails), with the airy-local transfer; `None` per bow without one. Arguments as
+    /// [`ColumnFilter::filter_column`].
+    pub fn fold_positions(
+        &self,
+        rows: (usize, usize),
+        cols: &[Vec<f64>],
+        primary: Option<usize>,
+        secondary: Option<usize>,
+    ) -> [Option<f64>; 2] {
+        let mut out = [None, None];
+        let (Some(t), true) = (&self.airy, self.enabled) else {
+            return out;
+        };
+        let (j0, j1) = rows;
+        for (b, ((search, sign), order)) in
+            [(PRIMARY_SEARCH_DEG, 1.0), (SECONDARY_SEARCH_DEG, -1.0)]
+                .into_iter()
+                .zip([primary, secondary])
+                .enumerate()
+        {
+            let (Some(c), Some(sb)) = (order, &t.bows[b]) else {
+                continue;
+            };
+            let (a, z) = (
+                self.row(search.0.to_radians()).max(j0),
+                self.row(search.1.to_radians()).min(j1),
+            );
+            let Some(jc) = (a..=z).max_by(|&x, &y| cols[c][x - j0].total_cmp(&cols[c][y - j0]))
+            else {
+                continue;
+            };
+            out[b] = Some(fold_position(&cols[c], j0, jc, sign, sb.ell).unwrap_or(jc as f64));
+        }
+        out
+    }
+
+    /// The transferred Airy correction of one column (see [`AiryTransfer`]), at the caustic
+    /// positions `positions` (fractional rows, per bow; see [`ColumnFilter::fold_positions`]).
     fn transfer_column(
         &self,
         t: &AiryTransfer,
         rows: (usize, usize),
         cols: &[Vec<f64>],
         orders: [Option<usize>; 2],
+        positions: [Option<f64>; 2],
     ) -> CausticWindow {
         let (j0, j1) = rows;
-        let range = |lo: f64, hi: f64| {
-            (
-                self.row(lo.to_radians()).max(j0),
-                self.row(hi.to_radians()).min(j1),
-            )
-        };
-        // Per bow: (shift in rows, strength, channel of the order).
-        let mut bows: [Option<(isize, f64, usize)>; 2] = [None, None];
-        for (b, ((search, sign), order)) in
-            [(PRIMARY_SEARCH_DEG, 1.0), (SECONDARY_SEARCH_DEG, -1.0)]
-                .into_iter()
-                .zip(orders)
-                .enumerate()
-        {
-            let (Some(c), Some((go, j_sphere))) = (order, &t.go_bow[b]) else {
+        let mut bows: [Option<ColumnBow>; 2] = [None, None];
+        for (b, (sign, order)) in [1.0, -1.0].into_iter().zip(orders).enumerate() {
+            let (Some(c), Some(sb), Some(position)) = (order, &t.bows[b], positions[b]) else {
                 continue;
             };
-            let (a, z) = range(search.0, search.1);
-            let Some(jc) = (a..=z).max_by(|&x, &y| cols[c][x - j0].total_cmp(&cols[c][y - j0]))
-            else {
+            let Some(go) = t.go.get(c) else {
                 continue;
             };
-            let shift = jc as isize - *j_sphere as isize;
+            let shift = position - sb.position;
             let (d0, d1) = (
                 (STRENGTH_RANGE_DEG.0.to_radians() / self.step).round() as isize,
                 (STRENGTH_RANGE_DEG.1.to_radians() / self.step).round() as isize,
             );
             let (mut num, mut den) = (0.0, 0.0);
             for d in d0..=d1 {
-                let j = jc as isize + (sign * d as f64) as isize;
-                let js = j - shift;
-                if j < j0 as isize
-                    || j > j1 as isize
-                    || js < t.row0 as isize
-                    || js as usize >= t.row0 + go.len()
-                {
+                let j = position.round() as isize + sign as isize * d;
+                if j < j0 as isize || j > j1 as isize {
                     continue;
                 }
+                let Some(g) = interp(go, t.row0, j as f64 - shift) else {
+                    continue;
+                };
                 num += cols[c][j as usize - j0];
-                den += go[js as usize - t.row0];
+                den += g;
             }
             if den > 0.0 {
-                bows[b] = Some((shift, num / den, c));
+                bows[b] = Some(ColumnBow {
+                    position,
+                    shift,
+                    strength: num / den,
+                    channel: c,
+                    window: (REPLACE_Z.0 * sb.ell, REPLACE_Z.1 * sb.ell),
+                });
             }
         }
         let nvals = cols.len();
+        // The column's deviation from the shifted, scaled sphere GO in channel c at row j.
+        let deviation = |bw: &ColumnBow, c: usize, j: usize| -> Option<f64> {
+            let g = interp(t.go.get(c)?, t.row0, j as f64 - bw.shift)?;
+            Some(cols[c][j - j0] - bw.strength * g)
+        };
+        // Per bow and channel [i_perp, i_par, order]: the deviation on either edge of the
+        // replacement window (mean over EDGE_ROWS rows just outside it) as (row, value) pairs.
+        let edges: [Option<WindowEdges>; 2] = bows.map(|bw| {
+            let bw = bw?;
+            let lo = (bw.position - bw.window.1).floor() as isize;
+            let hi = (bw.position + bw.window.1).ceil() as isize;
+            let mut out = [[(0.0, 0.0); 2]; 3];
+            for (ci, c) in [0, 1, bw.channel].into_iter().enumerate() {
+                for (side, rows) in [(lo - EDGE_ROWS + 1..=lo), (hi..=hi + EDGE_ROWS - 1)]
+                    .into_iter()
+                    .enumerate()
+                {
+                    let (mut n, mut sj, mut sd) = (0.0, 0.0, 0.0);
+                    for j in rows {
+                        if j < j0 as isize || j > j1 as isize {
+                            return None;
+                        }
+                        sd += deviation(&bw, c, j as usize)?;
+                        sj += j as f64;
+                        n += 1.0;
+                    }
+                    out[ci][side] = (sj / n, sd / n);
+                }
+            }
+            Some(out)
+        });
         let mut values = Vec::with_capacity((j1 + 1 - j0) * nvals);
         for j in j0..=j1 {
             let th = self.step * j as f64;
-            let bow = bows[usize::from(th <= self.split)];
-            for (c, col) in cols.iter().enumerate() {
-                let mut v = col[j - j0];
-                if let Some((shift, strength, order_channel)) = bow {
-                    // i_perp, i_par and the bow's own order; other orders have no caustic here.
-                    if c < 2 || c == order_channel {
-                        let js = j as isize - shift;
-                        if let Some(d) = t.delta.get(c).and_then(|d| {
-                            (js >= t.row0 as isize)
-                                .then(|| d.get(js as usize - t.row0))
-                                .flatten()
-                        }) {
-                            v = (v + strength * d).max(0.0);
-                        }
-                    }
+            let b = usize::from(th <= self.split);
+            let start = values.len();
+            values.extend(cols.iter().map(|col| col[j - j0]));
+            let Some(bw) = bows[b] else {
+                continue;
+            };
+            let u = j as f64 - bw.shift;
+            let dist = (j as f64 - bw.position).abs();
+            let w = match edges[b] {
+                None => 0.0,
+                Some(_) if dist <= bw.window.0 => 1.0,
+                Some(_) if dist >= bw.window.1 => 0.0,
+                Some(_) => {
+                    let x = (dist - bw.window.0) / (bw.window.1 - bw.window.0);
+                    0.5 * (1.0 + (std::f64::consts::PI * x).cos())
                 }
-                values.push(v);
+            };
+            // i_perp, i_par and the bow's own order; other orders have no caustic here.
+            for (ci, c) in [0, 1, bw.channel].into_iter().enumerate() {
+                let Some(d) = t.delta.get(c).and_then(|d| interp(d, t.row0, u)) else {
+                    continue;
+                };
+                // Within the window the column's deviation from the sphere's GO (the sampling
+                // of the singularity and the cross-order ripple it drives) is replaced by its
+                // straight line between the window's edges.
+                let replace = match (w > 0.0, edges[b], deviation(&bw, c, j)) {
+                    (true, Some(e), Some(dev)) => {
+                        let [(ja, da), (jb, db)] = e[ci];
+                        let line = da + (db - da) * (j as f64 - ja) / (jb - ja);
+                        w * (dev - line)
+                    }
+                    _ => 0.0,
+                };
+                let v = &mut values[start + c];
+                *v = (*v + bw.strength * d - replace).max(0.0);
             }
         }
         CausticWindow {
@@ -281,11 +590,26 @@ impl ColumnFilter {
         primary: Option<usize>,
         secondary: Option<usize>,
     ) -> CausticWindow {
+        let positions = self.fold_positions(rows, cols, primary, secondary);
+        self.filter_column_at(rows, cols, primary, secondary, positions)
+    }
+
+    /// [`ColumnFilter::filter_column`] with the caustic positions of the airy-local transfer
+    /// given (e.g. [`ColumnFilter::fold_positions`] smoothed over azimuth with
+    /// [`smooth_over_azimuth`]); the Gaussian filter ignores them.
+    pub fn filter_column_at(
+        &self,
+        rows: (usize, usize),
+        cols: &[Vec<f64>],
+        primary: Option<usize>,
+        secondary: Option<usize>,
+        positions: [Option<f64>; 2],
+    ) -> CausticWindow {
         if !self.enabled {
             return CausticWindow::default();
         }
         if let Some(t) = &self.airy {
-            return self.transfer_column(t, rows, cols, [primary, secondary]);
+            return self.transfer_column(t, rows, cols, [primary, secondary], positions);
         }
         let (j0, j1) = rows;
         let peak = |c: Option<usize>, (lo, hi): (f64, f64)| -> Option<f64> {
@@ -407,6 +731,49 @@ mod tests {
             }
         }
         assert!(win.len > 0 && win.len < n / 4, "window of {} rows", win.len);
+    }
+
+    /// The fold fit recovers the sub-row caustic position of point-sampled fold intensities on
+    /// either side, wherever the caustic falls between two rows (the integer peak row alone is
+    /// up to a row off).
+    #[test]
+    fn fold_position_finds_the_caustic_between_rows() {
+        let (row0, n, ell) = (100usize, 200usize, 30.0);
+        for sign in [1.0, -1.0] {
+            for k in 0..10 {
+                let p = 200.0 + 0.1 * k as f64 + 0.05;
+                let v: Vec<f64> = (0..n)
+                    .map(|i| {
+                        let x = sign * ((row0 + i) as f64 - p);
+                        if x > 0.0 {
+                            3.0 * fold_shape(x / ell)
+                        } else {
+                            0.0
+                        }
+                    })
+                    .collect();
+                let jc = (0..n).max_by(|&a, &b| v[a].total_cmp(&v[b])).unwrap() + row0;
+                let got = fold_position(&v, row0, jc, sign, ell).unwrap();
+                assert!((got - p).abs() < 0.01, "sign {sign}: {got} vs {p}");
+            }
+        }
+        // Too few rows past the peak: no fit.
+        let v = vec![0.0, 0.0, 5.0, 2.0, 1.0];
+        assert!(fold_position(&v, 0, 2, 1.0, 30.0).is_none());
+    }
+
+    #[test]
+    fn interp_conserves_sums_at_a_fractional_offset() {
+        let v: Vec<f64> = (0..50).map(|i| ((i as f64) * 0.3).sin().powi(2)).collect();
+        let f = 0.37;
+        // Rows fully inside: the shifted samples sum to the original sum (up to the ends).
+        let shifted: f64 = (1..49)
+            .map(|j| interp(&v, 10, (10 + j) as f64 - f).unwrap())
+            .sum();
+        let direct: f64 = v[1..49].iter().sum::<f64>() - f * (v[48] - v[0]);
+        assert!((shifted - direct).abs() < 1e-12, "{shifted} vs {direct}");
+        assert!(interp(&v, 10, 9.5).is_none() && interp(&v, 10, 59.5).is_none());
+        assert_eq!(interp(&v, 10, 59.0), Some(v[49]));
     }
 
     #[test]

@@ -26,7 +26,7 @@
 //! i_perp = |S1|²/(π x² Q_sca).
 
 use crate::optics::water::{SADEGHI_WAVELENGTHS_NM, WaterIndexModel};
-use crate::raytrace::caustic::{AiryTransfer, CausticWindow, ColumnFilter};
+use crate::raytrace::caustic::{AiryTransfer, CausticWindow, ColumnFilter, smooth_over_azimuth};
 use crate::raytrace::post::{bin_edges, filter_sigma_deg, fraunhofer_bin_average};
 use crate::raytrace::shape::{CosineSeries, DropShape};
 use crate::raytrace::sphere1d::{DiffractionModel, Phase1dOptions, SphereGo, sphere_phase_1d};
@@ -455,26 +455,39 @@ pub fn n_channels_2d(orders: usize) -> usize {
 }
 
 /// The filtered caustic window of every azimuth column (rayon over columns): columns of
-/// dσ/dΩ i_perp, i_par and per order over the rows the filter needs.
+/// dσ/dΩ i_perp, i_par and per order over the rows the filter needs. With the airy-local
+/// transfer, the columns' caustic positions are found first and smoothed over azimuth
+/// (decision RT-28).
 fn caustic_windows(f: &FieldGrid, filter: &ColumnFilter) -> Vec<CausticWindow> {
     let orders = f.orders;
     let rows = filter.needed_rows();
-    (0..f.grid.n_azimuth)
-        .into_par_iter()
-        .map(|k| {
-            let mut cols = vec![Vec::with_capacity(rows.1 + 1 - rows.0); 2 + orders];
-            let mut per = vec![0.0; orders];
-            for j in rows.0..=rows.1 {
-                let (ip, ipar) = f.intensities_into(j, k, &mut per);
-                cols[0].push(ip);
-                cols[1].push(ipar);
-                for (c, v) in cols[2..].iter_mut().zip(&per) {
-                    c.push(*v);
-                }
+    let column = |k: usize| -> Vec<Vec<f64>> {
+        let mut cols = vec![Vec::with_capacity(rows.1 + 1 - rows.0); 2 + orders];
+        let mut per = vec![0.0; orders];
+        for j in rows.0..=rows.1 {
+            let (ip, ipar) = f.intensities_into(j, k, &mut per);
+            cols[0].push(ip);
+            cols[1].push(ipar);
+            for (c, v) in cols[2..].iter_mut().zip(&per) {
+                c.push(*v);
             }
-            let order = |o: usize| (o < orders).then_some(2 + o);
-            filter.filter_column(rows, &cols, order(2), order(3))
-        })
+        }
+        cols
+    };
+    let order = |o: usize| (o < orders).then_some(2 + o);
+    let na = f.grid.n_azimuth;
+    let positions: Vec<[Option<f64>; 2]> = if filter.uses_fold_positions() {
+        let raw: Vec<[Option<f64>; 2]> = (0..na)
+            .into_par_iter()
+            .map(|k| filter.fold_positions(rows, &column(k), order(2), order(3)))
+            .collect();
+        smooth_over_azimuth(&raw, f.grid.azimuth_step().to_degrees())
+    } else {
+        vec![[None, None]; na]
+    };
+    (0..na)
+        .into_par_iter()
+        .map(|k| filter.filter_column_at(rows, &column(k), order(2), order(3), positions[k]))
         .collect()
 }
 
