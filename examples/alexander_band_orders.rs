@@ -61,8 +61,8 @@ fn main() -> anyhow::Result<()> {
     let mut csv = String::from(
         "# Alexander's dark band (131-136 deg) order by order, n = 1.331, 650 nm: mean dsigma/dOmega/(pi a^2) (1/sr)\n\
          # term: p0..p6 single orders; p0_diffraction, p0_reflection (Debye split of p = 0); coherent_0_3/_0_6, incoherent_0_3/_0_6; mie\n\
-         # ray_go = unfiltered geometric optics, ray_airy = Airy-uniform caustic channel (order_field_uniform)\n\
-         radius_um,term,debye,ray_go,ray_airy\n",
+         # ray_go = unfiltered geometric optics, ray_airy = Airy-uniform caustic channel (order_field_uniform), both with the curved-surface coefficients; ray_airy_plane = Airy channel with plane Fresnel coefficients\n\
+         radius_um,term,debye,ray_go,ray_airy,ray_airy_plane\n",
     );
     for a_mm in [0.1, 0.2, 0.4, 1.0] {
         let a = a_mm * 1e3;
@@ -92,6 +92,14 @@ fn main() -> anyhow::Result<()> {
         };
         // ray fields per order
         let go = SphereGo::new(a, LAMBDA_NM, N, MAX_P);
+        let plane = go.clone().with_surface_coefficients(false);
+        let plane_f: Vec<Vec<OrderField>> = (0..=MAX_P)
+            .map(|p| {
+                ang.iter()
+                    .map(|t| plane.order_field_uniform(p, t.to_radians()))
+                    .collect()
+            })
+            .collect();
         let go_f: Vec<Vec<OrderField>> = (0..=MAX_P)
             .map(|p| {
                 ang.iter()
@@ -115,33 +123,35 @@ fn main() -> anyhow::Result<()> {
             mean(&debye_intensity(&rest.0, &rest.1, x))
         );
         println!(
-            "  {:<16} {:>11} {:>11} {:>11} {:>9} {:>9} {:>9}",
-            "term", "Debye", "ray GO", "ray Airy", "GO/Deb", "Airy/Deb", "Deb/Mie"
+            "  {:<18} {:>11} {:>11} {:>11} {:>9} {:>9} {:>10} {:>9}",
+            "term", "Debye", "ray GO", "ray Airy", "GO/Deb", "Airy/Deb", "plane/Deb", "Deb/Mie"
         );
-        let mut row = |name: &str, dv: f64, gv: f64, av: f64| {
+        let mut row = |name: &str, dv: f64, gv: f64, av: f64, pv: f64| {
             println!(
-                "  {:<16} {:>11.4e} {:>11.4e} {:>11.4e} {:>9.3} {:>9.3} {:>9.3}",
+                "  {:<18} {:>11.4e} {:>11.4e} {:>11.4e} {:>9.3} {:>9.3} {:>10.3} {:>9.3}",
                 name,
                 dv,
                 gv,
                 av,
                 gv / dv,
                 av / dv,
+                pv / dv,
                 dv / mie_b
             );
-            let _ = writeln!(csv, "{a},{name},{dv:.6e},{gv:.6e},{av:.6e}");
+            let _ = writeln!(csv, "{a},{name},{dv:.6e},{gv:.6e},{av:.6e},{pv:.6e}");
         };
         for p in 0..=MAX_P {
             let dv = mean(&debye_intensity(&deb[p].0, &deb[p].1, x));
             let gv = mean(&ray_intensity(&go_f[p], a));
             let av = mean(&ray_intensity(&airy_f[p], a));
-            row(&format!("p{p}"), dv, gv, av);
+            let pv = mean(&ray_intensity(&plane_f[p], a));
+            row(&format!("p{p}"), dv, gv, av, pv);
         }
         let dd = mean(&debye_intensity(&diff.0, &diff.1, x));
         let dr = mean(&debye_intensity(&refl.0, &refl.1, x));
         let g0 = mean(&ray_intensity(&go_f[0], a));
-        row("p0_diffraction", dd, 0.0, 0.0);
-        row("p0_reflection", dr, g0, g0);
+        row("p0_diffraction", dd, 0.0, 0.0, 0.0);
+        row("p0_reflection", dr, g0, g0, g0);
         for hi in [3usize, MAX_P] {
             let (s1, s2) = dsum(0..=hi);
             let dc = mean(&debye_intensity(&s1, &s2, x));
@@ -152,11 +162,19 @@ fn main() -> anyhow::Result<()> {
             let gi: f64 = (0..=hi).map(|p| mean(&ray_intensity(&go_f[p], a))).sum();
             let ac = mean(&ray_intensity(&sum_fields(&airy_f, 0..=hi), a));
             let ai: f64 = (0..=hi).map(|p| mean(&ray_intensity(&airy_f[p], a))).sum();
-            row(&format!("coherent_0_{hi}"), dc, gc, ac);
-            row(&format!("incoherent_0_{hi}"), di, gi, ai);
-            row(&format!("interference_0_{hi}"), dc - di, gc - gi, ac - ai);
+            let pc = mean(&ray_intensity(&sum_fields(&plane_f, 0..=hi), a));
+            let pi: f64 = (0..=hi).map(|p| mean(&ray_intensity(&plane_f[p], a))).sum();
+            row(&format!("coherent_0_{hi}"), dc, gc, ac, pc);
+            row(&format!("incoherent_0_{hi}"), di, gi, ai, pi);
+            row(
+                &format!("interference_0_{hi}"),
+                dc - di,
+                gc - gi,
+                ac - ai,
+                pc - pi,
+            );
         }
-        row("mie", mie_b, f64::NAN, f64::NAN);
+        row("mie", mie_b, f64::NAN, f64::NAN, f64::NAN);
         // 1° windows of the two caustic tails (where in the band the deficit sits)
         for p in [2usize, 3] {
             let w: Vec<String> = (0..5)
