@@ -13,6 +13,8 @@
 //! ```
 //!
 //! so that `|E|²` is the differential scattering cross-section dσ/dΩ (µm²/sr when `a` is in µm).
+//! For p ≥ [`CURVED_SURFACE_MIN_ORDER`] the moduli of ε are the sphere's exact surface
+//! coefficients of the partial wave `x sin i` ([`SphereGo::ray_product`], decision RT-29).
 //! The focal-line term puts the longer-path branch π/2 behind (`dl/di = a sin i · dD/di`;
 //! decision RT-1 in `docs/decisions.md`); the literal rule of Sadeghi 2012 is off by half a
 //! fringe for the primary bow. Per-order constant phases (axial focal lines) are ignored, as in
@@ -49,7 +51,8 @@ pub struct SphereGo {
     intervals: Vec<Vec<(f64, f64)>>,
     /// Per order: Airy continuation data of the rainbow caustic (p ≥ 2).
     calibration: Vec<Option<Calibration>>,
-    /// Curved-surface (Debye) coefficients per partial wave for the orders p ≥ 1, or `None`
+    /// Curved-surface (Debye) coefficients per partial wave for the orders
+    /// p ≥ [`CURVED_SURFACE_MIN_ORDER`], or `None`
     /// for the plane Fresnel coefficients (see [`SphereGo::with_surface_coefficients`]).
     edge: Option<EdgeCoefficients>,
 }
@@ -129,6 +132,11 @@ struct Calibration {
     v: (Complex64, Complex64),
 }
 
+/// Lowest order whose rays take the curved-surface coefficients (decision RT-29): p ≤ 3 keep
+/// the plane Fresnel products, validated against the Debye terms (with the moduli alone, the
+/// p = 3 supernumeraries at 0.1 mm move from 0.067° to 0.100° off Debye's).
+pub const CURVED_SURFACE_MIN_ORDER: usize = 4;
+
 /// Beyond this ζ the uniform approximation equals GO to < 0.3 %; below −ζ_max Ai is < 1e-9.
 const ZETA_MAX: f64 = 10.0;
 /// Calibration point of the dark-side continuation.
@@ -206,13 +214,14 @@ impl SphereGo {
     }
 
     /// Amplitude products (⊥, ∥) of the rays of order `p` at incidence `i`: the plane Fresnel
-    /// products ([`Self::fresnel_product`]) for p = 0 and without edge coefficients; for p ≥ 1
+    /// products ([`Self::fresnel_product`]) for p < [`CURVED_SURFACE_MIN_ORDER`] and without
+    /// surface coefficients; for higher orders
     /// the moduli of the curved-surface coefficients of the partial wave `ν = x sin i`
     /// (localisation principle, van de Hulst 1957 §12.2; Nussenzveig 1969) with the Fresnel
     /// product's sign.
     pub fn ray_product(&self, p: usize, i: f64) -> (f64, f64) {
         let (s, pp) = self.fresnel_product(p, i);
-        if p == 0 {
+        if p < CURVED_SURFACE_MIN_ORDER {
             return (s, pp);
         }
         match self.edge.as_ref().and_then(|e| e.product(p, e.x * i.sin())) {
