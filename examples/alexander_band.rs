@@ -1,5 +1,5 @@
 //! Alexander's dark band of the 1-D ray-traced sphere against Lorenz–Mie (scatrs), per highest
-//! traced order: mean phase over the band after a 0.5° sun disc.
+//! traced order: mean phase over the band (point values, no sun disc).
 //!
 //! `cargo run --release --example alexander_band`
 #[path = "common/mie_reference.rs"]

@@ -113,15 +113,17 @@ filtered_phase_params! {
         /// Radii below this use Lorenz–Mie, radii at or above it the traced 1-D path (µm).
         pub handover_radius_um: f64 = default(DEFAULT_HANDOVER_UM),
             "float, µm", "radii below use Lorenz–Mie, radii at or above the traced 1-D sphere path";
-        /// Highest order traced for the large drops.
-        pub max_order: usize = default(3),
+        /// Highest order traced for the large drops (6: the p = 6 rays fill Alexander's dark
+        /// band, decision RT-30).
+        pub max_order: usize = default(6),
             "integer", "highest order traced for the large drops, 1–8";
     }
 }
 
 impl StageSpec for MixtureStage {
     const NAME: &'static str = "mixture";
-    const VERSION: u32 = 1;
+    /// 2: curved-surface coefficients in the traced path (RT-29), `max_order` default 6 (RT-30).
+    const VERSION: u32 = 2;
     const SUMMARY: &'static str = "drop-size mixtures: Lorenz–Mie for small drops, traced spheres for large ones, weighted by number × scattering cross-section";
     type Params = MixtureParams;
     fn plan_params(&self, p: MixtureParams) -> Result<Box<dyn Job>, PlanError> {

@@ -132,7 +132,9 @@ impl StageSpec for RaytraceStage {
     /// 2: 2-D tables renormalised to ∫ p dΩ = 1 on their grid. 3: Table 3.2 of Sadeghi (2012)
     /// corrected at 580–650 nm; axes radius × wavelength × …, keys `radii_um`, `wavelengths_nm`.
     /// 4: 2-D tables mirror-symmetrised in azimuth by default (`mirror_symmetrise`).
-    const VERSION: u32 = 4;
+    /// 5: curved-surface (Debye) coefficients for the orders p ≥ 4 of the 1-D sphere path
+    /// (decision RT-29; sphere tables with `max_order ≥ 4` change).
+    const VERSION: u32 = 5;
     const SUMMARY: &'static str =
         "wave-optics patch ray tracer: phase functions of spherical and Beard–Chuang raindrops";
     type Params = RaytraceParams;
