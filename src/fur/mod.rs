@@ -17,6 +17,7 @@
 
 pub mod assets;
 pub mod chief_ray;
+pub mod disc;
 pub mod farfield;
 pub mod medulla;
 pub mod medulla_fast;
