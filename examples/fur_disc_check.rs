@@ -7,7 +7,10 @@ use scatterbake::fur::medulla_fast::{AdaptiveSettings, simulate_adaptive};
 use std::time::Instant;
 
 fn main() {
-    let a: Vec<f64> = std::env::args().skip(1).map(|s| s.parse().unwrap()).collect();
+    let a: Vec<f64> = std::env::args()
+        .skip(1)
+        .map(|s| s.parse().unwrap())
+        .collect();
     let (sigma, g, h) = (a[0], a[1], a[2]);
     let mut s = DiscSettings::default();
     if a.len() > 3 {
@@ -86,7 +89,15 @@ fn main() {
     let cache = std::env::var("MC_CACHE").ok();
     let cached = cache.as_ref().and_then(|c| std::fs::read_to_string(c).ok());
     let m = if let Some(text) = cached {
-        let mut m = simulate_adaptive(sigma, g, h, &AdaptiveSettings { max_photons: 64, ..AdaptiveSettings::default() });
+        let mut m = simulate_adaptive(
+            sigma,
+            g,
+            h,
+            &AdaptiveSettings {
+                max_photons: 64,
+                ..AdaptiveSettings::default()
+            },
+        );
         for (k, line) in text.lines().enumerate() {
             let v: Vec<f64> = line.split(',').map(|x| x.parse().unwrap()).collect();
             m.energy[k] = v[0];

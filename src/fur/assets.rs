@@ -214,7 +214,10 @@ pub fn compress_asset(source: &Table, spec: &AssetSpec) -> Result<Table, FurErro
     } else {
         h.axes.last().map_or(1, |a| a.len())
     };
-    let std_error = if spec.family == "fur-medulla-azimuthal" {
+    // Monte Carlo sources carry standard errors; deterministic ones (adding-doubling,
+    // characteristics) a discretisation error in `solver_error`.
+    let deterministic = h.attributes.contains_key("solver_error");
+    let std_error = if spec.family == "fur-medulla-azimuthal" && !deterministic {
         Some(channel_values(&content, "std_error")?)
     } else {
         None
@@ -247,7 +250,7 @@ pub fn compress_asset(source: &Table, spec: &AssetSpec) -> Result<Table, FurErro
     );
     a.insert("reconstruction_error".into(), recon.clone());
     if spec.normalise_to_analytic_total {
-        a.insert("value_normalisation".into(), "each profile (sigma, g, h') of the source channel was scaled so that its bins sum to the analytic scattered fraction 1 - exp(-sigma 2 sqrt(1 - h'^2)) before compression (ratio estimator; removes the Monte Carlo noise of the profile's overall level); reconstruction_error is against the source as built, tensor_train_only against the scaled values".into());
+        a.insert("value_normalisation".into(), "each profile (sigma, g, h') of the source channel was scaled so that its bins sum to the analytic scattered fraction 1 - exp(-sigma 2 sqrt(1 - h'^2)) before compression (ratio estimator; removes the error of the profile's overall level: Monte Carlo noise or the solver's energy-identity deviation); reconstruction_error is against the source as built, tensor_train_only against the scaled values".into());
     }
     let source_error = match &std_error {
         Some(se) => {
@@ -266,8 +269,12 @@ pub fn compress_asset(source: &Table, spec: &AssetSpec) -> Result<Table, FurErro
             })
         }
         None => json!({
-            "kind": "discretisation error of the adding-doubling solver (source header solver_error); no sampling noise",
+            "kind": format!(
+                "discretisation error of the {} solver (source header solver_error, solver_error_median); no sampling noise",
+                h.attributes.get("method").and_then(|m| m.as_str()).unwrap_or("deterministic")
+            ),
             "solver_error": h.attributes.get("solver_error").cloned().unwrap_or(json!(null)),
+            "solver_error_median": h.attributes.get("solver_error_median").cloned().unwrap_or(json!(null)),
         }),
     };
     a.insert("source_error".into(), source_error);

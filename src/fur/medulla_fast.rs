@@ -355,7 +355,12 @@ fn fit_correlation_length(
 
 /// Single-scattering energy per bin and its mean path length, Gauss–Legendre in
 /// u = 1 − e^{−σt} ∈ [0, 1 − e^{−σL}] (midpoint rule in the bin, like the next-event score).
-pub(crate) fn single_scatter_with_path(sigma: f64, g: f64, h: f64, bins: usize) -> (Vec<f64>, Vec<f64>) {
+pub(crate) fn single_scatter_with_path(
+    sigma: f64,
+    g: f64,
+    h: f64,
+    bins: usize,
+) -> (Vec<f64>, Vec<f64>) {
     let geom = Geometry::Azimuthal { h };
     let chord = geom.chord();
     let dw = 2.0 * PI / bins as f64;

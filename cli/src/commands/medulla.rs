@@ -345,10 +345,14 @@ pub fn run_medulla_assets(a: &MedullaAssetsArgs) -> anyhow::Result<()> {
                 spec.file
             );
         }
-        // Azimuthal: the relative Frobenius error of the tensor train below that of the Monte
-        // Carlo standard errors; longitudinal (no noise): the median per-bin relative error
-        // below the solver's discretisation error (its Frobenius error is recorded; FUR-29).
-        let (rec, limit) = match at["source_error"]["solver_error"].as_f64() {
+        // Monte Carlo source: the relative Frobenius error of the tensor train below that of the
+        // standard errors; deterministic source (no noise): the median per-bin relative error
+        // below the solver's discretisation error (its median form where the source states
+        // one; the Frobenius error is recorded; FUR-29).
+        let solver = at["source_error"]["solver_error_median"]
+            .as_f64()
+            .or_else(|| at["source_error"]["solver_error"].as_f64());
+        let (rec, limit) = match solver {
             Some(solver) => (
                 re["per_bin_rel_on_bins_above_1e-3_of_profile_max"]["median"]
                     .as_f64()
