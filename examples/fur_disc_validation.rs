@@ -10,7 +10,9 @@
 //! a difference far below the analog's noise). The Monte Carlo profiles are cached in CACHE_DIR
 //! (default /tmp/fur-disc-mc) as they are expensive.
 //! Settings may be overridden with DISC_CPM, DISC_RINGS, DISC_ARC, DISC_GROWTH, DISC_MAX_CELL,
-//! DISC_DIRECTIONS, DISC_TRACK.
+//! DISC_DIRECTIONS, DISC_TRACK, DISC_TOL; DISC_RICHARDSON=p extrapolates against a grid twice as
+//! coarse assuming order p (measured: p = 2 lowers the mean z² against the Monte Carlo from 2.4
+//! to 1.35 but raises the maximum deviation at some points, so the solver does not use it).
 use rayon::prelude::*;
 use scatterbake::fur::disc::{DiscSettings, solve_disc};
 use scatterbake::fur::medulla::{Estimator, Geometry, McSettings, simulate};
@@ -153,7 +155,22 @@ fn main() {
             let (e_mc, se_mc, l_mc) = reference(&dir, sigma, g, h);
             let hist = analog(&dir, sigma, g, h);
             let t = Instant::now();
-            let d = solve_disc(sigma, g, &[h], &s);
+            let mut d = solve_disc(sigma, g, &[h], &s);
+            // Optional Richardson extrapolation against a grid twice as coarse (order p).
+            if let Some(p) = env("DISC_RICHARDSON") {
+                let coarse = DiscSettings {
+                    cells_per_mean_free_path: 0.5 * s.cells_per_mean_free_path,
+                    boundary_rings_per_mean_free_path: 0.5 * s.boundary_rings_per_mean_free_path,
+                    interior_cell_mean_free_paths: 2.0 * s.interior_cell_mean_free_paths,
+                    max_cell: 2.0 * s.max_cell,
+                    ..s
+                };
+                let c = solve_disc(sigma, g, &[h], &coarse);
+                let f = 1.0 / (2f64.powf(p) - 1.0);
+                for (e, ec) in d.energy[0].iter_mut().zip(&c.energy[0]) {
+                    *e += (*e - ec) * f;
+                }
+            }
             let ts = t.elapsed().as_secs_f64();
             let e = &d.energy[0];
             let l = &d.path_length[0];

@@ -94,7 +94,7 @@ impl Default for DiscSettings {
     fn default() -> Self {
         DiscSettings {
             bins: 720,
-            directions: 64,
+            directions: 48,
             cells_per_mean_free_path: 5.0,
             max_cell: 0.04,
             boundary_rings_per_mean_free_path: 5.0,
