@@ -36,6 +36,7 @@ use crate::raytrace::tracer::{
 use crate::stages::phase_contract;
 use crate::stages::{Job, JobError, PlanError, StageSpec, TaskSpec, checks, stage_params};
 use crate::table::{Axis, Channel, Schema, TableContent};
+use num_complex::Complex32;
 use rayon::prelude::*;
 use std::f64::consts::PI;
 
@@ -506,30 +507,40 @@ fn write_channels(mut f: FieldGrid, windows: &[CausticWindow], lambda: f64) -> V
     let sigma_total: f64 = f.order_cross_section_um2.iter().sum::<f64>() + area;
     let dth = grid.polar_step();
     let nch = n_channels_2d(orders);
-    let (band_rows, row_len, stride) = (f.band_rows, f.row_len(), orders * 4);
+    let (band_rows, order_row_len) = (f.band_rows, f.order_row_len());
     let mut out = vec![0f32; np * na * nch];
     let bands = std::mem::take(&mut f.bands);
+    let reach = &f.reach;
+    let zeros = vec![Complex32::new(0.0, 0.0); order_row_len];
     for (b, (band, out_band)) in bands
         .into_iter()
         .zip(out.chunks_mut(band_rows * na * nch))
         .enumerate()
     {
+        let block = band.len() / orders;
         out_band
             .par_chunks_mut(na * nch)
-            .zip(band.par_chunks(row_len))
             .enumerate()
-            .for_each(|(jj, (row, acc))| {
+            .for_each(|(jj, row)| {
                 let j = b * band_rows + jj;
+                // Each order's accumulators on this row (zeros outside the order's reach, whose
+                // pages were never touched).
+                let acc: Vec<&[Complex32]> = (0..orders)
+                    .map(|o| match reach[o] {
+                        Some((lo, hi)) if (lo..=hi).contains(&j) => {
+                            let base = o * block + jj * order_row_len;
+                            &band[base..base + order_row_len]
+                        }
+                        _ => &zeros[..],
+                    })
+                    .collect();
                 let (lo, hi) = bin_edges(dth * j as f64, dth);
                 let lobe = fraunhofer_bin_average(a_eff, lambda, lo, hi);
                 let mut per = vec![0.0; orders];
                 let mut unf = vec![0.0; 2 + orders];
-                for (k, (px, a)) in row
-                    .chunks_exact_mut(nch)
-                    .zip(acc.chunks_exact(stride))
-                    .enumerate()
-                {
-                    let (ip_u, ipar_u) = pixel_intensities(a, &mut per);
+                for (k, px) in row.chunks_exact_mut(nch).enumerate() {
+                    let (ip_u, ipar_u) =
+                        pixel_intensities(acc.iter().map(|a| &a[k * 4..k * 4 + 4]), &mut per);
                     unf[0] = ip_u;
                     unf[1] = ipar_u;
                     unf[2..].copy_from_slice(&per);
