@@ -212,6 +212,8 @@ struct RayOut {
     dir: [f64; 3],
     /// Polar angle and azimuth of `dir` in the table frame.
     pa: (f64, f64),
+    /// sin of the polar angle (each ray is a corner of up to six triangles of its order).
+    sin_polar: f64,
     ea: CVec,
     eb: CVec,
     l: f64,
@@ -221,6 +223,7 @@ struct RayOut {
 const INVALID: RayOut = RayOut {
     dir: [0.0; 3],
     pa: (0.0, 0.0),
+    sin_polar: 0.0,
     ea: [Complex64::new(0.0, 0.0); 3],
     eb: [Complex64::new(0.0, 0.0); 3],
     l: 0.0,
@@ -345,9 +348,11 @@ fn trace_ray(
     let eb: CVec = [one * fr.e2[0], one * fr.e2[1], one * fr.e2[2]];
     let mut l = h.t;
     let sp = interact(fr.d, h.normal, 1.0, n, &ea, &eb);
+    let pa = polar_azimuth(fr, sp.refl_dir);
     out[0] = RayOut {
         dir: sp.refl_dir,
-        pa: polar_azimuth(fr, sp.refl_dir),
+        pa,
+        sin_polar: pa.0.sin(),
         ea: sp.refl.0,
         eb: sp.refl.1,
         l: l + dist - dot(h.point, sp.refl_dir),
@@ -365,9 +370,11 @@ fn trace_ray(
         pos = hh.point;
         let sp = interact(dir, hh.normal, n, 1.0, &fa, &fb);
         if let Some((td, ta, tb)) = sp.trans {
+            let pa = polar_azimuth(fr, td);
             *slot = RayOut {
                 dir: td,
-                pa: polar_azimuth(fr, td),
+                pa,
+                sin_polar: pa.0.sin(),
                 ea: ta,
                 eb: tb,
                 l: l + dist - dot(pos, td),
@@ -526,40 +533,19 @@ fn triangle_extent(
     v: &[[f64; 3]; 3],
     edges: &[[f64; 3]; 3],
     pa: &[(f64, f64); 3],
+    sin_polar: &[f64; 3],
 ) -> Option<Extent> {
     let (dth, dph) = (grid.polar_step(), grid.azimuth_step());
-    let lmax = (0..3)
-        .map(|e| {
-            let c = sub(v[e], v[(e + 1) % 3]);
-            dot(c, c).sqrt()
-        })
-        .fold(0.0, f64::max);
-    let th_min = pa.iter().map(|x| x.0).fold(f64::MAX, f64::min);
-    let th_max = pa.iter().map(|x| x.0).fold(f64::MIN, f64::max);
-    let sin_min = th_min.sin().min(th_max.sin()).max(1e-9);
-    let margin = lmax * lmax * (0.5 + 0.5 / sin_min) + 1e-12;
     let in_tri = |r: [f64; 3]| edges.iter().all(|e| dot(*e, r) >= 0.0);
-    let (mut tlo, mut thi) = (th_min - margin, th_max + margin);
-    let mut full = false;
-    if in_tri(fr.d) {
-        tlo = 0.0;
-        full = true;
-    }
-    if in_tri(scale(fr.d, -1.0)) {
-        thi = PI;
-        full = true;
-    }
-    let j0 = (tlo / dth).ceil().max(0.0) as i64;
-    let j1 = ((thi / dth).floor() as i64).min(grid.n_polar as i64 - 1);
-    if j1 < j0 {
-        return None;
-    }
+    let (forward, backward) = (in_tri(fr.d), in_tri(scale(fr.d, -1.0)));
+    let mut full = forward || backward;
+    // Azimuth first: most triangles fall between two azimuth columns.
     let (mut k0, mut k1) = (0i64, grid.n_azimuth as i64 - 1);
     if !full {
         let ph0 = pa[0].1;
         let (mut lo, mut hi) = (ph0, ph0);
         for x in &pa[1..] {
-            let dphi = (x.1 - ph0 + PI).rem_euclid(2.0 * PI) - PI;
+            let dphi = wrap_angle(x.1 - ph0);
             lo = lo.min(ph0 + dphi);
             hi = hi.max(ph0 + dphi);
         }
@@ -578,6 +564,34 @@ fn triangle_extent(
             }
         }
     }
+    // sqrt is monotonic and correctly rounded: the longest edge is the root of the largest
+    // squared length.
+    let lmax = (0..3)
+        .map(|e| {
+            let c = sub(v[e], v[(e + 1) % 3]);
+            dot(c, c)
+        })
+        .fold(0.0, f64::max)
+        .sqrt();
+    let (mut imin, mut imax) = (0, 0);
+    for i in 1..3 {
+        if pa[i].0 < pa[imin].0 {
+            imin = i;
+        }
+        if pa[i].0 > pa[imax].0 {
+            imax = i;
+        }
+    }
+    let (th_min, th_max) = (pa[imin].0, pa[imax].0);
+    let sin_min = sin_polar[imin].min(sin_polar[imax]).max(1e-9);
+    let margin = lmax * lmax * (0.5 + 0.5 / sin_min) + 1e-12;
+    let tlo = if forward { 0.0 } else { th_min - margin };
+    let thi = if backward { PI } else { th_max + margin };
+    let j0 = (tlo / dth).ceil().max(0.0) as i64;
+    let j1 = ((thi / dth).floor() as i64).min(grid.n_polar as i64 - 1);
+    if j1 < j0 {
+        return None;
+    }
     Some(Extent {
         j0: j0 as u32,
         j1: j1 as u32,
@@ -585,6 +599,24 @@ fn triangle_extent(
         k1,
         full,
     })
+}
+
+/// `(x + π).rem_euclid(2π) − π` (the angle `x` wrapped into [−π, π)), bit for bit, without the
+/// floating-point remainder for the arguments differences of two azimuths give: below 2π in
+/// magnitude the remainder is one exact subtraction (Sterbenz) or the argument itself.
+#[inline]
+fn wrap_angle(x: f64) -> f64 {
+    let (a, b) = (x + PI, 2.0 * PI);
+    let r = if (0.0..b).contains(&a) {
+        a
+    } else if (b..2.0 * b).contains(&a) {
+        a - b
+    } else if a < 0.0 && a > -b {
+        a + b
+    } else {
+        a.rem_euclid(b)
+    };
+    r - PI
 }
 
 /// Whether the longer-path branch is crossed: `∇l · ∇b > 0` over the emitting-plane triangle
@@ -618,33 +650,44 @@ fn make_triangle(
     if !rs.iter().all(|r| r.valid) {
         return None;
     }
-    let uv = tri.map(|(ii, jj)| (g.u_at(row0 + ii), g.v_at(jj)));
-    let focal = focal_flag(uv, rs.map(|r| r.l));
     let mut v = rs.map(|r| r.dir);
     let mut corners = tri.map(|(ii, jj)| ((ii * g.nr + jj) * g.orders + o) as u32);
     let mut pa = rs.map(|r| r.pa);
-    // Signed solid angle (Van Oosterom–Strackee).
+    let mut sin_polar = rs.map(|r| r.sin_polar);
+    // Signed solid angle 2·atan2(num, den) (Van Oosterom–Strackee). Its sign (the orientation)
+    // is that of `num` wherever |Ω| passes the floor below, so the extent test, which rejects
+    // most triangles, runs before the arctangent, the focal flag and the flux.
     let num = dot(v[0], cross(v[1], v[2]));
     let den = 1.0 + dot(v[0], v[1]) + dot(v[1], v[2]) + dot(v[2], v[0]);
-    let omega = 2.0 * num.atan2(den);
-    if omega < 0.0 {
+    if num.is_nan() || den.is_nan() {
+        return None;
+    }
+    let negative = if num != 0.0 {
+        num < 0.0
+    } else {
+        2.0 * num.atan2(den) < 0.0
+    };
+    if negative {
         v.swap(1, 2);
         corners.swap(1, 2);
         pa.swap(1, 2);
+        sin_polar.swap(1, 2);
     }
-    let s = omega.abs();
+    let edges = [cross(v[0], v[1]), cross(v[1], v[2]), cross(v[2], v[0])];
+    let ext = triangle_extent(&g.fr, grid, &v, &edges, &pa, &sin_polar)?;
+    let s = (2.0 * num.atan2(den)).abs();
     if s.is_nan() || s <= 1e-300 {
         return None;
     }
+    let uv = tri.map(|(ii, jj)| (g.u_at(row0 + ii), g.v_at(jj)));
+    let focal = focal_flag(uv, rs.map(|r| r.l));
     let area = 0.5 * g.cell;
     let flux = rs.iter().map(|r| ray_flux(r)).sum::<f64>() / 3.0 * area;
-    let edges = [cross(v[0], v[1]), cross(v[1], v[2]), cross(v[2], v[0])];
     let ties = [
         lex_less(v[0], v[1]),
         lex_less(v[1], v[2]),
         lex_less(v[2], v[0]),
     ];
-    let ext = triangle_extent(&g.fr, grid, &v, &edges, &pa)?;
     let omega_floor = 0.5 * grid.polar_step() * grid.polar_step();
     let t = Tri {
         order: o as u8,
@@ -928,6 +971,23 @@ pub fn trace_fields(shape: &DropShape, cfg: &TraceConfig, grid: DirectionGrid) -
 mod tests {
     use super::*;
     use crate::raytrace::sphere1d::SphereGo;
+
+    /// The remainder-free wrap equals the remainder formula bit for bit.
+    #[test]
+    fn wrap_angle_matches_rem_euclid() {
+        let mut x = 0x9e37_79b9_7f4a_7c15_u64;
+        let mut args = vec![0.0, -0.0, PI, -PI, 2.0 * PI, -2.0 * PI, 3.0 * PI, -3.0 * PI];
+        for _ in 0..100_000 {
+            x = x
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            args.push(((x >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 5.0 * PI);
+        }
+        for a in args {
+            let want = (a + PI).rem_euclid(2.0 * PI) - PI;
+            assert_eq!(wrap_angle(a).to_bits(), want.to_bits(), "{a}");
+        }
+    }
 
     /// Sphere, 2-D tracer vs the 1-D GO+phase reference: per-order cross-sections and the
     /// primary/secondary bow region of i_perp.

@@ -457,6 +457,50 @@ pub fn n_channels_2d(orders: usize) -> usize {
     4 + orders + 3
 }
 
+/// Azimuth columns gathered together by [`map_columns`]: the rows of a block are read once,
+/// with consecutive pixels of one order adjacent in memory.
+const COLUMN_BLOCK: usize = 16;
+
+/// `op(k, columns)` for every azimuth column `k` (rayon over blocks of [`COLUMN_BLOCK`]
+/// columns), where `columns` holds dσ/dΩ i_perp, i_par and per order at polar rows
+/// `rows.0..=rows.1`. The accumulators are read row by row within a block: reading one column
+/// at a time visits one pixel per row and order and misses the caches at nearly every value.
+fn map_columns<R: Send>(
+    f: &FieldGrid,
+    rows: (usize, usize),
+    op: impl Fn(usize, &[Vec<f64>]) -> R + Sync,
+) -> Vec<R> {
+    let (orders, na) = (f.orders, f.grid.n_azimuth);
+    let zeros = vec![Complex32::new(0.0, 0.0); f.order_row_len()];
+    (0..na.div_ceil(COLUMN_BLOCK))
+        .into_par_iter()
+        .flat_map_iter(|b| {
+            let (k0, k1) = (b * COLUMN_BLOCK, ((b + 1) * COLUMN_BLOCK).min(na));
+            let n = rows.1 + 1 - rows.0;
+            let mut cols = vec![vec![Vec::with_capacity(n); 2 + orders]; k1 - k0];
+            let mut per = vec![0.0; orders];
+            let mut acc: Vec<&[Complex32]> = Vec::with_capacity(orders);
+            for j in rows.0..=rows.1 {
+                acc.clear();
+                acc.extend((0..orders).map(|o| f.order_row(o, j).unwrap_or(&zeros)));
+                for (k, c) in (k0..k1).zip(cols.iter_mut()) {
+                    let px = acc.iter().map(|a| &a[k * 4..k * 4 + 4]);
+                    let (ip, ipar) = pixel_intensities(px, &mut per);
+                    c[0].push(ip);
+                    c[1].push(ipar);
+                    for (c, v) in c[2..].iter_mut().zip(&per) {
+                        c.push(*v);
+                    }
+                }
+            }
+            let op = &op;
+            cols.into_iter()
+                .enumerate()
+                .map(move |(i, c)| op(k0 + i, &c))
+        })
+        .collect()
+}
+
 /// The filtered caustic window of every azimuth column (rayon over columns): columns of
 /// dσ/dΩ i_perp, i_par and per order over the rows the filter needs. With the airy-local
 /// transfer, the columns' caustic positions are found first and smoothed over azimuth
@@ -464,34 +508,19 @@ pub fn n_channels_2d(orders: usize) -> usize {
 fn caustic_windows(f: &FieldGrid, filter: &ColumnFilter) -> Vec<CausticWindow> {
     let orders = f.orders;
     let rows = filter.needed_rows();
-    let column = |k: usize| -> Vec<Vec<f64>> {
-        let mut cols = vec![Vec::with_capacity(rows.1 + 1 - rows.0); 2 + orders];
-        let mut per = vec![0.0; orders];
-        for j in rows.0..=rows.1 {
-            let (ip, ipar) = f.intensities_into(j, k, &mut per);
-            cols[0].push(ip);
-            cols[1].push(ipar);
-            for (c, v) in cols[2..].iter_mut().zip(&per) {
-                c.push(*v);
-            }
-        }
-        cols
-    };
     let order = |o: usize| (o < orders).then_some(2 + o);
     let na = f.grid.n_azimuth;
     let positions: Vec<[Option<f64>; 2]> = if filter.uses_fold_positions() {
-        let raw: Vec<[Option<f64>; 2]> = (0..na)
-            .into_par_iter()
-            .map(|k| filter.fold_positions(rows, &column(k), order(2), order(3)))
-            .collect();
+        let raw = map_columns(f, rows, |_, c| {
+            filter.fold_positions(rows, c, order(2), order(3))
+        });
         smooth_over_azimuth(&raw, f.grid.azimuth_step().to_degrees())
     } else {
         vec![[None, None]; na]
     };
-    (0..na)
-        .into_par_iter()
-        .map(|k| filter.filter_column_at(rows, &column(k), order(2), order(3), positions[k]))
-        .collect()
+    map_columns(f, rows, |k, c| {
+        filter.filter_column_at(rows, c, order(2), order(3), positions[k])
+    })
 }
 
 /// The table values `[polar][azimuth][channel]` of one entry (rayon over polar rows): filtered
