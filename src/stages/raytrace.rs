@@ -461,14 +461,14 @@ pub fn n_channels_2d(orders: usize) -> usize {
 /// with consecutive pixels of one order adjacent in memory.
 const COLUMN_BLOCK: usize = 16;
 
-/// `op(k, columns)` for every azimuth column `k` (rayon over blocks of [`COLUMN_BLOCK`]
-/// columns), where `columns` holds dσ/dΩ i_perp, i_par and per order at polar rows
-/// `rows.0..=rows.1`. The accumulators are read row by row within a block: reading one column
+/// `op(k0, block)` for every block of [`COLUMN_BLOCK`] azimuth columns `k0..k0 + block.len()`
+/// (rayon over blocks), concatenated, where `block[c]` holds dσ/dΩ i_perp, i_par and per order
+/// of column `k0 + c` at polar rows `rows.0..=rows.1`. The accumulators are read row by row within a block: reading one column
 /// at a time visits one pixel per row and order and misses the caches at nearly every value.
 fn map_columns<R: Send>(
     f: &FieldGrid,
     rows: (usize, usize),
-    op: impl Fn(usize, &[Vec<f64>]) -> R + Sync,
+    op: impl Fn(usize, &[Vec<Vec<f64>>]) -> Vec<R> + Sync,
 ) -> Vec<R> {
     let (orders, na) = (f.orders, f.grid.n_azimuth);
     let zeros = vec![Complex32::new(0.0, 0.0); f.order_row_len()];
@@ -493,10 +493,7 @@ fn map_columns<R: Send>(
                     }
                 }
             }
-            let op = &op;
-            cols.into_iter()
-                .enumerate()
-                .map(move |(i, c)| op(k0 + i, &c))
+            op(k0, &cols)
         })
         .collect()
 }
@@ -511,15 +508,18 @@ fn caustic_windows(f: &FieldGrid, filter: &ColumnFilter) -> Vec<CausticWindow> {
     let order = |o: usize| (o < orders).then_some(2 + o);
     let na = f.grid.n_azimuth;
     let positions: Vec<[Option<f64>; 2]> = if filter.uses_fold_positions() {
-        let raw = map_columns(f, rows, |_, c| {
-            filter.fold_positions(rows, c, order(2), order(3))
+        let raw = map_columns(f, rows, |_, block| {
+            let pos = |c: &Vec<Vec<f64>>| filter.fold_positions(rows, c, order(2), order(3));
+            block.iter().map(pos).collect()
         });
         smooth_over_azimuth(&raw, f.grid.azimuth_step().to_degrees())
     } else {
         vec![[None, None]; na]
     };
-    map_columns(f, rows, |k, c| {
-        filter.filter_column_at(rows, c, order(2), order(3), positions[k])
+    map_columns(f, rows, |k0, block| {
+        let cols: Vec<&[Vec<f64>]> = block.iter().map(Vec::as_slice).collect();
+        let pos = &positions[k0..k0 + block.len()];
+        filter.filter_columns_at(rows, &cols, order(2), order(3), pos)
     })
 }
 
