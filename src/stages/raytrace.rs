@@ -463,8 +463,9 @@ const COLUMN_BLOCK: usize = 16;
 
 /// `op(k0, block)` for every block of [`COLUMN_BLOCK`] azimuth columns `k0..k0 + block.len()`
 /// (rayon over blocks), concatenated, where `block[c]` holds dσ/dΩ i_perp, i_par and per order
-/// of column `k0 + c` at polar rows `rows.0..=rows.1`. The accumulators are read row by row within a block: reading one column
-/// at a time visits one pixel per row and order and misses the caches at nearly every value.
+/// of column `k0 + c` at polar rows `rows.0..=rows.1`. The accumulators are read row by row
+/// within a block: reading one column at a time visits one pixel per row and order and misses
+/// the caches at nearly every value.
 fn map_columns<R: Send>(
     f: &FieldGrid,
     rows: (usize, usize),
@@ -498,8 +499,8 @@ fn map_columns<R: Send>(
         .collect()
 }
 
-/// The filtered caustic window of every azimuth column (rayon over columns): columns of
-/// dσ/dΩ i_perp, i_par and per order over the rows the filter needs. With the airy-local
+/// The filtered caustic window of every azimuth column (rayon over blocks of columns): columns
+/// of dσ/dΩ i_perp, i_par and per order over the rows the filter needs. With the airy-local
 /// transfer, the columns' caustic positions are found first and smoothed over azimuth
 /// (decision RT-28).
 fn caustic_windows(f: &FieldGrid, filter: &ColumnFilter) -> Vec<CausticWindow> {
