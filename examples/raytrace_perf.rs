@@ -86,8 +86,12 @@ fn seed_once(threads: usize) {
     let mut power = vec![0.0f64; f.orders];
     for j in 0..grid.n_polar {
         for k in 0..grid.n_azimuth {
-            for (o, px) in f.pixel(j, k).chunks(4).enumerate() {
-                power[o] += px.iter().map(|z| z.norm_sqr() as f64).sum::<f64>();
+            for (o, p) in power.iter_mut().enumerate() {
+                *p += f
+                    .order_pixel(o, j, k)
+                    .iter()
+                    .map(|z| z.norm_sqr() as f64)
+                    .sum::<f64>();
             }
         }
     }

@@ -605,67 +605,135 @@ impl ColumnFilter {
         secondary: Option<usize>,
         positions: [Option<f64>; 2],
     ) -> CausticWindow {
+        let mut w = self.filter_columns_at(rows, &[cols], primary, secondary, &[positions]);
+        w.pop().unwrap_or_default()
+    }
+
+    /// [`ColumnFilter::filter_column_at`] of several columns (`blocks[c]` is column `c`'s
+    /// values, `positions[c]` its caustic positions). The Gaussian filter convolves the values
+    /// of all columns in one pass over the rows (each value's sum in row order, as one column
+    /// at a time would: the windows are identical), which vectorises.
+    pub fn filter_columns_at(
+        &self,
+        rows: (usize, usize),
+        blocks: &[&[Vec<f64>]],
+        primary: Option<usize>,
+        secondary: Option<usize>,
+        positions: &[[Option<f64>; 2]],
+    ) -> Vec<CausticWindow> {
         if !self.enabled {
-            return CausticWindow::default();
+            return vec![CausticWindow::default(); blocks.len()];
         }
         if let Some(t) = &self.airy {
-            return self.transfer_column(t, rows, cols, [primary, secondary], positions);
+            return blocks
+                .iter()
+                .zip(positions)
+                .map(|(cols, pos)| self.transfer_column(t, rows, cols, [primary, secondary], *pos))
+                .collect();
         }
         let (j0, j1) = rows;
-        let peak = |c: Option<usize>, (lo, hi): (f64, f64)| -> Option<f64> {
-            let c = c?;
-            let (a, b) = (
-                self.row(lo.to_radians()).max(j0),
-                self.row(hi.to_radians()).min(j1),
-            );
-            (a..=b)
-                .max_by(|&x, &y| cols[c][x - j0].total_cmp(&cols[c][y - j0]))
-                .map(|j| self.step * j as f64)
-        };
-        let bows: Vec<f64> = [
-            peak(primary, PRIMARY_SEARCH_DEG),
-            peak(secondary, SECONDARY_SEARCH_DEG),
-        ]
-        .into_iter()
-        .flatten()
-        .collect();
-        if bows.is_empty() {
-            return CausticWindow::default();
-        }
         let reach = window_reach_rad(2.0 * self.sigma * DEFAULT_CAUSTIC_WINDOW_SIGMAS);
-        let lo = self
-            .row(bows.iter().cloned().fold(f64::MAX, f64::min) - reach)
-            .max(j0);
-        let hi = self
-            .row(bows.iter().cloned().fold(f64::MIN, f64::max) + reach)
-            .min(j1);
-        let nvals = cols.len();
-        let mut values = Vec::with_capacity((hi + 1 - lo) * nvals);
+        // Per column: the bows and the window rows lo..=hi.
+        let windows: Vec<Option<(Vec<f64>, usize, usize)>> = blocks
+            .iter()
+            .map(|cols| {
+                let peak = |c: Option<usize>, (lo, hi): (f64, f64)| -> Option<f64> {
+                    let c = c?;
+                    let (a, b) = (
+                        self.row(lo.to_radians()).max(j0),
+                        self.row(hi.to_radians()).min(j1),
+                    );
+                    (a..=b)
+                        .max_by(|&x, &y| cols[c][x - j0].total_cmp(&cols[c][y - j0]))
+                        .map(|j| self.step * j as f64)
+                };
+                let bows: Vec<f64> = [
+                    peak(primary, PRIMARY_SEARCH_DEG),
+                    peak(secondary, SECONDARY_SEARCH_DEG),
+                ]
+                .into_iter()
+                .flatten()
+                .collect();
+                if bows.is_empty() {
+                    return None;
+                }
+                let lo = self
+                    .row(bows.iter().cloned().fold(f64::MAX, f64::min) - reach)
+                    .max(j0);
+                let hi = self
+                    .row(bows.iter().cloned().fold(f64::MIN, f64::max) + reach)
+                    .min(j1);
+                Some((bows, lo, hi))
+            })
+            .collect();
+        let lo = windows.iter().flatten().map(|w| w.1).min();
+        let hi = windows.iter().flatten().map(|w| w.2).max();
+        let (Some(lo), Some(hi)) = (lo, hi) else {
+            return vec![CausticWindow::default(); blocks.len()];
+        };
+        // The values of every column, row-major: row i holds `lanes` values.
+        let nvals = blocks[0].len();
+        let lanes = blocks.len() * nvals;
+        let mut m = vec![0.0; (j1 + 1 - j0) * lanes];
+        for (c, cols) in blocks.iter().enumerate() {
+            for (v, col) in cols.iter().enumerate() {
+                for (i, x) in col.iter().enumerate().take(j1 + 1 - j0) {
+                    m[i * lanes + c * nvals + v] = *x;
+                }
+            }
+        }
+        let mut values: Vec<Vec<f64>> = windows
+            .iter()
+            .map(|w| {
+                w.as_ref()
+                    .map_or(vec![], |w| Vec::with_capacity((w.2 + 1 - w.1) * nvals))
+            })
+            .collect();
+        let mut acc = vec![0.0; lanes];
         for j in lo..=hi {
             let th = self.step * j as f64;
             let s = self.sigma_at(th);
-            let w = caustic_weight(th, &bows, s * DEFAULT_CAUSTIC_WINDOW_SIGMAS);
             let k = &self.kernels[usize::from(th <= self.split)];
             let half = k.len() - 1;
             // Kernel support clipped to the table (renormalised) and to the supplied rows.
             let (a, b) = (j.saturating_sub(half), (j + half).min(self.n_polar - 1));
-            for col in cols {
-                let (mut acc, mut wsum) = (0.0, 0.0);
-                for i in a.max(j0)..=b.min(j1) {
-                    let kw = k[i.abs_diff(j)];
-                    acc += kw * col[i - j0];
-                    wsum += kw;
+            let (a, b) = (a.max(j0), b.min(j1));
+            acc.fill(0.0);
+            let mut wsum = 0.0;
+            for (i, row) in (a..=b).zip(m[(a - j0) * lanes..].chunks_exact(lanes)) {
+                let kw = k[i.abs_diff(j)];
+                for (acc, x) in acc.iter_mut().zip(row) {
+                    *acc += kw * x;
                 }
-                let blurred = if wsum > 0.0 { acc / wsum } else { 0.0 };
-                values.push(w * blurred + (1.0 - w) * col[j - j0]);
+                wsum += kw;
+            }
+            for (c, (win, out)) in windows.iter().zip(values.iter_mut()).enumerate() {
+                let Some((bows, lo, hi)) = win else {
+                    continue;
+                };
+                if j < *lo || j > *hi {
+                    continue;
+                }
+                let w = caustic_weight(th, bows, s * DEFAULT_CAUSTIC_WINDOW_SIGMAS);
+                for (acc, col) in acc[c * nvals..(c + 1) * nvals].iter().zip(blocks[c].iter()) {
+                    let blurred = if wsum > 0.0 { acc / wsum } else { 0.0 };
+                    out.push(w * blurred + (1.0 - w) * col[j - j0]);
+                }
             }
         }
-        CausticWindow {
-            start: lo,
-            len: hi + 1 - lo,
-            nvals,
-            values,
-        }
+        windows
+            .into_iter()
+            .zip(values)
+            .map(|(win, values)| match win {
+                Some((_, lo, hi)) => CausticWindow {
+                    start: lo,
+                    len: hi + 1 - lo,
+                    nvals,
+                    values,
+                },
+                None => CausticWindow::default(),
+            })
+            .collect()
     }
 }
 

@@ -80,9 +80,14 @@ pub struct FieldGrid {
     pub orders: usize,
     /// Polar rows per band of [`FieldGrid::bands`].
     pub band_rows: usize,
-    /// Row-major `[polar][azimuth][order][4]`, split into bands of `band_rows` polar rows (the
-    /// last may be shorter), so a consumer can release the accumulators band by band.
+    /// Bands of `band_rows` polar rows (the last may be shorter), each `[order][polar][azimuth][4]`
+    /// (order-major, so each order's rows are contiguous: an order's rows outside its
+    /// [`FieldGrid::reach`] are never written, and their pages are never touched), so a
+    /// consumer can release the accumulators band by band.
     pub bands: Vec<Vec<Complex32>>,
+    /// Polar rows `(first, last)` the triangles of each order may cover (`None`: no triangle);
+    /// the order's accumulators are zero outside.
+    pub reach: Vec<Option<(usize, usize)>>,
     /// Flux per order that left the drop (µm², ray-based: Σ cell area × |ε|²).
     pub order_cross_section_um2: Vec<f64>,
     /// Flux per order carried by the retained (complete) triangles (µm²).
@@ -94,15 +99,43 @@ pub struct FieldGrid {
 }
 
 /// Bytes of accumulators per band of [`FieldGrid::bands`] (at least one polar row): above
-/// glibc's largest mmap threshold (32 MiB), so a released band returns to the system at once.
+/// glibc's largest mmap threshold (32 MiB), so a band is mapped on demand (pages an order never
+/// reaches stay unmapped) and a released band returns to the system at once.
 const FIELD_BAND_BYTES: usize = 64 << 20;
 
-/// `(i_perp, i_par)` dσ/dΩ of one pixel's accumulators `px` (`[order][4]`), coherent over
-/// orders, with each order's unpolarised dσ/dΩ written to `per` (length `orders`);
+/// `n` zero accumulators from the allocator's zeroed memory. `vec![Complex32::new(0.0, 0.0); n]`
+/// writes every value (the zero test of `vec!` does not see through the struct), which faults
+/// in and clears every page; zeroed memory of a band's size is mapped on demand instead, so the
+/// pages of rows an order never reaches are never touched.
+fn zeroed_accumulators(n: usize) -> Vec<Complex32> {
+    if n == 0 {
+        return Vec::new();
+    }
+    let layout = std::alloc::Layout::array::<Complex32>(n).expect("accumulator size fits isize");
+    // SAFETY: the layout has a non-zero size; `Complex32` is `repr(C)` of two `f32`, for which
+    // all-zero bytes are the value 0 + 0i; the pointer comes from the global allocator with
+    // exactly this layout, as `Vec::from_raw_parts` requires (length = capacity = n).
+    unsafe {
+        let p = std::alloc::alloc_zeroed(layout).cast::<Complex32>();
+        if p.is_null() {
+            std::alloc::handle_alloc_error(layout);
+        }
+        Vec::from_raw_parts(p, n, n)
+    }
+}
+
+/// Four zero accumulators: a pixel of an order outside its reach.
+const ZERO_PIXEL: [Complex32; 4] = [Complex32::new(0.0, 0.0); 4];
+
+/// `(i_perp, i_par)` dσ/dΩ of one pixel's accumulators `px` (one `[4]` per order, in order),
+/// coherent over orders, with each order's unpolarised dσ/dΩ written to `per` (length `orders`);
 /// allocation-free.
-pub fn pixel_intensities(px: &[Complex32], per: &mut [f64]) -> (f64, f64) {
+pub fn pixel_intensities<'a>(
+    px: impl IntoIterator<Item = &'a [Complex32]>,
+    per: &mut [f64],
+) -> (f64, f64) {
     let mut tot = [Complex64::new(0.0, 0.0); 4];
-    for (o, c) in px.chunks_exact(4).enumerate() {
+    for (o, c) in px.into_iter().enumerate() {
         let mut s = 0.0;
         for (t, z) in tot.iter_mut().zip(c) {
             let z = Complex64::new(z.re as f64, z.im as f64);
@@ -118,22 +151,42 @@ pub fn pixel_intensities(px: &[Complex32], per: &mut [f64]) -> (f64, f64) {
 }
 
 impl FieldGrid {
-    /// Values per polar row of the accumulators.
-    pub fn row_len(&self) -> usize {
-        self.grid.n_azimuth * self.orders * 4
+    /// Values per polar row of one order's accumulators.
+    pub fn order_row_len(&self) -> usize {
+        self.grid.n_azimuth * 4
     }
 
-    /// The accumulators `[order][4]` of pixel (j, k).
-    pub fn pixel(&self, j: usize, k: usize) -> &[Complex32] {
-        let stride = self.orders * 4;
-        let base = ((j % self.band_rows) * self.grid.n_azimuth + k) * stride;
-        &self.bands[j / self.band_rows][base..base + stride]
+    /// Whether order `o` may be non-zero on polar row `j`.
+    pub fn reaches(&self, o: usize, j: usize) -> bool {
+        self.reach[o].is_some_and(|(a, b)| (a..=b).contains(&j))
+    }
+
+    /// The accumulators of order `o` on polar row `j` (`[azimuth][4]`), or `None` outside the
+    /// order's reach (all zero).
+    pub fn order_row(&self, o: usize, j: usize) -> Option<&[Complex32]> {
+        if !self.reaches(o, j) {
+            return None;
+        }
+        let (b, jj) = (j / self.band_rows, j % self.band_rows);
+        let band = &self.bands[b];
+        let rl = self.order_row_len();
+        let block = band.len() / self.orders;
+        let base = o * block + jj * rl;
+        Some(&band[base..base + rl])
+    }
+
+    /// The accumulators `[a⊥, a∥, b⊥, b∥]` of order `o` at pixel (j, k).
+    pub fn order_pixel(&self, o: usize, j: usize, k: usize) -> &[Complex32] {
+        match self.order_row(o, j) {
+            Some(row) => &row[k * 4..k * 4 + 4],
+            None => &ZERO_PIXEL,
+        }
     }
 
     /// `(i_perp, i_par)` dσ/dΩ at pixel (j, k), coherent over orders, with each order's
     /// unpolarised dσ/dΩ written to `per` (length `orders`); allocation-free.
     pub fn intensities_into(&self, j: usize, k: usize, per: &mut [f64]) -> (f64, f64) {
-        pixel_intensities(self.pixel(j, k), per)
+        pixel_intensities((0..self.orders).map(|o| self.order_pixel(o, j, k)), per)
     }
 
     /// `(i_perp, i_par, per-order unpolarised)` dσ/dΩ at pixel (j, k), coherent over orders.
@@ -159,6 +212,8 @@ struct RayOut {
     dir: [f64; 3],
     /// Polar angle and azimuth of `dir` in the table frame.
     pa: (f64, f64),
+    /// sin of the polar angle (each ray is a corner of up to six triangles of its order).
+    sin_polar: f64,
     ea: CVec,
     eb: CVec,
     l: f64,
@@ -168,6 +223,7 @@ struct RayOut {
 const INVALID: RayOut = RayOut {
     dir: [0.0; 3],
     pa: (0.0, 0.0),
+    sin_polar: 0.0,
     ea: [Complex64::new(0.0, 0.0); 3],
     eb: [Complex64::new(0.0, 0.0); 3],
     l: 0.0,
@@ -292,9 +348,11 @@ fn trace_ray(
     let eb: CVec = [one * fr.e2[0], one * fr.e2[1], one * fr.e2[2]];
     let mut l = h.t;
     let sp = interact(fr.d, h.normal, 1.0, n, &ea, &eb);
+    let pa = polar_azimuth(fr, sp.refl_dir);
     out[0] = RayOut {
         dir: sp.refl_dir,
-        pa: polar_azimuth(fr, sp.refl_dir),
+        pa,
+        sin_polar: pa.0.sin(),
         ea: sp.refl.0,
         eb: sp.refl.1,
         l: l + dist - dot(h.point, sp.refl_dir),
@@ -312,9 +370,11 @@ fn trace_ray(
         pos = hh.point;
         let sp = interact(dir, hh.normal, n, 1.0, &fa, &fb);
         if let Some((td, ta, tb)) = sp.trans {
+            let pa = polar_azimuth(fr, td);
             *slot = RayOut {
                 dir: td,
-                pa: polar_azimuth(fr, td),
+                pa,
+                sin_polar: pa.0.sin(),
                 ea: ta,
                 eb: tb,
                 l: l + dist - dot(pos, td),
@@ -473,40 +533,19 @@ fn triangle_extent(
     v: &[[f64; 3]; 3],
     edges: &[[f64; 3]; 3],
     pa: &[(f64, f64); 3],
+    sin_polar: &[f64; 3],
 ) -> Option<Extent> {
     let (dth, dph) = (grid.polar_step(), grid.azimuth_step());
-    let lmax = (0..3)
-        .map(|e| {
-            let c = sub(v[e], v[(e + 1) % 3]);
-            dot(c, c).sqrt()
-        })
-        .fold(0.0, f64::max);
-    let th_min = pa.iter().map(|x| x.0).fold(f64::MAX, f64::min);
-    let th_max = pa.iter().map(|x| x.0).fold(f64::MIN, f64::max);
-    let sin_min = th_min.sin().min(th_max.sin()).max(1e-9);
-    let margin = lmax * lmax * (0.5 + 0.5 / sin_min) + 1e-12;
     let in_tri = |r: [f64; 3]| edges.iter().all(|e| dot(*e, r) >= 0.0);
-    let (mut tlo, mut thi) = (th_min - margin, th_max + margin);
-    let mut full = false;
-    if in_tri(fr.d) {
-        tlo = 0.0;
-        full = true;
-    }
-    if in_tri(scale(fr.d, -1.0)) {
-        thi = PI;
-        full = true;
-    }
-    let j0 = (tlo / dth).ceil().max(0.0) as i64;
-    let j1 = ((thi / dth).floor() as i64).min(grid.n_polar as i64 - 1);
-    if j1 < j0 {
-        return None;
-    }
+    let (forward, backward) = (in_tri(fr.d), in_tri(scale(fr.d, -1.0)));
+    let mut full = forward || backward;
+    // Azimuth first: most triangles fall between two azimuth columns.
     let (mut k0, mut k1) = (0i64, grid.n_azimuth as i64 - 1);
     if !full {
         let ph0 = pa[0].1;
         let (mut lo, mut hi) = (ph0, ph0);
         for x in &pa[1..] {
-            let dphi = (x.1 - ph0 + PI).rem_euclid(2.0 * PI) - PI;
+            let dphi = wrap_angle(x.1 - ph0);
             lo = lo.min(ph0 + dphi);
             hi = hi.max(ph0 + dphi);
         }
@@ -525,6 +564,34 @@ fn triangle_extent(
             }
         }
     }
+    // sqrt is monotonic and correctly rounded: the longest edge is the root of the largest
+    // squared length.
+    let lmax = (0..3)
+        .map(|e| {
+            let c = sub(v[e], v[(e + 1) % 3]);
+            dot(c, c)
+        })
+        .fold(0.0, f64::max)
+        .sqrt();
+    let (mut imin, mut imax) = (0, 0);
+    for i in 1..3 {
+        if pa[i].0 < pa[imin].0 {
+            imin = i;
+        }
+        if pa[i].0 > pa[imax].0 {
+            imax = i;
+        }
+    }
+    let (th_min, th_max) = (pa[imin].0, pa[imax].0);
+    let sin_min = sin_polar[imin].min(sin_polar[imax]).max(1e-9);
+    let margin = lmax * lmax * (0.5 + 0.5 / sin_min) + 1e-12;
+    let tlo = if forward { 0.0 } else { th_min - margin };
+    let thi = if backward { PI } else { th_max + margin };
+    let j0 = (tlo / dth).ceil().max(0.0) as i64;
+    let j1 = ((thi / dth).floor() as i64).min(grid.n_polar as i64 - 1);
+    if j1 < j0 {
+        return None;
+    }
     Some(Extent {
         j0: j0 as u32,
         j1: j1 as u32,
@@ -532,6 +599,24 @@ fn triangle_extent(
         k1,
         full,
     })
+}
+
+/// `(x + π).rem_euclid(2π) − π` (the angle `x` wrapped into [−π, π)), bit for bit, without the
+/// floating-point remainder for the arguments differences of two azimuths give: below 2π in
+/// magnitude the remainder is one exact subtraction (Sterbenz) or the argument itself.
+#[inline]
+fn wrap_angle(x: f64) -> f64 {
+    let (a, b) = (x + PI, 2.0 * PI);
+    let r = if (0.0..b).contains(&a) {
+        a
+    } else if (b..2.0 * b).contains(&a) {
+        a - b
+    } else if a < 0.0 && a > -b {
+        a + b
+    } else {
+        a.rem_euclid(b)
+    };
+    r - PI
 }
 
 /// Whether the longer-path branch is crossed: `∇l · ∇b > 0` over the emitting-plane triangle
@@ -565,33 +650,44 @@ fn make_triangle(
     if !rs.iter().all(|r| r.valid) {
         return None;
     }
-    let uv = tri.map(|(ii, jj)| (g.u_at(row0 + ii), g.v_at(jj)));
-    let focal = focal_flag(uv, rs.map(|r| r.l));
     let mut v = rs.map(|r| r.dir);
     let mut corners = tri.map(|(ii, jj)| ((ii * g.nr + jj) * g.orders + o) as u32);
     let mut pa = rs.map(|r| r.pa);
-    // Signed solid angle (Van Oosterom–Strackee).
+    let mut sin_polar = rs.map(|r| r.sin_polar);
+    // Signed solid angle 2·atan2(num, den) (Van Oosterom–Strackee). Its sign (the orientation)
+    // is that of `num` wherever |Ω| passes the floor below, so the extent test, which rejects
+    // most triangles, runs before the arctangent, the focal flag and the flux.
     let num = dot(v[0], cross(v[1], v[2]));
     let den = 1.0 + dot(v[0], v[1]) + dot(v[1], v[2]) + dot(v[2], v[0]);
-    let omega = 2.0 * num.atan2(den);
-    if omega < 0.0 {
+    if num.is_nan() || den.is_nan() {
+        return None;
+    }
+    let negative = if num != 0.0 {
+        num < 0.0
+    } else {
+        2.0 * num.atan2(den) < 0.0
+    };
+    if negative {
         v.swap(1, 2);
         corners.swap(1, 2);
         pa.swap(1, 2);
+        sin_polar.swap(1, 2);
     }
-    let s = omega.abs();
+    let edges = [cross(v[0], v[1]), cross(v[1], v[2]), cross(v[2], v[0])];
+    let ext = triangle_extent(&g.fr, grid, &v, &edges, &pa, &sin_polar)?;
+    let s = (2.0 * num.atan2(den)).abs();
     if s.is_nan() || s <= 1e-300 {
         return None;
     }
+    let uv = tri.map(|(ii, jj)| (g.u_at(row0 + ii), g.v_at(jj)));
+    let focal = focal_flag(uv, rs.map(|r| r.l));
     let area = 0.5 * g.cell;
     let flux = rs.iter().map(|r| ray_flux(r)).sum::<f64>() / 3.0 * area;
-    let edges = [cross(v[0], v[1]), cross(v[1], v[2]), cross(v[2], v[0])];
     let ties = [
         lex_less(v[0], v[1]),
         lex_less(v[1], v[2]),
         lex_less(v[2], v[0]),
     ];
-    let ext = triangle_extent(&g.fr, grid, &v, &edges, &pa)?;
     let omega_floor = 0.5 * grid.polar_step() * grid.polar_step();
     let t = Tri {
         order: o as u8,
@@ -740,15 +836,17 @@ fn prefetch<T>(x: &T) {
     let _ = x;
 }
 
-/// Step 4: rasterise a band's triangles into the field accumulators `data` (bands of
-/// `band_rows` polar rows; rayon over table rows).
+/// Mutable views of the accumulators of one polar row, one `[azimuth][4]` slice per order.
+type RowViews<'a> = Vec<&'a mut [Complex32]>;
+
+/// Step 4: rasterise a band's triangles into the field accumulators `rows` (per polar row, one
+/// view per order; rayon over table rows).
 fn rasterise(
     g: &RayGrid,
     grid: DirectionGrid,
     band: &Band,
     tris: &[Tri],
-    data: &mut [Vec<Complex32>],
-    band_rows: usize,
+    rows: &mut [RowViews<'_>],
 ) {
     let (counts, idx) = bin_by_polar_row(tris, grid.n_polar);
     let flat: Vec<&RayOut> = band.iter().flat_map(|(r, _)| r.iter()).collect();
@@ -756,17 +854,13 @@ fn rasterise(
     let sc_ph: Vec<(f64, f64)> = (0..grid.n_azimuth)
         .map(|k| (dph * k as f64).sin_cos())
         .collect();
-    let stride = g.orders * 4;
     let na = grid.n_azimuth as i64;
-    let row_len = grid.n_azimuth * stride;
-    let rows = data.par_iter_mut().enumerate().flat_map(|(b, acc)| {
-        acc.par_chunks_mut(row_len)
-            .enumerate()
-            .map(move |(jj, row)| (b * band_rows + jj, row))
-    });
-    rows.for_each(|(j, row)| {
-        let (st, ct) = (dth * j as f64).sin_cos();
+    rows.par_iter_mut().enumerate().for_each(|(j, row)| {
         let list = &idx[counts[j] as usize..counts[j + 1] as usize];
+        if list.is_empty() {
+            return;
+        }
+        let (st, ct) = (dth * j as f64).sin_cos();
         for (n, &ti) in list.iter().enumerate() {
             let t = &tris[ti as usize];
             // The accumulators a triangle adds to are rarely cached (each pixel gets a few
@@ -774,12 +868,13 @@ fn rasterise(
             if let Some(&next) = list.get(n + 1) {
                 let u = &tris[next as usize];
                 if !u.full {
+                    let acc = &row[u.order as usize];
                     for kk in u.k0..=u.k1.min(u.k0 + 3) {
-                        let base = kk.rem_euclid(na) as usize * stride + u.order as usize * 4;
-                        prefetch(&row[base]);
+                        prefetch(&acc[kk.rem_euclid(na) as usize * 4]);
                     }
                 }
             }
+            let acc = &mut *row[t.order as usize];
             let (ka, kb) = if t.full { (0, na - 1) } else { (t.k0, t.k1) };
             for kk in ka..=kb {
                 let k = kk.rem_euclid(na) as usize;
@@ -789,8 +884,7 @@ fn rasterise(
                 let Some(vals) = triangle_field(g, t, &flat, r, (sp, cp)) else {
                     continue;
                 };
-                let base = k * stride + t.order as usize * 4;
-                for (acc, v) in row[base..base + 4].iter_mut().zip(vals) {
+                for (acc, v) in acc[k * 4..k * 4 + 4].iter_mut().zip(vals) {
                     *acc += Complex32::new(v.re as f32, v.im as f32);
                 }
             }
@@ -804,46 +898,68 @@ fn rasterise(
 pub fn trace_fields(shape: &DropShape, cfg: &TraceConfig, grid: DirectionGrid) -> FieldGrid {
     let g = RayGrid::new(shape, cfg);
     let (nr, orders) = (g.nr, g.orders);
-    let row_len = grid.n_azimuth * orders * 4;
+    let order_row_len = grid.n_azimuth * 4;
+    let row_len = order_row_len * orders;
     let field_rows =
         (FIELD_BAND_BYTES / (row_len * std::mem::size_of::<Complex32>())).clamp(1, grid.n_polar);
     let mut data: Vec<Vec<Complex32>> = (0..grid.n_polar.div_ceil(field_rows))
         .map(|b| {
             let rows = field_rows.min(grid.n_polar - b * field_rows);
-            vec![Complex32::new(0.0, 0.0); rows * row_len]
+            zeroed_accumulators(rows * row_len)
         })
         .collect();
+    let mut reach: Vec<Option<(usize, usize)>> = vec![None; orders];
     let mut order_flux = vec![0.0; orders];
     let mut patch_flux = vec![0.0; orders];
     let mut hits = 0usize;
-    let band_rows = (RAYS_PER_BAND / (nr * orders)).clamp(2, nr - 1);
-    let mut row0 = 0usize;
-    while row0 < nr - 1 {
-        let row1 = (row0 + band_rows).min(nr - 1); // rows row0..=row1 traced, cells row0..row1
-        let band = trace_band(&g, shape, cfg, row0, row1);
-        for (ri, (row, hit)) in band.iter().enumerate() {
-            // Count each grid row once (the band's last row is the next band's first).
-            if row0 + ri == row1 && row1 != nr - 1 {
-                continue;
-            }
-            hits += hit;
-            for r in row.chunks(orders) {
-                for (o, ro) in r.iter().enumerate().filter(|(_, ro)| ro.valid) {
-                    order_flux[o] += ray_flux(ro) * g.cell;
-                }
+    {
+        // Per polar row, a view of each order's accumulators (bands are `[order][row][…]`).
+        let mut rows: Vec<RowViews<'_>> = Vec::with_capacity(grid.n_polar);
+        for acc in data.iter_mut() {
+            let block = acc.len() / orders;
+            let mut per_order: Vec<_> = acc
+                .chunks_mut(block)
+                .map(|b| b.chunks_mut(order_row_len))
+                .collect();
+            for _ in 0..block / order_row_len {
+                rows.push(per_order.iter_mut().map(|it| it.next().unwrap()).collect());
             }
         }
-        let (tris, flux) = build_triangles(&g, grid, &band, row0);
-        let tris = sort_by_first_row(tris, grid.n_polar);
-        patch_flux.iter_mut().zip(flux).for_each(|(a, b)| *a += b);
-        rasterise(&g, grid, &band, &tris, &mut data, field_rows);
-        row0 = row1;
+        let band_rows = (RAYS_PER_BAND / (nr * orders)).clamp(2, nr - 1);
+        let mut row0 = 0usize;
+        while row0 < nr - 1 {
+            let row1 = (row0 + band_rows).min(nr - 1); // rows row0..=row1 traced, cells row0..row1
+            let band = trace_band(&g, shape, cfg, row0, row1);
+            for (ri, (row, hit)) in band.iter().enumerate() {
+                // Count each grid row once (the band's last row is the next band's first).
+                if row0 + ri == row1 && row1 != nr - 1 {
+                    continue;
+                }
+                hits += hit;
+                for r in row.chunks(orders) {
+                    for (o, ro) in r.iter().enumerate().filter(|(_, ro)| ro.valid) {
+                        order_flux[o] += ray_flux(ro) * g.cell;
+                    }
+                }
+            }
+            let (tris, flux) = build_triangles(&g, grid, &band, row0);
+            for t in &tris {
+                let (j0, j1) = (t.j0 as usize, t.j1 as usize);
+                let r = &mut reach[t.order as usize];
+                *r = Some(r.map_or((j0, j1), |(a, b)| (a.min(j0), b.max(j1))));
+            }
+            let tris = sort_by_first_row(tris, grid.n_polar);
+            patch_flux.iter_mut().zip(flux).for_each(|(a, b)| *a += b);
+            rasterise(&g, grid, &band, &tris, &mut rows);
+            row0 = row1;
+        }
     }
     FieldGrid {
         grid,
         orders,
         band_rows: field_rows,
         bands: data,
+        reach,
         order_cross_section_um2: order_flux,
         patch_cross_section_um2: patch_flux,
         projected_area_um2: hits as f64 * g.cell,
@@ -855,6 +971,23 @@ pub fn trace_fields(shape: &DropShape, cfg: &TraceConfig, grid: DirectionGrid) -
 mod tests {
     use super::*;
     use crate::raytrace::sphere1d::SphereGo;
+
+    /// The remainder-free wrap equals the remainder formula bit for bit.
+    #[test]
+    fn wrap_angle_matches_rem_euclid() {
+        let mut x = 0x9e37_79b9_7f4a_7c15_u64;
+        let mut args = vec![0.0, -0.0, PI, -PI, 2.0 * PI, -2.0 * PI, 3.0 * PI, -3.0 * PI];
+        for _ in 0..100_000 {
+            x = x
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            args.push(((x >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 5.0 * PI);
+        }
+        for a in args {
+            let want = (a + PI).rem_euclid(2.0 * PI) - PI;
+            assert_eq!(wrap_angle(a).to_bits(), want.to_bits(), "{a}");
+        }
+    }
 
     /// Sphere, 2-D tracer vs the 1-D GO+phase reference: per-order cross-sections and the
     /// primary/secondary bow region of i_perp.

@@ -36,6 +36,7 @@ use crate::raytrace::tracer::{
 use crate::stages::phase_contract;
 use crate::stages::{Job, JobError, PlanError, StageSpec, TaskSpec, checks, stage_params};
 use crate::table::{Axis, Channel, Schema, TableContent};
+use num_complex::Complex32;
 use rayon::prelude::*;
 use std::f64::consts::PI;
 
@@ -456,41 +457,71 @@ pub fn n_channels_2d(orders: usize) -> usize {
     4 + orders + 3
 }
 
-/// The filtered caustic window of every azimuth column (rayon over columns): columns of
-/// dσ/dΩ i_perp, i_par and per order over the rows the filter needs. With the airy-local
+/// Azimuth columns gathered together by [`map_columns`]: the rows of a block are read once,
+/// with consecutive pixels of one order adjacent in memory.
+const COLUMN_BLOCK: usize = 16;
+
+/// `op(k0, block)` for every block of [`COLUMN_BLOCK`] azimuth columns `k0..k0 + block.len()`
+/// (rayon over blocks), concatenated, where `block[c]` holds dσ/dΩ i_perp, i_par and per order
+/// of column `k0 + c` at polar rows `rows.0..=rows.1`. The accumulators are read row by row
+/// within a block: reading one column at a time visits one pixel per row and order and misses
+/// the caches at nearly every value.
+fn map_columns<R: Send>(
+    f: &FieldGrid,
+    rows: (usize, usize),
+    op: impl Fn(usize, &[Vec<Vec<f64>>]) -> Vec<R> + Sync,
+) -> Vec<R> {
+    let (orders, na) = (f.orders, f.grid.n_azimuth);
+    let zeros = vec![Complex32::new(0.0, 0.0); f.order_row_len()];
+    (0..na.div_ceil(COLUMN_BLOCK))
+        .into_par_iter()
+        .flat_map_iter(|b| {
+            let (k0, k1) = (b * COLUMN_BLOCK, ((b + 1) * COLUMN_BLOCK).min(na));
+            let n = rows.1 + 1 - rows.0;
+            let mut cols = vec![vec![Vec::with_capacity(n); 2 + orders]; k1 - k0];
+            let mut per = vec![0.0; orders];
+            let mut acc: Vec<&[Complex32]> = Vec::with_capacity(orders);
+            for j in rows.0..=rows.1 {
+                acc.clear();
+                acc.extend((0..orders).map(|o| f.order_row(o, j).unwrap_or(&zeros)));
+                for (k, c) in (k0..k1).zip(cols.iter_mut()) {
+                    let px = acc.iter().map(|a| &a[k * 4..k * 4 + 4]);
+                    let (ip, ipar) = pixel_intensities(px, &mut per);
+                    c[0].push(ip);
+                    c[1].push(ipar);
+                    for (c, v) in c[2..].iter_mut().zip(&per) {
+                        c.push(*v);
+                    }
+                }
+            }
+            op(k0, &cols)
+        })
+        .collect()
+}
+
+/// The filtered caustic window of every azimuth column (rayon over blocks of columns): columns
+/// of dσ/dΩ i_perp, i_par and per order over the rows the filter needs. With the airy-local
 /// transfer, the columns' caustic positions are found first and smoothed over azimuth
 /// (decision RT-28).
 fn caustic_windows(f: &FieldGrid, filter: &ColumnFilter) -> Vec<CausticWindow> {
     let orders = f.orders;
     let rows = filter.needed_rows();
-    let column = |k: usize| -> Vec<Vec<f64>> {
-        let mut cols = vec![Vec::with_capacity(rows.1 + 1 - rows.0); 2 + orders];
-        let mut per = vec![0.0; orders];
-        for j in rows.0..=rows.1 {
-            let (ip, ipar) = f.intensities_into(j, k, &mut per);
-            cols[0].push(ip);
-            cols[1].push(ipar);
-            for (c, v) in cols[2..].iter_mut().zip(&per) {
-                c.push(*v);
-            }
-        }
-        cols
-    };
     let order = |o: usize| (o < orders).then_some(2 + o);
     let na = f.grid.n_azimuth;
     let positions: Vec<[Option<f64>; 2]> = if filter.uses_fold_positions() {
-        let raw: Vec<[Option<f64>; 2]> = (0..na)
-            .into_par_iter()
-            .map(|k| filter.fold_positions(rows, &column(k), order(2), order(3)))
-            .collect();
+        let raw = map_columns(f, rows, |_, block| {
+            let pos = |c: &Vec<Vec<f64>>| filter.fold_positions(rows, c, order(2), order(3));
+            block.iter().map(pos).collect()
+        });
         smooth_over_azimuth(&raw, f.grid.azimuth_step().to_degrees())
     } else {
         vec![[None, None]; na]
     };
-    (0..na)
-        .into_par_iter()
-        .map(|k| filter.filter_column_at(rows, &column(k), order(2), order(3), positions[k]))
-        .collect()
+    map_columns(f, rows, |k0, block| {
+        let cols: Vec<&[Vec<f64>]> = block.iter().map(Vec::as_slice).collect();
+        let pos = &positions[k0..k0 + block.len()];
+        filter.filter_columns_at(rows, &cols, order(2), order(3), pos)
+    })
 }
 
 /// The table values `[polar][azimuth][channel]` of one entry (rayon over polar rows): filtered
@@ -506,30 +537,40 @@ fn write_channels(mut f: FieldGrid, windows: &[CausticWindow], lambda: f64) -> V
     let sigma_total: f64 = f.order_cross_section_um2.iter().sum::<f64>() + area;
     let dth = grid.polar_step();
     let nch = n_channels_2d(orders);
-    let (band_rows, row_len, stride) = (f.band_rows, f.row_len(), orders * 4);
+    let (band_rows, order_row_len) = (f.band_rows, f.order_row_len());
     let mut out = vec![0f32; np * na * nch];
     let bands = std::mem::take(&mut f.bands);
+    let reach = &f.reach;
+    let zeros = vec![Complex32::new(0.0, 0.0); order_row_len];
     for (b, (band, out_band)) in bands
         .into_iter()
         .zip(out.chunks_mut(band_rows * na * nch))
         .enumerate()
     {
+        let block = band.len() / orders;
         out_band
             .par_chunks_mut(na * nch)
-            .zip(band.par_chunks(row_len))
             .enumerate()
-            .for_each(|(jj, (row, acc))| {
+            .for_each(|(jj, row)| {
                 let j = b * band_rows + jj;
+                // Each order's accumulators on this row (zeros outside the order's reach, whose
+                // pages were never touched).
+                let acc: Vec<&[Complex32]> = (0..orders)
+                    .map(|o| match reach[o] {
+                        Some((lo, hi)) if (lo..=hi).contains(&j) => {
+                            let base = o * block + jj * order_row_len;
+                            &band[base..base + order_row_len]
+                        }
+                        _ => &zeros[..],
+                    })
+                    .collect();
                 let (lo, hi) = bin_edges(dth * j as f64, dth);
                 let lobe = fraunhofer_bin_average(a_eff, lambda, lo, hi);
                 let mut per = vec![0.0; orders];
                 let mut unf = vec![0.0; 2 + orders];
-                for (k, (px, a)) in row
-                    .chunks_exact_mut(nch)
-                    .zip(acc.chunks_exact(stride))
-                    .enumerate()
-                {
-                    let (ip_u, ipar_u) = pixel_intensities(a, &mut per);
+                for (k, px) in row.chunks_exact_mut(nch).enumerate() {
+                    let (ip_u, ipar_u) =
+                        pixel_intensities(acc.iter().map(|a| &a[k * 4..k * 4 + 4]), &mut per);
                     unf[0] = ip_u;
                     unf[1] = ipar_u;
                     unf[2..].copy_from_slice(&per);
