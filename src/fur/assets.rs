@@ -5,8 +5,8 @@
 //! [`compress_asset`] turns a dense source table (built by
 //! `manifests/full/fur-medulla-assets.toml`) into the asset with the settings of
 //! [`AssetSpec::AZIMUTHAL`] / [`AssetSpec::LONGITUDINAL`] and records in the header the
-//! reconstruction error next to the source's own error (Monte Carlo standard errors for the
-//! azimuthal family, the solver's discretisation error for the longitudinal one). Decisions:
+//! reconstruction error next to the source's own error (the solver's discretisation error for
+//! deterministic sources, the Monte Carlo standard errors otherwise). Decisions:
 //! docs/decisions.md FUR-28 … FUR-31.
 
 use super::FurError;
@@ -50,15 +50,16 @@ pub struct AssetSpec {
 }
 
 impl AssetSpec {
-    /// Azimuthal family: the linear form of `energy` (FUR-29).
+    /// Azimuthal family: the logarithm of `energy` of the deterministic source, each profile
+    /// scaled to its analytic total (FUR-29, FUR-32).
     pub const AZIMUTHAL: AssetSpec = AssetSpec {
         family: "fur-medulla-azimuthal",
         file: "fur-medulla-azimuthal.sbt",
         source_table: "fur-medulla-azimuthal-asset",
         channel: "energy",
-        rel_tol: 2e-2,
-        max_rank: 16,
-        log_floor_rel: None,
+        rel_tol: 7e-4,
+        max_rank: 64,
+        log_floor_rel: Some(1e-12),
         normalise_to_analytic_total: true,
     };
     /// Longitudinal family: the logarithm of `pdf` (FUR-29).
@@ -268,14 +269,25 @@ pub fn compress_asset(source: &Table, spec: &AssetSpec) -> Result<Table, FurErro
                     .unwrap_or(json!(null)),
             })
         }
-        None => json!({
-            "kind": format!(
-                "discretisation error of the {} solver (source header solver_error, solver_error_median); no sampling noise",
-                h.attributes.get("method").and_then(|m| m.as_str()).unwrap_or("deterministic")
-            ),
-            "solver_error": h.attributes.get("solver_error").cloned().unwrap_or(json!(null)),
-            "solver_error_median": h.attributes.get("solver_error_median").cloned().unwrap_or(json!(null)),
-        }),
+        None => {
+            let method = h
+                .attributes
+                .get("method")
+                .and_then(|m| m.as_str())
+                .unwrap_or("deterministic");
+            let median = h.attributes.get("solver_error_median");
+            let mut e = json!({
+                "kind": format!(
+                    "discretisation error of the {method} solver (source header solver_error{}); no sampling noise",
+                    if median.is_some() { ", solver_error_median" } else { "" }
+                ),
+                "solver_error": h.attributes.get("solver_error").cloned().unwrap_or(json!(null)),
+            });
+            if let Some(m) = median {
+                e["solver_error_median"] = m.clone();
+            }
+            e
+        }
     };
     a.insert("source_error".into(), source_error);
     a.insert(
