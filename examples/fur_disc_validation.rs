@@ -147,7 +147,7 @@ fn main() {
         (20.0, 0.8, 0.96),
     ];
     println!(
-        "sigma,g,h,bins,disc_s,energy_identity_rel,median_rel_dev,p90_rel_dev,max_rel_dev,max_at_deg,mean_z2,max_abs_z,median_mc_rel_se,path_median_rel_dev,path_max_rel_dev,analog_mean_z2,analog_max_abs_z,analog_median_rel_se"
+        "sigma,g,h,bins,disc_s,energy_identity_rel,median_rel_dev,p90_rel_dev,max_rel_dev,max_at_deg,mean_z2,max_abs_z,median_mc_rel_se,path_median_rel_dev,path_max_rel_dev,analog_mean_z2,analog_max_abs_z,analog_median_rel_se,analog_median_rel_dev,analog_max_rel_dev"
     );
     let rows: Vec<String> = points
         .par_iter()
@@ -199,8 +199,13 @@ fn main() {
             let za: Vec<f64> = bins.iter().map(|&k| (e[k] - hist[k]) / se_h(k)).collect();
             let mut rse_h: Vec<f64> = bins.iter().map(|&k| se_h(k) / e_mc[k]).collect();
             rse_h.sort_by(f64::total_cmp);
+            let mut rel_h: Vec<f64> = bins
+                .iter()
+                .map(|&k| ((e[k] - hist[k]) / e[k]).abs())
+                .collect();
+            rel_h.sort_by(f64::total_cmp);
             format!(
-                "{sigma},{g},{h},{n},{ts:.2},{identity:.2e},{:.4},{:.4},{:.4},{:.1},{:.2},{:.2},{:.4},{:.4},{:.4},{:.2},{:.2},{:.4}",
+                "{sigma},{g},{h},{n},{ts:.2},{identity:.2e},{:.4},{:.4},{:.4},{:.1},{:.2},{:.2},{:.4},{:.4},{:.4},{:.2},{:.2},{:.4},{:.4},{:.4}",
                 rel[n / 2].0,
                 rel[n * 9 / 10].0,
                 rel[n - 1].0,
@@ -212,7 +217,9 @@ fn main() {
                 lrel[n - 1],
                 za.iter().map(|z| z * z).sum::<f64>() / n as f64,
                 za.iter().fold(0.0f64, |a, z| a.max(z.abs())),
-                rse_h[n / 2]
+                rse_h[n / 2],
+                rel_h[n / 2],
+                rel_h[n - 1]
             )
         })
         .collect();

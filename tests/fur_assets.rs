@@ -193,7 +193,10 @@ fn azimuthal_entries_recomputed_by_the_solver_agree_with_the_asset() {
     if at["source_error"].get("solver_error").is_none() {
         panic!("the azimuthal asset is expected to come from the characteristics solver");
     }
-    let tt = f(&at["reconstruction_error"], &["tensor_train_only", "rel_frobenius"]);
+    let tt = f(
+        &at["reconstruction_error"],
+        &["tensor_train_only", "rel_frobenius"],
+    );
     let stage = find("fur-medulla-azimuthal").unwrap();
     for (i, j, k) in [(7, 5, 40), (25, 12, 20), (63, 15, 60)] {
         let (s, g, h) = (d.axes[0].coord(i), d.axes[1].coord(j), d.axes[2].coord(k));

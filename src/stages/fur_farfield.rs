@@ -599,7 +599,7 @@ mod tests {
         let d = tempfile::tempdir().unwrap();
         let az = medulla_table(
             &FurMedullaAzimuthalStage,
-            "sigma = [0.5, 1.0, 1.5]\ng = [0.2, 0.4]\nh = { start = -1.0, stop = 1.0, count = 9 }\nbins = 120\nphotons = 4000\nseed = 7",
+            "sigma = [0.5, 1.0, 1.5]\ng = [0.2, 0.4]\nh = { start = -1.0, stop = 1.0, count = 9 }\nbins = 120\nmethod = \"characteristics\"",
             d.path(),
             "az.sbt",
         );
