@@ -206,8 +206,7 @@ impl Polar {
     /// Polar derivatives (∂/∂r, ∂/∂β) of a field given per cell as `m` values each
     /// ([cell][m] layout): central differences between the neighbouring rings (at the cell's mid
     /// angle) and sectors, one-sided at the boundary ring; zero in the central disc.
-    fn gradients(&self, v: &[f64], m: usize) -> (Vec<f64>, Vec<f64>) {
-        let centres = self.centres();
+    fn gradients(&self, centres: &[(f64, f64)], v: &[f64], m: usize) -> (Vec<f64>, Vec<f64>) {
         let mut gr = vec![0.0; v.len()];
         let mut gb = vec![0.0; v.len()];
         let nr = self.sectors.len();
@@ -352,10 +351,12 @@ struct Grid {
     seg_cell: Vec<u32>,
     seg_len: Vec<f64>,
     seg_t0: Vec<f64>,
-    /// Track volume per direction and cell (Σ ℓ over the direction's tracks; the spacing is a
-    /// common factor), layout [direction][cell].
-    vol: Vec<f64>,
-    /// Per direction and cell: 1 / track volume (track integrals of the flux to cell
+    /// The cell mirrored in the x axis, for every cell.
+    mirror: Vec<u32>,
+    /// Per cell: (area-weighted mean radius, mid angle).
+    centres: Vec<(f64, f64)>,
+    /// Per direction and cell: 1 / track volume (Σ ℓ over the direction's tracks; the spacing
+    /// is a common factor) (track integrals of the flux to cell
     /// averages; 0 for a cell no track of the direction crosses). Normalising by the track
     /// volume rather than the exact area keeps a flat source's flux exact cell by cell; the
     /// exact-area normalisation (with sources scaled to emit source × area) was measured to be
@@ -366,6 +367,7 @@ struct Grid {
 impl Grid {
     fn new(polar: Polar, cell: f64, m: usize, spacing: f64) -> Grid {
         let ncell = polar.ncell();
+        let (mirror, centres) = (polar.mirror(), polar.centres());
         let n_tracks = (2.0 / spacing).ceil() as usize;
         let spacing = 2.0 / n_tracks as f64;
         let theta: Vec<f64> = (0..m)
@@ -381,9 +383,11 @@ impl Grid {
             seg_cell: Vec::new(),
             seg_len: Vec::new(),
             seg_t0: Vec::new(),
-            vol: vec![0.0; m / 2 * ncell],
+            mirror,
+            centres,
             norm: Vec::new(),
         };
+        let mut vol = vec![0.0; m / 2 * ncell];
         // Only the directions of the upper half circle carry unknowns: the plane wave along −x̂
         // and the disc are symmetric under y → −y, so φ(θ_{M−1−j}, mirror(c)) = φ(θ_j, c).
         for (d, &th) in theta[..m / 2].iter().enumerate() {
@@ -394,7 +398,7 @@ impl Grid {
                 let p = -1.0 + (i as f64 + 0.5) * spacing;
                 let half = (1.0 - p * p).max(0.0).sqrt();
                 let start = [p * v[0] - half * u[0], p * v[1] - half * u[1]];
-                let vol = &mut g.vol[d * ncell..(d + 1) * ncell];
+                let vol = &mut vol[d * ncell..(d + 1) * ncell];
                 let (sc, sl, st) = (&mut g.seg_cell, &mut g.seg_len, &mut g.seg_t0);
                 g.polar.walk(start, u, 2.0 * half, |c, t0, l| {
                     sc.push(c as u32);
@@ -407,8 +411,7 @@ impl Grid {
             }
             g.dir_tracks.push(first..g.track_start.len());
         }
-        g.norm = g
-            .vol
+        g.norm = vol
             .iter()
             .map(|&v| if v > 0.0 { 1.0 / v } else { 0.0 })
             .collect();
@@ -497,7 +500,7 @@ struct PlaneWave<'a> {
     kernel_t: nalgebra::DMatrix<f64>,
     /// σ ρ(θ_d − θ_{M−1−j}) 2π/M for d, j < M/2 (from the mirrored flux), transposed.
     kernel_mirror_t: nalgebra::DMatrix<f64>,
-    mirror: Vec<u32>,
+    mirror: &'a [u32],
 }
 
 impl<'a> PlaneWave<'a> {
@@ -512,7 +515,7 @@ impl<'a> PlaneWave<'a> {
             fac,
             kernel_t: nalgebra::DMatrix::from_fn(mh, mh, |j, d| k(d, j)),
             kernel_mirror_t: nalgebra::DMatrix::from_fn(mh, mh, |j, d| k(d, m - 1 - j)),
-            mirror: grid.polar.mirror(),
+            mirror: &grid.mirror,
         }
     }
 
@@ -525,7 +528,7 @@ impl<'a> PlaneWave<'a> {
                 &phi[j * ncell..(j + 1) * ncell],
                 &mut mirrored[j * ncell..(j + 1) * ncell],
             );
-            for (d, &c) in dst.iter_mut().zip(&self.mirror) {
+            for (d, &c) in dst.iter_mut().zip(self.mirror) {
                 *d = src[c as usize];
             }
         }
@@ -878,20 +881,28 @@ fn final_rays(
     with_path: bool,
 ) -> (Vec<Vec<f64>>, Vec<Vec<f64>>) {
     let (m, ncell) = (grid.m(), grid.ncell());
-    let mirror = grid.polar.mirror();
-    let phi_c = by_cell(phi, m, ncell, &mirror);
+    let phi_c = by_cell(phi, m, ncell, &grid.mirror);
     let dphi_c = if with_path {
-        by_cell(dphi, m, ncell, &mirror)
+        by_cell(dphi, m, ncell, &grid.mirror)
     } else {
         Vec::new()
     };
-    let (grad_r, grad_b) = grid.polar.gradients(&phi_c, m);
-    let centres = grid.polar.centres();
+    let centres = &grid.centres;
+    let (grad_r, grad_b) = grid.polar.gradients(centres, &phi_c, m);
     let dw = 2.0 * PI / bins as f64;
     let wdir = 2.0 * PI / m as f64;
+    // σ ρ(θ_k − θ_j) 2π/M per exit bin k (θ_k = π − ω_k) and direction j: the same for every h'.
+    let kernels: Vec<Vec<f64>> = (0..bins)
+        .map(|k| {
+            let th = PI - (-PI + (k as f64 + 0.5) * dw);
+            grid.theta
+                .iter()
+                .map(|&tj| sigma * planar_hg_density(th - tj, g) * wdir)
+                .collect()
+        })
+        .collect();
     let mut energy = Vec::with_capacity(hs.len());
     let mut paths = Vec::with_capacity(hs.len());
-    let mut kern = vec![0.0; m];
     for &h in hs {
         let (e1, l1) = crate::fur::medulla_fast::single_scatter_with_path(sigma, g, h, bins);
         let mut e = e1.clone();
@@ -904,10 +915,7 @@ fn final_rays(
                 let (sw, cw) = w.sin_cos();
                 let p = [b[0] * cw + b[1] * sw, -b[0] * sw + b[1] * cw];
                 let u = [cw, -sw];
-                let th = PI - w;
-                for (j, kj) in kern.iter_mut().enumerate() {
-                    *kj = sigma * planar_hg_density(th - grid.theta[j], g) * wdir;
-                }
+                let kern = &kernels[k];
                 let (mut acc, mut flat, mut dacc) = (0.0, 0.0, 0.0);
                 grid.polar.walk(p, u, chord, |c, t0, l| {
                     let att = (-sigma * t0).exp();
@@ -917,7 +925,7 @@ fn final_rays(
                     let dot = |v: &[f64]| -> f64 {
                         v[c * m..(c + 1) * m]
                             .iter()
-                            .zip(&kern)
+                            .zip(kern.iter())
                             .map(|(a, b)| a * b)
                             .sum()
                     };

@@ -381,6 +381,24 @@ impl MedullaJob {
             Family::Longitudinal => 5,
         }
     }
+    /// Values of one (σ, g) chunk: every entry row and its scalars.
+    fn pair_chunk_len(&self) -> usize {
+        self.entries.len() * (self.p.bins * self.channels() + self.scalars())
+    }
+    /// Remove the header attributes that describe Monte Carlo sampling (for the deterministic
+    /// methods, which assemble through the same code).
+    fn remove_sampling_attributes(a: &mut serde_json::Map<String, serde_json::Value>) {
+        for key in [
+            "estimator",
+            "estimator_description",
+            "photons_per_entry",
+            "seed",
+            "rng",
+            "energy_identity_max_deviation_std_errors",
+        ] {
+            a.remove(key);
+        }
+    }
     fn scalars(&self) -> usize {
         match self.family {
             Family::Azimuthal => 3,    // ballistic, scattered, scattered_se

@@ -33,12 +33,6 @@ impl DiscJob {
         };
         DiscJob { inner, settings }
     }
-
-    /// Length of one (σ, g) chunk in the Monte Carlo job's layout.
-    fn chunk_len(&self) -> usize {
-        let n = self.inner.entries.len();
-        n * (self.inner.p.bins * self.inner.channels() + self.inner.scalars())
-    }
 }
 
 impl Job for DiscJob {
@@ -70,7 +64,7 @@ impl Job for DiscJob {
         let sources: Vec<usize> = (0..n).filter(|&i| job.mirror_source(i).is_none()).collect();
         let hs: Vec<f64> = sources.iter().map(|&i| job.entries[i]).collect();
         let mut solver = DiscSolver::new(sigma, &self.settings);
-        let mut out = Vec::with_capacity(job.g.len() * self.chunk_len());
+        let mut out = Vec::with_capacity(job.g.len() * self.inner.pair_chunk_len());
         for &g in &job.g {
             let solved = solver.solve(g, &hs);
             let mut rows = vec![None; n];
@@ -94,7 +88,7 @@ impl Job for DiscJob {
 
     fn assemble(&self, chunks: Vec<Vec<f32>>) -> Result<TableContent, JobError> {
         let job = &self.inner;
-        let (ns, ng, len) = (job.sigma.len(), job.g.len(), self.chunk_len());
+        let (ns, ng, len) = (job.sigma.len(), job.g.len(), self.inner.pair_chunk_len());
         check_chunks(&chunks, ns, ng * len)?;
         // Task order is σ-major with g inside, the (σ, g) order of the Monte Carlo job.
         let mut per_pair = Vec::with_capacity(ns * ng);
@@ -104,16 +98,7 @@ impl Job for DiscJob {
         let mut content = job.assemble(per_pair)?;
         let s = &self.settings;
         let a = &mut content.attributes;
-        for key in [
-            "estimator",
-            "estimator_description",
-            "photons_per_entry",
-            "seed",
-            "rng",
-            "energy_identity_max_deviation_std_errors",
-        ] {
-            a.remove(key);
-        }
+        MedullaJob::remove_sampling_attributes(a);
         a.insert("method".into(), "characteristics".into());
         a.insert("method_description".into(), format!(
             "deterministic: by reciprocity and rotational symmetry every h' and exit bin of one (sigma, g) is a line integral of the emission of one plane-wave problem. Single scattering in closed form (Gauss-Legendre along the entry chord); orders >= 2 from the plane-wave transport solved by the method of characteristics on polar cells (boundary ring width min({}, 1/({} sigma)), interior width <= min({}, {}/sigma), growth {}, sector arc {} x width), flat source per cell, {} directions (mirror-symmetric half solved), parallel tracks at {} x the smallest cell dimension, GMRES({}) to relative residual {:e}; the final line integrals use the exact exit direction (Nystrom) and a linear reconstruction of the emission in each cell; path lengths from the derivative with respect to an absorption coefficient (second solve); bin midpoint rule for the exit direction",

@@ -29,12 +29,6 @@ impl SlabJob {
         };
         SlabJob { inner, settings }
     }
-
-    /// Length of one (σ, g) chunk in the Monte Carlo job's layout.
-    fn chunk_len(&self) -> usize {
-        let n = self.inner.entries.len();
-        n * (self.inner.p.bins * self.inner.channels() + self.inner.scalars())
-    }
 }
 
 impl Job for SlabJob {
@@ -69,7 +63,7 @@ impl Job for SlabJob {
             .map(|&i| job.entries[i].to_radians())
             .collect();
         let solved = solve_slab(g, &job.sigma, &theta, &self.settings);
-        let mut out = Vec::with_capacity(job.sigma.len() * self.chunk_len());
+        let mut out = Vec::with_capacity(job.sigma.len() * self.inner.pair_chunk_len());
         for (si, &sigma) in job.sigma.iter().enumerate() {
             let mut rows = vec![None; n];
             for (b, &i) in sources.iter().enumerate() {
@@ -92,7 +86,7 @@ impl Job for SlabJob {
 
     fn assemble(&self, chunks: Vec<Vec<f32>>) -> Result<TableContent, JobError> {
         let job = &self.inner;
-        let (ns, ng, len) = (job.sigma.len(), job.g.len(), self.chunk_len());
+        let (ns, ng, len) = (job.sigma.len(), job.g.len(), self.inner.pair_chunk_len());
         check_chunks(&chunks, ng, ns * len)?;
         // Reorder into the (σ, g) task order of the Monte Carlo job, freeing each task's chunk
         // once split.
@@ -109,16 +103,7 @@ impl Job for SlabJob {
         drop(pieces);
         let mut content = job.assemble(per_pair)?;
         let a = &mut content.attributes;
-        for key in [
-            "estimator",
-            "estimator_description",
-            "photons_per_entry",
-            "seed",
-            "rng",
-            "energy_identity_max_deviation_std_errors",
-        ] {
-            a.remove(key);
-        }
+        MedullaJob::remove_sampling_attributes(a);
         a.insert("model".into(), "2-D volumetric transport, Tseng 2015 §5 / App. A: purely scattering medium, planar Henyey–Greenstein phase function rho(theta) = (1-g^2)/(2 pi (1+g^2-2g cos theta)), no absorption, index-matched boundary (no Fresnel, no refraction), unit incident energy".into());
         a.insert("method".into(), "adding-doubling".into());
         a.insert("method_description".into(), format!(
