@@ -2,7 +2,8 @@
 //! non-negative h' rows of its 64-point h' axis, 720 bins), single-threaded:
 //! `cargo run --release --example fur_disc_cost -- SIGMA...` (default 5 10 15 20). Prints the
 //! grid size, the GMRES iterations summed over g and the wall time per σ. Settings may be
-//! overridden with DISC_DIRECTIONS, DISC_TOL, DISC_TRACK.
+//! overridden with DISC_DIRECTIONS, DISC_TOL, DISC_TRACK, DISC_CPM, DISC_RINGS, DISC_INTERIOR,
+//! DISC_MAX_CELL.
 use scatterbake::fur::disc::{DiscSettings, DiscSolver};
 use std::time::Instant;
 
@@ -24,6 +25,18 @@ fn main() {
     }
     if let Some(v) = env("DISC_TRACK") {
         s.track_spacing = v;
+    }
+    if let Some(v) = env("DISC_CPM") {
+        s.cells_per_mean_free_path = v;
+    }
+    if let Some(v) = env("DISC_RINGS") {
+        s.boundary_rings_per_mean_free_path = v;
+    }
+    if let Some(v) = env("DISC_INTERIOR") {
+        s.interior_cell_mean_free_paths = v;
+    }
+    if let Some(v) = env("DISC_MAX_CELL") {
+        s.max_cell = v;
     }
     let hs: Vec<f64> = (32..64).map(|i| -1.0 + 2.0 * i as f64 / 63.0).collect();
     let gs: Vec<f64> = (0..16).map(|j| 0.8 * j as f64 / 15.0).collect();

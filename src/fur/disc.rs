@@ -640,6 +640,25 @@ impl<'a> PlaneWave<'a> {
     }
 }
 
+/// Σ aᵢbᵢ with eight partial sums (a fixed order, so the result does not depend on the
+/// machine, and one the compiler vectorises).
+fn lane_dot(a: &[f64], b: &[f64]) -> f64 {
+    let mut acc = [0.0; 8];
+    let (ca, cb) = (a.chunks_exact(8), b.chunks_exact(8));
+    let tail: f64 = ca
+        .remainder()
+        .iter()
+        .zip(cb.remainder())
+        .map(|(x, y)| x * y)
+        .sum();
+    for (x, y) in ca.zip(cb) {
+        for l in 0..8 {
+            acc[l] += x[l] * y[l];
+        }
+    }
+    acc.iter().sum::<f64>() + tail
+}
+
 /// Restarted GMRES for A x = b, `apply(x, out)` computing A x. Returns (iterations, relative
 /// residual).
 fn gmres(
@@ -651,7 +670,7 @@ fn gmres(
     max_iter: usize,
 ) -> (usize, f64) {
     let n = b.len();
-    let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| x * y).sum::<f64>();
+    let dot = lane_dot;
     let bnorm = dot(b, b).sqrt();
     if bnorm == 0.0 {
         x.fill(0.0);
@@ -756,6 +775,8 @@ pub struct DiscSolver {
     grid: Grid,
     fac: Factors,
     warm: Option<(Vec<f64>, Vec<f64>)>,
+    /// The chord weights of the last entries solved (rebuilt when the entries change).
+    chords: Option<Chords>,
 }
 
 impl DiscSolver {
@@ -769,6 +790,7 @@ impl DiscSolver {
             grid,
             fac,
             warm: None,
+            chords: None,
         }
     }
 
@@ -842,8 +864,15 @@ impl DiscSolver {
         } else {
             (Vec::new(), 0, 0.0)
         };
-        let (energy, path_length) =
-            final_rays(grid, sigma, g, hs, bins, &phi, &dphi, s.path_length);
+        let stale = self
+            .chords
+            .as_ref()
+            .is_none_or(|c| c.hs != hs || c.bins != bins);
+        if stale {
+            self.chords = Some(Chords::new(grid, sigma, hs, bins));
+        }
+        let chords = self.chords.as_ref().expect("built above");
+        let (energy, path_length) = final_rays(grid, chords, sigma, g, &phi, &dphi, s.path_length);
         self.warm = Some((phi, dphi));
         DiscProfiles {
             energy,
@@ -869,109 +898,179 @@ fn by_cell(v: &[f64], m: usize, ncell: usize, mirror: &[u32]) -> Vec<f64> {
     out
 }
 
+/// The final line integrals of one σ and one set of entries h′, independent of g: for every
+/// entry and exit bin, the cells its rotated chord crosses with the weights that turn a cell's
+/// emission (its mean and polar derivatives) into the integral along the chord. Built once per
+/// σ and shared by every g ([`DiscSolver`]).
+struct Chords {
+    hs: Vec<f64>,
+    bins: usize,
+    /// Per (entry, bin) (+1): first segment.
+    offset: Vec<usize>,
+    cell: Vec<u32>,
+    /// Per segment: weights of the emission's mean (`a`: ∫ e^{−σt} dt over the segment), of its
+    /// radial and angular derivatives (`b`, `c`: the linear reconstruction through two
+    /// Gauss–Legendre points, integrated exactly against e^{−σt}), and the absorption
+    /// derivative of `a` (`d`).
+    weight: Vec<[f64; 4]>,
+}
+
+impl Chords {
+    fn new(grid: &Grid, sigma: f64, hs: &[f64], bins: usize) -> Chords {
+        let dw = 2.0 * PI / bins as f64;
+        let centres = &grid.centres;
+        let mut offset = Vec::with_capacity(hs.len() * bins + 1);
+        offset.push(0);
+        let (mut cell, mut weight) = (Vec::new(), Vec::new());
+        for &h in hs {
+            let chord = 2.0 * (1.0 - h * h).max(0.0).sqrt();
+            let b = [-(1.0 - h * h).max(0.0).sqrt(), h];
+            for k in 0..bins {
+                if chord > 0.0 {
+                    let w = -PI + (k as f64 + 0.5) * dw;
+                    let (sw, cw) = w.sin_cos();
+                    let p = [b[0] * cw + b[1] * sw, -b[0] * sw + b[1] * cw];
+                    let u = [cw, -sw];
+                    grid.polar.walk(p, u, chord, |c, t0, l| {
+                        let att = (-sigma * t0).exp();
+                        if att < 1e-12 {
+                            return;
+                        }
+                        let x = sigma * l;
+                        let e_l = (-x).exp();
+                        let one_minus = 1.0 - e_l;
+                        // Polar offsets from the cell centre at two Gauss–Legendre points of
+                        // the segment: q(t) = q̄ + slope·(t − t_mid) with q at those points
+                        // from q + Δr ∂_r q + Δβ ∂_β q.
+                        let (rc, bc) = centres[c];
+                        let at = |t: f64| {
+                            let xx = [p[0] + t * u[0], p[1] + t * u[1]];
+                            let dr = (xx[0] * xx[0] + xx[1] * xx[1]).sqrt() - rc;
+                            let db = (xx[1].atan2(xx[0]) - bc + PI).rem_euclid(2.0 * PI) - PI;
+                            (dr, db)
+                        };
+                        let half = 0.5 * l / 3f64.sqrt();
+                        let tm = t0 + 0.5 * l;
+                        let ((ra, ba), (rz, bz)) = (at(tm - half), at(tm + half));
+                        // ∫₀^l e^{−σs}(s − l/2) ds
+                        let i1 = if x < 1e-3 {
+                            -sigma * l.powi(3) / 12.0
+                        } else {
+                            (1.0 - e_l * (1.0 + x)) / (sigma * sigma) - 0.5 * l * one_minus / sigma
+                        };
+                        // ∫_{t0}^{t0+l} e^{−σ_t t} dt and its derivative with respect to σ_a.
+                        let a = att * one_minus / sigma;
+                        let d = -t0 * a - att * (one_minus / sigma - l * e_l) / sigma;
+                        let lin = |va: f64, vz: f64| {
+                            0.5 * (va + vz) * a + att * (vz - va) / (2.0 * half) * i1
+                        };
+                        cell.push(c as u32);
+                        weight.push([a, lin(ra, rz), lin(ba, bz), d]);
+                    });
+                }
+                offset.push(cell.len());
+            }
+        }
+        Chords {
+            hs: hs.to_vec(),
+            bins,
+            offset,
+            cell,
+            weight,
+        }
+    }
+}
+
+/// Bins per block of emissions formed at once in [`final_rays`].
+const BIN_BLOCK: usize = 48;
+
 #[allow(clippy::too_many_arguments)]
 fn final_rays(
     grid: &Grid,
+    chords: &Chords,
     sigma: f64,
     g: f64,
-    hs: &[f64],
-    bins: usize,
     phi: &[f64],
     dphi: &[f64],
     with_path: bool,
 ) -> (Vec<Vec<f64>>, Vec<Vec<f64>>) {
-    let (m, ncell) = (grid.m(), grid.ncell());
+    let (m, ncell, bins) = (grid.m(), grid.ncell(), chords.bins);
+    let hs = &chords.hs;
     let phi_c = by_cell(phi, m, ncell, &grid.mirror);
     let dphi_c = if with_path {
         by_cell(dphi, m, ncell, &grid.mirror)
     } else {
-        Vec::new()
+        vec![0.0; m * ncell]
     };
-    let centres = &grid.centres;
-    let (grad_r, grad_b) = grid.polar.gradients(centres, &phi_c, m);
+    let (grad_r, grad_b) = grid.polar.gradients(&grid.centres, &phi_c, m);
     let dw = 2.0 * PI / bins as f64;
     let wdir = 2.0 * PI / m as f64;
-    // σ ρ(θ_k − θ_j) 2π/M per exit bin k (θ_k = π − ω_k) and direction j: the same for every h'.
-    let kernels: Vec<Vec<f64>> = (0..bins)
-        .map(|k| {
-            let th = PI - (-PI + (k as f64 + 0.5) * dw);
-            grid.theta
-                .iter()
-                .map(|&tj| sigma * planar_hg_density(th - tj, g) * wdir)
-                .collect()
-        })
+    // Emission at the exact exit direction θ_k = π − ω_k of every cell, for a block of bins at a
+    // time: E[c, k] = Σ_j field[c][j] σ ρ(θ_k − θ_j) 2π/M, one matrix product per field.
+    let fields = [&phi_c, &grad_r, &grad_b, &dphi_c];
+    let views: Vec<_> = fields
+        .iter()
+        .map(|v| nalgebra::DMatrixView::from_slice(v, m, ncell))
         .collect();
+    let mut acc = vec![0.0; hs.len() * bins];
+    let mut flat = vec![0.0; hs.len() * bins];
+    let mut dacc = vec![0.0; hs.len() * bins];
+    let mut emission: Vec<nalgebra::DMatrix<f64>> =
+        vec![nalgebra::DMatrix::zeros(ncell, BIN_BLOCK); 4];
+    for k0 in (0..bins).step_by(BIN_BLOCK) {
+        let nk = BIN_BLOCK.min(bins - k0);
+        // σ ρ(θ_k − θ_j) 2π/M, [bin][direction] (column-major M × nk).
+        let kernel = nalgebra::DMatrix::from_fn(m, nk, |j, kk| {
+            let th = PI - (-PI + ((k0 + kk) as f64 + 0.5) * dw);
+            sigma * planar_hg_density(th - grid.theta[j], g) * wdir
+        });
+        let nf = if with_path { 4 } else { 3 };
+        for (e, v) in emission.iter_mut().zip(&views).take(nf) {
+            if nk < BIN_BLOCK {
+                *e = nalgebra::DMatrix::zeros(ncell, nk);
+            }
+            e.gemm_tr(1.0, v, &kernel, 0.0);
+        }
+        for kk in 0..nk {
+            let k = k0 + kk;
+            let col = |f: usize| emission[f].column(kk);
+            let (e0, er, eb, ed) = (col(0), col(1), col(2), col(3));
+            for hi in 0..hs.len() {
+                let r = hi * bins + k;
+                let (mut a, mut fl, mut da) = (0.0, 0.0, 0.0);
+                for s in chords.offset[r]..chords.offset[r + 1] {
+                    let c = chords.cell[s] as usize;
+                    let w = &chords.weight[s];
+                    let q = e0[c];
+                    a += w[0] * q + w[1] * er[c] + w[2] * eb[c];
+                    fl += w[0] * q;
+                    if with_path {
+                        da += ed[c] * w[0] + q * w[3];
+                    }
+                }
+                acc[r] = a;
+                flat[r] = fl;
+                dacc[r] = da;
+            }
+        }
+    }
     let mut energy = Vec::with_capacity(hs.len());
     let mut paths = Vec::with_capacity(hs.len());
-    for &h in hs {
+    for (hi, &h) in hs.iter().enumerate() {
         let (e1, l1) = crate::fur::medulla_fast::single_scatter_with_path(sigma, g, h, bins);
         let mut e = e1.clone();
         let mut moment: Vec<f64> = e1.iter().zip(&l1).map(|(e, l)| e * l).collect();
-        let chord = 2.0 * (1.0 - h * h).max(0.0).sqrt();
-        if chord > 0.0 {
-            let b = [-(1.0 - h * h).max(0.0).sqrt(), h];
-            for k in 0..bins {
-                let w = -PI + (k as f64 + 0.5) * dw;
-                let (sw, cw) = w.sin_cos();
-                let p = [b[0] * cw + b[1] * sw, -b[0] * sw + b[1] * cw];
-                let u = [cw, -sw];
-                let kern = &kernels[k];
-                let (mut acc, mut flat, mut dacc) = (0.0, 0.0, 0.0);
-                grid.polar.walk(p, u, chord, |c, t0, l| {
-                    let att = (-sigma * t0).exp();
-                    if att < 1e-12 {
-                        return;
-                    }
-                    let dot = |v: &[f64]| -> f64 {
-                        v[c * m..(c + 1) * m]
-                            .iter()
-                            .zip(kern.iter())
-                            .map(|(a, b)| a * b)
-                            .sum()
-                    };
-                    let q = dot(&phi_c);
-                    let x = sigma * l;
-                    let e_l = (-x).exp();
-                    let one_minus = 1.0 - e_l;
-                    // Linear reconstruction of the emission inside the cell, sampled at two
-                    // Gauss–Legendre points of the segment: q(t) = q̄ + slope·(t − t_mid).
-                    let (qr, qb) = (dot(&grad_r), dot(&grad_b));
-                    let (rc, bc) = centres[c];
-                    let at = |t: f64| {
-                        let xx = [p[0] + t * u[0], p[1] + t * u[1]];
-                        let dr = (xx[0] * xx[0] + xx[1] * xx[1]).sqrt() - rc;
-                        let db = (xx[1].atan2(xx[0]) - bc + PI).rem_euclid(2.0 * PI) - PI;
-                        q + dr * qr + db * qb
-                    };
-                    let half = 0.5 * l / 3f64.sqrt();
-                    let tm = t0 + 0.5 * l;
-                    let (qa, qz) = (at(tm - half), at(tm + half));
-                    let qbar = 0.5 * (qa + qz);
-                    let slope = (qz - qa) / (2.0 * half);
-                    // ∫₀^l e^{−σs}(s − l/2) ds
-                    let i1 = if x < 1e-3 {
-                        -sigma * l.powi(3) / 12.0
-                    } else {
-                        (1.0 - e_l * (1.0 + x)) / (sigma * sigma) - 0.5 * l * one_minus / sigma
-                    };
-                    acc += att * (qbar * one_minus / sigma + slope * i1);
-                    flat += q * att * one_minus / sigma;
-                    if with_path {
-                        let dq = dot(&dphi_c);
-                        // ∫_{t0}^{t0+l} e^{−σ_t t} dt = e^{−σ t0}(1 − e^{−σl})/σ; derivative
-                        // with respect to σ_a: −[t0·that + (l e^{−σl} − (1 − e^{−σl})/σ) e^{−σ t0}/σ]
-                        let w_int = att * one_minus / sigma;
-                        let dw_int = -t0 * w_int - att * (one_minus / sigma - l * e_l) / sigma;
-                        dacc += dq * w_int + q * dw_int;
-                    }
-                });
-                // Mean path length of orders ≥ 2 from the flat-source integrals (moment and
-                // energy with the same quadrature), applied to the reconstructed energy.
-                let path2 = if flat > 0.0 { -dacc / flat } else { 0.0 };
-                dacc = -path2 * acc;
-                e[k] += acc * dw;
-                moment[k] -= dacc * dw;
-            }
+        for k in 0..bins {
+            let r = hi * bins + k;
+            // Mean path length of orders ≥ 2 from the flat-source integrals (moment and energy
+            // with the same quadrature), applied to the reconstructed energy.
+            let path2 = if flat[r] > 0.0 {
+                -dacc[r] / flat[r]
+            } else {
+                0.0
+            };
+            e[k] += acc[r] * dw;
+            moment[k] += path2 * acc[r] * dw;
         }
         let path: Vec<f64> = e
             .iter()
