@@ -20,6 +20,9 @@ fn main() {
     if let Some(v) = env("DISC_DIRECTIONS") {
         s.directions = v as usize;
     }
+    if let Some(v) = env("DISC_LINEAR") {
+        s.linear_source = v != 0.0;
+    }
     if let Some(v) = env("DISC_TOL") {
         s.tolerance = v;
     }

@@ -339,7 +339,7 @@ fn family_docs(family: Family) -> Vec<ParamDoc> {
 
 impl StageSpec for FurMedullaAzimuthalStage {
     const NAME: &'static str = "fur-medulla-azimuthal";
-    const VERSION: u32 = 3;
+    const VERSION: u32 = 4;
     const SUMMARY: &'static str = "fur medulla azimuthal scattering C^N(φ'; h', σ, g): 2-D transport in the unit disc (deterministic characteristics solver, adaptive or fixed-photon Monte Carlo)";
     type Params = MedullaParams;
     fn plan_params(&self, p: MedullaParams) -> Result<Box<dyn Job>, PlanError> {

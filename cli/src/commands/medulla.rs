@@ -281,6 +281,9 @@ pub struct MedullaAssetsArgs {
     /// Override the azimuthal log floor (relative to the maximum; 0 = linear form; exploration).
     #[arg(long)]
     pub azimuthal_log_floor: Option<f64>,
+    /// Override the mantissa bits kept in the azimuthal cores (23 = all; exploration).
+    #[arg(long)]
+    pub azimuthal_mantissa_bits: Option<u32>,
     /// Only the azimuthal asset (exploration).
     #[arg(long)]
     pub azimuthal_only: bool,
@@ -299,6 +302,13 @@ pub fn run_medulla_assets(a: &MedullaAssetsArgs) -> anyhow::Result<()> {
     }
     if let Some(f) = a.azimuthal_log_floor {
         az.log_floor_rel = (f > 0.0).then_some(f);
+    }
+    if let Some(b) = a.azimuthal_mantissa_bits {
+        anyhow::ensure!(
+            (1..=23).contains(&b),
+            "--azimuthal-mantissa-bits {b}: must be 1 to 23"
+        );
+        az.core_mantissa_bits = Some(b);
     }
     let mut specs = vec![(az, a.azimuthal_tol)];
     if !a.azimuthal_only {
