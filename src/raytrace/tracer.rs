@@ -124,6 +124,47 @@ fn zeroed_accumulators(n: usize) -> Vec<Complex32> {
     }
 }
 
+/// Map the pages of accumulators `acc`, which nothing has written yet (all zero), as written
+/// memory before the rasteriser adds to them. The rasteriser's first access to a page is a
+/// read-modify-write: the read maps the shared zero page and the write then copies it, which
+/// flushes the other threads' TLB entries by interrupt (a third of the build's kernel time);
+/// populating the rows of an order when its reach grows maps each page once, in one call per
+/// row. Values are unchanged (zero).
+fn fault_in(acc: &mut [Complex32]) {
+    const PAGE: usize = 4096;
+    if acc.is_empty() {
+        return;
+    }
+    #[cfg(target_os = "linux")]
+    {
+        let p = acc.as_mut_ptr() as usize;
+        let start = p.next_multiple_of(PAGE);
+        let end = (p + std::mem::size_of_val(acc)) / PAGE * PAGE;
+        // SAFETY: `start..end` lies inside `acc`, which we borrow mutably; populating writable
+        // pages changes no contents (the memory is zero either way).
+        if end > start
+            && unsafe {
+                libc::madvise(
+                    start as *mut libc::c_void,
+                    end - start,
+                    libc::MADV_POPULATE_WRITE,
+                )
+            } == 0
+        {
+            // The partial pages at both ends.
+            let last = acc.len() - 1;
+            acc[0] = Complex32::new(0.0, 0.0);
+            acc[last] = Complex32::new(0.0, 0.0);
+            return;
+        }
+    }
+    // Elsewhere (or on a kernel without MADV_POPULATE_WRITE): write one zero per page.
+    let step = PAGE / std::mem::size_of::<Complex32>();
+    for i in (0..acc.len()).step_by(step).chain([acc.len() - 1]) {
+        acc[i] = Complex32::new(0.0, 0.0);
+    }
+}
+
 /// Four zero accumulators: a pixel of an order outside its reach.
 const ZERO_PIXEL: [Complex32; 4] = [Complex32::new(0.0, 0.0); 4];
 
@@ -943,10 +984,23 @@ pub fn trace_fields(shape: &DropShape, cfg: &TraceConfig, grid: DirectionGrid) -
                 }
             }
             let (tris, flux) = build_triangles(&g, grid, &band, row0);
+            let reached = reach.clone();
             for t in &tris {
                 let (j0, j1) = (t.j0 as usize, t.j1 as usize);
                 let r = &mut reach[t.order as usize];
                 *r = Some(r.map_or((j0, j1), |(a, b)| (a.min(j0), b.max(j1))));
+            }
+            if reach != reached {
+                let within = |r: Option<(usize, usize)>, j: usize| {
+                    r.is_some_and(|(a, b)| (a..=b).contains(&j))
+                };
+                rows.par_iter_mut().enumerate().for_each(|(j, row)| {
+                    for (o, acc) in row.iter_mut().enumerate() {
+                        if within(reach[o], j) && !within(reached[o], j) {
+                            fault_in(acc);
+                        }
+                    }
+                });
             }
             let tris = sort_by_first_row(tris, grid.n_polar);
             patch_flux.iter_mut().zip(flux).for_each(|(a, b)| *a += b);
