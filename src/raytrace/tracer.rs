@@ -807,24 +807,32 @@ fn sort_by_first_row(tris: Vec<Tri>, n_polar: usize) -> Vec<Tri> {
     order.into_iter().map(|ti| tris[ti as usize]).collect()
 }
 
-/// Step 3b: triangle indices binned by polar table row (CSR: row `j` lists
-/// `idx[counts[j]..counts[j + 1]]`).
-fn bin_by_polar_row(tris: &[Tri], n_polar: usize) -> (Vec<u32>, Vec<u32>) {
-    let mut counts = vec![0u32; n_polar + 1];
+/// Polar rows per block of the rasteriser: a triangle spans ≈ 7 rows on average at the seed
+/// resolution (0.0125° × 0.2° pixels), so it is fetched once per block it overlaps (mostly one)
+/// instead of once per row, and a block's accumulators (4 orders × 16 rows × 57.6 KB at 1800
+/// azimuths) stay within the cache levels and the TLB reach while its triangles are added.
+const RASTER_BLOCK_ROWS: usize = 16;
+
+/// Step 3b: triangle indices binned by block of [`RASTER_BLOCK_ROWS`] polar table rows (CSR:
+/// block `b` lists `idx[counts[b]..counts[b + 1]]`, in triangle order).
+fn bin_by_row_block(tris: &[Tri], n_polar: usize) -> (Vec<u32>, Vec<u32>) {
+    let n_blocks = n_polar.div_ceil(RASTER_BLOCK_ROWS);
+    let blocks = |t: &Tri| t.j0 as usize / RASTER_BLOCK_ROWS..=t.j1 as usize / RASTER_BLOCK_ROWS;
+    let mut counts = vec![0u32; n_blocks + 1];
     for t in tris {
-        for j in t.j0..=t.j1 {
-            counts[j as usize + 1] += 1;
+        for b in blocks(t) {
+            counts[b + 1] += 1;
         }
     }
-    for j in 0..n_polar {
-        counts[j + 1] += counts[j];
+    for b in 0..n_blocks {
+        counts[b + 1] += counts[b];
     }
     let mut fill = counts.clone();
-    let mut idx = vec![0u32; counts[n_polar] as usize];
+    let mut idx = vec![0u32; counts[n_blocks] as usize];
     for (ti, t) in tris.iter().enumerate() {
-        for j in t.j0..=t.j1 {
-            idx[fill[j as usize] as usize] = ti as u32;
-            fill[j as usize] += 1;
+        for b in blocks(t) {
+            idx[fill[b] as usize] = ti as u32;
+            fill[b] += 1;
         }
     }
     (counts, idx)
@@ -862,75 +870,57 @@ fn triangle_field(
     ])
 }
 
-/// Hint the processor to bring `x`'s cache line into the cache (no effect on results).
-#[inline(always)]
-fn prefetch<T>(x: &T) {
-    #[cfg(target_arch = "x86_64")]
-    // SAFETY: a prefetch never faults and does not access memory architecturally; the pointer
-    // comes from a live reference.
-    unsafe {
-        std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(
-            (x as *const T).cast::<i8>(),
-        );
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = x;
-}
-
 /// Mutable views of the accumulators of one polar row, one `[azimuth][4]` slice per order.
 type RowViews<'a> = Vec<&'a mut [Complex32]>;
 
 /// Step 4: rasterise a band's triangles into the field accumulators `rows` (per polar row, one
-/// view per order; rayon over table rows).
+/// view per order; rayon over blocks of [`RASTER_BLOCK_ROWS`] rows). `sc_th` holds the sine and
+/// cosine of every row's polar angle. Within a block the triangles are taken in their sorted
+/// order and each adds to all its rows of the block, so every pixel receives its contributions
+/// in the same order as row by row (the sums are bit-identical), with one fetch of a triangle
+/// per block instead of one per row.
 fn rasterise(
     g: &RayGrid,
     grid: DirectionGrid,
     band: &Band,
     tris: &[Tri],
+    sc_th: &[(f64, f64)],
     rows: &mut [RowViews<'_>],
 ) {
-    let (counts, idx) = bin_by_polar_row(tris, grid.n_polar);
+    let (counts, idx) = bin_by_row_block(tris, grid.n_polar);
     let flat: Vec<&RayOut> = band.iter().flat_map(|(r, _)| r.iter()).collect();
-    let (dth, dph) = (grid.polar_step(), grid.azimuth_step());
+    let dph = grid.azimuth_step();
     let sc_ph: Vec<(f64, f64)> = (0..grid.n_azimuth)
         .map(|k| (dph * k as f64).sin_cos())
         .collect();
     let na = grid.n_azimuth as i64;
-    rows.par_iter_mut().enumerate().for_each(|(j, row)| {
-        let list = &idx[counts[j] as usize..counts[j + 1] as usize];
-        if list.is_empty() {
-            return;
-        }
-        let (st, ct) = (dth * j as f64).sin_cos();
-        for (n, &ti) in list.iter().enumerate() {
-            let t = &tris[ti as usize];
-            // The accumulators a triangle adds to are rarely cached (each pixel gets a few
-            // triangles over the whole trace): fetch the next triangle's while this one computes.
-            if let Some(&next) = list.get(n + 1) {
-                let u = &tris[next as usize];
-                if !u.full {
-                    let acc = &row[u.order as usize];
-                    for kk in u.k0..=u.k1.min(u.k0 + 3) {
-                        prefetch(&acc[kk.rem_euclid(na) as usize * 4]);
+    rows.par_chunks_mut(RASTER_BLOCK_ROWS)
+        .enumerate()
+        .for_each(|(b, block)| {
+            let list = &idx[counts[b] as usize..counts[b + 1] as usize];
+            let first = b * RASTER_BLOCK_ROWS;
+            let last = first + block.len() - 1;
+            for &ti in list {
+                let t = &tris[ti as usize];
+                let (ka, kb) = if t.full { (0, na - 1) } else { (t.k0, t.k1) };
+                for j in (t.j0 as usize).max(first)..=(t.j1 as usize).min(last) {
+                    let (st, ct) = sc_th[j];
+                    let acc = &mut *block[j - first][t.order as usize];
+                    for kk in ka..=kb {
+                        let k = kk.rem_euclid(na) as usize;
+                        let (sp, cp) = sc_ph[k];
+                        let radial = add(scale(g.fr.e1, cp), scale(g.fr.e2, sp));
+                        let r = add(scale(g.fr.d, ct), scale(radial, st));
+                        let Some(vals) = triangle_field(g, t, &flat, r, (sp, cp)) else {
+                            continue;
+                        };
+                        for (acc, v) in acc[k * 4..k * 4 + 4].iter_mut().zip(vals) {
+                            *acc += Complex32::new(v.re as f32, v.im as f32);
+                        }
                     }
                 }
             }
-            let acc = &mut *row[t.order as usize];
-            let (ka, kb) = if t.full { (0, na - 1) } else { (t.k0, t.k1) };
-            for kk in ka..=kb {
-                let k = kk.rem_euclid(na) as usize;
-                let (sp, cp) = sc_ph[k];
-                let radial = add(scale(g.fr.e1, cp), scale(g.fr.e2, sp));
-                let r = add(scale(g.fr.d, ct), scale(radial, st));
-                let Some(vals) = triangle_field(g, t, &flat, r, (sp, cp)) else {
-                    continue;
-                };
-                for (acc, v) in acc[k * 4..k * 4 + 4].iter_mut().zip(vals) {
-                    *acc += Complex32::new(v.re as f32, v.im as f32);
-                }
-            }
-        }
-    });
+        });
 }
 
 /// Trace the drop and accumulate the coherent far fields of every order on `grid`: rows of
@@ -966,6 +956,9 @@ pub fn trace_fields(shape: &DropShape, cfg: &TraceConfig, grid: DirectionGrid) -
                 rows.push(per_order.iter_mut().map(|it| it.next().unwrap()).collect());
             }
         }
+        let sc_th: Vec<(f64, f64)> = (0..grid.n_polar)
+            .map(|j| (grid.polar_step() * j as f64).sin_cos())
+            .collect();
         let band_rows = (RAYS_PER_BAND / (nr * orders)).clamp(2, nr - 1);
         let mut row0 = 0usize;
         while row0 < nr - 1 {
@@ -1004,7 +997,7 @@ pub fn trace_fields(shape: &DropShape, cfg: &TraceConfig, grid: DirectionGrid) -
             }
             let tris = sort_by_first_row(tris, grid.n_polar);
             patch_flux.iter_mut().zip(flux).for_each(|(a, b)| *a += b);
-            rasterise(&g, grid, &band, &tris, &mut rows);
+            rasterise(&g, grid, &band, &tris, &sc_th, &mut rows);
             row0 = row1;
         }
     }
