@@ -538,22 +538,27 @@ fn ray_flux(r: &RayOut) -> f64 {
         + r.eb.iter().map(|z| z.norm_sqr()).sum::<f64>())
 }
 
-/// Step 1: trace grid rows `row0..=row1` (rayon over rows).
-fn trace_band(g: &RayGrid, shape: &DropShape, cfg: &TraceConfig, row0: usize, row1: usize) -> Band {
-    (row0..=row1)
-        .into_par_iter()
-        .map(|i| {
-            let mut row = vec![INVALID; g.nr * g.orders];
-            let mut hit = 0;
-            for (j, slot) in row.chunks_mut(g.orders).enumerate() {
-                let (u, v) = (g.u_at(i), g.v_at(j));
-                if trace_ray(shape, &g.fr, g.dist, cfg.n, cfg.max_order, u, v, slot) {
-                    hit += 1;
-                }
+/// Step 1: trace grid rows `row0..=row1` into `band` (rayon over rows), whose row buffers are
+/// reused from band to band (fresh ones cost a page fault per 4 KiB every band).
+fn trace_band(
+    g: &RayGrid,
+    shape: &DropShape,
+    cfg: &TraceConfig,
+    row0: usize,
+    row1: usize,
+    band: &mut Band,
+) {
+    band.resize_with(row1 - row0 + 1, || (vec![INVALID; g.nr * g.orders], 0));
+    band.par_iter_mut().enumerate().for_each(|(ri, (row, hit))| {
+        let i = row0 + ri;
+        *hit = 0;
+        for (j, slot) in row.chunks_mut(g.orders).enumerate() {
+            let (u, v) = (g.u_at(i), g.v_at(j));
+            if trace_ray(shape, &g.fr, g.dist, cfg.n, cfg.max_order, u, v, slot) {
+                *hit += 1;
             }
-            (row, hit)
-        })
-        .collect()
+        }
+    });
 }
 
 /// Direction-space extent of a triangle: polar rows `j0..=j1`, azimuth columns `k0..=k1`
@@ -750,17 +755,22 @@ fn make_triangle(
     Some((t, flux))
 }
 
-/// Step 2: the triangles of a band (rayon over grid rows) and the flux per order they carry.
+/// Step 2: the triangles of a band (rayon over grid rows) into `parts`, one list per grid row of
+/// cells in ray-grid order (the lists are reused from band to band), and the flux per order
+/// they carry.
 fn build_triangles(
     g: &RayGrid,
     grid: DirectionGrid,
     band: &Band,
     row0: usize,
-) -> (Vec<Tri>, Vec<f64>) {
-    let built: Vec<(Vec<Tri>, Vec<f64>)> = (0..band.len() - 1)
-        .into_par_iter()
-        .map(|i| {
-            let mut tris: Vec<Tri> = Vec::new();
+    parts: &mut Vec<Vec<Tri>>,
+) -> Vec<f64> {
+    parts.resize_with(band.len() - 1, Vec::new);
+    let row_flux: Vec<Vec<f64>> = parts
+        .par_iter_mut()
+        .enumerate()
+        .map(|(i, tris)| {
+            tris.clear();
             let mut flux = vec![0.0; g.orders];
             for j in 0..g.nr - 1 {
                 let (a, b, c, d) = ((i, j), (i + 1, j), (i + 1, j + 1), (i, j + 1));
@@ -773,38 +783,46 @@ fn build_triangles(
                     }
                 }
             }
-            (tris, flux)
+            flux
         })
         .collect();
-    let mut tris = Vec::new();
     let mut flux = vec![0.0; g.orders];
-    for (t, f) in built {
-        tris.extend(t);
+    for f in row_flux {
         flux.iter_mut().zip(f).for_each(|(a, b)| *a += b);
     }
-    (tris, flux)
+    flux
 }
 
-/// Step 3a: the triangles in order of their first polar row (a stable counting sort, so
-/// triangles of one row keep their ray-grid order). Rasterising goes row by row, and a triangle
-/// is visited from every row it spans: in this order the triangles a row visits lie together in
-/// memory and mostly stay cached from the previous row (in ray-grid order they are scattered
-/// over the band, and fetching them dominated the rasteriser's time).
-fn sort_by_first_row(tris: Vec<Tri>, n_polar: usize) -> Vec<Tri> {
+/// Step 3a: the triangles of `parts` (taken in order) into `out` in order of their first polar
+/// row (a stable counting sort, so triangles of one row keep their ray-grid order), straight
+/// from the per-row lists into the buffer `out` reuses from band to band. Rasterising goes block
+/// of rows by block, and a triangle is visited from every block it spans: in this order the
+/// triangles a block visits lie together in memory (in ray-grid order they are scattered over
+/// the band, and fetching them dominated the rasteriser's time).
+fn sort_by_first_row(parts: &[Vec<Tri>], n_polar: usize, out: &mut Vec<Tri>) {
+    let n: usize = parts.iter().map(Vec::len).sum();
     let mut start = vec![0usize; n_polar + 1];
-    for t in &tris {
+    for t in parts.iter().flatten() {
         start[t.j0 as usize + 1] += 1;
     }
     for j in 0..n_polar {
         start[j + 1] += start[j];
     }
-    let mut order = vec![0u32; tris.len()];
-    for (ti, t) in tris.iter().enumerate() {
+    out.clear();
+    out.reserve(n);
+    let slots = &mut out.spare_capacity_mut()[..n];
+    for t in parts.iter().flatten() {
         let slot = &mut start[t.j0 as usize];
-        order[*slot] = ti as u32;
+        slots[*slot].write(*t);
         *slot += 1;
     }
-    order.into_iter().map(|ti| tris[ti as usize]).collect()
+    // Each first row's slots start[j]..start[j + 1] (before the scatter advanced them) received
+    // exactly its triangles, so the scatter ended with every start at the next row's beginning.
+    assert_eq!(start[n_polar - 1], n, "counting sort filled every slot");
+    // SAFETY: the counting sort wrote each of the first `n` slots exactly once (checked above:
+    // the slots of the rows partition 0..n and each row's were all written), and `reserve(n)`
+    // made room for them.
+    unsafe { out.set_len(n) };
 }
 
 /// Polar rows per block of the rasteriser: a triangle spans ≈ 7 rows on average at the seed
@@ -960,10 +978,15 @@ pub fn trace_fields(shape: &DropShape, cfg: &TraceConfig, grid: DirectionGrid) -
             .map(|j| (grid.polar_step() * j as f64).sin_cos())
             .collect();
         let band_rows = (RAYS_PER_BAND / (nr * orders)).clamp(2, nr - 1);
+        // Buffers reused from band to band: the traced rows, the triangles per row of cells and
+        // all the band's triangles in rasterising order.
+        let mut band: Band = Vec::new();
+        let mut parts: Vec<Vec<Tri>> = Vec::new();
+        let mut tris: Vec<Tri> = Vec::new();
         let mut row0 = 0usize;
         while row0 < nr - 1 {
             let row1 = (row0 + band_rows).min(nr - 1); // rows row0..=row1 traced, cells row0..row1
-            let band = trace_band(&g, shape, cfg, row0, row1);
+            trace_band(&g, shape, cfg, row0, row1, &mut band);
             for (ri, (row, hit)) in band.iter().enumerate() {
                 // Count each grid row once (the band's last row is the next band's first).
                 if row0 + ri == row1 && row1 != nr - 1 {
@@ -976,7 +999,8 @@ pub fn trace_fields(shape: &DropShape, cfg: &TraceConfig, grid: DirectionGrid) -
                     }
                 }
             }
-            let (tris, flux) = build_triangles(&g, grid, &band, row0);
+            let flux = build_triangles(&g, grid, &band, row0, &mut parts);
+            sort_by_first_row(&parts, grid.n_polar, &mut tris);
             let reached = reach.clone();
             for t in &tris {
                 let (j0, j1) = (t.j0 as usize, t.j1 as usize);
@@ -995,7 +1019,6 @@ pub fn trace_fields(shape: &DropShape, cfg: &TraceConfig, grid: DirectionGrid) -
                     }
                 });
             }
-            let tris = sort_by_first_row(tris, grid.n_polar);
             patch_flux.iter_mut().zip(flux).for_each(|(a, b)| *a += b);
             rasterise(&g, grid, &band, &tris, &sc_th, &mut rows);
             row0 = row1;
