@@ -30,8 +30,9 @@
 //! triangles partition the sphere without gaps or double counting.
 //!
 //! **Acceleration / parallelism.** Rays are traced in bands of grid rows (rayon over rows);
-//! each band's triangles are binned by polar table row (a CSR binning grid over direction) and
-//! rasterised with rayon over table rows, so memory stays bounded by the band and the table.
+//! each band's triangles are binned by block of polar table rows (a CSR binning grid over
+//! direction) and rasterised with rayon over blocks, so memory stays bounded by the band and the
+//! table.
 
 use super::shape::{DropShape, add, cross, dot, normalize, scale, sub};
 use crate::optics::fresnel::{fresnel_amplitudes_real, power_consistent_transmission};
@@ -121,6 +122,47 @@ fn zeroed_accumulators(n: usize) -> Vec<Complex32> {
             std::alloc::handle_alloc_error(layout);
         }
         Vec::from_raw_parts(p, n, n)
+    }
+}
+
+/// Map the pages of accumulators `acc`, which nothing has written yet (all zero), as written
+/// memory before the rasteriser adds to them. The rasteriser's first access to a page is a
+/// read-modify-write: the read maps the shared zero page and the write then copies it, which
+/// flushes the other threads' TLB entries by interrupt (a third of the build's kernel time);
+/// populating the rows of an order when its reach grows maps each page once, in one call per
+/// row. Values are unchanged (zero).
+fn fault_in(acc: &mut [Complex32]) {
+    const PAGE: usize = 4096;
+    if acc.is_empty() {
+        return;
+    }
+    #[cfg(target_os = "linux")]
+    {
+        let p = acc.as_mut_ptr() as usize;
+        let start = p.next_multiple_of(PAGE);
+        let end = (p + std::mem::size_of_val(acc)) / PAGE * PAGE;
+        // SAFETY: `start..end` lies inside `acc`, which we borrow mutably; populating writable
+        // pages changes no contents (the memory is zero either way).
+        if end > start
+            && unsafe {
+                libc::madvise(
+                    start as *mut libc::c_void,
+                    end - start,
+                    libc::MADV_POPULATE_WRITE,
+                )
+            } == 0
+        {
+            // The partial pages at both ends.
+            let last = acc.len() - 1;
+            acc[0] = Complex32::new(0.0, 0.0);
+            acc[last] = Complex32::new(0.0, 0.0);
+            return;
+        }
+    }
+    // Elsewhere (or on a kernel without MADV_POPULATE_WRITE): write one zero per page.
+    let step = PAGE / std::mem::size_of::<Complex32>();
+    for i in (0..acc.len()).step_by(step).chain([acc.len() - 1]) {
+        acc[i] = Complex32::new(0.0, 0.0);
     }
 }
 
@@ -497,22 +539,39 @@ fn ray_flux(r: &RayOut) -> f64 {
         + r.eb.iter().map(|z| z.norm_sqr()).sum::<f64>())
 }
 
-/// Step 1: trace grid rows `row0..=row1` (rayon over rows).
-fn trace_band(g: &RayGrid, shape: &DropShape, cfg: &TraceConfig, row0: usize, row1: usize) -> Band {
-    (row0..=row1)
-        .into_par_iter()
-        .map(|i| {
-            let mut row = vec![INVALID; g.nr * g.orders];
-            let mut hit = 0;
+/// Step 1: trace grid rows `row0..=row1` into `band` (rayon over rows), whose row buffers are
+/// reused from band to band (fresh ones cost a page fault per 4 KiB every band); a non-empty
+/// `band` holds the previous band, which ended at row `row0`.
+fn trace_band(
+    g: &RayGrid,
+    shape: &DropShape,
+    cfg: &TraceConfig,
+    row0: usize,
+    row1: usize,
+    band: &mut Band,
+) {
+    // The previous band's last row is this band's first: moved, not traced again.
+    let reuse_first = !band.is_empty();
+    if reuse_first {
+        let last = band.len() - 1;
+        band.swap(0, last);
+    }
+    band.resize_with(row1 - row0 + 1, || (vec![INVALID; g.nr * g.orders], 0));
+    band.par_iter_mut()
+        .enumerate()
+        .for_each(|(ri, (row, hit))| {
+            if ri == 0 && reuse_first {
+                return;
+            }
+            let i = row0 + ri;
+            *hit = 0;
             for (j, slot) in row.chunks_mut(g.orders).enumerate() {
                 let (u, v) = (g.u_at(i), g.v_at(j));
                 if trace_ray(shape, &g.fr, g.dist, cfg.n, cfg.max_order, u, v, slot) {
-                    hit += 1;
+                    *hit += 1;
                 }
             }
-            (row, hit)
-        })
-        .collect()
+        });
 }
 
 /// Direction-space extent of a triangle: polar rows `j0..=j1`, azimuth columns `k0..=k1`
@@ -557,8 +616,8 @@ fn triangle_extent(
         if hi - lo >= 0.5 * PI {
             full = true;
         } else {
-            k0 = (lo / dph).ceil() as i64;
-            k1 = (hi / dph).floor() as i64;
+            k0 = ceil_i64(lo / dph);
+            k1 = floor_i64(hi / dph);
             if k1 < k0 {
                 return None;
             }
@@ -587,8 +646,8 @@ fn triangle_extent(
     let margin = lmax * lmax * (0.5 + 0.5 / sin_min) + 1e-12;
     let tlo = if forward { 0.0 } else { th_min - margin };
     let thi = if backward { PI } else { th_max + margin };
-    let j0 = (tlo / dth).ceil().max(0.0) as i64;
-    let j1 = ((thi / dth).floor() as i64).min(grid.n_polar as i64 - 1);
+    let j0 = ceil_i64(tlo / dth).max(0);
+    let j1 = floor_i64(thi / dth).min(grid.n_polar as i64 - 1);
     if j1 < j0 {
         return None;
     }
@@ -599,6 +658,29 @@ fn triangle_extent(
         k1,
         full,
     })
+}
+
+/// `x.ceil() as i64` (saturating, NaN → 0) without the library call `ceil` compiles to on
+/// baseline x86-64 (it is called for ≈ 100 M candidate triangles at the seed resolution).
+#[inline]
+fn ceil_i64(x: f64) -> i64 {
+    let t = x as i64;
+    if (t as f64) < x {
+        t.saturating_add(1)
+    } else {
+        t
+    }
+}
+
+/// `x.floor() as i64` (saturating, NaN → 0) without the library call `floor`.
+#[inline]
+fn floor_i64(x: f64) -> i64 {
+    let t = x as i64;
+    if (t as f64) > x {
+        t.saturating_sub(1)
+    } else {
+        t
+    }
 }
 
 /// `(x + π).rem_euclid(2π) − π` (the angle `x` wrapped into [−π, π)), bit for bit, without the
@@ -709,17 +791,22 @@ fn make_triangle(
     Some((t, flux))
 }
 
-/// Step 2: the triangles of a band (rayon over grid rows) and the flux per order they carry.
+/// Step 2: the triangles of a band (rayon over grid rows) into `parts`, one list per grid row of
+/// cells in ray-grid order (the lists are reused from band to band), and the flux per order
+/// they carry.
 fn build_triangles(
     g: &RayGrid,
     grid: DirectionGrid,
     band: &Band,
     row0: usize,
-) -> (Vec<Tri>, Vec<f64>) {
-    let built: Vec<(Vec<Tri>, Vec<f64>)> = (0..band.len() - 1)
-        .into_par_iter()
-        .map(|i| {
-            let mut tris: Vec<Tri> = Vec::new();
+    parts: &mut Vec<Vec<Tri>>,
+) -> Vec<f64> {
+    parts.resize_with(band.len() - 1, Vec::new);
+    let row_flux: Vec<Vec<f64>> = parts
+        .par_iter_mut()
+        .enumerate()
+        .map(|(i, tris)| {
+            tris.clear();
             let mut flux = vec![0.0; g.orders];
             for j in 0..g.nr - 1 {
                 let (a, b, c, d) = ((i, j), (i + 1, j), (i + 1, j + 1), (i, j + 1));
@@ -732,58 +819,73 @@ fn build_triangles(
                     }
                 }
             }
-            (tris, flux)
+            flux
         })
         .collect();
-    let mut tris = Vec::new();
     let mut flux = vec![0.0; g.orders];
-    for (t, f) in built {
-        tris.extend(t);
+    for f in row_flux {
         flux.iter_mut().zip(f).for_each(|(a, b)| *a += b);
     }
-    (tris, flux)
+    flux
 }
 
-/// Step 3a: the triangles in order of their first polar row (a stable counting sort, so
-/// triangles of one row keep their ray-grid order). Rasterising goes row by row, and a triangle
-/// is visited from every row it spans: in this order the triangles a row visits lie together in
-/// memory and mostly stay cached from the previous row (in ray-grid order they are scattered
-/// over the band, and fetching them dominated the rasteriser's time).
-fn sort_by_first_row(tris: Vec<Tri>, n_polar: usize) -> Vec<Tri> {
+/// Step 3a: the triangles of `parts` (taken in order) into `out` in order of their first polar
+/// row (a stable counting sort, so triangles of one row keep their ray-grid order), straight
+/// from the per-row lists into the buffer `out` reuses from band to band. Rasterising goes block
+/// of rows by block, and a triangle is visited from every block it spans: in this order the
+/// triangles a block visits lie together in memory (in ray-grid order they are scattered over
+/// the band, and fetching them dominated the rasteriser's time).
+fn sort_by_first_row(parts: &[Vec<Tri>], n_polar: usize, out: &mut Vec<Tri>) {
+    let n: usize = parts.iter().map(Vec::len).sum();
     let mut start = vec![0usize; n_polar + 1];
-    for t in &tris {
+    for t in parts.iter().flatten() {
         start[t.j0 as usize + 1] += 1;
     }
     for j in 0..n_polar {
         start[j + 1] += start[j];
     }
-    let mut order = vec![0u32; tris.len()];
-    for (ti, t) in tris.iter().enumerate() {
+    out.clear();
+    out.reserve(n);
+    let slots = &mut out.spare_capacity_mut()[..n];
+    for t in parts.iter().flatten() {
         let slot = &mut start[t.j0 as usize];
-        order[*slot] = ti as u32;
+        slots[*slot].write(*t);
         *slot += 1;
     }
-    order.into_iter().map(|ti| tris[ti as usize]).collect()
+    // Each first row's slots start[j]..start[j + 1] (before the scatter advanced them) received
+    // exactly its triangles, so the scatter ended with every start at the next row's beginning.
+    assert_eq!(start[n_polar - 1], n, "counting sort filled every slot");
+    // SAFETY: the counting sort wrote each of the first `n` slots exactly once (checked above:
+    // the slots of the rows partition 0..n and each row's were all written), and `reserve(n)`
+    // made room for them.
+    unsafe { out.set_len(n) };
 }
 
-/// Step 3b: triangle indices binned by polar table row (CSR: row `j` lists
-/// `idx[counts[j]..counts[j + 1]]`).
-fn bin_by_polar_row(tris: &[Tri], n_polar: usize) -> (Vec<u32>, Vec<u32>) {
-    let mut counts = vec![0u32; n_polar + 1];
+/// Polar rows per block of the rasteriser: a triangle spans ≈ 7 rows on average at the seed
+/// resolution (0.0125° × 0.2° pixels), so it is fetched once per block it overlaps (mostly one)
+/// instead of once per row (blocks of 64 rows measured the same).
+const RASTER_BLOCK_ROWS: usize = 16;
+
+/// Step 3b: triangle indices binned by block of [`RASTER_BLOCK_ROWS`] polar table rows (CSR:
+/// block `b` lists `idx[counts[b]..counts[b + 1]]`, in triangle order).
+fn bin_by_row_block(tris: &[Tri], n_polar: usize) -> (Vec<u32>, Vec<u32>) {
+    let n_blocks = n_polar.div_ceil(RASTER_BLOCK_ROWS);
+    let blocks = |t: &Tri| t.j0 as usize / RASTER_BLOCK_ROWS..=t.j1 as usize / RASTER_BLOCK_ROWS;
+    let mut counts = vec![0u32; n_blocks + 1];
     for t in tris {
-        for j in t.j0..=t.j1 {
-            counts[j as usize + 1] += 1;
+        for b in blocks(t) {
+            counts[b + 1] += 1;
         }
     }
-    for j in 0..n_polar {
-        counts[j + 1] += counts[j];
+    for b in 0..n_blocks {
+        counts[b + 1] += counts[b];
     }
     let mut fill = counts.clone();
-    let mut idx = vec![0u32; counts[n_polar] as usize];
+    let mut idx = vec![0u32; counts[n_blocks] as usize];
     for (ti, t) in tris.iter().enumerate() {
-        for j in t.j0..=t.j1 {
-            idx[fill[j as usize] as usize] = ti as u32;
-            fill[j as usize] += 1;
+        for b in blocks(t) {
+            idx[fill[b] as usize] = ti as u32;
+            fill[b] += 1;
         }
     }
     (counts, idx)
@@ -821,75 +923,57 @@ fn triangle_field(
     ])
 }
 
-/// Hint the processor to bring `x`'s cache line into the cache (no effect on results).
-#[inline(always)]
-fn prefetch<T>(x: &T) {
-    #[cfg(target_arch = "x86_64")]
-    // SAFETY: a prefetch never faults and does not access memory architecturally; the pointer
-    // comes from a live reference.
-    unsafe {
-        std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(
-            (x as *const T).cast::<i8>(),
-        );
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = x;
-}
-
 /// Mutable views of the accumulators of one polar row, one `[azimuth][4]` slice per order.
 type RowViews<'a> = Vec<&'a mut [Complex32]>;
 
 /// Step 4: rasterise a band's triangles into the field accumulators `rows` (per polar row, one
-/// view per order; rayon over table rows).
+/// view per order; rayon over blocks of [`RASTER_BLOCK_ROWS`] rows). `sc_th` holds the sine and
+/// cosine of every row's polar angle. Within a block the triangles are taken in their sorted
+/// order and each adds to all its rows of the block, so every pixel receives its contributions
+/// in the same order as row by row (the sums are bit-identical), with one fetch of a triangle
+/// per block instead of one per row.
 fn rasterise(
     g: &RayGrid,
     grid: DirectionGrid,
     band: &Band,
     tris: &[Tri],
+    sc_th: &[(f64, f64)],
     rows: &mut [RowViews<'_>],
 ) {
-    let (counts, idx) = bin_by_polar_row(tris, grid.n_polar);
+    let (counts, idx) = bin_by_row_block(tris, grid.n_polar);
     let flat: Vec<&RayOut> = band.iter().flat_map(|(r, _)| r.iter()).collect();
-    let (dth, dph) = (grid.polar_step(), grid.azimuth_step());
+    let dph = grid.azimuth_step();
     let sc_ph: Vec<(f64, f64)> = (0..grid.n_azimuth)
         .map(|k| (dph * k as f64).sin_cos())
         .collect();
     let na = grid.n_azimuth as i64;
-    rows.par_iter_mut().enumerate().for_each(|(j, row)| {
-        let list = &idx[counts[j] as usize..counts[j + 1] as usize];
-        if list.is_empty() {
-            return;
-        }
-        let (st, ct) = (dth * j as f64).sin_cos();
-        for (n, &ti) in list.iter().enumerate() {
-            let t = &tris[ti as usize];
-            // The accumulators a triangle adds to are rarely cached (each pixel gets a few
-            // triangles over the whole trace): fetch the next triangle's while this one computes.
-            if let Some(&next) = list.get(n + 1) {
-                let u = &tris[next as usize];
-                if !u.full {
-                    let acc = &row[u.order as usize];
-                    for kk in u.k0..=u.k1.min(u.k0 + 3) {
-                        prefetch(&acc[kk.rem_euclid(na) as usize * 4]);
+    rows.par_chunks_mut(RASTER_BLOCK_ROWS)
+        .enumerate()
+        .for_each(|(b, block)| {
+            let list = &idx[counts[b] as usize..counts[b + 1] as usize];
+            let first = b * RASTER_BLOCK_ROWS;
+            let last = first + block.len() - 1;
+            for &ti in list {
+                let t = &tris[ti as usize];
+                let (ka, kb) = if t.full { (0, na - 1) } else { (t.k0, t.k1) };
+                for j in (t.j0 as usize).max(first)..=(t.j1 as usize).min(last) {
+                    let (st, ct) = sc_th[j];
+                    let acc = &mut *block[j - first][t.order as usize];
+                    for kk in ka..=kb {
+                        let k = kk.rem_euclid(na) as usize;
+                        let (sp, cp) = sc_ph[k];
+                        let radial = add(scale(g.fr.e1, cp), scale(g.fr.e2, sp));
+                        let r = add(scale(g.fr.d, ct), scale(radial, st));
+                        let Some(vals) = triangle_field(g, t, &flat, r, (sp, cp)) else {
+                            continue;
+                        };
+                        for (acc, v) in acc[k * 4..k * 4 + 4].iter_mut().zip(vals) {
+                            *acc += Complex32::new(v.re as f32, v.im as f32);
+                        }
                     }
                 }
             }
-            let acc = &mut *row[t.order as usize];
-            let (ka, kb) = if t.full { (0, na - 1) } else { (t.k0, t.k1) };
-            for kk in ka..=kb {
-                let k = kk.rem_euclid(na) as usize;
-                let (sp, cp) = sc_ph[k];
-                let radial = add(scale(g.fr.e1, cp), scale(g.fr.e2, sp));
-                let r = add(scale(g.fr.d, ct), scale(radial, st));
-                let Some(vals) = triangle_field(g, t, &flat, r, (sp, cp)) else {
-                    continue;
-                };
-                for (acc, v) in acc[k * 4..k * 4 + 4].iter_mut().zip(vals) {
-                    *acc += Complex32::new(v.re as f32, v.im as f32);
-                }
-            }
-        }
-    });
+        });
 }
 
 /// Trace the drop and accumulate the coherent far fields of every order on `grid`: rows of
@@ -925,11 +1009,19 @@ pub fn trace_fields(shape: &DropShape, cfg: &TraceConfig, grid: DirectionGrid) -
                 rows.push(per_order.iter_mut().map(|it| it.next().unwrap()).collect());
             }
         }
+        let sc_th: Vec<(f64, f64)> = (0..grid.n_polar)
+            .map(|j| (grid.polar_step() * j as f64).sin_cos())
+            .collect();
         let band_rows = (RAYS_PER_BAND / (nr * orders)).clamp(2, nr - 1);
+        // Buffers reused from band to band: the traced rows, the triangles per row of cells and
+        // all the band's triangles in rasterising order.
+        let mut band: Band = Vec::new();
+        let mut parts: Vec<Vec<Tri>> = Vec::new();
+        let mut tris: Vec<Tri> = Vec::new();
         let mut row0 = 0usize;
         while row0 < nr - 1 {
             let row1 = (row0 + band_rows).min(nr - 1); // rows row0..=row1 traced, cells row0..row1
-            let band = trace_band(&g, shape, cfg, row0, row1);
+            trace_band(&g, shape, cfg, row0, row1, &mut band);
             for (ri, (row, hit)) in band.iter().enumerate() {
                 // Count each grid row once (the band's last row is the next band's first).
                 if row0 + ri == row1 && row1 != nr - 1 {
@@ -942,15 +1034,28 @@ pub fn trace_fields(shape: &DropShape, cfg: &TraceConfig, grid: DirectionGrid) -
                     }
                 }
             }
-            let (tris, flux) = build_triangles(&g, grid, &band, row0);
+            let flux = build_triangles(&g, grid, &band, row0, &mut parts);
+            sort_by_first_row(&parts, grid.n_polar, &mut tris);
+            let reached = reach.clone();
             for t in &tris {
                 let (j0, j1) = (t.j0 as usize, t.j1 as usize);
                 let r = &mut reach[t.order as usize];
                 *r = Some(r.map_or((j0, j1), |(a, b)| (a.min(j0), b.max(j1))));
             }
-            let tris = sort_by_first_row(tris, grid.n_polar);
+            if reach != reached {
+                let within = |r: Option<(usize, usize)>, j: usize| {
+                    r.is_some_and(|(a, b)| (a..=b).contains(&j))
+                };
+                rows.par_iter_mut().enumerate().for_each(|(j, row)| {
+                    for (o, acc) in row.iter_mut().enumerate() {
+                        if within(reach[o], j) && !within(reached[o], j) {
+                            fault_in(acc);
+                        }
+                    }
+                });
+            }
             patch_flux.iter_mut().zip(flux).for_each(|(a, b)| *a += b);
-            rasterise(&g, grid, &band, &tris, &mut rows);
+            rasterise(&g, grid, &band, &tris, &sc_th, &mut rows);
             row0 = row1;
         }
     }
@@ -986,6 +1091,43 @@ mod tests {
         for a in args {
             let want = (a + PI).rem_euclid(2.0 * PI) - PI;
             assert_eq!(wrap_angle(a).to_bits(), want.to_bits(), "{a}");
+        }
+    }
+
+    /// The call-free integer ceiling and floor equal the library's, cast to i64.
+    #[test]
+    fn integer_ceil_floor_match_the_library() {
+        let mut x = 0x2545_f491_4f6c_dd1d_u64;
+        let mut args = vec![
+            0.0,
+            -0.0,
+            0.5,
+            -0.5,
+            1.0,
+            -1.0,
+            f64::NAN,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            9.223372036854776e18,
+            -9.223372036854776e18,
+            1e30,
+            -1e30,
+            4503599627370495.5,
+            f64::MIN_POSITIVE,
+            -f64::MIN_POSITIVE,
+        ];
+        for _ in 0..200_000 {
+            x = x
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            let u = (x >> 11) as f64 / (1u64 << 53) as f64 - 0.5;
+            args.push(u * 4e4);
+            args.push(u * 3.0);
+            args.push((u * 2e4).round() + [0.0, 1e-12, -1e-12][(x % 3) as usize]);
+        }
+        for a in args {
+            assert_eq!(ceil_i64(a), a.ceil() as i64, "ceil {a}");
+            assert_eq!(floor_i64(a), a.floor() as i64, "floor {a}");
         }
     }
 
