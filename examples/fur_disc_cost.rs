@@ -2,9 +2,10 @@
 //! non-negative h' rows of its 64-point h' axis, 720 bins), single-threaded:
 //! `cargo run --release --example fur_disc_cost -- SIGMA...` (default 5 10 15 20). Prints the
 //! grid size, the GMRES iterations summed over g and the wall time per σ. Settings may be
-//! overridden with DISC_DIRECTIONS, DISC_TOL, DISC_TRACK, DISC_CPM, DISC_RINGS, DISC_INTERIOR,
-//! DISC_MAX_CELL.
-use scatterbake::fur::disc::{DiscSettings, DiscSolver};
+//! overridden by the environment variables of `common/disc_settings.rs`.
+#[path = "common/disc_settings.rs"]
+mod disc_settings;
+use scatterbake::fur::disc::DiscSolver;
 use std::time::Instant;
 
 fn main() {
@@ -15,32 +16,7 @@ fn main() {
     if sigmas.is_empty() {
         sigmas = vec![5.0, 10.0, 15.0, 20.0];
     }
-    let mut s = DiscSettings::default();
-    let env = |k: &str| std::env::var(k).ok().map(|v| v.parse::<f64>().unwrap());
-    if let Some(v) = env("DISC_DIRECTIONS") {
-        s.directions = v as usize;
-    }
-    if let Some(v) = env("DISC_LINEAR") {
-        s.linear_source = v != 0.0;
-    }
-    if let Some(v) = env("DISC_TOL") {
-        s.tolerance = v;
-    }
-    if let Some(v) = env("DISC_TRACK") {
-        s.track_spacing = v;
-    }
-    if let Some(v) = env("DISC_CPM") {
-        s.cells_per_mean_free_path = v;
-    }
-    if let Some(v) = env("DISC_RINGS") {
-        s.boundary_rings_per_mean_free_path = v;
-    }
-    if let Some(v) = env("DISC_INTERIOR") {
-        s.interior_cell_mean_free_paths = v;
-    }
-    if let Some(v) = env("DISC_MAX_CELL") {
-        s.max_cell = v;
-    }
+    let s = disc_settings::disc_settings_from_env();
     let hs: Vec<f64> = (32..64).map(|i| -1.0 + 2.0 * i as f64 / 63.0).collect();
     let gs: Vec<f64> = (0..16).map(|j| 0.8 * j as f64 / 15.0).collect();
     let mut total = 0.0;

@@ -12,10 +12,12 @@
 //! REF_MAX_PHOTONS (default 4e6) set the adaptive reference's target relative error and photon
 //! cap (use a separate CACHE_DIR per target).
 //! VALIDATION_DETAIL=1 prints each point's five bins of largest |z| on stderr.
-//! Settings may be overridden with DISC_CPM, DISC_RINGS, DISC_ARC, DISC_GROWTH, DISC_MAX_CELL,
-//! DISC_DIRECTIONS, DISC_TRACK, DISC_TOL; DISC_RICHARDSON=p extrapolates against a grid twice as
+//! Settings may be overridden by the environment variables of `common/disc_settings.rs`;
+//! DISC_RICHARDSON=p extrapolates against a grid twice as
 //! coarse assuming order p (measured: p = 2 lowers the mean z² against the Monte Carlo from 2.4
 //! to 1.35 but raises the maximum deviation at some points, so the solver does not use it).
+#[path = "common/disc_settings.rs"]
+mod disc_settings;
 use rayon::prelude::*;
 use scatterbake::fur::disc::{DiscSettings, solve_disc};
 use scatterbake::fur::medulla::{Estimator, Geometry, McSettings, simulate};
@@ -99,38 +101,7 @@ fn main() {
     let dir = std::env::args()
         .nth(1)
         .unwrap_or_else(|| "/tmp/fur-disc-mc".into());
-    let mut s = DiscSettings::default();
-    let env = |k: &str| std::env::var(k).ok().map(|v| v.parse::<f64>().unwrap());
-    if let Some(v) = env("DISC_CPM") {
-        s.cells_per_mean_free_path = v;
-    }
-    if let Some(v) = env("DISC_RINGS") {
-        s.boundary_rings_per_mean_free_path = v;
-    }
-    if let Some(v) = env("DISC_ARC") {
-        s.arc_ratio = v;
-    }
-    if let Some(v) = env("DISC_INTERIOR") {
-        s.interior_cell_mean_free_paths = v;
-    }
-    if let Some(v) = env("DISC_LINEAR") {
-        s.linear_source = v != 0.0;
-    }
-    if let Some(v) = env("DISC_TOL") {
-        s.tolerance = v;
-    }
-    if let Some(v) = env("DISC_GROWTH") {
-        s.ring_growth = v;
-    }
-    if let Some(v) = env("DISC_MAX_CELL") {
-        s.max_cell = v;
-    }
-    if let Some(v) = env("DISC_DIRECTIONS") {
-        s.directions = v as usize;
-    }
-    if let Some(v) = env("DISC_TRACK") {
-        s.track_spacing = v;
-    }
+    let s = disc_settings::disc_settings_from_env();
     let points: Vec<(f64, f64, f64)> = vec![
         (0.13, 0.05, 0.33),
         (0.41, 0.61, -0.84),
@@ -168,7 +139,7 @@ fn main() {
             let t = Instant::now();
             let mut d = solve_disc(sigma, g, &[h], &s);
             // Optional Richardson extrapolation against a grid twice as coarse (order p).
-            if let Some(p) = env("DISC_RICHARDSON") {
+            if let Some(p) = std::env::var("DISC_RICHARDSON").ok().map(|v| v.parse::<f64>().unwrap()) {
                 let coarse = DiscSettings {
                     cells_per_mean_free_path: 0.5 * s.cells_per_mean_free_path,
                     boundary_rings_per_mean_free_path: 0.5 * s.boundary_rings_per_mean_free_path,

@@ -546,6 +546,12 @@ impl Grid {
         self.theta.len()
     }
 
+    /// Unit vector of direction `d`.
+    fn dir(&self, d: usize) -> [f64; 2] {
+        let (sn, cs) = self.theta[d].sin_cos();
+        [cs, sn]
+    }
+
     /// Directions carrying unknowns (the upper half circle).
     fn mh(&self) -> usize {
         self.theta.len() / 2
@@ -743,6 +749,24 @@ impl<'a> PlaneWave<'a> {
     /// inverse second-moment matrix of the cell (Ferrer & Rhodes 2016).
     fn transport_linear(&self, qs: &[f64], out: &mut [f64]) {
         let gr = self.grid;
+        let len = gr.mh() * gr.ncell();
+        self.sweep_linear(out, |d, _, s, c| {
+            let (u, base, dx) = (gr.dir(d), d * gr.ncell(), gr.seg_dx[s]);
+            let (q, qx, qy) = (qs[base + c], qs[len + base + c], qs[2 * len + base + c]);
+            (q + qx * dx[0] + qy * dx[1], qx * u[0] + qy * u[1])
+        });
+    }
+
+    /// The linear-source sweep shared by [`Self::transport_linear`] and
+    /// [`Self::first_scatter_linear`]: `source(d, track, segment, cell)` gives the segment's
+    /// source per σ as (Q₀ at its midpoint, Q₁ along the track); `out` receives the cell means
+    /// and derivatives, [component][direction][cell].
+    fn sweep_linear(
+        &self,
+        out: &mut [f64],
+        source: impl Fn(usize, usize, usize, usize) -> (f64, f64),
+    ) {
+        let gr = self.grid;
         let (ncell, mh) = (gr.ncell(), gr.mh());
         let len = mh * ncell;
         out.fill(0.0);
@@ -750,10 +774,7 @@ impl<'a> PlaneWave<'a> {
         let (ox, oy) = rest.split_at_mut(len);
         for d in 0..mh {
             let base = d * ncell;
-            let u = [gr.theta[d].cos(), gr.theta[d].sin()];
-            let q = &qs[base..base + ncell];
-            let qx = &qs[len + base..len + base + ncell];
-            let qy = &qs[2 * len + base..2 * len + base + ncell];
+            let u = gr.dir(d);
             let o0 = &mut o0[base..base + ncell];
             let ox = &mut ox[base..base + ncell];
             let oy = &mut oy[base..base + ncell];
@@ -761,9 +782,8 @@ impl<'a> PlaneWave<'a> {
                 let mut psi = 0.0;
                 for s in gr.track_seg[tr]..gr.track_seg[tr + 1] {
                     let c = gr.seg_cell[s] as usize;
+                    let (q0, q1) = source(d, tr, s, c);
                     let dx = gr.seg_dx[s];
-                    let q0 = q[c] + qx[c] * dx[0] + qy[c] * dx[1];
-                    let q1 = qx[c] * u[0] + qy[c] * u[1];
                     let (i0, i1, next) =
                         linear_segment(psi, q0, q1, self.fac.e[s], &self.fac.linear[s]);
                     o0[c] += i0;
@@ -794,50 +814,28 @@ impl<'a> PlaneWave<'a> {
     /// two Gauss–Legendre points.
     fn first_scatter_linear(&self, g: f64) -> Vec<f64> {
         let gr = self.grid;
-        let (ncell, mh) = (gr.ncell(), gr.mh());
-        let len = mh * ncell;
         let sigma = self.sigma;
-        let mut out = vec![0.0; 3 * len];
-        let (o0, rest) = out.split_at_mut(len);
-        let (ox, oy) = rest.split_at_mut(len);
         let gl = [0.5 - 0.5 / 3f64.sqrt(), 0.5 + 0.5 / 3f64.sqrt()];
-        for d in 0..mh {
-            let th = gr.theta[d];
-            let u = [th.cos(), th.sin()];
-            let rho = planar_hg_density(th - PI, g);
-            let base = d * ncell;
-            let o0 = &mut o0[base..base + ncell];
-            let ox = &mut ox[base..base + ncell];
-            let oy = &mut oy[base..base + ncell];
-            for tr in gr.dir_tracks[d].clone() {
-                let p = gr.track_start[tr];
-                let mut psi = 0.0;
-                for s in gr.track_seg[tr]..gr.track_seg[tr + 1] {
-                    let c = gr.seg_cell[s] as usize;
-                    let l = gr.seg_len[s];
-                    let v = gl.map(|a| {
-                        let t = gr.seg_t0[s] + a * l;
-                        let (x, y) = (p[0] + t * u[0], p[1] + t * u[1]);
-                        let depth = ((1.0 - y * y).max(0.0).sqrt() - x).max(0.0);
-                        rho * (-sigma * depth).exp()
-                    });
-                    let q0 = 0.5 * (v[0] + v[1]);
-                    let q1 = if l > 0.0 {
-                        (v[1] - v[0]) * 3f64.sqrt() / l
-                    } else {
-                        0.0
-                    };
-                    let dx = gr.seg_dx[s];
-                    let (i0, i1, next) =
-                        linear_segment(psi, q0, q1, self.fac.e[s], &self.fac.linear[s]);
-                    o0[c] += i0;
-                    ox[c] += dx[0] * i0 + u[0] * i1;
-                    oy[c] += dx[1] * i0 + u[1] * i1;
-                    psi = next;
-                }
-            }
-            self.moments_to_linear(d, o0, ox, oy);
-        }
+        let rho: Vec<f64> = gr.theta[..gr.mh()]
+            .iter()
+            .map(|&th| planar_hg_density(th - PI, g))
+            .collect();
+        let mut out = vec![0.0; 3 * gr.mh() * gr.ncell()];
+        self.sweep_linear(&mut out, |d, tr, s, _| {
+            let (u, p, l) = (gr.dir(d), gr.track_start[tr], gr.seg_len[s]);
+            let v = gl.map(|a| {
+                let t = gr.seg_t0[s] + a * l;
+                let (x, y) = (p[0] + t * u[0], p[1] + t * u[1]);
+                let depth = ((1.0 - y * y).max(0.0).sqrt() - x).max(0.0);
+                rho[d] * (-sigma * depth).exp()
+            });
+            let q1 = if l > 0.0 {
+                (v[1] - v[0]) * 3f64.sqrt() / l
+            } else {
+                0.0
+            };
+            (0.5 * (v[0] + v[1]), q1)
+        });
         out
     }
 
