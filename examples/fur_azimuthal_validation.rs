@@ -8,6 +8,8 @@
 //! (z with both standard errors), plus the adaptive run's worst relative standard error, photons
 //! and seconds. Relative deviations include the analog's own noise; z² ≈ 1 means agreement
 //! within the error bars. CSV on stdout, one line per point (any order).
+#[path = "common/held_out.rs"]
+mod held_out;
 use rayon::prelude::*;
 use scatterbake::fur::medulla::{Estimator, Geometry, McSettings, simulate};
 use scatterbake::fur::medulla_fast::{AdaptiveProfile, AdaptiveSettings, simulate_adaptive};
@@ -17,34 +19,7 @@ fn main() {
     let args: Vec<String> = std::env::args().collect();
     let cap: u64 = args.get(1).map_or(1024, |s| s.parse().unwrap());
     let nh: u64 = args.get(2).map_or(2_000_000, |s| s.parse().unwrap());
-    // Held out: none of these σ, g, h' is on the default or thesis grids (except σ = 20 and
-    // g = 0.8, the grid's corner, with off-grid h').
-    let points: Vec<(f64, f64, f64)> = vec![
-        (0.13, 0.05, 0.33),
-        (0.41, 0.61, -0.84),
-        (0.77, 0.33, 0.05),
-        (1.2, 0.8, 0.71),
-        (1.9, 0.05, -0.47),
-        (1.9, 0.47, 0.12),
-        (2.6, 0.72, 0.93),
-        (3.3, 0.19, 0.61),
-        (3.3, 0.61, -0.23),
-        (4.4, 0.8, 0.38),
-        (5.1, 0.33, -0.71),
-        (6.2, 0.75, 0.03),
-        (7.4, 0.05, 0.19),
-        (8.7, 0.61, -0.56),
-        (9.9, 0.47, 0.81),
-        (12.6, 0.19, -0.09),
-        (12.6, 0.8, 0.44),
-        (15.3, 0.61, -0.33),
-        (17.7, 0.33, 0.66),
-        (20.0, 0.05, -0.15),
-        (20.0, 0.47, 0.52),
-        (20.0, 0.8, 0.07),
-        (20.0, 0.8, -0.63),
-        (20.0, 0.8, 0.96),
-    ];
+    let points = held_out::AZIMUTHAL_HELD_OUT;
     println!(
         "sigma,g,h,bins,median_rel_se_analog,capped_photons,capped_worst_rel_se,capped_max_rel_dev,capped_median_rel_dev,capped_mean_z2,capped_max_abs_z,capped_s,target_photons,target_worst_rel_se,target_max_rel_dev,target_median_rel_dev,target_mean_z2,target_max_abs_z,target_s,analog_s"
     );

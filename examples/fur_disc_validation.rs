@@ -18,6 +18,8 @@
 //! to 1.35 but raises the maximum deviation at some points, so the solver does not use it).
 #[path = "common/disc_settings.rs"]
 mod disc_settings;
+#[path = "common/held_out.rs"]
+mod held_out;
 use rayon::prelude::*;
 use scatterbake::fur::disc::{DiscSettings, solve_disc};
 use scatterbake::fur::medulla::{Estimator, Geometry, McSettings, simulate};
@@ -102,32 +104,7 @@ fn main() {
         .nth(1)
         .unwrap_or_else(|| "/tmp/fur-disc-mc".into());
     let s = disc_settings::disc_settings_from_env();
-    let points: Vec<(f64, f64, f64)> = vec![
-        (0.13, 0.05, 0.33),
-        (0.41, 0.61, -0.84),
-        (0.77, 0.33, 0.05),
-        (1.2, 0.8, 0.71),
-        (1.9, 0.05, -0.47),
-        (1.9, 0.47, 0.12),
-        (2.6, 0.72, 0.93),
-        (3.3, 0.19, 0.61),
-        (3.3, 0.61, -0.23),
-        (4.4, 0.8, 0.38),
-        (5.1, 0.33, -0.71),
-        (6.2, 0.75, 0.03),
-        (7.4, 0.05, 0.19),
-        (8.7, 0.61, -0.56),
-        (9.9, 0.47, 0.81),
-        (12.6, 0.19, -0.09),
-        (12.6, 0.8, 0.44),
-        (15.3, 0.61, -0.33),
-        (17.7, 0.33, 0.66),
-        (20.0, 0.05, -0.15),
-        (20.0, 0.47, 0.52),
-        (20.0, 0.8, 0.07),
-        (20.0, 0.8, -0.63),
-        (20.0, 0.8, 0.96),
-    ];
+    let points = held_out::AZIMUTHAL_HELD_OUT;
     println!(
         "sigma,g,h,bins,disc_s,energy_identity_rel,median_rel_dev,p90_rel_dev,max_rel_dev,max_at_deg,mean_z2,max_abs_z,median_mc_rel_se,path_median_rel_dev,path_max_rel_dev,analog_mean_z2,analog_max_abs_z,analog_median_rel_se,analog_median_rel_dev,analog_max_rel_dev"
     );
