@@ -20,6 +20,57 @@ fn rel_l2(a: &[f64], b: &[f64]) -> f64 {
     (num / den).sqrt()
 }
 
+/// The uniform sun disc of angular diameter `diam_deg` averaged over the sphere of directions,
+/// as `render` does it: each pixel (polar row `j`, azimuth column `k`) becomes the
+/// solid-angle-weighted mean of the pixels whose centres lie within the disc's radius of its own
+/// centre (great-circle distance; pixel solid angle ∝ sin θ). Rows `rows` only; `cols[k][j]`.
+fn sun_disc_2d(
+    cols: &[Vec<f64>],
+    pstep_deg: f64,
+    astep_deg: f64,
+    diam_deg: f64,
+    rows: std::ops::RangeInclusive<usize>,
+) -> Vec<Vec<f64>> {
+    let na = cols.len();
+    let np = cols[0].len() as i64;
+    let (pstep, astep) = (pstep_deg.to_radians(), astep_deg.to_radians());
+    let cos_r = (0.5 * diam_deg).to_radians().cos();
+    let dj_max = (0.5 * diam_deg / pstep_deg).ceil() as i64;
+    let mut out = vec![vec![0.0; rows.clone().count()]; na];
+    for (i, j) in rows.enumerate() {
+        let th = j as f64 * pstep;
+        // Per row offset: the azimuth columns within the disc, and the row's weight.
+        let mut spans = Vec::new();
+        for dj in -dj_max..=dj_max {
+            let jj = j as i64 + dj;
+            if jj < 0 || jj >= np {
+                continue;
+            }
+            let th2 = jj as f64 * pstep;
+            let (s, s2) = (th.sin(), th2.sin());
+            let c = (cos_r - th.cos() * th2.cos()) / (s * s2);
+            if c > 1.0 {
+                continue;
+            }
+            let dphi = c.max(-1.0).acos();
+            let dk = (dphi / astep).floor() as i64;
+            spans.push((jj as usize, dk, s2));
+        }
+        for (k, o) in out.iter_mut().enumerate() {
+            let (mut sum, mut wsum) = (0.0, 0.0);
+            for &(jj, dk, w) in &spans {
+                for d in -dk..=dk {
+                    let kk = (k as i64 + d).rem_euclid(na as i64) as usize;
+                    sum += w * cols[kk][jj];
+                    wsum += w;
+                }
+            }
+            o[i] = sum / wsum;
+        }
+    }
+    out
+}
+
 fn maxima(angles: &[f64], v: &[f64], lo: f64, hi: f64, floor: f64) -> Vec<f64> {
     (1..v.len() - 1)
         .filter(|&i| {
@@ -114,14 +165,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         };
         let (sm, sx) = spread(&cols);
         let raw_rows = row_spread(&cols);
-        if let Some(dir) = std::env::var_os("SPREAD_CSV_DIR") {
-            let mut csv = String::from("theta_deg,spread_raw,mean,mie\n");
-            for (i, r) in raw_rows.iter().enumerate() {
-                let j = lo + i;
-                csv += &format!("{},{r},{},{}\n", angles[j], mean[j], mie[j]);
-            }
-            std::fs::write(std::path::Path::new(&dir).join(format!("{model}.csv")), csv)?;
-        }
+        let discs: Vec<Vec<f64>> = cols.iter().map(|c| sun_disc(c, pstep, 0.5)).collect();
+        let disc_rows = row_spread(&discs);
         // Largest raw spread around the primary and secondary caustics.
         let caustic_spread = raw_rows
             .iter()
@@ -135,8 +180,33 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let worst_row = (0..raw_rows.len())
             .max_by(|&x, &y| raw_rows[x].total_cmp(&raw_rows[y]))
             .unwrap_or(0);
-        let discs: Vec<Vec<f64>> = cols.iter().map(|c| sun_disc(c, pstep, 0.5)).collect();
         let (dm, dx) = spread(&discs);
+        // The disc over the sphere of directions (what `render` shows): rows lo..=hi only.
+        let discs_2d = sun_disc_2d(&cols, pstep, astep, 0.5, lo..=hi);
+        let disc2_rows: Vec<f64> = (0..=hi - lo)
+            .map(|i| {
+                let m = discs_2d.iter().map(|c| c[i]).sum::<f64>() / na as f64;
+                let var = discs_2d.iter().map(|c| (c[i] - m).powi(2)).sum::<f64>() / na as f64;
+                var.sqrt() / m
+            })
+            .collect();
+        let (d2m, d2x, d2_row) = {
+            let mut s = disc2_rows.clone();
+            s.sort_by(f64::total_cmp);
+            let worst = (0..disc2_rows.len())
+                .max_by(|&x, &y| disc2_rows[x].total_cmp(&disc2_rows[y]))
+                .unwrap_or(0);
+            (s[s.len() / 2], s[s.len() - 1], angles[lo + worst])
+        };
+        if let Some(dir) = std::env::var_os("SPREAD_CSV_DIR") {
+            let mut csv =
+                String::from("theta_deg,spread_raw,spread_disc,spread_disc_2d,mean,mie\n");
+            for (i, ((r, d), d2)) in raw_rows.iter().zip(&disc_rows).zip(&disc2_rows).enumerate() {
+                let j = lo + i;
+                csv += &format!("{},{r},{d},{d2},{},{}\n", angles[j], mean[j], mie[j]);
+            }
+            std::fs::write(std::path::Path::new(&dir).join(format!("{model}.csv")), csv)?;
+        }
         let s2 = gaussian_blur_1d(&mean, 1.0, sig);
         let mx = maxima(
             &angles,
@@ -166,6 +236,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             "{model:>10}: worst raw-spread row {:.4}°, largest raw spread at the caustics (136.8–138.5°, 128.8–130.4°) {:.2} %, dark-side (137–137.9°) maxima of the mean {dark:?}",
             angles[lo + worst_row],
             100.0 * caustic_spread
+        );
+        println!(
+            "{model:>10}: spread after the disc over the sphere of directions (as rendered): median {:.3} % max {:.3} % (at {d2_row:.4}°)",
+            100.0 * d2m,
+            100.0 * d2x
         );
         println!(
             "{model:>10}: L2 (mean, disc) {:.2} %, worst column {:.2} %, spread raw median {:.2} % max {:.2} %, after disc median {:.3} % max {:.3} %, maxima {:?} (max dev {:.3}°), trace {secs:.1} s",

@@ -390,11 +390,11 @@ fn trace_ray(
     let eb: CVec = [one * fr.e2[0], one * fr.e2[1], one * fr.e2[2]];
     let mut l = h.t;
     let sp = interact(fr.d, h.normal, 1.0, n, &ea, &eb);
-    let pa = polar_azimuth(fr, sp.refl_dir);
+    let (pa, sin_polar) = polar_azimuth(fr, sp.refl_dir);
     out[0] = RayOut {
         dir: sp.refl_dir,
         pa,
-        sin_polar: pa.0.sin(),
+        sin_polar,
         ea: sp.refl.0,
         eb: sp.refl.1,
         l: l + dist - dot(h.point, sp.refl_dir),
@@ -412,11 +412,11 @@ fn trace_ray(
         pos = hh.point;
         let sp = interact(dir, hh.normal, n, 1.0, &fa, &fb);
         if let Some((td, ta, tb)) = sp.trans {
-            let pa = polar_azimuth(fr, td);
+            let (pa, sin_polar) = polar_azimuth(fr, td);
             *slot = RayOut {
                 dir: td,
                 pa,
-                sin_polar: pa.0.sin(),
+                sin_polar,
                 ea: ta,
                 eb: tb,
                 l: l + dist - dot(pos, td),
@@ -453,9 +453,16 @@ fn lex_less(a: [f64; 3], b: [f64; 3]) -> bool {
     (a[0], a[1], a[2]) < (b[0], b[1], b[2])
 }
 
-fn polar_azimuth(fr: &Frame, w: [f64; 3]) -> (f64, f64) {
+/// Polar angle and azimuth of the unit direction `w` in the table frame, and the sine of the
+/// polar angle (from its cosine, `(1 − c)(1 + c)` keeping the relative precision near the poles;
+/// it only widens the triangles' row margins, which are conservative by far more than its last
+/// bits).
+fn polar_azimuth(fr: &Frame, w: [f64; 3]) -> ((f64, f64), f64) {
     let c = dot(w, fr.d).clamp(-1.0, 1.0);
-    (c.acos(), dot(w, fr.e2).atan2(dot(w, fr.e1)))
+    (
+        (c.acos(), dot(w, fr.e2).atan2(dot(w, fr.e1))),
+        ((1.0 - c) * (1.0 + c)).sqrt(),
+    )
 }
 
 /// Inside test with exact-orientation tie-break (see module docs).
@@ -658,6 +665,20 @@ fn triangle_extent(
         k1,
         full,
     })
+}
+
+/// `k.rem_euclid(na)` without the integer division (called per pixel test): triangle extents
+/// reach at most a few half-turns beyond `0..na`, so a correction or two suffices.
+#[inline]
+fn wrap_column(k: i64, na: i64) -> usize {
+    let mut k = k;
+    while k < 0 {
+        k += na;
+    }
+    while k >= na {
+        k -= na;
+    }
+    k as usize
 }
 
 /// `x.ceil() as i64` (saturating, NaN → 0) without the library call `ceil` compiles to on
@@ -926,6 +947,51 @@ fn triangle_field(
 /// Mutable views of the accumulators of one polar row, one `[azimuth][4]` slice per order.
 type RowViews<'a> = Vec<&'a mut [Complex32]>;
 
+/// How many triangles ahead of the one being rasterised [`prefetch_triangle`] reaches.
+const PREFETCH_AHEAD: usize = 4;
+
+/// Hint the cache to load what rasterising triangle `t` in the block of rows starting at
+/// `first` will read: its three corner rays and, in each of its rows of the block, the
+/// accumulator lines at the ends of its azimuth range. Each accumulator value receives about one
+/// contribution in the whole trace at the seed resolution, so nearly every access misses the
+/// caches; issuing the loads a few triangles early overlaps their latency. A hint only: no
+/// value or summation order changes.
+#[inline]
+fn prefetch_triangle(t: &Tri, flat: &[&RayOut], block: &[RowViews<'_>], first: usize, na: i64) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
+        for &c in &t.corners {
+            let r: *const RayOut = flat[c as usize];
+            // SAFETY: prefetching is a hint with no architectural effect, valid for any address;
+            // `r` points into a live allocation anyway.
+            unsafe {
+                _mm_prefetch::<_MM_HINT_T0>(r.cast());
+                _mm_prefetch::<_MM_HINT_T0>(r.cast::<i8>().wrapping_add(64));
+                _mm_prefetch::<_MM_HINT_T0>(r.cast::<i8>().wrapping_add(128));
+            }
+        }
+        if t.full {
+            return;
+        }
+        let last = first + block.len() - 1;
+        let (ka, kb) = (wrap_column(t.k0, na), wrap_column(t.k1, na));
+        for j in (t.j0 as usize).max(first)..=(t.j1 as usize).min(last) {
+            let row = &block[j - first][t.order as usize];
+            // Two azimuth values (2 × 32 bytes) share a cache line.
+            let kb_line = if kb / 2 != ka / 2 { Some(kb) } else { None };
+            for k in std::iter::once(ka).chain(kb_line) {
+                if let Some(v) = row.get(k * 4) {
+                    // SAFETY: as above; `v` is a live element.
+                    unsafe { _mm_prefetch::<_MM_HINT_T0>((v as *const Complex32).cast()) };
+                }
+            }
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = (t, flat, block, first, na);
+}
+
 /// Step 4: rasterise a band's triangles into the field accumulators `rows` (per polar row, one
 /// view per order; rayon over blocks of [`RASTER_BLOCK_ROWS`] rows). `sc_th` holds the sine and
 /// cosine of every row's polar angle. Within a block the triangles are taken in their sorted
@@ -953,14 +1019,17 @@ fn rasterise(
             let list = &idx[counts[b] as usize..counts[b + 1] as usize];
             let first = b * RASTER_BLOCK_ROWS;
             let last = first + block.len() - 1;
-            for &ti in list {
+            for (n, &ti) in list.iter().enumerate() {
+                if let Some(&ahead) = list.get(n + PREFETCH_AHEAD) {
+                    prefetch_triangle(&tris[ahead as usize], &flat, block, first, na);
+                }
                 let t = &tris[ti as usize];
                 let (ka, kb) = if t.full { (0, na - 1) } else { (t.k0, t.k1) };
                 for j in (t.j0 as usize).max(first)..=(t.j1 as usize).min(last) {
                     let (st, ct) = sc_th[j];
                     let acc = &mut *block[j - first][t.order as usize];
                     for kk in ka..=kb {
-                        let k = kk.rem_euclid(na) as usize;
+                        let k = wrap_column(kk, na);
                         let (sp, cp) = sc_ph[k];
                         let radial = add(scale(g.fr.e1, cp), scale(g.fr.e2, sp));
                         let r = add(scale(g.fr.d, ct), scale(radial, st));
@@ -1095,6 +1164,19 @@ mod tests {
     }
 
     /// The call-free integer ceiling and floor equal the library's, cast to i64.
+    #[test]
+    fn wrap_column_matches_rem_euclid() {
+        for na in [1i64, 7, 1800] {
+            for k in -3 * na..3 * na {
+                assert_eq!(
+                    wrap_column(k, na),
+                    k.rem_euclid(na) as usize,
+                    "k = {k}, na = {na}"
+                );
+            }
+        }
+    }
+
     #[test]
     fn integer_ceil_floor_match_the_library() {
         let mut x = 0x2545_f491_4f6c_dd1d_u64;
