@@ -90,9 +90,11 @@ impl MixtureEntry {
     }
 }
 
-/// Default handover radius (µm): above it the size parameter at 700 nm exceeds ~900 and the
-/// 1-D traced path is within a few per cent of Mie at the bows (docs/raytrace.md).
-pub const DEFAULT_HANDOVER_UM: f64 = 100.0;
+/// Default handover radius (µm): where Beard–Chuang drops depart from the sphere (a ≤ 0.4 mm is
+/// a sphere, as in Sadeghi 2012), so below it Lorenz–Mie is exact for the drops the traced
+/// tables assume. Ray optics misses 12–16 % of Alexander's dark band at 0.1–0.2 mm and is within
+/// 10 % of it from 0.4 mm up with orders to 6 (docs/raytrace.md, decision RT-15).
+pub const DEFAULT_HANDOVER_UM: f64 = 400.0;
 
 /// Smallest radius the traced path accepts (µm), as the `raytrace` stage.
 const MIN_TRACED_UM: f64 = 10.0;
@@ -123,7 +125,8 @@ filtered_phase_params! {
 impl StageSpec for MixtureStage {
     const NAME: &'static str = "mixture";
     /// 2: curved-surface coefficients in the traced path (RT-29), `max_order` default 6 (RT-30).
-    const VERSION: u32 = 2;
+    /// 3: `handover_radius_um` default 400 µm (RT-15).
+    const VERSION: u32 = 3;
     const SUMMARY: &'static str = "drop-size mixtures: Lorenz–Mie for small drops, traced spheres for large ones, weighted by number × scattering cross-section";
     type Params = MixtureParams;
     fn plan_params(&self, p: MixtureParams) -> Result<Box<dyn Job>, PlanError> {
@@ -367,6 +370,34 @@ mod tests {
         let m = run_in_memory(&*plan_from_lines(&MixtureStage, &lines(1000.0)).unwrap()).unwrap();
         let j = (138.0f64 / 0.5) as usize;
         assert!((t.data[j * 4] - m.data[j * 4]).abs() > 1e-4 * m.data[j * 4]);
+    }
+
+    /// With the default handover, a Marshall–Palmer mixture reaching past it (50–600 µm: traced
+    /// above 400 µm, orders to 6) keeps Alexander's dark band (mean phase over 131–136°) within
+    /// 5 % of the `mie` stage's table of the same radii and weights; a handover at 100 µm, which
+    /// traces the 0.1–0.4 mm drops, is further from it.
+    #[test]
+    fn default_handover_keeps_alexanders_band_close_to_mie() {
+        let mp = "{ kind = \"marshall-palmer\", rain_rate_mm_h = 5.0, min_radius_um = 50.0, max_radius_um = 600.0 }";
+        let common = format!(
+            "wavelengths_nm = [650.0]\nangle_step_deg = 0.5\nradius_points = 8\ndistributions = [{mp}]\n"
+        );
+        let run = |stage: &dyn crate::stages::Stage, extra: &str| {
+            run_in_memory(&*plan_from_lines(stage, &format!("{common}{extra}")).unwrap()).unwrap()
+        };
+        let band = |t: &crate::table::TableContent| -> f64 {
+            let (lo, hi) = ((131.0f64 / 0.5) as usize, (136.0f64 / 0.5) as usize);
+            (lo..=hi).map(|j| t.data[j * 4] as f64).sum::<f64>() / (hi - lo + 1) as f64
+        };
+        let mie = run(&crate::stages::mie::MieStage, "radius_tolerance = 0.0");
+        let mixed = run(&MixtureStage, "");
+        let early = run(&MixtureStage, "handover_radius_um = 100.0");
+        let f = mixed.attributes["traced_fraction"][0][0].as_f64().unwrap();
+        assert!(f > 0.0, "nothing traced (traced fraction {f})");
+        let (r, r_early) = (band(&mixed) / band(&mie), band(&early) / band(&mie));
+        println!("band over Mie: {r} (handover 100 µm: {r_early})");
+        assert!((r - 1.0).abs() < 0.05, "band over Mie {r}");
+        assert!((r - 1.0).abs() < (r_early - 1.0).abs(), "{r} vs {r_early}");
     }
 
     #[test]
