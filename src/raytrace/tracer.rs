@@ -1163,7 +1163,7 @@ mod tests {
         }
     }
 
-    /// The call-free integer ceiling and floor equal the library's, cast to i64.
+    /// The division-free column wrap equals `rem_euclid` over three turns either side.
     #[test]
     fn wrap_column_matches_rem_euclid() {
         for na in [1i64, 7, 1800] {
@@ -1177,6 +1177,7 @@ mod tests {
         }
     }
 
+    /// The call-free integer ceiling and floor equal the library's, cast to i64.
     #[test]
     fn integer_ceil_floor_match_the_library() {
         let mut x = 0x2545_f491_4f6c_dd1d_u64;
