@@ -1,11 +1,12 @@
 //! A sphere through the 2-D patch tracer (shape `profile` with a constant radius), against
 //! scatrs Lorenz–Mie, per diffraction model of the 2-D path: relative L2 of the azimuth-mean
 //! phase over 120–150° after a 0.5° sun disc, the worst column's L2, the azimuthal spread (std over
-//! azimuth / mean, per polar row over 120–150°, raw and after the disc), and the primary and
+//! azimuth / mean, per polar row over 120–150°: raw, after the disc along θ per column, and after
+//! the disc over the sphere of directions as `render` applies it), and the primary and
 //! supernumerary maxima (both smoothed by σ = 0.04°·(0.4 mm/a)).
 //!
 //! `cargo run --release --example sphere_2d_vs_mie -- [rays] [polar_step_deg] [azimuth_step_deg] [radius_um]`
-//! (with `SPREAD_CSV_DIR=dir`, the per-row spread and the azimuth mean over 120–150° are written
+//! (with `SPREAD_CSV_DIR=dir`, the per-row spreads and the azimuth mean over 120–150° are written
 //! to `dir/<model>.csv`)
 //! (default 600 0.0125 5 400; the seed resolution is 3000 0.0125 0.2).
 #[path = "common/mie_reference.rs"]
