@@ -24,7 +24,8 @@ fn rel_l2(a: &[f64], b: &[f64]) -> f64 {
 /// The uniform sun disc of angular diameter `diam_deg` averaged over the sphere of directions,
 /// as `render` does it: each pixel (polar row `j`, azimuth column `k`) becomes the
 /// solid-angle-weighted mean of the pixels whose centres lie within the disc's radius of its own
-/// centre (great-circle distance; pixel solid angle ∝ sin θ). Rows `rows` only; `cols[k][j]`.
+/// centre (great-circle distance; pixel solid angle ∝ sin θ). `cols[k][j]`; the result has the
+/// same layout, computed on rows `rows` only (zero elsewhere).
 fn sun_disc_2d(
     cols: &[Vec<f64>],
     pstep_deg: f64,
@@ -37,8 +38,8 @@ fn sun_disc_2d(
     let (pstep, astep) = (pstep_deg.to_radians(), astep_deg.to_radians());
     let cos_r = (0.5 * diam_deg).to_radians().cos();
     let dj_max = (0.5 * diam_deg / pstep_deg).ceil() as i64;
-    let mut out = vec![vec![0.0; rows.clone().count()]; na];
-    for (i, j) in rows.enumerate() {
+    let mut out = vec![vec![0.0; np as usize]; na];
+    for j in rows {
         let th = j as f64 * pstep;
         // Per row offset: the azimuth columns within the disc, and the row's weight.
         let mut spans = Vec::new();
@@ -66,7 +67,7 @@ fn sun_disc_2d(
                     wsum += w;
                 }
             }
-            o[i] = sum / wsum;
+            o[j] = sum / wsum;
         }
     }
     out
@@ -184,21 +185,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let (dm, dx) = spread(&discs);
         // The disc over the sphere of directions (what `render` shows): rows lo..=hi only.
         let discs_2d = sun_disc_2d(&cols, pstep, astep, 0.5, lo..=hi);
-        let disc2_rows: Vec<f64> = (0..=hi - lo)
-            .map(|i| {
-                let m = discs_2d.iter().map(|c| c[i]).sum::<f64>() / na as f64;
-                let var = discs_2d.iter().map(|c| (c[i] - m).powi(2)).sum::<f64>() / na as f64;
-                var.sqrt() / m
-            })
-            .collect();
-        let (d2m, d2x, d2_row) = {
-            let mut s = disc2_rows.clone();
-            s.sort_by(f64::total_cmp);
-            let worst = (0..disc2_rows.len())
+        let disc2_rows = row_spread(&discs_2d);
+        let (d2m, d2x) = spread(&discs_2d);
+        let d2_row = angles[lo
+            + (0..disc2_rows.len())
                 .max_by(|&x, &y| disc2_rows[x].total_cmp(&disc2_rows[y]))
-                .unwrap_or(0);
-            (s[s.len() / 2], s[s.len() - 1], angles[lo + worst])
-        };
+                .unwrap_or(0)];
         if let Some(dir) = std::env::var_os("SPREAD_CSV_DIR") {
             let mut csv =
                 String::from("theta_deg,spread_raw,spread_disc,spread_disc_2d,mean,mie\n");

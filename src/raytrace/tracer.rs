@@ -976,10 +976,10 @@ fn prefetch_triangle(t: &Tri, flat: &[&RayOut], block: &[RowViews<'_>], first: u
         }
         let last = first + block.len() - 1;
         let (ka, kb) = (wrap_column(t.k0, na), wrap_column(t.k1, na));
+        // Two azimuth values (2 × 32 bytes) share a cache line.
+        let kb_line = if kb / 2 != ka / 2 { Some(kb) } else { None };
         for j in (t.j0 as usize).max(first)..=(t.j1 as usize).min(last) {
             let row = &block[j - first][t.order as usize];
-            // Two azimuth values (2 × 32 bytes) share a cache line.
-            let kb_line = if kb / 2 != ka / 2 { Some(kb) } else { None };
             for k in std::iter::once(ka).chain(kb_line) {
                 if let Some(v) = row.get(k * 4) {
                     // SAFETY: as above; `v` is a live element.
