@@ -91,7 +91,8 @@ pub struct FieldGrid {
     pub reach: Vec<Option<(usize, usize)>>,
     /// Flux per order that left the drop (µm², ray-based: Σ cell area × |ε|²).
     pub order_cross_section_um2: Vec<f64>,
-    /// Flux per order carried by the retained (complete) triangles (µm²).
+    /// Flux per order carried by the complete, non-degenerate triangles (patches), including those
+    /// that span no pixel centre (µm²).
     pub patch_cross_section_um2: Vec<f64>,
     /// Projected area of the drop (µm², rays that hit × cell area).
     pub projected_area_um2: f64,
@@ -259,6 +260,8 @@ struct RayOut {
     ea: CVec,
     eb: CVec,
     l: f64,
+    /// Mean of the two inputs' |E|² it carries ([`ray_flux`]; zero for an invalid ray).
+    flux: f64,
     valid: bool,
 }
 
@@ -269,8 +272,26 @@ const INVALID: RayOut = RayOut {
     ea: [Complex64::new(0.0, 0.0); 3],
     eb: [Complex64::new(0.0, 0.0); 3],
     l: 0.0,
+    flux: 0.0,
     valid: false,
 };
+
+impl RayOut {
+    /// A valid outgoing ray along `dir` with fields `ea`, `eb` and optical path `l`.
+    fn new(fr: &Frame, dir: [f64; 3], ea: CVec, eb: CVec, l: f64) -> Self {
+        let (pa, sin_polar) = polar_azimuth(fr, dir);
+        RayOut {
+            dir,
+            pa,
+            sin_polar,
+            flux: ray_flux(&ea, &eb),
+            ea,
+            eb,
+            l,
+            valid: true,
+        }
+    }
+}
 
 struct Frame {
     d: [f64; 3],
@@ -390,16 +411,13 @@ fn trace_ray(
     let eb: CVec = [one * fr.e2[0], one * fr.e2[1], one * fr.e2[2]];
     let mut l = h.t;
     let sp = interact(fr.d, h.normal, 1.0, n, &ea, &eb);
-    let (pa, sin_polar) = polar_azimuth(fr, sp.refl_dir);
-    out[0] = RayOut {
-        dir: sp.refl_dir,
-        pa,
-        sin_polar,
-        ea: sp.refl.0,
-        eb: sp.refl.1,
-        l: l + dist - dot(h.point, sp.refl_dir),
-        valid: true,
-    };
+    out[0] = RayOut::new(
+        fr,
+        sp.refl_dir,
+        sp.refl.0,
+        sp.refl.1,
+        l + dist - dot(h.point, sp.refl_dir),
+    );
     let Some((mut dir, mut fa, mut fb)) = sp.trans else {
         return true;
     };
@@ -412,16 +430,7 @@ fn trace_ray(
         pos = hh.point;
         let sp = interact(dir, hh.normal, n, 1.0, &fa, &fb);
         if let Some((td, ta, tb)) = sp.trans {
-            let (pa, sin_polar) = polar_azimuth(fr, td);
-            *slot = RayOut {
-                dir: td,
-                pa,
-                sin_polar,
-                ea: ta,
-                eb: tb,
-                l: l + dist - dot(pos, td),
-                valid: true,
-            };
+            *slot = RayOut::new(fr, td, ta, tb, l + dist - dot(pos, td));
         }
         dir = sp.refl_dir;
         fa = sp.refl.0;
@@ -540,10 +549,10 @@ impl RayGrid {
 /// One band of traced grid rows: per row, the outgoing rays `[column][order]` and the hit count.
 type Band = Vec<(Vec<RayOut>, usize)>;
 
-/// Mean of the two inputs' |E|² carried by an outgoing ray.
-fn ray_flux(r: &RayOut) -> f64 {
-    0.5 * (r.ea.iter().map(|z| z.norm_sqr()).sum::<f64>()
-        + r.eb.iter().map(|z| z.norm_sqr()).sum::<f64>())
+/// Mean of the two inputs' |E|² carried by an outgoing ray of fields `ea`, `eb`.
+fn ray_flux(ea: &CVec, eb: &CVec) -> f64 {
+    0.5 * (ea.iter().map(|z| z.norm_sqr()).sum::<f64>()
+        + eb.iter().map(|z| z.norm_sqr()).sum::<f64>())
 }
 
 /// Step 1: trace grid rows `row0..=row1` into `band` (rayon over rows), whose row buffers are
@@ -739,8 +748,10 @@ fn focal_flag(uv: [(f64, f64); 3], l: [f64; 3]) -> bool {
     gl.0 * gb.0 + gl.1 * gb.1 > 0.0
 }
 
-/// One grid triangle `tri` (band-local (row, column) corners) of order `o`, ready for
-/// rasterisation, with the flux it carries; `None` for an incomplete or degenerate triangle.
+/// One grid triangle `tri` (band-local (row, column) corners) of order `o`: the flux the patch
+/// carries (zero for an incomplete or degenerate triangle) and, when it spans at least one
+/// pixel centre, the triangle ready for rasterisation. A patch between pixel centres still
+/// counts: the table point-samples patches, so it conserves their flux in expectation.
 fn make_triangle(
     g: &RayGrid,
     grid: DirectionGrid,
@@ -748,10 +759,10 @@ fn make_triangle(
     row0: usize,
     tri: [(usize, usize); 3],
     o: usize,
-) -> Option<(Tri, f64)> {
+) -> (Option<Tri>, f64) {
     let rs = tri.map(|(ii, jj)| &band[ii].0[jj * g.orders + o]);
     if !rs.iter().all(|r| r.valid) {
-        return None;
+        return (None, 0.0);
     }
     let mut v = rs.map(|r| r.dir);
     let mut corners = tri.map(|(ii, jj)| ((ii * g.nr + jj) * g.orders + o) as u32);
@@ -762,9 +773,11 @@ fn make_triangle(
     // most triangles, runs before the arctangent, the focal flag and the flux.
     let num = dot(v[0], cross(v[1], v[2]));
     let den = 1.0 + dot(v[0], v[1]) + dot(v[1], v[2]) + dot(v[2], v[0]);
-    if num.is_nan() || den.is_nan() {
-        return None;
+    if num.is_nan() || den.is_nan() || (num == 0.0 && (2.0 * num.atan2(den)).abs() <= 1e-300) {
+        return (None, 0.0);
     }
+    let area = 0.5 * g.cell;
+    let flux = rs.iter().map(|r| r.flux).sum::<f64>() / 3.0 * area;
     let negative = if num != 0.0 {
         num < 0.0
     } else {
@@ -777,15 +790,15 @@ fn make_triangle(
         sin_polar.swap(1, 2);
     }
     let edges = [cross(v[0], v[1]), cross(v[1], v[2]), cross(v[2], v[0])];
-    let ext = triangle_extent(&g.fr, grid, &v, &edges, &pa, &sin_polar)?;
+    let Some(ext) = triangle_extent(&g.fr, grid, &v, &edges, &pa, &sin_polar) else {
+        return (None, flux);
+    };
     let s = (2.0 * num.atan2(den)).abs();
     if s.is_nan() || s <= 1e-300 {
-        return None;
+        return (None, 0.0);
     }
     let uv = tri.map(|(ii, jj)| (g.u_at(row0 + ii), g.v_at(jj)));
     let focal = focal_flag(uv, rs.map(|r| r.l));
-    let area = 0.5 * g.cell;
-    let flux = rs.iter().map(|r| ray_flux(r)).sum::<f64>() / 3.0 * area;
     let ties = [
         lex_less(v[0], v[1]),
         lex_less(v[1], v[2]),
@@ -809,7 +822,7 @@ fn make_triangle(
         k1: ext.k1,
         full: ext.full,
     };
-    Some((t, flux))
+    (Some(t), flux)
 }
 
 /// Step 2: the triangles of a band (rayon over grid rows) into `parts`, one list per grid row of
@@ -833,10 +846,9 @@ fn build_triangles(
                 let (a, b, c, d) = ((i, j), (i + 1, j), (i + 1, j + 1), (i, j + 1));
                 for (o, flux_o) in flux.iter_mut().enumerate() {
                     for tri in [[a, b, c], [a, c, d]] {
-                        if let Some((t, f)) = make_triangle(g, grid, band, row0, tri, o) {
-                            *flux_o += f;
-                            tris.push(t);
-                        }
+                        let (t, f) = make_triangle(g, grid, band, row0, tri, o);
+                        *flux_o += f;
+                        tris.extend(t);
                     }
                 }
             }
@@ -1099,7 +1111,7 @@ pub fn trace_fields(shape: &DropShape, cfg: &TraceConfig, grid: DirectionGrid) -
                 hits += hit;
                 for r in row.chunks(orders) {
                     for (o, ro) in r.iter().enumerate().filter(|(_, ro)| ro.valid) {
-                        order_flux[o] += ray_flux(ro) * g.cell;
+                        order_flux[o] += ro.flux * g.cell;
                     }
                 }
             }
