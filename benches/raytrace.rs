@@ -11,7 +11,7 @@ use num_complex::Complex;
 use scatrs::mie::{AmplitudeBuffers, Mie, MieOptions};
 use scatterbake::raytrace::shape::DropShape;
 use scatterbake::raytrace::sphere1d::{Phase1dOptions, SphereGo, sphere_phase_1d};
-use scatterbake::raytrace::tracer::{DirectionGrid, TraceConfig, trace_fields};
+use scatterbake::raytrace::tracer::{DirectionGrid, RayGridLayout, TraceConfig, trace_fields};
 use std::f64::consts::PI;
 use std::hint::black_box;
 
@@ -71,6 +71,7 @@ fn tracer_2d(c: &mut Criterion) {
             sun_elevation_rad: 0.4,
             wavelength_nm: 650.0,
             n: 1.331,
+            ray_grid: RayGridLayout::Square,
         };
         g.throughput(Throughput::Elements((rays * rays) as u64));
         g.bench_function(format!("{name}_{rays}x{rays}_rays"), |b| {

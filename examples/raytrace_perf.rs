@@ -12,17 +12,24 @@
 //!   to compare two versions of the tracer;
 //! - `cargo run --release --example raytrace_perf -- profile` — a 600² sphere onto
 //!   3601 × 1800 directions, a target for `perf record`.
+//!
+//! `RAY_GRID=silhouette` traces the silhouette ray grid instead of the square one.
 
 use scatterbake::raytrace::shape::DropShape;
-use scatterbake::raytrace::tracer::{DirectionGrid, TraceConfig, trace_fields};
+use scatterbake::raytrace::tracer::{DirectionGrid, RayGridLayout, TraceConfig, trace_fields};
 
 fn config(rays: usize) -> TraceConfig {
+    let ray_grid = match std::env::var("RAY_GRID").as_deref() {
+        Ok("silhouette") => RayGridLayout::Silhouette,
+        _ => RayGridLayout::Square,
+    };
     TraceConfig {
         rays,
         max_order: 3,
         sun_elevation_rad: 0.4,
         wavelength_nm: 650.0,
         n: 1.331,
+        ray_grid,
     }
 }
 

@@ -6,7 +6,7 @@
 //! fall in [geometric, geometric + 1°].
 
 use scatterbake::raytrace::shape::{CosineSeries, DropShape};
-use scatterbake::raytrace::tracer::{DirectionGrid, TraceConfig, trace_fields};
+use scatterbake::raytrace::tracer::{DirectionGrid, RayGridLayout, TraceConfig, trace_fields};
 
 /// Primary-bow (one internal reflection) scattering angle of a 2-D ellipse
 /// `x² + (y/q)² = 1` lit along +x, in degrees: the minimum scattering angle over impact heights.
@@ -81,6 +81,7 @@ fn traced_primary_max_deg(shape: &DropShape, n: f64) -> (f64, f64) {
         sun_elevation_rad: 0.0,
         wavelength_nm: 650.0,
         n,
+        ray_grid: RayGridLayout::Square,
     };
     let grid = DirectionGrid {
         n_polar: 3601,

@@ -11,7 +11,7 @@ use scatterbake::raytrace::shape::{CosineSeries, DropShape, beard_chuang_coeffic
 #[allow(unused_imports)]
 use scatterbake::raytrace::sphere1d::DiffractionModel as _;
 use scatterbake::raytrace::sphere1d::{Phase1dOptions, SphereGo, sphere_phase_1d};
-use scatterbake::raytrace::tracer::{DirectionGrid, TraceConfig, trace_fields};
+use scatterbake::raytrace::tracer::{DirectionGrid, RayGridLayout, TraceConfig, trace_fields};
 use std::f64::consts::PI;
 
 /// Mie i_perp, i_par normalised to ∫ p dΩ = 1 (|S|²/(k² σ_sca)) at angles (deg).
@@ -171,6 +171,7 @@ fn compare_sphere_2d(
         sun_elevation_rad: elev,
         wavelength_nm: lambda,
         n,
+        ray_grid: RayGridLayout::Square,
     };
     let grid = DirectionGrid { n_polar, n_azimuth };
     let f = trace_fields(&shape, &cfg, grid);
@@ -357,6 +358,7 @@ fn beard_chuang_symmetries() {
         sun_elevation_rad: PI / 2.0,
         wavelength_nm: 650.0,
         n: 1.331,
+        ray_grid: RayGridLayout::Square,
     };
     let f = trace_fields(&bc, &cfg, grid);
     let angles: Vec<f64> = (0..1801).map(|j| 0.1 * j as f64).collect();
@@ -406,6 +408,7 @@ fn beard_chuang_symmetries() {
         sun_elevation_rad: 0.4,
         wavelength_nm: 650.0,
         n: 1.331,
+        ray_grid: RayGridLayout::Square,
     };
     let g = DirectionGrid {
         n_polar: 901,
@@ -466,6 +469,7 @@ fn beard_chuang_axis_symmetry_converges_with_rays() {
             sun_elevation_rad: PI / 2.0,
             wavelength_nm: 650.0,
             n: 1.331,
+            ray_grid: RayGridLayout::Square,
         };
         let t = std::time::Instant::now();
         let f = trace_fields(&bc, &cfg, grid);
@@ -537,6 +541,7 @@ fn zero_series_drop_is_the_sphere() {
             sun_elevation_rad: 0.4,
             wavelength_nm: 650.0,
             n: 1.331,
+            ray_grid: RayGridLayout::Square,
         };
         let g = DirectionGrid {
             n_polar: 901,
@@ -863,6 +868,7 @@ fn beard_chuang_reciprocity_in_the_vertical_plane() {
             sun_elevation_rad: elev_deg.to_radians(),
             wavelength_nm: 650.0,
             n: 1.331,
+            ray_grid: RayGridLayout::Square,
         };
         let f = trace_fields(&bc, &cfg, grid);
         let (j0, j1) = (1390, 1410);
@@ -915,6 +921,7 @@ fn beard_chuang_bow_shift_with_radius() {
             sun_elevation_rad: 0.0,
             wavelength_nm: 650.0,
             n,
+            ray_grid: RayGridLayout::Square,
         };
         let grid = DirectionGrid {
             n_polar: 3601,
@@ -999,6 +1006,7 @@ fn beard_chuang_tables_conserve_energy_per_order() {
             sun_elevation_rad: f64::to_radians(e),
             wavelength_nm: 550.0,
             n: 1.333,
+            ray_grid: RayGridLayout::Square,
         };
         let grid = DirectionGrid {
             n_polar: 1801,

@@ -25,7 +25,7 @@ use scatterbake::debye::{DebyeCoefficients, OrderSet};
 use scatterbake::optics::water::WaterIndexModel;
 use scatterbake::raytrace::shape::DropShape;
 use scatterbake::raytrace::sphere1d::{Phase1dOptions, SphereGo, sphere_phase_1d};
-use scatterbake::raytrace::tracer::{DirectionGrid, TraceConfig, trace_fields};
+use scatterbake::raytrace::tracer::{DirectionGrid, RayGridLayout, TraceConfig, trace_fields};
 use std::f64::consts::PI;
 
 const LAMBDA_NM: f64 = 650.0;
@@ -300,6 +300,7 @@ fn compare_2d(rays: usize, n_azimuth: usize) -> Vec<OrderFigures> {
         sun_elevation_rad: 17f64.to_radians(),
         wavelength_nm: LAMBDA_NM,
         n,
+        ray_grid: RayGridLayout::Square,
     };
     let n_polar = 9001;
     let f = trace_fields(

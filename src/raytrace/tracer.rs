@@ -55,6 +55,28 @@ pub struct TraceConfig {
     pub wavelength_nm: f64,
     /// Relative refractive index of the drop.
     pub n: f64,
+    /// Where the `rays × rays` grid puts its rays in the emitting plane.
+    pub ray_grid: RayGridLayout,
+}
+
+/// Layout of the `N × N` ray grid in the emitting plane (decision RT-31).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum RayGridLayout {
+    /// Evenly spaced over the silhouette's bounding box (Sadeghi 2012): ≈ π/4 of the rays hit a
+    /// round drop, and the rays' spacing is the same at the silhouette's edge as at its centre.
+    #[default]
+    Square,
+    /// The index square mapped onto the silhouette: Shirley & Chiu's (1997) concentric
+    /// equal-area map of the square onto the disc gives each index ring `s = max(|ξ1|, |ξ2|)` an
+    /// angle ψ along it, and the ring lands at `ρ = R(ψ) sin(π s / 2)`, where `R(ψ)` is the
+    /// silhouette's radius towards ψ (exact for spheres, bisected on hits for other shapes, in
+    /// 4096 directions). Every ray hits, the outermost ring follows the silhouette, and the
+    /// radial spacing falls as `cos(π s / 2)` towards the edge: the rays near grazing incidence
+    /// (where the outer branches of p ≥ 2 come from) are ≈ √N-fold denser than on the square
+    /// grid, the centre (π/2)² ≈ 2.5× sparser in area. Each ray's quadrature weight is the map's
+    /// Jacobian; each triangle carries the flux of its own area.
+    Silhouette,
 }
 
 /// Uniform direction grid: polar θ_j = j·Δθ over [0°, 180°], azimuth φ_k = k·Δφ over [0°, 360°).
@@ -497,6 +519,10 @@ fn inside(t: &Tri, r: [f64; 3]) -> Option<[f64; 3]> {
 /// The emitting-plane ray grid and the quantities shared by every step of one trace.
 struct RayGrid {
     fr: Frame,
+    layout: RayGridLayout,
+    /// `Silhouette` layout: the silhouette's radius (µm) towards ψ_m = 2π m / M, m = 0..=M
+    /// (the last repeats the first); empty for `Square`.
+    silhouette_um: Vec<f64>,
     /// Rays per side.
     nr: usize,
     orders: usize,
@@ -524,8 +550,15 @@ impl RayGrid {
         let h1 = 2.0 * w1 / (nr - 1) as f64;
         let h2 = 2.0 * w2 / (nr - 1) as f64;
         let dist = 2.0 * shape.bounding_radius_um() + 1.0;
+        let fr = frame(cfg.sun_elevation_rad);
+        let silhouette_um = match cfg.ray_grid {
+            RayGridLayout::Square => Vec::new(),
+            RayGridLayout::Silhouette => silhouette_radii(shape, &fr, dist, w1.hypot(w2)),
+        };
         RayGrid {
-            fr: frame(cfg.sun_elevation_rad),
+            fr,
+            layout: cfg.ray_grid,
+            silhouette_um,
             nr,
             orders: cfg.max_order + 1,
             w1,
@@ -544,10 +577,127 @@ impl RayGrid {
     fn v_at(&self, j: usize) -> f64 {
         -self.w2 + self.h2 * j as f64
     }
+
+    /// Index-square coordinates of grid point (i, j) in [−1, 1]².
+    fn unit_square(&self, i: usize, j: usize) -> (f64, f64) {
+        let h = 2.0 / (self.nr - 1) as f64;
+        (-1.0 + h * i as f64, -1.0 + h * j as f64)
+    }
+
+    /// The silhouette's radius (µm) towards ψ (radians), interpolated linearly in ψ.
+    fn silhouette_at(&self, psi: f64) -> f64 {
+        let m = self.silhouette_um.len() - 1;
+        let t = psi.rem_euclid(2.0 * PI) / (2.0 * PI) * m as f64;
+        let k = (t as usize).min(m - 1);
+        let f = t - k as f64;
+        self.silhouette_um[k] * (1.0 - f) + self.silhouette_um[k + 1] * f
+    }
+
+    /// Emitting-plane coordinates (u along e1, v along e2; µm) of grid point (i, j).
+    fn point(&self, i: usize, j: usize) -> (f64, f64) {
+        match self.layout {
+            RayGridLayout::Square => (self.u_at(i), self.v_at(j)),
+            RayGridLayout::Silhouette => {
+                let (x, y) = self.unit_square(i, j);
+                let (s, psi) = concentric(x, y);
+                let rho = self.silhouette_at(psi) * (0.5 * PI * s).sin();
+                let (sp, cp) = psi.sin_cos();
+                (rho * cp, rho * sp)
+            }
+        }
+    }
+
+    /// Quadrature weight (µm²) of the ray at grid point (i, j): the cell area for `Square`, the
+    /// map's Jacobian times the index cell for `Silhouette` (zero on the outer ring).
+    fn weight(&self, i: usize, j: usize) -> f64 {
+        match self.layout {
+            RayGridLayout::Square => self.cell,
+            RayGridLayout::Silhouette => {
+                let h = 2.0 / (self.nr - 1) as f64;
+                let (x, y) = self.unit_square(i, j);
+                let (s, psi) = concentric(x, y);
+                let r = self.silhouette_at(psi);
+                // ρ ∂ρ/∂s with ρ = R sin(πs/2), over s (the concentric map's dψ ds = π/(4s) dξ²).
+                let q = 0.5 * PI * s;
+                let g_dg_over_s = if s > 0.0 {
+                    q.sin() * 0.5 * PI * q.cos() / s
+                } else {
+                    0.25 * PI * PI
+                };
+                r * r * g_dg_over_s * 0.25 * PI * h * h
+            }
+        }
+    }
 }
 
-/// One band of traced grid rows: per row, the outgoing rays `[column][order]` and the hit count.
-type Band = Vec<(Vec<RayOut>, usize)>;
+/// Shirley & Chiu's (1997) concentric map of the square [−1, 1]² onto the unit disc: the ring
+/// `s = max(|x|, |y|)` and the angle ψ ∈ [0, 2π) along it (linear along each side of the ring),
+/// rotated by [`CONCENTRIC_OFFSET_RAD`].
+fn concentric(x: f64, y: f64) -> (f64, f64) {
+    if x == 0.0 && y == 0.0 {
+        return (0.0, 0.0);
+    }
+    let (s, psi) = if x.abs() >= y.abs() {
+        (x.abs(), 0.25 * PI * (y / x) + if x < 0.0 { PI } else { 0.0 })
+    } else {
+        (
+            y.abs(),
+            0.5 * PI - 0.25 * PI * (x / y) + if y < 0.0 { PI } else { 0.0 },
+        )
+    };
+    (s, (psi + CONCENTRIC_OFFSET_RAD).rem_euclid(2.0 * PI))
+}
+
+/// Rotation of the concentric map (radians). The map's derivative jumps on the square's
+/// diagonals, and on a sphere the rays there leave at azimuths 45° + k·90°, where table columns
+/// lie for most azimuth steps: the pixel centres then sit on triangle edges, and rounding can
+/// give a pixel to both triangles (raw values up to 5.7× too high in single pixels, measured at
+/// 600² rays, 0.0125° × 5°). A rotation that is no rational multiple of π keeps every such
+/// edge off the columns of any azimuth grid that divides 360°.
+const CONCENTRIC_OFFSET_RAD: f64 = 0.1;
+
+/// Directions ψ in which [`silhouette_radii`] bisects the silhouette's radius.
+const SILHOUETTE_DIRECTIONS: usize = 4096;
+
+/// The silhouette's radius (µm) seen along the incident direction, towards ψ_m = 2π m / M in the
+/// emitting plane (m = 0..=M, the last repeating the first): the largest ρ whose ray hits,
+/// bisected between the centre and `rho_max` (silhouettes star-shaped about the projected
+/// centre, as every drop shape here). Exact for spheres.
+fn silhouette_radii(shape: &DropShape, fr: &Frame, dist: f64, rho_max: f64) -> Vec<f64> {
+    let m = SILHOUETTE_DIRECTIONS;
+    let mut r: Vec<f64> = match shape {
+        DropShape::Sphere { radius_um } => vec![*radius_um; m],
+        _ => (0..m)
+            .into_par_iter()
+            .map(|k| {
+                let (sp, cp) = (2.0 * PI * k as f64 / m as f64).sin_cos();
+                let hits = |rho: f64| {
+                    let o = add(
+                        add(scale(fr.e1, rho * cp), scale(fr.e2, rho * sp)),
+                        scale(fr.d, -dist),
+                    );
+                    shape.intersect(o, fr.d, false).is_some()
+                };
+                let (mut lo, mut hi) = (0.0, rho_max * 1.01);
+                for _ in 0..52 {
+                    let mid = 0.5 * (lo + hi);
+                    if hits(mid) {
+                        lo = mid;
+                    } else {
+                        hi = mid;
+                    }
+                }
+                lo
+            })
+            .collect(),
+    };
+    r.push(r[0]);
+    r
+}
+
+/// One band of traced grid rows: per row, the outgoing rays `[column][order]`, the hit count
+/// and per column the ray's emitting-plane point and quadrature weight `(u, v, w)` (µm, µm²).
+type Band = Vec<(Vec<RayOut>, usize, Vec<(f64, f64, f64)>)>;
 
 /// Mean of the two inputs' |E|² carried by an outgoing ray of fields `ea`, `eb`.
 fn ray_flux(ea: &CVec, eb: &CVec) -> f64 {
@@ -572,17 +722,20 @@ fn trace_band(
         let last = band.len() - 1;
         band.swap(0, last);
     }
-    band.resize_with(row1 - row0 + 1, || (vec![INVALID; g.nr * g.orders], 0));
+    band.resize_with(row1 - row0 + 1, || {
+        (vec![INVALID; g.nr * g.orders], 0, vec![(0.0, 0.0, 0.0); g.nr])
+    });
     band.par_iter_mut()
         .enumerate()
-        .for_each(|(ri, (row, hit))| {
+        .for_each(|(ri, (row, hit, points))| {
             if ri == 0 && reuse_first {
                 return;
             }
             let i = row0 + ri;
             *hit = 0;
-            for (j, slot) in row.chunks_mut(g.orders).enumerate() {
-                let (u, v) = (g.u_at(i), g.v_at(j));
+            for (j, (slot, pt)) in row.chunks_mut(g.orders).zip(points.iter_mut()).enumerate() {
+                let (u, v) = g.point(i, j);
+                *pt = (u, v, g.weight(i, j));
                 if trace_ray(shape, &g.fr, g.dist, cfg.n, cfg.max_order, u, v, slot) {
                     *hit += 1;
                 }
@@ -756,7 +909,6 @@ fn make_triangle(
     g: &RayGrid,
     grid: DirectionGrid,
     band: &Band,
-    row0: usize,
     tri: [(usize, usize); 3],
     o: usize,
 ) -> (Option<Tri>, f64) {
@@ -776,7 +928,17 @@ fn make_triangle(
     if num.is_nan() || den.is_nan() || (num == 0.0 && (2.0 * num.atan2(den)).abs() <= 1e-300) {
         return (None, 0.0);
     }
-    let area = 0.5 * g.cell;
+    let uv = tri.map(|(ii, jj)| {
+        let (u, v, _) = band[ii].2[jj];
+        (u, v)
+    });
+    let area = match g.layout {
+        RayGridLayout::Square => 0.5 * g.cell,
+        RayGridLayout::Silhouette => {
+            let (a, b, c) = (uv[0], uv[1], uv[2]);
+            0.5 * ((b.0 - a.0) * (c.1 - a.1) - (c.0 - a.0) * (b.1 - a.1)).abs()
+        }
+    };
     let flux = rs.iter().map(|r| r.flux).sum::<f64>() / 3.0 * area;
     let negative = if num != 0.0 {
         num < 0.0
@@ -797,7 +959,6 @@ fn make_triangle(
     if s.is_nan() || s <= 1e-300 {
         return (None, 0.0);
     }
-    let uv = tri.map(|(ii, jj)| (g.u_at(row0 + ii), g.v_at(jj)));
     let focal = focal_flag(uv, rs.map(|r| r.l));
     let ties = [
         lex_less(v[0], v[1]),
@@ -832,7 +993,6 @@ fn build_triangles(
     g: &RayGrid,
     grid: DirectionGrid,
     band: &Band,
-    row0: usize,
     parts: &mut Vec<Vec<Tri>>,
 ) -> Vec<f64> {
     parts.resize_with(band.len() - 1, Vec::new);
@@ -846,7 +1006,7 @@ fn build_triangles(
                 let (a, b, c, d) = ((i, j), (i + 1, j), (i + 1, j + 1), (i, j + 1));
                 for (o, flux_o) in flux.iter_mut().enumerate() {
                     for tri in [[a, b, c], [a, c, d]] {
-                        let (t, f) = make_triangle(g, grid, band, row0, tri, o);
+                        let (t, f) = make_triangle(g, grid, band, tri, o);
                         *flux_o += f;
                         tris.extend(t);
                     }
@@ -1019,7 +1179,7 @@ fn rasterise(
     rows: &mut [RowViews<'_>],
 ) {
     let (counts, idx) = bin_by_row_block(tris, grid.n_polar);
-    let flat: Vec<&RayOut> = band.iter().flat_map(|(r, _)| r.iter()).collect();
+    let flat: Vec<&RayOut> = band.iter().flat_map(|(r, _, _)| r.iter()).collect();
     let dph = grid.azimuth_step();
     let sc_ph: Vec<(f64, f64)> = (0..grid.n_azimuth)
         .map(|k| (dph * k as f64).sin_cos())
@@ -1077,6 +1237,7 @@ pub fn trace_fields(shape: &DropShape, cfg: &TraceConfig, grid: DirectionGrid) -
     let mut order_flux = vec![0.0; orders];
     let mut patch_flux = vec![0.0; orders];
     let mut hits = 0usize;
+    let mut hit_area = 0.0;
     {
         // Per polar row, a view of each order's accumulators (bands are `[order][row][…]`).
         let mut rows: Vec<RowViews<'_>> = Vec::with_capacity(grid.n_polar);
@@ -1103,19 +1264,22 @@ pub fn trace_fields(shape: &DropShape, cfg: &TraceConfig, grid: DirectionGrid) -
         while row0 < nr - 1 {
             let row1 = (row0 + band_rows).min(nr - 1); // rows row0..=row1 traced, cells row0..row1
             trace_band(&g, shape, cfg, row0, row1, &mut band);
-            for (ri, (row, hit)) in band.iter().enumerate() {
+            for (ri, (row, hit, points)) in band.iter().enumerate() {
                 // Count each grid row once (the band's last row is the next band's first).
                 if row0 + ri == row1 && row1 != nr - 1 {
                     continue;
                 }
                 hits += hit;
-                for r in row.chunks(orders) {
+                for (r, &(_, _, w)) in row.chunks(orders).zip(points) {
+                    if r[0].valid {
+                        hit_area += w;
+                    }
                     for (o, ro) in r.iter().enumerate().filter(|(_, ro)| ro.valid) {
-                        order_flux[o] += ro.flux * g.cell;
+                        order_flux[o] += ro.flux * w;
                     }
                 }
             }
-            let flux = build_triangles(&g, grid, &band, row0, &mut parts);
+            let flux = build_triangles(&g, grid, &band, &mut parts);
             sort_by_first_row(&parts, grid.n_polar, &mut tris);
             let reached = reach.clone();
             for t in &tris {
@@ -1148,7 +1312,10 @@ pub fn trace_fields(shape: &DropShape, cfg: &TraceConfig, grid: DirectionGrid) -
         reach,
         order_cross_section_um2: order_flux,
         patch_cross_section_um2: patch_flux,
-        projected_area_um2: hits as f64 * g.cell,
+        projected_area_um2: match g.layout {
+            RayGridLayout::Square => hits as f64 * g.cell,
+            RayGridLayout::Silhouette => hit_area,
+        },
         rays_traced: nr * nr,
     }
 }
@@ -1240,6 +1407,7 @@ mod tests {
             sun_elevation_rad: 0.3,
             wavelength_nm: lambda,
             n,
+            ray_grid: RayGridLayout::Square,
         };
         let grid = DirectionGrid {
             n_polar: 3601,

@@ -19,6 +19,7 @@
 
 use crate::mie::distributions::SizeDistribution;
 use crate::optics::water::SADEGHI_WAVELENGTHS_NM;
+use crate::raytrace::tracer::RayGridLayout;
 use crate::stages::mixture::{ExplicitMixture, MixtureEntry};
 use crate::stages::raytrace::{DOLP_CHANNEL, RaytraceJob, RaytraceParams, n_channels_2d};
 use crate::stages::{Job, JobError, PlanError, StageSpec, TaskSpec, checks, stage_params};
@@ -45,6 +46,8 @@ stage_params! {
         pub sun_elevation_deg: Vec<f64> = default(vec![0.0]), "list of float, deg",
             "sun elevations above the horizon (drop axis vertical), 0–90";
         pub rays: usize = default(600), "integer", "rays per side of the square ray grid";
+        pub ray_grid: RayGridLayout = default(RayGridLayout::Square), "string",
+            "square | silhouette: layout of the ray grid (as the raytrace stage)";
         pub polar_step_deg: f64 = default(0.1), "float, deg", "outgoing polar step (divides 180)";
         pub azimuth_step_deg: f64 = default(5.0), "float, deg",
             "outgoing azimuth step (divides 360)";
@@ -136,6 +139,7 @@ impl Mixture2dParams {
             angle_step_deg: 0.05,
             sun_elevation_deg: self.sun_elevation_deg.clone(),
             rays: self.rays,
+            ray_grid: self.ray_grid,
             polar_step_deg: self.polar_step_deg,
             azimuth_step_deg: self.azimuth_step_deg,
             diffraction_filter: self.diffraction_filter,

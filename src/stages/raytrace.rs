@@ -31,7 +31,7 @@ use crate::raytrace::post::{bin_edges, filter_sigma_deg, fraunhofer_bin_average}
 use crate::raytrace::shape::{CosineSeries, DropShape};
 use crate::raytrace::sphere1d::{DiffractionModel, Phase1dOptions, SphereGo, sphere_phase_1d};
 use crate::raytrace::tracer::{
-    DirectionGrid, FieldGrid, TraceConfig, pixel_intensities, trace_fields,
+    DirectionGrid, FieldGrid, RayGridLayout, TraceConfig, pixel_intensities, trace_fields,
 };
 use crate::stages::phase_contract;
 use crate::stages::{Job, JobError, PlanError, StageSpec, TaskSpec, checks, stage_params};
@@ -69,6 +69,9 @@ stage_params! {
             "sun elevations above the horizon (drop axis vertical), 0–90, 2-D shapes";
         pub rays: usize = default(600), "integer",
             "rays per side of the square ray grid (2-D shapes; the thesis used 3000)";
+        /// Layout of the `rays × rays` grid in the emitting plane (decision RT-31).
+        pub ray_grid: RayGridLayout = default(RayGridLayout::Square), "string",
+            "square: evenly spaced over the silhouette's bounding box (thesis); silhouette: the index square mapped onto the silhouette with rays refined towards its edge (grazing incidence), 2-D shapes";
         pub polar_step_deg: f64 = default(0.1), "float, deg",
             "outgoing polar step (divides 180), 2-D shapes";
         pub azimuth_step_deg: f64 = default(5.0), "float, deg",
@@ -378,6 +381,7 @@ impl RaytraceJob {
             sun_elevation_rad: elevation_deg.to_radians(),
             wavelength_nm: lambda,
             n,
+            ray_grid: self.p.ray_grid,
         };
         let f = trace_fields(shape, &cfg, grid);
         let a_um = shape.radius_um();
@@ -881,6 +885,14 @@ impl RaytraceJob {
         at.insert("shape".into(), self.p.shape.clone().into());
         at.insert("radius_um".into(), self.p.radii_um[0].into());
         at.insert("rays_per_side".into(), self.p.rays.into());
+        at.insert(
+            "ray_grid".into(),
+            match self.p.ray_grid {
+                RayGridLayout::Square => "square: rays_per_side² rays evenly spaced over the silhouette's bounding box",
+                RayGridLayout::Silhouette => "silhouette: rays_per_side² rays, the index square mapped onto the silhouette (Shirley–Chiu concentric map, ρ = R(ψ) sin(π s / 2)), refined towards the edge; docs/decisions.md RT-31",
+            }
+            .into(),
+        );
         at.insert("beard_chuang".into(), "r(θ) = a[1 + Σ c_n cos nθ], θ from the downward pole, thesis Table 3.1 linear in a; sphere for a ≤ 0.4 mm; clamped to the 3 mm row above 3 mm".into());
         if let Some(res) = self.profile_fit_residual {
             at.insert("profile_fit_rms_relative".into(), res.into());
