@@ -183,11 +183,6 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let worst_row = (0..raw_rows.len())
             .max_by(|&x, &y| raw_rows[x].total_cmp(&raw_rows[y]))
             .unwrap_or(0);
-        if std::env::var_os("DEBUG_ROW").is_some() {
-            let j = lo + worst_row;
-            eprintln!("row {}: {:?}", angles[j], cols.iter().map(|c| c[j]).collect::<Vec<_>>());
-            eprintln!("row-1 {}: {:?}", angles[j-1], cols.iter().map(|c| c[j-1]).collect::<Vec<_>>());
-        }
         let (dm, dx) = spread(&discs);
         // The disc over the sphere of directions (what `render` shows): rows lo..=hi only.
         let discs_2d = sun_disc_2d(&cols, pstep, astep, 0.5, lo..=hi);

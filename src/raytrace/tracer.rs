@@ -691,9 +691,20 @@ fn silhouette_radii(shape: &DropShape, fr: &Frame, dist: f64, rho_max: f64) -> V
             })
             .collect(),
     };
+    // The outermost ring 1 ppm inside: a ray exactly tangent to the surface reflects without
+    // deviation onto the forward pole, where its triangles span every azimuth column and (with
+    // the polar margin of a near-pole triangle) every polar row: at 600² rays on 14401 × 72
+    // directions a tangent ring made 130× the pixel tests of the rest. The annulus left out
+    // carries 2e-6 of the geometric cross-section.
+    for x in &mut r {
+        *x *= 1.0 - SILHOUETTE_INSET;
+    }
     r.push(r[0]);
     r
 }
+
+/// Relative inset of the outermost ring of the silhouette grid (see [`silhouette_radii`]).
+const SILHOUETTE_INSET: f64 = 1e-6;
 
 /// One band of traced grid rows: per row, the outgoing rays `[column][order]`, the hit count
 /// and per column the ray's emitting-plane point and quadrature weight `(u, v, w)` (µm, µm²).
