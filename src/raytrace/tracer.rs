@@ -1336,6 +1336,96 @@ mod tests {
     use super::*;
     use crate::raytrace::sphere1d::SphereGo;
 
+    fn silhouette_grid(shape: &DropShape, rays: usize, elevation_deg: f64) -> RayGrid {
+        let cfg = TraceConfig {
+            rays,
+            max_order: 3,
+            sun_elevation_rad: elevation_deg.to_radians(),
+            wavelength_nm: 650.0,
+            n: 1.331,
+            ray_grid: RayGridLayout::Silhouette,
+        };
+        RayGrid::new(shape, &cfg)
+    }
+
+    /// The concentric map is onto the disc ring by ring: ring s lands on radius s (the outer
+    /// ring on the unit circle), and its angle runs linearly along each side.
+    #[test]
+    fn concentric_map_rings_and_angles() {
+        for (x, y) in [(0.5, 0.2), (-0.3, 0.7), (1.0, -1.0), (-0.25, -0.25), (0.0, -0.8)] {
+            let (s, psi) = concentric(x, y);
+            assert_eq!(s, f64::max(f64::abs(x), f64::abs(y)));
+            assert!((0.0..2.0 * PI).contains(&psi));
+        }
+        let psi0 = |x: f64, y: f64| (concentric(x, y).1 - CONCENTRIC_OFFSET_RAD).rem_euclid(2.0 * PI);
+        assert!((psi0(1.0, 0.0) - 0.0).abs() < 1e-15);
+        assert!((psi0(1.0, 1.0) - 0.25 * PI).abs() < 1e-15);
+        assert!((psi0(0.0, 1.0) - 0.5 * PI).abs() < 1e-15);
+        assert!((psi0(-1.0, 0.0) - PI).abs() < 1e-15);
+        assert!((psi0(0.5, -0.5) - 1.75 * PI).abs() < 1e-15);
+        // Linear along a side: equal steps in y give equal steps in ψ.
+        let (a, b, c) = (psi0(0.6, 0.0), psi0(0.6, 0.2), psi0(0.6, 0.4));
+        assert!(((b - a) - (c - b)).abs() < 1e-15);
+    }
+
+    /// The silhouette grid's quadrature weights sum to the silhouette's area (sphere: π a²
+    /// less the 1 ppm inset) and every ray of the sphere hits; the weights integrate a smooth
+    /// function (ρ², the polar moment π a⁴/2) to the grid's order of accuracy.
+    #[test]
+    fn silhouette_grid_weights_integrate_the_disc() {
+        let a = 400.0;
+        let g = silhouette_grid(&DropShape::Sphere { radius_um: a }, 301, 17.0);
+        let r = a * (1.0 - SILHOUETTE_INSET);
+        let (mut area, mut moment) = (0.0, 0.0);
+        for i in 0..g.nr {
+            for j in 0..g.nr {
+                let (u, v) = g.point(i, j);
+                let w = g.weight(i, j);
+                assert!(u.hypot(v) <= r * (1.0 + 1e-12));
+                area += w;
+                moment += w * (u * u + v * v);
+            }
+        }
+        let disc = PI * r * r;
+        assert!((area / disc - 1.0).abs() < 1e-4, "area {area} vs {disc}");
+        let polar = 0.5 * PI * r.powi(4);
+        assert!((moment / polar - 1.0).abs() < 1e-4, "moment {moment} vs {polar}");
+    }
+
+    /// For a Beard–Chuang drop the bisected silhouette radius lies on the silhouette: a ray at
+    /// 0.999 R hits and one at 1.001 R misses, in every direction, and the silhouette they trace
+    /// reaches the bounding box's half-extents (less its 0.2 % margin) along e1 and e2.
+    #[test]
+    fn silhouette_radii_lie_on_the_beard_chuang_silhouette() {
+        for elev in [0.0, 40.0] {
+            let shape = DropShape::beard_chuang(2.0);
+            let g = silhouette_grid(&shape, 11, elev);
+            let hits = |rho: f64, psi: f64| {
+                let (sp, cp) = psi.sin_cos();
+                let o = add(
+                    add(scale(g.fr.e1, rho * cp), scale(g.fr.e2, rho * sp)),
+                    scale(g.fr.d, -g.dist),
+                );
+                shape.intersect(o, g.fr.d, false).is_some()
+            };
+            for k in 0..64 {
+                let psi = 2.0 * PI * (k as f64 + 0.37) / 64.0;
+                let r = g.silhouette_at(psi);
+                assert!(hits(0.999 * r, psi) && !hits(1.001 * r, psi), "elev {elev} ψ {psi}");
+            }
+            let (w1, w2) = shape.silhouette_half_extents(elev.to_radians());
+            let m = g.silhouette_um.len() - 1;
+            let (mut r_e1, mut r_e2) = (0.0f64, 0.0f64);
+            for (k, r) in g.silhouette_um[..m].iter().enumerate() {
+                let (sp, cp) = (2.0 * PI * k as f64 / m as f64).sin_cos();
+                r_e1 = r_e1.max(r * cp.abs());
+                r_e2 = r_e2.max(r * sp.abs());
+            }
+            assert!((r_e1 * 1.002 / w1 - 1.0).abs() < 1e-4, "{r_e1} vs {w1}");
+            assert!((r_e2 * 1.002 / w2 - 1.0).abs() < 1e-4, "{r_e2} vs {w2}");
+        }
+    }
+
     /// The remainder-free wrap equals the remainder formula bit for bit.
     #[test]
     fn wrap_angle_matches_rem_euclid() {

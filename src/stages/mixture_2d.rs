@@ -45,9 +45,9 @@ stage_params! {
         pub max_order: usize = default(3), "integer", "highest order p traced, 1–8";
         pub sun_elevation_deg: Vec<f64> = default(vec![0.0]), "list of float, deg",
             "sun elevations above the horizon (drop axis vertical), 0–90";
-        pub rays: usize = default(600), "integer", "rays per side of the square ray grid";
-        pub ray_grid: RayGridLayout = default(RayGridLayout::Square), "string",
-            "square | silhouette: layout of the ray grid (as the raytrace stage)";
+        pub rays: usize = default(600), "integer", "rays per side of the ray grid (rays² rays)";
+        pub ray_grid: RayGridLayout = default(RayGridLayout::Silhouette), "string",
+            "silhouette | square: layout of the ray grid (as the raytrace stage)";
         pub polar_step_deg: f64 = default(0.1), "float, deg", "outgoing polar step (divides 180)";
         pub azimuth_step_deg: f64 = default(5.0), "float, deg",
             "outgoing azimuth step (divides 360)";
@@ -63,7 +63,8 @@ const MAX_RADIUS_POINTS: usize = 64;
 
 impl StageSpec for Mixture2dStage {
     const NAME: &'static str = "mixture-2d";
-    const VERSION: u32 = 1;
+    /// 2: the traced radii use the silhouette ray grid by default (`ray_grid`, decision RT-31).
+    const VERSION: u32 = 2;
     const SUMMARY: &'static str = "drop-size mixtures of ray-traced Beard–Chuang drops (2-D tables over outgoing directions), weighted by number × scattering cross-section";
     type Params = Mixture2dParams;
     fn plan_params(&self, p: Mixture2dParams) -> Result<Box<dyn Job>, PlanError> {

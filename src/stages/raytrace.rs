@@ -68,10 +68,10 @@ stage_params! {
         pub sun_elevation_deg: Vec<f64> = default(vec![0.0]), "list of float, deg",
             "sun elevations above the horizon (drop axis vertical), 0–90, 2-D shapes";
         pub rays: usize = default(600), "integer",
-            "rays per side of the square ray grid (2-D shapes; the thesis used 3000)";
+            "rays per side of the ray grid, rays² rays (2-D shapes; the thesis used 3000)";
         /// Layout of the `rays × rays` grid in the emitting plane (decision RT-31).
-        pub ray_grid: RayGridLayout = default(RayGridLayout::Square), "string",
-            "square: evenly spaced over the silhouette's bounding box (thesis); silhouette: the index square mapped onto the silhouette with rays refined towards its edge (grazing incidence), 2-D shapes";
+        pub ray_grid: RayGridLayout = default(RayGridLayout::Silhouette), "string",
+            "silhouette: the rays × rays index square mapped onto the silhouette, refined towards its edge (grazing incidence); square: evenly spaced over the silhouette's bounding box (thesis); 2-D shapes";
         pub polar_step_deg: f64 = default(0.1), "float, deg",
             "outgoing polar step (divides 180), 2-D shapes";
         pub azimuth_step_deg: f64 = default(5.0), "float, deg",
@@ -138,7 +138,8 @@ impl StageSpec for RaytraceStage {
     /// 4: 2-D tables mirror-symmetrised in azimuth by default (`mirror_symmetrise`).
     /// 5: curved-surface (Debye) coefficients for the orders p ≥ 4 of the 1-D sphere path
     /// (decision RT-29; sphere tables with `max_order ≥ 4` change).
-    const VERSION: u32 = 5;
+    /// 6: 2-D tables trace the silhouette ray grid by default (`ray_grid`, decision RT-31).
+    const VERSION: u32 = 6;
     const SUMMARY: &'static str =
         "wave-optics patch ray tracer: phase functions of spherical and Beard–Chuang raindrops";
     type Params = RaytraceParams;

@@ -13,6 +13,7 @@
 use crate::commands::mie::IndexArgs;
 use anyhow::{Context, bail};
 use scatterbake::stages::Job;
+use scatterbake::raytrace::tracer::RayGridLayout;
 use scatterbake::stages::raytrace::{RaytraceJob, RaytraceParams};
 
 /// Arguments of `scatterbake raytrace`.
@@ -33,6 +34,10 @@ pub struct RaytraceArgs {
     /// Rays per side of the ray grid (non-spherical drops).
     #[arg(long, default_value_t = 600)]
     pub rays: usize,
+    /// Layout of the ray grid (non-spherical drops): `silhouette` maps the grid onto the drop's
+    /// silhouette, refined towards its edge; `square` spreads it over the bounding box (thesis).
+    #[arg(long, default_value = "silhouette", value_parser = ["silhouette", "square"])]
+    pub ray_grid: String,
     /// Scattering angles START:STOP:STEP in degrees (STEP must divide 180).
     #[arg(long, default_value = "0:180:0.1")]
     pub angles: String,
@@ -87,6 +92,11 @@ pub fn raytrace_columns(args: &RaytraceArgs) -> anyhow::Result<RaytraceColumns> 
         angle_step_deg: step,
         sun_elevation_deg: vec![args.sun_elevation_deg],
         rays: args.rays,
+        ray_grid: if args.ray_grid == "square" {
+            RayGridLayout::Square
+        } else {
+            RayGridLayout::Silhouette
+        },
         polar_step_deg: step,
         azimuth_step_deg: 5.0,
         diffraction_filter: !args.no_diffraction_filter,
