@@ -114,8 +114,14 @@ fn profile() {
         &DropShape::Sphere { radius_um: 400.0 },
         &config(600),
         DirectionGrid {
-            n_polar: std::env::var("NP").ok().and_then(|s| s.parse().ok()).unwrap_or(3601),
-            n_azimuth: std::env::var("NA").ok().and_then(|s| s.parse().ok()).unwrap_or(1800),
+            n_polar: std::env::var("NP")
+                .ok()
+                .and_then(|s| s.parse().ok())
+                .unwrap_or(3601),
+            n_azimuth: std::env::var("NA")
+                .ok()
+                .and_then(|s| s.parse().ok())
+                .unwrap_or(1800),
         },
     );
     println!(

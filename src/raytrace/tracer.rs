@@ -7,8 +7,10 @@
 //! `e1 = (−sin e, 0, cos e)` (in the vertical plane containing `d`, pointing "up") towards
 //! `e2 = y`: `r = cos θ d + sin θ (cos φ e1 + sin φ e2)`; `(e1, e2, d)` is right-handed.
 //!
-//! **Steps.** A regular `N×N` grid of parallel rays covers the silhouette bounding box centred
-//! on the projected drop centre (RT-11); each ray carries two 3-D complex field vectors
+//! **Steps.** An `N×N` grid of parallel rays covers the silhouette: mapped onto it and refined
+//! towards its edge ([`RayGridLayout::Silhouette`], RT-31, the default) or evenly over its
+//! bounding box centred on the projected drop centre ([`RayGridLayout::Square`], RT-11, the
+//! thesis's); each ray carries two 3-D complex field vectors
 //! (inputs polarised along `e1` and `e2`, unit amplitude; RT-5, RT-6) and its optical path
 //! from the emitting plane at distance `D` from the centre. At each surface hit the fields are
 //! split into s/p components of the plane of incidence (`s = d × N`, `p = s × k` for every
@@ -18,7 +20,8 @@
 //! `D·ω` perpendicular to the outgoing direction `ω`.
 //!
 //! **Patches.** Grid-adjacent outgoing rays of one order form cells, split into two triangles
-//! (RT-7: folded patches and caustics are handled by using each triangle's |solid angle|).
+//! (RT-7: folded patches and caustics are handled by using each triangle's |solid angle|); a
+//! triangle carries the flux through its own area in the emitting plane.
 //! Triangles with a missing corner (silhouette miss, total internal reflection) are discarded
 //! (RT-8; the discarded flux is reported). For every table direction `r` covered by a
 //! triangle, the corner fields and paths are interpolated with the gnomonic (spherical
@@ -638,7 +641,10 @@ fn concentric(x: f64, y: f64) -> (f64, f64) {
         return (0.0, 0.0);
     }
     let (s, psi) = if x.abs() >= y.abs() {
-        (x.abs(), 0.25 * PI * (y / x) + if x < 0.0 { PI } else { 0.0 })
+        (
+            x.abs(),
+            0.25 * PI * (y / x) + if x < 0.0 { PI } else { 0.0 },
+        )
     } else {
         (
             y.abs(),
@@ -734,7 +740,11 @@ fn trace_band(
         band.swap(0, last);
     }
     band.resize_with(row1 - row0 + 1, || {
-        (vec![INVALID; g.nr * g.orders], 0, vec![(0.0, 0.0, 0.0); g.nr])
+        (
+            vec![INVALID; g.nr * g.orders],
+            0,
+            vec![(0.0, 0.0, 0.0); g.nr],
+        )
     });
     band.par_iter_mut()
         .enumerate()
@@ -1352,12 +1362,19 @@ mod tests {
     /// ring on the unit circle), and its angle runs linearly along each side.
     #[test]
     fn concentric_map_rings_and_angles() {
-        for (x, y) in [(0.5, 0.2), (-0.3, 0.7), (1.0, -1.0), (-0.25, -0.25), (0.0, -0.8)] {
+        for (x, y) in [
+            (0.5, 0.2),
+            (-0.3, 0.7),
+            (1.0, -1.0),
+            (-0.25, -0.25),
+            (0.0, -0.8),
+        ] {
             let (s, psi) = concentric(x, y);
             assert_eq!(s, f64::max(f64::abs(x), f64::abs(y)));
             assert!((0.0..2.0 * PI).contains(&psi));
         }
-        let psi0 = |x: f64, y: f64| (concentric(x, y).1 - CONCENTRIC_OFFSET_RAD).rem_euclid(2.0 * PI);
+        let psi0 =
+            |x: f64, y: f64| (concentric(x, y).1 - CONCENTRIC_OFFSET_RAD).rem_euclid(2.0 * PI);
         assert!((psi0(1.0, 0.0) - 0.0).abs() < 1e-15);
         assert!((psi0(1.0, 1.0) - 0.25 * PI).abs() < 1e-15);
         assert!((psi0(0.0, 1.0) - 0.5 * PI).abs() < 1e-15);
@@ -1389,7 +1406,10 @@ mod tests {
         let disc = PI * r * r;
         assert!((area / disc - 1.0).abs() < 1e-4, "area {area} vs {disc}");
         let polar = 0.5 * PI * r.powi(4);
-        assert!((moment / polar - 1.0).abs() < 1e-4, "moment {moment} vs {polar}");
+        assert!(
+            (moment / polar - 1.0).abs() < 1e-4,
+            "moment {moment} vs {polar}"
+        );
     }
 
     /// For a Beard–Chuang drop the bisected silhouette radius lies on the silhouette: a ray at
@@ -1411,7 +1431,10 @@ mod tests {
             for k in 0..64 {
                 let psi = 2.0 * PI * (k as f64 + 0.37) / 64.0;
                 let r = g.silhouette_at(psi);
-                assert!(hits(0.999 * r, psi) && !hits(1.001 * r, psi), "elev {elev} ψ {psi}");
+                assert!(
+                    hits(0.999 * r, psi) && !hits(1.001 * r, psi),
+                    "elev {elev} ψ {psi}"
+                );
             }
             let (w1, w2) = shape.silhouette_half_extents(elev.to_radians());
             let m = g.silhouette_um.len() - 1;

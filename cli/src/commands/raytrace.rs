@@ -12,8 +12,8 @@
 
 use crate::commands::mie::IndexArgs;
 use anyhow::{Context, bail};
-use scatterbake::stages::Job;
 use scatterbake::raytrace::tracer::RayGridLayout;
+use scatterbake::stages::Job;
 use scatterbake::stages::raytrace::{RaytraceJob, RaytraceParams};
 
 /// Arguments of `scatterbake raytrace`.
