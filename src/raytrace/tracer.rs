@@ -74,7 +74,7 @@ pub enum RayGridLayout {
     /// equal-area map of the square onto the disc gives each index ring `s = max(|ξ1|, |ξ2|)` an
     /// angle ψ along it, and the ring lands at `ρ = R(ψ) sin(π s / 2)`, where `R(ψ)` is the
     /// silhouette's radius towards ψ (exact for spheres, bisected on hits for other shapes, in
-    /// 4096 directions). Every ray hits, the outermost ring follows the silhouette, and the
+    /// 1024 directions, linear between them). Every ray hits, the outermost ring follows the silhouette, and the
     /// radial spacing falls as `cos(π s / 2)` towards the edge: the rays near grazing incidence
     /// (where the outer branches of p ≥ 2 come from) are ≈ √N-fold denser than on the square
     /// grid, the centre (π/2)² ≈ 2.5× sparser in area. Each ray's quadrature weight is the map's
@@ -663,7 +663,7 @@ fn concentric(x: f64, y: f64) -> (f64, f64) {
 const CONCENTRIC_OFFSET_RAD: f64 = 0.1;
 
 /// Directions ψ in which [`silhouette_radii`] bisects the silhouette's radius.
-const SILHOUETTE_DIRECTIONS: usize = 4096;
+const SILHOUETTE_DIRECTIONS: usize = 1024;
 
 /// The silhouette's radius (µm) seen along the incident direction, towards ψ_m = 2π m / M in the
 /// emitting plane (m = 0..=M, the last repeating the first): the largest ρ whose ray hits,
@@ -685,7 +685,7 @@ fn silhouette_radii(shape: &DropShape, fr: &Frame, dist: f64, rho_max: f64) -> V
                     shape.intersect(o, fr.d, false).is_some()
                 };
                 let (mut lo, mut hi) = (0.0, rho_max * 1.01);
-                for _ in 0..52 {
+                for _ in 0..44 {
                     let mid = 0.5 * (lo + hi);
                     if hits(mid) {
                         lo = mid;
