@@ -943,7 +943,8 @@ fn make_triangle(
     let mut sin_polar = rs.map(|r| r.sin_polar);
     // Signed solid angle 2·atan2(num, den) (Van Oosterom–Strackee). Its sign (the orientation)
     // is that of `num` wherever |Ω| passes the floor below, so the extent test, which rejects
-    // most triangles, runs before the arctangent, the focal flag and the flux.
+    // most triangles, runs before the arctangent and the focal flag (the flux counts every
+    // complete, non-degenerate patch, whether or not it spans a pixel centre).
     let num = dot(v[0], cross(v[1], v[2]));
     let den = 1.0 + dot(v[0], v[1]) + dot(v[1], v[2]) + dot(v[2], v[0]);
     if num.is_nan() || den.is_nan() || (num == 0.0 && (2.0 * num.atan2(den)).abs() <= 1e-300) {
