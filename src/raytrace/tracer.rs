@@ -38,6 +38,7 @@
 //! table.
 
 use super::shape::{DropShape, add, cross, dot, normalize, scale, sub};
+use crate::math::interp::interp1_uniform;
 use crate::optics::fresnel::{fresnel_amplitudes_real, power_consistent_transmission};
 use num_complex::{Complex32, Complex64};
 use rayon::prelude::*;
@@ -589,45 +590,32 @@ impl RayGrid {
 
     /// The silhouette's radius (µm) towards ψ (radians), interpolated linearly in ψ.
     fn silhouette_at(&self, psi: f64) -> f64 {
-        let m = self.silhouette_um.len() - 1;
-        let t = psi.rem_euclid(2.0 * PI) / (2.0 * PI) * m as f64;
-        let k = (t as usize).min(m - 1);
-        let f = t - k as f64;
-        self.silhouette_um[k] * (1.0 - f) + self.silhouette_um[k + 1] * f
+        let step = 2.0 * PI / (self.silhouette_um.len() - 1) as f64;
+        interp1_uniform(&self.silhouette_um, 0.0, step, psi.rem_euclid(2.0 * PI))
     }
 
-    /// Emitting-plane coordinates (u along e1, v along e2; µm) of grid point (i, j).
-    fn point(&self, i: usize, j: usize) -> (f64, f64) {
+    /// Grid point (i, j): its emitting-plane coordinates (u along e1, v along e2; µm) and its
+    /// quadrature weight (µm²): the cell area for `Square`, the map's Jacobian times the index
+    /// cell for `Silhouette` (zero on the outer ring).
+    fn point_and_weight(&self, i: usize, j: usize) -> (f64, f64, f64) {
         match self.layout {
-            RayGridLayout::Square => (self.u_at(i), self.v_at(j)),
-            RayGridLayout::Silhouette => {
-                let (x, y) = self.unit_square(i, j);
-                let (s, psi) = concentric(x, y);
-                let rho = self.silhouette_at(psi) * (0.5 * PI * s).sin();
-                let (sp, cp) = psi.sin_cos();
-                (rho * cp, rho * sp)
-            }
-        }
-    }
-
-    /// Quadrature weight (µm²) of the ray at grid point (i, j): the cell area for `Square`, the
-    /// map's Jacobian times the index cell for `Silhouette` (zero on the outer ring).
-    fn weight(&self, i: usize, j: usize) -> f64 {
-        match self.layout {
-            RayGridLayout::Square => self.cell,
+            RayGridLayout::Square => (self.u_at(i), self.v_at(j), self.cell),
             RayGridLayout::Silhouette => {
                 let h = 2.0 / (self.nr - 1) as f64;
                 let (x, y) = self.unit_square(i, j);
                 let (s, psi) = concentric(x, y);
                 let r = self.silhouette_at(psi);
-                // ρ ∂ρ/∂s with ρ = R sin(πs/2), over s (the concentric map's dψ ds = π/(4s) dξ²).
                 let q = 0.5 * PI * s;
+                let (sq, cq) = q.sin_cos();
+                let rho = r * sq;
+                let (sp, cp) = psi.sin_cos();
+                // ρ ∂ρ/∂s with ρ = R sin(πs/2), over s (the concentric map's dψ ds = π/(4s) dξ²).
                 let g_dg_over_s = if s > 0.0 {
-                    q.sin() * 0.5 * PI * q.cos() / s
+                    sq * 0.5 * PI * cq / s
                 } else {
                     0.25 * PI * PI
                 };
-                r * r * g_dg_over_s * 0.25 * PI * h * h
+                (rho * cp, rho * sp, r * r * g_dg_over_s * 0.25 * PI * h * h)
             }
         }
     }
@@ -755,8 +743,8 @@ fn trace_band(
             let i = row0 + ri;
             *hit = 0;
             for (j, (slot, pt)) in row.chunks_mut(g.orders).zip(points.iter_mut()).enumerate() {
-                let (u, v) = g.point(i, j);
-                *pt = (u, v, g.weight(i, j));
+                *pt = g.point_and_weight(i, j);
+                let (u, v, _) = *pt;
                 if trace_ray(shape, &g.fr, g.dist, cfg.n, cfg.max_order, u, v, slot) {
                     *hit += 1;
                 }
@@ -1397,8 +1385,7 @@ mod tests {
         let (mut area, mut moment) = (0.0, 0.0);
         for i in 0..g.nr {
             for j in 0..g.nr {
-                let (u, v) = g.point(i, j);
-                let w = g.weight(i, j);
+                let (u, v, w) = g.point_and_weight(i, j);
                 assert!(u.hypot(v) <= r * (1.0 + 1e-12));
                 area += w;
                 moment += w * (u * u + v * v);
