@@ -21,7 +21,11 @@ use scatterbake::raytrace::tracer::{DirectionGrid, RayGridLayout, TraceConfig, t
 fn config(rays: usize) -> TraceConfig {
     let ray_grid = match std::env::var("RAY_GRID").as_deref() {
         Ok("silhouette") => RayGridLayout::Silhouette,
-        _ => RayGridLayout::Square,
+        Ok("square") | Err(_) => RayGridLayout::Square,
+        Ok(other) => {
+            eprintln!("unknown RAY_GRID `{other}`: expected `square` or `silhouette`");
+            std::process::exit(2);
+        }
     };
     TraceConfig {
         rays,
@@ -114,14 +118,8 @@ fn profile() {
         &DropShape::Sphere { radius_um: 400.0 },
         &config(600),
         DirectionGrid {
-            n_polar: std::env::var("NP")
-                .ok()
-                .and_then(|s| s.parse().ok())
-                .unwrap_or(3601),
-            n_azimuth: std::env::var("NA")
-                .ok()
-                .and_then(|s| s.parse().ok())
-                .unwrap_or(1800),
+            n_polar: 3601,
+            n_azimuth: 1800,
         },
     );
     println!(
