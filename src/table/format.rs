@@ -103,10 +103,18 @@ fn compress_payload(data: &[f32]) -> Result<(Vec<u8>, u64, String), TableError> 
     let mut sha = Sha256::new();
     let mut buf = Vec::with_capacity(PAYLOAD_CHUNK_VALUES * 4);
     for chunk in data.chunks(PAYLOAD_CHUNK_VALUES) {
-        buf.clear();
-        buf.extend(chunk.iter().flat_map(|v| v.to_le_bytes()));
-        sha.update(&buf);
-        enc.write_all(&buf).map_err(err)?;
+        let bytes: &[u8] = if cfg!(target_endian = "little") {
+            // SAFETY: an `f32` is 4 plain bytes with no padding or invalid bit patterns as
+            // `u8`, `u8` has alignment 1, and the length covers exactly the chunk's values; on
+            // a little-endian target these are the values' LE bytes, without a copy.
+            unsafe { std::slice::from_raw_parts(chunk.as_ptr().cast::<u8>(), chunk.len() * 4) }
+        } else {
+            buf.clear();
+            buf.extend(chunk.iter().flat_map(|v| v.to_le_bytes()));
+            &buf
+        };
+        sha.update(bytes);
+        enc.write_all(bytes).map_err(err)?;
     }
     let compressed = enc.finish().map_err(err)?;
     Ok((compressed, raw_len as u64, hex::encode(sha.finalize())))
