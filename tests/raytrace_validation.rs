@@ -523,9 +523,8 @@ fn beard_chuang_axis_symmetry_converges_with_rays() {
 
 /// A cosine series with all coefficients zero is the sphere: traced through the general series
 /// path (implicit surface, bracketing root finding, analytic normals) it reproduces the sphere
-/// path. Per-order cross-sections agree better on the finest ray grid (800²) than on the
-/// coarsest (200²; at 400² p = 0 is 0.45 % off, above 200²'s 0.15 %: the two surfaces have
-/// different bounding boxes, so their grids differ near the grazing edge) and to 0.5 % from 400²; the per-order angular distributions agree where each order carries its flux;
+/// path. Per-order cross-sections agree better as the ray grid is refined (200², 400²) and to
+/// 0.5 % at 400²; the per-order angular distributions agree where each order carries its flux;
 /// and the p = 0 order (external reflection) of both matches the 1-D geometric-optics field
 /// from 30° to 60° (nearer the forward direction grazing reflection is resolved only coarsely by
 /// the patches: +8 % at 20°, and nothing below 10°).
@@ -535,8 +534,7 @@ fn zero_series_drop_is_the_sphere() {
     let series = DropShape::Series(CosineSeries::new(400.0, vec![0.0; 8]).unwrap());
     let go = SphereGo::new(400.0, 650.0, 1.331, 3);
     let mut prev = [f64::INFINITY; 4];
-    let mut coarsest = None;
-    for rays in [200usize, 400, 800] {
+    for rays in [200usize, 400] {
         let cfg = TraceConfig {
             rays,
             max_order: 3,
@@ -561,23 +559,14 @@ fn zero_series_drop_is_the_sphere() {
         );
         for (p, last) in prev.iter_mut().enumerate() {
             let (a, b) = (fs.order_cross_section_um2[p], fb.order_cross_section_um2[p]);
-            *last = (b / a - 1.0).abs();
-        }
-        let coarse = *coarsest.get_or_insert(prev);
-        if rays == 800 {
-            for p in 0..4 {
-                assert!(
-                    prev[p] < coarse[p],
-                    "p={p}: {} at 800², not below {} at 200²",
-                    prev[p],
-                    coarse[p]
-                );
-            }
+            let d = (b / a - 1.0).abs();
+            assert!(d < *last, "rays={rays} p={p}: {d} not below {last}");
+            *last = d;
         }
         if rays < 400 {
             continue;
         }
-        assert!(prev.iter().all(|d| *d < 0.005), "{rays}²: {prev:?}");
+        assert!(prev.iter().all(|d| *d < 0.005), "400²: {prev:?}");
         let ang: Vec<f64> = (0..901).map(|j| 0.2 * j as f64).collect();
         // Where each order carries its flux (p = 1 away from its shadow boundary at 82.6°).
         for (p, lo, hi, tol) in [
@@ -1001,10 +990,9 @@ fn beard_chuang_bow_shift_with_radius() {
 /// Energy bookkeeping of the 2-D tracer for flattened drops (3 mm at sun 0° and 30°, 1 mm at 0°;
 /// 550 nm, n = 1.333): per order, the table integrated over the sphere of directions against
 /// the flux carried by the retained patches, and that against the ray-based flux of the order.
-/// Orders 0 and 1 conserve it everywhere (table within 2.5 % of the patches; patches within 7 %
-/// of the rays for p = 0, whose grazing triangles at the silhouette are discarded (6.3 % at 3 mm,
-/// sun 30°: the mirror-symmetric triangulation's diagonals point away from the centre, so a
-/// cell the silhouette cuts loses both triangles in every quadrant), and 1 % for p = 1), p = 2 within 3 % and p = 3 within 10 %, except p = 2, 3 of the 3 mm drop at sun 0°:
+/// Orders 0 and 1 conserve it everywhere (table within 2.5 % of the patches; patches within 6 %
+/// of the rays for p = 0, whose grazing triangles at the silhouette are discarded, and 1 % for
+/// p = 1), p = 2 within 3 % and p = 3 within 10 %, except p = 2, 3 of the 3 mm drop at sun 0°:
 /// its cusp caustics are point-sampled and over-weighted (the limitation in docs/raytrace.md),
 /// so there only table ≥ patches is required. The patches include those that span no pixel
 /// centre (the table point-samples them, conserving their flux in expectation). On the
@@ -1069,7 +1057,7 @@ fn beard_chuang_tables_conserve_energy_per_order() {
         let cusps = a >= 3.0 && e == 0.0;
         let silhouette = layout == RayGridLayout::Silhouette;
         for (p, table_tol, ray_tol) in [
-            (0, 0.025, if silhouette { 0.001 } else { 0.07 }),
+            (0, 0.025, if silhouette { 0.001 } else { 0.06 }),
             (1, 0.025, if silhouette { 0.005 } else { 0.01 }),
             (2, 0.03, if silhouette { 0.02 } else { 0.03 }),
             (

@@ -54,7 +54,7 @@ stage_params! {
         pub diffraction_filter: bool = default(true), "bool",
             "apply the Table 3.3 Gaussian filter to the main channels";
         pub mirror_symmetrise: bool = default(true), "bool",
-            "trace half of every radius's ray grid and mirror it, exactly symmetric in φ ↔ 360° − φ (as the raytrace stage)";
+            "average the values at φ and 360° − φ of every radius (as the raytrace stage)";
     }
 }
 
@@ -64,8 +64,7 @@ const MAX_RADIUS_POINTS: usize = 64;
 impl StageSpec for Mixture2dStage {
     const NAME: &'static str = "mixture-2d";
     /// 2: the traced radii use the silhouette ray grid by default (`ray_grid`, decision RT-31).
-    /// 3: the traced radii trace half the ray grid and mirror it (decision RT-32).
-    const VERSION: u32 = 3;
+    const VERSION: u32 = 2;
     const SUMMARY: &'static str = "drop-size mixtures of ray-traced Beard–Chuang drops (2-D tables over outgoing directions), weighted by number × scattering cross-section";
     type Params = Mixture2dParams;
     fn plan_params(&self, p: Mixture2dParams) -> Result<Box<dyn Job>, PlanError> {

@@ -31,8 +31,7 @@ use crate::raytrace::post::{bin_edges, filter_sigma_deg, fraunhofer_bin_average}
 use crate::raytrace::shape::{CosineSeries, DropShape};
 use crate::raytrace::sphere1d::{DiffractionModel, Phase1dOptions, SphereGo, sphere_phase_1d};
 use crate::raytrace::tracer::{
-    DirectionGrid, FieldGrid, RayGridLayout, TraceConfig, pixel_intensities, rays_per_side,
-    trace_fields, trace_fields_unfolded,
+    DirectionGrid, FieldGrid, RayGridLayout, TraceConfig, pixel_intensities, trace_fields,
 };
 use crate::stages::phase_contract;
 use crate::stages::{Job, JobError, PlanError, StageSpec, TaskSpec, checks, stage_params};
@@ -79,11 +78,9 @@ stage_params! {
             "outgoing azimuth step (divides 360), 2-D shapes";
         pub diffraction_filter: bool = default(true), "bool",
             "apply the Table 3.3 Gaussian filter to the main channels (unfiltered channels are always written)";
-        /// Trace half the ray grid and mirror it (decisions RT-24, RT-32): the drop and the sun
-        /// are symmetric about the vertical plane φ = 0, so the table is exactly symmetric
-        /// under φ ↔ 360° − φ; `false` traces the whole grid, whose ray noise breaks it.
+        /// Average each 2-D table pixel with its mirror image φ ↔ 360° − φ (decision RT-24).
         pub mirror_symmetrise: bool = default(true), "bool",
-            "2-D shapes: trace the ray grid's half v ≥ 0 and add its mirror image (the drop and the sun are mirror-symmetric about the vertical plane φ = 0): exactly symmetric in φ ↔ 360° − φ, half the tracing; false traces the whole grid";
+            "2-D shapes: replace the values at φ and 360° − φ by their mean (the drop and the sun are mirror-symmetric about the vertical plane φ = 0), removing the ray-noise asymmetry";
         /// Diffraction model of the main channels: `airy-uniform` (spheres only, default for
         /// spheres) or `gaussian` (thesis Table 3.3 filter, windowed around the caustics; the only
         /// choice for 2-D shapes).
@@ -142,10 +139,7 @@ impl StageSpec for RaytraceStage {
     /// 5: curved-surface (Debye) coefficients for the orders p ≥ 4 of the 1-D sphere path
     /// (decision RT-29; sphere tables with `max_order ≥ 4` change).
     /// 6: 2-D tables trace the silhouette ray grid by default (`ray_grid`, decision RT-31).
-    /// 7: 2-D tables trace half the ray grid and mirror it (`mirror_symmetrise`, decision
-    /// RT-32); the grid has an odd number of rays per side, its corners away from the mirror
-    /// axis.
-    const VERSION: u32 = 7;
+    const VERSION: u32 = 6;
     const SUMMARY: &'static str =
         "wave-optics patch ray tracer: phase functions of spherical and Beard–Chuang raindrops";
     type Params = RaytraceParams;
@@ -390,11 +384,7 @@ impl RaytraceJob {
             n,
             ray_grid: self.p.ray_grid,
         };
-        let f = if self.p.mirror_symmetrise {
-            trace_fields(shape, &cfg, grid)
-        } else {
-            trace_fields_unfolded(shape, &cfg, grid)
-        };
+        let f = trace_fields(shape, &cfg, grid);
         let a_um = shape.radius_um();
         let go = SphereGo::new(a_um, lambda, n, 3);
         let split = 0.5
@@ -413,7 +403,14 @@ impl RaytraceJob {
         }
         let windows = caustic_windows(&f, &filter);
         let sigma_total = f.order_cross_section_um2.iter().sum::<f64>() + f.projected_area_um2;
-        let out = write_channels(f, &windows, lambda);
+        let mut out = write_channels(f, &windows, lambda);
+        if self.p.mirror_symmetrise {
+            mirror_symmetrise(
+                &mut out,
+                grid.n_azimuth,
+                n_channels_2d(self.p.max_order + 1),
+            );
+        }
         Ok((out, sigma_total))
     }
 }
@@ -606,6 +603,35 @@ fn write_channels(mut f: FieldGrid, windows: &[CausticWindow], lambda: f64) -> V
         // `band` is dropped here: its accumulators return to the system before the next band.
     }
     out
+}
+
+/// Mirror symmetrisation φ ↔ 360° − φ of table values `[polar][azimuth][channel]` (rayon over
+/// polar rows; decision RT-24): every channel but `dolp` of columns k and `na − k` is replaced
+/// by the pair's mean and `dolp` is recomputed from the mean i_perp and i_par. Columns 0 and
+/// na/2 (φ = 0°, 180°) are their own mirror images. The pair has equal solid angles, so
+/// ∫ p dΩ is unchanged.
+pub fn mirror_symmetrise(values: &mut [f32], na: usize, nch: usize) {
+    values.par_chunks_mut(na * nch).for_each(|row| {
+        for k in 1..na.div_ceil(2) {
+            let (head, tail) = row.split_at_mut((na - k) * nch);
+            let a = &mut head[k * nch..(k + 1) * nch];
+            let b = &mut tail[..nch];
+            for (c, (x, y)) in a.iter_mut().zip(b.iter_mut()).enumerate() {
+                if c != DOLP_CHANNEL {
+                    let m = 0.5 * (*x as f64 + *y as f64);
+                    (*x, *y) = (m as f32, m as f32);
+                }
+            }
+            let (ip, ipar) = (a[1] as f64, a[2] as f64);
+            let dolp = if ip + ipar > 0.0 {
+                ((ip - ipar) / (ip + ipar)) as f32
+            } else {
+                0.0
+            };
+            a[DOLP_CHANNEL] = dolp;
+            b[DOLP_CHANNEL] = dolp;
+        }
+    });
 }
 
 /// ∫ p dΩ of a 1-D phase function on a uniform [0, π] grid (bin-sum with exact bin solid angles).
@@ -850,21 +876,21 @@ impl RaytraceJob {
         at.insert(
             "mirror_symmetrisation".into(),
             if self.p.mirror_symmetrise {
-                "applied: the ray grid's half v ≥ 0 was traced and its mirror image added (the drop, a surface of revolution about the vertical axis, and the sun, in the vertical plane φ = 0, are symmetric under y → −y), so the values at outgoing_azimuth φ and 360° − φ are equal (docs/decisions.md RT-24, RT-32)"
+                "applied: the values at outgoing_azimuth φ and 360° − φ were replaced by their mean (every channel but dolp, which was recomputed from the mean i_perp and i_par); the drop (a surface of revolution about the vertical axis) and the sun (in the vertical plane φ = 0) are symmetric under y → −y, so the exact table has this symmetry and the averaging removes ray noise only (docs/decisions.md RT-24)"
             } else {
-                "not applied: the whole ray grid was traced; values at φ and 360° − φ differ by ray noise"
+                "not applied: values at φ and 360° − φ differ by ray noise"
             }
             .into(),
         );
         at.insert("frame".into(), "drop axis vertical (z up); sun at elevation e in the +x half-space, incident direction d = (−cos e, 0, −sin e); outgoing_polar = angle from d; outgoing_azimuth about d from e1 = (−sin e, 0, cos e) (vertical plane, upwards) towards e2 = +y".into());
         at.insert("shape".into(), self.p.shape.clone().into());
         at.insert("radius_um".into(), self.p.radii_um[0].into());
-        at.insert("rays_per_side".into(), rays_per_side(self.p.rays).into());
+        at.insert("rays_per_side".into(), self.p.rays.into());
         at.insert(
             "ray_grid".into(),
             match self.p.ray_grid {
-                RayGridLayout::Square => "square: rays_per_side² rays evenly spaced over the silhouette's bounding box (rays_per_side odd: the `rays` parameter, raised by one if even)",
-                RayGridLayout::Silhouette => "silhouette: rays_per_side² rays (rays_per_side odd: the `rays` parameter, raised by one if even), the index square mapped onto the silhouette (Shirley–Chiu concentric map with its corners at ±(π/4 + 0.1) from the mirror axis, ρ = R(ψ) sin(π s / 2)), refined towards the edge; docs/decisions.md RT-31, RT-32",
+                RayGridLayout::Square => "square: rays_per_side² rays evenly spaced over the silhouette's bounding box",
+                RayGridLayout::Silhouette => "silhouette: rays_per_side² rays, the index square mapped onto the silhouette (Shirley–Chiu concentric map, ρ = R(ψ) sin(π s / 2)), refined towards the edge; docs/decisions.md RT-31",
             }
             .into(),
         );
@@ -1035,44 +1061,39 @@ mod tests {
                 "shape = \"beard-chuang\"\nradii_um = [1500.0]\nwavelengths_nm = [550.0]\nsun_elevation_deg = [10.0]\nrays = 60\npolar_step_deg = 1.0\nazimuth_step_deg = 20.0\nmirror_symmetrise = {on}"
             )
         };
-        let whole = crate::stages::table_from_lines(&RaytraceStage, &lines(false));
-        let folded = crate::stages::table_from_lines(&RaytraceStage, &lines(true));
-        let (np, na, nch) = (
-            whole.axes[3].len(),
-            whole.axes[4].len(),
-            whole.channels.len(),
-        );
+        let raw = crate::stages::table_from_lines(&RaytraceStage, &lines(false));
+        let sym = crate::stages::table_from_lines(&RaytraceStage, &lines(true));
+        let (np, na, nch) = (raw.axes[3].len(), raw.axes[4].len(), raw.channels.len());
         assert_eq!(na, 18);
         fn at(t: &TableContent, na: usize, nch: usize, j: usize, k: usize) -> &[f32] {
             &t.data[(j * na + k) * nch..][..nch]
         }
-        let (mut diff, mut norm) = (0.0f64, 0.0f64);
+        let (mut asym_raw, mut asym_sym, mut norm) = (0.0f64, 0.0f64, 0.0f64);
         for j in 0..np {
-            for k in 0..na {
-                let (a, b) = (
-                    at(&folded, na, nch, j, k),
-                    at(&folded, na, nch, j, (na - k) % na),
+            for k in 1..na / 2 {
+                let (a, b) = (at(&raw, na, nch, j, k), at(&raw, na, nch, j, na - k));
+                let (c, d) = (at(&sym, na, nch, j, k), at(&sym, na, nch, j, na - k));
+                asym_raw += ((a[0] - b[0]) as f64).powi(2);
+                asym_sym += ((c[0] - d[0]) as f64).powi(2);
+                norm += ((a[0] + b[0]) as f64 / 2.0).powi(2);
+                assert_eq!(c, d, "row {j}, column {k}");
+                // Same renormalisation factor up to f32 rounding of the sums: pair means agree.
+                let mean = 0.5 * (a[1] as f64 + b[1] as f64);
+                assert!(
+                    (c[1] as f64 - mean).abs() <= 1e-4 * mean + 1e-12,
+                    "{} vs {mean}",
+                    c[1]
                 );
-                assert_eq!(a, b, "row {j}, column {k}");
-                // Off the seam columns (0° and 180°) the fold is the whole grid's trace: the
-                // grid and its triangulation are symmetric about the mirror plane.
-                if k != 0 && k != na / 2 {
-                    let c = at(&whole, na, nch, j, k);
-                    diff += ((a[0] - c[0]) as f64).powi(2);
-                    norm += (c[0] as f64).powi(2);
-                }
             }
         }
-        let rel = (diff / norm).sqrt();
-        assert!(norm > 0.0 && rel < 1e-4, "folded vs whole grid: {rel}");
-        for (t, word) in [(&folded, "applied"), (&whole, "not applied")] {
-            assert!(
-                t.attributes["mirror_symmetrisation"]
-                    .as_str()
-                    .unwrap()
-                    .starts_with(word)
-            );
-        }
-        assert_eq!(folded.attributes["rays_per_side"], 61);
+        let rel = (asym_raw / norm).sqrt();
+        assert!(rel > 1e-5, "unsymmetrised table already symmetric: {rel}");
+        assert_eq!(asym_sym, 0.0);
+        assert!(
+            sym.attributes["mirror_symmetrisation"]
+                .as_str()
+                .unwrap()
+                .starts_with("applied")
+        );
     }
 }
