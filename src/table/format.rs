@@ -74,8 +74,9 @@ const ZSTD_LEVEL: i32 = 9;
 /// zstd level of larger payloads. Measured on a 1.14 GB seed-resolution ray-traced table with
 /// the zstd command line (`zstd -b1 -e9 -T2`): level 9 compresses at 174 MB/s to 84.6 MB,
 /// level 3 at 800 MB/s to 91.7 MB (+8 %), so level 3 saves ~5 s of CPU per such table for
-/// 8 % of disk. On the mirror-folded seed table (`zstd -b1 -e4 -T2`): level 1 at 1447 MB/s to
-/// 173.9 MB, level 3 at 1057 MB/s to 174.3 MB; level 1 is faster and no larger.
+/// 8 % of disk. On a later seed table (`zstd -b1 -e4 -T2`): level 1 at 1447 MB/s to 173.9 MB,
+/// level 3 at 1057 MB/s to 174.3 MB; level 1 is faster and no larger (the seed build's table:
+/// 168 MB at level 1, 170 MB at level 3).
 const ZSTD_LEVEL_LARGE: i32 = 1;
 /// Payloads above this many bytes are compressed by [`ZSTD_WORKERS`] zstd worker threads at
 /// [`ZSTD_LEVEL_LARGE`].
