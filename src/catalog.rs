@@ -99,7 +99,7 @@ pub fn rebuild(dir: &Path) -> Result<Catalog, CatalogError> {
             }
         };
         // The payload's checksum and the whole file's hash are two passes over the file: one
-        // per core (≈ 0.15 s instead of 0.3 s for a 164 MB seed table).
+        // per core (0.50 → 0.35 s for `scatterbake catalog` of one 164 MB seed table).
         let (sealed, file_sha) = rayon::join(
             || crate::table::verify_sealed_bytes(&bytes, &p),
             || hex::encode(Sha256::digest(&bytes)),
