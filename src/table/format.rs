@@ -102,7 +102,8 @@ fn compress_payload(data: &[f32]) -> Result<(Vec<u8>, u64, String), TableError> 
         enc.multithread(ZSTD_WORKERS).map_err(err)?;
     }
     let mut sha = Sha256::new();
-    let mut buf = Vec::with_capacity(PAYLOAD_CHUNK_VALUES * 4);
+    // Used only on big-endian targets, where the values are converted chunk by chunk.
+    let mut buf = Vec::new();
     for chunk in data.chunks(PAYLOAD_CHUNK_VALUES) {
         let bytes: &[u8] = if cfg!(target_endian = "little") {
             // SAFETY: an `f32` is 4 plain bytes with no padding or invalid bit patterns as
