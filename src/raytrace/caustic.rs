@@ -71,6 +71,21 @@ const AIRY_PEAK_Z: f64 = 1.018_793;
 /// Bright-side range of the caustic-position fit, in Airy units z (see [`fold_position`]).
 const FIT_Z: f64 = 0.5;
 
+/// Domain of the airy-local transfer, per column and bow (decision RT-33): the column's caustic
+/// strength over the sphere's must lie in this range. Measured on Beard–Chuang drops (400² rays,
+/// 5° azimuth, 650 nm): 0.82–1.40 at 0.5 mm for every sun elevation, 1.000–1.004 on a sphere;
+/// where a 1–2 mm drop's caustic splits, moves out of the search range or fades, 0–0.45 and up
+/// to 20.
+pub const AIRY_DOMAIN_STRENGTH: (f64, f64) = (0.5, 2.0);
+
+/// Domain of the airy-local transfer: the most negative value the transfer produces before
+/// clipping, over the column's largest `i_perp` or `i_par` in the filter's rows, must be above
+/// −this. The sphere's Airy intensity is positive, so a column whose caustic is the sphere's
+/// fold, moved and scaled, gets no negative values beyond the ray noise (≤ 1e-4 on a sphere,
+/// ≤ 2 % at 0.5 mm); where it is not, the transferred correction overshoots (−10 % to −560 %
+/// measured at 1 mm).
+pub const AIRY_DOMAIN_NEGATIVE: f64 = 0.05;
+
 /// Around a caustic, within `REPLACE_Z.0` Airy units the column's own order intensity is
 /// replaced by the sphere's (shifted, scaled) GO intensity before the correction is added, with
 /// a cosine taper to the column's own values at `REPLACE_Z.1`.
@@ -182,6 +197,40 @@ pub fn smooth_over_azimuth(
                 }
             }
             out
+        })
+        .collect()
+}
+
+/// Weights of the airy-local transfer per column and bow from the columns' domain flags
+/// ([`ColumnFilter::airy_domain`]; columns k·`azimuth_step_deg` around the full circle): each
+/// column is first given 1 if every column within ±[`POSITION_SMOOTHING_DEG`] is in the domain
+/// and 0 otherwise (erosion), and these are averaged over the same window (tricube weights). So
+/// a column outside the domain weighs 0 (it never gets the transfer), a column whose every
+/// neighbour within twice the window is inside weighs 1, and the blend of the transfer and the
+/// Gaussian filter varies smoothly over azimuth in between instead of jumping between adjacent
+/// columns.
+pub fn domain_weights(flags: &[[bool; 2]], azimuth_step_deg: f64) -> Vec<[f64; 2]> {
+    let na = flags.len();
+    let half = ((POSITION_SMOOTHING_DEG / azimuth_step_deg).floor() as isize)
+        .min((na as isize - 1) / 2)
+        .max(0);
+    let at = |k: usize, d: isize| (k as isize + d).rem_euclid(na as isize) as usize;
+    let eroded: Vec<[f64; 2]> = (0..na)
+        .map(|k| [0, 1].map(|b| f64::from((-half..=half).all(|d| flags[at(k, d)][b]))))
+        .collect();
+    (0..na)
+        .map(|k| {
+            [0, 1].map(|b| {
+                let (mut sw, mut sv) = (0.0, 0.0);
+                for d in -half..=half {
+                    let u = d as f64 / (half + 1) as f64;
+                    let w = (1.0 - u.abs().powi(3)).powi(3);
+                    sw += w;
+                    sv += w * eroded[at(k, d)][b];
+                }
+                // Exactly 1 (or 0) where every column in the window is 1 (or 0).
+                if sv >= sw { 1.0 } else { sv / sw }
+            })
         })
         .collect()
 }
@@ -438,7 +487,7 @@ impl ColumnFilter {
         cols: &[Vec<f64>],
         orders: [Option<usize>; 2],
         positions: [Option<f64>; 2],
-    ) -> CausticWindow {
+    ) -> (CausticWindow, [bool; 2]) {
         let (j0, j1) = rows;
         let mut bows: [Option<ColumnBow>; 2] = [None, None];
         for (b, (sign, order)) in [1.0, -1.0].into_iter().zip(orders).enumerate() {
@@ -508,6 +557,9 @@ impl ColumnFilter {
             Some(out)
         });
         let mut values = Vec::with_capacity((j1 + 1 - j0) * nvals);
+        // Per bow: the most negative value before clipping and the largest i_perp, i_par.
+        let mut lowest = [0.0f64; 2];
+        let mut largest = [0.0f64; 2];
         for j in j0..=j1 {
             let th = self.step * j as f64;
             let b = usize::from(th <= self.split);
@@ -544,14 +596,64 @@ impl ColumnFilter {
                     _ => 0.0,
                 };
                 let v = &mut values[start + c];
-                *v = (*v + bw.strength * d - replace).max(0.0);
+                let unclipped = *v + bw.strength * d - replace;
+                if ci < 2 {
+                    lowest[b] = lowest[b].min(unclipped);
+                    largest[b] = largest[b].max(cols[c][j - j0]);
+                }
+                *v = unclipped.max(0.0);
             }
         }
-        CausticWindow {
-            start: j0,
-            len: j1 + 1 - j0,
-            nvals,
-            values,
+        // The search range of each bow, less one row at either end: a caustic found on its
+        // edge lies outside it.
+        let inside = |b: usize, p: f64| {
+            let range = if b == 0 {
+                PRIMARY_SEARCH_DEG
+            } else {
+                SECONDARY_SEARCH_DEG
+            };
+            let (a, z) = (
+                self.row(range.0.to_radians()).max(j0),
+                self.row(range.1.to_radians()).min(j1),
+            );
+            p > a as f64 + 1.0 && p < z as f64 - 1.0
+        };
+        let in_domain = [0, 1].map(|b| {
+            bows[b].is_some_and(|bw| {
+                (AIRY_DOMAIN_STRENGTH.0..=AIRY_DOMAIN_STRENGTH.1).contains(&bw.strength)
+                    && inside(b, bw.position)
+                    && lowest[b] >= -AIRY_DOMAIN_NEGATIVE * largest[b]
+            })
+        });
+        (
+            CausticWindow {
+                start: j0,
+                len: j1 + 1 - j0,
+                nvals,
+                values,
+            },
+            in_domain,
+        )
+    }
+
+    /// Whether each bow of one column lies in the airy-local transfer's domain
+    /// ([`AIRY_DOMAIN_STRENGTH`], [`AIRY_DOMAIN_NEGATIVE`], a caustic inside the search range),
+    /// at the caustic positions `positions`; `[false, false]` without a transfer. Arguments as
+    /// [`ColumnFilter::filter_column_at`].
+    pub fn airy_domain(
+        &self,
+        rows: (usize, usize),
+        cols: &[Vec<f64>],
+        primary: Option<usize>,
+        secondary: Option<usize>,
+        positions: [Option<f64>; 2],
+    ) -> [bool; 2] {
+        match (&self.airy, self.enabled) {
+            (Some(t), true) => {
+                self.transfer_column(t, rows, cols, [primary, secondary], positions)
+                    .1
+            }
+            _ => [false, false],
         }
     }
 
@@ -591,12 +693,17 @@ impl ColumnFilter {
         secondary: Option<usize>,
     ) -> CausticWindow {
         let positions = self.fold_positions(rows, cols, primary, secondary);
-        self.filter_column_at(rows, cols, primary, secondary, positions)
+        let weight = self
+            .airy_domain(rows, cols, primary, secondary, positions)
+            .map(f64::from);
+        self.filter_column_at(rows, cols, primary, secondary, positions, weight)
     }
 
     /// [`ColumnFilter::filter_column`] with the caustic positions of the airy-local transfer
     /// given (e.g. [`ColumnFilter::fold_positions`] smoothed over azimuth with
-    /// [`smooth_over_azimuth`]); the Gaussian filter ignores them.
+    /// [`smooth_over_azimuth`]) and the transfer's weight per bow (1: the transfer, 0: the
+    /// Gaussian filter, between: their blend; e.g. [`ColumnFilter::airy_domain`] smoothed over
+    /// azimuth with [`domain_weights`]). Without a transfer the Gaussian filter ignores both.
     pub fn filter_column_at(
         &self,
         rows: (usize, usize),
@@ -604,15 +711,26 @@ impl ColumnFilter {
         primary: Option<usize>,
         secondary: Option<usize>,
         positions: [Option<f64>; 2],
+        airy_weight: [f64; 2],
     ) -> CausticWindow {
-        let mut w = self.filter_columns_at(rows, &[cols], primary, secondary, &[positions]);
+        let mut w = self.filter_columns_at(
+            rows,
+            &[cols],
+            primary,
+            secondary,
+            &[positions],
+            &[airy_weight],
+        );
         w.pop().unwrap_or_default()
     }
 
     /// [`ColumnFilter::filter_column_at`] of several columns (`blocks[c]` is column `c`'s
-    /// values, `positions[c]` its caustic positions). The Gaussian filter convolves the values
-    /// of all columns in one pass over the rows (each value's sum in row order, as one column
-    /// at a time would: the windows are identical), which vectorises.
+    /// values, `positions[c]` its caustic positions, `airy_weights[c]` its transfer weights).
+    /// The Gaussian filter convolves the values of all columns in one pass over the rows (each
+    /// value's sum in row order, as one column at a time would: the windows are identical),
+    /// which vectorises. With a transfer, a column whose weights are both 1 gets the transfer
+    /// alone, one whose weights are both 0 the Gaussian filter alone; each row takes the weight
+    /// of its bow (primary above the Alexander-band midpoint, secondary below).
     pub fn filter_columns_at(
         &self,
         rows: (usize, usize),
@@ -620,17 +738,67 @@ impl ColumnFilter {
         primary: Option<usize>,
         secondary: Option<usize>,
         positions: &[[Option<f64>; 2]],
+        airy_weights: &[[f64; 2]],
     ) -> Vec<CausticWindow> {
         if !self.enabled {
             return vec![CausticWindow::default(); blocks.len()];
         }
-        if let Some(t) = &self.airy {
-            return blocks
-                .iter()
-                .zip(positions)
-                .map(|(cols, pos)| self.transfer_column(t, rows, cols, [primary, secondary], *pos))
-                .collect();
-        }
+        let Some(t) = &self.airy else {
+            return self.gaussian_windows(rows, blocks, primary, secondary);
+        };
+        let airy: Vec<Option<CausticWindow>> = blocks
+            .iter()
+            .zip(positions)
+            .zip(airy_weights)
+            .map(|((cols, pos), w)| {
+                (w[0] > 0.0 || w[1] > 0.0).then(|| {
+                    self.transfer_column(t, rows, cols, [primary, secondary], *pos)
+                        .0
+                })
+            })
+            .collect();
+        let gaussian = if airy_weights.iter().any(|w| w[0] < 1.0 || w[1] < 1.0) {
+            self.gaussian_windows(rows, blocks, primary, secondary)
+        } else {
+            vec![CausticWindow::default(); blocks.len()]
+        };
+        airy.into_iter()
+            .zip(gaussian)
+            .zip(airy_weights)
+            .zip(blocks)
+            .map(|(((a, g), w), cols)| match a {
+                None => g,
+                Some(a) if w[0] >= 1.0 && w[1] >= 1.0 => a,
+                Some(mut a) => {
+                    let nvals = a.nvals;
+                    for j in a.start..a.start + a.len {
+                        let b = usize::from(self.step * j as f64 <= self.split);
+                        let wb = w[b];
+                        if wb >= 1.0 {
+                            continue;
+                        }
+                        let base = (j - a.start) * nvals;
+                        for v in 0..nvals {
+                            let gv = g.get(j).map_or(cols[v][j - rows.0], |g| g[v]);
+                            let x = &mut a.values[base + v];
+                            *x = wb * *x + (1.0 - wb) * gv;
+                        }
+                    }
+                    a
+                }
+            })
+            .collect()
+    }
+
+    /// The thesis's windowed Gaussian filter of several columns (see
+    /// [`ColumnFilter::filter_columns_at`]).
+    fn gaussian_windows(
+        &self,
+        rows: (usize, usize),
+        blocks: &[&[Vec<f64>]],
+        primary: Option<usize>,
+        secondary: Option<usize>,
+    ) -> Vec<CausticWindow> {
         let (j0, j1) = rows;
         let reach = window_reach_rad(2.0 * self.sigma * DEFAULT_CAUSTIC_WINDOW_SIGMAS);
         // Per column: the bows and the window rows lo..=hi.
@@ -850,5 +1018,30 @@ mod tests {
         let win = f.filter_column(f.needed_rows(), &[vec![1.0; 1801]], Some(0), None);
         assert_eq!(win.len, 0);
         assert!(win.get(1380).is_none());
+    }
+
+    /// The transfer weights of [`domain_weights`]: 0 at a column outside the domain, rising
+    /// strictly and symmetrically over the 10 columns (±2 × 5°) on either side, 1 beyond; each
+    /// bow on its own; a window of one column (coarse azimuth grids) keeps the flags.
+    #[test]
+    fn domain_weights_erode_and_blend_over_azimuth() {
+        let mut flags = vec![[true, true]; 360];
+        flags[100][0] = false;
+        let w = domain_weights(&flags, 1.0);
+        assert!(w.iter().all(|x| x[1] == 1.0));
+        assert_eq!(w[100][0], 0.0);
+        for d in 1..=10 {
+            let (a, b) = (w[100 + d][0], w[100 - d][0]);
+            assert!(a > 0.0 && a < 1.0, "+{d}: {a}");
+            assert!((a - b).abs() < 1e-12, "±{d}: {a} vs {b}");
+            assert!(a > w[100 + d - 1][0]);
+        }
+        assert!(
+            w.iter()
+                .enumerate()
+                .all(|(k, x)| k.abs_diff(100) <= 10 || x[0] == 1.0)
+        );
+        let coarse = domain_weights(&[[true, false], [false, true], [true, true]], 10.0);
+        assert_eq!(coarse, vec![[1.0, 0.0], [0.0, 1.0], [1.0, 1.0]]);
     }
 }

@@ -26,7 +26,9 @@
 //! i_perp = |S1|²/(π x² Q_sca).
 
 use crate::optics::water::{SADEGHI_WAVELENGTHS_NM, WaterIndexModel};
-use crate::raytrace::caustic::{AiryTransfer, CausticWindow, ColumnFilter, smooth_over_azimuth};
+use crate::raytrace::caustic::{
+    AiryTransfer, CausticWindow, ColumnFilter, domain_weights, smooth_over_azimuth,
+};
 use crate::raytrace::post::{bin_edges, filter_sigma_deg, fraunhofer_bin_average};
 use crate::raytrace::shape::{CosineSeries, DropShape};
 use crate::raytrace::sphere1d::{DiffractionModel, Phase1dOptions, SphereGo, sphere_phase_1d};
@@ -82,11 +84,13 @@ stage_params! {
         pub mirror_symmetrise: bool = default(true), "bool",
             "2-D shapes: replace the values at φ and 360° − φ by their mean (the drop and the sun are mirror-symmetric about the vertical plane φ = 0), removing the ray-noise asymmetry";
         /// Diffraction model of the main channels: `airy-uniform` (spheres only, default for
-        /// spheres) or `gaussian` (thesis Table 3.3 filter, windowed around the caustics; the only
-        /// choice for 2-D shapes).
+        /// spheres), `airy-local` (2-D shapes only, default for them: the sphere's Airy
+        /// correction moved onto each column's caustic within its domain, the Gaussian filter
+        /// outside it; decisions RT-28, RT-33) or `gaussian` (thesis Table 3.3 filter, windowed
+        /// around the caustics).
         pub diffraction_model: Option<DiffractionModel> =
-            optional("airy-uniform (sphere) / gaussian (2-D)"), "string",
-            "airy-uniform: uniform caustic (Airy) approximation at each rainbow (spheres); gaussian: thesis Table 3.3 Gaussian filter windowed around the caustics";
+            optional("airy-uniform (sphere) / airy-local (2-D)"), "string",
+            "airy-uniform: uniform caustic (Airy) approximation at each rainbow (spheres); airy-local: the equal-volume sphere's Airy correction moved onto each azimuth column's own caustic where that caustic is the sphere's fold, the Gaussian filter elsewhere (2-D shapes); gaussian: thesis Table 3.3 Gaussian filter windowed around the caustics";
         pub profile_theta_deg: Option<Vec<f64>> = optional("none"), "list of float, deg",
             "shape = profile: polar angles from the downward pole";
         pub profile_r: Option<Vec<f64>> = optional("none"), "list of float",
@@ -139,7 +143,9 @@ impl StageSpec for RaytraceStage {
     /// 5: curved-surface (Debye) coefficients for the orders p ≥ 4 of the 1-D sphere path
     /// (decision RT-29; sphere tables with `max_order ≥ 4` change).
     /// 6: 2-D tables trace the silhouette ray grid by default (`ray_grid`, decision RT-31).
-    const VERSION: u32 = 6;
+    /// 7: `airy-local` is the default caustic model of 2-D tables, with a domain outside which
+    /// columns take the Gaussian filter (decision RT-33).
+    const VERSION: u32 = 7;
     const SUMMARY: &'static str =
         "wave-optics patch ray tracer: phase functions of spherical and Beard–Chuang raindrops";
     type Params = RaytraceParams;
@@ -312,7 +318,7 @@ impl RaytraceJob {
 
     fn diffraction_model(&self) -> DiffractionModel {
         self.p.diffraction_model.unwrap_or(if self.two_d {
-            DiffractionModel::Gaussian
+            DiffractionModel::AiryLocal
         } else {
             DiffractionModel::AiryUniform
         })
@@ -424,29 +430,45 @@ fn sphere_airy_transfer(
     orders: usize,
 ) -> AiryTransfer {
     let rows = filter.needed_rows();
+    AiryTransfer::new(
+        filter,
+        rows,
+        &sphere_columns(go, filter, step_rad, orders, true),
+        &sphere_columns(go, filter, step_rad, orders, false),
+    )
+}
+
+/// The sphere's channels on the rows [`ColumnFilter::needed_rows`] of `filter`, in the columns'
+/// layout `[i_perp, i_par, p0, …, p_{orders−1}]` (dσ/dΩ, µm²/sr): Airy-uniform with
+/// `diffraction_filter`, geometric optics without; orders the sphere does not have are zero.
+fn sphere_columns(
+    go: &SphereGo,
+    filter: &ColumnFilter,
+    step_rad: f64,
+    orders: usize,
+    diffraction_filter: bool,
+) -> Vec<Vec<f64>> {
+    let rows = filter.needed_rows();
     let angles: Vec<f64> = (rows.0..=rows.1)
         .map(|j| (step_rad * j as f64).to_degrees())
         .collect();
-    let channels = |diffraction_filter: bool| -> Vec<Vec<f64>> {
-        let opts = Phase1dOptions {
-            diffraction_filter,
-            model: DiffractionModel::AiryUniform,
-            ..Phase1dOptions::default()
-        };
-        let (ch, sigma_total) = sphere_phase_1d(go, &angles, opts);
-        // 1-D layout: phase, i_perp, i_par, dolp, p0 … p_max, then the unfiltered channels.
-        let scaled = |c: usize| ch[c].iter().map(|v| v * sigma_total).collect::<Vec<f64>>();
-        let mut out = vec![scaled(1), scaled(2)];
-        for p in 0..orders {
-            out.push(if p <= go.max_order {
-                scaled(4 + p)
-            } else {
-                vec![0.0; angles.len()]
-            });
-        }
-        out
+    let opts = Phase1dOptions {
+        diffraction_filter,
+        model: DiffractionModel::AiryUniform,
+        ..Phase1dOptions::default()
     };
-    AiryTransfer::new(filter, rows, &channels(true), &channels(false))
+    let (ch, sigma_total) = sphere_phase_1d(go, &angles, opts);
+    // 1-D layout: phase, i_perp, i_par, dolp, p0 … p_max, then the unfiltered channels.
+    let scaled = |c: usize| ch[c].iter().map(|v| v * sigma_total).collect::<Vec<f64>>();
+    let mut out = vec![scaled(1), scaled(2)];
+    for p in 0..orders {
+        out.push(if p <= go.max_order {
+            scaled(4 + p)
+        } else {
+            vec![0.0; angles.len()]
+        });
+    }
+    out
 }
 
 /// Index of the `dolp` channel (not an intensity: never renormalised).
@@ -507,25 +529,45 @@ fn map_columns<R: Send>(
 /// The filtered caustic window of every azimuth column (rayon over blocks of columns): columns
 /// of dσ/dΩ i_perp, i_par and per order over the rows the filter needs. With the airy-local
 /// transfer, the columns' caustic positions are found first and smoothed over azimuth
-/// (decision RT-28).
+/// (decision RT-28), then each column's bows are tested against the transfer's domain and the
+/// flags turned into transfer weights smoothed over azimuth (decision RT-33): the transfer
+/// where the caustic is the sphere's fold, moved and scaled, the Gaussian filter elsewhere.
 fn caustic_windows(f: &FieldGrid, filter: &ColumnFilter) -> Vec<CausticWindow> {
     let orders = f.orders;
     let rows = filter.needed_rows();
     let order = |o: usize| (o < orders).then_some(2 + o);
     let na = f.grid.n_azimuth;
-    let positions: Vec<[Option<f64>; 2]> = if filter.uses_fold_positions() {
-        let raw = map_columns(f, rows, |_, block| {
-            let pos = |c: &Vec<Vec<f64>>| filter.fold_positions(rows, c, order(2), order(3));
-            block.iter().map(pos).collect()
-        });
-        smooth_over_azimuth(&raw, f.grid.azimuth_step().to_degrees())
-    } else {
-        vec![[None, None]; na]
-    };
+    let step_deg = f.grid.azimuth_step().to_degrees();
+    let (positions, weights): (Vec<[Option<f64>; 2]>, Vec<[f64; 2]>) =
+        if filter.uses_fold_positions() {
+            let raw = map_columns(f, rows, |_, block| {
+                let pos = |c: &Vec<Vec<f64>>| filter.fold_positions(rows, c, order(2), order(3));
+                block.iter().map(pos).collect()
+            });
+            let positions = smooth_over_azimuth(&raw, step_deg);
+            let flags = map_columns(f, rows, |k0, block| {
+                block
+                    .iter()
+                    .zip(&positions[k0..k0 + block.len()])
+                    .map(|(c, pos)| filter.airy_domain(rows, c, order(2), order(3), *pos))
+                    .collect()
+            });
+            let w = domain_weights(&flags, step_deg);
+            (positions, w)
+        } else {
+            (vec![[None, None]; na], vec![[0.0, 0.0]; na])
+        };
     map_columns(f, rows, |k0, block| {
         let cols: Vec<&[Vec<f64>]> = block.iter().map(Vec::as_slice).collect();
-        let pos = &positions[k0..k0 + block.len()];
-        filter.filter_columns_at(rows, &cols, order(2), order(3), pos)
+        let range = k0..k0 + block.len();
+        filter.filter_columns_at(
+            rows,
+            &cols,
+            order(2),
+            order(3),
+            &positions[range.clone()],
+            &weights[range],
+        )
     })
 }
 
@@ -756,7 +798,7 @@ impl RaytraceJob {
         let model = self.diffraction_model();
         let filter_text = match model {
             DiffractionModel::AiryUniform => "airy-uniform: uniform caustic (Airy) approximation of each order's rainbow (two-branch CUA on the bright side, Airy continuation on the dark side); GO elsewhere".to_string(),
-            DiffractionModel::AiryLocal => "airy-local: the equal-volume sphere's uniform-caustic correction (1-D Airy-uniform minus GO channels, bin averages) added to each azimuth column, moved onto the column's own primary/secondary caustic (GO peak of p = 2 / p = 3) and scaled to its caustic strength (bright side 0.1–1.5°); primary correction above the Alexander-band midpoint, secondary below; GO elsewhere (docs/decisions.md RT-28)".to_string(),
+            DiffractionModel::AiryLocal => "airy-local: the equal-volume sphere's uniform-caustic correction (1-D Airy-uniform minus GO channels, bin averages) added to each azimuth column, moved onto the column's own primary/secondary caustic (fold fit of the p = 2 / p = 3 GO intensity, smoothed over ±5° of azimuth) and scaled to its caustic strength (bright side 0.1–1.5°); primary correction above the Alexander-band midpoint, secondary below; GO elsewhere. Domain per column and bow: caustic inside the search range, strength 0.5–2 times the sphere's, no value below −5 % of the column's largest before clipping; columns with a column outside the domain within ±5° take the Gaussian filter instead, blended over ±5° of azimuth (docs/decisions.md RT-28, RT-33)".to_string(),
             DiffractionModel::Gaussian => format!("gaussian: thesis Table 3.3 Gaussian in polar angle (σ linear in radius, Airy a^(-2/3) outside 0.1–1 mm; σ = {:.4}° at the first radius) for θ above the Alexander-band midpoint, 2σ below, blended in only within a Gaussian window of half-width 2σ_local around each caustic (peaks of the p = 2 and p = 3 intensities)", filter_sigma_deg(self.p.radii_um[0] * 1e-3)),
         };
         at.insert(
@@ -1095,5 +1137,101 @@ mod tests {
                 .unwrap()
                 .starts_with("applied")
         );
+    }
+
+    /// The airy-local domain (decision RT-33) on columns whose caustics are known: the
+    /// sphere's own GO columns are in it for both bows; a caustic three times weaker than the
+    /// sphere's is not (strength); a column whose `i_perp`, `i_par` do not carry the caustic its
+    /// order channel shows is not (the transfer would drive them negative).
+    #[test]
+    fn airy_domain_holds_on_the_sphere_and_not_on_foreign_caustics() {
+        let go = SphereGo::new(400.0, 650.0, 1.331, 3);
+        let step = 0.0125f64.to_radians();
+        let split = 0.5 * (go.rainbow_angle_rad(2).unwrap() + go.rainbow_angle_rad(3).unwrap());
+        let filter =
+            ColumnFilter::new(14401, step, filter_sigma_deg(0.4).to_radians(), split, true);
+        let transfer = sphere_airy_transfer(&go, &filter, step, 4);
+        let filter = filter.with_airy_transfer(transfer);
+        let rows = filter.needed_rows();
+        let domain = |cols: &[Vec<f64>]| {
+            let pos = filter.fold_positions(rows, cols, Some(4), Some(5));
+            filter.airy_domain(rows, cols, Some(4), Some(5), pos)
+        };
+        let sphere = sphere_columns(&go, &filter, step, 4, false);
+        assert_eq!(domain(&sphere), [true, true]);
+        let scaled = |f: &dyn Fn(usize) -> f64| -> Vec<Vec<f64>> {
+            sphere
+                .iter()
+                .enumerate()
+                .map(|(c, v)| v.iter().map(|x| x * f(c)).collect())
+                .collect()
+        };
+        assert_eq!(domain(&scaled(&|_| 0.3)), [false, false]);
+        assert_eq!(
+            domain(&scaled(&|c| if c < 2 { 0.01 } else { 1.0 })),
+            [false, false]
+        );
+        // Without a transfer (the gaussian model) no column is in the domain.
+        let plain = ColumnFilter::new(14401, step, 0.001, split, true);
+        assert_eq!(
+            plain.airy_domain(rows, &sphere, Some(4), Some(5), [None, None]),
+            [false, false]
+        );
+    }
+
+    /// On a 2 mm drop with the sun on the horizon most columns leave the airy-local domain:
+    /// there the default table is the Gaussian filter's, value for value, and it keeps the
+    /// values the Gaussian filter keeps positive.
+    #[test]
+    fn airy_local_takes_the_gaussian_filter_outside_its_domain() {
+        let lines = |model: &str| {
+            format!(
+                "shape = \"beard-chuang\"\nradii_um = [2000.0]\nwavelengths_nm = [650.0]\nsun_elevation_deg = [0.0]\nrays = 200\npolar_step_deg = 0.05\nazimuth_step_deg = 10.0\nmirror_symmetrise = false{model}"
+            )
+        };
+        let default = crate::stages::table_from_lines(&RaytraceStage, &lines(""));
+        let gaussian = crate::stages::table_from_lines(
+            &RaytraceStage,
+            &lines("\ndiffraction_model = \"gaussian\""),
+        );
+        assert!(
+            default.attributes["diffraction_filter"]
+                .as_str()
+                .unwrap()
+                .starts_with("airy-local")
+        );
+        let (np, na, nch) = (
+            default.axes[3].len(),
+            default.axes[4].len(),
+            default.channels.len(),
+        );
+        // Primary rows (130–150°): columns equal to the Gaussian's over the whole range.
+        let (j0, j1) = ((130.0 / 0.05) as usize, (150.0 / 0.05) as usize);
+        // Renormalisation factors differ by the flux the two models move: compare shapes.
+        let col = |t: &TableContent, k: usize| -> Vec<f64> {
+            (j0..=j1)
+                .map(|j| t.data[(j * na + k) * nch] as f64)
+                .collect()
+        };
+        let mut same = 0;
+        for k in 0..na {
+            let (a, b) = (col(&default, k), col(&gaussian, k));
+            let r = a[0] / b[0];
+            if a.iter()
+                .zip(&b)
+                .all(|(x, y)| (x - r * y).abs() <= 1e-5 * y.abs() + 1e-12)
+            {
+                same += 1;
+            }
+            for (x, y) in a.iter().zip(&b) {
+                assert!(*y <= 0.0 || *x > 0.0, "column {k}: {x} where gaussian {y}");
+            }
+        }
+        assert!(
+            same >= na / 2,
+            "{same} of {na} columns are the Gaussian filter's"
+        );
+        assert!(same < na, "every column left the domain");
+        assert_eq!(default.data.len(), np * na * nch);
     }
 }
