@@ -648,13 +648,9 @@ impl ColumnFilter {
         secondary: Option<usize>,
         positions: [Option<f64>; 2],
     ) -> [bool; 2] {
-        match (&self.airy, self.enabled) {
-            (Some(t), true) => {
-                self.transfer_column(t, rows, cols, [primary, secondary], positions)
-                    .1
-            }
-            _ => [false, false],
-        }
+        self.transfer_columns(rows, &[cols], primary, secondary, &[positions])
+            .and_then(|mut t| t.pop())
+            .map_or([false, false], |(_, flags)| flags)
     }
 
     /// σ (rad) at polar angle `th`; 0 when the filter is off.
@@ -743,49 +739,78 @@ impl ColumnFilter {
         if !self.enabled {
             return vec![CausticWindow::default(); blocks.len()];
         }
-        let Some(t) = &self.airy else {
-            return self.gaussian_windows(rows, blocks, primary, secondary);
-        };
-        let airy: Vec<Option<CausticWindow>> = blocks
-            .iter()
-            .zip(positions)
-            .zip(airy_weights)
-            .map(|((cols, pos), w)| {
-                (w[0] > 0.0 || w[1] > 0.0).then(|| {
-                    self.transfer_column(t, rows, cols, [primary, secondary], *pos)
-                        .0
-                })
-            })
-            .collect();
-        let gaussian = if airy_weights.iter().any(|w| w[0] < 1.0 || w[1] < 1.0) {
-            self.gaussian_windows(rows, blocks, primary, secondary)
-        } else {
-            vec![CausticWindow::default(); blocks.len()]
-        };
-        airy.into_iter()
+        match self.transfer_columns(rows, blocks, primary, secondary, positions) {
+            None => self.gaussian_windows(rows, blocks, primary, secondary),
+            Some(t) => {
+                let windows = t.into_iter().map(|(w, _)| w).collect();
+                self.blend_with_gaussian(rows, blocks, primary, secondary, windows, airy_weights)
+            }
+        }
+    }
+
+    /// The airy-local transfer of several columns (`blocks[c]` is column `c`'s values,
+    /// `positions[c]` its caustic positions), each with its bows' domain flags (see
+    /// [`ColumnFilter::airy_domain`]); `None` without a transfer or with the filter off.
+    pub fn transfer_columns(
+        &self,
+        rows: (usize, usize),
+        blocks: &[&[Vec<f64>]],
+        primary: Option<usize>,
+        secondary: Option<usize>,
+        positions: &[[Option<f64>; 2]],
+    ) -> Option<Vec<(CausticWindow, [bool; 2])>> {
+        let t = self.airy.as_ref().filter(|_| self.enabled)?;
+        Some(
+            blocks
+                .iter()
+                .zip(positions)
+                .map(|(cols, pos)| self.transfer_column(t, rows, cols, [primary, secondary], *pos))
+                .collect(),
+        )
+    }
+
+    /// Blend the transferred windows `transferred` of several columns (from
+    /// [`ColumnFilter::transfer_columns`]; `blocks` as there) with the Gaussian filter by the
+    /// transfer's weights per bow: a column whose weights are both 1 keeps its transfer, one
+    /// whose weights are both 0 gets the Gaussian filter alone, and in between each row takes
+    /// `w·transfer + (1 − w)·gaussian` with the weight of its bow (primary above the
+    /// Alexander-band midpoint, secondary below).
+    pub fn blend_with_gaussian(
+        &self,
+        rows: (usize, usize),
+        blocks: &[&[Vec<f64>]],
+        primary: Option<usize>,
+        secondary: Option<usize>,
+        transferred: Vec<CausticWindow>,
+        airy_weights: &[[f64; 2]],
+    ) -> Vec<CausticWindow> {
+        if airy_weights.iter().all(|w| w[0] >= 1.0 && w[1] >= 1.0) {
+            return transferred;
+        }
+        let gaussian = self.gaussian_windows(rows, blocks, primary, secondary);
+        transferred
+            .into_iter()
             .zip(gaussian)
             .zip(airy_weights)
             .zip(blocks)
-            .map(|(((a, g), w), cols)| match a {
-                None => g,
-                Some(a) if w[0] >= 1.0 && w[1] >= 1.0 => a,
-                Some(mut a) => {
-                    let nvals = a.nvals;
-                    for j in a.start..a.start + a.len {
-                        let b = usize::from(self.step * j as f64 <= self.split);
-                        let wb = w[b];
-                        if wb >= 1.0 {
-                            continue;
-                        }
-                        let base = (j - a.start) * nvals;
-                        for v in 0..nvals {
-                            let gv = g.get(j).map_or(cols[v][j - rows.0], |g| g[v]);
-                            let x = &mut a.values[base + v];
-                            *x = wb * *x + (1.0 - wb) * gv;
-                        }
-                    }
-                    a
+            .map(|(((mut a, g), w), cols)| {
+                if w[0] <= 0.0 && w[1] <= 0.0 {
+                    return g;
                 }
+                let nvals = a.nvals;
+                for j in a.start..a.start + a.len {
+                    let wb = w[usize::from(self.step * j as f64 <= self.split)];
+                    if wb >= 1.0 {
+                        continue;
+                    }
+                    let base = (j - a.start) * nvals;
+                    for v in 0..nvals {
+                        let gv = g.get(j).map_or(cols[v][j - rows.0], |g| g[v]);
+                        let x = &mut a.values[base + v];
+                        *x = wb * *x + (1.0 - wb) * gv;
+                    }
+                }
+                a
             })
             .collect()
     }

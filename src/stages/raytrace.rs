@@ -488,14 +488,21 @@ pub fn n_channels_2d(orders: usize) -> usize {
 /// with consecutive pixels of one order adjacent in memory.
 const COLUMN_BLOCK: usize = 16;
 
+/// The columns of a block as [`ColumnFilter`] takes them.
+fn block_cols(block: &[Vec<Vec<f64>>]) -> Vec<&[Vec<f64>]> {
+    block.iter().map(Vec::as_slice).collect()
+}
+
 /// `op(k0, block)` for every block of [`COLUMN_BLOCK`] azimuth columns `k0..k0 + block.len()`
-/// (rayon over blocks), concatenated, where `block[c]` holds dσ/dΩ i_perp, i_par and per order
+/// for which `want(k0, k0 + block.len())` holds (the others give `R::default()` per column,
+/// without reading the accumulators; rayon over blocks), concatenated, where `block[c]` holds dσ/dΩ i_perp, i_par and per order
 /// of column `k0 + c` at polar rows `rows.0..=rows.1`. The accumulators are read row by row
 /// within a block: reading one column at a time visits one pixel per row and order and misses
 /// the caches at nearly every value.
-fn map_columns<R: Send>(
+fn map_columns<R: Send + Default + Clone>(
     f: &FieldGrid,
     rows: (usize, usize),
+    want: impl Fn(usize, usize) -> bool + Sync,
     op: impl Fn(usize, &[Vec<Vec<f64>>]) -> Vec<R> + Sync,
 ) -> Vec<R> {
     let (orders, na) = (f.orders, f.grid.n_azimuth);
@@ -504,6 +511,9 @@ fn map_columns<R: Send>(
         .into_par_iter()
         .flat_map_iter(|b| {
             let (k0, k1) = (b * COLUMN_BLOCK, ((b + 1) * COLUMN_BLOCK).min(na));
+            if !want(k0, k1) {
+                return vec![R::default(); k1 - k0];
+            }
             let n = rows.1 + 1 - rows.0;
             let mut cols = vec![vec![Vec::with_capacity(n); 2 + orders]; k1 - k0];
             let mut per = vec![0.0; orders];
@@ -536,39 +546,53 @@ fn caustic_windows(f: &FieldGrid, filter: &ColumnFilter) -> Vec<CausticWindow> {
     let orders = f.orders;
     let rows = filter.needed_rows();
     let order = |o: usize| (o < orders).then_some(2 + o);
-    let na = f.grid.n_azimuth;
     let step_deg = f.grid.azimuth_step().to_degrees();
-    let (positions, weights): (Vec<[Option<f64>; 2]>, Vec<[f64; 2]>) =
-        if filter.uses_fold_positions() {
-            let raw = map_columns(f, rows, |_, block| {
-                let pos = |c: &Vec<Vec<f64>>| filter.fold_positions(rows, c, order(2), order(3));
-                block.iter().map(pos).collect()
-            });
-            let positions = smooth_over_azimuth(&raw, step_deg);
-            let flags = map_columns(f, rows, |k0, block| {
-                block
-                    .iter()
-                    .zip(&positions[k0..k0 + block.len()])
-                    .map(|(c, pos)| filter.airy_domain(rows, c, order(2), order(3), *pos))
-                    .collect()
-            });
-            let w = domain_weights(&flags, step_deg);
-            (positions, w)
-        } else {
-            (vec![[None, None]; na], vec![[0.0, 0.0]; na])
-        };
-    map_columns(f, rows, |k0, block| {
-        let cols: Vec<&[Vec<f64>]> = block.iter().map(Vec::as_slice).collect();
-        let range = k0..k0 + block.len();
-        filter.filter_columns_at(
-            rows,
-            &cols,
-            order(2),
-            order(3),
-            &positions[range.clone()],
-            &weights[range],
-        )
-    })
+    let every = |_: usize, _: usize| true;
+    if !filter.uses_fold_positions() {
+        return map_columns(f, rows, every, |_, block| {
+            filter.filter_columns_at(rows, &block_cols(block), order(2), order(3), &[], &[])
+        });
+    }
+    let raw = map_columns(f, rows, every, |_, block| {
+        let pos = |c: &Vec<Vec<f64>>| filter.fold_positions(rows, c, order(2), order(3));
+        block.iter().map(pos).collect()
+    });
+    let positions = smooth_over_azimuth(&raw, step_deg);
+    let (mut windows, flags): (Vec<CausticWindow>, Vec<[bool; 2]>) =
+        map_columns(f, rows, every, |k0, block| {
+            let pos = &positions[k0..k0 + block.len()];
+            filter
+                .transfer_columns(rows, &block_cols(block), order(2), order(3), pos)
+                .expect("a transfer: the filter uses fold positions")
+        })
+        .into_iter()
+        .unzip();
+    let weights = domain_weights(&flags, step_deg);
+    let partial = |k0: usize, k1: usize| weights[k0..k1].iter().any(|w| w[0] < 1.0 || w[1] < 1.0);
+    if weights.iter().any(|w| w[0] < 1.0 || w[1] < 1.0) {
+        // Only blocks with a column outside the domain are read again.
+        let blended = map_columns(f, rows, partial, |k0, block| {
+            let range = k0..k0 + block.len();
+            filter
+                .blend_with_gaussian(
+                    rows,
+                    &block_cols(block),
+                    order(2),
+                    order(3),
+                    windows[range.clone()].to_vec(),
+                    &weights[range],
+                )
+                .into_iter()
+                .map(Some)
+                .collect()
+        });
+        for (w, b) in windows.iter_mut().zip(blended) {
+            if let Some(b) = b {
+                *w = b;
+            }
+        }
+    }
+    windows
 }
 
 /// The table values `[polar][azimuth][channel]` of one entry (rayon over polar rows): filtered
