@@ -137,7 +137,7 @@ impl Mixture2dParams {
             wavelengths_nm: self.wavelengths_nm.clone(),
             water_index_model: self.water_index_model.clone(),
             temperature_c: self.temperature_c,
-            max_order: self.max_order,
+            max_order: Some(self.max_order),
             angle_step_deg: 0.05,
             sun_elevation_deg: self.sun_elevation_deg.clone(),
             rays: self.rays,

@@ -88,7 +88,7 @@ pub fn raytrace_columns(args: &RaytraceArgs) -> anyhow::Result<RaytraceColumns> 
         wavelengths_nm: vec![args.wavelength_nm],
         water_index_model: args.refractive.water_index_model.clone(),
         temperature_c: args.refractive.temperature_c,
-        max_order: 3,
+        max_order: None,
         angle_step_deg: step,
         sun_elevation_deg: vec![args.sun_elevation_deg],
         rays: args.rays,
@@ -112,9 +112,10 @@ pub fn raytrace_columns(args: &RaytraceArgs) -> anyhow::Result<RaytraceColumns> 
             .map_err(|e| anyhow::anyhow!("{e}"))?;
     }
     let chunk = job.run_task(0)?;
-    let nch = scatterbake::raytrace::channel_names(3).len();
     let n_polar = (180.0 / step).round() as usize + 1;
     let n_az = if sphere { 1 } else { 72 };
+    // Channels per direction: the stage's, for its default `max_order` of the shape.
+    let nch = chunk.len() / (n_polar * n_az);
     let mut out = RaytraceColumns {
         n,
         angle_deg: vec![],
