@@ -73,9 +73,8 @@ const FIT_Z: f64 = 0.5;
 
 /// Domain of the airy-local transfer, per column and bow (decision RT-33): the column's caustic
 /// strength over the sphere's must lie in this range. Measured on Beard–Chuang drops (400² rays,
-/// 5° azimuth, 650 nm): 0.82–1.40 at 0.5 mm for every sun elevation, 1.000–1.004 on a sphere;
-/// where a 1–2 mm drop's caustic splits, moves out of the search range or fades, 0–0.45 and up
-/// to 20.
+/// 5° azimuth, 650 nm): 1.001–1.004 on a sphere, 0.90–1.40 at 0.5 mm (sun 20°); where a 1–2 mm
+/// drop's caustic splits, moves out of the search range or fades, 0–0.41 and up to 20.
 pub const AIRY_DOMAIN_STRENGTH: (f64, f64) = (0.5, 2.0);
 
 /// Domain of the airy-local transfer: the most negative value the transfer produces before

@@ -504,8 +504,8 @@ fn block_cols(block: &[Vec<Vec<f64>>]) -> Vec<&[Vec<f64>]> {
 
 /// `op(k0, block)` for every block of [`COLUMN_BLOCK`] azimuth columns `k0..k0 + block.len()`
 /// for which `want(k0, k0 + block.len())` holds (the others give `R::default()` per column,
-/// without reading the accumulators; rayon over blocks), concatenated, where `block[c]` holds dσ/dΩ i_perp, i_par and per order
-/// of column `k0 + c` at polar rows `rows.0..=rows.1`. The accumulators are read row by row
+/// without reading the accumulators; rayon over blocks), concatenated, where `block[c]` holds
+/// dσ/dΩ i_perp, i_par and per order of column `k0 + c` at polar rows `rows.0..=rows.1`. The accumulators are read row by row
 /// within a block: reading one column at a time visits one pixel per row and order and misses
 /// the caches at nearly every value.
 fn map_columns<R: Send + Default + Clone>(

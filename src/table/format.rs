@@ -161,7 +161,7 @@ fn compress_payload(data: &[f32]) -> Result<CompressedPayload, TableError> {
     };
     let hash = || {
         let mut sha = Sha256::new();
-        let _ = for_each_le_chunk::<std::convert::Infallible>(data, |bytes| {
+        let Ok(()) = for_each_le_chunk::<std::convert::Infallible>(data, |bytes| {
             sha.update(bytes);
             Ok(())
         });
