@@ -687,11 +687,21 @@ impl ColumnFilter {
         primary: Option<usize>,
         secondary: Option<usize>,
     ) -> CausticWindow {
+        if !self.enabled {
+            return CausticWindow::default();
+        }
         let positions = self.fold_positions(rows, cols, primary, secondary);
-        let weight = self
-            .airy_domain(rows, cols, primary, secondary, positions)
-            .map(f64::from);
-        self.filter_column_at(rows, cols, primary, secondary, positions, weight)
+        match self.transfer_columns(rows, &[cols], primary, secondary, &[positions]) {
+            None => self.gaussian_windows(rows, &[cols], primary, secondary),
+            // One transfer: its window and its domain flags as the column's weights.
+            Some(t) => {
+                let (windows, flags): (Vec<_>, Vec<_>) = t.into_iter().unzip();
+                let weights = [flags[0].map(f64::from)];
+                self.blend_with_gaussian(rows, &[cols], primary, secondary, windows, &weights)
+            }
+        }
+        .pop()
+        .unwrap_or_default()
     }
 
     /// [`ColumnFilter::filter_column`] with the caustic positions of the airy-local transfer

@@ -578,7 +578,7 @@ fn caustic_windows(f: &FieldGrid, filter: &ColumnFilter) -> Vec<CausticWindow> {
         .unzip();
     let weights = domain_weights(&flags, step_deg);
     let partial = |k0: usize, k1: usize| weights[k0..k1].iter().any(|w| w[0] < 1.0 || w[1] < 1.0);
-    if weights.iter().any(|w| w[0] < 1.0 || w[1] < 1.0) {
+    if partial(0, weights.len()) {
         // Only blocks with a column outside the domain are read again.
         let blended = map_columns(f, rows, partial, |k0, block| {
             let range = k0..k0 + block.len();
