@@ -5,10 +5,11 @@
 //! the disc over the sphere of directions as `render` applies it), and the primary and
 //! supernumerary maxima (both smoothed by σ = 0.04°·(0.4 mm/a)).
 //!
-//! `cargo run --release --example sphere_2d_vs_mie -- [rays] [polar_step_deg] [azimuth_step_deg] [radius_um] [ray_grid]`
+//! `cargo run --release --example sphere_2d_vs_mie -- [rays] [polar_step_deg] [azimuth_step_deg] [radius_um] [ray_grid] [mirror]`
 //! (with `SPREAD_CSV_DIR=dir`, the per-row spreads and the azimuth mean over 120–150° are written
 //! to `dir/<model>.csv`)
-//! (default 600 0.0125 5 400 square; the seed resolution is 3000 0.0125 0.2).
+//! (default 600 0.0125 5 400 square average; the seed resolution is 3000 0.0125 0.2; `mirror` is
+//! `average` for `mirror_symmetrise` or `half` for `mirror_half`).
 #[path = "common/mie_reference.rs"]
 mod mie_reference;
 use mie_reference::{mie_phase, sun_disc};
@@ -101,6 +102,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         arg(3, 400.0),
     );
     let ray_grid = args.get(4).map_or("square", String::as_str);
+    let mirror_half = match args.get(5).map_or("average", String::as_str) {
+        "average" => false,
+        "half" => true,
+        other => return Err(format!("mirror must be average or half, not {other}").into()),
+    };
     let (lambda, elev) = (650.0, 17.0);
     let angles: Vec<f64> = (0..=((180.0 / pstep).round() as usize))
         .map(|j| j as f64 * pstep)
@@ -117,7 +123,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let peak = win(&mie_s).into_iter().fold(0.0, f64::max);
     let mie_max = maxima(&angles, &mie_s, 137.0, 145.0, 0.1 * peak);
     println!(
-        "sphere a = {a} µm, {lambda} nm, n = 1.331, sun {elev}°, {rays}² rays ({ray_grid} grid), {pstep}° × {astep}°"
+        "sphere a = {a} µm, {lambda} nm, n = 1.331, sun {elev}°, {rays}² rays ({ray_grid} grid), {pstep}° × {astep}°, mirror_half = {mirror_half}"
     );
     println!(
         "Mie maxima (primary, supernumeraries): {:?}",
@@ -129,7 +135,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     );
     for model in ["gaussian", "airy-local"] {
         let toml = format!(
-            "shape = \"profile\"\nradii_um = [{a}]\nwavelengths_nm = [{lambda}]\nwater_index_model = \"sadeghi-table-3.2\"\nsun_elevation_deg = [{elev}]\nrays = {rays}\nray_grid = \"{ray_grid}\"\npolar_step_deg = {pstep}\nazimuth_step_deg = {astep}\ndiffraction_model = \"{model}\"\nprofile_theta_deg = [0.0, 90.0, 180.0]\nprofile_r = [1.0, 1.0, 1.0]"
+            "shape = \"profile\"\nradii_um = [{a}]\nwavelengths_nm = [{lambda}]\nwater_index_model = \"sadeghi-table-3.2\"\nsun_elevation_deg = [{elev}]\nrays = {rays}\nray_grid = \"{ray_grid}\"\npolar_step_deg = {pstep}\nazimuth_step_deg = {astep}\ndiffraction_model = \"{model}\"\nmirror_half = {mirror_half}\nprofile_theta_deg = [0.0, 90.0, 180.0]\nprofile_r = [1.0, 1.0, 1.0]"
         );
         let p: RaytraceParams = toml::from_str(&toml)?;
         let job = RaytraceJob::new(p)?;

@@ -55,6 +55,8 @@ stage_params! {
             "apply the Table 3.3 Gaussian filter to the main channels";
         pub mirror_symmetrise: bool = default(true), "bool",
             "average the values at φ and 360° − φ of every radius (as the raytrace stage)";
+        pub mirror_half: bool = default(false), "bool",
+            "compute the azimuths 0°–180° of every radius and copy them to 360° − φ (as the raytrace stage)";
     }
 }
 
@@ -146,6 +148,7 @@ impl Mixture2dParams {
             azimuth_step_deg: self.azimuth_step_deg,
             diffraction_filter: self.diffraction_filter,
             mirror_symmetrise: self.mirror_symmetrise,
+            mirror_half: self.mirror_half,
             diffraction_model: None,
             profile_theta_deg: None,
             profile_r: None,

@@ -34,6 +34,7 @@ use crate::raytrace::shape::{CosineSeries, DropShape};
 use crate::raytrace::sphere1d::{DiffractionModel, Phase1dOptions, SphereGo, sphere_phase_1d};
 use crate::raytrace::tracer::{
     DirectionGrid, FieldGrid, RayGridLayout, TraceConfig, pixel_intensities, trace_fields,
+    trace_fields_mirror_half,
 };
 use crate::stages::phase_contract;
 use crate::stages::{Job, JobError, PlanError, StageSpec, TaskSpec, checks, stage_params};
@@ -85,6 +86,9 @@ stage_params! {
         /// Average each 2-D table pixel with its mirror image φ ↔ 360° − φ (decision RT-24).
         pub mirror_symmetrise: bool = default(true), "bool",
             "2-D shapes: replace the values at φ and 360° − φ by their mean (the drop and the sun are mirror-symmetric about the vertical plane φ = 0), removing the ray-noise asymmetry";
+        /// Compute the azimuths 0°–180° only and copy them to 360° − φ (decision RT-34).
+        pub mirror_half: bool = default(false), "bool",
+            "2-D shapes: compute only the azimuths 0°–180° and copy each to its mirror image 360° − φ (about half the rasterising, caustic filtering and memory; the table is exactly symmetric, without the averaging of mirror_symmetrise, so its ray noise is that of one half); needs mirror_symmetrise = true";
         /// Diffraction model of the main channels: `airy-uniform` (spheres only, default for
         /// spheres), `airy-local` (2-D shapes only, default for them: the sphere's Airy
         /// correction moved onto each column's caustic within its domain, the Gaussian filter
@@ -252,6 +256,12 @@ impl RaytraceJob {
                 "airy-local is for 2-D shapes (it transfers the sphere's airy-uniform correction); spheres use airy-uniform",
             ));
         }
+        if p.mirror_half && !p.mirror_symmetrise {
+            return Err(PlanError::invalid(
+                "mirror_half",
+                "mirror_half = true makes the table exactly mirror-symmetric, which contradicts mirror_symmetrise = false (keep the ray-noise asymmetry); set mirror_symmetrise = true or mirror_half = false",
+            ));
+        }
         let two_d = match p.shape.as_str() {
             "sphere" => false,
             "beard-chuang" | "profile" => true,
@@ -403,7 +413,11 @@ impl RaytraceJob {
             n,
             ray_grid: self.p.ray_grid,
         };
-        let f = trace_fields(shape, &cfg, grid);
+        let f = if self.p.mirror_half {
+            trace_fields_mirror_half(shape, &cfg, grid)
+        } else {
+            trace_fields(shape, &cfg, grid)
+        };
         let a_um = shape.radius_um();
         let go = SphereGo::new(a_um, lambda, n, 3);
         let split = 0.5
@@ -423,7 +437,7 @@ impl RaytraceJob {
         let windows = caustic_windows(&f, &filter);
         let sigma_total = f.order_cross_section_um2.iter().sum::<f64>() + f.projected_area_um2;
         let mut out = write_channels(f, &windows, lambda);
-        if self.p.mirror_symmetrise {
+        if self.p.mirror_symmetrise && !self.p.mirror_half {
             mirror_symmetrise(&mut out, grid.n_azimuth, n_channels_2d(self.max_order + 1));
         }
         Ok((out, sigma_total))
@@ -514,7 +528,7 @@ fn map_columns<R: Send + Default + Clone>(
     want: impl Fn(usize, usize) -> bool + Sync,
     op: impl Fn(usize, &[Vec<Vec<f64>>]) -> Vec<R> + Sync,
 ) -> Vec<R> {
-    let (orders, na) = (f.orders, f.grid.n_azimuth);
+    let (orders, na) = (f.orders, f.n_columns);
     let zeros = vec![Complex32::new(0.0, 0.0); f.order_row_len()];
     (0..na.div_ceil(COLUMN_BLOCK))
         .into_par_iter()
@@ -566,7 +580,9 @@ fn caustic_windows(f: &FieldGrid, filter: &ColumnFilter) -> Vec<CausticWindow> {
         let pos = |c: &Vec<Vec<f64>>| filter.fold_positions(rows, c, order(2), order(3));
         block.iter().map(pos).collect()
     });
-    let positions = smooth_over_azimuth(&raw, step_deg);
+    let na = f.grid.n_azimuth;
+    let mut positions = smooth_over_azimuth(&over_full_circle(&raw, na), step_deg);
+    positions.truncate(f.n_columns);
     let (mut windows, flags): (Vec<CausticWindow>, Vec<[bool; 2]>) =
         map_columns(f, rows, every, |k0, block| {
             let pos = &positions[k0..k0 + block.len()];
@@ -576,7 +592,8 @@ fn caustic_windows(f: &FieldGrid, filter: &ColumnFilter) -> Vec<CausticWindow> {
         })
         .into_iter()
         .unzip();
-    let weights = domain_weights(&flags, step_deg);
+    let mut weights = domain_weights(&over_full_circle(&flags, na), step_deg);
+    weights.truncate(f.n_columns);
     let partial = |k0: usize, k1: usize| weights[k0..k1].iter().any(|w| w[0] < 1.0 || w[1] < 1.0);
     if partial(0, weights.len()) {
         // Only blocks with a column outside the domain are read again.
@@ -604,6 +621,16 @@ fn caustic_windows(f: &FieldGrid, filter: &ColumnFilter) -> Vec<CausticWindow> {
     windows
 }
 
+/// Per-column values `held` of a field grid's columns ([`FieldGrid::n_columns`]) over all `na`
+/// azimuths: as they are for a whole trace, completed by the mirror image (column `na − k` is
+/// column `k`) for a mirror-half one, so that smoothing over azimuth sees the columns on both
+/// sides of φ = 0° and 180°.
+fn over_full_circle<T: Clone>(held: &[T], na: usize) -> Vec<T> {
+    (0..na)
+        .map(|k| held.get(k).unwrap_or_else(|| &held[na - k]).clone())
+        .collect()
+}
+
 /// The table values `[polar][azimuth][channel]` of one entry (rayon over polar rows): filtered
 /// values inside each column's caustic window, unfiltered outside, plus the forward lobe of the
 /// equal-area disc, all divided by σ = σ_GO + A. Consumes the accumulators band by band (each
@@ -612,6 +639,7 @@ fn caustic_windows(f: &FieldGrid, filter: &ColumnFilter) -> Vec<CausticWindow> {
 fn write_channels(mut f: FieldGrid, windows: &[CausticWindow], lambda: f64) -> Vec<f32> {
     let grid = f.grid;
     let (np, na, orders) = (grid.n_polar, grid.n_azimuth, f.orders);
+    let nc = f.n_columns;
     let area = f.projected_area_um2;
     let a_eff = (area / PI).sqrt();
     let sigma_total: f64 = f.order_cross_section_um2.iter().sum::<f64>() + area;
@@ -648,7 +676,7 @@ fn write_channels(mut f: FieldGrid, windows: &[CausticWindow], lambda: f64) -> V
                 let lobe = fraunhofer_bin_average(a_eff, lambda, lo, hi);
                 let mut per = vec![0.0; orders];
                 let mut unf = vec![0.0; 2 + orders];
-                for (k, px) in row.chunks_exact_mut(nch).enumerate() {
+                for (k, px) in row.chunks_exact_mut(nch).take(nc).enumerate() {
                     let (ip_u, ipar_u) =
                         pixel_intensities(acc.iter().map(|a| &a[k * 4..k * 4 + 4]), &mut per);
                     unf[0] = ip_u;
@@ -673,6 +701,11 @@ fn write_channels(mut f: FieldGrid, windows: &[CausticWindow], lambda: f64) -> V
                     {
                         *dst = v as f32;
                     }
+                }
+                // A mirror-half trace: column na − k is the mirror image of column k (the same
+                // intensities, decision RT-34).
+                for k in nc..na {
+                    row.copy_within((na - k) * nch..(na - k + 1) * nch, k * nch);
                 }
             });
         // `band` is dropped here: its accumulators return to the system before the next band.
@@ -950,7 +983,9 @@ impl RaytraceJob {
         );
         at.insert(
             "mirror_symmetrisation".into(),
-            if self.p.mirror_symmetrise {
+            if self.p.mirror_half {
+                "by construction: only the outgoing_azimuth range 0°–180° was computed and each value copied to 360° − φ (mirror_half); the drop (a surface of revolution about the vertical axis) and the sun (in the vertical plane φ = 0) are symmetric under y → −y, so the exact table has this symmetry; the ray noise is that of the half traced, not averaged with its mirror image (docs/decisions.md RT-34)"
+            } else if self.p.mirror_symmetrise {
                 "applied: the values at outgoing_azimuth φ and 360° − φ were replaced by their mean (every channel but dolp, which was recomputed from the mean i_perp and i_par); the drop (a surface of revolution about the vertical axis) and the sun (in the vertical plane φ = 0) are symmetric under y → −y, so the exact table has this symmetry and the averaging removes ray noise only (docs/decisions.md RT-24)"
             } else {
                 "not applied: values at φ and 360° − φ differ by ray noise"
@@ -1170,6 +1205,85 @@ mod tests {
                 .unwrap()
                 .starts_with("applied")
         );
+    }
+
+    /// `mirror_half` (RT-34): with the Gaussian filter (no smoothing over azimuth) the held
+    /// columns 0°–180° equal the unsymmetrised table's, the others are their mirror images, and
+    /// the header says so; with airy-local (caustic positions smoothed across φ = 0°, 180°) the
+    /// table stays within ray noise of the averaged one; contradicting `mirror_symmetrise =
+    /// false` is refused.
+    #[test]
+    fn mirror_half_tables_copy_the_held_half() {
+        let lines = |extra: &str| {
+            format!(
+                "shape = \"beard-chuang\"\nradii_um = [1500.0]\nwavelengths_nm = [550.0]\nsun_elevation_deg = [10.0]\nrays = 60\npolar_step_deg = 1.0\nazimuth_step_deg = 20.0\n{extra}"
+            )
+        };
+        fn at(t: &TableContent, na: usize, nch: usize, j: usize, k: usize) -> &[f32] {
+            &t.data[(j * na + k) * nch..][..nch]
+        }
+        let gauss = "diffraction_model = \"gaussian\"\n";
+        let raw = crate::stages::table_from_lines(
+            &RaytraceStage,
+            &lines(&format!("{gauss}mirror_symmetrise = false")),
+        );
+        let half = crate::stages::table_from_lines(
+            &RaytraceStage,
+            &lines(&format!("{gauss}mirror_half = true")),
+        );
+        let (np, na, nch) = (raw.axes[3].len(), raw.axes[4].len(), raw.channels.len());
+        assert_eq!(na, 18);
+        // The renormalisation divides by the bin sum over 4π, which differs between the two
+        // tables by the asymmetry of the other half: equal up to one factor per table.
+        let scale = at(&raw, na, nch, 100, 3)[1] as f64 / at(&half, na, nch, 100, 3)[1] as f64;
+        assert!(
+            (scale - 1.0).abs() < 0.05,
+            "renormalisations differ by {scale}"
+        );
+        for j in 0..np {
+            for k in 0..na {
+                let h = at(&half, na, nch, j, k);
+                if k > na / 2 {
+                    assert_eq!(h, at(&half, na, nch, j, na - k), "row {j}, column {k}");
+                    continue;
+                }
+                for (c, (x, y)) in h.iter().zip(at(&raw, na, nch, j, k)).enumerate() {
+                    let (x, y) = (*x as f64, *y as f64);
+                    let want = if c == DOLP_CHANNEL { y } else { y / scale };
+                    assert!(
+                        (x - want).abs() <= 1e-5 * want.abs() + 1e-12,
+                        "row {j}, column {k}, channel {c}: {x} vs {want}"
+                    );
+                }
+            }
+        }
+        assert!(
+            half.attributes["mirror_symmetrisation"]
+                .as_str()
+                .unwrap()
+                .starts_with("by construction")
+        );
+        let avg = crate::stages::table_from_lines(&RaytraceStage, &lines(""));
+        let half_local =
+            crate::stages::table_from_lines(&RaytraceStage, &lines("mirror_half = true"));
+        let (mut d2, mut n2) = (0.0f64, 0.0f64);
+        for (a, b) in avg.data.chunks(nch).zip(half_local.data.chunks(nch)) {
+            d2 += (a[0] as f64 - b[0] as f64).powi(2);
+            n2 += (a[0] as f64).powi(2);
+        }
+        let rel = (d2 / n2).sqrt();
+        assert!(
+            rel > 0.0 && rel < 0.1,
+            "mirror-half vs averaged table: {rel}"
+        );
+        let err = crate::stages::plan_from_lines(
+            &RaytraceStage,
+            &lines("mirror_half = true\nmirror_symmetrise = false"),
+        )
+        .err()
+        .expect("contradiction refused")
+        .to_string();
+        assert!(err.contains("mirror_half"), "{err}");
     }
 
     /// The airy-local domain (decision RT-33) on columns whose caustics are known: the
