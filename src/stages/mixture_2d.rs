@@ -252,7 +252,7 @@ impl Job for Mixture2dJob {
         let mut integrals = Vec::new();
         for jobs in &self.jobs {
             let part: Vec<Vec<f32>> = chunks.by_ref().take(per_entry).collect();
-            let t = crate::stages::Job::assemble(&jobs[0], part)?;
+            let t = jobs[0].assemble_values(part)?;
             integrals.push(t.attributes["integral_check"]["values"].clone());
             match &mut content {
                 None => content = Some(t),

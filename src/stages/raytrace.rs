@@ -152,7 +152,9 @@ impl StageSpec for RaytraceStage {
     /// 7: `airy-local` is the default caustic model of 2-D tables, with a domain outside which
     /// columns take the Gaussian filter (decision RT-33).
     /// 8: sphere (1-D) tables trace orders up to 6 by default (decision RT-30 amendment).
-    const VERSION: u32 = 8;
+    /// 9: 2-D airy-local tables record where the transfer was used (`airy_local_domain`; each
+    /// task's chunk carries its columns' transfer weights after the values).
+    const VERSION: u32 = 9;
     const SUMMARY: &'static str =
         "wave-optics patch ray tracer: phase functions of spherical and Beard–Chuang raindrops";
     type Params = RaytraceParams;
@@ -394,14 +396,46 @@ impl RaytraceJob {
     /// Run the 2-D tracer for one (wavelength, elevation): values [polar][azimuth][channel].
     /// Steps: trace (rayon over ray rows, then table rows), filter the caustic windows (rayon
     /// over azimuth columns), normalise and write the channels (rayon over polar rows).
+    /// With airy-local the chunk ends with the transfer weights of every azimuth column
+    /// ([`RaytraceJob::domain_values`]), which `assemble` records in the header.
     fn run_2d(&self, lambda: f64, elevation_deg: f64) -> Result<Vec<f32>, JobError> {
-        Ok(self.trace_2d(lambda, elevation_deg)?.0)
+        let (mut values, _, weights) = self.trace_2d_with_domain(lambda, elevation_deg)?;
+        if let Some(w) = weights {
+            values.extend(w.iter().flat_map(|w| w.map(|x| x as f32)));
+        }
+        Ok(values)
+    }
+
+    /// Values per 2-D task after the table's: the airy-local transfer weight of each azimuth
+    /// column (primary, secondary), 2 × n_azimuth, or none for the other models.
+    fn domain_values(&self) -> usize {
+        if self.two_d
+            && self.p.diffraction_filter
+            && self.diffraction_model() == DiffractionModel::AiryLocal
+        {
+            2 * self.direction_grid().n_azimuth
+        } else {
+            0
+        }
     }
 
     /// 2-D shapes: the values `[polar][azimuth][channel]` of one (wavelength, sun elevation) as
     /// a task returns them (divided by σ, before the renormalisation of `assemble`) and the
     /// scattering cross-section σ = σ_GO + A (µm²) they were divided by.
     pub fn trace_2d(&self, lambda: f64, elevation_deg: f64) -> Result<(Vec<f32>, f64), JobError> {
+        let (values, sigma, _) = self.trace_2d_with_domain(lambda, elevation_deg)?;
+        Ok((values, sigma))
+    }
+
+    /// [`RaytraceJob::trace_2d`] and, with airy-local, the weight of the transfer in each
+    /// azimuth column `[primary, secondary]` (1: the sphere-validated transfer, 0: the
+    /// Gaussian filter, between: blended; decision RT-33).
+    #[allow(clippy::type_complexity)]
+    pub fn trace_2d_with_domain(
+        &self,
+        lambda: f64,
+        elevation_deg: f64,
+    ) -> Result<(Vec<f32>, f64, Option<Vec<[f64; 2]>>), JobError> {
         let shape = self.shape.as_ref().expect("2-D job has a shape");
         let n = self.index(lambda)?;
         let grid = self.direction_grid();
@@ -434,13 +468,14 @@ impl RaytraceJob {
             let transfer = sphere_airy_transfer(&go, &filter, grid.polar_step(), f.orders);
             filter = filter.with_airy_transfer(transfer);
         }
-        let windows = caustic_windows(&f, &filter);
+        let (windows, weights) = caustic_windows(&f, &filter);
+        let weights = weights.map(|w| over_full_circle(&w, grid.n_azimuth));
         let sigma_total = f.order_cross_section_um2.iter().sum::<f64>() + f.projected_area_um2;
         let mut out = write_channels(f, &windows, lambda);
         if self.p.mirror_symmetrise && !self.p.mirror_half {
             mirror_symmetrise(&mut out, grid.n_azimuth, n_channels_2d(self.max_order + 1));
         }
-        Ok((out, sigma_total))
+        Ok((out, sigma_total, weights))
     }
 }
 
@@ -565,16 +600,20 @@ fn map_columns<R: Send + Default + Clone>(
 /// (decision RT-28), then each column's bows are tested against the transfer's domain and the
 /// flags turned into transfer weights smoothed over azimuth (decision RT-33): the transfer
 /// where the caustic is the sphere's fold, moved and scaled, the Gaussian filter elsewhere.
-fn caustic_windows(f: &FieldGrid, filter: &ColumnFilter) -> Vec<CausticWindow> {
+fn caustic_windows(
+    f: &FieldGrid,
+    filter: &ColumnFilter,
+) -> (Vec<CausticWindow>, Option<Vec<[f64; 2]>>) {
     let orders = f.orders;
     let rows = filter.needed_rows();
     let order = |o: usize| (o < orders).then_some(2 + o);
     let step_deg = f.grid.azimuth_step().to_degrees();
     let every = |_: usize, _: usize| true;
     if !filter.uses_fold_positions() {
-        return map_columns(f, rows, every, |_, block| {
+        let windows = map_columns(f, rows, every, |_, block| {
             filter.filter_columns_at(rows, &block_cols(block), order(2), order(3), &[], &[])
         });
+        return (windows, None);
     }
     let raw = map_columns(f, rows, every, |_, block| {
         let pos = |c: &Vec<Vec<f64>>| filter.fold_positions(rows, c, order(2), order(3));
@@ -618,7 +657,7 @@ fn caustic_windows(f: &FieldGrid, filter: &ColumnFilter) -> Vec<CausticWindow> {
             }
         }
     }
-    windows
+    (windows, Some(weights))
 }
 
 /// Per-column values `held` of a field grid's columns ([`FieldGrid::n_columns`]) over all `na`
@@ -817,10 +856,40 @@ impl Job for RaytraceJob {
         Ok(out)
     }
 
-    fn assemble(&self, chunks: Vec<Vec<f32>>) -> Result<TableContent, JobError> {
-        let data = concat_chunks(chunks);
+    fn assemble(&self, mut chunks: Vec<Vec<f32>>) -> Result<TableContent, JobError> {
+        let tail = self.domain_values();
+        let mut domain = None;
+        if tail > 0 {
+            let grid = self.direction_grid();
+            let expected = grid.n_polar * grid.n_azimuth * self.channels().len() + tail;
+            let mut weights = Vec::with_capacity(chunks.len());
+            for (index, c) in chunks.iter_mut().enumerate() {
+                if c.len() != expected {
+                    return Err(JobError::ChunkLength {
+                        index,
+                        got: c.len(),
+                        expected,
+                    });
+                }
+                weights.push(c.split_off(expected - tail));
+            }
+            domain = Some(self.domain_attribute(&weights));
+        }
+        let mut t = self.assemble_values(chunks)?;
+        if let Some(d) = domain {
+            t.attributes.insert("airy_local_domain".into(), d);
+        }
+        Ok(t)
+    }
+}
+
+impl RaytraceJob {
+    /// The table from the tasks' values (chunks without the airy-local weights of
+    /// [`RaytraceJob::run_task`]), in task order: what `mixture-2d` assembles per radius.
+    pub fn assemble_values(&self, chunks: Vec<Vec<f32>>) -> Result<TableContent, JobError> {
         let channels = self.channels();
         let at = self.common_attributes();
+        let data = concat_chunks(chunks);
         if self.two_d {
             self.assemble_2d(data, channels, at)
         } else {
@@ -874,6 +943,55 @@ impl RaytraceJob {
         at.insert("fresnel".into(), "complex Fresnel amplitudes, Born–Wolf signs, power-consistent transmission (src/optics/fresnel.rs)".into());
         at.insert("cross_order_phase".into(), "orders summed coherently without per-order constant (axial focal line) phases, as in the thesis: the fine cross-order ripple of the unfiltered channels is not Mie-exact".into());
         at
+    }
+
+    /// The header record of where airy-local used the sphere's transfer (decision RT-33), per
+    /// (wavelength, sun elevation) entry and bow, from the weights each task appended
+    /// (`[primary, secondary]` per azimuth column).
+    fn domain_attribute(&self, weights: &[Vec<f32>]) -> serde_json::Value {
+        let step = self.p.azimuth_step_deg;
+        let bow = |w: &[f32], b: usize| {
+            let col: Vec<f32> = w.chunks_exact(2).map(|p| p[b]).collect();
+            let transfer = col.iter().filter(|&&x| x >= 1.0).count();
+            let gaussian = col.iter().filter(|&&x| x <= 0.0).count();
+            // Azimuth ranges (deg, inclusive) of the columns that did not take the transfer
+            // alone (blended or Gaussian).
+            let mut ranges: Vec<[f64; 2]> = Vec::new();
+            let mut start = None;
+            for (k, &x) in col.iter().chain([&1.0f32]).enumerate() {
+                match (x < 1.0, start) {
+                    (true, None) => start = Some(k),
+                    (false, Some(k0)) => {
+                        ranges.push([k0 as f64 * step, (k - 1) as f64 * step]);
+                        start = None;
+                    }
+                    _ => {}
+                }
+            }
+            serde_json::json!({
+                "transfer_columns": transfer,
+                "blended_columns": col.len() - transfer - gaussian,
+                "gaussian_columns": gaussian,
+                "not_transfer_azimuth_ranges_deg": ranges,
+            })
+        };
+        let entries: Vec<serde_json::Value> = self
+            .task_pairs()
+            .iter()
+            .zip(weights)
+            .map(|(&(l, e), w)| {
+                serde_json::json!({
+                    "wavelength_nm": l,
+                    "sun_elevation_deg": e,
+                    "primary": bow(w, 0),
+                    "secondary": bow(w, 1),
+                })
+            })
+            .collect();
+        serde_json::json!({
+            "what": "where the airy-local caustic model used the equal-volume sphere's transfer (the model validated against Lorenz–Mie on spheres) and where the Gaussian filter, per (wavelength, sun elevation) entry and bow (primary: rows above the Alexander-band midpoint, secondary: below): counts of azimuth columns with transfer weight 1 (transfer), 0 (Gaussian filter) or between (blended over ±5° of azimuth), and the azimuth ranges (deg, inclusive) of the columns with weight below 1 (docs/decisions.md RT-33)",
+            "entries": entries,
+        })
     }
 
     /// The 1-D table of spheres: radius × wavelength × scattering angle.
@@ -1284,6 +1402,66 @@ mod tests {
         .expect("contradiction refused")
         .to_string();
         assert!(err.contains("mirror_half"), "{err}");
+    }
+
+    /// The header records, per entry and bow, where airy-local used the sphere's transfer: every
+    /// column of a 0.4 mm drop (a sphere), few of a 2 mm drop at sun 0° (its primary caustic is
+    /// no longer the sphere's fold); counts partition the columns and the listed ranges hold
+    /// exactly the columns without the transfer; no record for the Gaussian model.
+    #[test]
+    fn airy_local_tables_record_their_domain() {
+        let lines = |radius: f64, extra: &str| {
+            format!(
+                "shape = \"beard-chuang\"\nradii_um = [{radius}]\nwavelengths_nm = [550.0, 650.0]\nsun_elevation_deg = [0.0]\nrays = 400\npolar_step_deg = 0.0125\nazimuth_step_deg = 10.0\n{extra}"
+            )
+        };
+        let entries = |t: &TableContent| t.attributes["airy_local_domain"]["entries"].clone();
+        let count = |v: &serde_json::Value, key: &str| v[key].as_u64().unwrap() as usize;
+        let sphere = crate::stages::table_from_lines(&RaytraceStage, &lines(400.0, ""));
+        let e = entries(&sphere);
+        assert_eq!(e.as_array().unwrap().len(), 2);
+        assert_eq!(e[1]["wavelength_nm"], 650.0);
+        for entry in e.as_array().unwrap() {
+            for bow in ["primary", "secondary"] {
+                assert_eq!(count(&entry[bow], "transfer_columns"), 36, "{entry}");
+                assert!(
+                    entry[bow]["not_transfer_azimuth_ranges_deg"]
+                        .as_array()
+                        .unwrap()
+                        .is_empty()
+                );
+            }
+        }
+        let drop = crate::stages::table_from_lines(&RaytraceStage, &lines(2000.0, ""));
+        let mut outside = 0;
+        for entry in entries(&drop).as_array().unwrap() {
+            for bow in ["primary", "secondary"] {
+                let b = &entry[bow];
+                let (t, m, g) = (
+                    count(b, "transfer_columns"),
+                    count(b, "blended_columns"),
+                    count(b, "gaussian_columns"),
+                );
+                assert_eq!(t + m + g, 36, "{b}");
+                let listed: f64 = b["not_transfer_azimuth_ranges_deg"]
+                    .as_array()
+                    .unwrap()
+                    .iter()
+                    .map(|r| (r[1].as_f64().unwrap() - r[0].as_f64().unwrap()) / 10.0 + 1.0)
+                    .sum();
+                assert_eq!(listed as usize, m + g, "{b}");
+                outside += g;
+            }
+        }
+        assert!(
+            outside > 0,
+            "a 2 mm drop at sun 0° keeps the sphere's transfer everywhere"
+        );
+        let gauss = crate::stages::table_from_lines(
+            &RaytraceStage,
+            &lines(400.0, "diffraction_model = \"gaussian\""),
+        );
+        assert!(!gauss.attributes.contains_key("airy_local_domain"));
     }
 
     /// The airy-local domain (decision RT-33) on columns whose caustics are known: the
