@@ -112,11 +112,22 @@ pub fn raytrace_columns(args: &RaytraceArgs) -> anyhow::Result<RaytraceColumns> 
             .with_refractive_index(n)
             .map_err(|e| anyhow::anyhow!("{e}"))?;
     }
-    let chunk = job.run_task(0)?;
+    // The task's values (a 2-D task's chunk also carries the caustic model's per-column
+    // weights after them, which `trace_2d` leaves out).
+    let chunk = if sphere {
+        job.run_task(0)?
+    } else {
+        job.trace_2d(args.wavelength_nm, args.sun_elevation_deg)?.0
+    };
     let n_polar = (180.0 / step).round() as usize + 1;
     let n_az = if sphere { 1 } else { 72 };
     // Channels per direction: the stage's, for its default `max_order` of the shape.
     let nch = chunk.len() / (n_polar * n_az);
+    anyhow::ensure!(
+        chunk.len() == n_polar * n_az * nch,
+        "the raytrace task returned {} values, not a multiple of {n_polar} × {n_az} directions",
+        chunk.len()
+    );
     let mut out = RaytraceColumns {
         n,
         angle_deg: vec![],
@@ -239,5 +250,42 @@ mod tests {
             })
             .is_err()
         );
+    }
+
+    /// A Beard–Chuang drop prints the azimuth means of its 2-D table: the task's values only
+    /// (the airy-local weights the task also returns are not read as values), the bows where
+    /// they belong, the polarisation of the primary.
+    #[test]
+    fn beard_chuang_columns_are_azimuth_means_of_the_table_values() {
+        let args = Cli::parse_from([
+            "t",
+            "--radius-um",
+            "1000",
+            "--wavelength-nm",
+            "650",
+            "--shape",
+            "beard-chuang",
+            "--rays",
+            "120",
+            "--angles",
+            "0:180:0.5",
+        ])
+        .args;
+        let c = raytrace_columns(&args).unwrap();
+        assert_eq!(c.angle_deg.len(), 361);
+        let at = |deg: f64| ((deg / 0.5).round()) as usize;
+        let band = |lo: f64, hi: f64| c.phase[at(lo)..=at(hi)].iter().sum::<f64>();
+        for i in 0..c.angle_deg.len() {
+            let (ip, ipar, ph) = (c.i_perp[i], c.i_par[i], c.phase[i]);
+            assert!(ip >= 0.0 && ipar >= 0.0 && ip.is_finite() && ipar.is_finite());
+            assert!(
+                (ph - 0.5 * (ip + ipar)).abs() <= 1e-6 * ph + 1e-12,
+                "{i}: {ph}"
+            );
+        }
+        // The primary (137–142°) outshines Alexander's band (131–134°), and is polarised
+        // perpendicular to the scattering plane.
+        assert!(band(137.0, 142.0) > 3.0 * band(131.0, 134.0));
+        assert!(c.dolp[at(139.0)] > 0.3, "{}", c.dolp[at(139.0)]);
     }
 }
