@@ -469,7 +469,6 @@ impl RaytraceJob {
             filter = filter.with_airy_transfer(transfer);
         }
         let (windows, weights) = caustic_windows(&f, &filter);
-        let weights = weights.map(|w| over_full_circle(&w, grid.n_azimuth));
         let sigma_total = f.order_cross_section_um2.iter().sum::<f64>() + f.projected_area_um2;
         let mut out = write_channels(f, &windows, lambda);
         if self.p.mirror_symmetrise && !self.p.mirror_half {
@@ -594,7 +593,8 @@ fn map_columns<R: Send + Default + Clone>(
         .collect()
 }
 
-/// The filtered caustic window of every azimuth column (rayon over blocks of columns): columns
+/// The filtered caustic window of every held azimuth column (rayon over blocks of columns) and,
+/// with airy-local, the transfer weight of every azimuth column of the table: columns
 /// of dσ/dΩ i_perp, i_par and per order over the rows the filter needs. With the airy-local
 /// transfer, the columns' caustic positions are found first and smoothed over azimuth
 /// (decision RT-28), then each column's bows are tested against the transfer's domain and the
@@ -631,8 +631,9 @@ fn caustic_windows(
         })
         .into_iter()
         .unzip();
-    let mut weights = domain_weights(&over_full_circle(&flags, na), step_deg);
-    weights.truncate(f.n_columns);
+    // Over every azimuth (what the table records); the held columns' part drives the blend.
+    let all_weights = domain_weights(&over_full_circle(&flags, na), step_deg);
+    let weights = &all_weights[..f.n_columns];
     let partial = |k0: usize, k1: usize| weights[k0..k1].iter().any(|w| w[0] < 1.0 || w[1] < 1.0);
     if partial(0, weights.len()) {
         // Only blocks with a column outside the domain are read again.
@@ -657,7 +658,7 @@ fn caustic_windows(
             }
         }
     }
-    (windows, Some(weights))
+    (windows, Some(all_weights))
 }
 
 /// Per-column values `held` of a field grid's columns ([`FieldGrid::n_columns`]) over all `na`
@@ -1279,6 +1280,11 @@ mod tests {
         assert!((s - 1.0).abs() < 1e-5, "stored ∫p = {s}");
     }
 
+    /// The channels of pixel (polar row j, azimuth column k) of a one-entry 2-D table.
+    fn at(t: &TableContent, na: usize, nch: usize, j: usize, k: usize) -> &[f32] {
+        &t.data[(j * na + k) * nch..][..nch]
+    }
+
     /// Mirror symmetrisation (RT-24): without it a Beard–Chuang table breaks φ ↔ 360° − φ by ray
     /// noise; with it every channel is symmetric (dolp recomputed), the unsymmetrised table's
     /// pair means are kept and the header says so.
@@ -1293,9 +1299,6 @@ mod tests {
         let sym = crate::stages::table_from_lines(&RaytraceStage, &lines(true));
         let (np, na, nch) = (raw.axes[3].len(), raw.axes[4].len(), raw.channels.len());
         assert_eq!(na, 18);
-        fn at(t: &TableContent, na: usize, nch: usize, j: usize, k: usize) -> &[f32] {
-            &t.data[(j * na + k) * nch..][..nch]
-        }
         let (mut asym_raw, mut asym_sym, mut norm) = (0.0f64, 0.0f64, 0.0f64);
         for j in 0..np {
             for k in 1..na / 2 {
@@ -1337,9 +1340,6 @@ mod tests {
                 "shape = \"beard-chuang\"\nradii_um = [1500.0]\nwavelengths_nm = [550.0]\nsun_elevation_deg = [10.0]\nrays = 60\npolar_step_deg = 1.0\nazimuth_step_deg = 20.0\n{extra}"
             )
         };
-        fn at(t: &TableContent, na: usize, nch: usize, j: usize, k: usize) -> &[f32] {
-            &t.data[(j * na + k) * nch..][..nch]
-        }
         let gauss = "diffraction_model = \"gaussian\"\n";
         let raw = crate::stages::table_from_lines(
             &RaytraceStage,
