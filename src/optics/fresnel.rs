@@ -88,13 +88,37 @@ pub fn fresnel_amplitudes(
     }
 }
 
-/// Convenience for real (non-absorbing) indices.
+/// Fresnel amplitudes for real (non-absorbing) indices. Below the critical angle every
+/// quantity is real and is computed in real arithmetic (the imaginary parts are exactly zero;
+/// the values agree with [`fresnel_amplitudes`] to a few ulp, which divides through the
+/// complex quotient `(a·c̄)/|c|²`); under total internal reflection it is
+/// [`fresnel_amplitudes`].
 pub fn fresnel_amplitudes_real(eta_1: f64, eta_2: f64, cos_theta_i: f64) -> FresnelAmplitudes {
-    fresnel_amplitudes(
-        Complex64::new(eta_1, 0.0),
-        Complex64::new(eta_2, 0.0),
-        cos_theta_i,
-    )
+    let cos_i = cos_theta_i.clamp(0.0, 1.0);
+    let sin2_i = (1.0 - cos_i * cos_i).max(0.0);
+    let ratio = eta_1 / eta_2;
+    let cos2_t = 1.0 - ratio * ratio * sin2_i;
+    if cos2_t < 0.0 {
+        return fresnel_amplitudes(
+            Complex64::new(eta_1, 0.0),
+            Complex64::new(eta_2, 0.0),
+            cos_theta_i,
+        );
+    }
+    let cos_t = cos2_t.sqrt();
+    let a = eta_1 * cos_i;
+    let b = eta_2 * cos_t;
+    let c = eta_2 * cos_i;
+    let d = eta_1 * cos_t;
+    let real = |x: f64| Complex64::new(x, 0.0);
+    FresnelAmplitudes {
+        r_s: real((a - b) / (a + b)),
+        r_p: real((c - d) / (c + d)),
+        t_s: real(2.0 * a / (a + b)),
+        t_p: real(2.0 * a / (c + d)),
+        cos_theta_t: real(cos_t),
+        total_internal_reflection: false,
+    }
 }
 
 /// Power-consistent transmission amplitudes `(t̃_s, t̃_p)` such that `|r|² + |t̃|² = 1` for
@@ -142,6 +166,30 @@ mod tests {
         // Born & Wolf sign: r_p = -r_s at normal incidence.
         assert!((a.r_p.re + r).abs() < 1e-14);
         assert!((a.t_s.re - 2.0 / (1.0 + n)).abs() < 1e-14);
+    }
+
+    #[test]
+    fn real_path_agrees_with_the_complex_formulas() {
+        // Both directions of the water interface, every incidence up to grazing, through the
+        // critical angle (≈ 48.6° from inside), plus the critical angle itself.
+        for (e1, e2) in [(1.0, 1.333), (1.333, 1.0), (1.0, 1.55), (1.55, 1.0)] {
+            let critical_cos = (1.0 - (e2 / e1 as f64).powi(2)).max(0.0).sqrt();
+            let cosines = (0..=2000).map(|i| i as f64 / 2000.0).chain([critical_cos]);
+            for ci in cosines {
+                let r = fresnel_amplitudes_real(e1, e2, ci);
+                let c = fresnel_amplitudes(Complex64::new(e1, 0.0), Complex64::new(e2, 0.0), ci);
+                assert_eq!(r.total_internal_reflection, c.total_internal_reflection, "{ci}");
+                for (x, y) in [
+                    (r.r_s, c.r_s),
+                    (r.r_p, c.r_p),
+                    (r.t_s, c.t_s),
+                    (r.t_p, c.t_p),
+                    (r.cos_theta_t, c.cos_theta_t),
+                ] {
+                    assert!((x - y).norm() <= 1e-15 * (1.0 + y.norm()), "{e1}->{e2} {ci}: {x} {y}");
+                }
+            }
+        }
     }
 
     #[test]
