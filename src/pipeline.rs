@@ -36,7 +36,7 @@ use crate::error::{IoError, error_chain};
 use crate::manifest::{ManifestError, PlannedTable, load_manifest};
 use crate::stages::JobError;
 use crate::table::format::write_atomic;
-use crate::table::{Provenance, Table, TableError, write_table_atomic};
+use crate::table::{Provenance, Table, TableError, write_table_atomic_sealed};
 use crate::workdir::CheckpointKey;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use rayon::prelude::*;
@@ -460,6 +460,8 @@ impl TableState {
 struct Context {
     secret: CheckpointKey,
     rejected: Mutex<std::collections::BTreeMap<PathBuf, String>>,
+    /// Tables this build wrote, listed in the catalog without reading them back.
+    fresh: Mutex<Vec<crate::catalog::FreshTable>>,
 }
 
 impl Context {
@@ -525,11 +527,13 @@ pub fn build(opts: &BuildOptions) -> Result<BuildReport, PipelineError> {
     let ctx = Context {
         secret: crate::workdir::checkpoint_key(&opts.out_dir)?,
         rejected: Mutex::default(),
+        fresh: Mutex::default(),
     };
     let mut report = BuildReport::default();
     let states = plan_tables(planned, opts, &mut report)?;
     let pending = load_checkpoints(&states, opts, &mut report, &ctx)?;
     let run = run_tasks(&states, &pending, opts, &ctx)?;
+    let fresh = std::mem::take(&mut *ctx.fresh.lock().expect("lock"));
     report.checkpoints_rejected = ctx.rejected();
     report.tasks_computed = run.computed;
     report.tables_written = run.written;
@@ -546,7 +550,7 @@ pub fn build(opts: &BuildOptions) -> Result<BuildReport, PipelineError> {
             report.tables_pending.push(s.planned.name.clone());
         }
     }
-    build_outcome(run.errors, update_catalog(&opts.out_dir))?;
+    build_outcome(run.errors, update_catalog(&opts.out_dir, &fresh))?;
     Ok(report)
 }
 
@@ -833,7 +837,12 @@ fn finish_table(
             .insert("manifest_description".into(), d.clone().into());
     }
     let mut table = Table::from_content(content, provenance(&s.planned, &s.key))?;
-    write_table_atomic(&mut table, &table_path(out_dir, &s.planned.name))?;
+    let path = table_path(out_dir, &s.planned.name);
+    let written = write_table_atomic_sealed(&mut table, &path)?;
+    ctx.fresh
+        .lock()
+        .expect("lock")
+        .push(crate::catalog::FreshTable::new(&path, &table.header, written));
     crate::workdir::remove_table_work_dir(&s.work_dir)?;
     Ok(())
 }
@@ -853,10 +862,13 @@ fn recompute(s: &TableState, task: usize, ctx: &Context) -> Result<Vec<f32>, Pip
 /// Remove the work directory if no table uses it any more (ignoring failure: another build
 /// may be using it) and the temporary files killed builds left in `out_dir`
 /// ([`crate::workdir::remove_orphan_temp_files`]), and rebuild the catalog of `out_dir`.
-fn update_catalog(out_dir: &Path) -> Result<(), PipelineError> {
+fn update_catalog(
+    out_dir: &Path,
+    fresh: &[crate::catalog::FreshTable],
+) -> Result<(), PipelineError> {
     let _ = std::fs::remove_dir(out_dir.join(WORK_DIR));
     crate::workdir::remove_orphan_temp_files(out_dir);
-    crate::catalog::rebuild(out_dir)?;
+    crate::catalog::rebuild_with(out_dir, fresh)?;
     Ok(())
 }
 

@@ -16,13 +16,17 @@ pub mod shape;
 pub mod sphere1d;
 pub mod tracer;
 
-/// Channel names of every ray-traced phase table, in order: the contract's four, then the
-/// per-order (filtered) phase functions, then the unfiltered phase, i_perp and i_par.
-pub fn channel_names(max_order: usize) -> Vec<String> {
+/// Channel names of a ray-traced phase table, in order: the phase-table contract's four (phase,
+/// i_perp, i_par, dolp), then, with `diagnostic`, the per-order (filtered) phase functions
+/// p = 0..=max_order and the unfiltered phase, i_perp and i_par.
+pub fn channel_names(max_order: usize, diagnostic: bool) -> Vec<String> {
     let mut v: Vec<String> = ["phase", "i_perp", "i_par", "dolp"]
         .iter()
         .map(|s| s.to_string())
         .collect();
+    if !diagnostic {
+        return v;
+    }
     for p in 0..=max_order {
         v.push(format!("phase_p{p}"));
     }

@@ -357,7 +357,8 @@ hair_params! {
 impl StageSpec for HairDualStage {
     const NAME: &'static str = "hair-dual";
     /// 2: the artist model's eq. 4.17 normalisation is taken per light inclination.
-    const VERSION: u32 = 2;
+    /// 3: Fresnel amplitudes in real arithmetic below the critical angle (last bits).
+    const VERSION: u32 = 3;
     const SUMMARY: &'static str = "Dual Scattering hair averages (ā, ᾱ, β̄², Ā_b, Δ̄_b, σ̄_b², N^G) over roughness × absorption × light inclination";
     type Params = HairDualParams;
     fn plan_params(&self, p: HairDualParams) -> Result<Box<dyn Job>, PlanError> {
@@ -799,7 +800,8 @@ hair_params! {
 
 impl StageSpec for HairAzimuthalStage {
     const NAME: &'static str = "hair-azimuthal";
-    const VERSION: u32 = 1;
+    /// 2: Fresnel amplitudes in real arithmetic below the critical angle (last bits).
+    const VERSION: u32 = 2;
     const SUMMARY: &'static str = "azimuthal scattering functions N_R, N_TT, N_TRT of a rough dielectric fibre over absorption × θ × φ";
     type Params = HairAzimuthalParams;
     fn plan_params(&self, p: HairAzimuthalParams) -> Result<Box<dyn Job>, PlanError> {

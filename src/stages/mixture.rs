@@ -126,7 +126,8 @@ impl StageSpec for MixtureStage {
     const NAME: &'static str = "mixture";
     /// 2: curved-surface coefficients in the traced path (RT-29), `max_order` default 6 (RT-30).
     /// 3: `handover_radius_um` default 400 µm (RT-15).
-    const VERSION: u32 = 3;
+    /// 4: Fresnel amplitudes in real arithmetic below the critical angle (last bits).
+    const VERSION: u32 = 4;
     const SUMMARY: &'static str = "drop-size mixtures: Lorenz–Mie for small drops, traced spheres for large ones, weighted by number × scattering cross-section";
     type Params = MixtureParams;
     fn plan_params(&self, p: MixtureParams) -> Result<Box<dyn Job>, PlanError> {

@@ -67,7 +67,8 @@ impl StageSpec for Mixture2dStage {
     const NAME: &'static str = "mixture-2d";
     /// 2: the traced radii use the silhouette ray grid by default (`ray_grid`, decision RT-31).
     /// 3: the traced radii use the `airy-local` caustic model by default (decision RT-33).
-    const VERSION: u32 = 3;
+    /// 4: Fresnel amplitudes in real arithmetic below the critical angle (last bits).
+    const VERSION: u32 = 4;
     const SUMMARY: &'static str = "drop-size mixtures of ray-traced Beard–Chuang drops (2-D tables over outgoing directions), weighted by number × scattering cross-section";
     type Params = Mixture2dParams;
     fn plan_params(&self, p: Mixture2dParams) -> Result<Box<dyn Job>, PlanError> {
@@ -147,6 +148,7 @@ impl Mixture2dParams {
             polar_step_deg: self.polar_step_deg,
             azimuth_step_deg: self.azimuth_step_deg,
             diffraction_filter: self.diffraction_filter,
+            diagnostic_channels: true,
             mirror_symmetrise: self.mirror_symmetrise,
             mirror_half: self.mirror_half,
             diffraction_model: None,
@@ -202,7 +204,7 @@ impl Job for Mixture2dJob {
     fn run_task(&self, index: usize) -> Result<Vec<f32>, JobError> {
         let pairs = self.pairs();
         let (entry, (l, el)) = (index / pairs.len(), pairs[index % pairs.len()]);
-        let nch = n_channels_2d(self.p.max_order + 1);
+        let nch = n_channels_2d(self.p.max_order + 1, true);
         let weights = &self.nodes[entry].1;
         let mut acc: Vec<f64> = Vec::new();
         let mut total = 0.0;

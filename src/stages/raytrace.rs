@@ -82,7 +82,10 @@ stage_params! {
         pub azimuth_step_deg: f64 = default(5.0), "float, deg",
             "outgoing azimuth step (divides 360), 2-D shapes";
         pub diffraction_filter: bool = default(true), "bool",
-            "apply the Table 3.3 Gaussian filter to the main channels (unfiltered channels are always written)";
+            "apply the Table 3.3 Gaussian filter to the main channels (the unfiltered channels are written with diagnostic_channels)";
+        /// Write the per-order and unfiltered channels after the contract's four.
+        pub diagnostic_channels: bool = default(true), "bool",
+            "also write the per-order phases phase_p0…phase_pN (filtered, no lobe) and the unfiltered phase, i_perp, i_par after phase, i_perp, i_par, dolp; false writes those four only (the phase-table contract every consumer reads; a 2-D table of max_order 3 holds 4 instead of 11 values per direction)";
         /// Average each 2-D table pixel with its mirror image φ ↔ 360° − φ (decision RT-24).
         pub mirror_symmetrise: bool = default(true), "bool",
             "2-D shapes: replace the values at φ and 360° − φ by their mean (the drop and the sun are mirror-symmetric about the vertical plane φ = 0), removing the ray-noise asymmetry";
@@ -154,7 +157,9 @@ impl StageSpec for RaytraceStage {
     /// 8: sphere (1-D) tables trace orders up to 6 by default (decision RT-30 amendment).
     /// 9: 2-D airy-local tables record where the transfer was used (`airy_local_domain`; each
     /// task's chunk carries its columns' transfer weights after the values).
-    const VERSION: u32 = 9;
+    /// 10: Fresnel amplitudes in real arithmetic below the critical angle (values change in the
+    /// last bits); `diagnostic_channels`.
+    const VERSION: u32 = 10;
     const SUMMARY: &'static str =
         "wave-optics patch ray tracer: phase functions of spherical and Beard–Chuang raindrops";
     type Params = RaytraceParams;
@@ -375,7 +380,7 @@ impl RaytraceJob {
     }
 
     fn channels(&self) -> Vec<Channel> {
-        crate::raytrace::channel_names(self.max_order)
+        crate::raytrace::channel_names(self.max_order, self.p.diagnostic_channels)
             .into_iter()
             .map(|n| {
                 let (unit, meaning) = match n.as_str() {
@@ -470,9 +475,10 @@ impl RaytraceJob {
         }
         let (windows, weights) = caustic_windows(&f, &filter);
         let sigma_total = f.order_cross_section_um2.iter().sum::<f64>() + f.projected_area_um2;
-        let mut out = write_channels(f, &windows, lambda);
+        let nch = n_channels_2d(self.max_order + 1, self.p.diagnostic_channels);
+        let mut out = write_channels(f, &windows, lambda, nch);
         if self.p.mirror_symmetrise && !self.p.mirror_half {
-            mirror_symmetrise(&mut out, grid.n_azimuth, n_channels_2d(self.max_order + 1));
+            mirror_symmetrise(&mut out, grid.n_azimuth, nch);
         }
         Ok((out, sigma_total, weights))
     }
@@ -535,10 +541,11 @@ pub const DOLP_CHANNEL: usize = 3;
 const PRIMARY_FALLBACK_RAD: f64 = 2.4;
 const SECONDARY_FALLBACK_RAD: f64 = 2.26;
 
-/// Channels per pixel of a 2-D table with `orders` orders: phase, i_perp, i_par, dolp, the
-/// per-order phases, and the three unfiltered channels.
-pub fn n_channels_2d(orders: usize) -> usize {
-    4 + orders + 3
+/// Channels per pixel of a 2-D table with `orders` orders: phase, i_perp, i_par, dolp and, with
+/// `diagnostic`, the per-order phases and the three unfiltered channels
+/// ([`crate::raytrace::channel_names`]).
+pub fn n_channels_2d(orders: usize, diagnostic: bool) -> usize {
+    if diagnostic { 4 + orders + 3 } else { 4 }
 }
 
 /// Azimuth columns gathered together by [`map_columns`]: the rows of a block are read once,
@@ -676,7 +683,12 @@ fn over_full_circle<T: Clone>(held: &[T], na: usize) -> Vec<T> {
 /// equal-area disc, all divided by σ = σ_GO + A. Consumes the accumulators band by band (each
 /// band is released once its rows are written), so the accumulators and the output are not
 /// held in full at the same time.
-fn write_channels(mut f: FieldGrid, windows: &[CausticWindow], lambda: f64) -> Vec<f32> {
+fn write_channels(
+    mut f: FieldGrid,
+    windows: &[CausticWindow],
+    lambda: f64,
+    nch: usize,
+) -> Vec<f32> {
     let grid = f.grid;
     let (np, na, orders) = (grid.n_polar, grid.n_azimuth, f.orders);
     let nc = f.n_columns;
@@ -684,7 +696,6 @@ fn write_channels(mut f: FieldGrid, windows: &[CausticWindow], lambda: f64) -> V
     let a_eff = (area / PI).sqrt();
     let sigma_total: f64 = f.order_cross_section_um2.iter().sum::<f64>() + area;
     let dth = grid.polar_step();
-    let nch = n_channels_2d(orders);
     let (band_rows, order_row_len) = (f.band_rows, f.order_row_len());
     let mut out = vec![0f32; np * na * nch];
     let bands = std::mem::take(&mut f.bands);
@@ -735,6 +746,8 @@ fn write_channels(mut f: FieldGrid, windows: &[CausticWindow], lambda: f64) -> V
                     let head = [0.5 * (ip + ipar), ip, ipar, dolp];
                     let tail = [0.5 * (ipu + iparu), ipu, iparu];
                     let per_order = filt[2..].iter().map(|v| v / sigma_total);
+                    // The first `nch` of the channels (the contract's four without the
+                    // diagnostic channels).
                     for (dst, v) in px
                         .iter_mut()
                         .zip(head.into_iter().chain(per_order).chain(tail))
@@ -847,7 +860,7 @@ impl Job for RaytraceJob {
                 ..Default::default()
             },
         );
-        let nch = ch.len();
+        let nch = self.channels().len();
         let mut out = vec![0f32; na * nch];
         for j in 0..na {
             for c in 0..nch {
@@ -1328,6 +1341,31 @@ mod tests {
         );
     }
 
+    /// `diagnostic_channels = false` keeps the contract's four channels, with the values of the
+    /// full table's first four (the renormalisation uses the phase channel only), for a 2-D
+    /// drop and for a sphere (1-D path).
+    #[test]
+    fn contract_channels_only_equal_the_full_tables_first_four() {
+        let two_d = "shape = \"beard-chuang\"\nradii_um = [1500.0]\nwavelengths_nm = [550.0]\nsun_elevation_deg = [10.0]\nrays = 60\npolar_step_deg = 1.0\nazimuth_step_deg = 20.0\n";
+        let sphere = "shape = \"sphere\"\nradii_um = [300.0]\nwavelengths_nm = [450.0, 650.0]\nangle_step_deg = 0.5\n";
+        for base in [two_d, sphere] {
+            let full = crate::stages::table_from_lines(&RaytraceStage, base);
+            let four = crate::stages::table_from_lines(
+                &RaytraceStage,
+                &format!("{base}diagnostic_channels = false"),
+            );
+            let names: Vec<&str> = four.channels.iter().map(|c| c.name.as_str()).collect();
+            assert_eq!(names, ["phase", "i_perp", "i_par", "dolp"]);
+            assert!(full.channels.len() > 4);
+            assert_eq!(four.channels[..], full.channels[..4]);
+            let nch = full.channels.len();
+            assert_eq!(four.data.len() * nch, full.data.len() * 4);
+            for (a, b) in four.data.chunks(4).zip(full.data.chunks(nch)) {
+                assert_eq!(a, &b[..4]);
+            }
+        }
+    }
+
     /// `mirror_half` (RT-34): with the Gaussian filter (no smoothing over azimuth) the held
     /// columns 0°–180° equal the unsymmetrised table's, the others are their mirror images, and
     /// the header says so; with airy-local (caustic positions smoothed across φ = 0°, 180°) the
@@ -1591,6 +1629,6 @@ mod tests {
             "shape = \"beard-chuang\"\nradii_um = [1000.0]\nwavelengths_nm = [650.0]\nrays = 20\npolar_step_deg = 1.0\nazimuth_step_deg = 30.0",
         );
         assert_eq!(bc.attributes["max_order"], 3);
-        assert_eq!(bc.channels.len(), n_channels_2d(4));
+        assert_eq!(bc.channels.len(), n_channels_2d(4, true));
     }
 }

@@ -295,6 +295,36 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
 
 /// [`write_atomic`] of the concatenation of `parts`, without concatenating them in memory.
 pub fn write_atomic_parts(path: &Path, parts: &[&[u8]]) -> std::io::Result<()> {
+    write_atomic_parts_stamped(path, parts).map(|_| ())
+}
+
+/// Identity of a written file: size, modification time and (on Unix) device and inode, as the
+/// file had them when it was renamed into place. A file found at the path later with the same
+/// stamp is that file (nothing rewrites a table in place).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct FileStamp {
+    len: u64,
+    modified: Option<std::time::SystemTime>,
+    #[cfg(unix)]
+    dev_ino: (u64, u64),
+}
+
+impl FileStamp {
+    /// The stamp of `meta`.
+    pub fn of(meta: &std::fs::Metadata) -> Self {
+        #[cfg(unix)]
+        use std::os::unix::fs::MetadataExt;
+        FileStamp {
+            len: meta.len(),
+            modified: meta.modified().ok(),
+            #[cfg(unix)]
+            dev_ino: (meta.dev(), meta.ino()),
+        }
+    }
+}
+
+/// [`write_atomic_parts`], returning the stamp of the file it renamed into place.
+pub fn write_atomic_parts_stamped(path: &Path, parts: &[&[u8]]) -> std::io::Result<FileStamp> {
     let dir = path
         .parent()
         .filter(|p| !p.as_os_str().is_empty())
@@ -319,11 +349,13 @@ pub fn write_atomic_parts(path: &Path, parts: &[&[u8]]) -> std::io::Result<()> {
             .set_permissions(std::fs::Permissions::from_mode(0o644))?;
     }
     tmp.as_file().sync_all()?;
+    // A rename keeps the inode, size and modification time.
+    let stamp = FileStamp::of(&tmp.as_file().metadata()?);
     tmp.persist(path).map_err(|e| e.error)?;
     if let Ok(d) = std::fs::File::open(dir) {
         let _ = d.sync_all();
     }
-    Ok(())
+    Ok(stamp)
 }
 
 /// Serialise and write a table atomically. Returns the bytes written (for catalogues).
@@ -334,4 +366,40 @@ pub fn write_table_atomic(table: &mut Table, path: &Path) -> Result<u64, TableEr
         source,
     })?;
     Ok((head.len() + payload.len()) as u64)
+}
+
+/// A table file just written by [`write_table_atomic_sealed`].
+#[derive(Debug, Clone)]
+pub struct WrittenTable {
+    /// File size in bytes.
+    pub size_bytes: u64,
+    /// SHA-256 (hex) of the whole file.
+    pub file_sha256: String,
+    /// The file's identity when it was renamed into place.
+    pub stamp: FileStamp,
+}
+
+/// [`write_table_atomic`], also returning the SHA-256 of the whole file (hashed beside the
+/// write and its `fsync`, from the bytes in memory) and the file's stamp, so that a catalog can
+/// list the table without reading it back.
+pub fn write_table_atomic_sealed(table: &mut Table, path: &Path) -> Result<WrittenTable, TableError> {
+    let (head, payload) = table.to_parts()?;
+    let (stamp, file_sha256) = rayon::join(
+        || write_atomic_parts_stamped(path, &[&head, &payload]),
+        || {
+            let mut h = Sha256::new();
+            h.update(&head);
+            h.update(&payload);
+            hex::encode(h.finalize())
+        },
+    );
+    let stamp = stamp.map_err(|source| TableError::Io {
+        path: path.into(),
+        source,
+    })?;
+    Ok(WrittenTable {
+        size_bytes: (head.len() + payload.len()) as u64,
+        file_sha256,
+        stamp,
+    })
 }

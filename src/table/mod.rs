@@ -9,7 +9,10 @@ pub mod read;
 mod sample;
 pub mod tt;
 
-pub use format::{FORMAT_MAJOR, FORMAT_MINOR, MAGIC, TableError, write_table_atomic};
+pub use format::{
+    FORMAT_MAJOR, FORMAT_MINOR, FileStamp, MAGIC, TableError, WrittenTable, write_table_atomic,
+    write_table_atomic_sealed,
+};
 pub use read::{
     DEFAULT_MAX_PAYLOAD_BYTES, MAX_AXES, MAX_HEADER_BYTES, MAX_JSON_DEPTH, ReadLimits, ValueStats,
     Verified, read_header_only, verify_file, verify_sealed, verify_sealed_bytes,

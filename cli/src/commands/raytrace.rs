@@ -100,6 +100,7 @@ pub fn raytrace_columns(args: &RaytraceArgs) -> anyhow::Result<RaytraceColumns> 
         polar_step_deg: step,
         azimuth_step_deg: 5.0,
         diffraction_filter: !args.no_diffraction_filter,
+        diagnostic_channels: true,
         mirror_symmetrise: true,
         mirror_half: false,
         diffraction_model: None,
