@@ -2,7 +2,9 @@
 //! origin. Rebuilt from the directory contents (so shards and concurrent builds converge) under
 //! an exclusive lock on `<dir>/.lock`, and written atomically. A table is listed when it is
 //! sealed as written ([`crate::table::verify_sealed`]: header rules, compressed payload size,
-//! SHA-256 and zstd frame); decompressing every table on every build is left to `verify`.
+//! SHA-256 and zstd frame); decompressing every table on every build is left to `verify`. A
+//! table the rebuilding process has just written itself is listed from what it wrote
+//! ([`rebuild_with`]) while the file at its path is still that file.
 
 use crate::error::IoError;
 use crate::table::format::write_atomic;

@@ -39,7 +39,7 @@
 
 use super::shape::{DropShape, add, cross, dot, normalize, scale, sub};
 use crate::math::interp::interp1_uniform;
-use crate::optics::fresnel::{fresnel_amplitudes_real, power_consistent_transmission};
+use crate::optics::fresnel::{fresnel_amplitudes_real, fresnel_power_consistent_real};
 use num_complex::{Complex32, Complex64};
 use rayon::prelude::*;
 use std::f64::consts::{FRAC_PI_2, PI};
@@ -390,12 +390,12 @@ fn interact(d: [f64; 3], normal: [f64; 3], eta1: f64, eta2: f64, ea: &CVec, eb: 
     let p_in = cross(s, d);
     let refl_dir = normalize(add(d, scale(nf, 2.0 * cos_i)));
     let p_r = cross(s, refl_dir);
-    let f = fresnel_amplitudes_real(eta1, eta2, cos_i);
     let split = |e: &CVec| (cdot(e, s), cdot(e, p_in));
     let (as_, ap) = split(ea);
     let (bs, bp) = split(eb);
-    if f.total_internal_reflection {
-        // Complex reflection amplitudes; no transmitted ray.
+    let Some(f) = fresnel_power_consistent_real(eta1, eta2, cos_i) else {
+        // Total internal reflection: complex reflection amplitudes, no transmitted ray.
+        let f = fresnel_amplitudes_real(eta1, eta2, cos_i);
         return Split {
             refl_dir,
             refl: (
@@ -404,22 +404,18 @@ fn interact(d: [f64; 3], normal: [f64; 3], eta1: f64, eta2: f64, ea: &CVec, eb: 
             ),
             trans: None,
         };
-    }
-    // Below the critical angle every amplitude is real: complex × real products (the same
-    // values as complex × complex with a zero imaginary part, in half the operations).
-    let (r_s, r_p) = (f.r_s.re, f.r_p.re);
+    };
+    // Below the critical angle every amplitude is real: complex × real products.
+    let (r_s, r_p) = (f.r_s, f.r_p);
     let refl = (
         cfield(as_ * r_s, s, ap * r_p, p_r),
         cfield(bs * r_s, s, bp * r_p, p_r),
     );
     let eta = eta1 / eta2;
-    let cos_t = f.cos_theta_t.re;
+    let cos_t = f.cos_theta_t;
     let td = normalize(add(scale(d, eta), scale(nf, eta * cos_i - cos_t)));
     let p_t = cross(s, td);
-    let c1 = Complex64::new(eta1, 0.0);
-    let c2 = Complex64::new(eta2, 0.0);
-    let (ts, tp) = power_consistent_transmission(c1, c2, cos_i, &f);
-    let (ts, tp) = (ts.re, tp.re);
+    let (ts, tp) = (f.t_s, f.t_p);
     let trans = Some((
         td,
         cfield(as_ * ts, s, ap * tp, p_t),
