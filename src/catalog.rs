@@ -157,8 +157,7 @@ pub fn rebuild_with(dir: &Path, fresh: &[FreshTable]) -> Result<Catalog, Catalog
         let file = p.file_name().expect("file").to_string_lossy().into_owned();
         let known = fresh.iter().find(|f| {
             f.entry.file == file
-                && std::fs::metadata(&p)
-                    .is_ok_and(|m| crate::table::FileStamp::of(&m) == f.stamp)
+                && std::fs::metadata(&p).is_ok_and(|m| crate::table::FileStamp::of(&m) == f.stamp)
         });
         if let Some(f) = known {
             tables.push(f.entry.clone());
@@ -223,7 +222,13 @@ mod tests {
     fn fresh_tables_are_listed_as_a_full_read_lists_them() {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("hg.sbt");
-        let mut t = henyey_greenstein_table(&[450.0, 650.0], &[1.0], |k, _| 0.3 + 0.2 * k as f64, 37, 0.1);
+        let mut t = henyey_greenstein_table(
+            &[450.0, 650.0],
+            &[1.0],
+            |k, _| 0.3 + 0.2 * k as f64,
+            37,
+            0.1,
+        );
         let written = write_table_atomic_sealed(&mut t, &path).unwrap();
         assert_eq!(written.size_bytes, std::fs::metadata(&path).unwrap().len());
         let fresh = [FreshTable::new(&path, &t.header, written)];

@@ -842,7 +842,11 @@ fn finish_table(
     ctx.fresh
         .lock()
         .expect("lock")
-        .push(crate::catalog::FreshTable::new(&path, &table.header, written));
+        .push(crate::catalog::FreshTable::new(
+            &path,
+            &table.header,
+            written,
+        ));
     crate::workdir::remove_table_work_dir(&s.work_dir)?;
     Ok(())
 }

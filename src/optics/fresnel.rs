@@ -142,7 +142,11 @@ pub struct RealFresnel {
 /// `t̃ = t·sqrt(b/a)`, i.e. `t̃_s = 2√(ab)/(a + b)`, `t̃_p = 2√(ab)/(c + d)`: two divisions and
 /// two square roots in all (the ray tracer calls it at every interface). Agrees with
 /// [`fresnel_amplitudes`] and [`power_consistent_transmission`] to a few ulp.
-pub fn fresnel_power_consistent_real(eta_1: f64, eta_2: f64, cos_theta_i: f64) -> Option<RealFresnel> {
+pub fn fresnel_power_consistent_real(
+    eta_1: f64,
+    eta_2: f64,
+    cos_theta_i: f64,
+) -> Option<RealFresnel> {
     let cos_i = cos_theta_i.clamp(0.0, 1.0);
     let sin2_i = (1.0 - cos_i * cos_i).max(0.0);
     let ratio = eta_1 / eta_2;
@@ -215,13 +219,16 @@ mod tests {
     fn real_path_agrees_with_the_complex_formulas() {
         // Both directions of the water interface, every incidence up to grazing, through the
         // critical angle (≈ 48.6° from inside), plus the critical angle itself.
-        for (e1, e2) in [(1.0, 1.333), (1.333, 1.0), (1.0, 1.55), (1.55, 1.0)] {
-            let critical_cos = (1.0 - (e2 / e1 as f64).powi(2)).max(0.0).sqrt();
+        for (e1, e2) in [(1.0f64, 1.333), (1.333, 1.0), (1.0, 1.55), (1.55, 1.0)] {
+            let critical_cos = (1.0 - (e2 / e1).powi(2)).max(0.0).sqrt();
             let cosines = (0..=2000).map(|i| i as f64 / 2000.0).chain([critical_cos]);
             for ci in cosines {
                 let r = fresnel_amplitudes_real(e1, e2, ci);
                 let c = fresnel_amplitudes(Complex64::new(e1, 0.0), Complex64::new(e2, 0.0), ci);
-                assert_eq!(r.total_internal_reflection, c.total_internal_reflection, "{ci}");
+                assert_eq!(
+                    r.total_internal_reflection, c.total_internal_reflection,
+                    "{ci}"
+                );
                 for (x, y) in [
                     (r.r_s, c.r_s),
                     (r.r_p, c.r_p),
@@ -229,7 +236,10 @@ mod tests {
                     (r.t_p, c.t_p),
                     (r.cos_theta_t, c.cos_theta_t),
                 ] {
-                    assert!((x - y).norm() <= 1e-15 * (1.0 + y.norm()), "{e1}->{e2} {ci}: {x} {y}");
+                    assert!(
+                        (x - y).norm() <= 1e-15 * (1.0 + y.norm()),
+                        "{e1}->{e2} {ci}: {x} {y}"
+                    );
                 }
             }
         }
