@@ -88,24 +88,28 @@ pub fn fresnel_amplitudes(
     }
 }
 
-/// Fresnel amplitudes for real (non-absorbing) indices. Below the critical angle every
-/// quantity is real and is computed in real arithmetic (the imaginary parts are exactly zero;
-/// the values agree with [`fresnel_amplitudes`] to a few ulp, which divides through the
-/// complex quotient `(a·c̄)/|c|²`); under total internal reflection it is
-/// [`fresnel_amplitudes`].
-pub fn fresnel_amplitudes_real(eta_1: f64, eta_2: f64, cos_theta_i: f64) -> FresnelAmplitudes {
+/// `(cos θ_i, cos θ_t)` for real indices, `cos_theta_i` clamped to [0, 1]; `None` under total
+/// internal reflection.
+fn real_cosines(eta_1: f64, eta_2: f64, cos_theta_i: f64) -> Option<(f64, f64)> {
     let cos_i = cos_theta_i.clamp(0.0, 1.0);
     let sin2_i = (1.0 - cos_i * cos_i).max(0.0);
     let ratio = eta_1 / eta_2;
     let cos2_t = 1.0 - ratio * ratio * sin2_i;
-    if cos2_t < 0.0 {
+    (cos2_t >= 0.0).then(|| (cos_i, cos2_t.sqrt()))
+}
+
+/// Fresnel amplitudes for real (non-absorbing) indices. Below the critical angle every
+/// quantity is real and is computed in real arithmetic (imaginary parts exactly zero; the
+/// complex path divides through `(a·c̄)/|c|²`, so the two agree to a few ulp); under total
+/// internal reflection it is [`fresnel_amplitudes`].
+pub fn fresnel_amplitudes_real(eta_1: f64, eta_2: f64, cos_theta_i: f64) -> FresnelAmplitudes {
+    let Some((cos_i, cos_t)) = real_cosines(eta_1, eta_2, cos_theta_i) else {
         return fresnel_amplitudes(
             Complex64::new(eta_1, 0.0),
             Complex64::new(eta_2, 0.0),
             cos_theta_i,
         );
-    }
-    let cos_t = cos2_t.sqrt();
+    };
     let a = eta_1 * cos_i;
     let b = eta_2 * cos_t;
     let c = eta_2 * cos_i;
@@ -139,22 +143,15 @@ pub struct RealFresnel {
 /// `eta_1` into `eta_2` at incidence cosine `cos_theta_i` (clamped to [0, 1]); `None` under
 /// total internal reflection. With `a = η₁ cos θ_i`, `b = η₂ cos θ_t`, `c = η₂ cos θ_i`,
 /// `d = η₁ cos θ_t`: `r_s = (a − b)/(a + b)`, `r_p = (c − d)/(c + d)` and
-/// `t̃ = t·sqrt(b/a)`, i.e. `t̃_s = 2√(ab)/(a + b)`, `t̃_p = 2√(ab)/(c + d)`: two divisions and
-/// two square roots in all (the ray tracer calls it at every interface). Agrees with
+/// `t̃ = t·sqrt(b/a)`, i.e. `t̃_s = 2√(ab)/(a + b)`, `t̃_p = 2√(ab)/(c + d)`: three divisions
+/// and two square roots in all (the ray tracer calls it at every interface). Agrees with
 /// [`fresnel_amplitudes`] and [`power_consistent_transmission`] to a few ulp.
 pub fn fresnel_power_consistent_real(
     eta_1: f64,
     eta_2: f64,
     cos_theta_i: f64,
 ) -> Option<RealFresnel> {
-    let cos_i = cos_theta_i.clamp(0.0, 1.0);
-    let sin2_i = (1.0 - cos_i * cos_i).max(0.0);
-    let ratio = eta_1 / eta_2;
-    let cos2_t = 1.0 - ratio * ratio * sin2_i;
-    if cos2_t < 0.0 {
-        return None;
-    }
-    let cos_t = cos2_t.sqrt();
+    let (cos_i, cos_t) = real_cosines(eta_1, eta_2, cos_theta_i)?;
     let (a, b) = (eta_1 * cos_i, eta_2 * cos_t);
     let (c, d) = (eta_2 * cos_i, eta_1 * cos_t);
     let (s, p) = (1.0 / (a + b), 1.0 / (c + d));
