@@ -404,12 +404,7 @@ pub fn write_atomic_parts_stamped(path: &Path, parts: &[&[u8]]) -> std::io::Resu
 
 /// Serialise and write a table atomically. Returns the bytes written (for catalogues).
 pub fn write_table_atomic(table: &mut Table, path: &Path) -> Result<u64, TableError> {
-    let (head, payload) = table.to_parts()?;
-    write_atomic_parts(path, &[&head, &payload]).map_err(|source| TableError::Io {
-        path: path.into(),
-        source,
-    })?;
-    Ok((head.len() + payload.len()) as u64)
+    write_table_atomic_sealed(table, path).map(|w| w.size_bytes)
 }
 
 /// A table file just written by [`write_table_atomic_sealed`].
