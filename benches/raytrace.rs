@@ -2,7 +2,9 @@
 //!
 //! - `sphere_1d/*`: one 1-D sphere phase function (0.4 mm, 650 nm, 3601 angles over 0–180°,
 //!   orders 0–3, Airy caustics) with the exact 1-D path, against the scatrs Lorenz–Mie code
-//!   (independent peer) computing S1, S2 at the same 3601 angles in the same run;
+//!   (independent peer) computing S1, S2 at the same 3601 angles in the same run; and the
+//!   default sphere model (orders 0–6, the grazing waves of p ≥ 4) at 0.4 and 2.5 mm, with the
+//!   same orders as rays alone (`with_surface_coefficients(false)`) as the in-run reference;
 //! - `tracer_2d/*`: the 2-D patch tracer (rays/s) for a 0.4 mm sphere and a 1 mm Beard–Chuang
 //!   drop at 650 nm onto a 1801 × 36 direction grid.
 
@@ -26,6 +28,25 @@ fn sphere_1d(c: &mut Criterion) {
             black_box(sphere_phase_1d(&go, &angles, Phase1dOptions::default()))
         })
     });
+    for (a_um, lambda_nm) in [(400.0, 650.0), (2500.0, 380.0)] {
+        for grazing in [true, false] {
+            let name = if grazing {
+                "grazing_waves"
+            } else {
+                "rays_only"
+            };
+            g.bench_function(
+                format!("raytrace_1d_p6_{name}_{a_um}um_{lambda_nm}nm_3601_angles"),
+                |b| {
+                    b.iter(|| {
+                        let go =
+                            SphereGo::new(a_um, lambda_nm, n, 6).with_surface_coefficients(grazing);
+                        black_box(sphere_phase_1d(&go, &angles, Phase1dOptions::default()))
+                    })
+                },
+            );
+        }
+    }
     g.bench_function("scatrs_mie_0.4mm_650nm_3601_angles", |b| {
         let mu: Vec<f64> = angles.iter().map(|d| d.to_radians().cos()).collect();
         let x = 2.0 * PI * a / (lambda * 1e-3);

@@ -159,7 +159,7 @@ impl DebyeCoefficients {
 
     /// `c_n^{(p)}` for one polarisation (`a` for TM, `b` for TE), `n = 1..=n_stop`.
     pub fn term(&self, mode: Mode, p: usize) -> Vec<Complex64> {
-        self.surface(mode).iter().map(|s| term_of(s, p)).collect()
+        self.surface(mode).iter().map(|s| s.term(p)).collect()
     }
 
     /// `Σ_{p ≥ p_min} c_n^{(p)}` in closed form (`p_min = 0` gives the Mie coefficient).
@@ -181,7 +181,7 @@ impl DebyeCoefficients {
                     ps.dedup();
                     self.surface(mode)
                         .iter()
-                        .map(|s| ps.iter().map(|&p| term_of(s, p)).sum())
+                        .map(|s| ps.iter().map(|&p| s.term(p)).sum())
                         .collect()
                 }
             }
@@ -346,12 +346,14 @@ pub fn mie_with_components(
     })
 }
 
-/// `c^{(p)}` of one partial wave.
-fn term_of(s: &SurfaceCoefficients, p: usize) -> Complex64 {
-    if p == 0 {
-        0.5 * (1.0 - s.r_ext)
-    } else {
-        -0.5 * s.t_product * s.r_int.powu((p - 1) as u32)
+impl SurfaceCoefficients {
+    /// `c^{(p)}` of this partial wave: `½(1 − R22)` for p = 0, `−½ T21 T12 R11^{p−1}` for p ≥ 1.
+    pub fn term(&self, p: usize) -> Complex64 {
+        if p == 0 {
+            0.5 * (1.0 - self.r_ext)
+        } else {
+            -0.5 * self.t_product * self.r_int.powu((p - 1) as u32)
+        }
     }
 }
 

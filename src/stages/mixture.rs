@@ -127,7 +127,8 @@ impl StageSpec for MixtureStage {
     /// 2: curved-surface coefficients in the traced path (RT-29), `max_order` default 6 (RT-30).
     /// 3: `handover_radius_um` default 400 µm (RT-15).
     /// 4: Fresnel amplitudes in real arithmetic below the critical angle (last bits).
-    const VERSION: u32 = 4;
+    /// 5: the traced radii's orders p ≥ 4 take their grazing waves (decision RT-36).
+    const VERSION: u32 = 5;
     const SUMMARY: &'static str = "drop-size mixtures: Lorenz–Mie for small drops, traced spheres for large ones, weighted by number × scattering cross-section";
     type Params = MixtureParams;
     fn plan_params(&self, p: MixtureParams) -> Result<Box<dyn Job>, PlanError> {

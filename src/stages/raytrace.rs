@@ -159,7 +159,9 @@ impl StageSpec for RaytraceStage {
     /// task's chunk carries its columns' transfer weights after the values).
     /// 10: Fresnel amplitudes in real arithmetic below the critical angle (values change in the
     /// last bits); `diagnostic_channels`.
-    const VERSION: u32 = 10;
+    /// 11: sphere tables with `max_order ≥ 4`: the grazing region of those orders is their
+    /// exact partial waves (decision RT-36; Alexander's band).
+    const VERSION: u32 = 11;
     const SUMMARY: &'static str =
         "wave-optics patch ray tracer: phase functions of spherical and Beard–Chuang raindrops";
     type Params = RaytraceParams;
