@@ -3,7 +3,9 @@
 //! phase over 120–150° after a 0.5° sun disc, the worst column's L2, the azimuthal spread (std over
 //! azimuth / mean, per polar row over 120–150°: raw, after the disc along θ per column, and after
 //! the disc over the sphere of directions as `render` applies it), and the primary and
-//! supernumerary maxima (both smoothed by σ = 0.04°·(0.4 mm/a)).
+//! supernumerary maxima (both smoothed by σ = 0.04°·(0.4 mm/a)), and Alexander's band (mean
+//! over 131–136° of the azimuth mean, before the disc) over Mie's. `airy-local-p3` is
+//! `airy-local` without the equal-volume sphere's orders 4–6 (`sphere_higher_orders = false`).
 //!
 //! `cargo run --release --example sphere_2d_vs_mie -- [rays] [polar_step_deg] [azimuth_step_deg] [radius_um] [ray_grid] [mirror]`
 //! (with `SPREAD_CSV_DIR=dir`, the per-row spreads and the azimuth mean over 120–150° are written
@@ -133,10 +135,28 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             .map(|x| format!("{x:.3}"))
             .collect::<Vec<_>>()
     );
-    for model in ["gaussian", "airy-local"] {
+    let band = |v: &[f64]| -> f64 {
+        let sel: Vec<f64> = angles
+            .iter()
+            .zip(v)
+            .filter(|(t, _)| (131.0..=136.0).contains(*t))
+            .map(|(_, x)| *x)
+            .collect();
+        sel.iter().sum::<f64>() / sel.len() as f64
+    };
+    for (model, higher) in [
+        ("gaussian", true),
+        ("airy-local", true),
+        ("airy-local", false),
+    ] {
         let toml = format!(
-            "shape = \"profile\"\nradii_um = [{a}]\nwavelengths_nm = [{lambda}]\nwater_index_model = \"sadeghi-table-3.2\"\nsun_elevation_deg = [{elev}]\nrays = {rays}\nray_grid = \"{ray_grid}\"\npolar_step_deg = {pstep}\nazimuth_step_deg = {astep}\ndiffraction_model = \"{model}\"\nmirror_half = {mirror_half}\nprofile_theta_deg = [0.0, 90.0, 180.0]\nprofile_r = [1.0, 1.0, 1.0]"
+            "shape = \"profile\"\nradii_um = [{a}]\nwavelengths_nm = [{lambda}]\nwater_index_model = \"sadeghi-table-3.2\"\nsun_elevation_deg = [{elev}]\nrays = {rays}\nray_grid = \"{ray_grid}\"\npolar_step_deg = {pstep}\nazimuth_step_deg = {astep}\ndiffraction_model = \"{model}\"\nsphere_higher_orders = {higher}\nmirror_half = {mirror_half}\nprofile_theta_deg = [0.0, 90.0, 180.0]\nprofile_r = [1.0, 1.0, 1.0]"
         );
+        let model = if higher {
+            model.to_string()
+        } else {
+            format!("{model}-p3")
+        };
         let p: RaytraceParams = toml::from_str(&toml)?;
         let job = RaytraceJob::new(p)?;
         let t0 = std::time::Instant::now();
@@ -153,6 +173,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             .map(|j| cols.iter().map(|c| c[j]).sum::<f64>() / na as f64)
             .collect();
         let mean_disc = sun_disc(&mean, pstep, 0.5);
+        println!(
+            "{model:>10}: Alexander's band (131–136°, azimuth mean, per unit σ) / Mie: {:.3}",
+            band(&mean) / band(&mie)
+        );
         let l2 = rel_l2(&win(&mean_disc), &win(&mie_disc));
         let worst = cols
             .iter()

@@ -53,6 +53,8 @@ stage_params! {
             "outgoing azimuth step (divides 360)";
         pub diffraction_filter: bool = default(true), "bool",
             "apply the Table 3.3 Gaussian filter to the main channels";
+        pub sphere_higher_orders: bool = default(true), "bool",
+            "add the orders above max_order up to 6 of each radius's equal-volume sphere to phase, i_perp and i_par (as the raytrace stage)";
         pub mirror_symmetrise: bool = default(true), "bool",
             "average the values at φ and 360° − φ of every radius (as the raytrace stage)";
         pub mirror_half: bool = default(false), "bool",
@@ -68,7 +70,9 @@ impl StageSpec for Mixture2dStage {
     /// 2: the traced radii use the silhouette ray grid by default (`ray_grid`, decision RT-31).
     /// 3: the traced radii use the `airy-local` caustic model by default (decision RT-33).
     /// 4: Fresnel amplitudes in real arithmetic below the critical angle (last bits).
-    const VERSION: u32 = 4;
+    /// 5: `sphere_higher_orders` (decision RT-37): each radius adds its equal-volume sphere's
+    /// orders above `max_order`.
+    const VERSION: u32 = 5;
     const SUMMARY: &'static str = "drop-size mixtures of ray-traced Beard–Chuang drops (2-D tables over outgoing directions), weighted by number × scattering cross-section";
     type Params = Mixture2dParams;
     fn plan_params(&self, p: Mixture2dParams) -> Result<Box<dyn Job>, PlanError> {
@@ -149,6 +153,7 @@ impl Mixture2dParams {
             azimuth_step_deg: self.azimuth_step_deg,
             diffraction_filter: self.diffraction_filter,
             diagnostic_channels: true,
+            sphere_higher_orders: self.sphere_higher_orders,
             mirror_symmetrise: self.mirror_symmetrise,
             mirror_half: self.mirror_half,
             diffraction_model: None,

@@ -101,6 +101,7 @@ pub fn raytrace_columns(args: &RaytraceArgs) -> anyhow::Result<RaytraceColumns> 
         azimuth_step_deg: 5.0,
         diffraction_filter: !args.no_diffraction_filter,
         diagnostic_channels: true,
+        sphere_higher_orders: true,
         mirror_symmetrise: true,
         mirror_half: false,
         diffraction_model: None,
