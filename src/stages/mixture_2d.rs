@@ -54,7 +54,7 @@ stage_params! {
         pub diffraction_filter: bool = default(true), "bool",
             "apply the Table 3.3 Gaussian filter to the main channels";
         pub sphere_higher_orders: bool = default(true), "bool",
-            "add the orders above max_order up to 6 of each radius's equal-volume sphere to phase, i_perp and i_par (as the raytrace stage)";
+            "add the orders above max_order up to 6 of each radius's equal-volume sphere to every channel but the per-order ones (as the raytrace stage)";
         pub mirror_symmetrise: bool = default(true), "bool",
             "average the values at φ and 360° − φ of every radius (as the raytrace stage)";
         pub mirror_half: bool = default(false), "bool",

@@ -91,7 +91,7 @@ stage_params! {
         /// 2-D shapes: add the orders `max_order + 1 …` [`SPHERE_MAX_ORDER`] of the equal-volume
         /// sphere (decision RT-37).
         pub sphere_higher_orders: bool = default(true), "bool",
-            "2-D shapes: add the orders above max_order up to 6 of the equal-volume sphere (1-D path: Airy rainbows, grazing waves; the same at every azimuth) to phase, i_perp and i_par; they fill Alexander's dark band, which orders ≤ 3 leave ≈ 14 % dark on a sphere. The per-order and unfiltered channels hold the traced orders only";
+            "2-D shapes: add the orders above max_order up to 6 of the equal-volume sphere (1-D path: Airy rainbows, grazing waves; the same at every azimuth) to phase, i_perp, i_par and their unfiltered channels; they fill Alexander's dark band, which orders ≤ 3 leave ≈ 14 % dark on a sphere. The per-order channels hold the traced orders only";
         /// Average each 2-D table pixel with its mirror image φ ↔ 360° − φ (decision RT-24).
         pub mirror_symmetrise: bool = default(true), "bool",
             "2-D shapes: replace the values at φ and 360° − φ by their mean (the drop and the sun are mirror-symmetric about the vertical plane φ = 0), removing the ray-noise asymmetry";
@@ -735,7 +735,7 @@ fn over_full_circle<T: Clone>(held: &[T], na: usize) -> Vec<T> {
 
 /// The table values `[polar][azimuth][channel]` of one entry (rayon over polar rows): filtered
 /// values inside each column's caustic window, unfiltered outside, plus the forward lobe of the
-/// equal-area disc and, in phase, i_perp and i_par, the sphere's higher orders (`higher`), all
+/// equal-area disc and, in all but the per-order channels, the sphere's higher orders (`higher`), all
 /// divided by σ = σ_GO + A (+ the higher orders' σ). Consumes the accumulators band by band
 /// (each band is released once its rows are written), so the accumulators and the output are
 /// not held in full at the same time.
@@ -796,8 +796,8 @@ fn write_channels(
                     let filt = windows[k].get(j).unwrap_or(&unf);
                     let ip = (filt[0] + lobe + hp) / sigma_total;
                     let ipar = (filt[1] + lobe + hl) / sigma_total;
-                    let ipu = (ip_u + lobe) / sigma_total;
-                    let iparu = (ipar_u + lobe) / sigma_total;
+                    let ipu = (ip_u + lobe + hp) / sigma_total;
+                    let iparu = (ipar_u + lobe + hl) / sigma_total;
                     let dolp = if ip + ipar > 0.0 {
                         (ip - ipar) / (ip + ipar)
                     } else {
@@ -1174,7 +1174,7 @@ impl RaytraceJob {
                 "sphere_higher_orders".into(),
                 serde_json::json!({
                     "orders": [self.max_order + 1, SPHERE_MAX_ORDER],
-                    "what": "phase, i_perp and i_par include these orders of the equal-volume sphere (1-D path: Airy rainbows, grazing waves), bin averages along the polar angle, the same at every azimuth; the per-order and unfiltered channels hold the traced orders only"
+                    "what": "phase, i_perp, i_par and their unfiltered channels include these orders of the equal-volume sphere (1-D path: Airy rainbows, grazing waves), bin averages along the polar angle, the same at every azimuth; the per-order channels hold the traced orders only"
                 }),
             );
         }
