@@ -127,7 +127,8 @@ impl StageSpec for MixtureStage {
     /// 2: curved-surface coefficients in the traced path (RT-29), `max_order` default 6 (RT-30).
     /// 3: `handover_radius_um` default 400 µm (RT-15).
     /// 4: Fresnel amplitudes in real arithmetic below the critical angle (last bits).
-    /// 5: the traced radii's orders p ≥ 4 take their grazing waves (decision RT-36).
+    /// 5: the traced radii's orders p ≥ 4 take their grazing waves (decision RT-36), and their
+    /// rays carry the axial focal-line phases (RT-38).
     const VERSION: u32 = 5;
     const SUMMARY: &'static str = "drop-size mixtures: Lorenz–Mie for small drops, traced spheres for large ones, weighted by number × scattering cross-section";
     type Params = MixtureParams;
@@ -202,7 +203,7 @@ fn radius_curve(
         let c_sca = PI * r * r * sphere.efficiencies.q_sca;
         return Ok((resample_bins(&fine, mid), c_sca, false));
     }
-    let go = SphereGo::new(r, wavelength_nm, n, max_order);
+    let go = SphereGo::new(r, wavelength_nm, n, max_order).with_axial_phases(true);
     let angles: Vec<f64> = (0..=mid).map(|j| 180.0 * j as f64 / mid as f64).collect();
     let (ch, _) = sphere_phase_1d(&go, &angles, Phase1dOptions::default());
     let sigma_go: f64 = (0..=max_order).map(|p| go.energy_fraction(p)).sum::<f64>() * PI * r * r;

@@ -166,8 +166,9 @@ impl StageSpec for RaytraceStage {
     /// 10: Fresnel amplitudes in real arithmetic below the critical angle (values change in the
     /// last bits); `diagnostic_channels`.
     /// 11: sphere tables with `max_order ≥ 4`: the grazing region of those orders is their
-    /// exact partial waves (decision RT-36; Alexander's band); 2-D tables add the equal-volume
-    /// sphere's orders above `max_order` (`sphere_higher_orders`, decision RT-37).
+    /// exact partial waves (decision RT-36; Alexander's band), and with `airy-uniform` their rays
+    /// carry the axial focal-line phases (RT-38); 2-D tables add the equal-volume sphere's
+    /// orders above `max_order` (`sphere_higher_orders`, decision RT-37).
     const VERSION: u32 = 11;
     const SUMMARY: &'static str =
         "wave-optics patch ray tracer: phase functions of spherical and Beard–Chuang raindrops";
@@ -908,7 +909,10 @@ impl Job for RaytraceJob {
         }
         let (radius_um, l) = (f, s);
         let n = self.index(l)?;
-        let go = SphereGo::new(radius_um, l, n, self.max_order);
+        // The Lorenz–Mie cross-order phases with the sphere's own caustic model; the thesis's
+        // Gaussian model keeps its convention (decision RT-38).
+        let go = SphereGo::new(radius_um, l, n, self.max_order)
+            .with_axial_phases(self.diffraction_model() == DiffractionModel::AiryUniform);
         let na = self.n_angles();
         let angles: Vec<f64> = (0..na).map(|j| self.p.angle_step_deg * j as f64).collect();
         let (ch, _) = sphere_phase_1d(
