@@ -171,7 +171,8 @@ const GRAZING_TAPER: f64 = 3.0;
 const GRAZING_TAIL: f64 = 5.0;
 /// The angular functions are the large-`ν` (Laplace–Heine) forms; they are used where
 /// `ν sin θ` exceeds this (relative error ≈ `|cot θ|/(8ν)`), and the sum is zero nearer the
-/// axis, where the windowed waves carry no rays.
+/// axis. An order whose windowed rays reach nearer the axis than that keeps its rays (domain:
+/// p = 6 from x ≈ 870, i.e. from 90 µm at 650 nm and 53 µm at 380 nm).
 const GRAZING_MIN_NU_SIN: f64 = 20.0;
 
 /// The exact partial waves of one order `p ≥` [`GRAZING_WAVES_MIN_ORDER`] over its grazing
@@ -243,6 +244,11 @@ impl GrazingWaves {
         }
         let margin = GRAZING_TAIL / x.cbrt();
         let axis = (GRAZING_MIN_NU_SIN / nu_a).min(1.0).asin();
+        if lo < axis || hi > PI - axis {
+            // Windowed rays would reach the axes, where the large-ν forms fail: the order keeps
+            // its rays (p = 6 below x ≈ 870, p = 4 below 430, p = 5 below 130 at n = 1.331).
+            return None;
+        }
         g.theta_lo = (lo - margin).max(axis);
         g.theta_hi = (hi + margin).min(PI - axis);
         Some(g)
@@ -1189,6 +1195,22 @@ mod tests {
                 with < 0.03 && with < 0.5 * without,
                 "a = {a_um} µm: L2 {with} with axial phases, {without} without"
             );
+        }
+    }
+
+    /// The domain of the grazing waves: an order takes them only where its windowed rays stay
+    /// clear of the axes (p = 6 from x ≈ 870); below, it keeps its rays, and its field stays
+    /// finite everywhere.
+    #[test]
+    fn grazing_waves_stay_within_their_domain() {
+        let inside = SphereGo::new(100.0, 650.0, 1.331, 6); // x = 967
+        assert!(inside.grazing[6].is_some() && inside.grazing[4].is_some());
+        let below = SphereGo::new(50.0, 650.0, 1.331, 6); // x = 483
+        assert!(below.grazing[6].is_none());
+        assert!(below.grazing[4].is_some() && below.grazing[5].is_some());
+        for j in 1..180 {
+            let f = below.order_field_uniform(6, (j as f64).to_radians());
+            assert!(f.perp.norm().is_finite() && f.par.norm().is_finite());
         }
     }
 

@@ -736,10 +736,10 @@ fn over_full_circle<T: Clone>(held: &[T], na: usize) -> Vec<T> {
 
 /// The table values `[polar][azimuth][channel]` of one entry (rayon over polar rows): filtered
 /// values inside each column's caustic window, unfiltered outside, plus the forward lobe of the
-/// equal-area disc and, in all but the per-order channels, the sphere's higher orders (`higher`), all
-/// divided by σ = σ_GO + A (+ the higher orders' σ). Consumes the accumulators band by band
-/// (each band is released once its rows are written), so the accumulators and the output are
-/// not held in full at the same time.
+/// equal-area disc and, in all but the per-order channels, the sphere's higher orders
+/// (`higher`), all divided by σ = σ_GO + A (+ the higher orders' σ). Consumes the accumulators
+/// band by band (each band is released once its rows are written), so the accumulators and the
+/// output are not held in full at the same time.
 fn write_channels(
     mut f: FieldGrid,
     windows: &[CausticWindow],
