@@ -2,6 +2,10 @@
 //! traced order: mean phase over the band (point values, no sun disc).
 //!
 //! `cargo run --release --example alexander_band`
+#[path = "common/curves.rs"]
+#[allow(dead_code)] // maxima serves other examples
+mod curves;
+use curves::window_mean;
 #[path = "common/mie_reference.rs"]
 #[allow(dead_code)] // sun_disc is used by the other example
 mod mie_reference;
@@ -12,15 +16,7 @@ fn main() {
     let (lambda, n) = (650.0, 1.331);
     let step = 0.01;
     let ang: Vec<f64> = (0..=3200).map(|i| 118.0 + step * i as f64).collect();
-    let mean = |v: &[f64], lo: f64, hi: f64| -> f64 {
-        let w: Vec<f64> = ang
-            .iter()
-            .zip(v)
-            .filter(|(a, _)| **a >= lo && **a <= hi)
-            .map(|(_, x)| *x)
-            .collect();
-        w.iter().sum::<f64>() / w.len() as f64
-    };
+    let mean = |v: &[f64], lo: f64, hi: f64| window_mean(&ang, v, lo, hi);
     for a_mm in [0.1, 0.2, 0.4, 1.0] {
         let a = a_mm * 1e3;
         let m = mie_phase(a, lambda, n, &ang);

@@ -12,6 +12,10 @@
 //! to `dir/<model>.csv`)
 //! (default 600 0.0125 5 400 square average; the seed resolution is 3000 0.0125 0.2; `mirror` is
 //! `average` for `mirror_symmetrise` or `half` for `mirror_half`).
+#[path = "common/curves.rs"]
+#[allow(dead_code)] // window_mean serves other examples
+mod curves;
+use curves::maxima;
 #[path = "common/mie_reference.rs"]
 mod mie_reference;
 use mie_reference::{mie_phase, sun_disc};
@@ -74,24 +78,6 @@ fn sun_disc_2d(
         }
     }
     out
-}
-
-fn maxima(angles: &[f64], v: &[f64], lo: f64, hi: f64, floor: f64) -> Vec<f64> {
-    (1..v.len() - 1)
-        .filter(|&i| {
-            angles[i] >= lo
-                && angles[i] <= hi
-                && v[i] > v[i - 1]
-                && v[i] >= v[i + 1]
-                && v[i] > floor
-        })
-        .map(|i| {
-            let (a, b, c) = (v[i - 1], v[i], v[i + 1]);
-            let den = a - 2.0 * b + c;
-            let off = if den != 0.0 { 0.5 * (a - c) / den } else { 0.0 };
-            angles[i] + off * (angles[1] - angles[0])
-        })
-        .collect()
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {

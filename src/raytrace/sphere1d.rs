@@ -272,7 +272,7 @@ impl GrazingWaves {
         if theta_rad < self.theta_lo || theta_rad > self.theta_hi {
             return OrderField::default();
         }
-        let (sin_t, _) = theta_rad.sin_cos();
+        let sin_t = theta_rad.sin();
         let nu0 = self.n_first as f64 + 0.5;
         let mut z = Complex64::from_polar(1.0, nu0 * theta_rad - FRAC_PI_4);
         let step = Complex64::from_polar(1.0, theta_rad);
@@ -1101,6 +1101,18 @@ mod tests {
         }
     }
 
+    /// The project's unpolarised Lorenz–Mie phase function (∫ p dΩ = 1) at `ang` (deg).
+    fn mie_phase(a_um: f64, lambda: f64, n: f64, ang: &[f64]) -> Vec<f64> {
+        let x = crate::mie::size_parameter(a_um, lambda);
+        let sphere = crate::mie::Sphere::new(x, Complex64::new(n, 0.0)).unwrap();
+        let (s1, s2) = sphere.amplitudes_deg(ang);
+        let norm = sphere.phase_normalisation();
+        s1.iter()
+            .zip(&s2)
+            .map(|(a, b)| 0.5 * (a.norm_sqr() + b.norm_sqr()) / norm)
+            .collect()
+    }
+
     /// Mean of `v` over the angles in [lo, hi] (deg).
     fn band_mean(ang: &[f64], v: &[f64], lo: f64, hi: f64) -> f64 {
         let w: Vec<f64> = ang
@@ -1123,15 +1135,7 @@ mod tests {
         let (lambda, n) = (650.0, 1.331);
         let ang: Vec<f64> = (0..=700).map(|i| 130.0 + 0.01 * i as f64).collect();
         for a_um in [100.0, 200.0, 400.0, 1000.0] {
-            let x = crate::mie::size_parameter(a_um, lambda);
-            let sphere = crate::mie::Sphere::new(x, Complex64::new(n, 0.0)).unwrap();
-            let (s1, s2) = sphere.amplitudes_deg(&ang);
-            let norm = sphere.phase_normalisation();
-            let mie: Vec<f64> = s1
-                .iter()
-                .zip(&s2)
-                .map(|(a, b)| 0.5 * (a.norm_sqr() + b.norm_sqr()) / norm)
-                .collect();
+            let mie = mie_phase(a_um, lambda, n, &ang);
             let mb = band_mean(&ang, &mie, 131.0, 136.0);
             let ratio = |go: &SphereGo| {
                 let (ch, _) = sphere_phase_1d(go, &ang, Phase1dOptions::default());
@@ -1167,15 +1171,7 @@ mod tests {
                 .collect()
         };
         for a_um in [100.0, 400.0] {
-            let x = crate::mie::size_parameter(a_um, lambda);
-            let sphere = crate::mie::Sphere::new(x, Complex64::new(n, 0.0)).unwrap();
-            let (s1, s2) = sphere.amplitudes_deg(&ang);
-            let norm = sphere.phase_normalisation();
-            let mie: Vec<f64> = s1
-                .iter()
-                .zip(&s2)
-                .map(|(a, b)| 0.5 * (a.norm_sqr() + b.norm_sqr()) / norm)
-                .collect();
+            let mie = mie_phase(a_um, lambda, n, &ang);
             let mie_box = boxed(&mie);
             let l2 = |axial: bool| -> f64 {
                 let go = SphereGo::new(a_um, lambda, n, 6).with_axial_phases(axial);

@@ -501,8 +501,6 @@ impl RaytraceJob {
 /// The orders of the equal-volume sphere that a 2-D table adds to its traced ones (decision
 /// RT-37): bin averages on the table's polar rows, the same at every azimuth.
 pub struct SphereHigherOrders {
-    /// The orders added.
-    pub orders: std::ops::RangeInclusive<usize>,
     /// dσ/dΩ (µm²/sr) per polar row, ⊥ and ∥.
     pub i_perp: Vec<f64>,
     pub i_par: Vec<f64>,
@@ -530,9 +528,8 @@ impl RaytraceJob {
         let angles: Vec<f64> = (0..grid.n_polar).map(|j| step_deg * j as f64).collect();
         let (i_perp, i_par) = sphere_order_intensities_1d(&go, orders.clone(), &angles, step_deg);
         let cross_section_um2 =
-            orders.clone().map(|p| go.energy_fraction(p)).sum::<f64>() * PI * a_um * a_um;
+            orders.map(|p| go.energy_fraction(p)).sum::<f64>() * PI * a_um * a_um;
         Some(SphereHigherOrders {
-            orders,
             i_perp,
             i_par,
             cross_section_um2,
