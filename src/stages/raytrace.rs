@@ -43,7 +43,9 @@ use crate::stages::{Job, JobError, PlanError, StageSpec, TaskSpec, checks, stage
 use crate::table::{Axis, Channel, Schema, TableContent};
 use num_complex::Complex32;
 use rayon::prelude::*;
+use std::collections::HashMap;
 use std::f64::consts::PI;
+use std::sync::{Arc, Mutex, OnceLock};
 
 /// The stage.
 pub struct RaytraceStage;
@@ -197,6 +199,55 @@ pub struct RaytraceJob {
     two_d: bool,
     shape: Option<DropShape>,
     profile_fit_residual: Option<f64>,
+    /// What a 2-D entry computes once per wavelength for all its sun elevations.
+    per_wavelength: PerWavelengthCache,
+}
+
+/// The parts of a 2-D table that depend on the wavelength but not on the sun elevation: the
+/// column filter (with its airy-local transfer) and the equal-volume sphere's higher orders.
+struct WavelengthFields {
+    filter: ColumnFilter,
+    higher: Option<SphereHigherOrders>,
+}
+
+/// [`WavelengthFields`] shared by the tasks of one wavelength, so that the sun elevations of a
+/// wavelength compute them once. A slot is computed by the first task that asks for it (the
+/// others wait for it) and dropped from the cache after as many requests as the entry has sun
+/// elevations, so the cache holds only the wavelengths in flight. A value is the same whether
+/// it comes from the cache or not: the cache saves time, never changes a table.
+#[derive(Default)]
+struct PerWavelengthCache {
+    /// Per wavelength (its bits): the requests so far and the slot.
+    slots: Mutex<HashMap<u64, (usize, WavelengthSlot)>>,
+}
+
+/// A wavelength's fields, computed once by whichever task gets there first.
+type WavelengthSlot = Arc<OnceLock<Arc<WavelengthFields>>>;
+
+impl PerWavelengthCache {
+    /// The fields of `wavelength_nm`, computed by `compute` unless a task of the same wavelength
+    /// already did; `uses` is the number of requests after which the slot is dropped.
+    fn get(
+        &self,
+        wavelength_nm: f64,
+        uses: usize,
+        compute: impl FnOnce() -> WavelengthFields,
+    ) -> Arc<WavelengthFields> {
+        let slot = {
+            let mut slots = self.slots.lock().unwrap_or_else(|e| e.into_inner());
+            let key = wavelength_nm.to_bits();
+            let entry = slots
+                .entry(key)
+                .or_insert_with(|| (0, Arc::new(OnceLock::new())));
+            entry.0 += 1;
+            let slot = Arc::clone(&entry.1);
+            if entry.0 >= uses {
+                slots.remove(&key);
+            }
+            slot
+        };
+        Arc::clone(slot.get_or_init(|| Arc::new(compute())))
+    }
 }
 
 /// The checks of a 2-D (non-spherical) plan: one radius, direction grid steps that divide the
@@ -297,6 +348,7 @@ impl RaytraceJob {
             two_d,
             shape: None,
             profile_fit_residual: None,
+            per_wavelength: PerWavelengthCache::default(),
         };
         if !two_d {
             if divides(180.0, job.p.angle_step_deg).is_none() {
@@ -345,6 +397,7 @@ impl RaytraceJob {
             ));
         }
         self.fixed_index = Some(n);
+        self.per_wavelength = PerWavelengthCache::default();
         Ok(self)
     }
 
@@ -463,18 +516,44 @@ impl RaytraceJob {
             ray_grid: self.p.ray_grid,
         };
         let a_um = shape.radius_um();
-        // Before the trace: its few allocations do not stack on the accumulators' peak.
-        let higher = self.sphere_higher_orders(a_um, lambda, n, grid);
+        // Before the trace: their few allocations do not stack on the accumulators' peak.
+        let fields = self
+            .per_wavelength
+            .get(lambda, self.p.sun_elevation_deg.len(), || {
+                WavelengthFields {
+                    filter: self.column_filter(a_um, lambda, n, grid),
+                    higher: self.sphere_higher_orders(a_um, lambda, n, grid),
+                }
+            });
+        let (filter, higher) = (&fields.filter, fields.higher.as_ref());
         let f = if self.p.mirror_half {
             trace_fields_mirror_half(shape, &cfg, grid)
         } else {
             trace_fields(shape, &cfg, grid)
         };
+        let (windows, weights) = caustic_windows(&f, filter);
+        let sigma_total = f.order_cross_section_um2.iter().sum::<f64>()
+            + f.projected_area_um2
+            + higher.map_or(0.0, |h| h.cross_section_um2);
+        let nch = n_channels_2d(self.max_order + 1, self.p.diagnostic_channels);
+        let mut out = write_channels(f, &windows, lambda, nch, higher);
+        if self.p.mirror_symmetrise && !self.p.mirror_half {
+            mirror_symmetrise(&mut out, grid.n_azimuth, nch);
+        }
+        Ok((out, sigma_total, weights))
+    }
+}
+
+impl RaytraceJob {
+    /// The caustic filter of a 2-D entry's columns at one wavelength: the Gaussian diffraction
+    /// filter, split between the bows at the equal-volume sphere's mid-angle, with the sphere's
+    /// airy-local transfer when that model is on.
+    fn column_filter(&self, a_um: f64, lambda: f64, n: f64, grid: DirectionGrid) -> ColumnFilter {
         let go = SphereGo::new(a_um, lambda, n, 3);
         let split = 0.5
             * (go.rainbow_angle_rad(2).unwrap_or(PRIMARY_FALLBACK_RAD)
                 + go.rainbow_angle_rad(3).unwrap_or(SECONDARY_FALLBACK_RAD));
-        let mut filter = ColumnFilter::new(
+        let filter = ColumnFilter::new(
             grid.n_polar,
             grid.polar_step(),
             filter_sigma_deg(a_um * 1e-3).to_radians(),
@@ -482,19 +561,13 @@ impl RaytraceJob {
             self.p.diffraction_filter,
         );
         if self.p.diffraction_filter && self.diffraction_model() == DiffractionModel::AiryLocal {
-            let transfer = sphere_airy_transfer(&go, &filter, grid.polar_step(), f.orders);
-            filter = filter.with_airy_transfer(transfer);
+            // The traced orders p = 0 … max_order are the columns' channels.
+            let transfer =
+                sphere_airy_transfer(&go, &filter, grid.polar_step(), self.max_order + 1);
+            filter.with_airy_transfer(transfer)
+        } else {
+            filter
         }
-        let (windows, weights) = caustic_windows(&f, &filter);
-        let sigma_total = f.order_cross_section_um2.iter().sum::<f64>()
-            + f.projected_area_um2
-            + higher.as_ref().map_or(0.0, |h| h.cross_section_um2);
-        let nch = n_channels_2d(self.max_order + 1, self.p.diagnostic_channels);
-        let mut out = write_channels(f, &windows, lambda, nch, higher.as_ref());
-        if self.p.mirror_symmetrise && !self.p.mirror_half {
-            mirror_symmetrise(&mut out, grid.n_azimuth, nch);
-        }
-        Ok((out, sigma_total, weights))
     }
 }
 
@@ -1252,6 +1325,59 @@ mod tests {
         assert!(plan("shape = \"profile\"\nradii_um = [1000.0]").is_err());
         assert!(plan("shape = \"sphere\"\nradii_um = [0.4]").is_err());
         assert!(plan("shape = \"sphere\"\nradii_um = [400.0]").is_ok());
+    }
+
+    /// The sun elevations of a wavelength share its filter and sphere orders: the tasks of a
+    /// two-elevation, two-wavelength entry, run concurrently, give the values of single-task
+    /// entries, and each wavelength's fields are computed once.
+    #[test]
+    fn sun_elevations_share_their_wavelength_fields() {
+        let lines = |l: &str, e: &str| {
+            format!(
+                "shape = \"beard-chuang\"\nradii_um = [1500.0]\nwavelengths_nm = [{l}]\nsun_elevation_deg = [{e}]\nrays = 60\npolar_step_deg = 1.0\nazimuth_step_deg = 20.0"
+            )
+        };
+        let both = plan(&lines("550.0, 650.0", "0.0, 20.0")).unwrap();
+        let values: Vec<Vec<f32>> = (0..4)
+            .into_par_iter()
+            .map(|i| both.run_task(i).unwrap())
+            .collect();
+        for (i, (l, e)) in [
+            ("550.0", "0.0"),
+            ("550.0", "20.0"),
+            ("650.0", "0.0"),
+            ("650.0", "20.0"),
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            let single = plan(&lines(l, e)).unwrap().run_task(0).unwrap();
+            assert_eq!(values[i], single, "λ = {l} nm, sun {e}°");
+        }
+        assert_ne!(values[0], values[1]);
+
+        let cache = PerWavelengthCache::default();
+        let computed = std::sync::atomic::AtomicUsize::new(0);
+        let fields = || {
+            computed.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+            WavelengthFields {
+                filter: ColumnFilter::new(10, 0.1, 0.01, 0.5, false),
+                higher: None,
+            }
+        };
+        let count = || computed.load(std::sync::atomic::Ordering::SeqCst);
+        (0..3).into_par_iter().for_each(|_| {
+            cache.get(550.0, 3, fields);
+        });
+        assert_eq!(count(), 1);
+        assert!(
+            cache.slots.lock().unwrap().is_empty(),
+            "slot kept after its last use"
+        );
+        cache.get(550.0, 3, fields);
+        cache.get(650.0, 3, fields);
+        assert_eq!(count(), 3);
+        assert_eq!(cache.slots.lock().unwrap().len(), 2);
     }
 
     /// The keys of `raytrace-phase/1` manifests are refused with a message naming the new key
