@@ -8,9 +8,11 @@
 
 use crate::error::IoError;
 use crate::table::format::write_atomic;
-use crate::table::{FORMAT_MAJOR, FORMAT_MINOR, TableError};
+use crate::table::{FORMAT_MAJOR, FORMAT_MINOR, FileStamp, TableError};
 use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
+use std::collections::HashMap;
+use std::io::Read;
 use std::path::{Path, PathBuf};
 
 /// Why the catalog could not be rebuilt.
@@ -60,6 +62,10 @@ pub struct CatalogEntry {
     /// Content key (parameters digest).
     pub parameters_digest: String,
     pub created_utc: String,
+    /// The file's size, modification time, device and inode when it was listed: the next
+    /// rebuild lists a file that still has this stamp from this entry, without reading it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stamp: Option<FileStamp>,
 }
 
 /// The catalog file.
@@ -80,6 +86,7 @@ impl CatalogEntry {
         (major, minor): (u16, u16),
         size_bytes: u64,
         sha256: String,
+        stamp: FileStamp,
     ) -> Self {
         CatalogEntry {
             name: file.trim_end_matches(".sbt").to_string(),
@@ -93,6 +100,7 @@ impl CatalogEntry {
             stage: h.provenance.stage.clone(),
             parameters_digest: h.provenance.parameters_digest.clone(),
             created_utc: h.provenance.created_utc.clone(),
+            stamp: Some(stamp),
         }
     }
 }
@@ -103,7 +111,6 @@ impl CatalogEntry {
 #[derive(Debug, Clone)]
 pub struct FreshTable {
     entry: CatalogEntry,
-    stamp: crate::table::FileStamp,
 }
 
 impl FreshTable {
@@ -120,9 +127,58 @@ impl FreshTable {
                 (FORMAT_MAJOR, FORMAT_MINOR),
                 w.size_bytes,
                 w.file_sha256,
+                w.stamp,
             ),
-            stamp: w.stamp,
         }
+    }
+}
+
+/// The format line of the catalogs this build writes.
+fn catalog_format() -> String {
+    format!("scatterbake-catalog/1 (tables in format {FORMAT_MAJOR}.{FORMAT_MINOR})")
+}
+
+/// Largest `index.json` read back for its entries (bytes): about 40 000 tables. A larger or
+/// unreadable one is ignored, and every table is read instead.
+const MAX_INDEX_BYTES: u64 = 64 << 20;
+
+/// The entries of the catalog already in a directory, to list the files that have not changed
+/// since it was written without reading them. Empty when there is no catalog, or it is
+/// unreadable, too large or of another format: then every file is read.
+#[derive(Debug, Default)]
+pub struct Listed {
+    entries: HashMap<String, CatalogEntry>,
+}
+
+impl Listed {
+    /// The catalog `<dir>/index.json`, if it is one this build writes.
+    pub fn load(dir: &Path) -> Self {
+        let index = dir.join("index.json");
+        let read = || -> Option<Catalog> {
+            let file = std::fs::File::open(&index).ok()?;
+            let mut bytes = Vec::new();
+            file.take(MAX_INDEX_BYTES + 1)
+                .read_to_end(&mut bytes)
+                .ok()?;
+            if bytes.len() as u64 > MAX_INDEX_BYTES {
+                return None;
+            }
+            serde_json::from_slice(&bytes).ok()
+        };
+        let entries = read()
+            .filter(|c| c.format == catalog_format())
+            .map(|c| c.tables.into_iter().map(|e| (e.file.clone(), e)).collect())
+            .unwrap_or_default();
+        Listed { entries }
+    }
+
+    /// The entry of the file at `path` when the file still has the stamp it was listed with.
+    pub fn unchanged(&self, path: &Path) -> Option<&CatalogEntry> {
+        let file = path.file_name()?.to_string_lossy();
+        let entry = self.entries.get(file.as_ref())?;
+        let stamp = entry.stamp.as_ref().filter(|s| s.identifies())?;
+        let now = FileStamp::of(&std::fs::metadata(path).ok()?);
+        (now == *stamp).then_some(entry)
     }
 }
 
@@ -132,8 +188,11 @@ pub fn rebuild(dir: &Path) -> Result<Catalog, CatalogError> {
 }
 
 /// [`rebuild`], taking the entries of `fresh` tables (written by this process) as they are when
-/// their files still carry the stamps they were written with; every other file is read and
-/// verified. Listing a seed-resolution table this way saves reading and hashing its 0.3 GB.
+/// their files still carry the stamps they were written with, and the entries of the catalog
+/// already in `dir` for the files that still carry the stamps listed there; every other file is
+/// read and verified. Listing a seed-resolution table without reading it saves reading and
+/// hashing its 0.3 GB, and a shard of a job array writing into a shared directory reads only
+/// the tables written since the last catalog.
 pub fn rebuild_with(dir: &Path, fresh: &[FreshTable]) -> Result<Catalog, CatalogError> {
     std::fs::create_dir_all(dir).map_err(IoError::doing("creating the catalog directory", dir))?;
     crate::workdir::check_out_dir(dir).map_err(CatalogError::from)?;
@@ -145,6 +204,7 @@ pub fn rebuild_with(dir: &Path, fresh: &[FreshTable]) -> Result<Catalog, Catalog
         .open(&lock_path)
         .map_err(IoError::doing("opening lock file", &lock_path))?;
     lock.lock().map_err(IoError::doing("locking", &lock_path))?;
+    let listed = Listed::load(dir);
     let mut files: Vec<_> = std::fs::read_dir(dir)
         .map_err(IoError::doing("listing", dir))?
         .filter_map(|e| e.ok().map(|e| e.path()))
@@ -155,15 +215,26 @@ pub fn rebuild_with(dir: &Path, fresh: &[FreshTable]) -> Result<Catalog, Catalog
     let mut invalid = Vec::new();
     for p in files {
         let file = p.file_name().expect("file").to_string_lossy().into_owned();
-        let known = fresh.iter().find(|f| {
-            f.entry.file == file
-                && std::fs::metadata(&p).is_ok_and(|m| crate::table::FileStamp::of(&m) == f.stamp)
-        });
-        if let Some(f) = known {
-            tables.push(f.entry.clone());
+        let stamp = std::fs::metadata(&p).ok().map(|m| FileStamp::of(&m));
+        let known = fresh
+            .iter()
+            .map(|f| &f.entry)
+            .find(|e| e.file == file && stamp.is_some() && e.stamp == stamp)
+            .or_else(|| listed.unchanged(&p));
+        if let Some(e) = known {
+            tables.push(e.clone());
             continue;
         }
-        let bytes = match std::fs::read(&p) {
+        // The stamp of what is read: taken from the open file, so that a file renamed into
+        // place meanwhile is never listed under the stamp of the one it replaced.
+        let read = || -> std::io::Result<(Vec<u8>, FileStamp)> {
+            let mut f = std::fs::File::open(&p)?;
+            let stamp = FileStamp::of(&f.metadata()?);
+            let mut bytes = Vec::new();
+            f.read_to_end(&mut bytes)?;
+            Ok((bytes, stamp))
+        };
+        let (bytes, stamp) = match read() {
             Ok(b) => b,
             Err(e) => {
                 invalid.push((file, e.to_string()));
@@ -192,10 +263,11 @@ pub fn rebuild_with(dir: &Path, fresh: &[FreshTable]) -> Result<Catalog, Catalog
             (major, minor),
             bytes.len() as u64,
             file_sha,
+            stamp,
         ));
     }
     let catalog = Catalog {
-        format: format!("scatterbake-catalog/1 (tables in format {FORMAT_MAJOR}.{FORMAT_MINOR})"),
+        format: catalog_format(),
         tables,
         invalid,
     };
@@ -216,6 +288,12 @@ mod tests {
     use crate::consumers::synthetic::henyey_greenstein_table;
     use crate::table::write_table_atomic_sealed;
 
+    /// The catalog of `dir` from reading every table (none listed from an earlier catalog).
+    fn full_read(dir: &Path) -> Catalog {
+        let _ = std::fs::remove_file(dir.join("index.json"));
+        rebuild(dir).unwrap()
+    }
+
     /// A fresh table's entry is the entry a full read of the file gives; once the file at its
     /// path is another (a concurrent build replaced it), the file is read instead.
     #[test]
@@ -233,7 +311,7 @@ mod tests {
         assert_eq!(written.size_bytes, std::fs::metadata(&path).unwrap().len());
         let fresh = [FreshTable::new(&path, &t.header, written)];
         let listed = rebuild_with(dir.path(), &fresh).unwrap();
-        let read = rebuild(dir.path()).unwrap();
+        let read = full_read(dir.path());
         assert_eq!(listed, read);
         assert_eq!(read.tables.len(), 1);
         assert_eq!(
@@ -244,7 +322,74 @@ mod tests {
         let mut other = henyey_greenstein_table(&[500.0], &[2.0], |_, _| 0.7, 19, 0.1);
         write_table_atomic_sealed(&mut other, &path).unwrap();
         let listed = rebuild_with(dir.path(), &fresh).unwrap();
-        assert_eq!(listed, rebuild(dir.path()).unwrap());
+        assert_eq!(listed, full_read(dir.path()));
         assert_ne!(listed.tables[0].sha256, fresh[0].entry.sha256);
+    }
+
+    /// A rebuild lists the files the catalog already lists with their current stamps from the
+    /// catalog, and reads the others: a table replaced under its name, a file changed in place
+    /// (bytes overwritten: it is listed as invalid), a new table. The result equals a full read
+    /// after each change.
+    #[test]
+    fn a_rebuild_reads_only_the_files_changed_since_the_catalog() {
+        use std::io::{Seek, SeekFrom, Write};
+        let dir = tempfile::tempdir().unwrap();
+        let table = |name: &str, g: f64| {
+            let mut t = henyey_greenstein_table(&[450.0], &[1.0], move |_, _| g, 19, 0.1);
+            write_table_atomic_sealed(&mut t, &dir.path().join(name)).unwrap();
+        };
+        table("a.sbt", 0.3);
+        table("b.sbt", 0.5);
+        let first = rebuild(dir.path()).unwrap();
+        assert_eq!(first.tables.len(), 2);
+        assert!(first.tables.iter().all(|e| e.stamp.is_some()));
+        // Unchanged files: listed from the catalog, which is the full read's.
+        assert_eq!(rebuild(dir.path()).unwrap(), first);
+        let listed = Listed::load(dir.path());
+        assert!(listed.unchanged(&dir.path().join("a.sbt")).is_some());
+
+        // Replaced (a new inode), and a new file: both read.
+        table("a.sbt", 0.7);
+        table("c.sbt", 0.1);
+        assert!(listed.unchanged(&dir.path().join("a.sbt")).is_none());
+        let second = rebuild(dir.path()).unwrap();
+        assert_eq!(second.tables.len(), 3);
+        assert_ne!(second.tables[0].sha256, first.tables[0].sha256);
+        assert_eq!(second.tables[1], first.tables[1]);
+        assert_eq!(second, full_read(dir.path()));
+        let second = rebuild(dir.path()).unwrap();
+
+        // Overwritten in place, same size: the modification time moves, the file is read and
+        // found corrupt. (Sleep past the file system's timestamp granularity.)
+        std::thread::sleep(std::time::Duration::from_millis(20));
+        let b = dir.path().join("b.sbt");
+        let len = std::fs::metadata(&b).unwrap().len();
+        let mut f = std::fs::OpenOptions::new().write(true).open(&b).unwrap();
+        f.seek(SeekFrom::Start(len - 4)).unwrap();
+        f.write_all(&[0xff; 4]).unwrap();
+        drop(f);
+        let third = rebuild(dir.path()).unwrap();
+        assert_eq!(third.tables.len(), 2, "{third:?}");
+        assert_eq!(third.invalid.len(), 1);
+        assert_eq!(third.invalid[0].0, "b.sbt");
+        assert_eq!(third, full_read(dir.path()));
+        assert_eq!(second.tables[0], third.tables[0]);
+
+        // Unchanged stamps are trusted: bytes overwritten with the modification time set back
+        // are not read (`verify` reads every file), until a full read finds them.
+        let c = dir.path().join("c.sbt");
+        let meta = std::fs::metadata(&c).unwrap();
+        let mut f = std::fs::OpenOptions::new().write(true).open(&c).unwrap();
+        f.seek(SeekFrom::Start(meta.len() - 4)).unwrap();
+        f.write_all(&[0xff; 4]).unwrap();
+        f.set_modified(meta.modified().unwrap()).unwrap();
+        drop(f);
+        assert_eq!(rebuild(dir.path()).unwrap(), third);
+        assert_eq!(full_read(dir.path()).invalid.len(), 2);
+
+        // A catalog of another format, or not JSON, is not used.
+        std::fs::write(dir.path().join("index.json"), b"{not json").unwrap();
+        assert!(Listed::load(dir.path()).entries.is_empty());
+        assert_eq!(rebuild(dir.path()).unwrap().invalid.len(), 2);
     }
 }

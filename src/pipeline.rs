@@ -417,8 +417,14 @@ pub fn table_path(out_dir: &Path, name: &str) -> PathBuf {
 }
 
 /// The table at `path` has content key `key` and is sealed as written
-/// ([`crate::table::verify_sealed`]: checksummed compressed payload, not decompressed).
-fn up_to_date(path: &Path, key: &str) -> bool {
+/// ([`crate::table::verify_sealed`]: checksummed compressed payload, not decompressed), or is
+/// the file the catalog `listed` lists at that path (same size, modification time, device and
+/// inode) with that key: a catalog lists only tables that were sealed when it read them or
+/// wrote them.
+fn up_to_date(path: &Path, key: &str, listed: &crate::catalog::Listed) -> bool {
+    if let Some(e) = listed.unchanged(path) {
+        return e.parameters_digest == key;
+    }
     match crate::table::read_header_only(path) {
         Ok(h) if h.provenance.parameters_digest == key => crate::table::verify_sealed(path).is_ok(),
         _ => false,
@@ -502,11 +508,12 @@ fn assemble_completed(
     ctx: &Context,
 ) -> Result<(), PipelineError> {
     let _lock = crate::workdir::lock_out_dir(out_dir)?;
+    let listed = crate::catalog::Listed::load(out_dir);
     for s in states {
         if written.lock().expect("lock").contains(&s.planned.name) {
             continue;
         }
-        if up_to_date(&table_path(out_dir, &s.planned.name), &s.key) {
+        if up_to_date(&table_path(out_dir, &s.planned.name), &s.key, &listed) {
             continue;
         }
         let complete = (0..s.task_keys.len()).all(|k| s.read(k, ctx).is_some());
@@ -540,11 +547,12 @@ pub fn build(opts: &BuildOptions) -> Result<BuildReport, PipelineError> {
     report.tables_written.sort();
     // A table this build did not write is up to date when another shard or concurrent build
     // wrote it meanwhile, else pending.
+    let listed = crate::catalog::Listed::load(&opts.out_dir);
     for s in &states {
         if report.tables_written.contains(&s.planned.name) {
             continue;
         }
-        if up_to_date(&table_path(&opts.out_dir, &s.planned.name), &s.key) {
+        if up_to_date(&table_path(&opts.out_dir, &s.planned.name), &s.key, &listed) {
             report.tables_up_to_date.push(s.planned.name.clone());
         } else {
             report.tables_pending.push(s.planned.name.clone());
@@ -612,13 +620,14 @@ fn plan_tables(
     // Global task indices count the tasks of every planned table, up to date or not, so that
     // every shard divides the same list even when another shard has written a table meanwhile.
     let mut next_global = 0usize;
+    let listed = crate::catalog::Listed::load(&opts.out_dir);
     for t in planned {
         let key = table_key(&t);
         let path = table_path(&opts.out_dir, &t.name);
         let tasks = t.job.tasks();
         let first_global = next_global;
         next_global += tasks.len();
-        if !opts.force && up_to_date(&path, &key) {
+        if !opts.force && up_to_date(&path, &key, &listed) {
             report.tables_up_to_date.push(t.name.clone());
             continue;
         }

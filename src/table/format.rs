@@ -344,11 +344,12 @@ pub fn write_atomic_parts(path: &Path, parts: &[&[u8]]) -> std::io::Result<()> {
 
 /// Identity of a written file: size, modification time and (on Unix) device and inode, as the
 /// file had them when it was renamed into place. A file found at the path later with the same
-/// stamp is that file (nothing rewrites a table in place).
-#[derive(Debug, Clone, PartialEq, Eq)]
+/// stamp is that file (nothing rewrites a table in place). Serialised in the catalog
+/// (`modified` as seconds and nanoseconds since the Unix epoch).
+#[derive(Debug, Clone, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct FileStamp {
     len: u64,
-    modified: Option<std::time::SystemTime>,
+    modified: Option<(u64, u32)>,
     #[cfg(unix)]
     dev_ino: (u64, u64),
 }
@@ -358,12 +359,23 @@ impl FileStamp {
     pub fn of(meta: &std::fs::Metadata) -> Self {
         #[cfg(unix)]
         use std::os::unix::fs::MetadataExt;
+        let since_epoch = |t: std::time::SystemTime| t.duration_since(std::time::UNIX_EPOCH).ok();
         FileStamp {
             len: meta.len(),
-            modified: meta.modified().ok(),
+            modified: meta
+                .modified()
+                .ok()
+                .and_then(since_epoch)
+                .map(|d| (d.as_secs(), d.subsec_nanos())),
             #[cfg(unix)]
             dev_ino: (meta.dev(), meta.ino()),
         }
+    }
+
+    /// Whether the stamp identifies a file: it has a modification time (a file system without
+    /// one gives stamps that would match any file of the same size).
+    pub fn identifies(&self) -> bool {
+        self.modified.is_some()
     }
 }
 
