@@ -380,14 +380,15 @@ pub fn surface_coefficients(
     let i = Complex64::new(0.0, 1.0);
     let inv_y = 1.0 / y;
     let inv_x = 1.0 / x;
-    // ln q_0 = ln(2E/(E − 1)), E = e^{2iy}
+    // q_n = ξ¹_n(y)/ψ_n(y) (ξ¹_0 = −i e^{iy}), upward from q_1 in closed form:
+    // q_1 = E(−i/y − 1) / ((E − 1)/(2iy) − (E + 1)/2), E = e^{2iy}, as a logarithm (ln E = 2iy,
+    // so nothing overflows when E underflows for Im y > ~350). Starting at n = 0 instead,
+    // q_0 = 2E/(E − 1), multiplies a pole by a zero where sin y = ψ_0(y) vanishes (y = kπ, e.g.
+    // x = 1600π, m = 1.335): rounding then leaves every q_n wrong by a constant factor.
     let e = (2.0 * i * y).exp();
-    let mut ln_q = (2.0 * e / (e - 1.0)).ln();
-    if !ln_q.is_finite() {
-        // E underflowed (Im y > ~350): ln q_0 = ln 2 + 2iy − ln(E − 1) with E → 0.
-        ln_q = Complex64::new(std::f64::consts::LN_2, 0.0) + 2.0 * i * y
-            - Complex64::new(-1.0, 0.0).ln();
-    }
+    let ln_q1 = 2.0 * i * y + (-i * inv_y - 1.0).ln()
+        - ((e - 1.0) * inv_y / (2.0 * i) - 0.5 * (e + 1.0)).ln();
+    let mut ln_q = Complex64::new(0.0, 0.0);
     // D¹_n(y) = ξ_n'(y)/ξ_n(y), upward from D¹_0 = i (the dominant direction for Im y ≥ 0)
     let mut d1_y_all = Vec::new();
     log_derivative_xi_complex(y, n_stop, &mut d1_y_all);
@@ -400,7 +401,11 @@ pub fn surface_coefficients(
         let g1 = 1.0 / (nf * inv_y - d1_y_all[n - 1]);
         let d1_y = d1_y_all[n];
         let gpsi = dpsi + nf * inv_y; // ψ_{n−1}/ψ_n
-        ln_q += (gpsi / g1).ln();
+        if n == 1 {
+            ln_q = ln_q1;
+        } else {
+            ln_q += (gpsi / g1).ln();
+        }
         // ρ = q/(2 − q) and 1 + ρ = 2/(2 − q), evaluated without overflow (via 1/q when |q| > 1)
         let (rho, one_plus_rho) = if ln_q.re <= 0.0 {
             let q = ln_q.exp();
@@ -443,6 +448,35 @@ pub fn surface_coefficients(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Where sin(mx) vanishes (mx = kπ: a = 400 µm at 500 nm with m = 1.335 gives x = 1600π,
+    /// mx = 2136π) the coefficients are those of a neighbouring m (mx 5e-6 away from kπ), the
+    /// internal reflection keeps |R11| ≤ 1, and the closed-form sum is still Mie's.
+    #[test]
+    fn coefficients_are_regular_where_sin_mx_vanishes() {
+        let x = 1600.0 * std::f64::consts::PI;
+        let n_stop = crate::mie::riccati::n_stop_default(x);
+        let at = |m: f64| surface_coefficients(x, Complex64::new(m, 0.0), n_stop);
+        let (tm, te) = at(1.335);
+        let (tm_near, te_near) = at(1.335 * (1.0 + 1e-9));
+        for (a, b) in tm.iter().chain(&te).zip(tm_near.iter().chain(&te_near)) {
+            assert!(a.r_int.norm() <= 1.0 + 1e-9, "|R11| = {}", a.r_int.norm());
+            for p in 0..=6 {
+                assert!(
+                    (a.term(p) - b.term(p)).norm() < 1e-4,
+                    "p={p}: {} vs {}",
+                    a.term(p),
+                    b.term(p)
+                );
+            }
+        }
+        let d = DebyeCoefficients::new(x, Complex64::new(1.335, 0.0)).unwrap();
+        let (a, b) = d.coefficients(&OrderSet::From(0));
+        for n in 0..d.n_stop() {
+            assert!((a[n] - d.mie.a[n]).norm() < 1e-9, "a_{}", n + 1);
+            assert!((b[n] - d.mie.b[n]).norm() < 1e-9, "b_{}", n + 1);
+        }
+    }
 
     /// The closed-form sum over all p reproduces the Mie coefficients (independent formula in
     /// `crate::mie::coefficients`), for real and absorbing spheres, small and large x.

@@ -104,8 +104,9 @@ struct DebyeJob {
 impl StageSpec for DebyeStage {
     const NAME: &'static str = "debye";
     /// 2: axes radius × wavelength × angle, efficiencies kept in f64. 3: `sadeghi-table-3.2`
-    /// corrected at 580–650 nm; attribute `sun_diameter_deg`.
-    const VERSION: u32 = 3;
+    /// corrected at 580–650 nm; attribute `sun_diameter_deg`. 4: the surface coefficients are
+    /// regular where sin(mx) vanishes (mx = kπ: the orders were wrong there).
+    const VERSION: u32 = 4;
     const SUMMARY: &'static str = "Mie phase functions of water drops split into Debye-series orders (p = 0 reflection+diffraction, 1, 2 primary, 3 secondary, ...)";
     type Params = DebyeParams;
     fn plan_params(&self, p: DebyeParams) -> Result<Box<dyn Job>, PlanError> {

@@ -129,7 +129,8 @@ impl StageSpec for MixtureStage {
     /// 4: Fresnel amplitudes in real arithmetic below the critical angle (last bits).
     /// 5: the traced radii's orders p ≥ 4 take their grazing waves (decision RT-36), and their
     /// rays carry the axial focal-line phases (RT-38).
-    const VERSION: u32 = 5;
+    /// 6: the traced radii's Debye surface coefficients are regular where sin(mx) vanishes.
+    const VERSION: u32 = 6;
     const SUMMARY: &'static str = "drop-size mixtures: Lorenz–Mie for small drops, traced spheres for large ones, weighted by number × scattering cross-section";
     type Params = MixtureParams;
     fn plan_params(&self, p: MixtureParams) -> Result<Box<dyn Job>, PlanError> {
@@ -231,6 +232,22 @@ fn mix_entry(job: &MixtureJob, index: usize) -> Result<(PolarisedPhase, f64), Jo
             Ok((c, nw * c_sca, traced))
         })
         .collect::<Result<_, MieError>>()?;
+    // A traced curve is divided by its drop's cross-section: it integrates to 1 up to its
+    // discretisation, unless the computation failed.
+    for (curve, _, traced) in &parts {
+        if *traced {
+            let step = curve.step_deg.to_radians();
+            let phase = curve
+                .i_perp
+                .iter()
+                .zip(&curve.i_par)
+                .map(|(a, b)| 0.5 * (a + b));
+            crate::stages::check_phase_integral(
+                entry,
+                crate::stages::raytrace::integral_1d(phase, step),
+            )?;
+        }
+    }
     let total: f64 = parts.iter().map(|p| p.1).sum();
     if !(total > 0.0 && total.is_finite()) {
         return Err(JobError::NotNormalisable {

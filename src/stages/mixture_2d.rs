@@ -72,7 +72,8 @@ impl StageSpec for Mixture2dStage {
     /// 4: Fresnel amplitudes in real arithmetic below the critical angle (last bits).
     /// 5: `sphere_higher_orders` (decision RT-37): each radius adds its equal-volume sphere's
     /// orders above `max_order`.
-    const VERSION: u32 = 5;
+    /// 6: those orders' Debye surface coefficients are regular where sin(mx) vanishes.
+    const VERSION: u32 = 6;
     const SUMMARY: &'static str = "drop-size mixtures of ray-traced Beard–Chuang drops (2-D tables over outgoing directions), weighted by number × scattering cross-section";
     type Params = Mixture2dParams;
     fn plan_params(&self, p: Mixture2dParams) -> Result<Box<dyn Job>, PlanError> {

@@ -171,7 +171,10 @@ impl StageSpec for RaytraceStage {
     /// exact partial waves (decision RT-36; Alexander's band), and with `airy-uniform` their rays
     /// carry the axial focal-line phases (RT-38); 2-D tables add the equal-volume sphere's
     /// orders above `max_order` (`sphere_higher_orders`, decision RT-37).
-    const VERSION: u32 = 11;
+    /// 12: the Debye surface coefficients of the grazing waves and of the added orders are
+    /// regular where sin(mx) vanishes (they were wrong by orders of magnitude there, e.g. at
+    /// 0.4 and 1 mm, 500 nm, Table 3.2 index); entries integrating far from 1 are refused.
+    const VERSION: u32 = 12;
     const SUMMARY: &'static str =
         "wave-optics patch ray tracer: phase functions of spherical and Beard–Chuang raindrops";
     type Params = RaytraceParams;
@@ -927,7 +930,7 @@ pub fn mirror_symmetrise(values: &mut [f32], na: usize, nch: usize) {
 }
 
 /// ∫ p dΩ of a 1-D phase function on a uniform [0, π] grid (bin-sum with exact bin solid angles).
-fn integral_1d(values: impl Iterator<Item = f64>, step: f64) -> f64 {
+pub(crate) fn integral_1d(values: impl Iterator<Item = f64>, step: f64) -> f64 {
     values
         .enumerate()
         .map(|(j, v)| {
@@ -1041,7 +1044,7 @@ impl RaytraceJob {
         if self.two_d {
             self.assemble_2d(data, channels, at)
         } else {
-            Ok(self.assemble_1d(data, channels, at))
+            self.assemble_1d(data, channels, at)
         }
     }
 }
@@ -1148,17 +1151,16 @@ impl RaytraceJob {
         data: Vec<f32>,
         channels: Vec<Channel>,
         mut at: serde_json::Map<String, serde_json::Value>,
-    ) -> TableContent {
+    ) -> Result<TableContent, JobError> {
         let nch = channels.len();
         let na = self.n_angles();
         let step = self.p.angle_step_deg.to_radians();
         let mut ints = vec![];
         for e in 0..self.task_pairs().len() {
             let base = e * na * nch;
-            ints.push(integral_1d(
-                (0..na).map(|j| data[base + j * nch] as f64),
-                step,
-            ));
+            let s = integral_1d((0..na).map(|j| data[base + j * nch] as f64), step);
+            crate::stages::check_phase_integral(e, s)?;
+            ints.push(s);
         }
         at.insert(
             "integral_check".into(),
@@ -1172,7 +1174,7 @@ impl RaytraceJob {
             Axis::values("wavelength", "nm", self.p.wavelengths_nm.clone()),
             Axis::uniform("scattering_angle", "deg", 0.0, self.p.angle_step_deg, na),
         ];
-        TableContent {
+        Ok(TableContent {
             schema: Schema::new("raytrace-phase", 2),
             description: "ray-traced (geometric optics + phase) phase function of water spheres"
                 .into(),
@@ -1180,7 +1182,7 @@ impl RaytraceJob {
             channels,
             attributes: at,
             data,
-        }
+        })
     }
 
     /// Divide every intensity channel (all but `dolp`) of each entry of a 2-D table by its
@@ -1215,6 +1217,7 @@ impl RaytraceJob {
                     integral: s,
                 });
             }
+            crate::stages::check_phase_integral(e, s)?;
             data[base..base + np * na * nch]
                 .par_chunks_mut(na * nch)
                 .for_each(|row| {
@@ -1325,6 +1328,38 @@ mod tests {
         assert!(plan("shape = \"profile\"\nradii_um = [1000.0]").is_err());
         assert!(plan("shape = \"sphere\"\nradii_um = [0.4]").is_err());
         assert!(plan("shape = \"sphere\"\nradii_um = [400.0]").is_ok());
+    }
+
+    /// At 0.4 mm and 500 nm with the Table 3.2 index (m = 1.335) sin(mx) vanishes (mx = 2136π);
+    /// the sphere's orders p ≥ 4 (grazing waves in 1-D tables, the added orders of 2-D tables)
+    /// were wrong there by orders of magnitude. Both tables now integrate to 1 before
+    /// renormalisation like their neighbours, and an entry far from 1 is refused.
+    #[test]
+    fn tables_are_regular_where_sin_mx_vanishes() {
+        let integrals = |t: &TableContent| -> Vec<f64> {
+            t.attributes["integral_check"]["values"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|v| v.as_f64().unwrap())
+                .collect()
+        };
+        let two_d = crate::stages::table_from_lines(
+            &RaytraceStage,
+            "shape = \"beard-chuang\"\nradii_um = [400.0]\nwavelengths_nm = [500.0]\nwater_index_model = \"sadeghi-table-3.2\"\nsun_elevation_deg = [0.0]\nrays = 60\npolar_step_deg = 0.5\nazimuth_step_deg = 30.0",
+        );
+        let one_d = crate::stages::table_from_lines(
+            &RaytraceStage,
+            "shape = \"sphere\"\nradii_um = [400.0]\nwavelengths_nm = [500.0]\nwater_index_model = \"sadeghi-table-3.2\"\nangle_step_deg = 0.5",
+        );
+        for (name, t, tol) in [("2-D", &two_d, 0.05), ("1-D", &one_d, 0.02)] {
+            for s in integrals(t) {
+                assert!((s - 1.0).abs() < tol, "{name}: ∫ p dΩ = {s}");
+            }
+        }
+        assert!(crate::stages::check_phase_integral(0, 1.039).is_ok());
+        let e = crate::stages::check_phase_integral(3, 5.2e14).unwrap_err();
+        assert!(e.to_string().contains("entry 3"), "{e}");
     }
 
     /// The sun elevations of a wavelength share its filter and sphere orders: the tasks of a
