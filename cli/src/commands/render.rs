@@ -272,6 +272,18 @@ fn print_measurements(m: &RainbowMeasurements, pixel_deg: f64) {
                 b.window_deg.0, b.window_deg.1, b.name
             );
         }
+        if !b.maxima.is_empty() {
+            let list = b
+                .maxima
+                .iter()
+                .map(|(r, y)| format!("{r:.2} ({y:.2})"))
+                .collect::<Vec<_>>()
+                .join(", ");
+            eprintln!(
+                "  luminance maxima in the {}-{} deg window, outermost first, deg (relative): {list}",
+                b.window_deg.0, b.window_deg.1
+            );
+        }
     }
     let fmt = |v: &[f64]| {
         v.iter()

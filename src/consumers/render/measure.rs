@@ -6,6 +6,40 @@ use super::rainbow::{
     BowMeasurement, Rendered, centre_column, column_mean_luminance, measure_bow, prominent_maxima,
     table_bow_radius, table_bow_radius_2d,
 };
+
+/// The centre column's luminance as (radius from the antisolar point in deg, linear sRGB Y),
+/// sorted by radius; empty for lenses other than the fisheye.
+fn column_luminance(r: &Rendered, sun_elevation_deg: f64) -> Vec<(f64, f64)> {
+    let mut column: Vec<(f64, f64)> = centre_column(r, sun_elevation_deg)
+        .unwrap_or_default()
+        .into_iter()
+        .map(|(radius, p)| (radius, linear_srgb_luminance(p)))
+        .collect();
+    column.sort_by(|a, b| a.0.total_cmp(&b.0));
+    column
+}
+
+/// The prominent maxima of `column` in `[lo, hi]` at ≥ [`WINDOW_MAXIMA_FLOOR`] of the
+/// window's largest luminance, outermost first, with their relative luminance.
+fn window_maxima(column: &[(f64, f64)], lo: f64, hi: f64) -> Vec<(f64, f64)> {
+    let top = column
+        .iter()
+        .filter(|(r, _)| (lo..=hi).contains(r))
+        .map(|p| p.1)
+        .fold(0.0, f64::max);
+    if top <= 0.0 {
+        return Vec::new();
+    }
+    let mut out: Vec<(f64, f64)> = prominent_maxima(column, lo, hi, 0.02)
+        .into_iter()
+        .filter_map(|r| {
+            let y = column.iter().find(|p| p.0 == r)?.1 / top;
+            (y >= WINDOW_MAXIMA_FLOOR).then_some((r, y))
+        })
+        .collect();
+    out.reverse();
+    out
+}
 use crate::consumers::read::phase2d::PhaseSlice;
 use crate::consumers::read::spectrum::THETA_STEP_DEG;
 use crate::optics::colour::linear_srgb_luminance;
@@ -31,7 +65,16 @@ pub struct BowReport {
     pub table_max_deg: f64,
     /// The image maximum lies within a pixel of the window's edge: no maximum inside.
     pub at_window_edge: bool,
+    /// Every prominent luminance maximum of the centre column in the window (prominence 2 %,
+    /// as [`prominent_maxima`]) at ≥ [`WINDOW_MAXIMA_FLOOR`] of the window's largest, outermost
+    /// first, as (radius in deg, luminance over the window's largest): the twins of a twinned
+    /// bow, the supernumeraries.
+    pub maxima: Vec<(f64, f64)>,
 }
+
+/// Smallest luminance, relative to the window's largest, of the maxima listed in
+/// [`BowReport::maxima`].
+pub const WINDOW_MAXIMA_FLOOR: f64 = 0.3;
 
 /// Supernumerary fringes inside the primary, outermost first.
 #[derive(Debug, Clone, PartialEq)]
@@ -96,6 +139,7 @@ pub fn measure_bows(
     reference: &TableReference,
 ) -> Vec<BowReport> {
     let pixel = r.camera.pixel_deg();
+    let column = column_luminance(r, sun_elevation_deg);
     BOW_WINDOWS
         .iter()
         .filter_map(|&(name, lo, hi)| {
@@ -110,6 +154,7 @@ pub fn measure_bows(
                 image: m,
                 table_max_deg,
                 at_window_edge: m.radius_deg - lo < pixel || hi - m.radius_deg < pixel,
+                maxima: window_maxima(&column, lo, hi),
             })
         })
         .collect()
@@ -124,12 +169,7 @@ pub fn supernumeraries(
     primary_deg: f64,
 ) -> Supernumeraries {
     let (lo, hi) = (primary_deg - 5.0, primary_deg - 0.3);
-    let mut column: Vec<(f64, f64)> = centre_column(r, sun_elevation_deg)
-        .unwrap_or_default()
-        .into_iter()
-        .map(|(radius, p)| (radius, linear_srgb_luminance(p)))
-        .collect();
-    column.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let column = column_luminance(r, sun_elevation_deg);
     let mut table: Vec<(f64, f64)> = xyz
         .iter()
         .enumerate()
@@ -163,4 +203,36 @@ pub fn dark_band(
         inside_deg,
         inside_luminance: column_mean_luminance(r, sun_elevation_deg, inside_deg.0, inside_deg.1)?,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Two bows (a twin) and a faint fringe: the twins are listed outermost first with their
+    /// relative luminance, the fringe below the floor is not.
+    #[test]
+    fn window_maxima_list_the_twins_above_the_floor() {
+        let peak = |r: f64, at: f64, h: f64| h * (-((r - at) / 0.3).powi(2)).exp();
+        let column: Vec<(f64, f64)> = (0..=1800)
+            .map(|i| {
+                let r = 36.0 + 0.005 * i as f64;
+                (
+                    r,
+                    0.05 + peak(r, 39.36, 1.0) + peak(r, 41.7, 0.8) + peak(r, 37.5, 0.2),
+                )
+            })
+            .collect();
+        let m = window_maxima(&column, 36.0, 45.0);
+        assert_eq!(m.len(), 2, "{m:?}");
+        assert!(
+            (m[0].0 - 41.7).abs() < 0.01 && (m[0].1 - 0.85 / 1.05).abs() < 0.01,
+            "{m:?}"
+        );
+        assert!(
+            (m[1].0 - 39.36).abs() < 0.01 && (m[1].1 - 1.0).abs() < 1e-9,
+            "{m:?}"
+        );
+        assert!(window_maxima(&column, 50.0, 55.0).is_empty());
+    }
 }
