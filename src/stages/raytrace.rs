@@ -216,8 +216,10 @@ struct WavelengthFields {
 /// [`WavelengthFields`] shared by the tasks of one wavelength, so that the sun elevations of a
 /// wavelength compute them once. A slot is computed by the first task that asks for it (the
 /// others wait for it) and dropped from the cache after as many requests as the entry has sun
-/// elevations, so the cache holds only the wavelengths in flight. A value is the same whether
-/// it comes from the cache or not: the cache saves time, never changes a table.
+/// elevations, so the cache holds only the wavelengths in flight (in a sharded build, a
+/// wavelength whose other elevations run on other shards stays until the job ends: a few MB
+/// each at the seed resolution). A value is the same whether it comes from the cache or not:
+/// the cache saves time, never changes a table.
 #[derive(Default)]
 struct PerWavelengthCache {
     /// Per wavelength (its bits): the requests so far and the slot.
