@@ -62,10 +62,6 @@ pub struct CatalogEntry {
     /// Content key (parameters digest).
     pub parameters_digest: String,
     pub created_utc: String,
-    /// The file's size, modification time, device and inode when it was listed: the next
-    /// rebuild lists a file that still has this stamp from this entry, without reading it.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub stamp: Option<FileStamp>,
 }
 
 /// The catalog file.
@@ -86,7 +82,6 @@ impl CatalogEntry {
         (major, minor): (u16, u16),
         size_bytes: u64,
         sha256: String,
-        stamp: FileStamp,
     ) -> Self {
         CatalogEntry {
             name: file.trim_end_matches(".sbt").to_string(),
@@ -100,7 +95,6 @@ impl CatalogEntry {
             stage: h.provenance.stage.clone(),
             parameters_digest: h.provenance.parameters_digest.clone(),
             created_utc: h.provenance.created_utc.clone(),
-            stamp: Some(stamp),
         }
     }
 }
@@ -111,6 +105,7 @@ impl CatalogEntry {
 #[derive(Debug, Clone)]
 pub struct FreshTable {
     entry: CatalogEntry,
+    stamp: FileStamp,
 }
 
 impl FreshTable {
@@ -127,8 +122,8 @@ impl FreshTable {
                 (FORMAT_MAJOR, FORMAT_MINOR),
                 w.size_bytes,
                 w.file_sha256,
-                w.stamp,
             ),
+            stamp: w.stamp,
         }
     }
 }
@@ -138,45 +133,78 @@ fn catalog_format() -> String {
     format!("scatterbake-catalog/1 (tables in format {FORMAT_MAJOR}.{FORMAT_MINOR})")
 }
 
-/// Largest `index.json` read back for its entries (bytes): about 40 000 tables. A larger or
+/// Beside `index.json`: the stamp (size, modification time, device, inode) and whole-file
+/// SHA-256 of every file the catalog lists, as it was when listed. Kept out of `index.json`,
+/// whose content depends only on the tables (a sharded build's catalog equals an unsharded
+/// one's), while stamps belong to one directory on one file system.
+pub const STAMPS_FILE: &str = ".catalog-stamps.json";
+
+/// Largest `index.json` or stamps file read back (bytes): about 40 000 tables. A larger or
 /// unreadable one is ignored, and every table is read instead.
 const MAX_INDEX_BYTES: u64 = 64 << 20;
 
-/// The entries of the catalog already in a directory, to list the files that have not changed
-/// since it was written without reading them. Empty when there is no catalog, or it is
+/// One file's stamp in [`STAMPS_FILE`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+struct StampRecord {
+    stamp: FileStamp,
+    sha256: String,
+}
+
+/// The content of [`STAMPS_FILE`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+struct Stamps {
+    format: String,
+    files: std::collections::BTreeMap<String, StampRecord>,
+}
+
+/// `path` parsed as JSON, or `None` when missing, unreadable, larger than [`MAX_INDEX_BYTES`]
+/// or not of type `T`.
+fn read_json<T: serde::de::DeserializeOwned>(path: &Path) -> Option<T> {
+    let file = std::fs::File::open(path).ok()?;
+    let mut bytes = Vec::new();
+    file.take(MAX_INDEX_BYTES + 1)
+        .read_to_end(&mut bytes)
+        .ok()?;
+    if bytes.len() as u64 > MAX_INDEX_BYTES {
+        return None;
+    }
+    serde_json::from_slice(&bytes).ok()
+}
+
+/// The entries of the catalog already in a directory with their files' stamps, to list the
+/// files that have not changed since without reading them. An entry counts only when the
+/// stamps file records the same SHA-256 for it; nothing counts when either file is missing,
 /// unreadable, too large or of another format: then every file is read.
 #[derive(Debug, Default)]
 pub struct Listed {
-    entries: HashMap<String, CatalogEntry>,
+    entries: HashMap<String, (CatalogEntry, FileStamp)>,
 }
 
 impl Listed {
-    /// The catalog `<dir>/index.json`, if it is one this build writes.
+    /// The catalog `<dir>/index.json` and its stamps, if they are ones this build writes.
     pub fn load(dir: &Path) -> Self {
-        let index = dir.join("index.json");
-        let read = || -> Option<Catalog> {
-            let file = std::fs::File::open(&index).ok()?;
-            let mut bytes = Vec::new();
-            file.take(MAX_INDEX_BYTES + 1)
-                .read_to_end(&mut bytes)
-                .ok()?;
-            if bytes.len() as u64 > MAX_INDEX_BYTES {
-                return None;
-            }
-            serde_json::from_slice(&bytes).ok()
+        let format = catalog_format();
+        let catalog = read_json::<Catalog>(&dir.join("index.json")).filter(|c| c.format == format);
+        let stamps = read_json::<Stamps>(&dir.join(STAMPS_FILE)).filter(|s| s.format == format);
+        let (Some(catalog), Some(mut stamps)) = (catalog, stamps) else {
+            return Listed::default();
         };
-        let entries = read()
-            .filter(|c| c.format == catalog_format())
-            .map(|c| c.tables.into_iter().map(|e| (e.file.clone(), e)).collect())
-            .unwrap_or_default();
+        let entries = catalog
+            .tables
+            .into_iter()
+            .filter_map(|e| {
+                let r = stamps.files.remove(&e.file)?;
+                (r.sha256 == e.sha256 && r.stamp.identifies())
+                    .then(|| (e.file.clone(), (e, r.stamp)))
+            })
+            .collect();
         Listed { entries }
     }
 
     /// The entry of the file at `path` when the file still has the stamp it was listed with.
     pub fn unchanged(&self, path: &Path) -> Option<&CatalogEntry> {
         let file = path.file_name()?.to_string_lossy();
-        let entry = self.entries.get(file.as_ref())?;
-        let stamp = entry.stamp.as_ref().filter(|s| s.identifies())?;
+        let (entry, stamp) = self.entries.get(file.as_ref())?;
         let now = FileStamp::of(&std::fs::metadata(path).ok()?);
         (now == *stamp).then_some(entry)
     }
@@ -205,6 +233,7 @@ pub fn rebuild_with(dir: &Path, fresh: &[FreshTable]) -> Result<Catalog, Catalog
         .map_err(IoError::doing("opening lock file", &lock_path))?;
     lock.lock().map_err(IoError::doing("locking", &lock_path))?;
     let listed = Listed::load(dir);
+    let mut stamps = std::collections::BTreeMap::new();
     let mut files: Vec<_> = std::fs::read_dir(dir)
         .map_err(IoError::doing("listing", dir))?
         .filter_map(|e| e.ok().map(|e| e.path()))
@@ -218,10 +247,17 @@ pub fn rebuild_with(dir: &Path, fresh: &[FreshTable]) -> Result<Catalog, Catalog
         let stamp = std::fs::metadata(&p).ok().map(|m| FileStamp::of(&m));
         let known = fresh
             .iter()
+            .find(|f| f.entry.file == file && stamp.as_ref() == Some(&f.stamp))
             .map(|f| &f.entry)
-            .find(|e| e.file == file && stamp.is_some() && e.stamp == stamp)
             .or_else(|| listed.unchanged(&p));
-        if let Some(e) = known {
+        if let (Some(e), Some(stamp)) = (known, stamp) {
+            stamps.insert(
+                file,
+                StampRecord {
+                    stamp,
+                    sha256: e.sha256.clone(),
+                },
+            );
             tables.push(e.clone());
             continue;
         }
@@ -257,13 +293,19 @@ pub fn rebuild_with(dir: &Path, fresh: &[FreshTable]) -> Result<Catalog, Catalog
         let v = &bytes[VERSION_BYTES];
         let major = u16::from_le_bytes([v[0], v[1]]);
         let minor = u16::from_le_bytes([v[2], v[3]]);
+        stamps.insert(
+            file.clone(),
+            StampRecord {
+                stamp,
+                sha256: file_sha.clone(),
+            },
+        );
         tables.push(CatalogEntry::new(
             file,
             &h,
             (major, minor),
             bytes.len() as u64,
             file_sha,
-            stamp,
         ));
     }
     let catalog = Catalog {
@@ -278,6 +320,18 @@ pub fn rebuild_with(dir: &Path, fresh: &[FreshTable]) -> Result<Catalog, Catalog
     })?;
     json.push(b'\n');
     write_atomic(&index, &json).map_err(IoError::doing("writing", &index))?;
+    // After the catalog: a crash between the two leaves stamps whose SHA-256 no longer match
+    // the changed entries, which are then read again.
+    let stamps_path = dir.join(STAMPS_FILE);
+    let stamps = Stamps {
+        format: catalog.format.clone(),
+        files: stamps,
+    };
+    let json = serde_json::to_vec(&stamps).map_err(|source| CatalogError::Json {
+        path: stamps_path.clone(),
+        source,
+    })?;
+    write_atomic(&stamps_path, &json).map_err(IoError::doing("writing", &stamps_path))?;
     drop(lock);
     Ok(catalog)
 }
@@ -290,7 +344,7 @@ mod tests {
 
     /// The catalog of `dir` from reading every table (none listed from an earlier catalog).
     fn full_read(dir: &Path) -> Catalog {
-        let _ = std::fs::remove_file(dir.join("index.json"));
+        let _ = std::fs::remove_file(dir.join(STAMPS_FILE));
         rebuild(dir).unwrap()
     }
 
@@ -342,7 +396,6 @@ mod tests {
         table("b.sbt", 0.5);
         let first = rebuild(dir.path()).unwrap();
         assert_eq!(first.tables.len(), 2);
-        assert!(first.tables.iter().all(|e| e.stamp.is_some()));
         // Unchanged files: listed from the catalog, which is the full read's.
         assert_eq!(rebuild(dir.path()).unwrap(), first);
         let listed = Listed::load(dir.path());
@@ -387,7 +440,17 @@ mod tests {
         assert_eq!(rebuild(dir.path()).unwrap(), third);
         assert_eq!(full_read(dir.path()).invalid.len(), 2);
 
-        // A catalog of another format, or not JSON, is not used.
+        // Stamps that are not JSON, or whose SHA-256 is not the entry's, are not used.
+        std::fs::write(dir.path().join(STAMPS_FILE), b"{not json").unwrap();
+        assert!(Listed::load(dir.path()).entries.is_empty());
+        rebuild(dir.path()).unwrap();
+        let stamps_path = dir.path().join(STAMPS_FILE);
+        let edited = std::fs::read_to_string(&stamps_path)
+            .unwrap()
+            .replace(&third.tables[0].sha256, &"0".repeat(64));
+        std::fs::write(&stamps_path, edited).unwrap();
+        let listed = Listed::load(dir.path());
+        assert!(listed.unchanged(&dir.path().join("a.sbt")).is_none());
         std::fs::write(dir.path().join("index.json"), b"{not json").unwrap();
         assert!(Listed::load(dir.path()).entries.is_empty());
         assert_eq!(rebuild(dir.path()).unwrap().invalid.len(), 2);
