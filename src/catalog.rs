@@ -4,7 +4,9 @@
 //! sealed as written ([`crate::table::verify_sealed`]: header rules, compressed payload size,
 //! SHA-256 and zstd frame); decompressing every table on every build is left to `verify`. A
 //! table the rebuilding process has just written itself is listed from what it wrote
-//! ([`rebuild_with`]) while the file at its path is still that file.
+//! ([`rebuild_with`]) while the file at its path is still that file, and a table the previous
+//! catalog listed is listed from its entry while the file keeps the stamp recorded in
+//! [`STAMPS_FILE`] ([`Listed`]); every other file is read.
 
 use crate::error::IoError;
 use crate::table::format::write_atomic;

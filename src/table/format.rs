@@ -344,8 +344,9 @@ pub fn write_atomic_parts(path: &Path, parts: &[&[u8]]) -> std::io::Result<()> {
 
 /// Identity of a written file: size, modification time and (on Unix) device and inode, as the
 /// file had them when it was renamed into place. A file found at the path later with the same
-/// stamp is that file (nothing rewrites a table in place). Serialised in the catalog
-/// (`modified` as seconds and nanoseconds since the Unix epoch).
+/// stamp is that file (nothing rewrites a table in place). Serialised in the catalog's stamps
+/// file, `crate::catalog::STAMPS_FILE` (`modified` as seconds and nanoseconds since the Unix
+/// epoch).
 #[derive(Debug, Clone, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct FileStamp {
     len: u64,
