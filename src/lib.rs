@@ -22,7 +22,8 @@ pub mod math;
 
 pub mod error;
 
-pub mod table;
+/// The `.sbt` table file format: the crate `scatterbake-table` (`table-format/`).
+pub use scatterbake_table as table;
 
 pub mod optics;
 

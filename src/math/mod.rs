@@ -1,6 +1,7 @@
 //! Numerical primitives with no physics in them, each once: interpolation and grid location,
 //! quadrature rules, 3-vectors. The table reader and every layer above use them.
 
-pub mod interp;
+/// Interpolation and grid location, defined beside the table reader that uses them.
+pub use scatterbake_table::interp;
 pub mod quadrature;
 pub mod vec3;

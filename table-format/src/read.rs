@@ -4,8 +4,11 @@
 //! size, and the payload is decompressed in fixed-size chunks, so memory is bounded by the data
 //! actually present (and by [`ReadLimits`]), never by a size the file declares.
 
-use super::format::{FORMAT_MAJOR, FORMAT_MINOR, MAGIC, PREAMBLE, TableError, sha256_hex};
-use super::{Axis, AxisPoints, Header, Table};
+pub use crate::validate::MAX_AXES;
+
+use crate::format::{FORMAT_MAJOR, FORMAT_MINOR, MAGIC, PREAMBLE, TableError, sha256_hex};
+use crate::model::{AxisPoints, Header, Table};
+use crate::validate::{check_axis_coords, check_axis_count, check_uniform_params};
 use serde::de::{DeserializeSeed, MapAccess, SeqAccess, Visitor};
 use sha2::{Digest, Sha256};
 use std::fmt;
@@ -16,8 +19,6 @@ use std::path::Path;
 pub const MAX_HEADER_BYTES: u64 = 64 << 20;
 /// Default largest uncompressed payload (4 GiB); raise it with [`ReadLimits`].
 pub const DEFAULT_MAX_PAYLOAD_BYTES: u64 = 4 << 30;
-/// Largest number of axes (a lookup touches up to 2^axes grid points).
-pub const MAX_AXES: usize = 16;
 /// Deepest nesting of JSON arrays/objects in a header.
 pub const MAX_JSON_DEPTH: usize = 64;
 /// Magic number of a zstd frame (little-endian `0xFD2FB528`).
@@ -360,70 +361,6 @@ fn validate_header(h: &Header, limits: &ReadLimits) -> Result<(), String> {
         } else {
             check_axis_coords(a)?;
         }
-    }
-    Ok(())
-}
-
-/// At least one axis and at most [`MAX_AXES`].
-pub(crate) fn check_axis_count(n: usize) -> Result<(), String> {
-    if n == 0 {
-        return Err("a table needs at least one axis".into());
-    }
-    if n > MAX_AXES {
-        return Err(format!("{n} axes, more than the limit of {MAX_AXES}"));
-    }
-    Ok(())
-}
-
-/// Coordinates finite and strictly increasing; a uniform axis has a finite start and a finite
-/// step > 0, and `start + k·step` (computed in f64) is finite and strictly increasing.
-pub(crate) fn check_axis_coords(a: &Axis) -> Result<(), String> {
-    if a.is_empty() {
-        return Err(format!("axis `{}` is empty", a.name));
-    }
-    if let AxisPoints::Uniform { start, step, .. } = a.points {
-        check_uniform_params(a, start, step)?;
-    }
-    if !a.labels.is_empty() && a.labels.len() != a.len() {
-        return Err(format!(
-            "axis `{}` has {} labels for {} samples",
-            a.name,
-            a.labels.len(),
-            a.len()
-        ));
-    }
-    let mut prev = f64::NEG_INFINITY;
-    for k in 0..a.len() {
-        let x = a.coord(k);
-        if !x.is_finite() {
-            return Err(format!(
-                "axis `{}`: coordinate {k} ({x}) is not finite",
-                a.name
-            ));
-        }
-        if k > 0 && x <= prev {
-            return Err(format!(
-                "axis `{}`: coordinates are not strictly increasing at index {k} ({prev} then {x})",
-                a.name
-            ));
-        }
-        prev = x;
-    }
-    Ok(())
-}
-
-fn check_uniform_params(a: &Axis, start: f64, step: f64) -> Result<(), String> {
-    if !start.is_finite() {
-        return Err(format!(
-            "axis `{}`: uniform start {start} is not finite",
-            a.name
-        ));
-    }
-    if !(step.is_finite() && step > 0.0) {
-        return Err(format!(
-            "axis `{}`: uniform step {step} is not finite and > 0",
-            a.name
-        ));
     }
     Ok(())
 }

@@ -4,8 +4,8 @@
 //! sample, one above the last to the last (no extrapolation); NaN coordinates are an error.
 //! Axes are interpolated linearly in the coordinate as stored (e.g. degrees, nm).
 
-use super::{Axis, AxisPoints, Table};
-use crate::math::interp::{locate, locate_uniform, multilinear};
+use crate::interp::{locate, locate_uniform, multilinear};
+use crate::model::{Axis, AxisPoints, Table};
 
 /// Why a lookup failed.
 #[derive(Debug, thiserror::Error, PartialEq)]

@@ -14,9 +14,10 @@
 //! conditions r_k ≤ r_{k−1}·n_k and r_k ≤ n_{k+1}·r_{k+1} bound every intermediate of the
 //! contraction by the dense size, and the dense size is bounded by the reader's payload limit.
 
-use super::format::TableError;
-use super::read::{ReadLimits, check_axis_coords};
-use super::{Axis, Channel, Provenance, Schema, Table, TableContent};
+use crate::format::TableError;
+use crate::model::{Axis, Channel, Provenance, Schema, Table, TableContent};
+use crate::read::ReadLimits;
+use crate::validate::{MAX_AXES, check_axis_coords};
 use std::path::Path;
 
 /// Schema name of tensor-train tables.
@@ -24,7 +25,7 @@ pub const TT_SCHEMA: &str = "fur-medulla-tt";
 /// Schema version of tensor-train tables this reader implements.
 pub const TT_SCHEMA_VERSION: u32 = 1;
 /// Largest number of tensor-train modes (the dense table's axes).
-pub const TT_MAX_MODES: usize = super::read::MAX_AXES;
+pub const TT_MAX_MODES: usize = MAX_AXES;
 
 /// A tensor train.
 #[derive(Debug, Clone, PartialEq)]

@@ -13,7 +13,8 @@
 //! ```
 //! The file ends exactly after the payload.
 
-use super::{Header, Layout, PayloadInfo, Provenance, Table, TableContent};
+use crate::model::{Header, Layout, PayloadInfo, Provenance, Table, TableContent};
+use crate::validate::{check_axis_coords, check_axis_count};
 use sha2::{Digest, Sha256};
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -147,6 +148,28 @@ fn large_payload_level(data: &[f32]) -> Result<i32, std::io::Error> {
     })
 }
 
+/// Work on fewer bytes than this is done on the calling thread: starting a thread costs more
+/// than it saves.
+const JOIN_MIN_BYTES: usize = 1 << 20;
+
+/// `(a(), b())`, the two side by side (`b` on a scoped thread) when they work on at least
+/// [`JOIN_MIN_BYTES`] bytes, one after the other otherwise. A panic in either is propagated.
+fn join<A: Send, B: Send>(
+    a: impl FnOnce() -> A + Send,
+    b: impl FnOnce() -> B + Send,
+    bytes: usize,
+) -> (A, B) {
+    if bytes < JOIN_MIN_BYTES {
+        return (a(), b());
+    }
+    std::thread::scope(|s| {
+        let b = s.spawn(b);
+        let a = a();
+        let b = b.join().unwrap_or_else(|e| std::panic::resume_unwind(e));
+        (a, b)
+    })
+}
+
 /// A `Vec<u8>` sink that hashes what is written to it.
 struct HashingVec {
     bytes: Vec<u8>,
@@ -176,7 +199,7 @@ struct CompressedPayload {
 /// One zstd frame of `data` as f32 LE, streamed in chunks (no full byte copy of the payload),
 /// with its checksums; the compressed bytes are hashed as the encoder emits them. The hash of
 /// the uncompressed bytes and the compression run side by side
-/// (`rayon::join`): SHA-256 of a 1.14 GB seed payload takes ≈ 1 s on one core, as long as its
+/// ([`join`]): SHA-256 of a 1.14 GB seed payload takes ≈ 1 s on one core, as long as its
 /// compression, and one after the other they took 1.4 s of the build's wall time.
 fn compress_payload(data: &[f32]) -> Result<CompressedPayload, TableError> {
     let err = |e: std::io::Error| TableError::Inconsistent(e.to_string());
@@ -211,7 +234,7 @@ fn compress_payload(data: &[f32]) -> Result<CompressedPayload, TableError> {
         });
         hex::encode(sha.finalize())
     };
-    let (sha256_uncompressed, compressed) = rayon::join(hash, compress);
+    let (sha256_uncompressed, compressed) = join(hash, compress, raw_len);
     let compressed = compressed?;
     Ok(CompressedPayload {
         bytes: compressed.bytes,
@@ -224,14 +247,14 @@ fn compress_payload(data: &[f32]) -> Result<CompressedPayload, TableError> {
 impl Table {
     /// Build a table from stage content and provenance (computes layout and checksums on write).
     pub fn from_content(content: TableContent, provenance: Provenance) -> Result<Self, TableError> {
-        super::read::check_axis_count(content.axes.len()).map_err(TableError::Inconsistent)?;
+        check_axis_count(content.axes.len()).map_err(TableError::Inconsistent)?;
         if content.channels.is_empty() {
             return Err(TableError::Inconsistent(
                 "a table needs at least one channel".into(),
             ));
         }
         for a in &content.axes {
-            super::read::check_axis_coords(a).map_err(TableError::Inconsistent)?;
+            check_axis_coords(a).map_err(TableError::Inconsistent)?;
         }
         if content.data.len() != content.expected_len() {
             return Err(TableError::Inconsistent(format!(
@@ -345,7 +368,7 @@ pub fn write_atomic_parts(path: &Path, parts: &[&[u8]]) -> std::io::Result<()> {
 /// Identity of a written file: size, modification time and (on Unix) device and inode, as the
 /// file had them when it was renamed into place. A file found at the path later with the same
 /// stamp is that file (nothing rewrites a table in place). Serialised in the catalog's stamps
-/// file, `crate::catalog::STAMPS_FILE` (`modified` as seconds and nanoseconds since the Unix
+/// file, `scatterbake::catalog::STAMPS_FILE` (`modified` as seconds and nanoseconds since the Unix
 /// epoch).
 #[derive(Debug, Clone, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct FileStamp {
@@ -439,7 +462,7 @@ pub fn write_table_atomic_sealed(
     path: &Path,
 ) -> Result<WrittenTable, TableError> {
     let (head, payload) = table.to_parts()?;
-    let (stamp, file_sha256) = rayon::join(
+    let (stamp, file_sha256) = join(
         || write_atomic_parts_stamped(path, &[&head, &payload]),
         || {
             let mut h = Sha256::new();
@@ -447,6 +470,7 @@ pub fn write_table_atomic_sealed(
             h.update(&payload);
             hex::encode(h.finalize())
         },
+        head.len() + payload.len(),
     );
     let stamp = stamp.map_err(|source| TableError::Io {
         path: path.into(),

@@ -1,22 +1,5 @@
-//! The scatterbake table file format (`.sbt`), version 1.0. Specification: `docs/table-format.md`.
-//!
-//! A table is an N-D grid of f32 samples (row-major, axes in header order, channel index
-//! innermost), described by a JSON header and stored as a zstd-compressed payload with SHA-256
-//! checksums of the header and of the payload (compressed and uncompressed).
-
-pub mod format;
-pub mod read;
-mod sample;
-pub mod tt;
-
-pub use format::{
-    FORMAT_MAJOR, FORMAT_MINOR, FileStamp, MAGIC, TableError, WrittenTable, write_table_atomic,
-    write_table_atomic_sealed,
-};
-pub use read::{
-    DEFAULT_MAX_PAYLOAD_BYTES, MAX_AXES, MAX_HEADER_BYTES, MAX_JSON_DEPTH, ReadLimits, ValueStats,
-    Verified, read_header_only, verify_file, verify_sealed, verify_sealed_bytes,
-};
+//! What a table is: schema, axes, channels, provenance, the JSON header, and the table in
+//! memory (header plus samples).
 
 use serde::{Deserialize, Serialize};
 
@@ -238,5 +221,3 @@ pub struct PayloadInfo {
     /// SHA-256 (hex) of the uncompressed payload (the f32le array).
     pub sha256_uncompressed: String,
 }
-
-pub use sample::SampleError;

@@ -1,0 +1,31 @@
+//! The scatterbake table file format (`.sbt`), version 1.0. Specification: `docs/table-format.md`.
+//!
+//! A table is an N-D grid of f32 samples (row-major, axes in header order, channel index
+//! innermost), described by a JSON header and stored as a zstd-compressed payload with SHA-256
+//! checksums of the header and of the payload (compressed and uncompressed).
+//!
+//! Modules, each importing only those listed before it: [`interp`] (interpolation and grid
+//! location), `model` (the header and table types), `validate` (the axis rules both the writer
+//! and the reader apply), [`format`] (bytes, writing, errors), [`read`] (reading and
+//! verification), `sample` (lookups), [`tt`] (tensor-train tables).
+
+pub mod format;
+pub mod interp;
+mod model;
+pub mod read;
+mod sample;
+pub mod tt;
+mod validate;
+
+pub use format::{
+    FORMAT_MAJOR, FORMAT_MINOR, FileStamp, MAGIC, TableError, WrittenTable, write_table_atomic,
+    write_table_atomic_sealed,
+};
+pub use model::{
+    Axis, AxisPoints, Channel, Header, Layout, PayloadInfo, Provenance, Schema, Table, TableContent,
+};
+pub use read::{
+    DEFAULT_MAX_PAYLOAD_BYTES, MAX_AXES, MAX_HEADER_BYTES, MAX_JSON_DEPTH, ReadLimits, ValueStats,
+    Verified, read_header_only, verify_file, verify_sealed, verify_sealed_bytes,
+};
+pub use sample::SampleError;
