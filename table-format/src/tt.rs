@@ -15,7 +15,7 @@
 //! contraction by the dense size, and the dense size is bounded by the reader's payload limit.
 
 use crate::format::TableError;
-use crate::model::{Axis, Channel, Provenance, Schema, Table, TableContent};
+use crate::model::{Axis, Channel, Header, Provenance, Schema, Table, TableContent};
 use crate::read::ReadLimits;
 use crate::validate::{MAX_AXES, check_axis_coords};
 use std::path::Path;
@@ -283,13 +283,46 @@ fn usize_array(
 
 /// Check every rule of a tensor-train table (`docs/table-format.md`, "Tensor-train tables")
 /// and decode it. `path` names the table in errors; `limits.max_payload_bytes` bounds the
-/// dense reconstruction (4 bytes per value).
+/// dense reconstruction (4 bytes per value). The rules are checked in the order of the steps
+/// below, so a file breaking several is refused for the first.
 pub fn decode_tensor_train(
     table: &Table,
     path: &Path,
     limits: &ReadLimits,
 ) -> Result<DecodedTensorTrain, TableError> {
     let h = &table.header;
+    check_tt_header(h, path)?;
+    let at = &h.attributes;
+    let TrainShape {
+        dims,
+        ranks,
+        offsets,
+    } = train_shape(at, path, limits)?;
+    let cores = split_cores(&table.data, &dims, &ranks, &offsets, path)?;
+    let axes = source_axes(at, &dims, path)?;
+    let channel = source_channel(at, path)?;
+    let schema = source_schema(at, path)?;
+    let log_floor = log_floor(at, path)?;
+    let attributes = dense_attributes(at, &h.payload.sha256_uncompressed, path)?;
+    let description = format!(
+        "{} (reconstructed from tensor train)",
+        at.get("source_description")
+            .and_then(|v| v.as_str())
+            .unwrap_or("")
+    );
+    Ok(DecodedTensorTrain {
+        tt: TensorTrain { dims, ranks, cores },
+        schema,
+        description,
+        axes,
+        channel,
+        attributes,
+        log_floor,
+    })
+}
+
+/// The tensor-train table's own schema and its single axis and channel.
+fn check_tt_header(h: &Header, path: &Path) -> Result<(), TableError> {
     if h.schema.name != TT_SCHEMA {
         return Err(tt_err(
             path,
@@ -315,7 +348,24 @@ pub fn decode_tensor_train(
             ),
         ));
     }
-    let at = &h.attributes;
+    Ok(())
+}
+
+/// Mode sizes, ranks and core offsets of a train, checked against each other.
+struct TrainShape {
+    dims: Vec<usize>,
+    ranks: Vec<usize>,
+    offsets: Vec<usize>,
+}
+
+/// The attributes `dims`, `ranks` and `core_offsets`: as many modes as a table may have axes,
+/// one rank and one offset more than modes, no empty mode, end ranks 1, a dense size within
+/// the reader's limit and ranks within what each unfolding allows.
+fn train_shape(
+    at: &serde_json::Map<String, serde_json::Value>,
+    path: &Path,
+    limits: &ReadLimits,
+) -> Result<TrainShape, TableError> {
     let dims = usize_array(at, "dims", path)?;
     let ranks = usize_array(at, "ranks", path)?;
     let offsets = usize_array(at, "core_offsets", path)?;
@@ -362,12 +412,21 @@ pub fn decode_tensor_train(
                 ),
             )
         })?;
-    for k in 0..d {
+    check_ranks(&dims, &ranks, path)?;
+    Ok(TrainShape {
+        dims,
+        ranks,
+        offsets,
+    })
+}
+
+/// No rank is 0, and r_{k+1} ≤ r_k·n_k and r_k ≤ n_k·r_{k+1}: no rank exceeds what its
+/// unfolding allows, which bounds every intermediate of the contraction by the dense size.
+fn check_ranks(dims: &[usize], ranks: &[usize], path: &Path) -> Result<(), TableError> {
+    for k in 0..dims.len() {
         if ranks[k] == 0 {
             return Err(tt_err(path, format!("inconsistent ranks: ranks[{k}] is 0")));
         }
-        // r_{k+1} ≤ r_k·n_k and r_k ≤ n_k·r_{k+1}: no rank exceeds what its unfolding allows,
-        // which bounds every intermediate of the contraction by the dense size.
         let left = (ranks[k] as u64).saturating_mul(dims[k] as u64);
         let right = (dims[k] as u64).saturating_mul(ranks[k + 1] as u64);
         if ranks[k + 1] as u64 > left || ranks[k] as u64 > right {
@@ -382,7 +441,20 @@ pub fn decode_tensor_train(
             ));
         }
     }
-    let n_values = table.data.len();
+    Ok(())
+}
+
+/// The cores, cut from the stored values at the offsets (which must cover them all, each core
+/// of its r_{k−1} × n_k × r_k values, all finite), widened to f64.
+fn split_cores(
+    data: &[f32],
+    dims: &[usize],
+    ranks: &[usize],
+    offsets: &[usize],
+    path: &Path,
+) -> Result<Vec<Vec<f64>>, TableError> {
+    let d = dims.len();
+    let n_values = data.len();
     if offsets[0] != 0 || offsets[d] != n_values {
         return Err(tt_err(
             path,
@@ -410,7 +482,7 @@ pub fn decode_tensor_train(
                 ),
             ));
         }
-        let core = &table.data[offsets[k]..offsets[k + 1]];
+        let core = &data[offsets[k]..offsets[k + 1]];
         if let Some(j) = core.iter().position(|v| !v.is_finite()) {
             return Err(tt_err(
                 path,
@@ -419,13 +491,22 @@ pub fn decode_tensor_train(
         }
         cores.push(core.iter().map(|&v| f64::from(v)).collect());
     }
+    Ok(cores)
+}
+
+/// The attribute `source_axes`: one valid axis per mode, of the mode's length.
+fn source_axes(
+    at: &serde_json::Map<String, serde_json::Value>,
+    dims: &[usize],
+    path: &Path,
+) -> Result<Vec<Axis>, TableError> {
     let axes: Vec<Axis> = serde_json::from_value(
         at.get("source_axes")
             .cloned()
             .ok_or_else(|| tt_err(path, "missing attribute `source_axes`"))?,
     )
     .map_err(|e| tt_err(path, format!("attribute `source_axes`: {e}")))?;
-    if axes.len() != d || axes.iter().zip(&dims).any(|(a, &n)| a.len() != n) {
+    if axes.len() != dims.len() || axes.iter().zip(dims).any(|(a, &n)| a.len() != n) {
         return Err(tt_err(
             path,
             format!(
@@ -437,17 +518,32 @@ pub fn decode_tensor_train(
     for a in &axes {
         check_axis_coords(a).map_err(|m| tt_err(path, format!("source axis: {m}")))?;
     }
-    let channel: Channel = serde_json::from_value(
+    Ok(axes)
+}
+
+/// The attribute `source_channel`.
+fn source_channel(
+    at: &serde_json::Map<String, serde_json::Value>,
+    path: &Path,
+) -> Result<Channel, TableError> {
+    serde_json::from_value(
         at.get("source_channel")
             .cloned()
             .ok_or_else(|| tt_err(path, "missing attribute `source_channel`"))?,
     )
-    .map_err(|e| tt_err(path, format!("attribute `source_channel`: {e}")))?;
+    .map_err(|e| tt_err(path, format!("attribute `source_channel`: {e}")))
+}
+
+/// The attribute `source_schema`, `NAME/VERSION`.
+fn source_schema(
+    at: &serde_json::Map<String, serde_json::Value>,
+    path: &Path,
+) -> Result<Schema, TableError> {
     let schema_str = at
         .get("source_schema")
         .and_then(|v| v.as_str())
         .ok_or_else(|| tt_err(path, "attribute `source_schema` is not a string"))?;
-    let schema = schema_str
+    schema_str
         .rsplit_once('/')
         .and_then(|(n, v)| Some(Schema::new(n, v.parse().ok()?)))
         .filter(|s| !s.name.is_empty())
@@ -456,17 +552,32 @@ pub fn decode_tensor_train(
                 path,
                 format!("attribute `source_schema` is `{schema_str}`, not NAME/VERSION"),
             )
-        })?;
-    let log_floor = match at.get("log_floor") {
-        None => None,
-        Some(v) => Some(
-            v.as_f64()
-                .filter(|f| f.is_finite() && *f > 0.0)
-                .ok_or_else(|| {
-                    tt_err(path, format!("`log_floor` is {v}, not a positive number"))
-                })?,
-        ),
-    };
+        })
+}
+
+/// The optional attribute `log_floor`, a positive number.
+fn log_floor(
+    at: &serde_json::Map<String, serde_json::Value>,
+    path: &Path,
+) -> Result<Option<f64>, TableError> {
+    match at.get("log_floor") {
+        None => Ok(None),
+        Some(v) => v
+            .as_f64()
+            .filter(|f| f.is_finite() && *f > 0.0)
+            .map(Some)
+            .ok_or_else(|| tt_err(path, format!("`log_floor` is {v}, not a positive number"))),
+    }
+}
+
+/// Attributes of the dense table: `source_attributes` (an object when present), the train's
+/// ranks and errors as `tt_*` entries, and `tt_payload_sha256`, the SHA-256 of the train's
+/// uncompressed payload.
+fn dense_attributes(
+    at: &serde_json::Map<String, serde_json::Value>,
+    payload_sha256: &str,
+    path: &Path,
+) -> Result<serde_json::Map<String, serde_json::Value>, TableError> {
     let mut attributes = match at.get("source_attributes") {
         Some(serde_json::Value::Object(m)) => m.clone(),
         None => serde_json::Map::new(),
@@ -489,25 +600,8 @@ pub fn decode_tensor_train(
             attributes.insert(format!("tt_{k}"), v.clone());
         }
     }
-    attributes.insert(
-        "tt_payload_sha256".into(),
-        h.payload.sha256_uncompressed.clone().into(),
-    );
-    let description = format!(
-        "{} (reconstructed from tensor train)",
-        at.get("source_description")
-            .and_then(|v| v.as_str())
-            .unwrap_or("")
-    );
-    Ok(DecodedTensorTrain {
-        tt: TensorTrain { dims, ranks, cores },
-        schema,
-        description,
-        axes,
-        channel,
-        attributes,
-        log_floor,
-    })
+    attributes.insert("tt_payload_sha256".into(), payload_sha256.into());
+    Ok(attributes)
 }
 
 impl Table {
