@@ -1,7 +1,8 @@
 //! C ABI over the scatterbake table reader, for C/C++ renderers (header
 //! `c/scatterbake_table.h`, example `c/example.c`). Built as `libscatterbake_table.so` /
-//! `.dylib` / `scatterbake_table.dll` by `cargo build -p scatterbake-capi --release`. A separate
-//! workspace crate so the main library is not linked as a cdylib on every build.
+//! `.dylib` / `scatterbake_table.dll` by `cargo build -p scatterbake-capi --release`. It depends on
+//! the table format crate (`scatterbake-table`, `table-format/`) alone, not on the library that
+//! computes tables.
 //!
 //! `sbt_open` fully verifies the file (magic, version, header SHA-256, payload SHA-256 of the
 //! compressed and uncompressed bytes, sizes) with the same code as `Table::open`; every other
@@ -10,9 +11,9 @@
 //! runs under `catch_unwind`: an internal panic never unwinds into the host; `sbt_open` then
 //! returns NULL with a message and the other calls return their error value.
 
-use scatterbake::table::{ReadLimits, Table};
 use std::ffi::{CStr, CString, c_char};
 use std::panic::{AssertUnwindSafe, catch_unwind};
+use table::{ReadLimits, Table};
 
 /// Run `f`, turning a panic into `on_panic` (never unwinding across the C boundary).
 fn guard<T>(on_panic: T, f: impl FnOnce() -> T) -> T {

@@ -6,7 +6,7 @@ use libfuzzer_sys::fuzz_target;
 use std::path::Path;
 
 fuzz_target!(|data: &[u8]| {
-    if let Ok(t) = scatterbake::table::Table::from_bytes(data, Path::new("fuzz.sbt")) {
+    if let Ok(t) = scatterbake_table::Table::from_bytes(data, Path::new("fuzz.sbt")) {
         // A table that verifies must also be usable through the lookup API.
         let coords: Vec<f64> = t.axes().iter().map(|a| a.coord(0)).collect();
         let _ = t.sample(&coords);

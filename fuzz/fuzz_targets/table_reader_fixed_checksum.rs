@@ -21,7 +21,7 @@ fuzz_target!(|data: &[u8]| {
             }
         }
     }
-    if let Ok(t) = scatterbake::table::Table::from_bytes(&b, Path::new("fuzz.sbt")) {
+    if let Ok(t) = scatterbake_table::Table::from_bytes(&b, Path::new("fuzz.sbt")) {
         let coords: Vec<f64> = t.axes().iter().map(|a| a.coord(0)).collect();
         let _ = t.sample(&coords);
     }

@@ -63,7 +63,7 @@ fuzz_target!(|data: &[u8]| {
     file.extend_from_slice(&s.finalize());
     file.extend_from_slice(&header);
     file.extend_from_slice(payload);
-    if let Ok(t) = scatterbake::table::Table::from_bytes(&file, Path::new("fuzz.sbt")) {
+    if let Ok(t) = scatterbake_table::Table::from_bytes(&file, Path::new("fuzz.sbt")) {
         let first: Vec<f64> = t.axes().iter().map(|a| a.coord(0)).collect();
         let last: Vec<f64> = t.axes().iter().map(|a| a.coord(a.len() - 1)).collect();
         t.sample(&first).expect("lookup at the first grid point");
