@@ -20,13 +20,14 @@ use std::path::{Path, PathBuf};
 /// Why the catalog could not be rebuilt.
 #[derive(Debug, thiserror::Error)]
 pub enum CatalogError {
-    /// Reading the directory, taking the lock or writing `index.json`.
+    /// Reading the directory or writing `index.json`.
     #[error(transparent)]
     Io(#[from] IoError),
     /// The header of a table that verified a moment before (the error names the file).
     #[error(transparent)]
     Table(#[from] TableError),
-    /// A symlinked catalog, lock or work path in the output directory.
+    /// A symlinked catalog, lock or work path in the output directory, or a lock that cannot
+    /// be taken.
     #[error(transparent)]
     Workdir(#[from] crate::workdir::WorkdirError),
     /// The catalog does not encode as JSON.
@@ -225,26 +226,11 @@ pub fn rebuild(dir: &Path) -> Result<Catalog, CatalogError> {
 /// the tables written since the last catalog.
 pub fn rebuild_with(dir: &Path, fresh: &[FreshTable]) -> Result<Catalog, CatalogError> {
     std::fs::create_dir_all(dir).map_err(IoError::doing("creating the catalog directory", dir))?;
-    crate::workdir::check_out_dir(dir).map_err(CatalogError::from)?;
-    let lock_path = dir.join(".lock");
-    let lock = std::fs::OpenOptions::new()
-        .create(true)
-        .truncate(false)
-        .write(true)
-        .open(&lock_path)
-        .map_err(IoError::doing("opening lock file", &lock_path))?;
-    lock.lock().map_err(IoError::doing("locking", &lock_path))?;
+    crate::workdir::check_out_dir(dir)?;
+    let _lock = crate::workdir::lock_out_dir(dir)?;
     let listed = Listed::load(dir);
-    let mut stamps = std::collections::BTreeMap::new();
-    let mut files: Vec<_> = std::fs::read_dir(dir)
-        .map_err(IoError::doing("listing", dir))?
-        .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| p.extension().is_some_and(|e| e == "sbt") && p.is_file())
-        .collect();
-    files.sort();
-    let mut tables = Vec::new();
-    let mut invalid = Vec::new();
-    for p in files {
+    let mut listing = Listing::default();
+    for p in table_files(dir)? {
         let file = p.file_name().expect("file").to_string_lossy().into_owned();
         let stamp = std::fs::metadata(&p).ok().map(|m| FileStamp::of(&m));
         let known = fresh
@@ -252,74 +238,95 @@ pub fn rebuild_with(dir: &Path, fresh: &[FreshTable]) -> Result<Catalog, Catalog
             .find(|f| f.entry.file == file && stamp.as_ref() == Some(&f.stamp))
             .map(|f| &f.entry)
             .or_else(|| listed.unchanged(&p));
-        if let (Some(e), Some(stamp)) = (known, stamp) {
-            stamps.insert(
-                file,
-                StampRecord {
-                    stamp,
-                    sha256: e.sha256.clone(),
-                },
-            );
-            tables.push(e.clone());
-            continue;
-        }
-        // The stamp of what is read: taken from the open file, so that a file renamed into
-        // place meanwhile is never listed under the stamp of the one it replaced.
-        let read = || -> std::io::Result<(Vec<u8>, FileStamp)> {
-            let mut f = std::fs::File::open(&p)?;
-            let stamp = FileStamp::of(&f.metadata()?);
-            let mut bytes = Vec::new();
-            f.read_to_end(&mut bytes)?;
-            Ok((bytes, stamp))
-        };
-        let (bytes, stamp) = match read() {
-            Ok(b) => b,
-            Err(e) => {
-                invalid.push((file, e.to_string()));
-                continue;
-            }
-        };
-        // The payload's checksum and the whole file's hash are two passes over the file: one
-        // per core (0.50 → 0.35 s for `scatterbake catalog` of one 164 MB seed table).
-        let (sealed, file_sha) = rayon::join(
-            || crate::table::verify_sealed_bytes(&bytes, &p),
-            || hex::encode(Sha256::digest(&bytes)),
-        );
-        let h = match sealed {
-            Ok(h) => h,
-            Err(e) => {
-                invalid.push((file, e.to_string()));
-                continue;
-            }
-        };
-        let v = &bytes[VERSION_BYTES];
-        let major = u16::from_le_bytes([v[0], v[1]]);
-        let minor = u16::from_le_bytes([v[2], v[3]]);
-        stamps.insert(
-            file.clone(),
-            StampRecord {
-                stamp,
-                sha256: file_sha.clone(),
+        match (known, stamp) {
+            (Some(e), Some(stamp)) => listing.add(e.clone(), stamp),
+            _ => match read_entry(&p, file.clone()) {
+                Ok((e, stamp)) => listing.add(e, stamp),
+                Err(why) => listing.invalid.push((file, why)),
             },
-        );
-        tables.push(CatalogEntry::new(
-            file,
-            &h,
-            (major, minor),
-            bytes.len() as u64,
-            file_sha,
-        ));
+        }
     }
     let catalog = Catalog {
         format: catalog_format(),
-        tables,
-        invalid,
+        tables: listing.tables,
+        invalid: listing.invalid,
+    };
+    write_catalog(dir, &catalog, listing.stamps)?;
+    Ok(catalog)
+}
+
+/// The `.sbt` files in `dir`, sorted.
+fn table_files(dir: &Path) -> Result<Vec<PathBuf>, CatalogError> {
+    let mut files: Vec<_> = std::fs::read_dir(dir)
+        .map_err(IoError::doing("listing", dir))?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|e| e == "sbt") && p.is_file())
+        .collect();
+    files.sort();
+    Ok(files)
+}
+
+/// A catalog being listed: its entries, the invalid files, and the stamps of the listed files.
+#[derive(Default)]
+struct Listing {
+    tables: Vec<CatalogEntry>,
+    invalid: Vec<(String, String)>,
+    stamps: std::collections::BTreeMap<String, StampRecord>,
+}
+
+impl Listing {
+    /// List `entry`, whose file has `stamp`.
+    fn add(&mut self, entry: CatalogEntry, stamp: FileStamp) {
+        let record = StampRecord {
+            stamp,
+            sha256: entry.sha256.clone(),
+        };
+        self.stamps.insert(entry.file.clone(), record);
+        self.tables.push(entry);
+    }
+}
+
+/// The entry of the table file `p` (named `file` in the catalog) from reading and verifying
+/// it, with the stamp of what was read; `Err(why)` when it cannot be read or is not sealed.
+fn read_entry(p: &Path, file: String) -> Result<(CatalogEntry, FileStamp), String> {
+    // The stamp of what is read: taken from the open file, so that a file renamed into place
+    // meanwhile is never listed under the stamp of the one it replaced.
+    let read = || -> std::io::Result<(Vec<u8>, FileStamp)> {
+        let mut f = std::fs::File::open(p)?;
+        let stamp = FileStamp::of(&f.metadata()?);
+        let mut bytes = Vec::new();
+        f.read_to_end(&mut bytes)?;
+        Ok((bytes, stamp))
+    };
+    let (bytes, stamp) = read().map_err(|e| e.to_string())?;
+    // The payload's checksum and the whole file's hash are two passes over the file: one per
+    // core (0.50 → 0.35 s for `scatterbake catalog` of one 164 MB seed table).
+    let (sealed, file_sha) = rayon::join(
+        || crate::table::verify_sealed_bytes(&bytes, p),
+        || hex::encode(Sha256::digest(&bytes)),
+    );
+    let h = sealed.map_err(|e| e.to_string())?;
+    let v = &bytes[VERSION_BYTES];
+    let version = (
+        u16::from_le_bytes([v[0], v[1]]),
+        u16::from_le_bytes([v[2], v[3]]),
+    );
+    let size = bytes.len() as u64;
+    Ok((CatalogEntry::new(file, &h, version, size, file_sha), stamp))
+}
+
+/// Write `<dir>/index.json`, then the stamps of its files beside it ([`STAMPS_FILE`]).
+fn write_catalog(
+    dir: &Path,
+    catalog: &Catalog,
+    stamps: std::collections::BTreeMap<String, StampRecord>,
+) -> Result<(), CatalogError> {
+    let json_error = |path: &Path| {
+        let path = path.to_path_buf();
+        move |source| CatalogError::Json { path, source }
     };
     let index = dir.join("index.json");
-    let mut json = serde_json::to_vec_pretty(&catalog).map_err(|source| CatalogError::Json {
-        path: index.clone(),
-        source,
-    })?;
+    let mut json = serde_json::to_vec_pretty(catalog).map_err(json_error(&index))?;
     json.push(b'\n');
     write_atomic(&index, &json).map_err(IoError::doing("writing", &index))?;
     // After the catalog: a crash between the two leaves stamps whose SHA-256 no longer match
@@ -329,13 +336,9 @@ pub fn rebuild_with(dir: &Path, fresh: &[FreshTable]) -> Result<Catalog, Catalog
         format: catalog.format.clone(),
         files: stamps,
     };
-    let json = serde_json::to_vec(&stamps).map_err(|source| CatalogError::Json {
-        path: stamps_path.clone(),
-        source,
-    })?;
+    let json = serde_json::to_vec(&stamps).map_err(json_error(&stamps_path))?;
     write_atomic(&stamps_path, &json).map_err(IoError::doing("writing", &stamps_path))?;
-    drop(lock);
-    Ok(catalog)
+    Ok(())
 }
 
 #[cfg(test)]

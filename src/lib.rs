@@ -5,6 +5,8 @@
 //!    [`error`]: error pieces every layer shares (I/O failures with their path, cause chains);
 //!    each layer has its own error type ([`table::TableError`], [`stages::PlanError`],
 //!    [`stages::JobError`], [`pipeline::PipelineError`], [`consumers::ConsumerError`], …);
+//!    [`progress`]: where builds, renders and plots report how far they are;
+//!    [`provenance`]: canonical JSON, content keys, tool version and git commit of tables;
 //! 1. [`table`]: the `.sbt` table file format (writer, reader, verifier, lookup API);
 //! 2. [`optics`]: optics primitives shared by every stage (Fresnel, water index, colour,
 //!    Henyey–Greenstein, Airy function);
@@ -21,6 +23,8 @@
 pub mod math;
 
 pub mod error;
+pub mod progress;
+pub mod provenance;
 
 /// The `.sbt` table file format: the crate `scatterbake-table` (`table-format/`).
 pub use scatterbake_table as table;

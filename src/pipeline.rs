@@ -26,6 +26,8 @@
 //!   exits, assembles under the lock each table whose checkpoints are all present, so the last
 //!   shard leaves every table built and the catalog current; a plain `build` afterwards
 //!   computes only what a failed shard left.
+//! - **Progress.** A build reports its tasks and each table's steps (up to date, computing,
+//!   writing, written, waiting for other shards, failed) to a [`Progress`]; it draws nothing.
 //! - **Concurrency.** Two builds on one output directory are safe by per-task atomicity:
 //!   checkpoints and tables are written by rename of a complete temporary file, contents are
 //!   deterministic, a missing checkpoint at assembly time is recomputed, and the catalog is
@@ -34,18 +36,16 @@
 use crate::catalog::CatalogError;
 use crate::error::{IoError, error_chain};
 use crate::manifest::{ManifestError, PlannedTable, load_manifest};
+use crate::progress::{Progress, TableStep};
 use crate::stages::JobError;
 use crate::table::format::write_atomic;
 use crate::table::{Provenance, Table, TableError, write_table_atomic_sealed};
 use crate::workdir::CheckpointKey;
-use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
-use sha2::{Digest, Sha256};
-use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
 /// Directory under the output directory that holds the checkpoints, one folder per table.
 pub const WORK_DIR: &str = ".work";
@@ -53,13 +53,10 @@ pub const WORK_DIR: &str = ".work";
 pub const CHECKPOINT_EXTENSION: &str = "chunk";
 /// Bytes per GiB, for messages.
 const GIB: f64 = (1u64 << 30) as f64;
-/// Thread count that lets rayon choose (one per CPU), used when `--jobs` is not given.
 /// Attempts at writing a checkpoint whose work directory a concurrent build removed.
 const CHECKPOINT_RETRIES: usize = 8;
+/// Thread count that lets rayon choose (one per CPU), used when `--jobs` is not given.
 const DEFAULT_THREADS: usize = 0;
-/// Progress bar layout of a build.
-const PROGRESS_TEMPLATE: &str =
-    "{prefix} [{elapsed_precise}] {wide_bar} {pos}/{len} tasks, eta {eta} {msg}";
 
 /// Why a shard specification is unusable.
 #[derive(Debug, thiserror::Error)]
@@ -227,7 +224,6 @@ pub struct BuildOptions {
     pub jobs: Option<usize>,
     pub shard: Option<Shard>,
     pub force: bool,
-    pub quiet: bool,
 }
 
 /// What a build did.
@@ -247,37 +243,22 @@ pub struct BuildReport {
     pub checkpoints_rejected: Vec<String>,
 }
 
-fn sha256_hex(bytes: &[u8]) -> String {
-    hex::encode(Sha256::digest(bytes))
-}
-
-/// Canonical JSON (keys sorted, no whitespace) used for content keys.
-pub fn canonical_json(v: &serde_json::Value) -> String {
-    // serde_json::Map is a BTreeMap without the `preserve_order` feature: keys are sorted.
-    serde_json::to_string(v).expect("JSON values serialise")
-}
-
-/// The content key of a planned table.
+/// The content key of a planned table ([`crate::provenance::content_key`]).
 pub fn table_key(t: &PlannedTable) -> String {
-    sha256_hex(
-        canonical_json(&serde_json::json!({
-            "stage": t.stage.name(),
-            "algorithm_version": t.stage.algorithm_version(),
-            "parameters": t.job.parameters(),
-        }))
-        .as_bytes(),
+    crate::provenance::content_key(
+        t.stage.name(),
+        t.stage.algorithm_version(),
+        &t.job.parameters(),
     )
 }
 
+/// The key of task `index` of the table with content key `table_key`.
 fn task_key(table_key: &str, index: usize, params: &serde_json::Value) -> String {
-    sha256_hex(
-        canonical_json(&serde_json::json!({
-            "table_key": table_key,
-            "task_index": index,
-            "task_parameters": params,
-        }))
-        .as_bytes(),
-    )
+    crate::provenance::json_key(&serde_json::json!({
+        "table_key": table_key,
+        "task_index": index,
+        "task_parameters": params,
+    }))
 }
 
 #[derive(Serialize, Deserialize)]
@@ -376,28 +357,12 @@ fn write_checkpoint_bytes(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     }
 }
 
-/// Creation time for provenance: `SOURCE_DATE_EPOCH` when set (reproducible builds), else now.
-pub fn creation_time() -> String {
-    let t = std::env::var("SOURCE_DATE_EPOCH")
-        .ok()
-        .and_then(|s| s.trim().parse::<u64>().ok())
-        .map(|s| std::time::UNIX_EPOCH + std::time::Duration::from_secs(s))
-        .unwrap_or_else(std::time::SystemTime::now);
-    humantime::format_rfc3339_seconds(t).to_string()
-}
-
-/// Git commit of the tool's source tree, when known at build time.
-pub fn git_commit() -> Option<String> {
-    let c = env!("SCATTERBAKE_GIT_COMMIT");
-    (!c.is_empty()).then(|| c.to_string())
-}
-
 /// Provenance for a planned table.
 pub fn provenance(t: &PlannedTable, key: &str) -> Provenance {
     Provenance {
-        tool: "scatterbake".into(),
-        tool_version: env!("CARGO_PKG_VERSION").into(),
-        git_commit: git_commit(),
+        tool: crate::provenance::TOOL.into(),
+        tool_version: crate::provenance::TOOL_VERSION.into(),
+        git_commit: crate::provenance::git_commit(),
         manifest: Some(t.manifest.display().to_string()),
         entry: Some(t.name.clone()),
         stage: Some(format!(
@@ -407,7 +372,7 @@ pub fn provenance(t: &PlannedTable, key: &str) -> Provenance {
         )),
         parameters: t.job.parameters(),
         parameters_digest: key.to_string(),
-        created_utc: creation_time(),
+        created_utc: crate::provenance::creation_time(),
     }
 }
 
@@ -525,8 +490,8 @@ fn assemble_completed(
 }
 
 /// Run a build: plan, load checkpoints, run the pending tasks (assembling each table when its
-/// last task is done), rebuild the catalog.
-pub fn build(opts: &BuildOptions) -> Result<BuildReport, PipelineError> {
+/// last task is done), rebuild the catalog. Tasks and table steps are reported to `progress`.
+pub fn build(opts: &BuildOptions, progress: &dyn Progress) -> Result<BuildReport, PipelineError> {
     let planned = plan_manifests(&opts.manifests)?;
     std::fs::create_dir_all(&opts.out_dir)
         .map_err(IoError::doing("creating output directory", &opts.out_dir))?;
@@ -537,29 +502,40 @@ pub fn build(opts: &BuildOptions) -> Result<BuildReport, PipelineError> {
         fresh: Mutex::default(),
     };
     let mut report = BuildReport::default();
-    let states = plan_tables(planned, opts, &mut report)?;
+    let states = plan_tables(planned, opts, &mut report, progress)?;
     let pending = load_checkpoints(&states, opts, &mut report, &ctx)?;
-    let run = run_tasks(&states, &pending, opts, &ctx)?;
+    let run = run_tasks(&states, &pending, opts, &ctx, progress)?;
     let fresh = std::mem::take(&mut *ctx.fresh.lock().expect("lock"));
     report.checkpoints_rejected = ctx.rejected();
     report.tasks_computed = run.computed;
     report.tables_written = run.written;
     report.tables_written.sort();
-    // A table this build did not write is up to date when another shard or concurrent build
-    // wrote it meanwhile, else pending.
-    let listed = crate::catalog::Listed::load(&opts.out_dir);
-    for s in &states {
-        if report.tables_written.contains(&s.planned.name) {
-            continue;
-        }
-        if up_to_date(&table_path(&opts.out_dir, &s.planned.name), &s.key, &listed) {
-            report.tables_up_to_date.push(s.planned.name.clone());
-        } else {
-            report.tables_pending.push(s.planned.name.clone());
-        }
-    }
+    sort_unwritten(&states, &opts.out_dir, &mut report, progress);
     build_outcome(run.errors, update_catalog(&opts.out_dir, &fresh))?;
     Ok(report)
+}
+
+/// A table this build did not write is up to date when another shard or concurrent build wrote
+/// it meanwhile (and reported so), else pending.
+fn sort_unwritten(
+    states: &[TableState],
+    out_dir: &Path,
+    report: &mut BuildReport,
+    progress: &dyn Progress,
+) {
+    let listed = crate::catalog::Listed::load(out_dir);
+    for s in states {
+        let name = &s.planned.name;
+        if report.tables_written.contains(name) {
+            continue;
+        }
+        if up_to_date(&table_path(out_dir, name), &s.key, &listed) {
+            progress.table(name, TableStep::UpToDate);
+            report.tables_up_to_date.push(name.clone());
+        } else {
+            report.tables_pending.push(name.clone());
+        }
+    }
 }
 
 /// The outcome of a build from its task and table errors and the catalog update: a catalog
@@ -615,6 +591,7 @@ fn plan_tables(
     planned: Vec<PlannedTable>,
     opts: &BuildOptions,
     report: &mut BuildReport,
+    progress: &dyn Progress,
 ) -> Result<Vec<TableState>, PipelineError> {
     let mut states = Vec::new();
     // Global task indices count the tasks of every planned table, up to date or not, so that
@@ -628,6 +605,7 @@ fn plan_tables(
         let first_global = next_global;
         next_global += tasks.len();
         if !opts.force && up_to_date(&path, &key, &listed) {
+            progress.table(&t.name, TableStep::UpToDate);
             report.tables_up_to_date.push(t.name.clone());
             continue;
         }
@@ -709,88 +687,176 @@ fn run_tasks(
     pending: &[(usize, usize)],
     opts: &BuildOptions,
     ctx: &Context,
+    progress: &dyn Progress,
 ) -> Result<TaskRun, PipelineError> {
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(opts.jobs.unwrap_or(DEFAULT_THREADS))
         .build()
         .map_err(PipelineError::ThreadPool)?;
-    let bar = progress_bar(pending.len(), opts.quiet);
-    let errors = Mutex::new(Vec::<PipelineError>::new());
-    let written = Mutex::new(Vec::<String>::new());
-    let computed = AtomicUsize::new(0);
-    let delay = test_delay();
-    let finish_with = |s: &TableState, in_memory: Option<(usize, Vec<f32>)>| match finish_table(
-        s,
-        in_memory,
-        &opts.out_dir,
-        ctx,
-    ) {
-        Ok(()) => written.lock().expect("lock").push(s.planned.name.clone()),
-        Err(e) => errors.lock().expect("lock").push(PipelineError::Finish {
-            table: s.planned.name.clone(),
-            source: Box::new(e),
-        }),
-    };
-    let finish = |s: &TableState| finish_with(s, None);
+    let runner = TaskRunner::new(states, pending, &opts.out_dir, ctx, progress);
+    progress.start(pending.len() as u64, "tasks");
     pool.install(|| {
         states
             .par_iter()
             .filter(|s| s.remaining.load(Ordering::SeqCst) == 0)
-            .for_each(finish);
-        pending.par_iter().for_each(|&(ti, k)| {
-            let s = &states[ti];
-            // A one-task table is assembled from the values in memory, without a checkpoint.
-            let one_task = s.task_keys.len() == 1;
-            let result = s
-                .planned
-                .job
-                .run_task(k)
-                .map_err(PipelineError::from)
-                .and_then(|values| {
-                    if !one_task {
-                        write_checkpoint(&s.checkpoint(k), &s.task_keys[k], &ctx.secret, &values)?;
-                    }
-                    Ok(values)
-                });
-            if let Some(d) = delay {
-                std::thread::sleep(d);
-            }
-            computed.fetch_add(1, Ordering::SeqCst);
-            bar.inc(1);
-            match result {
-                Err(e) => errors.lock().expect("lock").push(PipelineError::Task {
+            .for_each(|s| runner.finish(s, None));
+        pending
+            .par_iter()
+            .for_each(|&(ti, k)| runner.run_task(ti, k));
+    });
+    let finish = |s: &TableState| runner.finish(s, None);
+    let assembled = assemble_completed(states, &finish, &runner.written, &opts.out_dir, ctx);
+    progress.finish();
+    assembled?;
+    Ok(TaskRun {
+        computed: runner.computed.load(Ordering::SeqCst),
+        written: runner.written.into_inner().expect("lock"),
+        errors: runner.errors.into_inner().expect("lock"),
+    })
+}
+
+/// The tasks one process computes for one table, for the progress report.
+struct TableTasks {
+    /// Tasks of the table this process computes.
+    here: usize,
+    /// Of those, the ones not finished yet.
+    left: AtomicUsize,
+    /// The first has begun.
+    started: AtomicBool,
+    /// One failed.
+    failed: AtomicBool,
+}
+
+/// What the tasks of one [`run_tasks`] share: the tables, where they go, the results so far and
+/// where progress is reported.
+struct TaskRunner<'a> {
+    states: &'a [TableState],
+    /// Per table of `states`.
+    tables: Vec<TableTasks>,
+    out_dir: &'a Path,
+    ctx: &'a Context,
+    progress: &'a dyn Progress,
+    errors: Mutex<Vec<PipelineError>>,
+    written: Mutex<Vec<String>>,
+    computed: AtomicUsize,
+    delay: Option<std::time::Duration>,
+}
+
+impl<'a> TaskRunner<'a> {
+    fn new(
+        states: &'a [TableState],
+        pending: &[(usize, usize)],
+        out_dir: &'a Path,
+        ctx: &'a Context,
+        progress: &'a dyn Progress,
+    ) -> Self {
+        let mut here = vec![0; states.len()];
+        for &(ti, _) in pending {
+            here[ti] += 1;
+        }
+        let tables = here
+            .into_iter()
+            .map(|n| TableTasks {
+                here: n,
+                left: AtomicUsize::new(n),
+                started: AtomicBool::new(false),
+                failed: AtomicBool::new(false),
+            })
+            .collect();
+        TaskRunner {
+            states,
+            tables,
+            out_dir,
+            ctx,
+            progress,
+            errors: Mutex::default(),
+            written: Mutex::default(),
+            computed: AtomicUsize::new(0),
+            delay: test_delay(),
+        }
+    }
+
+    /// Compute task `k` of table `ti` and write its checkpoint; the task that completes the
+    /// table assembles and writes it.
+    fn run_task(&self, ti: usize, k: usize) {
+        let (s, ctx) = (&self.states[ti], self.ctx);
+        let tasks = &self.tables[ti];
+        if !tasks.started.swap(true, Ordering::SeqCst) {
+            let step = TableStep::Computing { tasks: tasks.here };
+            self.progress.table(&s.planned.name, step);
+        }
+        // A one-task table is assembled from the values in memory, without a checkpoint.
+        let one_task = s.task_keys.len() == 1;
+        let result = s
+            .planned
+            .job
+            .run_task(k)
+            .map_err(PipelineError::from)
+            .and_then(|values| {
+                if !one_task {
+                    write_checkpoint(&s.checkpoint(k), &s.task_keys[k], &ctx.secret, &values)?;
+                }
+                Ok(values)
+            });
+        if let Some(d) = self.delay {
+            std::thread::sleep(d);
+        }
+        self.computed.fetch_add(1, Ordering::SeqCst);
+        self.progress.advance(1);
+        match result {
+            Err(e) => {
+                tasks.failed.store(true, Ordering::SeqCst);
+                self.errors.lock().expect("lock").push(PipelineError::Task {
                     table: s.planned.name.clone(),
                     index: k,
                     label: s.task_labels[k].clone(),
                     source: Box::new(e),
-                }),
-                Ok(values) => {
-                    if s.remaining.fetch_sub(1, Ordering::SeqCst) == 1 {
-                        bar.set_message(format!("writing {}", s.planned.name));
-                        finish_with(s, Some((k, values)));
-                    }
+                });
+            }
+            Ok(values) => {
+                if s.remaining.fetch_sub(1, Ordering::SeqCst) == 1 {
+                    self.finish(s, Some((k, values)));
                 }
             }
-        });
-    });
-    bar.finish_and_clear();
-    assemble_completed(states, &finish, &written, &opts.out_dir, ctx)?;
-    Ok(TaskRun {
-        computed: computed.load(Ordering::SeqCst),
-        written: written.into_inner().expect("lock"),
-        errors: errors.into_inner().expect("lock"),
-    })
-}
-
-/// The build's progress bar (hidden when quiet or not on a terminal).
-fn progress_bar(tasks: usize, quiet: bool) -> ProgressBar {
-    let bar = ProgressBar::new(tasks as u64);
-    if quiet || !std::io::stdout().is_terminal() {
-        bar.set_draw_target(ProgressDrawTarget::hidden());
+        }
+        self.task_done(ti);
     }
-    bar.set_style(ProgressStyle::with_template(PROGRESS_TEMPLATE).expect("valid template"));
-    bar.set_prefix("build");
-    bar
+
+    /// After this process's last task of table `ti`: a table that is not complete (tasks of
+    /// other shards missing, or one failed) is reported waiting or failed. The task that
+    /// completes a table brings `remaining` to 0 before its own `left` count, so a table being
+    /// written is never reported waiting.
+    fn task_done(&self, ti: usize) {
+        let (s, tasks) = (&self.states[ti], &self.tables[ti]);
+        if tasks.left.fetch_sub(1, Ordering::SeqCst) == 1 && s.remaining.load(Ordering::SeqCst) != 0
+        {
+            let step = if tasks.failed.load(Ordering::SeqCst) {
+                TableStep::Failed
+            } else {
+                TableStep::Waiting
+            };
+            self.progress.table(&s.planned.name, step);
+        }
+    }
+
+    /// Assemble and write table `s` ([`finish_table`]), noting the result.
+    fn finish(&self, s: &TableState, in_memory: Option<(usize, Vec<f32>)>) {
+        let name = &s.planned.name;
+        self.progress.table(name, TableStep::Writing);
+        match finish_table(s, in_memory, self.out_dir, self.ctx) {
+            Ok(()) => {
+                self.written.lock().expect("lock").push(name.clone());
+                self.progress.table(name, TableStep::Written);
+            }
+            Err(e) => {
+                self.errors.lock().expect("lock").push(PipelineError::Finish {
+                    table: name.clone(),
+                    source: Box::new(e),
+                });
+                self.progress.table(name, TableStep::Failed);
+            }
+        }
+    }
 }
 
 /// Assemble a table whose tasks are all done from its checkpoints (recomputing any that a

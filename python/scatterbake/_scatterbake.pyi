@@ -283,7 +283,8 @@ def build(
     """Run the library's pipeline on manifest files (as ``scatterbake build MANIFEST... --out
     OUT_DIR``, without preview pictures): tables into ``out_dir`` with the catalog
     ``out_dir/index.json``; up-to-date tables are kept unless ``force``. ``jobs``: worker
-    threads (default all cores). Returns the report: ``tables_written``, ``tables_up_to_date``,
+    threads (default all cores). ``quiet=False`` writes one line per table step (up to date,
+    computing, writing, written, …) to the process's stderr. Returns the report: ``tables_written``, ``tables_up_to_date``,
     ``tables_pending``, ``tasks_computed``, ``tasks_reused``, ``checkpoints_rejected``.
     ValueError for a manifest that does not read or plan (the message names FILE:LINE:COLUMN).
     The GIL is released while building."""

@@ -695,6 +695,15 @@ fn open_table(py: Python<'_>, path: PathBuf, reconstruct: bool) -> PyResult<Tabl
     }
 }
 
+/// Reports a build on the process's stderr, one line per table step.
+struct StderrLines;
+
+impl scatterbake::progress::Progress for StderrLines {
+    fn table(&self, name: &str, step: scatterbake::progress::TableStep) {
+        eprintln!("build: {name}: {step}");
+    }
+}
+
 /// Runs the library's pipeline (`scatterbake build`) on manifests; see `_scatterbake.pyi`.
 #[pyfunction]
 #[pyo3(signature = (manifests, out_dir="tables".into(), *, jobs=None, force=false, quiet=true))]
@@ -724,10 +733,14 @@ fn build<'py>(
         jobs,
         shard: None,
         force,
-        quiet,
+    };
+    let progress: &dyn scatterbake::progress::Progress = if quiet {
+        &scatterbake::progress::Silent
+    } else {
+        &StderrLines
     };
     let report = py
-        .detach(|| scatterbake::pipeline::build(&opts))
+        .detach(|| scatterbake::pipeline::build(&opts, progress))
         .map_err(|e| match e {
             scatterbake::pipeline::PipelineError::Io(_) => PyOSError::new_err(error_chain(&e)),
             _ => value_error(&e),

@@ -12,7 +12,8 @@
 //!   taken through the table's own angular operators first);
 //! - [`image`]: PNG writing shared by `plot` and `render`.
 //!
-//! Every consumer reports failures as a [`ConsumerError`].
+//! Every consumer reports failures as a [`ConsumerError`], and the long ones (a render, a Lee
+//! diagram) their progress to a [`crate::progress::Progress`].
 //!
 //! Everything reads tables through the public reader API ([`crate::table::Table::open`],
 //! [`crate::table::Table::sample`]). The C ABI for other languages is the `capi/` crate and
@@ -29,18 +30,3 @@ pub mod synthetic;
 pub mod validate;
 
 pub use error::ConsumerError;
-
-/// Progress of a long consumer (a render, a Lee diagram): `start` with the number of units,
-/// then `advance` as units finish, from any thread. The library draws nothing; the command line
-/// shows a bar (quiet when stderr is not a terminal). [`Silent`] ignores everything.
-pub trait Progress: Sync {
-    /// `total` units of work described by `what` begin.
-    fn start(&self, _total: u64, _what: &str) {}
-    /// `n` more units are done.
-    fn advance(&self, _n: u64) {}
-}
-
-/// A [`Progress`] that reports nothing.
-pub struct Silent;
-
-impl Progress for Silent {}

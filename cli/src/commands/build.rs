@@ -22,7 +22,7 @@ pub struct BuildArgs {
     /// Recompute even if up-to-date tables or checkpoints exist.
     #[arg(long)]
     pub force: bool,
-    /// No progress bar.
+    /// No progress (a bar on a terminal, one line per table or step on stderr otherwise).
     #[arg(long, short)]
     pub quiet: bool,
     /// Do not draw preview pictures into OUT/previews/.
@@ -41,14 +41,17 @@ pub fn run_build(a: BuildArgs) -> Result<i32> {
         None => Shard::from_env()?,
     };
     let t0 = std::time::Instant::now();
-    let report = build(&BuildOptions {
-        manifests,
-        out_dir: a.out.clone(),
-        jobs: a.jobs,
-        shard,
-        force: a.force,
-        quiet: a.quiet,
-    })?;
+    let progress = crate::progress::TerminalProgress::new("build", a.quiet);
+    let report = build(
+        &BuildOptions {
+            manifests,
+            out_dir: a.out.clone(),
+            jobs: a.jobs,
+            shard,
+            force: a.force,
+        },
+        &progress,
+    )?;
     for c in &report.checkpoints_rejected {
         eprintln!("warning: checkpoint {c}");
     }

@@ -96,7 +96,7 @@ pub fn run_plot(args: &PlotArgs) -> anyhow::Result<()> {
                 args.angle_range,
                 &args.out,
                 size,
-                &crate::progress::TerminalProgress::new("lee"),
+                &crate::progress::TerminalProgress::new("lee", false),
             )?;
             eprintln!("{}", disc.describe());
         }

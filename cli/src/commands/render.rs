@@ -205,7 +205,7 @@ pub fn run_render_rainbow(args: &RenderRainbowArgs) -> anyhow::Result<()> {
     let (camera, scene) = camera_and_scene(args, sun_elevation_deg, &disc);
     let t0 = std::time::Instant::now();
     let r = {
-        let progress = crate::progress::TerminalProgress::new("render");
+        let progress = crate::progress::TerminalProgress::new("render", false);
         let polariser = args.polariser_deg.map(|angle_deg| Polariser { angle_deg });
         match (&source, polariser) {
             (Source::OneD(pt), None) => render(pt, &args.entry, &scene, &camera, &progress)?,

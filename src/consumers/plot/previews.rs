@@ -57,7 +57,7 @@ pub fn previews(table_path: &Path, out_dir: &Path) -> Result<Vec<PathBuf>, Consu
                 (120.0, 145.0),
                 &p,
                 (900, 600),
-                &crate::consumers::Silent,
+                &crate::progress::Silent,
             )?;
             written.push(p);
         }

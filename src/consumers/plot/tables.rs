@@ -24,7 +24,8 @@ use super::style::{PALETTE, axis_label, short_number, wavelength_colour, xyz_col
 use crate::consumers::read::operators::SunDisc;
 use crate::consumers::read::phase::{EntrySelection, PhaseCurves, PhaseTable};
 use crate::consumers::read::spectrum::{THETA_STEP_DEG, xyz_vs_angle};
-use crate::consumers::{ConsumerError, Progress};
+use crate::consumers::ConsumerError;
+use crate::progress::Progress;
 use crate::table::Table;
 use plotters::prelude::*;
 use rayon::prelude::*;

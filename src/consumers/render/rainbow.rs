@@ -42,7 +42,8 @@ pub use crate::consumers::read::spectrum::SunSpectrum;
 use crate::consumers::read::spectrum::{
     Polarisation, THETA_STEP_DEG, disc_average_spectrum, disc_samples, xyz_along, xyz_vs_angle_of,
 };
-use crate::consumers::{ConsumerError, Progress};
+use crate::consumers::ConsumerError;
+use crate::progress::Progress;
 use crate::math::vec3::{V3, cross, dot, normalize};
 use crate::optics::colour::{linear_srgb_luminance, srgb_encode, xyz_to_linear_srgb};
 use rayon::prelude::*;
@@ -595,7 +596,7 @@ pub fn table_bow_radius(xyz: &[[f64; 3]], lo_deg: f64, hi_deg: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::consumers::Silent;
+    use crate::progress::Silent;
     use crate::consumers::synthetic::peak_table;
 
     fn cam() -> Camera {
