@@ -22,7 +22,7 @@ fn main() -> anyhow::Result<()> {
         let job = stage.plan(toml::de::ValueDeserializer::parse(&params)?)?;
         let t0 = Instant::now();
         let n = job.tasks().len();
-        let chunks: Vec<Vec<f32>> = (0..n)
+        let chunks: Vec<scatterbake::stages::Chunk> = (0..n)
             .into_par_iter()
             .map(|i| job.run_task(i).unwrap())
             .collect();

@@ -24,7 +24,7 @@ fn main() -> anyhow::Result<()> {
         &entry["params"].to_string(),
     )?)?;
     let t0 = Instant::now();
-    let chunks: Vec<Vec<f32>> = (0..job.tasks().len())
+    let chunks: Vec<scatterbake::stages::Chunk> = (0..job.tasks().len())
         .into_par_iter()
         .map(|i| job.run_task(i).unwrap())
         .collect();

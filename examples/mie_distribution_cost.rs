@@ -14,7 +14,7 @@
 //!   tasks; then, for each `OLD_WAVELENGTH_NM`, the same entry by the sampled method and by the
 //!   previous Gauss–Legendre rule (24 nodes in ln r, exact cell averages per node), and their
 //!   time ratio.
-//! - `reference`: the brute-force reference at one wavelength (`stages::mie::reference_entry`:
+//! - `reference`: the brute-force reference at one wavelength (`mie::ensemble::reference_entry`:
 //!   `NODES` midpoint strata of `n(r) r²`, exact cell averages per node), written to `FILE`
 //!   (little-endian f64: i_perp then i_par over the 3601 bins), with the difference between its
 //!   two interleaved halves.
@@ -24,12 +24,12 @@
 use num_complex::Complex64;
 use rayon::prelude::*;
 use scatterbake::mie::distributions::SizeDistribution;
+use scatterbake::mie::ensemble::{
+    DEFAULT_RADIUS_TOLERANCE, EntryResult, compute_entry, reference_entry, relative_difference,
+};
+use scatterbake::mie::filters::FilterSettings;
 use scatterbake::mie::filters::PolarisedPhase;
 use scatterbake::optics::water::WaterIndexModel;
-use scatterbake::stages::mie::{
-    DEFAULT_RADIUS_TOLERANCE, EntryResult, FilterSettings, compute_entry, reference_entry,
-    relative_difference,
-};
 use std::time::Instant;
 
 const RAIN: SizeDistribution = SizeDistribution::MarshallPalmer {

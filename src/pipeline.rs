@@ -7,11 +7,12 @@
 //!   A table whose file exists, verifies, and carries the same key is skipped (`--force`
 //!   recomputes).
 //! - **Resume.** Each finished task is written atomically as a checkpoint
-//!   `<out>/.work/<table>/<task-key>.chunk` (bincode: task key, HMAC-SHA-256 of the task key and
-//!   values under the directory's secret `<out>/.checkpoint-key`, values). A rerun reuses valid
-//!   checkpoints; a checkpoint that is truncated, belongs to another task, fails its keyed hash
-//!   (edited, forged, or copied from another directory) or has the wrong number of values is
-//!   named in the report and its task recomputed. So killing a build at any moment loses at most the tasks in flight, and the
+//!   `<out>/.work/<table>/<task-key>.chunk` (bincode: checkpoint format, task key, HMAC-SHA-256
+//!   of the task key and chunk under the directory's secret `<out>/.checkpoint-key`, the chunk's
+//!   values and scalars). A rerun reuses valid checkpoints; a checkpoint of another format, or
+//!   one that is truncated, belongs to another task, fails its keyed hash (edited, forged, or
+//!   copied from another directory) or has the wrong number of values or scalars is named in
+//!   the report and its task recomputed. So killing a build at any moment loses at most the tasks in flight, and the
 //!   tables produced are byte-identical to an uninterrupted build (set `SOURCE_DATE_EPOCH` to
 //!   make the creation time identical too). When its last task finishes, a table is assembled,
 //!   written atomically, and its checkpoints are removed. The task that completes a table hands
@@ -37,7 +38,7 @@ use crate::catalog::CatalogError;
 use crate::error::{IoError, error_chain};
 use crate::manifest::{ManifestError, PlannedTable, load_manifest};
 use crate::progress::{Progress, TableStep};
-use crate::stages::JobError;
+use crate::stages::{Chunk, JobError};
 use crate::table::format::write_atomic;
 use crate::table::{Provenance, Table, TableError, write_table_atomic_sealed};
 use crate::workdir::CheckpointKey;
@@ -261,13 +262,21 @@ fn task_key(table_key: &str, index: usize, params: &serde_json::Value) -> String
     }))
 }
 
+/// Version of the checkpoint encoding, the first field of every checkpoint: 2 stores a task's
+/// [`Chunk`] (f32 values and f64 scalars). Files of any other version (version 1 had no version
+/// field and stored the values only) are refused, never decoded, and their tasks recomputed.
+pub const CHECKPOINT_FORMAT: u32 = 2;
+
 #[derive(Serialize, Deserialize)]
 struct Checkpoint {
+    /// [`CHECKPOINT_FORMAT`].
+    format: u32,
     /// Task key.
     key: String,
-    /// HMAC-SHA-256 (hex) of the task key and values under the directory's secret.
+    /// HMAC-SHA-256 (hex) of the task key, values and scalars under the directory's secret.
     sha256: String,
     values: Vec<f32>,
+    scalars: Vec<f64>,
 }
 
 fn bincode_config() -> bincode::config::Configuration {
@@ -275,18 +284,29 @@ fn bincode_config() -> bincode::config::Configuration {
 }
 
 /// Read the checkpoint of task `task_key` at `path`: `Ok(None)` when there is none, `Err(why)`
-/// when the file exists but must not be used (truncated, trailing bytes, another task's, or
-/// a keyed hash that does not match: edited, forged, or written under another secret).
+/// when the file exists but must not be used (another checkpoint format, truncated, trailing
+/// bytes, another task's, or a keyed hash that does not match: edited, forged, or written under
+/// another secret).
 pub fn read_checkpoint(
     path: &Path,
     task_key: &str,
     secret: &CheckpointKey,
-) -> Result<Option<Vec<f32>>, String> {
+) -> Result<Option<Chunk>, String> {
     let bytes = match std::fs::read(path) {
         Ok(b) => b,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
         Err(e) => return Err(format!("unreadable ({e})")),
     };
+    // The format first, so that a file of another format is never decoded as this one.
+    match bincode::serde::decode_from_slice::<u32, _>(&bytes, bincode_config()) {
+        Ok((CHECKPOINT_FORMAT, _)) => {}
+        _ => {
+            return Err(format!(
+                "not of checkpoint format {CHECKPOINT_FORMAT} (written by another version, or \
+                 not a checkpoint)"
+            ));
+        }
+    }
     let (c, used): (Checkpoint, usize) =
         bincode::serde::decode_from_slice(&bytes, bincode_config())
             .map_err(|e| format!("truncated or not a checkpoint ({} bytes: {e})", bytes.len()))?;
@@ -299,36 +319,41 @@ pub fn read_checkpoint(
     if c.key != task_key {
         return Err("belongs to another task".into());
     }
-    if crate::workdir::checkpoint_hash(secret, task_key, &c.values) != c.sha256 {
+    if crate::workdir::checkpoint_hash(secret, task_key, &c.values, &c.scalars) != c.sha256 {
         return Err(
             "its keyed hash does not match its values (edited, or written under another \
              checkpoint secret)"
                 .into(),
         );
     }
-    Ok(Some(c.values))
+    Ok(Some(Chunk::new(c.values, c.scalars)))
 }
 
-/// The encoding of a [`Checkpoint`] from borrowed values (the same bytes, without copying the
+/// The encoding of a [`Checkpoint`] from a borrowed chunk (the same bytes, without copying the
 /// values first).
 #[derive(Serialize)]
 struct CheckpointRef<'a> {
+    format: u32,
     key: &'a str,
     sha256: String,
     values: &'a [f32],
+    scalars: &'a [f64],
 }
 
-/// Write the checkpoint of task `task_key` (values and their keyed hash) atomically at `path`.
+/// Write the checkpoint of task `task_key` (its chunk and their keyed hash) atomically at
+/// `path`.
 pub fn write_checkpoint(
     path: &Path,
     task_key: &str,
     secret: &CheckpointKey,
-    values: &[f32],
+    chunk: &Chunk,
 ) -> Result<(), PipelineError> {
     let c = CheckpointRef {
+        format: CHECKPOINT_FORMAT,
         key: task_key,
-        sha256: crate::workdir::checkpoint_hash(secret, task_key, values),
-        values,
+        sha256: crate::workdir::checkpoint_hash(secret, task_key, &chunk.values, &chunk.scalars),
+        values: &chunk.values,
+        scalars: &chunk.scalars,
     };
     let bytes = bincode::serde::encode_to_vec(&c, bincode_config()).map_err(|source| {
         PipelineError::CheckpointEncode {
@@ -417,7 +442,7 @@ impl TableState {
 
     /// The values of task `task` from its checkpoint, when there is a usable one; an unusable
     /// checkpoint is noted in `ctx`.
-    fn read(&self, task: usize, ctx: &Context) -> Option<Vec<f32>> {
+    fn read(&self, task: usize, ctx: &Context) -> Option<Chunk> {
         let path = self.checkpoint(task);
         read_checkpoint(&path, &self.task_keys[task], &ctx.secret).unwrap_or_else(|why| {
             ctx.reject(&path, why);
@@ -840,7 +865,7 @@ impl<'a> TaskRunner<'a> {
     }
 
     /// Assemble and write table `s` ([`finish_table`]), noting the result.
-    fn finish(&self, s: &TableState, in_memory: Option<(usize, Vec<f32>)>) {
+    fn finish(&self, s: &TableState, in_memory: Option<(usize, Chunk)>) {
         let name = &s.planned.name;
         self.progress.table(name, TableStep::Writing);
         match finish_table(s, in_memory, self.out_dir, self.ctx) {
@@ -866,7 +891,7 @@ impl<'a> TaskRunner<'a> {
 /// the task just computed by this build (index, values): it is used as it is, not read back.
 fn finish_table(
     s: &TableState,
-    mut in_memory: Option<(usize, Vec<f32>)>,
+    mut in_memory: Option<(usize, Chunk)>,
     out_dir: &Path,
     ctx: &Context,
 ) -> Result<(), PipelineError> {
@@ -893,12 +918,13 @@ fn finish_table(
         match crate::stages::assemble_checked(s.planned.job.as_ref(), chunks) {
             Err(JobError::ChunkLength {
                 index,
+                part,
                 got,
                 expected,
             }) if from_checkpoint.get(index) == Some(&true) && !replaced[index] => {
                 ctx.reject(
                     &s.checkpoint(index),
-                    format!("wrong length: {got} values, the table needs {expected}"),
+                    format!("wrong length: {got} {part}, the table needs {expected}"),
                 );
                 replaced[index] = true;
                 recompute(s, index, ctx)?;
@@ -927,15 +953,10 @@ fn finish_table(
 }
 
 /// Compute task `task` of a table and write its checkpoint.
-fn recompute(s: &TableState, task: usize, ctx: &Context) -> Result<Vec<f32>, PipelineError> {
-    let values = s.planned.job.run_task(task)?;
-    write_checkpoint(
-        &s.checkpoint(task),
-        &s.task_keys[task],
-        &ctx.secret,
-        &values,
-    )?;
-    Ok(values)
+fn recompute(s: &TableState, task: usize, ctx: &Context) -> Result<Chunk, PipelineError> {
+    let chunk = s.planned.job.run_task(task)?;
+    write_checkpoint(&s.checkpoint(task), &s.task_keys[task], &ctx.secret, &chunk)?;
+    Ok(chunk)
 }
 
 /// Remove the work directory if no table uses it any more (ignoring failure: another build
@@ -955,6 +976,45 @@ fn update_catalog(
 mod tests {
     use super::*;
     use crate::error::error_chain;
+
+    /// A chunk's values and scalars come back from its checkpoint bit for bit; a checkpoint of
+    /// the first format (task key, keyed hash, values; no format field) is refused before it is
+    /// decoded, and so is a file of a later format.
+    #[test]
+    fn checkpoints_round_trip_and_other_formats_are_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("t.chunk");
+        let secret = CheckpointKey::from_bytes([7; 32]);
+        let key = "k".repeat(64);
+        let chunk = Chunk::new(vec![1.5, -0.0, f32::MIN_POSITIVE], vec![0.1, 1e300]);
+        write_checkpoint(&path, &key, &secret, &chunk).unwrap();
+        assert_eq!(read_checkpoint(&path, &key, &secret).unwrap(), Some(chunk));
+
+        #[derive(Serialize)]
+        struct FirstFormat<'a> {
+            key: &'a str,
+            sha256: String,
+            values: Vec<f32>,
+        }
+        let old = FirstFormat {
+            key: &key,
+            sha256: "0".repeat(64),
+            values: vec![1.0, 2.0],
+        };
+        std::fs::write(
+            &path,
+            bincode::serde::encode_to_vec(&old, bincode_config()).unwrap(),
+        )
+        .unwrap();
+        let why = read_checkpoint(&path, &key, &secret).unwrap_err();
+        assert!(why.contains("checkpoint format 2"), "{why}");
+
+        let mut later =
+            bincode::serde::encode_to_vec(CHECKPOINT_FORMAT + 1, bincode_config()).unwrap();
+        later.extend(&std::fs::read(&path).unwrap());
+        std::fs::write(&path, later).unwrap();
+        assert!(read_checkpoint(&path, &key, &secret).is_err());
+    }
 
     #[test]
     fn shard_errors_name_the_problem_and_the_source() {

@@ -199,17 +199,29 @@ fn random_bytes(buf: &mut [u8]) -> std::io::Result<()> {
     std::fs::File::open("/dev/urandom")?.read_exact(buf)
 }
 
-/// Keyed hash (HMAC-SHA-256, RFC 2104) of a checkpoint's values, bound to its task key.
-pub fn checkpoint_hash(key: &CheckpointKey, task_key: &str, values: &[f32]) -> String {
+/// Keyed hash (HMAC-SHA-256, RFC 2104) of a checkpoint's values and scalars, bound to its task
+/// key. The message is `scatterbake checkpoint 2\0`, the task key, `\0`, the number of values
+/// and of scalars (u64 little-endian) and the values and scalars (little-endian).
+pub fn checkpoint_hash(
+    key: &CheckpointKey,
+    task_key: &str,
+    values: &[f32],
+    scalars: &[f64],
+) -> String {
     let mut block = [0u8; SHA256_BLOCK];
     block[..CHECKPOINT_KEY_BYTES].copy_from_slice(&key.0);
     let pad = |byte: u8| block.map(|b| b ^ byte);
     let mut inner = Sha256::new();
     inner.update(pad(0x36));
-    inner.update(b"scatterbake checkpoint\0");
+    inner.update(b"scatterbake checkpoint 2\0");
     inner.update(task_key.as_bytes());
     inner.update([0u8]);
+    inner.update((values.len() as u64).to_le_bytes());
+    inner.update((scalars.len() as u64).to_le_bytes());
     for v in values {
+        inner.update(v.to_le_bytes());
+    }
+    for v in scalars {
         inner.update(v.to_le_bytes());
     }
     let mut outer = Sha256::new();
@@ -299,31 +311,36 @@ mod tests {
     fn checkpoint_hash_is_bound_to_the_secret_the_task_and_the_values() {
         let k = CheckpointKey::from_bytes([1; 32]);
         let v = [1.0f32, 2.0];
-        assert_ne!(checkpoint_hash(&k, "a", &v), checkpoint_hash(&k, "b", &v));
-        assert_ne!(
-            checkpoint_hash(&k, "a", &v),
-            checkpoint_hash(&k, "a", &[1.0, 3.0])
-        );
+        let h = |k: &CheckpointKey, t: &str, v: &[f32], s: &[f64]| checkpoint_hash(k, t, v, s);
+        assert_ne!(h(&k, "a", &v, &[]), h(&k, "b", &v, &[]));
+        assert_ne!(h(&k, "a", &v, &[]), h(&k, "a", &[1.0, 3.0], &[]));
+        assert_ne!(h(&k, "a", &v, &[]), h(&k, "a", &v, &[0.5]));
+        // The same bytes split differently between values and scalars.
+        let both = h(&k, "a", &[0.0, 0.0], &[]);
+        assert_ne!(both, h(&k, "a", &[], &[0.0]));
         let other = CheckpointKey::from_bytes([2; 32]);
-        assert_ne!(
-            checkpoint_hash(&k, "a", &v),
-            checkpoint_hash(&other, "a", &v)
-        );
+        assert_ne!(h(&k, "a", &v, &[]), h(&other, "a", &v, &[]));
     }
 
     #[test]
     fn checkpoint_hash_is_hmac_sha256() {
         // HMAC (RFC 2104) written out from its definition for a 32-byte key.
         let k = CheckpointKey::from_bytes([0x0b; 32]);
-        let mut msg = b"scatterbake checkpoint\0t\0".to_vec();
+        let mut msg = b"scatterbake checkpoint 2\0t\0".to_vec();
+        msg.extend(1u64.to_le_bytes());
+        msg.extend(1u64.to_le_bytes());
         msg.extend(1.5f32.to_le_bytes());
+        msg.extend(0.25f64.to_le_bytes());
         let mut ipad = vec![0x36u8 ^ 0x0b; 32];
         ipad.extend([0x36u8; 32]);
         let mut opad = vec![0x5cu8 ^ 0x0b; 32];
         opad.extend([0x5cu8; 32]);
         let inner = Sha256::digest([ipad, msg].concat());
         let outer = Sha256::digest([opad, inner.to_vec()].concat());
-        assert_eq!(checkpoint_hash(&k, "t", &[1.5]), hex::encode(outer));
+        assert_eq!(
+            checkpoint_hash(&k, "t", &[1.5], &[0.25]),
+            hex::encode(outer)
+        );
     }
 
     #[test]

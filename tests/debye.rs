@@ -447,7 +447,7 @@ fn default_manifest_runs() {
             .unwrap(),
         )
         .unwrap();
-    let chunks: Vec<Vec<f32>> = (0..job.tasks().len())
+    let chunks: Vec<scatterbake::stages::Chunk> = (0..job.tasks().len())
         .map(|i| job.run_task(i).unwrap())
         .collect();
     let t = job.assemble(chunks).unwrap();

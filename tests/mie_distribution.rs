@@ -9,15 +9,16 @@
 //!   no radius rule resolves: for clear water 512 and 1024 Gauss nodes still differ by 1.9 % rms.
 //! - `marshall_palmer_matches_reference` (ignored, ≈ 10 min on 2 cores): Marshall–Palmer rain
 //!   5 mm/h, 0.05–3 mm, 650 nm, 0.05° bins, 0.5° sun disc, against
-//!   `stages::mie::reference_entry` with 1024 nodes (exact cell averages per node):
+//!   `mie::ensemble::reference_entry` with 1024 nodes (exact cell averages per node):
 //!   `cargo test --release --test mie_distribution -- --ignored --nocapture`.
 
 use num_complex::Complex64;
 use scatterbake::mie::distributions::SizeDistribution;
-use scatterbake::optics::water::WaterIndexModel;
-use scatterbake::stages::mie::{
-    DEFAULT_RADIUS_TOLERANCE, FilterSettings, compute_entry, reference_entry, relative_difference,
+use scatterbake::mie::ensemble::{
+    DEFAULT_RADIUS_TOLERANCE, compute_entry, reference_entry, relative_difference,
 };
+use scatterbake::mie::filters::FilterSettings;
+use scatterbake::optics::water::WaterIndexModel;
 
 fn settings(output_intervals: usize, tolerance: f64, points: usize) -> FilterSettings {
     FilterSettings {

@@ -38,7 +38,7 @@ fn default_manifest_builds_normalised() {
     let jobs = plan_manifest("manifests/rainbow-mie.toml");
     let job = &jobs[0];
     let t0 = std::time::Instant::now();
-    let chunks: Vec<Vec<f32>> = (0..job.tasks().len())
+    let chunks: Vec<scatterbake::stages::Chunk> = (0..job.tasks().len())
         .into_par_iter()
         .map(|i| job.run_task(i).unwrap())
         .collect();

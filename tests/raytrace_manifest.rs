@@ -87,7 +87,8 @@ fn build_default_manifest_two_threads() {
         for (name, job) in plan_all("manifests/rainbow-raytraced.toml") {
             let t = std::time::Instant::now();
             let n = job.tasks().len();
-            let chunks: Vec<Vec<f32>> = (0..n).map(|i| job.run_task(i).unwrap()).collect();
+            let chunks: Vec<scatterbake::stages::Chunk> =
+                (0..n).map(|i| job.run_task(i).unwrap()).collect();
             let table = job.assemble(chunks).unwrap();
             assert_eq!(table.data.len(), table.expected_len());
             println!(

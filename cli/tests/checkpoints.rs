@@ -1,9 +1,10 @@
-//! Checkpoints that must not become tables: truncated, of the wrong length, forged (values
-//! changed, hash recomputed without the output directory's secret) or copied from another
-//! output directory. Each is named in a warning, its task recomputed, and the table is
+//! Checkpoints that must not become tables: truncated, of the wrong length, of an earlier
+//! checkpoint format, forged (values changed, hash recomputed without the output directory's
+//! secret) or copied from another output directory. Each is named in a warning, its task recomputed, and the table is
 //! byte-identical to a clean build.
 
 use scatterbake::pipeline::{read_checkpoint, write_checkpoint};
+use scatterbake::stages::Chunk;
 use scatterbake::workdir::{CheckpointKey, checkpoint_key};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -94,7 +95,7 @@ fn truncated_and_wrong_length_checkpoints_are_named_and_recomputed() {
     // A well-formed checkpoint under the right secret with the wrong number of values (as a
     // build of another layout would leave).
     let secret = checkpoint_key(&d.path().join("out")).unwrap();
-    write_checkpoint(&c[1].0, &c[1].1, &secret, &[1.0, 2.0]).unwrap();
+    write_checkpoint(&c[1].0, &c[1].1, &secret, &Chunk::values(vec![1.0, 2.0])).unwrap();
     let t = build(d.path(), &m, "out", &[]);
     for (path, why) in [(&c[0].0, "truncated"), (&c[1].0, "wrong length: 2 values")] {
         let line = t
@@ -106,6 +107,45 @@ fn truncated_and_wrong_length_checkpoints_are_named_and_recomputed() {
         assert!(line.contains("recomputed"), "{line}");
     }
     assert!(t.contains("built 1 table"), "{t}");
+    assert_same_table(d.path(), "out");
+}
+
+/// The first checkpoint format (bincode of the task key, a keyed hash and the values, without a
+/// format field): a build that finds one names it and recomputes its task, never reads it.
+#[test]
+fn checkpoints_of_the_first_format_are_named_and_recomputed() {
+    let d = tempfile::tempdir().unwrap();
+    let m = manifest(d.path());
+    build(d.path(), &m, "ref", &[]);
+    let c = half_built(d.path(), &m, "out");
+    let secret = checkpoint_key(&d.path().join("out")).unwrap();
+    let values = read_checkpoint(&c[0].0, &c[0].1, &secret)
+        .unwrap()
+        .expect("a valid checkpoint")
+        .values;
+    // bincode (standard configuration): strings and sequences are their length (one byte below
+    // 251, else 251 and a u16 little-endian) followed by their elements; f32 little-endian.
+    let len = |n: usize| -> Vec<u8> {
+        match u8::try_from(n) {
+            Ok(b) if b < 251 => vec![b],
+            _ => [&[251u8][..], &u16::try_from(n).unwrap().to_le_bytes()].concat(),
+        }
+    };
+    let mut old = len(64);
+    old.extend(c[0].1.as_bytes());
+    old.extend(len(64));
+    old.extend("0".repeat(64).as_bytes());
+    old.extend(len(values.len()));
+    old.extend(values.iter().flat_map(|v| v.to_le_bytes()));
+    std::fs::write(&c[0].0, old).unwrap();
+    let t = build(d.path(), &m, "out", &[]);
+    let line = t
+        .lines()
+        .find(|l| l.contains(c[0].0.file_name().unwrap().to_str().unwrap()))
+        .unwrap_or_else(|| panic!("no warning names {}: {t}", c[0].0.display()));
+    assert!(line.starts_with("warning: checkpoint"), "{line}");
+    assert!(line.contains("checkpoint format 2"), "{line}");
+    assert!(line.contains("recomputed"), "{line}");
     assert_same_table(d.path(), "out");
 }
 
@@ -121,7 +161,7 @@ fn forged_or_foreign_checkpoints_are_not_used() {
     let mut values = read_checkpoint(&c[0].0, &c[0].1, &secret)
         .unwrap()
         .expect("a valid checkpoint");
-    values[0] *= 2.0;
+    values.values[0] *= 2.0;
     let guess = CheckpointKey::from_bytes([0; 32]);
     write_checkpoint(&c[0].0, &c[0].1, &guess, &values).unwrap();
     let t = build(d.path(), &m, "forged", &[]);

@@ -28,8 +28,8 @@
 use crate::consumers::ConsumerError;
 use crate::consumers::export::mieplot::MiePlotData;
 use crate::consumers::read::phase::{EntrySelection, PhaseTable};
+use crate::mie::filters::FilterSettings;
 use crate::mie::filters::{PolarisedPhase, SunDiscOperator, gaussian_blur, resample_bins};
-use crate::stages::mie::FilterSettings;
 use std::f64::consts::PI;
 
 /// Table schemas whose angular operators [`apply_table_operators`] reproduces.

@@ -54,6 +54,7 @@
 //! x = 100, 1000, 10⁴ (figures in `docs/debye.md`).
 
 pub mod airy;
+pub mod filtered;
 
 use crate::mie::coefficients::MieCoefficients;
 use crate::mie::filters::PolarisedPhase;

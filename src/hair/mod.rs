@@ -11,6 +11,7 @@
 //! - [`dual`]: Dual Scattering averages and closed forms;
 //! - [`artist`]: the artist-friendly model with the scalar normalisation of thesis eq. 4.17;
 //! - [`melanin`]: eumelanin/pheomelanin concentration → `σ_a`;
+//! - [`rows`]: the rows of the hair tables per light inclination;
 //! - [`shading`]: the shading-time half of Dual Scattering (T_f, σ̄_f², f_back, f_s^scatter, F)
 //!   as a reference to port;
 //!
@@ -24,4 +25,5 @@ pub mod elliptic;
 pub mod fiber;
 pub mod longitudinal;
 pub mod melanin;
+pub mod rows;
 pub mod shading;

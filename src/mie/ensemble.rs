@@ -23,14 +23,19 @@
 //! - **Error**: rounds are independent replicates, so the spread of their outputs (after the
 //!   sun disc and bin averaging) estimates the standard error of the pooled mean; rounds are
 //!   added (doubling) until the estimate meets the tolerance (the caller's loop,
-//!   `stages::mie::compute_entry`).
+//!   [`compute_entry`]).
 //!
 //! Everything is deterministic: the pseudo-random numbers come from [`SplitMix64`] seeded by
 //! the entry, the wavelength and the node.
 
-use super::Sphere;
 use super::distributions::SizeDistribution;
-use super::filters::{FINE_CELL_POINTS, PolarisedPhase, cell_solid_angles};
+use super::filters::{
+    FINE_CELL_POINTS, FilterSettings, PolarisedPhase, SunDiscOperator, cell_solid_angles,
+    gaussian_blur, resample_bins,
+};
+use super::{MieError, Sphere, size_parameter};
+use num_complex::Complex64;
+use rayon::prelude::*;
 use std::f64::consts::PI;
 
 /// Mass of `n(r) r²` dropped from each tail of the support (so at most `2·TRUNCATION` in all).
@@ -216,6 +221,340 @@ pub fn sample_sphere(
         out.i_par[m - c] += wn * amp.s2_mirror[i].norm_sqr();
     }
     out
+}
+
+/// Default of `radius_tolerance` (decision MIE-16).
+pub const DEFAULT_RADIUS_TOLERANCE: f64 = 0.02;
+
+/// Strata (radius nodes) per round of the sampled average.
+pub const STRATA: usize = 16;
+/// Rounds before the first error estimate.
+pub const MIN_ROUNDS: usize = 4;
+/// Largest number of radius nodes of one sampled entry (the estimate is then reported as is).
+pub const MAX_NODES: usize = 4096;
+/// Intermediate cells per angular sample of a radius node (outside the exact polar caps).
+pub const ANGLE_BLOCK_CELLS: usize = 8;
+
+/// Ensemble result of one (wavelength, entry): the table curve and averaged scalars.
+#[derive(Debug, Clone)]
+pub struct EntryResult {
+    /// Output curve (bin averages on the table grid).
+    pub curve: PolarisedPhase,
+    /// `⟨C_ext⟩/⟨π r²⟩`.
+    pub q_ext: f64,
+    /// `⟨C_sca⟩/⟨π r²⟩`.
+    pub q_sca: f64,
+    /// `⟨C_back⟩/⟨π r²⟩`.
+    pub q_back: f64,
+    /// `⟨C_sca g⟩/⟨C_sca⟩`.
+    pub g: f64,
+    /// Radius nodes used (1 for a single sphere).
+    pub radius_nodes: usize,
+    /// Estimated RMS relative standard error of the curve (sampled distributions; 0 for a
+    /// single sphere and for the Gauss–Legendre rule, which has no estimate).
+    pub error_rms: f64,
+}
+
+/// Computes one table entry (pure): every radius of the distribution's quadrature on its own
+/// fine grid of cell averages, resampled to the intermediate grid, mixed with weights
+/// `n(r) dr · C_sca(r)`, convolved with the sun's disc, optionally blurred, and integrated
+/// over the output bins. `sun` must be [`FilterSettings::sun_operator`] of `settings`.
+/// `wavelength_nm` is the wavelength in the medium around the drops and `m` the index relative
+/// to it (see [`crate::mie::in_medium`]).
+///
+/// A monodisperse entry is its one sphere (exact cell averages). A distribution is averaged by
+/// joint sampling of radius and angle to `settings.radius_tolerance`
+/// (this module's sampling, decision MIE-16), or, when that is 0, by the Gauss–Legendre rule
+/// in ln r of `settings.radius_points` nodes with exact cell averages per node.
+pub fn compute_entry(
+    distribution: &SizeDistribution,
+    wavelength_nm: f64,
+    m: Complex64,
+    settings: &FilterSettings,
+    sun: &SunDiscOperator,
+) -> Result<EntryResult, MieError> {
+    match distribution {
+        SizeDistribution::Monodisperse { .. } => {
+            gauss_legendre_entry(distribution, wavelength_nm, m, settings, sun)
+        }
+        _ if settings.radius_tolerance > 0.0 => {
+            sampled_entry(distribution, wavelength_nm, m, settings, sun)
+        }
+        _ => gauss_legendre_entry(distribution, wavelength_nm, m, settings, sun),
+    }
+}
+
+/// The Gauss–Legendre rule in ln r (one node for a monodisperse entry), every node's curve as
+/// exact cell averages on its fine grid.
+fn gauss_legendre_entry(
+    distribution: &SizeDistribution,
+    wavelength_nm: f64,
+    m: Complex64,
+    settings: &FilterSettings,
+    sun: &SunDiscOperator,
+) -> Result<EntryResult, MieError> {
+    let (radii, weights) = distribution.quadrature(settings.radius_points);
+    let mid = settings.intermediate_intervals();
+    let per_radius: Vec<Result<(PolarisedPhase, [f64; 5]), MieError>> = radii
+        .par_iter()
+        .zip(&weights)
+        .map(|(&r, &w)| {
+            let x = size_parameter(r, wavelength_nm);
+            let sphere = Sphere::new(x, m)?;
+            let fine_cells = FilterSettings::fine_grid_intervals(mid, sphere.coefficients.n_stop());
+            let fine = PolarisedPhase::from_sphere(&sphere, fine_cells, FINE_CELL_POINTS, false);
+            let curve = resample_bins(&fine, mid);
+            let e = sphere.efficiencies;
+            let area = std::f64::consts::PI * r * r;
+            Ok((
+                curve,
+                [
+                    w * area,
+                    w * area * e.q_ext,
+                    w * area * e.q_sca,
+                    w * area * e.q_back,
+                    w * area * e.q_sca * e.g,
+                ],
+            ))
+        })
+        .collect();
+    let mut mix = PolarisedPhase::zeros(mid);
+    let mut sums = [0.0; 5];
+    let mut total_sca = 0.0;
+    let mut parts = Vec::with_capacity(per_radius.len());
+    for item in per_radius {
+        let (curve, s) = item?;
+        for (a, b) in sums.iter_mut().zip(s) {
+            *a += b;
+        }
+        total_sca += s[2];
+        parts.push((curve, s[2]));
+    }
+    for (curve, c_sca) in &parts {
+        mix.add_scaled(curve, c_sca / total_sca);
+    }
+    let mix = sun.apply(&mix);
+    let mix = gaussian_blur(&mix, settings.gaussian_sigma_deg);
+    let curve = resample_bins(&mix, settings.output_intervals);
+    Ok(EntryResult {
+        curve,
+        q_ext: sums[1] / sums[0],
+        q_sca: sums[2] / sums[0],
+        q_back: sums[3] / sums[0],
+        g: sums[4] / sums[2],
+        radius_nodes: radii.len(),
+        error_rms: 0.0,
+    })
+}
+
+/// One round of the sampled average: `Σ w_k p_k` on the intermediate grid and the sums
+/// `Σ w_k π r² · [1, Q_ext, Q_sca, Q_back, Q_sca g]` (`w_k = n(r_k)/q(r_k)`).
+struct Round {
+    mix: PolarisedPhase,
+    sums: [f64; 5],
+}
+
+/// The sampled size-distribution average (module doc): rounds of
+/// [`STRATA`] jittered radius strata, each node's curve sampled on the intermediate grid, until
+/// the spread of the rounds' outputs (after sun disc, blur, bins) gives an RMS relative standard
+/// error ≤ `settings.radius_tolerance` (relative to the phase function of the bin, over every
+/// bin and both `i_perp` and `i_par`), or [`MAX_NODES`] nodes. [`MIN_ROUNDS`] rounds first, then
+/// the number of rounds the estimate predicts (it falls like `1/√rounds`), plus 10 %.
+fn sampled_entry(
+    distribution: &SizeDistribution,
+    wavelength_nm: f64,
+    m: Complex64,
+    settings: &FilterSettings,
+    sun: &SunDiscOperator,
+) -> Result<EntryResult, MieError> {
+    let mid = settings.intermediate_intervals();
+    let sampler = RadiusSampler::new(distribution, TRUNCATION);
+    let seed = fnv1a(
+        format!(
+            "{distribution:?} {} {} {}",
+            wavelength_nm.to_bits(),
+            m.re.to_bits(),
+            m.im.to_bits()
+        )
+        .as_bytes(),
+    );
+    let finish = |mix: &PolarisedPhase, scale: f64| {
+        let mut c = PolarisedPhase::zeros(mid);
+        c.add_scaled(mix, scale);
+        let c = gaussian_blur(&sun.apply(&c), settings.gaussian_sigma_deg);
+        resample_bins(&c, settings.output_intervals)
+    };
+    let round = |k: usize| -> Result<Round, MieError> {
+        let mut mix = PolarisedPhase::zeros(mid);
+        let mut sums = [0.0; 5];
+        for s in 0..STRATA {
+            let mut rng = SplitMix64::new(seed ^ fnv1a(&((k * STRATA + s) as u64).to_le_bytes()));
+            let u = (s as f64 + rng.next_f64()) / STRATA as f64;
+            let (r, w) = sampler.sample(distribution, u);
+            let sphere = Sphere::new(size_parameter(r, wavelength_nm), m)?;
+            let curve = sample_sphere(&sphere, mid, ANGLE_BLOCK_CELLS, &mut rng);
+            let e = sphere.efficiencies;
+            let wa = w * std::f64::consts::PI * r * r;
+            mix.add_scaled(&curve, wa * e.q_sca);
+            for (a, b) in sums
+                .iter_mut()
+                .zip([1.0, e.q_ext, e.q_sca, e.q_back, e.q_sca * e.g])
+            {
+                *a += wa * b;
+            }
+        }
+        Ok(Round { mix, sums })
+    };
+    let mut outputs: Vec<PolarisedPhase> = Vec::new();
+    let mut pooled = PolarisedPhase::zeros(mid);
+    let mut sums = [0.0; 5];
+    let mut add = MIN_ROUNDS;
+    loop {
+        let start = outputs.len();
+        let batch = (start..start + add)
+            .into_par_iter()
+            .map(round)
+            .collect::<Result<Vec<Round>, _>>()?;
+        for r in batch {
+            outputs.push(finish(&r.mix, 1.0 / r.sums[2]));
+            pooled.add_scaled(&r.mix, 1.0);
+            for (a, b) in sums.iter_mut().zip(r.sums) {
+                *a += b;
+            }
+        }
+        let curve = finish(&pooled, 1.0 / sums[2]);
+        let error_rms = rounds_error_rms(&outputs, &curve);
+        let nodes = outputs.len() * STRATA;
+        if error_rms <= settings.radius_tolerance || nodes + STRATA > MAX_NODES {
+            return Ok(EntryResult {
+                curve,
+                q_ext: sums[1] / sums[0],
+                q_sca: sums[2] / sums[0],
+                q_back: sums[3] / sums[0],
+                g: sums[4] / sums[2],
+                radius_nodes: nodes,
+                error_rms,
+            });
+        }
+        // the standard error falls like 1/√rounds: add the rounds the estimate asks for (+10 %),
+        // at least one, at most four times those done, within MAX_NODES
+        let rounds = outputs.len();
+        let wanted = (rounds as f64 * 1.1 * (error_rms / settings.radius_tolerance).powi(2)).ceil();
+        add = (wanted as usize)
+            .saturating_sub(rounds)
+            .clamp(1, 4 * rounds)
+            .min(MAX_NODES / STRATA - rounds);
+    }
+}
+
+/// A brute-force reference for a distribution entry (validation only; slow): `nodes` radii at
+/// the midpoints `u = (i + ½)/nodes` of the cumulative distribution of `n(r) r²` (no
+/// truncation), every node's curve as exact cell averages on its fine grid (the single-sphere
+/// path), mixed with weights `n(r) dr · C_sca(r)`, then sun disc, blur and bins. Returns the
+/// whole rule and its even and odd halves (two interleaved rules of `nodes/2`; their difference
+/// bounds the reference's own error).
+pub fn reference_entry(
+    distribution: &SizeDistribution,
+    wavelength_nm: f64,
+    m: Complex64,
+    settings: &FilterSettings,
+    sun: &SunDiscOperator,
+    nodes: usize,
+) -> Result<[PolarisedPhase; 3], MieError> {
+    let mid = settings.intermediate_intervals();
+    let sampler = RadiusSampler::new(distribution, 0.0);
+    let zero = || {
+        (
+            [PolarisedPhase::zeros(mid), PolarisedPhase::zeros(mid)],
+            [0.0; 2],
+        )
+    };
+    let (mixes, totals) = (0..nodes)
+        .into_par_iter()
+        .map(|i| {
+            let (r, w) = sampler.sample(distribution, (i as f64 + 0.5) / nodes as f64);
+            let sphere = Sphere::new(size_parameter(r, wavelength_nm), m)?;
+            let fine_cells = FilterSettings::fine_grid_intervals(mid, sphere.coefficients.n_stop());
+            let fine = PolarisedPhase::from_sphere(&sphere, fine_cells, FINE_CELL_POINTS, false);
+            let c = w * std::f64::consts::PI * r * r * sphere.efficiencies.q_sca;
+            Ok((i % 2, resample_bins(&fine, mid), c))
+        })
+        .try_fold(zero, |mut acc, item: Result<_, MieError>| {
+            let (half, curve, c) = item?;
+            acc.0[half].add_scaled(&curve, c);
+            acc.1[half] += c;
+            Ok(acc)
+        })
+        .try_reduce(zero, |mut a, b| {
+            for h in 0..2 {
+                a.0[h].add_scaled(&b.0[h], 1.0);
+                a.1[h] += b.1[h];
+            }
+            Ok(a)
+        })?;
+    let finish = |mix: &PolarisedPhase, scale: f64| {
+        let mut c = PolarisedPhase::zeros(mid);
+        c.add_scaled(mix, scale);
+        let c = gaussian_blur(&sun.apply(&c), settings.gaussian_sigma_deg);
+        resample_bins(&c, settings.output_intervals)
+    };
+    let mut all = mixes[0].clone();
+    all.add_scaled(&mixes[1], 1.0);
+    Ok([
+        finish(&all, 1.0 / (totals[0] + totals[1])),
+        finish(&mixes[0], 1.0 / totals[0]),
+        finish(&mixes[1], 1.0 / totals[1]),
+    ])
+}
+
+/// Relative differences of `a` against `reference` over the bins, for `i_perp` and `i_par`:
+/// `(max, angle of the max in degrees, channel name of the max, rms)`.
+pub fn relative_difference(
+    a: &PolarisedPhase,
+    reference: &PolarisedPhase,
+) -> (f64, f64, &'static str, f64) {
+    let (mut max, mut at, mut ch, mut sq, mut n) = (0.0, 0.0, "i_perp", 0.0, 0usize);
+    for (name, x, y) in [
+        ("i_perp", &a.i_perp, &reference.i_perp),
+        ("i_par", &a.i_par, &reference.i_par),
+    ] {
+        for (j, (p, q)) in x.iter().zip(y.iter()).enumerate() {
+            if !(q.abs() > 0.0) {
+                continue;
+            }
+            let e = ((p - q) / q).abs();
+            sq += e * e;
+            n += 1;
+            if e > max {
+                (max, at, ch) = (e, reference.angle_deg(j), name);
+            }
+        }
+    }
+    (max, at, ch, (sq / n.max(1) as f64).sqrt())
+}
+
+/// RMS over bins and the channels `i_perp`, `i_par` of the standard error of the mean of
+/// independent `rounds`, relative to the phase function of `pooled` in the bin.
+pub fn rounds_error_rms(rounds: &[PolarisedPhase], pooled: &PolarisedPhase) -> f64 {
+    let n = rounds.len() as f64;
+    if rounds.len() < 2 {
+        return f64::INFINITY;
+    }
+    let phase = pooled.phase();
+    let (mut acc, mut count) = (0.0, 0usize);
+    for (b, p) in phase.iter().enumerate() {
+        if !(*p > 0.0) {
+            continue;
+        }
+        for ch in 0..2 {
+            let get = |r: &PolarisedPhase| if ch == 0 { r.i_perp[b] } else { r.i_par[b] };
+            let mean = rounds.iter().map(get).sum::<f64>() / n;
+            let var = rounds.iter().map(|r| (get(r) - mean).powi(2)).sum::<f64>() / (n - 1.0);
+            acc += var / n / (p * p);
+            count += 1;
+        }
+    }
+    (acc / count.max(1) as f64).sqrt()
 }
 
 #[cfg(test)]

@@ -401,6 +401,53 @@ pub fn gaussian_blur_1d(values: &[f64], step: f64, sigma: f64) -> Vec<f64> {
         .collect()
 }
 
+/// Filter settings of one job.
+#[derive(Debug, Clone, Copy)]
+pub struct FilterSettings {
+    pub output_intervals: usize,
+    pub sun_diameter_deg: f64,
+    pub gaussian_sigma_deg: f64,
+    pub radius_points: usize,
+    /// Target RMS relative standard error of sampled distribution entries; 0 = Gauss–Legendre
+    /// rule of `radius_points` nodes (decision MIE-16).
+    pub radius_tolerance: f64,
+}
+
+/// The smallest odd integer ≥ `k` (odd refinements keep every output bin centre on a cell
+/// centre of the finer grid, so that cells nest in bins).
+fn odd_at_least(k: usize) -> usize {
+    if k.is_multiple_of(2) { k + 1 } else { k }
+}
+
+impl FilterSettings {
+    /// Intervals of the intermediate grid on which the disc/Gaussian act: the output step
+    /// divided by the smallest odd `k` giving a step ≤ min(sun diameter/40, σ/4) (so that cells
+    /// nest in output bins).
+    pub fn intermediate_intervals(&self) -> usize {
+        let step = 180.0 / self.output_intervals as f64;
+        let mut limit = step;
+        if self.sun_diameter_deg > 0.0 {
+            limit = limit.min(self.sun_diameter_deg / 40.0);
+        }
+        if self.gaussian_sigma_deg > 0.0 {
+            limit = limit.min(self.gaussian_sigma_deg / 4.0);
+        }
+        self.output_intervals * odd_at_least((step / limit - 1e-9).ceil().max(1.0) as usize)
+    }
+
+    /// Intervals of the fine grid of cell averages for a sphere of `n_stop` terms: an odd
+    /// multiple of the intermediate grid (`mid` intervals) with at least
+    /// [`fine_intervals`]`(n_stop, mid)` cells.
+    pub fn fine_grid_intervals(mid: usize, n_stop: usize) -> usize {
+        mid * odd_at_least(fine_intervals(n_stop, mid).div_ceil(mid))
+    }
+
+    /// The sun-disc operator on the intermediate grid (build once per job, share across tasks).
+    pub fn sun_operator(&self) -> SunDiscOperator {
+        SunDiscOperator::new(self.intermediate_intervals(), self.sun_diameter_deg)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -21,8 +21,9 @@
 //!
 //! Layout: [`riccati`] (Riccati–Bessel functions and log-derivatives, reusable by a Debye
 //! series), [`coefficients`] (`a_n`, `b_n`, efficiencies), [`angular`] (the vectorised
-//! `S_1`/`S_2` kernel) and [`filters`] (size distributions, sun disc, bin resampling); the `mie`
-//! stage is [`crate::stages::mie`].
+//! `S_1`/`S_2` kernel), [`filters`] (sun disc, blur, bin resampling, the filter grids of a
+//! table), [`distributions`] and [`ensemble`] (size-distribution averages of a table entry); the
+//! `mie` stage is [`crate::stages::mie`].
 
 pub mod angular;
 pub mod coated;

@@ -6,15 +6,32 @@
 //! - [`tracer`]: the general 2-D patch tracer (any shape, any sun elevation);
 //! - [`sphere1d`]: the fast exact 1-D geometric-optics-plus-phase path for spheres;
 //! - [`post`]: the Gaussian diffraction filter and the forward Fraunhofer lobe;
+//! - [`caustic`]: the caustic windows of 2-D table columns and their filters;
+//! - [`table2d`]: one entry of a 2-D table from a trace (filters, lobe, added sphere orders,
+//!   mirror symmetry);
+//! - [`mixture`]: drop-size mixtures of Lorenz–Mie and traced spheres.
 //!
-//! The `raytrace` stage (schemas `raytrace-phase/2` and `raytrace-phase-2d/2`) is
-//! [`crate::stages::raytrace`].
+//! The `raytrace` and `mixture` stages (schemas `raytrace-phase/2`, `raytrace-phase-2d/2`,
+//! `mixture-phase/1`) are [`crate::stages::raytrace`] and [`crate::stages::mixture`].
 
 pub mod caustic;
+pub mod mixture;
 pub mod post;
 pub mod shape;
 pub mod sphere1d;
+pub mod table2d;
 pub mod tracer;
+
+/// A phase function of scattering angle in the phase-table normalisation (1/sr):
+/// `i_perp = (dσ/dΩ)_⊥/σ`, `i_par = (dσ/dΩ)_∥/σ`, `phase = (i_perp + i_par)/2`.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct PhaseCurves {
+    /// Scattering angles (deg).
+    pub angle_deg: Vec<f64>,
+    pub phase: Vec<f64>,
+    pub i_perp: Vec<f64>,
+    pub i_par: Vec<f64>,
+}
 
 /// Channel names of a ray-traced phase table, in order: the phase-table contract's four (phase,
 /// i_perp, i_par, dolp), then, with `diagnostic`, the per-order (filtered) phase functions

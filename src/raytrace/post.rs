@@ -127,6 +127,18 @@ pub fn bin_edges(theta: f64, step: f64) -> (f64, f64) {
     ((theta - 0.5 * step).max(0.0), (theta + 0.5 * step).min(PI))
 }
 
+/// ∫ p dΩ of a 1-D phase function on a uniform [0, π] grid of step `step` (rad): bin-sum with
+/// exact bin solid angles.
+pub fn integral_1d(values: impl Iterator<Item = f64>, step: f64) -> f64 {
+    values
+        .enumerate()
+        .map(|(j, v)| {
+            let (lo, hi) = bin_edges(step * j as f64, step);
+            v * 2.0 * PI * (lo.cos() - hi.cos())
+        })
+        .sum()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -3,12 +3,12 @@
 //! (entry, wavelength) task grid, the chunk layout of a task, the table axes and the header
 //! attributes that describe the filters) and the Mie-domain check at plan time.
 
+use crate::mie::filters::FilterSettings;
 use crate::mie::filters::{PolarisedPhase, SunDiscOperator};
 use crate::mie::{check_domain, in_medium};
 use crate::optics::water::WaterIndexModel;
-use crate::stages::mie::FilterSettings;
 use crate::stages::phase_contract;
-use crate::stages::{JobError, PlanError, TaskSpec, check_chunks, checks, join_f64, split_f64};
+use crate::stages::{Chunk, JobError, PlanError, TaskSpec, check_chunks, checks};
 use crate::table::Axis;
 use num_complex::Complex64;
 use serde_json::{Map, Value};
@@ -206,27 +206,23 @@ impl FilteredPhase {
         )
     }
 
-    /// Chunks of [`phase_chunk`] with `channels` values per angle and `scalars` f64 scalars,
-    /// split into the table data and the scalars.
+    /// Chunks of [`phase_chunk`] with `channels` values per angle and `scalars` scalars, split
+    /// into the table data and the scalars `[entry][wavelength][scalar]`.
     pub fn split_chunks(
         &self,
-        chunks: &[Vec<f32>],
+        chunks: Vec<Chunk>,
         entries: usize,
         channels: usize,
         scalars: usize,
     ) -> Result<(Vec<f32>, EntryScalars), JobError> {
         let wavelengths = self.wavelengths_nm.len();
         let values = self.angles() * channels;
-        check_chunks(chunks, entries * wavelengths, values + 2 * scalars)?;
+        check_chunks(&chunks, entries * wavelengths, values, scalars)?;
         let mut data = Vec::with_capacity(chunks.len() * values);
         let mut tails = vec![Vec::with_capacity(wavelengths); entries];
-        for (i, c) in chunks.iter().enumerate() {
-            data.extend_from_slice(&c[..values]);
-            let tail = c[values..]
-                .chunks_exact(2)
-                .map(|p| join_f64(p[0], p[1]))
-                .collect();
-            tails[i / wavelengths].push(tail);
+        for (i, c) in chunks.into_iter().enumerate() {
+            data.extend_from_slice(&c.values);
+            tails[i / wavelengths].push(c.scalars);
         }
         Ok((data, tails))
     }
@@ -266,11 +262,10 @@ impl FilteredPhase {
 }
 
 /// A task chunk: per angle the contract channels of `curve` and then the `extra` curves (one
-/// value each), then `scalars` as [`split_f64`] pairs.
-pub fn phase_chunk(curve: &PolarisedPhase, extra: &[Vec<f64>], scalars: &[f64]) -> Vec<f32> {
+/// value each); `scalars` as they are.
+pub fn phase_chunk(curve: &PolarisedPhase, extra: &[Vec<f64>], scalars: &[f64]) -> Chunk {
     let (phase, dolp) = (curve.phase(), curve.dolp());
-    let mut out =
-        Vec::with_capacity(phase.len() * (CONTRACT_CHANNELS + extra.len()) + 2 * scalars.len());
+    let mut out = Vec::with_capacity(phase.len() * (CONTRACT_CHANNELS + extra.len()));
     for j in 0..phase.len() {
         out.extend([
             phase[j] as f32,
@@ -280,10 +275,7 @@ pub fn phase_chunk(curve: &PolarisedPhase, extra: &[Vec<f64>], scalars: &[f64]) 
         ]);
         out.extend(extra.iter().map(|c| c[j] as f32));
     }
-    for &v in scalars {
-        out.extend(split_f64(v));
-    }
-    out
+    Chunk::new(out, scalars.to_vec())
 }
 
 /// `[entry][wavelength]` arrays of scalar `k` of every task.

@@ -9,17 +9,13 @@
 //! integrates to its share of the scattered energy (plus cross-order interference terms).
 //! Filters as in the `mie` stage: cell averages on a fine grid, uniform sun disc, bin averages.
 
-use crate::debye::{DebyeCoefficients, OrderSet};
-use crate::mie::filters::{FINE_CELL_POINTS, PolarisedPhase, SunDiscOperator, resample_bins};
-use crate::mie::size_parameter;
+use crate::debye::filtered::compute_debye_entry;
 use crate::stages::common::{
     CONTRACT_CHANNELS, FilteredPhase, filtered_phase_params, phase_chunk, scalar_arrays,
 };
-use crate::stages::mie::FilterSettings;
 use crate::stages::phase_contract;
-use crate::stages::{Job, JobError, PlanError, StageSpec, TaskSpec, checks};
+use crate::stages::{Chunk, Job, JobError, PlanError, StageSpec, TaskSpec, checks};
 use crate::table::{Axis, Channel, Schema, TableContent};
-use num_complex::Complex64;
 
 /// The stage.
 pub struct DebyeStage;
@@ -43,58 +39,6 @@ pub const MAX_ORDER: usize = 1000;
 
 /// Gauss–Legendre points of the filter settings; unused (monodisperse entries only).
 const RADIUS_POINTS_UNUSED: usize = 4;
-
-/// One (wavelength, radius) result: the summed curve, each order's curve, and the
-/// efficiencies (Mie `Q_sca`, then each order's own `Q^{(p)}`).
-#[derive(Debug, Clone)]
-pub struct DebyeEntry {
-    pub sum: PolarisedPhase,
-    pub orders: Vec<PolarisedPhase>,
-    pub q_sca: f64,
-    pub order_efficiency: Vec<f64>,
-}
-
-/// Computes one entry (pure): the coherent sum of `orders` and each order alone, as cell
-/// averages on the fine grid of the sphere, resampled to the intermediate grid, convolved with
-/// the sun's disc (`sun`, built on `settings.intermediate_intervals()`) and integrated over the
-/// output bins; normalised by the Mie `π x² Q_sca`.
-pub fn compute_debye_entry(
-    radius_um: f64,
-    wavelength_nm: f64,
-    m: Complex64,
-    orders: &[usize],
-    settings: &FilterSettings,
-    sun: &SunDiscOperator,
-) -> Result<DebyeEntry, crate::mie::MieError> {
-    let x = size_parameter(radius_um, wavelength_nm);
-    let d = DebyeCoefficients::new(x, m)?;
-    let mid = settings.intermediate_intervals();
-    let fine = FilterSettings::fine_grid_intervals(mid, d.n_stop());
-    let finish = |c: PolarisedPhase| {
-        let c = resample_bins(&c, mid);
-        let c = sun.apply(&c);
-        resample_bins(&c, settings.output_intervals)
-    };
-    let sum = finish(d.curve(
-        &OrderSet::Orders(orders.to_vec()),
-        fine,
-        FINE_CELL_POINTS,
-        false,
-    ));
-    let mut curves = Vec::with_capacity(orders.len());
-    let mut eff = Vec::with_capacity(orders.len());
-    for &p in orders {
-        let (a, b) = d.coefficients(&OrderSet::Orders(vec![p]));
-        eff.push(d.efficiency_of(&a, &b));
-        curves.push(finish(d.curve_of(a, b, fine, FINE_CELL_POINTS, false)));
-    }
-    Ok(DebyeEntry {
-        sum,
-        orders: curves,
-        q_sca: d.mie.efficiencies().q_sca,
-        order_efficiency: eff,
-    })
-}
 
 struct DebyeJob {
     p: DebyeParams,
@@ -152,7 +96,7 @@ impl Job for DebyeJob {
     }
     /// Chunk: per angle the contract channels of the sum of the orders, then each order's
     /// phase; then Q_sca and each order's efficiency.
-    fn run_task(&self, index: usize) -> Result<Vec<f32>, JobError> {
+    fn run_task(&self, index: usize) -> Result<Chunk, JobError> {
         let (e, wavelength_nm, m) = self.filter.task(index);
         let r = compute_debye_entry(
             self.p.radii_um[e],
@@ -167,9 +111,9 @@ impl Job for DebyeJob {
         scalars.extend(&r.order_efficiency);
         Ok(phase_chunk(&r.sum, &per_order, &scalars))
     }
-    fn assemble(&self, chunks: Vec<Vec<f32>>) -> Result<TableContent, JobError> {
+    fn assemble(&self, chunks: Vec<Chunk>) -> Result<TableContent, JobError> {
         let (data, tails) = self.filter.split_chunks(
-            &chunks,
+            chunks,
             self.p.radii_um.len(),
             CONTRACT_CHANNELS + self.p.orders.len(),
             1 + self.p.orders.len(),

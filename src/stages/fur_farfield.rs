@@ -12,7 +12,8 @@ use crate::fur::farfield::{
     far_field_with, isotropic_fraction, medulla_sigma,
 };
 use crate::stages::{
-    Job, JobError, PlanError, StageSpec, TaskSpec, check_chunks, checks, stage_params,
+    Chunk, Job, JobError, PlanError, StageSpec, TaskSpec, check_chunks, checks, concat_values,
+    stage_params,
 };
 use crate::table::Table;
 use crate::table::{Axis, Channel, Schema, TableContent};
@@ -349,7 +350,7 @@ impl Job for FarFieldJob {
             })
             .collect()
     }
-    fn run_task(&self, index: usize) -> Result<Vec<f32>, JobError> {
+    fn run_task(&self, index: usize) -> Result<Chunk, JobError> {
         let s = &self.samples[index];
         let set = self.settings();
         let sigma = medulla_sigma(s, self.p.medulla_sigma_scaling);
@@ -379,34 +380,69 @@ impl Job for FarFieldJob {
                 }
             }
         }
-        Ok(out)
+        Ok(Chunk::values(out))
     }
-    fn assemble(&self, chunks: Vec<Vec<f32>>) -> Result<TableContent, JobError> {
-        let n = self.chunk_len();
-        let mut data = Vec::with_capacity(n * chunks.len());
+    fn assemble(&self, chunks: Vec<Chunk>) -> Result<TableContent, JobError> {
+        check_chunks(&chunks, self.samples.len(), self.chunk_len(), 0)?;
+        let energies = self.energies(&chunks);
+        let attributes = self.attributes(energies);
+        let (nt, np) = (self.p.theta_r_cells, self.p.phi_cells);
+        let dt = 180.0 / nt as f64;
+        let dp = 360.0 / np as f64;
+        let mut channels = vec![Channel::new(
+            "energy",
+            "1/rad^2",
+            "total exiting energy density per unit theta_r per unit phi",
+        )];
+        for c in COMPONENTS {
+            channels.push(Channel::new(c, "1/rad^2", "component of energy"));
+        }
+        Ok(TableContent {
+            schema: Schema::new("fur-farfield", 1),
+            description: "far-field fur scattering profiles of Tseng 2015 Table 4.2 samples (practical coaxial-cylinder model)".into(),
+            axes: vec![
+                Axis::values(
+                    "sample",
+                    "index",
+                    (0..self.samples.len()).map(|i| i as f64).collect(),
+                ),
+                Axis::values("theta_i", "deg", self.p.theta_i_deg.clone()),
+                Axis::uniform("theta_r", "deg", -90.0 + 0.5 * dt, dt, nt),
+                Axis::uniform("phi", "deg", -180.0 + 0.5 * dp, dp, np),
+            ],
+            channels,
+            attributes,
+            data: concat_values(chunks),
+        })
+    }
+}
+
+impl FarFieldJob {
+    /// Energy per (sample, θ_i) and channel, Σ value × cell area, from the stored (f32) values,
+    /// flat row-major over (sample, θ_i, channel).
+    fn energies(&self, chunks: &[Chunk]) -> Vec<f64> {
         let (nt, np) = (self.p.theta_r_cells, self.p.phi_cells);
         let area = (180.0 / nt as f64).to_radians() * (360.0 / np as f64).to_radians();
-        // Energy per (sample, θ_i) and component, from the stored (f32) values.
         let mut energies = Vec::new();
-        check_chunks(&chunks, self.samples.len(), n)?;
-        for ch in &chunks {
-            data.extend_from_slice(ch);
+        for ch in chunks {
             for ti in 0..self.p.theta_i_deg.len() {
-                let block = &ch[ti * nt * np * CHANNELS..(ti + 1) * nt * np * CHANNELS];
-                let e: Vec<f64> = (0..CHANNELS)
-                    .map(|c| {
-                        block
-                            .iter()
-                            .skip(c)
-                            .step_by(CHANNELS)
-                            .map(|&v| v as f64)
-                            .sum::<f64>()
-                            * area
-                    })
-                    .collect();
-                energies.push(e);
+                let block = &ch.values[ti * nt * np * CHANNELS..(ti + 1) * nt * np * CHANNELS];
+                energies.extend((0..CHANNELS).map(|c| {
+                    block
+                        .iter()
+                        .skip(c)
+                        .step_by(CHANNELS)
+                        .map(|&v| v as f64)
+                        .sum::<f64>()
+                        * area
+                }));
             }
         }
+        energies
+    }
+
+    /// The header attributes: model, conventions, medulla source, samples and `energies`.
+    fn attributes(&self, energies: Vec<f64>) -> serde_json::Map<String, serde_json::Value> {
         let mut a = serde_json::Map::new();
         a.insert("model".into(), "practical shading model of Tseng 2015 ch. 5 / App. A (coaxial cylinder): unscattered Gaussian lobes of R, TT, TRT, TrT, TttT, TtrtT, TrRrT, TttRttT (chief-ray exit azimuths, Stokes-pile cuticle Fresnel, medulla-interface Fresnel, cortex absorption, medulla extinction) plus medulla-scattered lobes of the TttT, TtrtT and TttRttT chords shaped by 2-D medulla Monte Carlo profiles (C^N, C^M; on the fly or from medulla tables, see medulla_profiles), averaged over the fibre width (h uniform on (-1, 1)). Decisions: docs/decisions.md, fur far field (FUR-1f, FUR-11 … FUR-19)".into());
         a.insert("value_convention".into(), "every channel is the exiting energy per unit theta_r per unit phi (1/rad^2) per unit incident power intercepted by the fibre, AVERAGED over the cell (lobes integrated analytically over the cell, medulla bins split linearly between phi cells): sum over cells of value * dtheta_r * dphi = energy carried. Longitudinal lobes are normalised with int M dtheta_r = 1 (no cos weight). The thesis BCSDF S of Eq. 5.1 is sum_p M_p N_p / cos^2 theta_i with N_p the per-h azimuthal energy density; this table holds the h-average of sum_p M_p N_p, i.e. cos^2 theta_i * S averaged over h".into());
@@ -460,37 +496,8 @@ impl Job for FarFieldJob {
             "energy_layout".into(),
             "flat row-major over (sample, theta_i, channel) of sum value * cell area".into(),
         );
-        a.insert(
-            "energy".into(),
-            energies.into_iter().flatten().collect::<Vec<f64>>().into(),
-        );
-        let dt = 180.0 / nt as f64;
-        let dp = 360.0 / np as f64;
-        let mut channels = vec![Channel::new(
-            "energy",
-            "1/rad^2",
-            "total exiting energy density per unit theta_r per unit phi",
-        )];
-        for c in COMPONENTS {
-            channels.push(Channel::new(c, "1/rad^2", "component of energy"));
-        }
-        Ok(TableContent {
-            schema: Schema::new("fur-farfield", 1),
-            description: "far-field fur scattering profiles of Tseng 2015 Table 4.2 samples (practical coaxial-cylinder model)".into(),
-            axes: vec![
-                Axis::values(
-                    "sample",
-                    "index",
-                    (0..self.samples.len()).map(|i| i as f64).collect(),
-                ),
-                Axis::values("theta_i", "deg", self.p.theta_i_deg.clone()),
-                Axis::uniform("theta_r", "deg", -90.0 + 0.5 * dt, dt, nt),
-                Axis::uniform("phi", "deg", -180.0 + 0.5 * dp, dp, np),
-            ],
-            channels,
-            attributes: a,
-            data,
-        })
+        a.insert("energy".into(), energies.into());
+        a
     }
 }
 

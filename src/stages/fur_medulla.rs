@@ -25,8 +25,8 @@
 
 use crate::fur::medulla::{Estimator, Geometry, McSettings, Profile, normalise_lobes, simulate};
 use crate::stages::{
-    Job, JobError, ParamDoc, PlanError, StageParams, StageSpec, TaskSpec, check_chunks,
-    stage_params,
+    Chunk, Job, JobError, ParamDoc, PlanError, StageParams, StageSpec, TaskSpec, check_chunks,
+    concat_values, stage_params,
 };
 use crate::table::{Axis, Channel, Schema, TableContent};
 use rayon::prelude::*;
@@ -381,9 +381,32 @@ impl MedullaJob {
             Family::Longitudinal => 5,
         }
     }
-    /// Values of one (σ, g) chunk: every entry row and its scalars.
-    fn pair_chunk_len(&self) -> usize {
-        self.entries.len() * (self.p.bins * self.channels() + self.scalars())
+    /// Values and scalars of one (σ, g) chunk: every entry's row and scalars.
+    fn pair_chunk_len(&self) -> (usize, usize) {
+        let n = self.entries.len();
+        (n * self.p.bins * self.channels(), n * self.scalars())
+    }
+
+    /// The (σ, g) chunks of a chunk of several (as the deterministic methods compute them),
+    /// in order.
+    fn split_pairs(&self, chunk: Chunk) -> Vec<Chunk> {
+        let (values, scalars) = self.pair_chunk_len();
+        chunk
+            .values
+            .chunks(values)
+            .zip(chunk.scalars.chunks(scalars))
+            .map(|(v, s)| Chunk::new(v.to_vec(), s.to_vec()))
+            .collect()
+    }
+
+    /// Several (σ, g) chunks as one, in order.
+    fn join_pairs(pairs: Vec<Chunk>) -> Chunk {
+        let mut out = Chunk::default();
+        for c in pairs {
+            out.values.extend(c.values);
+            out.scalars.extend(c.scalars);
+        }
+        out
     }
     /// Remove the header attributes that describe Monte Carlo sampling (for the deterministic
     /// methods, which assemble through the same code).
@@ -512,11 +535,11 @@ impl MedullaJob {
         }
     }
     /// A task's chunk: every entry row in order (negative rows mirrored from their positive
-    /// source, which `rows` holds; mirrored rows are `None`), then the per-entry scalars.
-    fn chunk(&self, rows: &[Option<(Vec<f32>, Vec<f32>)>]) -> Vec<f32> {
+    /// source, which `rows` holds; mirrored rows are `None`) and the per-entry scalars.
+    fn chunk(&self, rows: &[Option<(Vec<f32>, Vec<f32>)>]) -> Chunk {
         let n = self.entries.len();
         let (b, c) = (self.p.bins, self.channels());
-        let mut data = Vec::with_capacity(n * (b * c + self.scalars()));
+        let mut data = Vec::with_capacity(n * b * c);
         let mut scalars = Vec::with_capacity(n * self.scalars());
         for i in 0..n {
             match (&rows[i], self.mirror_source(i)) {
@@ -553,8 +576,7 @@ impl MedullaJob {
                 (None, None) => unreachable!(),
             }
         }
-        data.extend(scalars);
-        data
+        Chunk::new(data, scalars.into_iter().map(f64::from).collect())
     }
 }
 
@@ -584,7 +606,7 @@ impl Job for MedullaJob {
         }
         t
     }
-    fn run_task(&self, index: usize) -> Result<Vec<f32>, JobError> {
+    fn run_task(&self, index: usize) -> Result<Chunk, JobError> {
         let sigma = self.sigma[index / self.g.len()];
         let g = self.g[index % self.g.len()];
         let n = self.entries.len();
@@ -597,25 +619,24 @@ impl Job for MedullaJob {
             .collect();
         Ok(self.chunk(&rows))
     }
-    fn assemble(&self, chunks: Vec<Vec<f32>>) -> Result<TableContent, JobError> {
-        let (b, c, ns, n) = (
-            self.p.bins,
-            self.channels(),
-            self.scalars(),
-            self.entries.len(),
-        );
-        let row_len = n * b * c;
-        let mut data = Vec::with_capacity(chunks.len() * row_len);
+    fn assemble(&self, chunks: Vec<Chunk>) -> Result<TableContent, JobError> {
+        let (b, ns, n) = (self.p.bins, self.scalars(), self.entries.len());
+        let (row_len, scalar_len) = self.pair_chunk_len();
         let mut scal: Vec<Vec<f64>> = vec![Vec::new(); ns];
-        check_chunks(&chunks, self.sigma.len() * self.g.len(), row_len + n * ns)?;
+        check_chunks(
+            &chunks,
+            self.sigma.len() * self.g.len(),
+            row_len,
+            scalar_len,
+        )?;
         for ch in &chunks {
-            data.extend_from_slice(&ch[..row_len]);
             for i in 0..n {
                 for (j, s) in scal.iter_mut().enumerate() {
-                    s.push(ch[row_len + i * ns + j] as f64);
+                    s.push(ch.scalars[i * ns + j]);
                 }
             }
         }
+        let data = concat_values(chunks);
         let dw_deg = 360.0 / b as f64;
         let mut a = self.monte_carlo_attributes(&scal, dw_deg)?;
         let sigma_ax = Axis::values("sigma", "1/medulla_radius", self.sigma.clone());

@@ -9,11 +9,11 @@
 use super::MedullaJob;
 use crate::fur::medulla::Profile;
 use crate::fur::medulla_fast::{AdaptiveSettings, simulate_adaptive};
-use crate::stages::{Job, JobError, TaskSpec, check_chunks};
+use crate::stages::{Chunk, Job, JobError, TaskSpec, check_chunks};
 use crate::table::TableContent;
 use rayon::prelude::*;
 
-/// Extra per-entry values appended to a task's chunk.
+/// Extra per-entry scalars of a task's chunk, after the Monte Carlo job's.
 const EXTRA: usize = 3;
 
 pub(super) struct AdaptiveJob {
@@ -49,7 +49,7 @@ impl Job for AdaptiveJob {
         self.inner.tasks()
     }
 
-    fn run_task(&self, index: usize) -> Result<Vec<f32>, JobError> {
+    fn run_task(&self, index: usize) -> Result<Chunk, JobError> {
         let job = &self.inner;
         let sigma = job.sigma[index / job.g.len()];
         let g = job.g[index % job.g.len()];
@@ -86,23 +86,24 @@ impl Job for AdaptiveJob {
         let mut out = job.chunk(&packed);
         for i in 0..n {
             let src = job.mirror_source(i).unwrap_or(i);
-            out.extend(rows[src].as_ref().expect("source row computed").1);
+            let extra = rows[src].as_ref().expect("source row computed").1;
+            out.scalars.extend(extra.map(f64::from));
         }
         Ok(out)
     }
 
-    fn assemble(&self, chunks: Vec<Vec<f32>>) -> Result<TableContent, JobError> {
+    fn assemble(&self, chunks: Vec<Chunk>) -> Result<TableContent, JobError> {
         let n = self.inner.entries.len();
         let mut extras: Vec<Vec<f64>> = vec![Vec::new(); EXTRA];
         let mut inner_chunks = Vec::with_capacity(chunks.len());
-        let len = self.inner.entries.len()
-            * (self.inner.p.bins * self.inner.channels() + self.inner.scalars() + EXTRA);
-        check_chunks(&chunks, self.inner.sigma.len() * self.inner.g.len(), len)?;
+        let (values, scalars) = self.inner.pair_chunk_len();
+        let tasks = self.inner.sigma.len() * self.inner.g.len();
+        check_chunks(&chunks, tasks, values, scalars + n * EXTRA)?;
         for mut ch in chunks {
-            let tail = ch.split_off(ch.len() - n * EXTRA);
+            let tail = ch.scalars.split_off(scalars);
             for e in tail.chunks(EXTRA) {
                 for (j, v) in e.iter().enumerate() {
-                    extras[j].push(*v as f64);
+                    extras[j].push(*v);
                 }
             }
             inner_chunks.push(ch);

@@ -9,7 +9,7 @@
 use super::MedullaJob;
 use crate::fur::disc::{DiscSettings, DiscSolver};
 use crate::fur::medulla::Profile;
-use crate::stages::{Job, JobError, TaskSpec, check_chunks};
+use crate::stages::{Chunk, Job, JobError, TaskSpec, check_chunks};
 use crate::table::TableContent;
 use serde_json::json;
 
@@ -56,7 +56,7 @@ impl Job for DiscJob {
     }
 
     /// All g of one σ: the (σ, g) chunks of the Monte Carlo layout, g in grid order.
-    fn run_task(&self, index: usize) -> Result<Vec<f32>, JobError> {
+    fn run_task(&self, index: usize) -> Result<Chunk, JobError> {
         let job = &self.inner;
         let sigma = job.sigma[index];
         let bins = job.p.bins;
@@ -64,7 +64,7 @@ impl Job for DiscJob {
         let sources: Vec<usize> = (0..n).filter(|&i| job.mirror_source(i).is_none()).collect();
         let hs: Vec<f64> = sources.iter().map(|&i| job.entries[i]).collect();
         let mut solver = DiscSolver::new(sigma, &self.settings);
-        let mut out = Vec::with_capacity(job.g.len() * self.inner.pair_chunk_len());
+        let mut pairs = Vec::with_capacity(job.g.len());
         for &g in &job.g {
             let solved = solver.solve(g, &hs);
             let mut rows = vec![None; n];
@@ -81,19 +81,19 @@ impl Job for DiscJob {
                 };
                 rows[i] = Some(job.pack_row(sigma, &prof, Vec::new));
             }
-            out.extend(job.chunk(&rows));
+            pairs.push(job.chunk(&rows));
         }
-        Ok(out)
+        Ok(MedullaJob::join_pairs(pairs))
     }
 
-    fn assemble(&self, chunks: Vec<Vec<f32>>) -> Result<TableContent, JobError> {
+    fn assemble(&self, chunks: Vec<Chunk>) -> Result<TableContent, JobError> {
         let job = &self.inner;
-        let (ns, ng, len) = (job.sigma.len(), job.g.len(), self.inner.pair_chunk_len());
-        check_chunks(&chunks, ns, ng * len)?;
+        let (ns, ng, (values, scalars)) = (job.sigma.len(), job.g.len(), job.pair_chunk_len());
+        check_chunks(&chunks, ns, ng * values, ng * scalars)?;
         // Task order is σ-major with g inside, the (σ, g) order of the Monte Carlo job.
         let mut per_pair = Vec::with_capacity(ns * ng);
         for ch in chunks {
-            per_pair.extend(ch.chunks(len).map(<[f32]>::to_vec));
+            per_pair.extend(job.split_pairs(ch));
         }
         let mut content = job.assemble(per_pair)?;
         let s = &self.settings;

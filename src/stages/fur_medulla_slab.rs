@@ -7,7 +7,7 @@
 use super::MedullaJob;
 use crate::fur::medulla::Profile;
 use crate::fur::slab::{SlabSettings, limit_shape, solve_slab};
-use crate::stages::{Job, JobError, TaskSpec, check_chunks};
+use crate::stages::{Chunk, Job, JobError, TaskSpec, check_chunks};
 use crate::table::TableContent;
 use serde_json::json;
 
@@ -52,7 +52,7 @@ impl Job for SlabJob {
     }
 
     /// All σ of one g: the (σ, g) chunks of the Monte Carlo layout, σ ascending in grid order.
-    fn run_task(&self, index: usize) -> Result<Vec<f32>, JobError> {
+    fn run_task(&self, index: usize) -> Result<Chunk, JobError> {
         let job = &self.inner;
         let g = job.g[index];
         let bins = job.p.bins;
@@ -63,7 +63,7 @@ impl Job for SlabJob {
             .map(|&i| job.entries[i].to_radians())
             .collect();
         let solved = solve_slab(g, &job.sigma, &theta, &self.settings);
-        let mut out = Vec::with_capacity(job.sigma.len() * self.inner.pair_chunk_len());
+        let mut pairs = Vec::with_capacity(job.sigma.len());
         for (si, &sigma) in job.sigma.iter().enumerate() {
             let mut rows = vec![None; n];
             for (b, &i) in sources.iter().enumerate() {
@@ -79,20 +79,20 @@ impl Job for SlabJob {
                 };
                 rows[i] = Some(job.pack_row(sigma, &prof, || limit_shape(g, theta[b], bins)));
             }
-            out.extend(job.chunk(&rows));
+            pairs.push(job.chunk(&rows));
         }
-        Ok(out)
+        Ok(MedullaJob::join_pairs(pairs))
     }
 
-    fn assemble(&self, chunks: Vec<Vec<f32>>) -> Result<TableContent, JobError> {
+    fn assemble(&self, chunks: Vec<Chunk>) -> Result<TableContent, JobError> {
         let job = &self.inner;
-        let (ns, ng, len) = (job.sigma.len(), job.g.len(), self.inner.pair_chunk_len());
-        check_chunks(&chunks, ng, ns * len)?;
+        let (ns, ng, (values, scalars)) = (job.sigma.len(), job.g.len(), job.pair_chunk_len());
+        check_chunks(&chunks, ng, ns * values, ns * scalars)?;
         // Reorder into the (σ, g) task order of the Monte Carlo job, freeing each task's chunk
         // once split.
-        let mut pieces: Vec<Vec<Vec<f32>>> = Vec::with_capacity(ng);
+        let mut pieces: Vec<Vec<Chunk>> = Vec::with_capacity(ng);
         for ch in chunks {
-            pieces.push(ch.chunks(len).map(<[f32]>::to_vec).collect());
+            pieces.push(job.split_pairs(ch));
         }
         let mut per_pair = Vec::with_capacity(ns * ng);
         for si in 0..ns {

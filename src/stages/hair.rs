@@ -3,18 +3,16 @@
 
 use crate::hair::artist::{ArtistModel, ArtistNormalisation, ArtistParams};
 use crate::hair::diffuse::{DIFFUSE_THETA_H_VARIANCE, DiffuseTerms};
-use crate::hair::dual::{
-    DUAL_CHANNELS, HQuadrature, LobeShape, PhysicalFiber, combine_with_diffuse, elliptic_slices,
-    orientation_averaged_energies,
-};
+use crate::hair::dual::{DUAL_CHANNELS, HQuadrature};
 use crate::hair::elliptic::{
-    DEFAULT_ORIENTATION_NODES, orientation_indices, orientation_nodes_for_width,
-    validate_axis_ratio,
+    DEFAULT_ORIENTATION_NODES, orientation_nodes_for_width, validate_axis_ratio,
 };
-use crate::hair::fiber::{FresnelModel, LOBE_NAMES, LOBES, OffsetQuadrature};
+use crate::hair::fiber::{FresnelModel, LOBE_NAMES};
 use crate::hair::melanin::{sigma_a_from_absorption_u, sigma_a_from_melanin};
+pub use crate::hair::rows::DUAL_TABLE_CHANNELS;
+use crate::hair::rows::{AzimuthalSweep, DualSweep, artist_dual_row};
 use crate::stages::{
-    Job, JobError, PlanError, StageSpec, TaskSpec, check_chunks, checks, stage_params,
+    Chunk, Job, JobError, PlanError, StageSpec, TaskSpec, check_chunks, checks, stage_params,
 };
 use crate::table::{Axis, Channel, Schema, TableContent};
 use serde::{Deserialize, Serialize};
@@ -261,8 +259,8 @@ trait ThetaRows: Send + Sync {
     fn theta_deg(&self) -> Vec<f64>;
     /// The row at `theta_rad` and its quadrature-doubling change.
     fn row_with_change(&self, theta_rad: f64) -> (Vec<f64>, f64);
-    /// See [`Job::assemble`]; each chunk is a row (f32) followed by its change.
-    fn assemble_rows(&self, chunks: Vec<Vec<f32>>) -> Result<TableContent, JobError>;
+    /// See [`Job::assemble`]; each chunk is a row with its change as its one scalar.
+    fn assemble_rows(&self, chunks: Vec<Chunk>) -> Result<TableContent, JobError>;
     /// Values per row (per θ) of the table.
     fn row_len(&self) -> usize;
 }
@@ -280,13 +278,14 @@ impl<T: ThetaRows> Job for T {
             })
             .collect()
     }
-    fn run_task(&self, index: usize) -> Result<Vec<f32>, JobError> {
+    fn run_task(&self, index: usize) -> Result<Chunk, JobError> {
         let (row, change) = self.row_with_change(self.theta_deg()[index].to_radians());
-        let mut out: Vec<f32> = row.iter().map(|&v| v as f32).collect();
-        out.push(change as f32);
-        Ok(out)
+        Ok(Chunk::new(
+            row.iter().map(|&v| v as f32).collect(),
+            vec![change],
+        ))
     }
-    fn assemble(&self, chunks: Vec<Vec<f32>>) -> Result<TableContent, JobError> {
+    fn assemble(&self, chunks: Vec<Chunk>) -> Result<TableContent, JobError> {
         self.assemble_rows(chunks)
     }
     fn payload_bytes(&self) -> Option<u64> {
@@ -297,22 +296,23 @@ impl<T: ThetaRows> Job for T {
     }
 }
 
-/// Chunks of [`ThetaRows`] jobs (each `blocks` blocks of `block` values, then the doubling change)
-/// with θ moved inside each block: the table data (block-major, then θ) and the largest change.
+/// Chunks of [`ThetaRows`] jobs (each `blocks` blocks of `block` values, the doubling change as
+/// the scalar) with θ moved inside each block: the table data (block-major, then θ) and the
+/// largest change.
 fn theta_inside_blocks(
-    chunks: &[Vec<f32>],
+    chunks: &[Chunk],
     nt: usize,
     blocks: usize,
     block: usize,
 ) -> Result<(Vec<f32>, f64), JobError> {
-    check_chunks(chunks, nt, blocks * block + 1)?;
+    check_chunks(chunks, nt, blocks * block, 1)?;
     let mut data = vec![0f32; blocks * nt * block];
     let mut change: f64 = 0.0;
     for (it, chunk) in chunks.iter().enumerate() {
-        change = change.max(chunk[blocks * block] as f64);
+        change = change.max(chunk.scalars[0]);
         for b in 0..blocks {
             let dst = (b * nt + it) * block;
-            data[dst..dst + block].copy_from_slice(&chunk[b * block..(b + 1) * block]);
+            data[dst..dst + block].copy_from_slice(&chunk.values[b * block..(b + 1) * block]);
         }
     }
     Ok((data, change))
@@ -374,9 +374,6 @@ pub struct HairDualJob {
     diffuse: DiffuseTerms,
     axis_ratio: f64,
 }
-
-/// Channels stored by `hair-dual`: the twelve DS quantities, then the lobe energies.
-pub const DUAL_TABLE_CHANNELS: usize = 16;
 
 impl HairDualJob {
     /// Validate and plan.
@@ -469,20 +466,6 @@ impl HairDualJob {
         })
     }
 
-    fn fiber(&self, beta_r_deg: f64) -> PhysicalFiber {
-        PhysicalFiber {
-            eta: self.params.eta,
-            fresnel: self.params.fresnel,
-            lobes: LobeShape::marschner(
-                self.params.cuticle_tilt_deg.to_radians(),
-                beta_r_deg.to_radians(),
-            ),
-            azimuthal_width_rad: self.params.azimuthal_width_ratio * beta_r_deg.to_radians(),
-            diffuse: self.diffuse,
-            axis_ratio: self.axis_ratio,
-        }
-    }
-
     fn quadrature(&self) -> HQuadrature {
         HQuadrature {
             order: self.params.quadrature_order,
@@ -490,61 +473,29 @@ impl HairDualJob {
         }
     }
 
+    /// The physical fibre swept over this table's roughness and absorption.
+    fn sweep(&self) -> DualSweep {
+        let p = &self.params;
+        DualSweep {
+            eta: p.eta,
+            fresnel: p.fresnel,
+            cuticle_tilt_deg: p.cuticle_tilt_deg,
+            roughness_deg: p.roughness_deg.clone(),
+            azimuthal_width_ratio: p.azimuthal_width_ratio,
+            diffuse: self.diffuse,
+            axis_ratio: self.axis_ratio,
+            sigma_a: self.absorption.sigma_values(),
+            d_b: p.d_b,
+            clamp: p.clamp,
+        }
+    }
+
     /// One θ row: `[roughness][absorption][16]` for the given quadrature.
     fn compute_row(&self, theta_rad: f64, quad: &HQuadrature) -> Vec<f64> {
-        let mut out = Vec::new();
-        if let Some(m) = &self.artist {
-            for (ds, e) in m.dual_scattering(theta_rad, self.params.d_b, self.params.clamp) {
-                out.extend(ds.to_array());
-                out.extend(e);
-                out.push(0.0);
-            }
-            return out;
+        match &self.artist {
+            Some(m) => artist_dual_row(m, theta_rad, self.params.d_b, self.params.clamp),
+            None => self.sweep().row(theta_rad, quad),
         }
-        let sigmas = self.absorption.sigma_values();
-        let w_min = self.params.azimuthal_width_ratio * self.params.roughness_deg[0].to_radians();
-        let idx = orientation_indices(self.params.eta, self.axis_ratio, quad.orientation_nodes);
-        let offs = quad.offsets_for(self.params.eta, &idx, theta_rad, w_min);
-        let na = sigmas.len();
-        let fibers: Vec<PhysicalFiber> = self
-            .params
-            .roughness_deg
-            .iter()
-            .map(|&b| self.fiber(b))
-            .collect();
-        let (slice, variants) = elliptic_slices(&fibers[0], theta_rad, &idx, &offs);
-        // Per roughness: the backward fractions of the slice, then of each orientation variant.
-        let wbs: Vec<Vec<Vec<[f64; 3]>>> = fibers
-            .iter()
-            .map(|f| {
-                std::iter::once(&slice)
-                    .chain(&variants)
-                    .map(|s| s.backward_fractions(f.azimuthal_width_rad))
-                    .collect()
-            })
-            .collect();
-        let mut out = vec![0.0; fibers.len() * na * DUAL_TABLE_CHANNELS];
-        for (ia, &s) in sigmas.iter().enumerate() {
-            let wa = slice.weighted_attenuations(s);
-            for (ir, (fiber, wb)) in fibers.iter().zip(&wbs).enumerate() {
-                let (eb, ef) = orientation_averaged_energies(&slice, &variants, &wa, wb);
-                let ds = combine_with_diffuse(
-                    &eb,
-                    &ef,
-                    &fiber.lobes,
-                    &fiber.diffuse,
-                    theta_rad,
-                    self.params.d_b,
-                    self.params.clamp,
-                );
-                let o = (ir * na + ia) * DUAL_TABLE_CHANNELS;
-                out[o..o + 12].copy_from_slice(&ds.to_array());
-                for p in 0..LOBES {
-                    out[o + 12 + p] = eb[p] + ef[p];
-                }
-            }
-        }
-        out
     }
     fn n_roughness(&self) -> usize {
         if self.artist.is_some() {
@@ -588,7 +539,7 @@ impl ThetaRows for HairDualJob {
         };
         (row, check)
     }
-    fn assemble_rows(&self, chunks: Vec<Vec<f32>>) -> Result<TableContent, JobError> {
+    fn assemble_rows(&self, chunks: Vec<Chunk>) -> Result<TableContent, JobError> {
         let nt = self.params.theta_count;
         let (data, doubling) = theta_inside_blocks(
             &chunks,
@@ -863,55 +814,18 @@ impl HairAzimuthalJob {
         }
     }
     fn row(&self, theta_rad: f64, panel_scale: f64) -> Vec<f64> {
-        let w = self.params.azimuthal_width_deg.to_radians();
-        let quad = OffsetQuadrature::new(
-            (0.05f64).min(0.5 * w) / panel_scale,
-            self.params.quadrature_order,
-            &[],
-        );
-        let nodes = (self.orientation_nodes() as f64 * panel_scale) as usize;
-        let idx = orientation_indices(self.params.eta, self.axis_ratio, nodes);
-        // Only the index, Fresnel model and axis ratio matter for the slices (lobes unused).
-        let fibre = PhysicalFiber {
+        AzimuthalSweep {
+            eta: self.params.eta,
+            fresnel: self.params.fresnel,
+            width_rad: self.params.azimuthal_width_deg.to_radians(),
+            quadrature_order: self.params.quadrature_order,
             diffuse: self.diffuse,
             axis_ratio: self.axis_ratio,
-            ..PhysicalFiber::new(
-                self.params.eta,
-                self.params.fresnel,
-                LobeShape::marschner(0.0, 0.1),
-                w,
-            )
-        };
-        let (slice, variants) = elliptic_slices(&fibre, theta_rad, &idx, &quad);
-        let n = self.params.phi_count;
-        let step = std::f64::consts::PI / (n - 1) as f64;
-        let diffuse: Vec<f64> = (0..n)
-            .map(|j| self.diffuse.bcsdf(step * j as f64))
-            .collect();
-        let mut out = Vec::new();
-        for s in self.absorption.sigma_values() {
-            let mut grid = slice.azimuthal_on_grid(s, w, 0.0, step, n);
-            if !variants.is_empty() {
-                // TRT averaged over the orientation nodes (FIB-24); R, TT, residual unchanged.
-                let mut trt = vec![0.0; n];
-                for v in &variants {
-                    let g = v.azimuthal_on_grid_lobes(s, w, 0.0, step, n, &[2]);
-                    for (t, g) in trt.iter_mut().zip(g) {
-                        *t += g[2];
-                    }
-                }
-                for (g, t) in grid.iter_mut().zip(&trt) {
-                    g[2] = t / variants.len() as f64;
-                }
-            }
-            for (j, v) in grid.iter().enumerate() {
-                out.extend([v[0], v[1], v[2], v[3], v.iter().sum()]);
-                if !self.diffuse.is_zero() {
-                    out.push(diffuse[j]);
-                }
-            }
+            orientation_nodes: self.orientation_nodes(),
+            sigma_a: self.absorption.sigma_values(),
+            phi_count: self.params.phi_count,
         }
-        out
+        .row(theta_rad, panel_scale)
     }
 }
 
@@ -941,7 +855,7 @@ impl ThetaRows for HairAzimuthalJob {
             / peak;
         (row, change)
     }
-    fn assemble_rows(&self, chunks: Vec<Vec<f32>>) -> Result<TableContent, JobError> {
+    fn assemble_rows(&self, chunks: Vec<Chunk>) -> Result<TableContent, JobError> {
         let nt = self.params.theta_count;
         let np = self.params.phi_count;
         let na = self.absorption.sigma_values().len();

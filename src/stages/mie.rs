@@ -6,18 +6,13 @@
 //! Q_back, g as f64 arrays `[entry][wavelength]` in the header attributes.
 
 use crate::mie::distributions::SizeDistribution;
-use crate::mie::filters::{
-    FINE_CELL_POINTS, PolarisedPhase, SunDiscOperator, fine_intervals, gaussian_blur, resample_bins,
-};
-use crate::mie::{Sphere, size_parameter};
+use crate::mie::ensemble::{DEFAULT_RADIUS_TOLERANCE, compute_entry};
 use crate::stages::common::{
     CONTRACT_CHANNELS, FilteredPhase, filtered_phase_params, phase_chunk, scalar_arrays,
 };
 use crate::stages::phase_contract;
-use crate::stages::{Job, JobError, PlanError, StageSpec, TaskSpec, checks};
+use crate::stages::{Chunk, Job, JobError, PlanError, StageSpec, TaskSpec, checks};
 use crate::table::{Axis, Schema, TableContent};
-use num_complex::Complex64;
-use rayon::prelude::*;
 
 /// The stage.
 pub struct MieStage;
@@ -56,9 +51,8 @@ fn is_vacuum(n_medium: &f64) -> bool {
     *n_medium == 1.0
 }
 
-/// The f64 scalars at the end of each task chunk (as f32 pairs, see
-/// [`phase_chunk`]), stored in the header as `[entry][wavelength]` arrays (the last two only
-/// for sampled distributions).
+/// The scalars of each task's chunk ([`phase_chunk`]), stored in the header as
+/// `[entry][wavelength]` arrays (the last two only for sampled distributions).
 const SCALARS: [&str; 6] = [
     "q_ext",
     "q_sca",
@@ -70,18 +64,6 @@ const SCALARS: [&str; 6] = [
 
 /// Default of `radius_points`.
 pub const DEFAULT_RADIUS_POINTS: usize = 24;
-
-/// Default of `radius_tolerance` (decision MIE-16).
-pub const DEFAULT_RADIUS_TOLERANCE: f64 = 0.02;
-
-/// Strata (radius nodes) per round of the sampled average.
-pub const STRATA: usize = 16;
-/// Rounds before the first error estimate.
-pub const MIN_ROUNDS: usize = 4;
-/// Largest number of radius nodes of one sampled entry (the estimate is then reported as is).
-pub const MAX_NODES: usize = 4096;
-/// Intermediate cells per angular sample of a radius node (outside the exact polar caps).
-pub const ANGLE_BLOCK_CELLS: usize = 8;
 
 /// The entries (second axis) of a job.
 #[derive(Debug, Clone)]
@@ -103,376 +85,6 @@ impl Entries {
             Entries::Distributions(d) => d[i].clone(),
         }
     }
-}
-
-/// Ensemble result of one (wavelength, entry): the table curve and averaged scalars.
-#[derive(Debug, Clone)]
-pub struct EntryResult {
-    /// Output curve (bin averages on the table grid).
-    pub curve: PolarisedPhase,
-    /// `⟨C_ext⟩/⟨π r²⟩`.
-    pub q_ext: f64,
-    /// `⟨C_sca⟩/⟨π r²⟩`.
-    pub q_sca: f64,
-    /// `⟨C_back⟩/⟨π r²⟩`.
-    pub q_back: f64,
-    /// `⟨C_sca g⟩/⟨C_sca⟩`.
-    pub g: f64,
-    /// Radius nodes used (1 for a single sphere).
-    pub radius_nodes: usize,
-    /// Estimated RMS relative standard error of the curve (sampled distributions; 0 for a
-    /// single sphere and for the Gauss–Legendre rule, which has no estimate).
-    pub error_rms: f64,
-}
-
-/// Filter settings of one job.
-#[derive(Debug, Clone, Copy)]
-pub struct FilterSettings {
-    pub output_intervals: usize,
-    pub sun_diameter_deg: f64,
-    pub gaussian_sigma_deg: f64,
-    pub radius_points: usize,
-    /// Target RMS relative standard error of sampled distribution entries; 0 = Gauss–Legendre
-    /// rule of `radius_points` nodes (decision MIE-16).
-    pub radius_tolerance: f64,
-}
-
-/// The smallest odd integer ≥ `k` (odd refinements keep every output bin centre on a cell
-/// centre of the finer grid, so that cells nest in bins).
-fn odd_at_least(k: usize) -> usize {
-    if k.is_multiple_of(2) { k + 1 } else { k }
-}
-
-impl FilterSettings {
-    /// Intervals of the intermediate grid on which the disc/Gaussian act: the output step
-    /// divided by the smallest odd `k` giving a step ≤ min(sun diameter/40, σ/4) (so that cells
-    /// nest in output bins).
-    pub fn intermediate_intervals(&self) -> usize {
-        let step = 180.0 / self.output_intervals as f64;
-        let mut limit = step;
-        if self.sun_diameter_deg > 0.0 {
-            limit = limit.min(self.sun_diameter_deg / 40.0);
-        }
-        if self.gaussian_sigma_deg > 0.0 {
-            limit = limit.min(self.gaussian_sigma_deg / 4.0);
-        }
-        self.output_intervals * odd_at_least((step / limit - 1e-9).ceil().max(1.0) as usize)
-    }
-
-    /// Intervals of the fine grid of cell averages for a sphere of `n_stop` terms: an odd
-    /// multiple of the intermediate grid (`mid` intervals) with at least
-    /// [`fine_intervals`]`(n_stop, mid)` cells.
-    pub fn fine_grid_intervals(mid: usize, n_stop: usize) -> usize {
-        mid * odd_at_least(fine_intervals(n_stop, mid).div_ceil(mid))
-    }
-
-    /// The sun-disc operator on the intermediate grid (build once per job, share across tasks).
-    pub fn sun_operator(&self) -> SunDiscOperator {
-        SunDiscOperator::new(self.intermediate_intervals(), self.sun_diameter_deg)
-    }
-}
-
-/// Computes one table entry (pure): every radius of the distribution's quadrature on its own
-/// fine grid of cell averages, resampled to the intermediate grid, mixed with weights
-/// `n(r) dr · C_sca(r)`, convolved with the sun's disc, optionally blurred, and integrated
-/// over the output bins. `sun` must be [`FilterSettings::sun_operator`] of `settings`.
-/// `wavelength_nm` is the wavelength in the medium around the drops and `m` the index relative
-/// to it (see [`crate::mie::in_medium`]).
-///
-/// A monodisperse entry is its one sphere (exact cell averages). A distribution is averaged by
-/// joint sampling of radius and angle to `settings.radius_tolerance`
-/// ([`crate::mie::ensemble`], decision MIE-16), or, when that is 0, by the Gauss–Legendre rule
-/// in ln r of `settings.radius_points` nodes with exact cell averages per node.
-pub fn compute_entry(
-    distribution: &SizeDistribution,
-    wavelength_nm: f64,
-    m: Complex64,
-    settings: &FilterSettings,
-    sun: &SunDiscOperator,
-) -> Result<EntryResult, crate::mie::MieError> {
-    match distribution {
-        SizeDistribution::Monodisperse { .. } => {
-            gauss_legendre_entry(distribution, wavelength_nm, m, settings, sun)
-        }
-        _ if settings.radius_tolerance > 0.0 => {
-            sampled_entry(distribution, wavelength_nm, m, settings, sun)
-        }
-        _ => gauss_legendre_entry(distribution, wavelength_nm, m, settings, sun),
-    }
-}
-
-/// The Gauss–Legendre rule in ln r (one node for a monodisperse entry), every node's curve as
-/// exact cell averages on its fine grid.
-fn gauss_legendre_entry(
-    distribution: &SizeDistribution,
-    wavelength_nm: f64,
-    m: Complex64,
-    settings: &FilterSettings,
-    sun: &SunDiscOperator,
-) -> Result<EntryResult, crate::mie::MieError> {
-    let (radii, weights) = distribution.quadrature(settings.radius_points);
-    let mid = settings.intermediate_intervals();
-    let per_radius: Vec<Result<(PolarisedPhase, [f64; 5]), crate::mie::MieError>> = radii
-        .par_iter()
-        .zip(&weights)
-        .map(|(&r, &w)| {
-            let x = size_parameter(r, wavelength_nm);
-            let sphere = Sphere::new(x, m)?;
-            let fine_cells = FilterSettings::fine_grid_intervals(mid, sphere.coefficients.n_stop());
-            let fine = PolarisedPhase::from_sphere(&sphere, fine_cells, FINE_CELL_POINTS, false);
-            let curve = resample_bins(&fine, mid);
-            let e = sphere.efficiencies;
-            let area = std::f64::consts::PI * r * r;
-            Ok((
-                curve,
-                [
-                    w * area,
-                    w * area * e.q_ext,
-                    w * area * e.q_sca,
-                    w * area * e.q_back,
-                    w * area * e.q_sca * e.g,
-                ],
-            ))
-        })
-        .collect();
-    let mut mix = PolarisedPhase::zeros(mid);
-    let mut sums = [0.0; 5];
-    let mut total_sca = 0.0;
-    let mut parts = Vec::with_capacity(per_radius.len());
-    for item in per_radius {
-        let (curve, s) = item?;
-        for (a, b) in sums.iter_mut().zip(s) {
-            *a += b;
-        }
-        total_sca += s[2];
-        parts.push((curve, s[2]));
-    }
-    for (curve, c_sca) in &parts {
-        mix.add_scaled(curve, c_sca / total_sca);
-    }
-    let mix = sun.apply(&mix);
-    let mix = gaussian_blur(&mix, settings.gaussian_sigma_deg);
-    let curve = resample_bins(&mix, settings.output_intervals);
-    Ok(EntryResult {
-        curve,
-        q_ext: sums[1] / sums[0],
-        q_sca: sums[2] / sums[0],
-        q_back: sums[3] / sums[0],
-        g: sums[4] / sums[2],
-        radius_nodes: radii.len(),
-        error_rms: 0.0,
-    })
-}
-
-/// One round of the sampled average: `Σ w_k p_k` on the intermediate grid and the sums
-/// `Σ w_k π r² · [1, Q_ext, Q_sca, Q_back, Q_sca g]` (`w_k = n(r_k)/q(r_k)`).
-struct Round {
-    mix: PolarisedPhase,
-    sums: [f64; 5],
-}
-
-/// The sampled size-distribution average (module doc of [`crate::mie::ensemble`]): rounds of
-/// [`STRATA`] jittered radius strata, each node's curve sampled on the intermediate grid, until
-/// the spread of the rounds' outputs (after sun disc, blur, bins) gives an RMS relative standard
-/// error ≤ `settings.radius_tolerance` (relative to the phase function of the bin, over every
-/// bin and both `i_perp` and `i_par`), or [`MAX_NODES`] nodes. [`MIN_ROUNDS`] rounds first, then
-/// the number of rounds the estimate predicts (it falls like `1/√rounds`), plus 10 %.
-fn sampled_entry(
-    distribution: &SizeDistribution,
-    wavelength_nm: f64,
-    m: Complex64,
-    settings: &FilterSettings,
-    sun: &SunDiscOperator,
-) -> Result<EntryResult, crate::mie::MieError> {
-    use crate::mie::ensemble::{RadiusSampler, SplitMix64, TRUNCATION, fnv1a, sample_sphere};
-    let mid = settings.intermediate_intervals();
-    let sampler = RadiusSampler::new(distribution, TRUNCATION);
-    let seed = fnv1a(
-        format!(
-            "{distribution:?} {} {} {}",
-            wavelength_nm.to_bits(),
-            m.re.to_bits(),
-            m.im.to_bits()
-        )
-        .as_bytes(),
-    );
-    let finish = |mix: &PolarisedPhase, scale: f64| {
-        let mut c = PolarisedPhase::zeros(mid);
-        c.add_scaled(mix, scale);
-        let c = gaussian_blur(&sun.apply(&c), settings.gaussian_sigma_deg);
-        resample_bins(&c, settings.output_intervals)
-    };
-    let round = |k: usize| -> Result<Round, crate::mie::MieError> {
-        let mut mix = PolarisedPhase::zeros(mid);
-        let mut sums = [0.0; 5];
-        for s in 0..STRATA {
-            let mut rng = SplitMix64::new(seed ^ fnv1a(&((k * STRATA + s) as u64).to_le_bytes()));
-            let u = (s as f64 + rng.next_f64()) / STRATA as f64;
-            let (r, w) = sampler.sample(distribution, u);
-            let sphere = Sphere::new(size_parameter(r, wavelength_nm), m)?;
-            let curve = sample_sphere(&sphere, mid, ANGLE_BLOCK_CELLS, &mut rng);
-            let e = sphere.efficiencies;
-            let wa = w * std::f64::consts::PI * r * r;
-            mix.add_scaled(&curve, wa * e.q_sca);
-            for (a, b) in sums
-                .iter_mut()
-                .zip([1.0, e.q_ext, e.q_sca, e.q_back, e.q_sca * e.g])
-            {
-                *a += wa * b;
-            }
-        }
-        Ok(Round { mix, sums })
-    };
-    let mut outputs: Vec<PolarisedPhase> = Vec::new();
-    let mut pooled = PolarisedPhase::zeros(mid);
-    let mut sums = [0.0; 5];
-    let mut add = MIN_ROUNDS;
-    loop {
-        let start = outputs.len();
-        let batch = (start..start + add)
-            .into_par_iter()
-            .map(round)
-            .collect::<Result<Vec<Round>, _>>()?;
-        for r in batch {
-            outputs.push(finish(&r.mix, 1.0 / r.sums[2]));
-            pooled.add_scaled(&r.mix, 1.0);
-            for (a, b) in sums.iter_mut().zip(r.sums) {
-                *a += b;
-            }
-        }
-        let curve = finish(&pooled, 1.0 / sums[2]);
-        let error_rms = rounds_error_rms(&outputs, &curve);
-        let nodes = outputs.len() * STRATA;
-        if error_rms <= settings.radius_tolerance || nodes + STRATA > MAX_NODES {
-            return Ok(EntryResult {
-                curve,
-                q_ext: sums[1] / sums[0],
-                q_sca: sums[2] / sums[0],
-                q_back: sums[3] / sums[0],
-                g: sums[4] / sums[2],
-                radius_nodes: nodes,
-                error_rms,
-            });
-        }
-        // the standard error falls like 1/√rounds: add the rounds the estimate asks for (+10 %),
-        // at least one, at most four times those done, within MAX_NODES
-        let rounds = outputs.len();
-        let wanted = (rounds as f64 * 1.1 * (error_rms / settings.radius_tolerance).powi(2)).ceil();
-        add = (wanted as usize)
-            .saturating_sub(rounds)
-            .clamp(1, 4 * rounds)
-            .min(MAX_NODES / STRATA - rounds);
-    }
-}
-
-/// A brute-force reference for a distribution entry (validation only; slow): `nodes` radii at
-/// the midpoints `u = (i + ½)/nodes` of the cumulative distribution of `n(r) r²` (no
-/// truncation), every node's curve as exact cell averages on its fine grid (the single-sphere
-/// path), mixed with weights `n(r) dr · C_sca(r)`, then sun disc, blur and bins. Returns the
-/// whole rule and its even and odd halves (two interleaved rules of `nodes/2`; their difference
-/// bounds the reference's own error).
-pub fn reference_entry(
-    distribution: &SizeDistribution,
-    wavelength_nm: f64,
-    m: Complex64,
-    settings: &FilterSettings,
-    sun: &SunDiscOperator,
-    nodes: usize,
-) -> Result<[PolarisedPhase; 3], crate::mie::MieError> {
-    let mid = settings.intermediate_intervals();
-    let sampler = crate::mie::ensemble::RadiusSampler::new(distribution, 0.0);
-    let zero = || {
-        (
-            [PolarisedPhase::zeros(mid), PolarisedPhase::zeros(mid)],
-            [0.0; 2],
-        )
-    };
-    let (mixes, totals) = (0..nodes)
-        .into_par_iter()
-        .map(|i| {
-            let (r, w) = sampler.sample(distribution, (i as f64 + 0.5) / nodes as f64);
-            let sphere = Sphere::new(size_parameter(r, wavelength_nm), m)?;
-            let fine_cells = FilterSettings::fine_grid_intervals(mid, sphere.coefficients.n_stop());
-            let fine = PolarisedPhase::from_sphere(&sphere, fine_cells, FINE_CELL_POINTS, false);
-            let c = w * std::f64::consts::PI * r * r * sphere.efficiencies.q_sca;
-            Ok((i % 2, resample_bins(&fine, mid), c))
-        })
-        .try_fold(zero, |mut acc, item: Result<_, crate::mie::MieError>| {
-            let (half, curve, c) = item?;
-            acc.0[half].add_scaled(&curve, c);
-            acc.1[half] += c;
-            Ok(acc)
-        })
-        .try_reduce(zero, |mut a, b| {
-            for h in 0..2 {
-                a.0[h].add_scaled(&b.0[h], 1.0);
-                a.1[h] += b.1[h];
-            }
-            Ok(a)
-        })?;
-    let finish = |mix: &PolarisedPhase, scale: f64| {
-        let mut c = PolarisedPhase::zeros(mid);
-        c.add_scaled(mix, scale);
-        let c = gaussian_blur(&sun.apply(&c), settings.gaussian_sigma_deg);
-        resample_bins(&c, settings.output_intervals)
-    };
-    let mut all = mixes[0].clone();
-    all.add_scaled(&mixes[1], 1.0);
-    Ok([
-        finish(&all, 1.0 / (totals[0] + totals[1])),
-        finish(&mixes[0], 1.0 / totals[0]),
-        finish(&mixes[1], 1.0 / totals[1]),
-    ])
-}
-
-/// Relative differences of `a` against `reference` over the bins, for `i_perp` and `i_par`:
-/// `(max, angle of the max in degrees, channel name of the max, rms)`.
-pub fn relative_difference(
-    a: &PolarisedPhase,
-    reference: &PolarisedPhase,
-) -> (f64, f64, &'static str, f64) {
-    let (mut max, mut at, mut ch, mut sq, mut n) = (0.0, 0.0, "i_perp", 0.0, 0usize);
-    for (name, x, y) in [
-        ("i_perp", &a.i_perp, &reference.i_perp),
-        ("i_par", &a.i_par, &reference.i_par),
-    ] {
-        for (j, (p, q)) in x.iter().zip(y.iter()).enumerate() {
-            if !(q.abs() > 0.0) {
-                continue;
-            }
-            let e = ((p - q) / q).abs();
-            sq += e * e;
-            n += 1;
-            if e > max {
-                (max, at, ch) = (e, reference.angle_deg(j), name);
-            }
-        }
-    }
-    (max, at, ch, (sq / n.max(1) as f64).sqrt())
-}
-
-/// RMS over bins and the channels `i_perp`, `i_par` of the standard error of the mean of
-/// independent `rounds`, relative to the phase function of `pooled` in the bin.
-pub fn rounds_error_rms(rounds: &[PolarisedPhase], pooled: &PolarisedPhase) -> f64 {
-    let n = rounds.len() as f64;
-    if rounds.len() < 2 {
-        return f64::INFINITY;
-    }
-    let phase = pooled.phase();
-    let (mut acc, mut count) = (0.0, 0usize);
-    for (b, p) in phase.iter().enumerate() {
-        if !(*p > 0.0) {
-            continue;
-        }
-        for ch in 0..2 {
-            let get = |r: &PolarisedPhase| if ch == 0 { r.i_perp[b] } else { r.i_par[b] };
-            let mean = rounds.iter().map(get).sum::<f64>() / n;
-            let var = rounds.iter().map(|r| (get(r) - mean).powi(2)).sum::<f64>() / (n - 1.0);
-            acc += var / n / (p * p);
-            count += 1;
-        }
-    }
-    (acc / count.max(1) as f64).sqrt()
 }
 
 struct MieJob {
@@ -576,7 +188,7 @@ impl Job for MieJob {
             }
         })
     }
-    fn run_task(&self, index: usize) -> Result<Vec<f32>, JobError> {
+    fn run_task(&self, index: usize) -> Result<Chunk, JobError> {
         let (e, wavelength_nm, m) = self.filter.task(index);
         let n_medium = self.p.n_medium;
         let r = compute_entry(
@@ -599,9 +211,9 @@ impl Job for MieJob {
             ],
         ))
     }
-    fn assemble(&self, chunks: Vec<Vec<f32>>) -> Result<TableContent, JobError> {
+    fn assemble(&self, chunks: Vec<Chunk>) -> Result<TableContent, JobError> {
         let (data, tails) = self.filter.split_chunks(
-            &chunks,
+            chunks,
             self.entries.len(),
             CONTRACT_CHANNELS,
             SCALARS.len(),
@@ -670,10 +282,12 @@ impl Job for MieJob {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::mie::ensemble::{MIN_ROUNDS, STRATA};
+    use crate::mie::{Sphere, size_parameter};
     use crate::optics::water::WaterIndexModel;
     use crate::stages::common::bin_integrals;
-    use crate::stages::join_f64;
     use crate::stages::plan_from_lines;
+    use num_complex::Complex64;
 
     #[test]
     fn rejects_bad_params() {
@@ -747,12 +361,13 @@ mod tests {
         )
         .unwrap();
         let chunk = job.run_task(0).unwrap();
+        assert_eq!(chunk.values.len(), 361 * 4);
         let cells = crate::mie::filters::cell_solid_angles(360);
-        let e = bin_integrals(&chunk[..361 * 4], 4, 0, &cells)[0];
+        let e = bin_integrals(&chunk.values, 4, 0, &cells)[0];
         assert!((e - 1.0).abs() < 1e-5, "integral {e}");
-        let q_sca = join_f64(chunk[361 * 4 + 2], chunk[361 * 4 + 3]);
+        let q_sca = chunk.scalars[1];
         assert!(q_sca > 1.8 && q_sca < 2.6, "Q_sca {q_sca}");
-        let g = join_f64(chunk[361 * 4 + 6], chunk[361 * 4 + 7]);
+        let g = chunk.scalars[3];
         assert!(g > 0.7 && g < 0.9, "g {g}");
     }
 

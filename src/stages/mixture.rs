@@ -21,20 +21,15 @@
 //! `monodisperse` (the `mie` stage's kinds), or `explicit` radii with number weights.
 
 use crate::mie::distributions::SizeDistribution;
-use crate::mie::filters::{FINE_CELL_POINTS, PolarisedPhase, resample_bins};
-use crate::mie::{MieError, Sphere, size_parameter};
-use crate::raytrace::sphere1d::{Phase1dOptions, SphereGo, sphere_phase_1d};
+use crate::mie::filters::PolarisedPhase;
+use crate::raytrace::mixture::{Handover, mix_sizes};
 use crate::stages::common::{
     CONTRACT_CHANNELS, FilteredPhase, filtered_phase_params, phase_chunk, scalar_arrays,
 };
-use crate::stages::mie::FilterSettings;
 use crate::stages::phase_contract;
-use crate::stages::{Job, JobError, PlanError, StageSpec, TaskSpec, checks};
+use crate::stages::{Chunk, Job, JobError, PlanError, StageSpec, TaskSpec, checks};
 use crate::table::{Axis, Schema, TableContent};
-use num_complex::Complex64;
-use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
-use std::f64::consts::PI;
 
 /// The stage.
 pub struct MixtureStage;
@@ -99,8 +94,7 @@ pub const DEFAULT_HANDOVER_UM: f64 = 400.0;
 /// Smallest radius the traced path accepts (µm), as the `raytrace` stage.
 const MIN_TRACED_UM: f64 = 10.0;
 
-/// The f64 scalar at the end of each task chunk: the traced share of the scattering
-/// cross-section.
+/// The scalar of each task's chunk: the traced share of the scattering cross-section.
 const SCALARS: [&str; 1] = ["traced_fraction"];
 
 filtered_phase_params! {
@@ -186,85 +180,36 @@ fn validate_entry(i: usize, e: &MixtureEntry) -> Result<(), PlanError> {
     }
 }
 
-/// One radius' normalised curve on the intermediate grid (`mid` intervals) and its scattering
-/// cross-section (µm²): Lorenz–Mie below `handover_um`, the traced 1-D path at or above.
-fn radius_curve(
-    r: f64,
-    wavelength_nm: f64,
-    n: f64,
-    mid: usize,
-    handover_um: f64,
-    max_order: usize,
-) -> Result<(PolarisedPhase, f64, bool), MieError> {
-    if r < handover_um {
-        let sphere = Sphere::new(size_parameter(r, wavelength_nm), Complex64::new(n, 0.0))?;
-        // Fine cells nest in intermediate cells, as in the mie stage.
-        let fine_cells = FilterSettings::fine_grid_intervals(mid, sphere.coefficients.n_stop());
-        let fine = PolarisedPhase::from_sphere(&sphere, fine_cells, FINE_CELL_POINTS, false);
-        let c_sca = PI * r * r * sphere.efficiencies.q_sca;
-        return Ok((resample_bins(&fine, mid), c_sca, false));
-    }
-    let go = SphereGo::new(r, wavelength_nm, n, max_order).with_axial_phases(true);
-    let angles: Vec<f64> = (0..=mid).map(|j| 180.0 * j as f64 / mid as f64).collect();
-    let (ch, _) = sphere_phase_1d(&go, &angles, Phase1dOptions::default());
-    let sigma_go: f64 = (0..=max_order).map(|p| go.energy_fraction(p)).sum::<f64>() * PI * r * r;
-    let curve = PolarisedPhase {
-        step_deg: 180.0 / mid as f64,
-        i_perp: ch[1].clone(),
-        i_par: ch[2].clone(),
-    };
-    Ok((curve, sigma_go + PI * r * r, true))
-}
-
 /// One (distribution, wavelength): the mixed curve on the output grid and the fraction of the
-/// scattering cross-section carried by traced drops.
+/// scattering cross-section carried by traced drops; refuses traced curves that do not
+/// integrate to about 1 and mixtures without a positive finite cross-section.
 fn mix_entry(job: &MixtureJob, index: usize) -> Result<(PolarisedPhase, f64), JobError> {
     let (entry, l, m) = job.filter.task(index);
-    let settings = &job.filter.settings;
     let (radii, weights) = job.p.distributions[entry].nodes(job.p.radius_points);
-    let mid = settings.intermediate_intervals();
-    let parts: Vec<(PolarisedPhase, f64, bool)> = radii
-        .par_iter()
-        .zip(&weights)
-        .map(|(&r, &nw)| {
-            let (c, c_sca, traced) =
-                radius_curve(r, l, m.re, mid, job.p.handover_radius_um, job.p.max_order)?;
-            Ok((c, nw * c_sca, traced))
-        })
-        .collect::<Result<_, MieError>>()?;
-    // A traced curve is divided by its drop's cross-section: it integrates to 1 up to its
-    // discretisation, unless the computation failed.
-    for (curve, _, traced) in &parts {
-        if *traced {
-            let step = curve.step_deg.to_radians();
-            let phase = curve
-                .i_perp
-                .iter()
-                .zip(&curve.i_par)
-                .map(|(a, b)| 0.5 * (a + b));
-            crate::stages::check_phase_integral(
-                entry,
-                crate::stages::raytrace::integral_1d(phase, step),
-            )?;
-        }
+    let handover = Handover {
+        radius_um: job.p.handover_radius_um,
+        max_order: job.p.max_order,
+    };
+    let mixed = mix_sizes(
+        &radii,
+        &weights,
+        l,
+        m.re,
+        &job.filter.settings,
+        job.filter.sun(),
+        handover,
+    )?;
+    for &integral in &mixed.traced_integrals {
+        crate::stages::check_phase_integral(entry, integral)?;
     }
-    let total: f64 = parts.iter().map(|p| p.1).sum();
+    let total = mixed.cross_section_um2;
     if !(total > 0.0 && total.is_finite()) {
         return Err(JobError::NotNormalisable {
             entry,
             integral: total,
         });
     }
-    let traced: f64 = parts.iter().filter(|p| p.2).map(|p| p.1).sum();
-    let mut mix = PolarisedPhase::zeros(mid);
-    for (curve, weight, _) in &parts {
-        mix.add_scaled(curve, weight / total);
-    }
-    let mix = job.filter.sun().apply(&mix);
-    Ok((
-        resample_bins(&mix, settings.output_intervals),
-        traced / total,
-    ))
+    Ok((mixed.curve, mixed.traced_fraction))
 }
 
 impl Job for MixtureJob {
@@ -284,15 +229,15 @@ impl Job for MixtureJob {
             params: serde_json::json!({ "wavelength_nm": l, "n": n, "entry": self.p.distributions[e] }),
         })
     }
-    fn run_task(&self, index: usize) -> Result<Vec<f32>, JobError> {
+    fn run_task(&self, index: usize) -> Result<Chunk, JobError> {
         let (curve, traced) = mix_entry(self, index)?;
         Ok(phase_chunk(&curve, &[], &[traced]))
     }
-    fn assemble(&self, chunks: Vec<Vec<f32>>) -> Result<TableContent, JobError> {
+    fn assemble(&self, chunks: Vec<Chunk>) -> Result<TableContent, JobError> {
         let entries = self.p.distributions.len();
         let (data, tails) =
             self.filter
-                .split_chunks(&chunks, entries, CONTRACT_CHANNELS, SCALARS.len())?;
+                .split_chunks(chunks, entries, CONTRACT_CHANNELS, SCALARS.len())?;
         let mut a = self.filter.attributes("integral over 4pi sr equals 1");
         a.insert(
             "distributions".into(),
@@ -334,6 +279,7 @@ impl Job for MixtureJob {
 mod tests {
     use super::*;
     use crate::stages::{plan_from_lines, run_in_memory};
+    use std::f64::consts::PI;
 
     const MP: &str = "{ kind = \"marshall-palmer\", rain_rate_mm_h = 5.0, min_radius_um = 20.0, max_radius_um = 80.0 }";
 

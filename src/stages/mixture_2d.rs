@@ -19,10 +19,11 @@
 
 use crate::mie::distributions::SizeDistribution;
 use crate::optics::water::SADEGHI_WAVELENGTHS_NM;
+use crate::raytrace::table2d::{SizeMix, n_channels_2d};
 use crate::raytrace::tracer::RayGridLayout;
 use crate::stages::mixture::{ExplicitMixture, MixtureEntry};
-use crate::stages::raytrace::{DOLP_CHANNEL, RaytraceJob, RaytraceParams, n_channels_2d};
-use crate::stages::{Job, JobError, PlanError, StageSpec, TaskSpec, checks, stage_params};
+use crate::stages::raytrace::{RaytraceJob, RaytraceParams};
+use crate::stages::{Chunk, Job, JobError, PlanError, StageSpec, TaskSpec, checks, stage_params};
 use crate::table::{Axis, TableContent};
 
 /// The stage.
@@ -207,51 +208,33 @@ impl Job for Mixture2dJob {
         out
     }
 
-    fn run_task(&self, index: usize) -> Result<Vec<f32>, JobError> {
+    fn run_task(&self, index: usize) -> Result<Chunk, JobError> {
         let pairs = self.pairs();
         let (entry, (l, el)) = (index / pairs.len(), pairs[index % pairs.len()]);
         let nch = n_channels_2d(self.p.max_order + 1, true);
         let weights = &self.nodes[entry].1;
-        let mut acc: Vec<f64> = Vec::new();
-        let mut total = 0.0;
+        let mut mix = SizeMix::default();
         for (job, &n_i) in self.jobs[entry].iter().zip(weights) {
-            if n_i == 0.0 {
-                continue;
+            if n_i != 0.0 {
+                let (values, sigma) = job.trace_2d(l, el)?;
+                mix.add(n_i, &values, sigma);
             }
-            let (values, sigma) = job.trace_2d(l, el)?;
-            let w = n_i * sigma;
-            if acc.is_empty() {
-                acc = vec![0.0; values.len()];
-            }
-            for (a, v) in acc.iter_mut().zip(&values) {
-                *a += w * *v as f64;
-            }
-            total += w;
         }
-        if !(total > 0.0 && total.is_finite()) {
-            return Err(JobError::NotNormalisable {
+        mix.finish(nch)
+            .map(Chunk::values)
+            .map_err(|total| JobError::NotNormalisable {
                 entry,
                 integral: total,
-            });
-        }
-        let mut out: Vec<f32> = acc.iter().map(|a| (a / total) as f32).collect();
-        for px in out.chunks_exact_mut(nch) {
-            let (ip, ipar) = (px[1] as f64, px[2] as f64);
-            px[DOLP_CHANNEL] = if ip + ipar > 0.0 {
-                ((ip - ipar) / (ip + ipar)) as f32
-            } else {
-                0.0
-            };
-        }
-        Ok(out)
+            })
     }
 
-    fn assemble(&self, chunks: Vec<Vec<f32>>) -> Result<TableContent, JobError> {
+    fn assemble(&self, chunks: Vec<Chunk>) -> Result<TableContent, JobError> {
         let per_entry = self.pairs().len();
         crate::stages::check_chunks(
             &chunks,
             self.nodes.len() * per_entry,
-            chunks.first().map_or(0, Vec::len),
+            chunks.first().map_or(0, |c| c.values.len()),
+            0,
         )?;
         // Each entry is renormalised and described by the `raytrace` stage's assembly of its
         // first radius; the entry axis then replaces the radius axis.
@@ -259,7 +242,7 @@ impl Job for Mixture2dJob {
         let mut content: Option<TableContent> = None;
         let mut integrals = Vec::new();
         for jobs in &self.jobs {
-            let part: Vec<Vec<f32>> = chunks.by_ref().take(per_entry).collect();
+            let part: Vec<Chunk> = chunks.by_ref().take(per_entry).collect();
             let t = jobs[0].assemble_values(part)?;
             integrals.push(t.attributes["integral_check"]["values"].clone());
             match &mut content {
@@ -309,6 +292,7 @@ impl Job for Mixture2dJob {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::raytrace::table2d::DOLP_CHANNEL;
     use crate::stages::{plan_from_lines, run_in_memory};
 
     const SMALL: &str = "wavelengths_nm = [650.0]\nsun_elevation_deg = [0.0]\nrays = 60\npolar_step_deg = 0.5\nazimuth_step_deg = 30.0\n";

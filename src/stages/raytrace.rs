@@ -26,26 +26,22 @@
 //! i_perp = |S1|²/(π x² Q_sca).
 
 use crate::optics::water::{SADEGHI_WAVELENGTHS_NM, WaterIndexModel};
-use crate::raytrace::caustic::{
-    AiryTransfer, CausticWindow, ColumnFilter, domain_weights, smooth_over_azimuth,
-};
-use crate::raytrace::post::{bin_edges, filter_sigma_deg, fraunhofer_bin_average};
+use crate::raytrace::post::{filter_sigma_deg, integral_1d};
 use crate::raytrace::shape::{CosineSeries, DropShape};
 use crate::raytrace::sphere1d::{
-    DiffractionModel, Phase1dOptions, SphereGo, sphere_order_intensities_1d, sphere_phase_1d,
+    DiffractionModel, SPHERE_MAX_ORDER, SphereTableOptions, sphere_table_channels,
 };
-use crate::raytrace::tracer::{
-    DirectionGrid, FieldGrid, RayGridLayout, TraceConfig, pixel_intensities, trace_fields,
-    trace_fields_mirror_half,
+use crate::raytrace::table2d::{
+    Table2dOptions, Trace2d, WavelengthCache, WavelengthFields, divide_intensities,
+    entry_integral_2d, trace_table_2d,
 };
+use crate::raytrace::tracer::{DirectionGrid, RayGridLayout};
 use crate::stages::phase_contract;
-use crate::stages::{Job, JobError, PlanError, StageSpec, TaskSpec, checks, stage_params};
+use crate::stages::{
+    Chunk, Job, JobError, PlanError, StageSpec, TaskSpec, check_chunk, check_chunks, checks,
+    concat_values, stage_params,
+};
 use crate::table::{Axis, Channel, Schema, TableContent};
-use num_complex::Complex32;
-use rayon::prelude::*;
-use std::collections::HashMap;
-use std::f64::consts::PI;
-use std::sync::{Arc, Mutex, OnceLock};
 
 /// The stage.
 pub struct RaytraceStage;
@@ -186,10 +182,6 @@ impl StageSpec for RaytraceStage {
     }
 }
 
-/// Default highest order of sphere (1-D) tables: with p = 6 Alexander's dark band of the 1-D
-/// path is within 10 % of Lorenz–Mie from 0.4 mm up (p ≤ 3: 14 % low at 0.4 mm; decision RT-30).
-pub const SPHERE_MAX_ORDER: usize = 6;
-
 /// A planned ray-tracing job.
 pub struct RaytraceJob {
     p: RaytraceParams,
@@ -203,56 +195,7 @@ pub struct RaytraceJob {
     shape: Option<DropShape>,
     profile_fit_residual: Option<f64>,
     /// What a 2-D entry computes once per wavelength for all its sun elevations.
-    per_wavelength: PerWavelengthCache,
-}
-
-/// The parts of a 2-D table that depend on the wavelength but not on the sun elevation: the
-/// column filter (with its airy-local transfer) and the equal-volume sphere's higher orders.
-struct WavelengthFields {
-    filter: ColumnFilter,
-    higher: Option<SphereHigherOrders>,
-}
-
-/// [`WavelengthFields`] shared by the tasks of one wavelength, so that the sun elevations of a
-/// wavelength compute them once. A slot is computed by the first task that asks for it (the
-/// others wait for it) and dropped from the cache after as many requests as the entry has sun
-/// elevations, so the cache holds only the wavelengths in flight (in a sharded build, a
-/// wavelength whose other elevations run on other shards stays until the job ends: a few MB
-/// each at the seed resolution). A value is the same whether it comes from the cache or not:
-/// the cache saves time, never changes a table.
-#[derive(Default)]
-struct PerWavelengthCache {
-    /// Per wavelength (its bits): the requests so far and the slot.
-    slots: Mutex<HashMap<u64, (usize, WavelengthSlot)>>,
-}
-
-/// A wavelength's fields, computed once by whichever task gets there first.
-type WavelengthSlot = Arc<OnceLock<Arc<WavelengthFields>>>;
-
-impl PerWavelengthCache {
-    /// The fields of `wavelength_nm`, computed by `compute` unless a task of the same wavelength
-    /// already did; `uses` is the number of requests after which the slot is dropped.
-    fn get(
-        &self,
-        wavelength_nm: f64,
-        uses: usize,
-        compute: impl FnOnce() -> WavelengthFields,
-    ) -> Arc<WavelengthFields> {
-        let slot = {
-            let mut slots = self.slots.lock().unwrap_or_else(|e| e.into_inner());
-            let key = wavelength_nm.to_bits();
-            let entry = slots
-                .entry(key)
-                .or_insert_with(|| (0, Arc::new(OnceLock::new())));
-            entry.0 += 1;
-            let slot = Arc::clone(&entry.1);
-            if entry.0 >= uses {
-                slots.remove(&key);
-            }
-            slot
-        };
-        Arc::clone(slot.get_or_init(|| Arc::new(compute())))
-    }
+    per_wavelength: WavelengthCache,
 }
 
 /// The checks of a 2-D (non-spherical) plan: one radius, direction grid steps that divide the
@@ -353,7 +296,7 @@ impl RaytraceJob {
             two_d,
             shape: None,
             profile_fit_residual: None,
-            per_wavelength: PerWavelengthCache::default(),
+            per_wavelength: WavelengthCache::default(),
         };
         if !two_d {
             if divides(180.0, job.p.angle_step_deg).is_none() {
@@ -402,7 +345,7 @@ impl RaytraceJob {
             ));
         }
         self.fixed_index = Some(n);
-        self.per_wavelength = PerWavelengthCache::default();
+        self.per_wavelength = WavelengthCache::default();
         Ok(self)
     }
 
@@ -466,26 +409,37 @@ impl RaytraceJob {
             .collect()
     }
 
-    /// Run the 2-D tracer for one (wavelength, elevation): values [polar][azimuth][channel].
-    /// Steps: trace (rayon over ray rows, then table rows), filter the caustic windows (rayon
-    /// over azimuth columns), normalise and write the channels (rayon over polar rows).
-    /// With airy-local the chunk ends with the transfer weights of every azimuth column
-    /// ([`RaytraceJob::domain_values`]), which `assemble` records in the header.
-    fn run_2d(&self, lambda: f64, elevation_deg: f64) -> Result<Vec<f32>, JobError> {
-        let (mut values, _, weights) = self.trace_2d_with_domain(lambda, elevation_deg)?;
-        if let Some(w) = weights {
-            values.extend(w.iter().flat_map(|w| w.map(|x| x as f32)));
+    /// Values per entry (task): angles, or polar × azimuth directions, times channels.
+    fn entry_len(&self) -> usize {
+        let channels = self.channels().len();
+        if self.two_d {
+            let grid = self.direction_grid();
+            grid.n_polar * grid.n_azimuth * channels
+        } else {
+            self.n_angles() * channels
         }
-        Ok(values)
     }
 
-    /// Values per 2-D task after the table's: the airy-local transfer weight of each azimuth
-    /// column (primary, secondary), 2 × n_azimuth, or none for the other models.
+    /// How the 2-D entries of this job are traced.
+    fn table2d_options(&self) -> Table2dOptions {
+        Table2dOptions {
+            rays: self.p.rays,
+            ray_grid: self.p.ray_grid,
+            max_order: self.max_order,
+            grid: self.direction_grid(),
+            diffraction_filter: self.p.diffraction_filter,
+            model: self.diffraction_model(),
+            sphere_higher_orders: self.p.sphere_higher_orders,
+            diagnostic_channels: self.p.diagnostic_channels,
+            mirror_symmetrise: self.p.mirror_symmetrise,
+            mirror_half: self.p.mirror_half,
+        }
+    }
+
+    /// Scalars per 2-D task: the airy-local transfer weight of each azimuth column (primary,
+    /// secondary), 2 × n_azimuth, or none for the other models and for spheres.
     fn domain_values(&self) -> usize {
-        if self.two_d
-            && self.p.diffraction_filter
-            && self.diffraction_model() == DiffractionModel::AiryLocal
-        {
+        if self.two_d && self.table2d_options().airy_local() {
             2 * self.direction_grid().n_azimuth
         } else {
             0
@@ -496,450 +450,56 @@ impl RaytraceJob {
     /// a task returns them (divided by σ, before the renormalisation of `assemble`) and the
     /// scattering cross-section σ = σ_GO + A (µm²) they were divided by.
     pub fn trace_2d(&self, lambda: f64, elevation_deg: f64) -> Result<(Vec<f32>, f64), JobError> {
-        let (values, sigma, _) = self.trace_2d_with_domain(lambda, elevation_deg)?;
-        Ok((values, sigma))
+        let t = self.trace_entry(lambda, elevation_deg)?;
+        Ok((t.values, t.cross_section_um2))
     }
 
-    /// [`RaytraceJob::trace_2d`] and, with airy-local, the weight of the transfer in each
-    /// azimuth column `[primary, secondary]` (1: the sphere-validated transfer, 0: the
-    /// Gaussian filter, between: blended; decision RT-33).
-    #[allow(clippy::type_complexity)]
-    pub fn trace_2d_with_domain(
-        &self,
-        lambda: f64,
-        elevation_deg: f64,
-    ) -> Result<(Vec<f32>, f64, Option<Vec<[f64; 2]>>), JobError> {
+    /// One (wavelength, sun elevation) entry of a 2-D table ([`trace_table_2d`]), with the
+    /// wavelength's fields shared by its sun elevations.
+    fn trace_entry(&self, lambda: f64, elevation_deg: f64) -> Result<Trace2d, JobError> {
         let shape = self.shape.as_ref().expect("2-D job has a shape");
         let n = self.index(lambda)?;
-        let grid = self.direction_grid();
-        let cfg = TraceConfig {
-            rays: self.p.rays,
-            max_order: self.max_order,
-            sun_elevation_rad: elevation_deg.to_radians(),
-            wavelength_nm: lambda,
-            n,
-            ray_grid: self.p.ray_grid,
-        };
-        let a_um = shape.radius_um();
+        let opts = self.table2d_options();
         // Before the trace: their few allocations do not stack on the accumulators' peak.
         let fields = self
             .per_wavelength
             .get(lambda, self.p.sun_elevation_deg.len(), || {
-                WavelengthFields {
-                    filter: self.column_filter(a_um, lambda, n, grid),
-                    higher: self.sphere_higher_orders(a_um, lambda, n, grid),
-                }
+                WavelengthFields::new(shape.radius_um(), lambda, n, &opts)
             });
-        let (filter, higher) = (&fields.filter, fields.higher.as_ref());
-        let f = if self.p.mirror_half {
-            trace_fields_mirror_half(shape, &cfg, grid)
-        } else {
-            trace_fields(shape, &cfg, grid)
-        };
-        let (windows, weights) = caustic_windows(&f, filter);
-        let sigma_total = f.order_cross_section_um2.iter().sum::<f64>()
-            + f.projected_area_um2
-            + higher.map_or(0.0, |h| h.cross_section_um2);
-        let nch = n_channels_2d(self.max_order + 1, self.p.diagnostic_channels);
-        let mut out = write_channels(f, &windows, lambda, nch, higher);
-        if self.p.mirror_symmetrise && !self.p.mirror_half {
-            mirror_symmetrise(&mut out, grid.n_azimuth, nch);
-        }
-        Ok((out, sigma_total, weights))
+        Ok(trace_table_2d(
+            shape,
+            lambda,
+            n,
+            elevation_deg,
+            &opts,
+            &fields,
+        ))
     }
-}
 
-impl RaytraceJob {
-    /// The caustic filter of a 2-D entry's columns at one wavelength: the Gaussian diffraction
-    /// filter, split between the bows at the equal-volume sphere's mid-angle, with the sphere's
-    /// airy-local transfer when that model is on.
-    fn column_filter(&self, a_um: f64, lambda: f64, n: f64, grid: DirectionGrid) -> ColumnFilter {
-        let go = SphereGo::new(a_um, lambda, n, 3);
-        let split = 0.5
-            * (go.rainbow_angle_rad(2).unwrap_or(PRIMARY_FALLBACK_RAD)
-                + go.rainbow_angle_rad(3).unwrap_or(SECONDARY_FALLBACK_RAD));
-        let filter = ColumnFilter::new(
-            grid.n_polar,
-            grid.polar_step(),
-            filter_sigma_deg(a_um * 1e-3).to_radians(),
-            split,
-            self.p.diffraction_filter,
+    /// A sphere's 1-D entry: values `[angle][channel]`.
+    fn sphere_entry(&self, radius_um: f64, lambda: f64) -> Result<Vec<f32>, JobError> {
+        let na = self.n_angles();
+        let ch = sphere_table_channels(
+            radius_um,
+            lambda,
+            self.index(lambda)?,
+            &SphereTableOptions {
+                max_order: self.max_order,
+                step_deg: self.p.angle_step_deg,
+                angles: na,
+                diffraction_filter: self.p.diffraction_filter,
+                model: self.diffraction_model(),
+            },
         );
-        if self.p.diffraction_filter && self.diffraction_model() == DiffractionModel::AiryLocal {
-            // The traced orders p = 0 … max_order are the columns' channels.
-            let transfer =
-                sphere_airy_transfer(&go, &filter, grid.polar_step(), self.max_order + 1);
-            filter.with_airy_transfer(transfer)
-        } else {
-            filter
-        }
-    }
-}
-
-/// The orders of the equal-volume sphere that a 2-D table adds to its traced ones (decision
-/// RT-37): bin averages on the table's polar rows, the same at every azimuth.
-pub struct SphereHigherOrders {
-    /// dσ/dΩ (µm²/sr) per polar row, ⊥ and ∥.
-    pub i_perp: Vec<f64>,
-    pub i_par: Vec<f64>,
-    /// Their scattering cross-section (µm²): the geometric-optics energy shares × πa², as the
-    /// traced orders' σ_GO.
-    pub cross_section_um2: f64,
-}
-
-impl RaytraceJob {
-    /// [`SphereHigherOrders`] of a 2-D entry, or `None` when `sphere_higher_orders` is off or
-    /// `max_order` already reaches [`SPHERE_MAX_ORDER`].
-    fn sphere_higher_orders(
-        &self,
-        a_um: f64,
-        lambda: f64,
-        n: f64,
-        grid: DirectionGrid,
-    ) -> Option<SphereHigherOrders> {
-        if !self.p.sphere_higher_orders || self.max_order >= SPHERE_MAX_ORDER {
-            return None;
-        }
-        let orders = self.max_order + 1..=SPHERE_MAX_ORDER;
-        let go = SphereGo::new(a_um, lambda, n, SPHERE_MAX_ORDER);
-        let step_deg = grid.polar_step().to_degrees();
-        let angles: Vec<f64> = (0..grid.n_polar).map(|j| step_deg * j as f64).collect();
-        let (i_perp, i_par) = sphere_order_intensities_1d(&go, orders.clone(), &angles, step_deg);
-        let cross_section_um2 =
-            orders.map(|p| go.energy_fraction(p)).sum::<f64>() * PI * a_um * a_um;
-        Some(SphereHigherOrders {
-            i_perp,
-            i_par,
-            cross_section_um2,
-        })
-    }
-}
-
-/// The equal-volume sphere's Airy and GO channels on the rows the column filter needs, as
-/// dσ/dΩ (µm²/sr) in the columns' layout `[i_perp, i_par, p0, …, p_{orders−1}]`.
-fn sphere_airy_transfer(
-    go: &SphereGo,
-    filter: &ColumnFilter,
-    step_rad: f64,
-    orders: usize,
-) -> AiryTransfer {
-    let rows = filter.needed_rows();
-    AiryTransfer::new(
-        filter,
-        rows,
-        &sphere_columns(go, filter, step_rad, orders, true),
-        &sphere_columns(go, filter, step_rad, orders, false),
-    )
-}
-
-/// The sphere's channels on the rows [`ColumnFilter::needed_rows`] of `filter`, in the columns'
-/// layout `[i_perp, i_par, p0, …, p_{orders−1}]` (dσ/dΩ, µm²/sr): Airy-uniform with
-/// `diffraction_filter`, geometric optics without; orders the sphere does not have are zero.
-fn sphere_columns(
-    go: &SphereGo,
-    filter: &ColumnFilter,
-    step_rad: f64,
-    orders: usize,
-    diffraction_filter: bool,
-) -> Vec<Vec<f64>> {
-    let rows = filter.needed_rows();
-    let angles: Vec<f64> = (rows.0..=rows.1)
-        .map(|j| (step_rad * j as f64).to_degrees())
-        .collect();
-    let opts = Phase1dOptions {
-        diffraction_filter,
-        model: DiffractionModel::AiryUniform,
-        ..Phase1dOptions::default()
-    };
-    let (ch, sigma_total) = sphere_phase_1d(go, &angles, opts);
-    // 1-D layout: phase, i_perp, i_par, dolp, p0 … p_max, then the unfiltered channels.
-    let scaled = |c: usize| ch[c].iter().map(|v| v * sigma_total).collect::<Vec<f64>>();
-    let mut out = vec![scaled(1), scaled(2)];
-    for p in 0..orders {
-        out.push(if p <= go.max_order {
-            scaled(4 + p)
-        } else {
-            vec![0.0; angles.len()]
-        });
-    }
-    out
-}
-
-/// Index of the `dolp` channel (not an intensity: never renormalised).
-pub const DOLP_CHANNEL: usize = 3;
-
-/// Geometric primary and secondary bow angles used when the index admits no bow (rad).
-const PRIMARY_FALLBACK_RAD: f64 = 2.4;
-const SECONDARY_FALLBACK_RAD: f64 = 2.26;
-
-/// Channels per pixel of a 2-D table with `orders` orders: phase, i_perp, i_par, dolp and, with
-/// `diagnostic`, the per-order phases and the three unfiltered channels
-/// ([`crate::raytrace::channel_names`]).
-pub fn n_channels_2d(orders: usize, diagnostic: bool) -> usize {
-    if diagnostic { 4 + orders + 3 } else { 4 }
-}
-
-/// Azimuth columns gathered together by [`map_columns`]: the rows of a block are read once,
-/// with consecutive pixels of one order adjacent in memory.
-const COLUMN_BLOCK: usize = 16;
-
-/// The columns of a block as [`ColumnFilter`] takes them.
-fn block_cols(block: &[Vec<Vec<f64>>]) -> Vec<&[Vec<f64>]> {
-    block.iter().map(Vec::as_slice).collect()
-}
-
-/// `op(k0, block)` for every block of [`COLUMN_BLOCK`] azimuth columns `k0..k0 + block.len()`
-/// for which `want(k0, k0 + block.len())` holds (the others give `R::default()` per column,
-/// without reading the accumulators; rayon over blocks), concatenated, where `block[c]` holds
-/// dσ/dΩ i_perp, i_par and per order of column `k0 + c` at polar rows `rows.0..=rows.1`. The accumulators are read row by row
-/// within a block: reading one column at a time visits one pixel per row and order and misses
-/// the caches at nearly every value.
-fn map_columns<R: Send + Default + Clone>(
-    f: &FieldGrid,
-    rows: (usize, usize),
-    want: impl Fn(usize, usize) -> bool + Sync,
-    op: impl Fn(usize, &[Vec<Vec<f64>>]) -> Vec<R> + Sync,
-) -> Vec<R> {
-    let (orders, na) = (f.orders, f.n_columns);
-    let zeros = vec![Complex32::new(0.0, 0.0); f.order_row_len()];
-    (0..na.div_ceil(COLUMN_BLOCK))
-        .into_par_iter()
-        .flat_map_iter(|b| {
-            let (k0, k1) = (b * COLUMN_BLOCK, ((b + 1) * COLUMN_BLOCK).min(na));
-            if !want(k0, k1) {
-                return vec![R::default(); k1 - k0];
-            }
-            let n = rows.1 + 1 - rows.0;
-            let mut cols = vec![vec![Vec::with_capacity(n); 2 + orders]; k1 - k0];
-            let mut per = vec![0.0; orders];
-            let mut acc: Vec<&[Complex32]> = Vec::with_capacity(orders);
-            for j in rows.0..=rows.1 {
-                acc.clear();
-                acc.extend((0..orders).map(|o| f.order_row(o, j).unwrap_or(&zeros)));
-                for (k, c) in (k0..k1).zip(cols.iter_mut()) {
-                    let px = acc.iter().map(|a| &a[k * 4..k * 4 + 4]);
-                    let (ip, ipar) = pixel_intensities(px, &mut per);
-                    c[0].push(ip);
-                    c[1].push(ipar);
-                    for (c, v) in c[2..].iter_mut().zip(&per) {
-                        c.push(*v);
-                    }
-                }
-            }
-            op(k0, &cols)
-        })
-        .collect()
-}
-
-/// The filtered caustic window of every held azimuth column (rayon over blocks of columns) and,
-/// with airy-local, the transfer weight of every azimuth column of the table: columns
-/// of dσ/dΩ i_perp, i_par and per order over the rows the filter needs. With the airy-local
-/// transfer, the columns' caustic positions are found first and smoothed over azimuth
-/// (decision RT-28), then each column's bows are tested against the transfer's domain and the
-/// flags turned into transfer weights smoothed over azimuth (decision RT-33): the transfer
-/// where the caustic is the sphere's fold, moved and scaled, the Gaussian filter elsewhere.
-fn caustic_windows(
-    f: &FieldGrid,
-    filter: &ColumnFilter,
-) -> (Vec<CausticWindow>, Option<Vec<[f64; 2]>>) {
-    let orders = f.orders;
-    let rows = filter.needed_rows();
-    let order = |o: usize| (o < orders).then_some(2 + o);
-    let step_deg = f.grid.azimuth_step().to_degrees();
-    let every = |_: usize, _: usize| true;
-    if !filter.uses_fold_positions() {
-        let windows = map_columns(f, rows, every, |_, block| {
-            filter.filter_columns_at(rows, &block_cols(block), order(2), order(3), &[], &[])
-        });
-        return (windows, None);
-    }
-    let raw = map_columns(f, rows, every, |_, block| {
-        let pos = |c: &Vec<Vec<f64>>| filter.fold_positions(rows, c, order(2), order(3));
-        block.iter().map(pos).collect()
-    });
-    let na = f.grid.n_azimuth;
-    let mut positions = smooth_over_azimuth(&over_full_circle(&raw, na), step_deg);
-    positions.truncate(f.n_columns);
-    let (mut windows, flags): (Vec<CausticWindow>, Vec<[bool; 2]>) =
-        map_columns(f, rows, every, |k0, block| {
-            let pos = &positions[k0..k0 + block.len()];
-            filter
-                .transfer_columns(rows, &block_cols(block), order(2), order(3), pos)
-                .expect("a transfer: the filter uses fold positions")
-        })
-        .into_iter()
-        .unzip();
-    // Over every azimuth (what the table records); the held columns' part drives the blend.
-    let all_weights = domain_weights(&over_full_circle(&flags, na), step_deg);
-    let weights = &all_weights[..f.n_columns];
-    let partial = |k0: usize, k1: usize| weights[k0..k1].iter().any(|w| w[0] < 1.0 || w[1] < 1.0);
-    if partial(0, weights.len()) {
-        // Only blocks with a column outside the domain are read again.
-        let blended = map_columns(f, rows, partial, |k0, block| {
-            let range = k0..k0 + block.len();
-            filter
-                .blend_with_gaussian(
-                    rows,
-                    &block_cols(block),
-                    order(2),
-                    order(3),
-                    windows[range.clone()].to_vec(),
-                    &weights[range],
-                )
-                .into_iter()
-                .map(Some)
-                .collect()
-        });
-        for (w, b) in windows.iter_mut().zip(blended) {
-            if let Some(b) = b {
-                *w = b;
+        let nch = self.channels().len();
+        let mut out = vec![0f32; na * nch];
+        for j in 0..na {
+            for c in 0..nch {
+                out[j * nch + c] = ch[c][j] as f32;
             }
         }
+        Ok(out)
     }
-    (windows, Some(all_weights))
-}
-
-/// Per-column values `held` of a field grid's columns ([`FieldGrid::n_columns`]) over all `na`
-/// azimuths: as they are for a whole trace, completed by the mirror image (column `na − k` is
-/// column `k`) for a mirror-half one, so that smoothing over azimuth sees the columns on both
-/// sides of φ = 0° and 180°.
-fn over_full_circle<T: Clone>(held: &[T], na: usize) -> Vec<T> {
-    (0..na)
-        .map(|k| held.get(k).unwrap_or_else(|| &held[na - k]).clone())
-        .collect()
-}
-
-/// The table values `[polar][azimuth][channel]` of one entry (rayon over polar rows): filtered
-/// values inside each column's caustic window, unfiltered outside, plus the forward lobe of the
-/// equal-area disc and, in all but the per-order channels, the sphere's higher orders
-/// (`higher`), all divided by σ = σ_GO + A (+ the higher orders' σ). Consumes the accumulators
-/// band by band (each band is released once its rows are written), so the accumulators and the
-/// output are not held in full at the same time.
-fn write_channels(
-    mut f: FieldGrid,
-    windows: &[CausticWindow],
-    lambda: f64,
-    nch: usize,
-    higher: Option<&SphereHigherOrders>,
-) -> Vec<f32> {
-    let grid = f.grid;
-    let (np, na, orders) = (grid.n_polar, grid.n_azimuth, f.orders);
-    let nc = f.n_columns;
-    let area = f.projected_area_um2;
-    let a_eff = (area / PI).sqrt();
-    let sigma_total: f64 = f.order_cross_section_um2.iter().sum::<f64>()
-        + area
-        + higher.map_or(0.0, |h| h.cross_section_um2);
-    let dth = grid.polar_step();
-    let (band_rows, order_row_len) = (f.band_rows, f.order_row_len());
-    let mut out = vec![0f32; np * na * nch];
-    let bands = std::mem::take(&mut f.bands);
-    let reach = &f.reach;
-    let zeros = vec![Complex32::new(0.0, 0.0); order_row_len];
-    for (b, (band, out_band)) in bands
-        .into_iter()
-        .zip(out.chunks_mut(band_rows * na * nch))
-        .enumerate()
-    {
-        let block = band.len() / orders;
-        out_band
-            .par_chunks_mut(na * nch)
-            .enumerate()
-            .for_each(|(jj, row)| {
-                let j = b * band_rows + jj;
-                // Each order's accumulators on this row (zeros outside the order's reach, whose
-                // pages were never touched).
-                let acc: Vec<&[Complex32]> = (0..orders)
-                    .map(|o| match reach[o] {
-                        Some((lo, hi)) if (lo..=hi).contains(&j) => {
-                            let base = o * block + jj * order_row_len;
-                            &band[base..base + order_row_len]
-                        }
-                        _ => &zeros[..],
-                    })
-                    .collect();
-                let (lo, hi) = bin_edges(dth * j as f64, dth);
-                let lobe = fraunhofer_bin_average(a_eff, lambda, lo, hi);
-                let (hp, hl) = higher.map_or((0.0, 0.0), |h| (h.i_perp[j], h.i_par[j]));
-                let mut per = vec![0.0; orders];
-                let mut unf = vec![0.0; 2 + orders];
-                for (k, px) in row.chunks_exact_mut(nch).take(nc).enumerate() {
-                    let (ip_u, ipar_u) =
-                        pixel_intensities(acc.iter().map(|a| &a[k * 4..k * 4 + 4]), &mut per);
-                    unf[0] = ip_u;
-                    unf[1] = ipar_u;
-                    unf[2..].copy_from_slice(&per);
-                    let filt = windows[k].get(j).unwrap_or(&unf);
-                    let ip = (filt[0] + lobe + hp) / sigma_total;
-                    let ipar = (filt[1] + lobe + hl) / sigma_total;
-                    let ipu = (ip_u + lobe + hp) / sigma_total;
-                    let iparu = (ipar_u + lobe + hl) / sigma_total;
-                    let dolp = if ip + ipar > 0.0 {
-                        (ip - ipar) / (ip + ipar)
-                    } else {
-                        0.0
-                    };
-                    let head = [0.5 * (ip + ipar), ip, ipar, dolp];
-                    let tail = [0.5 * (ipu + iparu), ipu, iparu];
-                    let per_order = filt[2..].iter().map(|v| v / sigma_total);
-                    // The first `nch` of the channels (the contract's four without the
-                    // diagnostic channels).
-                    for (dst, v) in px
-                        .iter_mut()
-                        .zip(head.into_iter().chain(per_order).chain(tail))
-                    {
-                        *dst = v as f32;
-                    }
-                }
-                // A mirror-half trace: column na − k is the mirror image of column k (the same
-                // intensities, decision RT-34).
-                for k in nc..na {
-                    row.copy_within((na - k) * nch..(na - k + 1) * nch, k * nch);
-                }
-            });
-        // `band` is dropped here: its accumulators return to the system before the next band.
-    }
-    out
-}
-
-/// Mirror symmetrisation φ ↔ 360° − φ of table values `[polar][azimuth][channel]` (rayon over
-/// polar rows; decision RT-24): every channel but `dolp` of columns k and `na − k` is replaced
-/// by the pair's mean and `dolp` is recomputed from the mean i_perp and i_par. Columns 0 and
-/// na/2 (φ = 0°, 180°) are their own mirror images. The pair has equal solid angles, so
-/// ∫ p dΩ is unchanged.
-pub fn mirror_symmetrise(values: &mut [f32], na: usize, nch: usize) {
-    values.par_chunks_mut(na * nch).for_each(|row| {
-        for k in 1..na.div_ceil(2) {
-            let (head, tail) = row.split_at_mut((na - k) * nch);
-            let a = &mut head[k * nch..(k + 1) * nch];
-            let b = &mut tail[..nch];
-            for (c, (x, y)) in a.iter_mut().zip(b.iter_mut()).enumerate() {
-                if c != DOLP_CHANNEL {
-                    let m = 0.5 * (*x as f64 + *y as f64);
-                    (*x, *y) = (m as f32, m as f32);
-                }
-            }
-            let (ip, ipar) = (a[1] as f64, a[2] as f64);
-            let dolp = if ip + ipar > 0.0 {
-                ((ip - ipar) / (ip + ipar)) as f32
-            } else {
-                0.0
-            };
-            a[DOLP_CHANNEL] = dolp;
-            b[DOLP_CHANNEL] = dolp;
-        }
-    });
-}
-
-/// ∫ p dΩ of a 1-D phase function on a uniform [0, π] grid (bin-sum with exact bin solid angles).
-pub(crate) fn integral_1d(values: impl Iterator<Item = f64>, step: f64) -> f64 {
-    values
-        .enumerate()
-        .map(|(j, v)| {
-            let (lo, hi) = bin_edges(step * j as f64, step);
-            v * 2.0 * PI * (lo.cos() - hi.cos())
-        })
-        .sum()
 }
 
 impl Job for RaytraceJob {
@@ -977,57 +537,30 @@ impl Job for RaytraceJob {
             .collect()
     }
 
-    fn run_task(&self, index: usize) -> Result<Vec<f32>, JobError> {
+    /// Spheres: the entry's values. 2-D shapes: the entry's values and, with airy-local, the
+    /// transfer weights of its azimuth columns (`[primary, secondary]` per column), which
+    /// `assemble` records in the header.
+    fn run_task(&self, index: usize) -> Result<Chunk, JobError> {
         let (f, s) = self.task_pairs()[index];
-        if self.two_d {
-            return self.run_2d(f, s);
+        if !self.two_d {
+            return Ok(Chunk::values(self.sphere_entry(f, s)?));
         }
-        let (radius_um, l) = (f, s);
-        let n = self.index(l)?;
-        // The Lorenz–Mie cross-order phases with the sphere's own caustic model; the thesis's
-        // Gaussian model keeps its convention (decision RT-38).
-        let go = SphereGo::new(radius_um, l, n, self.max_order)
-            .with_axial_phases(self.diffraction_model() == DiffractionModel::AiryUniform);
-        let na = self.n_angles();
-        let angles: Vec<f64> = (0..na).map(|j| self.p.angle_step_deg * j as f64).collect();
-        let (ch, _) = sphere_phase_1d(
-            &go,
-            &angles,
-            Phase1dOptions {
-                diffraction_filter: self.p.diffraction_filter,
-                model: self.diffraction_model(),
-                ..Default::default()
-            },
-        );
-        let nch = self.channels().len();
-        let mut out = vec![0f32; na * nch];
-        for j in 0..na {
-            for c in 0..nch {
-                out[j * nch + c] = ch[c][j] as f32;
-            }
-        }
-        Ok(out)
+        let t = self.trace_entry(f, s)?;
+        let weights = t.domain_weights.unwrap_or_default();
+        Ok(Chunk::new(
+            t.values,
+            weights.into_iter().flatten().collect(),
+        ))
     }
 
-    fn assemble(&self, mut chunks: Vec<Vec<f32>>) -> Result<TableContent, JobError> {
-        let tail = self.domain_values();
-        let mut domain = None;
-        if tail > 0 {
-            let grid = self.direction_grid();
-            let expected = grid.n_polar * grid.n_azimuth * self.channels().len() + tail;
-            let mut weights = Vec::with_capacity(chunks.len());
-            for (index, c) in chunks.iter_mut().enumerate() {
-                if c.len() != expected {
-                    return Err(JobError::ChunkLength {
-                        index,
-                        got: c.len(),
-                        expected,
-                    });
-                }
-                weights.push(c.split_off(expected - tail));
-            }
-            domain = Some(self.domain_attribute(&weights));
-        }
+    fn assemble(&self, chunks: Vec<Chunk>) -> Result<TableContent, JobError> {
+        let scalars = self.domain_values();
+        let tasks = self.task_pairs().len();
+        check_chunks(&chunks, tasks, self.entry_len(), scalars)?;
+        let domain = (scalars > 0).then(|| {
+            let weights: Vec<&[f64]> = chunks.iter().map(|c| c.scalars.as_slice()).collect();
+            self.domain_attribute(&weights)
+        });
         let mut t = self.assemble_values(chunks)?;
         if let Some(d) = domain {
             t.attributes.insert("airy_local_domain".into(), d);
@@ -1037,32 +570,22 @@ impl Job for RaytraceJob {
 }
 
 impl RaytraceJob {
-    /// The table from the tasks' values (chunks without the airy-local weights of
-    /// [`RaytraceJob::run_task`]), in task order: what `mixture-2d` assembles per radius.
-    pub fn assemble_values(&self, chunks: Vec<Vec<f32>>) -> Result<TableContent, JobError> {
+    /// The table from the tasks' chunks in task order (their scalars unused): what
+    /// `mixture-2d` assembles per radius.
+    pub fn assemble_values(&self, chunks: Vec<Chunk>) -> Result<TableContent, JobError> {
+        let entry_len = self.entry_len();
+        for (index, c) in chunks.iter().enumerate() {
+            check_chunk(index, c, entry_len, c.scalars.len())?;
+        }
         let channels = self.channels();
         let at = self.common_attributes();
-        let data = concat_chunks(chunks);
+        let data = concat_values(chunks);
         if self.two_d {
             self.assemble_2d(data, channels, at)
         } else {
             self.assemble_1d(data, channels, at)
         }
     }
-}
-
-/// The chunks of a job in order as one vector: the first chunk becomes the table (grown in
-/// place), each further chunk is dropped once copied, so a one-task table is never copied and
-/// larger ones hold one spare chunk at most.
-fn concat_chunks(chunks: Vec<Vec<f32>>) -> Vec<f32> {
-    let total: usize = chunks.iter().map(Vec::len).sum();
-    let mut chunks = chunks.into_iter();
-    let mut data = chunks.next().unwrap_or_default();
-    data.reserve_exact(total - data.len());
-    for c in chunks {
-        data.extend_from_slice(&c);
-    }
-    data
 }
 
 impl RaytraceJob {
@@ -1099,12 +622,12 @@ impl RaytraceJob {
     }
 
     /// The header record of where airy-local used the sphere's transfer (decision RT-33), per
-    /// (wavelength, sun elevation) entry and bow, from the weights each task appended
-    /// (`[primary, secondary]` per azimuth column).
-    fn domain_attribute(&self, weights: &[Vec<f32>]) -> serde_json::Value {
+    /// (wavelength, sun elevation) entry and bow, from the weights of each task's chunk
+    /// (`[primary, secondary]` per azimuth column), classified at f32 precision.
+    fn domain_attribute(&self, weights: &[&[f64]]) -> serde_json::Value {
         let step = self.p.azimuth_step_deg;
-        let bow = |w: &[f32], b: usize| {
-            let col: Vec<f32> = w.chunks_exact(2).map(|p| p[b]).collect();
+        let bow = |w: &[f64], b: usize| {
+            let col: Vec<f32> = w.chunks_exact(2).map(|p| p[b] as f32).collect();
             let transfer = col.iter().filter(|&&x| x >= 1.0).count();
             let gaussian = col.iter().filter(|&&x| x <= 0.0).count();
             // Azimuth ranges (deg, inclusive) of the columns that did not take the transfer
@@ -1194,24 +717,10 @@ impl RaytraceJob {
     /// cusp caustics (+3.9 % at 3 mm, sun 0°).
     fn renormalise_2d(&self, data: &mut [f32], nch: usize) -> Result<Vec<f64>, JobError> {
         let grid = self.direction_grid();
-        let (np, na) = (grid.n_polar, grid.n_azimuth);
-        let dth = grid.polar_step();
+        let len = grid.n_polar * grid.n_azimuth * nch;
         let mut ints = vec![];
-        for e in 0..self.task_pairs().len() {
-            let base = e * np * na * nch;
-            // Row sums in parallel, added in row order (deterministic, so rebuilt tables are
-            // byte-identical).
-            let rows: Vec<f64> = (0..np)
-                .into_par_iter()
-                .map(|j| {
-                    let (lo, hi) = bin_edges(dth * j as f64, dth);
-                    let om = (lo.cos() - hi.cos()) * grid.azimuth_step();
-                    (0..na)
-                        .map(|k| data[base + (j * na + k) * nch] as f64 * om)
-                        .sum::<f64>()
-                })
-                .collect();
-            let s: f64 = rows.iter().sum();
+        for (e, entry) in data.chunks_mut(len).enumerate() {
+            let s = entry_integral_2d(entry, grid, nch);
             ints.push(s);
             if !(s > 0.0 && s.is_finite()) {
                 return Err(JobError::NotNormalisable {
@@ -1220,17 +729,7 @@ impl RaytraceJob {
                 });
             }
             crate::stages::check_phase_integral(e, s)?;
-            data[base..base + np * na * nch]
-                .par_chunks_mut(na * nch)
-                .for_each(|row| {
-                    for v in row.chunks_mut(nch) {
-                        for (c, x) in v.iter_mut().enumerate() {
-                            if c != DOLP_CHANNEL {
-                                *x = (*x as f64 / s) as f32;
-                            }
-                        }
-                    }
-                });
+            divide_intensities(entry, grid.n_azimuth * nch, nch, s);
         }
         Ok(ints)
     }
@@ -1315,6 +814,8 @@ impl RaytraceJob {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::raytrace::table2d::{DOLP_CHANNEL, n_channels_2d};
+    use rayon::prelude::*;
 
     fn plan(toml_lines: &str) -> Result<Box<dyn Job>, PlanError> {
         crate::stages::plan_from_lines(&RaytraceStage, toml_lines)
@@ -1375,7 +876,7 @@ mod tests {
             )
         };
         let both = plan(&lines("550.0, 650.0", "0.0, 20.0")).unwrap();
-        let values: Vec<Vec<f32>> = (0..4)
+        let values: Vec<Chunk> = (0..4)
             .into_par_iter()
             .map(|i| both.run_task(i).unwrap())
             .collect();
@@ -1392,29 +893,6 @@ mod tests {
             assert_eq!(values[i], single, "λ = {l} nm, sun {e}°");
         }
         assert_ne!(values[0], values[1]);
-
-        let cache = PerWavelengthCache::default();
-        let computed = std::sync::atomic::AtomicUsize::new(0);
-        let fields = || {
-            computed.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
-            WavelengthFields {
-                filter: ColumnFilter::new(10, 0.1, 0.01, 0.5, false),
-                higher: None,
-            }
-        };
-        let count = || computed.load(std::sync::atomic::Ordering::SeqCst);
-        (0..3).into_par_iter().for_each(|_| {
-            cache.get(550.0, 3, fields);
-        });
-        assert_eq!(count(), 1);
-        assert!(
-            cache.slots.lock().unwrap().is_empty(),
-            "slot kept after its last use"
-        );
-        cache.get(550.0, 3, fields);
-        cache.get(650.0, 3, fields);
-        assert_eq!(count(), 3);
-        assert_eq!(cache.slots.lock().unwrap().len(), 2);
     }
 
     /// The keys of `raytrace-phase/1` manifests are refused with a message naming the new key
@@ -1446,7 +924,7 @@ mod tests {
         let tasks = job.tasks();
         assert_eq!(tasks[1].params["radius_um"], 300.0);
         assert_eq!(tasks[1].params["wavelength_nm"], 650.0);
-        let chunks: Vec<Vec<f32>> = (0..tasks.len()).map(|i| job.run_task(i).unwrap()).collect();
+        let chunks: Vec<Chunk> = (0..tasks.len()).map(|i| job.run_task(i).unwrap()).collect();
         let t = job.assemble(chunks).unwrap();
         assert_eq!(t.schema, Schema::new("raytrace-phase", 2));
         let names: Vec<&str> = t.axes.iter().map(|a| a.name.as_str()).collect();

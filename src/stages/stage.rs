@@ -1,10 +1,11 @@
 //! The interface between the pipeline and a computation stage.
 //!
 //! A stage turns a manifest entry's `[table.params]` into a [`Job`]: a list of independent
-//! tasks (each a pure computation returning a chunk of f32 values) and an `assemble` step that
-//! turns the chunks, in task order, into a [`TableContent`]. The pipeline owns I/O, parallelism,
-//! resume (per-task checkpoints keyed by stage, algorithm version and task parameters) and
-//! progress; stages own the physics and must stay free of I/O.
+//! tasks (each a pure computation returning a [`Chunk`]: f32 table values and f64 scalars) and
+//! an `assemble` step that turns the chunks, in task order, into a [`TableContent`]. The
+//! pipeline owns I/O, parallelism, resume (per-task checkpoints keyed by stage, algorithm
+//! version and task parameters) and progress; stages plan, call the physics and assemble, and
+//! stay free of I/O.
 //!
 //! A stage is written as a [`StageSpec`] (name, version, summary, a parameter struct declared
 //! with [`stage_params!`](crate::stages::stage_params) and a planning function); [`Stage`], the
@@ -75,9 +76,10 @@ pub enum JobError {
     #[error("expected {expected} chunks (one per task), got {got}")]
     ChunkCount { expected: usize, got: usize },
     /// A chunk of the wrong length (e.g. a checkpoint of another layout).
-    #[error("chunk {index} has {got} values, expected {expected}")]
+    #[error("chunk {index} has {got} {part}, expected {expected}")]
     ChunkLength {
         index: usize,
+        part: ChunkPart,
         got: usize,
         expected: usize,
     },
@@ -100,21 +102,96 @@ pub enum JobError {
     Attributes(#[from] serde_json::Error),
 }
 
-/// Checks that `chunks` holds `count` chunks of `len` values each.
-pub fn check_chunks(chunks: &[Vec<f32>], count: usize, len: usize) -> Result<(), JobError> {
+/// What one task returns: its share of the table's f32 values (in the stage's layout) and f64
+/// scalars that the stage records elsewhere (e.g. per-entry cross-sections in the header, or
+/// statistics of the computation), kept at full precision.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Chunk {
+    /// The task's table values.
+    pub values: Vec<f32>,
+    /// The task's scalars, in an order the stage defines.
+    pub scalars: Vec<f64>,
+}
+
+impl Chunk {
+    /// A chunk of values and scalars.
+    pub fn new(values: Vec<f32>, scalars: Vec<f64>) -> Self {
+        Chunk { values, scalars }
+    }
+
+    /// A chunk of values without scalars.
+    pub fn values(values: Vec<f32>) -> Self {
+        Chunk {
+            values,
+            scalars: Vec::new(),
+        }
+    }
+}
+
+/// Checks that `chunks` holds `count` chunks of `values` values and `scalars` scalars each.
+pub fn check_chunks(
+    chunks: &[Chunk],
+    count: usize,
+    values: usize,
+    scalars: usize,
+) -> Result<(), JobError> {
     if chunks.len() != count {
         return Err(JobError::ChunkCount {
             expected: count,
             got: chunks.len(),
         });
     }
-    match chunks.iter().position(|c| c.len() != len) {
-        Some(index) => Err(JobError::ChunkLength {
-            index,
-            got: chunks[index].len(),
-            expected: len,
-        }),
-        None => Ok(()),
+    for (index, c) in chunks.iter().enumerate() {
+        check_chunk(index, c, values, scalars)?;
+    }
+    Ok(())
+}
+
+/// Checks that chunk `index` holds `values` values and `scalars` scalars.
+pub fn check_chunk(index: usize, c: &Chunk, values: usize, scalars: usize) -> Result<(), JobError> {
+    for (part, got, expected) in [
+        (ChunkPart::Values, c.values.len(), values),
+        (ChunkPart::Scalars, c.scalars.len(), scalars),
+    ] {
+        if got != expected {
+            return Err(JobError::ChunkLength {
+                index,
+                part,
+                got,
+                expected,
+            });
+        }
+    }
+    Ok(())
+}
+
+/// The values of `chunks` in order as one vector: the first chunk's values become the table
+/// (grown in place) and each further chunk is dropped once copied, so a one-task table is never
+/// copied and larger ones hold one spare chunk at most.
+pub fn concat_values(chunks: Vec<Chunk>) -> Vec<f32> {
+    let total: usize = chunks.iter().map(|c| c.values.len()).sum();
+    let mut chunks = chunks.into_iter();
+    let mut data = chunks.next().map(|c| c.values).unwrap_or_default();
+    data.reserve_exact(total - data.len());
+    for c in chunks {
+        data.extend_from_slice(&c.values);
+    }
+    data
+}
+
+/// The part of a [`Chunk`] that [`JobError::ChunkLength`] is about.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ChunkPart {
+    Values,
+    Scalars,
+}
+
+impl std::fmt::Display for ChunkPart {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            ChunkPart::Values => "values",
+            ChunkPart::Scalars => "scalars",
+        })
     }
 }
 
@@ -134,10 +211,10 @@ pub trait Job: Send + Sync {
     fn parameters(&self) -> serde_json::Value;
     /// The independent tasks, in a deterministic order.
     fn tasks(&self) -> Vec<TaskSpec>;
-    /// Run task `index` (pure; may use rayon internally). Returns its chunk of values.
-    fn run_task(&self, index: usize) -> Result<Vec<f32>, JobError>;
+    /// Run task `index` (pure; may use rayon internally). Returns its chunk.
+    fn run_task(&self, index: usize) -> Result<Chunk, JobError>;
     /// Assemble the chunks (in task order) into the table.
-    fn assemble(&self, chunks: Vec<Vec<f32>>) -> Result<TableContent, JobError>;
+    fn assemble(&self, chunks: Vec<Chunk>) -> Result<TableContent, JobError>;
     /// Uncompressed size of the table's values in bytes, known before any task runs (`None`:
     /// the stage does not say; `Some(u64::MAX)` when the count overflows). The pipeline refuses
     /// at plan time a table the reader would refuse (`ReadLimits::max_payload_bytes`).
@@ -184,7 +261,7 @@ pub fn run_in_memory(job: &dyn Job) -> Result<TableContent, JobError> {
 
 /// [`Job::assemble`], then check that the table has the size [`Job::payload_bytes`] announced
 /// (every run checks the plan-time estimate the pipeline relies on).
-pub fn assemble_checked(job: &dyn Job, chunks: Vec<Vec<f32>>) -> Result<TableContent, JobError> {
+pub fn assemble_checked(job: &dyn Job, chunks: Vec<Chunk>) -> Result<TableContent, JobError> {
     let planned = job.payload_bytes();
     let content = job.assemble(chunks)?;
     let assembled = 4 * content.data.len() as u64;
@@ -399,19 +476,6 @@ macro_rules! param_default_text {
 }
 pub(crate) use param_default_text;
 
-/// Split an f64 into an f32 pair `[hi, lo]` with `hi + lo` = v to about 2^-48 relative, so a
-/// task (whose result is an f32 vector) can carry an f64 scalar for the header without
-/// rounding it to f32. Finite values of f32 range only.
-pub fn split_f64(v: f64) -> [f32; 2] {
-    let hi = v as f32;
-    [hi, (v - hi as f64) as f32]
-}
-
-/// Inverse of [`split_f64`].
-pub fn join_f64(hi: f32, lo: f32) -> f64 {
-    hi as f64 + lo as f64
-}
-
 /// Shared parameter checks, so every stage words and enforces them the same way.
 pub mod checks {
     use super::PlanError;
@@ -609,15 +673,28 @@ mod tests {
 
     #[test]
     fn chunk_checks_name_the_chunk() {
-        let chunks = vec![vec![0.0; 3], vec![0.0; 2]];
+        let chunks = vec![
+            Chunk::new(vec![0.0; 3], vec![1.0]),
+            Chunk::new(vec![0.0; 2], vec![1.0]),
+        ];
         assert!(
-            check_chunks(&chunks, 2, 3)
+            check_chunks(&chunks, 2, 3, 1)
                 .unwrap_err()
                 .to_string()
-                .contains("chunk 1 has 2")
+                .contains("chunk 1 has 2 values, expected 3")
+        );
+        let chunks = vec![
+            Chunk::new(vec![0.0; 3], vec![1.0]),
+            Chunk::values(vec![0.0; 3]),
+        ];
+        assert!(
+            check_chunks(&chunks, 2, 3, 1)
+                .unwrap_err()
+                .to_string()
+                .contains("chunk 1 has 0 scalars, expected 1")
         );
         assert!(matches!(
-            check_chunks(&chunks, 3, 3),
+            check_chunks(&chunks, 3, 3, 1),
             Err(JobError::ChunkCount {
                 expected: 3,
                 got: 2

@@ -3,7 +3,9 @@
 //! serves as the reference table for the index used by the scattering stages.
 
 use crate::optics::water::{WaterIndexModel, water_density_kell_kg_m3};
-use crate::stages::{Job, JobError, PlanError, StageSpec, TaskSpec, check_chunks, stage_params};
+use crate::stages::{
+    Chunk, Job, JobError, PlanError, StageSpec, TaskSpec, check_chunks, concat_values, stage_params,
+};
 use crate::table::{Axis, Channel, Schema, TableContent};
 
 /// The stage.
@@ -91,14 +93,16 @@ impl Job for WaterIndexJob {
             })
             .collect()
     }
-    fn run_task(&self, index: usize) -> Result<Vec<f32>, JobError> {
+    fn run_task(&self, index: usize) -> Result<Chunk, JobError> {
         let model = WaterIndexModel::Iapws1997 {
             temperature_c: self.p.temperature_c[index],
         };
-        self.wavelengths()
+        let values = self
+            .wavelengths()
             .iter()
             .map(|&l| Ok(model.index(l)? as f32))
-            .collect()
+            .collect::<Result<_, JobError>>()?;
+        Ok(Chunk::values(values))
     }
     /// Temperatures × wavelengths × one channel of f32.
     fn payload_bytes(&self) -> Option<u64> {
@@ -107,10 +111,10 @@ impl Job for WaterIndexJob {
             self.count,
         ]))
     }
-    fn assemble(&self, chunks: Vec<Vec<f32>>) -> Result<TableContent, JobError> {
+    fn assemble(&self, chunks: Vec<Chunk>) -> Result<TableContent, JobError> {
         // chunks are per temperature; the table is temperature × wavelength.
-        check_chunks(&chunks, self.p.temperature_c.len(), self.count)?;
-        let data: Vec<f32> = chunks.into_iter().flatten().collect();
+        check_chunks(&chunks, self.p.temperature_c.len(), self.count, 0)?;
+        let data = concat_values(chunks);
         let mut attributes = serde_json::Map::new();
         attributes.insert(
             "model".into(),

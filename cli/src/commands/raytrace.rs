@@ -12,9 +12,10 @@
 
 use crate::commands::mie::IndexArgs;
 use anyhow::{Context, bail};
-use scatterbake::raytrace::tracer::RayGridLayout;
-use scatterbake::stages::Job;
-use scatterbake::stages::raytrace::{RaytraceJob, RaytraceParams};
+use scatterbake::raytrace::shape::DropShape;
+use scatterbake::raytrace::sphere1d::{DiffractionModel, sphere_phase_curves};
+use scatterbake::raytrace::table2d::{Table2dOptions, azimuth_mean_curves};
+use scatterbake::raytrace::tracer::{DirectionGrid, RayGridLayout};
 
 /// Arguments of `scatterbake raytrace`.
 #[derive(clap::Args, Debug, Clone)]
@@ -78,58 +79,59 @@ pub fn raytrace_columns(args: &RaytraceArgs) -> anyhow::Result<RaytraceColumns> 
     if !(0.0..=180.0).contains(&start) || !(start..=180.0).contains(&stop) {
         bail!("--angles must satisfy 0 <= START <= STOP <= 180");
     }
-    let sphere = args.shape == "sphere";
+    let intervals = 180.0 / step;
+    if !(step > 0.0) || (intervals - intervals.round()).abs() > 1e-6 || intervals.round() < 2.0 {
+        bail!("--angles STEP must be > 0 and divide 180");
+    }
+    if !(10.0..=5000.0).contains(&args.radius_um) {
+        bail!(
+            "--radius-um {} is outside 10–5000 µm (geometric optics needs x ≫ 1)",
+            args.radius_um
+        );
+    }
     let n = args
         .refractive
         .resolve_real(args.wavelength_nm, "ray tracing")?;
-    let params = RaytraceParams {
-        shape: args.shape.clone(),
-        radii_um: vec![args.radius_um],
-        wavelengths_nm: vec![args.wavelength_nm],
-        water_index_model: args.refractive.water_index_model.clone(),
-        temperature_c: args.refractive.temperature_c,
-        max_order: None,
-        angle_step_deg: step,
-        sun_elevation_deg: vec![args.sun_elevation_deg],
-        rays: args.rays,
-        ray_grid: if args.ray_grid == "square" {
-            RayGridLayout::Square
-        } else {
-            RayGridLayout::Silhouette
-        },
-        polar_step_deg: step,
-        azimuth_step_deg: 5.0,
-        diffraction_filter: !args.no_diffraction_filter,
-        diagnostic_channels: true,
-        sphere_higher_orders: true,
-        mirror_symmetrise: true,
-        mirror_half: false,
-        diffraction_model: None,
-        profile_theta_deg: None,
-        profile_r: None,
-    };
-    let mut job = RaytraceJob::new(params).map_err(|e| anyhow::anyhow!("{e}"))?;
-    if args.refractive.explicit()?.is_some() {
-        job = job
-            .with_refractive_index(n)
-            .map_err(|e| anyhow::anyhow!("{e}"))?;
+    if args.refractive.explicit()?.is_some() && !(n > 1.0 && n < 2.0) {
+        bail!("--n {n} is outside (1, 2), where the primary bow exists");
     }
-    // The task's values (a 2-D task's chunk also carries the caustic model's per-column
-    // weights after them, which `trace_2d` leaves out).
-    let chunk = if sphere {
-        job.run_task(0)?
+    let curves = if args.shape == "sphere" {
+        sphere_phase_curves(
+            args.radius_um,
+            args.wavelength_nm,
+            n,
+            step,
+            !args.no_diffraction_filter,
+        )
     } else {
-        job.trace_2d(args.wavelength_nm, args.sun_elevation_deg)?.0
+        if !(8..=20_000).contains(&args.rays) {
+            bail!("--rays must be within 8–20000");
+        }
+        if !(0.0..=90.0).contains(&args.sun_elevation_deg) {
+            bail!("--sun-elevation-deg must be within 0–90");
+        }
+        let opts = Table2dOptions {
+            rays: args.rays,
+            ray_grid: if args.ray_grid == "square" {
+                RayGridLayout::Square
+            } else {
+                RayGridLayout::Silhouette
+            },
+            max_order: 3,
+            grid: DirectionGrid {
+                n_polar: intervals.round() as usize + 1,
+                n_azimuth: 72,
+            },
+            diffraction_filter: !args.no_diffraction_filter,
+            model: DiffractionModel::AiryLocal,
+            sphere_higher_orders: true,
+            diagnostic_channels: true,
+            mirror_symmetrise: true,
+            mirror_half: false,
+        };
+        let shape = DropShape::beard_chuang(args.radius_um * 1e-3);
+        azimuth_mean_curves(&shape, args.wavelength_nm, n, args.sun_elevation_deg, &opts)
     };
-    let n_polar = (180.0 / step).round() as usize + 1;
-    let n_az = if sphere { 1 } else { 72 };
-    // Channels per direction: the stage's, for its default `max_order` of the shape.
-    let nch = chunk.len() / (n_polar * n_az);
-    anyhow::ensure!(
-        chunk.len() == n_polar * n_az * nch,
-        "the raytrace task returned {} values, not a multiple of {n_polar} × {n_az} directions",
-        chunk.len()
-    );
     let mut out = RaytraceColumns {
         n,
         angle_deg: vec![],
@@ -138,22 +140,15 @@ pub fn raytrace_columns(args: &RaytraceArgs) -> anyhow::Result<RaytraceColumns> 
         phase: vec![],
         dolp: vec![],
     };
-    for j in 0..n_polar {
-        let th = step * j as f64;
+    for (j, &th) in curves.angle_deg.iter().enumerate() {
         if th < start - 1e-9 || th > stop + 1e-9 {
             continue;
         }
-        let mean = |c: usize| -> f64 {
-            (0..n_az)
-                .map(|k| chunk[(j * n_az + k) * nch + c] as f64)
-                .sum::<f64>()
-                / n_az as f64
-        };
-        let (ip, ipar) = (mean(1), mean(2));
+        let (ip, ipar) = (curves.i_perp[j], curves.i_par[j]);
         out.angle_deg.push(th);
         out.i_perp.push(ip);
         out.i_par.push(ipar);
-        out.phase.push(mean(0));
+        out.phase.push(curves.phase[j]);
         out.dolp.push(if ip + ipar > 0.0 {
             (ip - ipar) / (ip + ipar)
         } else {
@@ -254,9 +249,8 @@ mod tests {
         );
     }
 
-    /// A Beard–Chuang drop prints the azimuth means of its 2-D table: the task's values only
-    /// (the airy-local weights the task also returns are not read as values), the bows where
-    /// they belong, the polarisation of the primary.
+    /// A Beard–Chuang drop prints the azimuth means of its 2-D table: the bows where they
+    /// belong, the polarisation of the primary.
     #[test]
     fn beard_chuang_columns_are_azimuth_means_of_the_table_values() {
         let args = Cli::parse_from([

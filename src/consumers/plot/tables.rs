@@ -720,7 +720,7 @@ mod tests {
             "radii_um = [20.0]\nwavelengths_nm = [650.0]\nangle_step_deg = 0.5\nsun_diameter_deg = 0.0",
         )
         .unwrap();
-        let chunks: Vec<Vec<f32>> = (0..job.tasks().len())
+        let chunks: Vec<crate::stages::Chunk> = (0..job.tasks().len())
             .map(|i| job.run_task(i).unwrap())
             .collect();
         let t = Table::from_content(job.assemble(chunks).unwrap(), Default::default()).unwrap();
