@@ -65,16 +65,7 @@ fn one_cell(c: &mut Criterion) {
             let mut eb = [0.0; LOBES];
             let mut ef = [0.0; LOBES];
             for (phi, wt) in x.iter().zip(&w) {
-                let n = azimuthal_pointwise(
-                    1.55,
-                    theta,
-                    *phi,
-                    sigma,
-                    fiber.azimuthal_width_rad,
-                    fiber.fresnel,
-                    90,
-                    8,
-                );
+                let n = azimuthal_pointwise(&fiber.pointwise(sigma, 90), theta, *phi);
                 let e = if *phi < std::f64::consts::FRAC_PI_2 {
                     &mut eb
                 } else {

@@ -7,7 +7,7 @@
 //! seconds extrapolated to the target (∝ error²). The mean over the sample times the number
 //! of computed entries is the grid's cost (with its sampling standard error).
 use scatterbake::fur::medulla_fast::{AdaptiveSettings, simulate_adaptive};
-use scatterbake::fur::rng::SplitMix64;
+use scatterbake::math::rng::SplitMix64;
 use std::time::Instant;
 
 fn main() {

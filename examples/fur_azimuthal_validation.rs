@@ -70,9 +70,9 @@ fn main() {
         let analog_s = t.elapsed().as_secs_f64();
         let n = (nh / 8 * 8) as f64;
         // Bins: ≥ 1e-3 of the maximum of the 1 % profile.
-        let max = target.energy.iter().cloned().fold(0.0, f64::max);
+        let max = target.profile.energy.iter().cloned().fold(0.0, f64::max);
         let bins: Vec<usize> = (0..720)
-            .filter(|&k| target.energy[k] >= 1e-3 * max)
+            .filter(|&k| target.profile.energy[k] >= 1e-3 * max)
             .collect();
         let median = |mut v: Vec<f64>| {
             v.sort_by(f64::total_cmp);
@@ -82,15 +82,15 @@ fn main() {
         let compare = |a: &AdaptiveProfile| {
             let (mut rel, mut z2, mut zmax) = (Vec::new(), 0.0, 0.0f64);
             for &k in &bins {
-                rel.push((a.energy[k] - hist[k]).abs() / a.energy[k]);
-                let z = (a.energy[k] - hist[k]) / (a.std_error[k].powi(2) + se_h(k).powi(2)).sqrt();
+                rel.push((a.profile.energy[k] - hist[k]).abs() / a.profile.energy[k]);
+                let z = (a.profile.energy[k] - hist[k]) / (a.profile.std_error[k].powi(2) + se_h(k).powi(2)).sqrt();
                 z2 += z * z;
                 zmax = zmax.max(z.abs());
             }
             let vmax = rel.iter().cloned().fold(0.0, f64::max);
             (vmax, median(rel), z2 / bins.len() as f64, zmax)
         };
-        let se_rel = median(bins.iter().map(|&k| se_h(k) / target.energy[k]).collect());
+        let se_rel = median(bins.iter().map(|&k| se_h(k) / target.profile.energy[k]).collect());
         let c = compare(&capped);
         let d = compare(&target);
         println!(

@@ -52,7 +52,8 @@ fn reference(dir: &str, sigma: f64, g: f64, h: f64) -> Reference {
             max_photons: env_or("REF_MAX_PHOTONS", 4e6) as u64,
             ..AdaptiveSettings::default()
         },
-    );
+    )
+    .profile;
     let text: String = (0..m.energy.len())
         .map(|k| format!("{},{},{}\n", m.energy[k], m.std_error[k], m.path_length[k]))
         .collect();

@@ -1,7 +1,7 @@
 //! Synthetic phase-function tables that follow the phase contract, with analytically known
 //! properties, for tests, demos and the readers of other languages:
-//! - [`henyey_greenstein_table`]: p(θ) = (1 − g²) / (4π (1 + g² − 2g cos θ)^{3/2}), whose
-//!   Legendre moments are exactly g^l;
+//! - [`henyey_greenstein_table`]: p(θ) = (1 − g²) / (4π (1 + g² − 2g cos θ)^{3/2})
+//!   ([`hg_density_sr`]), whose Legendre moments are exactly g^l;
 //! - [`peak_table`]: a narrow Gaussian peak in scattering angle on a weak isotropic floor, with a
 //!   wavelength-dependent peak position, normalised numerically to ∫_{4π} p dΩ = 1; a peak at
 //!   138° must render as a ring of radius 42° around the antisolar point.
@@ -9,13 +9,9 @@
 //! Polarisation: i_perp = p (1 + d), i_par = p (1 − d) with d(θ) = `dolp_max` sin²θ / (1 + cos²θ)
 //! (Rayleigh-like shape), so phase = (i_perp + i_par)/2 and dolp = d exactly.
 
+use crate::optics::henyey_greenstein::hg_density_sr;
 use crate::table::{Axis, Channel, Provenance, Schema, Table, TableContent};
 use std::f64::consts::PI;
-
-/// Henyey–Greenstein phase function (1/sr) at `cos_theta`.
-pub fn henyey_greenstein(g: f64, cos_theta: f64) -> f64 {
-    (1.0 - g * g) / (4.0 * PI * (1.0 + g * g - 2.0 * g * cos_theta).powf(1.5))
-}
 
 fn dolp_shape(dolp_max: f64, theta_deg: f64) -> f64 {
     let c = theta_deg.to_radians().cos();
@@ -84,7 +80,7 @@ pub fn henyey_greenstein_table(
                 let t = step * j as f64;
                 push_point(
                     &mut data,
-                    henyey_greenstein(gk, t.to_radians().cos()),
+                    hg_density_sr(t.to_radians().cos(), gk),
                     dolp_shape(dolp_max, t),
                 );
             }

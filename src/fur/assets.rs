@@ -10,7 +10,7 @@
 //! docs/decisions.md FUR-28 … FUR-31.
 
 use super::FurError;
-use super::tt::{compress_table, compress_table_log};
+use super::tt::{channel_index, channel_values, compress_table, compress_table_log};
 use crate::table::{Header, Provenance, Table, TableContent};
 use serde_json::json;
 
@@ -81,22 +81,6 @@ impl AssetSpec {
     };
 }
 
-/// Values of `channel` of `t`, row-major.
-fn channel_values(t: &TableContent, channel: &str) -> Result<Vec<f64>, FurError> {
-    let nc = t.channels.len();
-    let ci = t
-        .channels
-        .iter()
-        .position(|c| c.name == channel)
-        .ok_or_else(|| FurError::NoChannel(channel.to_string()))?;
-    Ok(t.data
-        .iter()
-        .skip(ci)
-        .step_by(nc)
-        .map(|&v| f64::from(v))
-        .collect())
-}
-
 fn quantiles(mut v: Vec<f64>) -> serde_json::Value {
     if v.is_empty() {
         return json!(null);
@@ -157,11 +141,7 @@ pub fn reconstruction_errors(
 /// Scale every azimuthal profile (last axis) to the analytic scattered fraction.
 fn normalise_azimuthal(t: &mut TableContent, channel: &str) -> Result<(), FurError> {
     let nc = t.channels.len();
-    let ci = t
-        .channels
-        .iter()
-        .position(|c| c.name == channel)
-        .ok_or_else(|| FurError::NoChannel(channel.to_string()))?;
+    let ci = channel_index(t, channel)?;
     let sig = t.axes[0].coords();
     let ng = t.axes[1].len();
     let hs = t.axes[2].coords();
@@ -566,95 +546,17 @@ pub fn compress_asset_before(source: &Table, spec: &AssetSpec) -> Result<Table, 
             *v = round_mantissa(*v, bits);
         }
     }
-    let dense = channel_values(&content, spec.channel)?;
-    // The source as built (before any normalisation): the asset's error against it.
-    let raw = TableContent {
-        data: source.data.clone(),
-        ..content.clone()
-    };
-    let raw_dense = channel_values(&raw, spec.channel)?;
-    let back = super::tt::reconstruct_table(&tt)?;
-    let approx: Vec<f64> = back.data.iter().map(|&v| f64::from(v)).collect();
-    let profile = if spec.family == "fur-medulla-longitudinal" {
-        2 * h.axes.last().map_or(1, |a| a.len())
-    } else {
-        h.axes.last().map_or(1, |a| a.len())
-    };
-    // Monte Carlo sources carry standard errors; deterministic ones (adding-doubling,
-    // characteristics) a discretisation error in `solver_error`.
-    let deterministic = h.attributes.contains_key("solver_error");
-    let std_error = if spec.family == "fur-medulla-azimuthal" && !deterministic {
-        Some(channel_values(&content, "std_error")?)
-    } else {
-        None
-    };
-    let mut recon = reconstruction_errors(&raw_dense, &approx, profile, std_error.as_deref());
-    if spec.normalise_to_analytic_total {
-        recon["tensor_train_only"] = reconstruction_errors(&dense, &approx, profile, None);
-        recon["normalisation_only"] =
-            reconstruction_errors(&raw_dense, &dense, profile, std_error.as_deref());
-    }
+    let (recon, source_err) = asset_errors(source, &content, &tt, spec)?;
     let a = &mut tt.attributes;
-    // The per-entry arrays of the source header are summarised, not copied (size).
-    let mut src_attrs = h.attributes.clone();
-    let mut summaries = serde_json::Map::new();
-    src_attrs.retain(|k, v| match v.as_array() {
-        Some(arr) => {
-            let vals: Vec<f64> = arr.iter().filter_map(|x| x.as_f64()).collect();
-            summaries.insert(k.clone(), quantiles(vals));
-            false
-        }
-        None => true,
-    });
-    src_attrs.insert(
-        "per_entry_arrays_summary".into(),
-        serde_json::Value::Object(summaries),
-    );
     a.insert(
         "source_attributes".into(),
-        serde_json::Value::Object(src_attrs),
+        serde_json::Value::Object(summarised_attributes(&h.attributes)),
     );
-    a.insert("reconstruction_error".into(), recon.clone());
+    a.insert("reconstruction_error".into(), recon);
     if spec.normalise_to_analytic_total {
         a.insert("value_normalisation".into(), "each profile (sigma, g, h') of the source channel was scaled so that its bins sum to the analytic scattered fraction 1 - exp(-sigma 2 sqrt(1 - h'^2)) before compression (ratio estimator; removes the error of the profile's overall level: Monte Carlo noise or the solver's energy-identity deviation); reconstruction_error is against the source as built, tensor_train_only against the scaled values".into());
     }
-    let source_error = match &std_error {
-        Some(se) => {
-            let (mut s2, mut n2) = (0.0f64, 0.0f64);
-            for (s, v) in se.iter().zip(&raw_dense) {
-                s2 += s * s;
-                n2 += v * v;
-            }
-            json!({
-                "kind": "Monte Carlo standard error of the source table (channel std_error)",
-                "rel_frobenius": if n2 > 0.0 { (s2 / n2).sqrt() } else { 0.0 },
-                "per_entry_worst_rel_std_error": h.attributes.get("worst_rel_std_error")
-                    .and_then(|v| v.as_array())
-                    .map(|arr| quantiles(arr.iter().filter_map(|x| x.as_f64()).filter(|x| *x > 0.0).collect()))
-                    .unwrap_or(json!(null)),
-            })
-        }
-        None => {
-            let method = h
-                .attributes
-                .get("method")
-                .and_then(|m| m.as_str())
-                .unwrap_or("deterministic");
-            let median = h.attributes.get("solver_error_median");
-            let mut e = json!({
-                "kind": format!(
-                    "discretisation error of the {method} solver (source header solver_error{}); no sampling noise",
-                    if median.is_some() { ", solver_error_median" } else { "" }
-                ),
-                "solver_error": h.attributes.get("solver_error").cloned().unwrap_or(json!(null)),
-            });
-            if let Some(m) = median {
-                e["solver_error_median"] = m.clone();
-            }
-            e
-        }
-    };
-    a.insert("source_error".into(), source_error);
+    a.insert("source_error".into(), source_err);
     a.insert(
         "source_parameters_digest".into(),
         h.provenance.parameters_digest.clone().into(),

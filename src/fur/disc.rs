@@ -447,21 +447,23 @@ impl Grid {
         g
     }
 
-    /// Track centroids and second moments of every cell (for the linear source).
-    fn linear_source_moments(&mut self) {
+    /// Midpoint of segment `s` of track `tr`, which runs along `u`.
+    fn segment_midpoint(&self, tr: usize, s: usize, u: [f64; 2]) -> [f64; 2] {
+        let p = self.track_start[tr];
+        let t = self.seg_t0[s] + 0.5 * self.seg_len[s];
+        [p[0] + t * u[0], p[1] + t * u[1]]
+    }
+
+    /// Track centroid of every cell in every direction, [direction][cell].
+    fn track_centroids(&self) -> Vec<[f64; 2]> {
         let (ncell, mh) = (self.ncell(), self.mh());
         let mut first = vec![[0.0; 2]; mh * ncell];
-        let mid = |g: &Grid, tr: usize, s: usize, u: [f64; 2]| {
-            let p = g.track_start[tr];
-            let t = g.seg_t0[s] + 0.5 * g.seg_len[s];
-            [p[0] + t * u[0], p[1] + t * u[1]]
-        };
         for d in 0..mh {
             let u = [self.theta[d].cos(), self.theta[d].sin()];
             for tr in self.dir_tracks[d].clone() {
                 for s in self.track_seg[tr]..self.track_seg[tr + 1] {
                     let c = self.seg_cell[s] as usize;
-                    let x = mid(self, tr, s, u);
+                    let x = self.segment_midpoint(tr, s, u);
                     let l = self.seg_len[s];
                     first[d * ncell + c][0] += l * x[0];
                     first[d * ncell + c][1] += l * x[1];
@@ -472,6 +474,13 @@ impl Grid {
             f[0] *= n;
             f[1] *= n;
         }
+        first
+    }
+
+    /// Track centroids and second moments of every cell (for the linear source).
+    fn linear_source_moments(&mut self) {
+        let (ncell, mh) = (self.ncell(), self.mh());
+        let first = self.track_centroids();
         // Segments are stored direction by direction, track by track: visited in order here.
         let mut seg_dx = Vec::with_capacity(self.seg_len.len());
         let mut second = vec![[0.0; 3]; ncell];
@@ -483,7 +492,7 @@ impl Grid {
             for tr in self.dir_tracks[d].clone() {
                 for s in self.track_seg[tr]..self.track_seg[tr + 1] {
                     let c = self.seg_cell[s] as usize;
-                    let x = mid(self, tr, s, u);
+                    let x = self.segment_midpoint(tr, s, u);
                     let xc = first[d * ncell + c];
                     let dx = [x[0] - xc[0], x[1] - xc[1]];
                     debug_assert_eq!(seg_dx.len(), s);
@@ -511,18 +520,7 @@ impl Grid {
         self.moment_inv = second
             .iter()
             .zip(&count)
-            .map(|(m, &n)| {
-                if n == 0.0 {
-                    return [0.0; 3];
-                }
-                let (a, b, c) = (m[0] / n, m[1] / n, m[2] / n);
-                let det = a * c - b * b;
-                if det <= 1e-12 * (a * c).max(f64::MIN_POSITIVE) {
-                    [0.0; 3]
-                } else {
-                    [c / det, -b / det, a / det]
-                }
-            })
+            .map(|(m, &n)| mean_moment_inverse(m, n))
             .collect();
         self.centroid = centroid
             .iter()
@@ -555,6 +553,22 @@ impl Grid {
     /// Directions carrying unknowns (the upper half circle).
     fn mh(&self) -> usize {
         self.theta.len() / 2
+    }
+}
+
+/// Inverse of the mean second-moment matrix [[a, b], [b, c]] = `m`/`n` of a cell over its `n`
+/// directions, as [a, b, c] of the inverse; zeros for a cell without tracks or a singular
+/// matrix.
+fn mean_moment_inverse(m: &[f64; 3], n: f64) -> [f64; 3] {
+    if n == 0.0 {
+        return [0.0; 3];
+    }
+    let (a, b, c) = (m[0] / n, m[1] / n, m[2] / n);
+    let det = a * c - b * b;
+    if det <= 1e-12 * (a * c).max(f64::MIN_POSITIVE) {
+        [0.0; 3]
+    } else {
+        [c / det, -b / det, a / det]
     }
 }
 
@@ -648,15 +662,12 @@ fn linear_segment(psi: f64, q0: f64, q1: f64, e: f64, k: &[f64; 6]) -> (f64, f64
 }
 
 /// Derivatives of [`segment`] with respect to the absorption coefficient (σ_t = σ + σ_a at
-/// fixed σ_s = σ): returns (∂ψ̄, ∂ψ_out) given ψ, ∂ψ, the flat source q/σ (`qs`) and its
-/// derivative ∂q/σ (`dqs`), ℓ, σ.
+/// fixed σ_s = σ): returns (∂ψ̄, ∂ψ_out) given the inflow and its derivative (ψ, ∂ψ), the flat
+/// source per σ and its derivative (q/σ, ∂q/σ), e, f, ℓ, σ.
 #[inline]
-#[allow(clippy::too_many_arguments)]
 fn segment_derivative(
-    psi: f64,
-    dpsi: f64,
-    qs: f64,
-    dqs: f64,
+    (psi, dpsi): (f64, f64),
+    (qs, dqs): (f64, f64),
     e: f64,
     f: f64,
     l: f64,
@@ -878,7 +889,8 @@ impl<'a> PlaneWave<'a> {
                     let c = gr.seg_cell[s] as usize;
                     let (e, f, l) = (self.fac.e[s], self.fac.f[s], gr.seg_len[s]);
                     let (q, dq) = (qs[base + c], dqs[base + c]);
-                    let (davg, dnext) = segment_derivative(psi, dpsi, q, dq, e, f, l, self.sigma);
+                    let (davg, dnext) =
+                        segment_derivative((psi, dpsi), (q, dq), e, f, l, self.sigma);
                     let (_, next) = segment(psi, q, e, f);
                     o[c] += davg * l;
                     psi = next;
@@ -923,7 +935,7 @@ impl<'a> PlaneWave<'a> {
                         dqs -= v * depth;
                     }
                     let (avg, next) = segment(psi, qs, e, f);
-                    let (davg, dnext) = segment_derivative(psi, dpsi, qs, dqs, e, f, l, sigma);
+                    let (davg, dnext) = segment_derivative((psi, dpsi), (qs, dqs), e, f, l, sigma);
                     phi[base + c] += avg * l;
                     dphi[base + c] += davg * l;
                     psi = next;
@@ -1105,118 +1117,117 @@ impl DiscSolver {
 
     /// All entries `hs` of (σ, `g`).
     pub fn solve(&mut self, g: f64, hs: &[f64]) -> DiscProfiles {
-        let (sigma, s, grid) = (self.sigma, &self.settings, &self.grid);
-        let bins = s.bins;
+        let (sigma, s) = (self.sigma, self.settings);
         let chord = |h: f64| 2.0 * (1.0 - h * h).max(0.0).sqrt();
         let ballistic: Vec<f64> = hs.iter().map(|&h| (-sigma * chord(h)).exp()).collect();
         if sigma == 0.0 {
             return DiscProfiles {
-                energy: vec![vec![0.0; bins]; hs.len()],
-                path_length: vec![vec![0.0; bins]; hs.len()],
+                energy: vec![vec![0.0; s.bins]; hs.len()],
+                path_length: vec![vec![0.0; s.bins]; hs.len()],
                 ballistic,
                 iterations: (0, 0),
                 residual: (0.0, 0.0),
-                cell: grid.cell,
+                cell: self.grid.cell,
             };
         }
-        let pw = PlaneWave::new(grid, &self.fac, sigma, g);
-        let len = grid.mh() * grid.ncell();
-        let linear = s.linear_source;
-        let (b, db) = pw.first_scatter(g);
-        let warm = self.warm.take();
-        let mut tmp = vec![0.0; len];
-        let mut apply = |x: &[f64], out: &mut [f64]| {
-            pw.scatter(x, &mut tmp);
-            pw.transport(&tmp, out);
-            for (o, x) in out.iter_mut().zip(x) {
-                *o = x - *o;
-            }
-        };
-        // The flux: flat source ([direction][cell]) or linear source (mean, ∂x, ∂y).
-        let (phi, it1, res1) = if linear {
-            let b = pw.first_scatter_linear(g);
-            let mut phi = warm.as_ref().map_or_else(|| b.clone(), |w| w.0.clone());
-            let mut tmp3 = vec![0.0; 3 * len];
-            let mut apply3 = |x: &[f64], out: &mut [f64]| {
-                pw.scatter_linear(x, &mut tmp3);
-                pw.transport_linear(&tmp3, out);
-                for (o, x) in out.iter_mut().zip(x) {
-                    *o = x - *o;
-                }
-            };
-            let (it, res) = gmres(
-                &mut apply3,
-                &b,
-                &mut phi,
-                s.tolerance,
-                s.restart,
-                s.max_iterations,
-            );
-            (phi, it, res)
-        } else {
-            let mut phi = warm.as_ref().map_or_else(|| b.clone(), |w| w.0.clone());
-            let (it, res) = gmres(
-                &mut apply,
-                &b,
-                &mut phi,
-                s.tolerance,
-                s.restart,
-                s.max_iterations,
-            );
-            (phi, it, res)
-        };
-        // ∂φ: (I − T S) ∂φ = ∂(T q₁) + (∂T)(S φ), with the flat-source operators (for the
-        // linear source, about its cell means).
-        let (dphi, it2, res2) = if s.path_length {
-            let mut qs = vec![0.0; len];
-            pw.scatter(&phi[..len], &mut qs);
-            let zero = vec![0.0; len];
-            let mut rhs = vec![0.0; len];
-            pw.transport_derivative(&qs, &zero, &mut rhs);
-            for (r, d) in rhs.iter_mut().zip(&db) {
-                *r += d;
-            }
-            let mut dphi = warm.map_or_else(|| rhs.clone(), |w| w.1);
-            let (it, res) = gmres(
-                &mut apply,
-                &rhs,
-                &mut dphi,
-                s.tolerance,
-                s.restart,
-                s.max_iterations,
-            );
-            (dphi, it, res)
-        } else {
-            (Vec::new(), 0, 0.0)
-        };
+        let pw = PlaneWave::new(&self.grid, &self.fac, sigma, g);
+        let flux = solve_flux(&pw, &s, g, self.warm.take());
         let stale = self
             .chords
             .as_ref()
-            .is_none_or(|c| c.hs != hs || c.bins != bins || c.linear != linear);
+            .is_none_or(|c| c.hs != hs || c.bins != s.bins || c.linear != s.linear_source);
         if stale {
-            self.chords = Some(Chords::new(grid, sigma, hs, bins, linear));
+            self.chords = Some(Chords::new(&self.grid, sigma, hs, s.bins, s.linear_source));
         }
         let chords = self.chords.as_ref().expect("built above");
-        let gradients = linear.then(|| (&phi[len..2 * len], &phi[2 * len..]));
-        let (energy, path_length) = final_rays(
-            grid,
-            chords,
-            sigma,
-            g,
-            &phi[..len],
-            gradients,
-            &dphi,
-            s.path_length,
-        );
-        self.warm = Some((phi, dphi));
+        let (energy, path_length) = final_rays(&self.grid, chords, sigma, g, &flux, s.path_length);
+        self.warm = Some((flux.phi, flux.dphi));
         DiscProfiles {
             energy,
             path_length,
             ballistic,
-            iterations: (it1, it2),
-            residual: (res1, res2),
-            cell: grid.cell,
+            iterations: flux.iterations,
+            residual: flux.residual,
+            cell: self.grid.cell,
         }
+    }
+}
+
+/// The converged plane-wave flux of one (σ, g).
+struct Flux {
+    /// Flat source: [direction][cell]; linear source: (mean, ∂x, ∂y) each [direction][cell].
+    phi: Vec<f64>,
+    /// The flat-source absorption derivative of the cell means (empty without path lengths).
+    dphi: Vec<f64>,
+    /// GMRES iterations (value solve, path-length solve).
+    iterations: (usize, usize),
+    /// Final relative residuals.
+    residual: (f64, f64),
+}
+
+/// The GMRES solves of one (σ, g): the flux (I − T S) φ = T q₁ and, with path lengths, its
+/// absorption derivative; each starts from `warm` (the previous g's solution) when given.
+fn solve_flux(
+    pw: &PlaneWave<'_>,
+    s: &DiscSettings,
+    g: f64,
+    warm: Option<(Vec<f64>, Vec<f64>)>,
+) -> Flux {
+    let len = pw.grid.mh() * pw.grid.ncell();
+    let solve = |apply: &mut dyn FnMut(&[f64], &mut [f64]), b: &[f64], x: &mut [f64]| {
+        gmres(apply, b, x, s.tolerance, s.restart, s.max_iterations)
+    };
+    let (b, db) = pw.first_scatter(g);
+    let (warm_phi, warm_dphi) = warm.unzip();
+    let mut tmp = vec![0.0; len];
+    let mut apply = |x: &[f64], out: &mut [f64]| {
+        pw.scatter(x, &mut tmp);
+        pw.transport(&tmp, out);
+        for (o, x) in out.iter_mut().zip(x) {
+            *o = x - *o;
+        }
+    };
+    // The flux: flat source ([direction][cell]) or linear source (mean, ∂x, ∂y).
+    let (phi, it1, res1) = if s.linear_source {
+        let b = pw.first_scatter_linear(g);
+        let mut phi = warm_phi.unwrap_or_else(|| b.clone());
+        let mut tmp3 = vec![0.0; 3 * len];
+        let mut apply3 = |x: &[f64], out: &mut [f64]| {
+            pw.scatter_linear(x, &mut tmp3);
+            pw.transport_linear(&tmp3, out);
+            for (o, x) in out.iter_mut().zip(x) {
+                *o = x - *o;
+            }
+        };
+        let (it, res) = solve(&mut apply3, &b, &mut phi);
+        (phi, it, res)
+    } else {
+        let mut phi = warm_phi.unwrap_or_else(|| b.clone());
+        let (it, res) = solve(&mut apply, &b, &mut phi);
+        (phi, it, res)
+    };
+    // ∂φ: (I − T S) ∂φ = ∂(T q₁) + (∂T)(S φ), with the flat-source operators (for the
+    // linear source, about its cell means).
+    let (dphi, it2, res2) = if s.path_length {
+        let mut qs = vec![0.0; len];
+        pw.scatter(&phi[..len], &mut qs);
+        let zero = vec![0.0; len];
+        let mut rhs = vec![0.0; len];
+        pw.transport_derivative(&qs, &zero, &mut rhs);
+        for (r, d) in rhs.iter_mut().zip(&db) {
+            *r += d;
+        }
+        let mut dphi = warm_dphi.unwrap_or_else(|| rhs.clone());
+        let (it, res) = solve(&mut apply, &rhs, &mut dphi);
+        (dphi, it, res)
+    } else {
+        (Vec::new(), 0, 0.0)
+    };
+    Flux {
+        phi,
+        dphi,
+        iterations: (it1, it2),
+        residual: (res1, res2),
     }
 }
 
@@ -1333,46 +1344,106 @@ impl Chords {
 /// Bins per block of emissions formed at once in [`final_rays`].
 const BIN_BLOCK: usize = 48;
 
-#[allow(clippy::too_many_arguments)]
+/// Scattered energy and mean path length per entry and bin: the closed-form order 1 plus the
+/// line integrals of the collided emission along every rotated chord.
 fn final_rays(
     grid: &Grid,
     chords: &Chords,
     sigma: f64,
     g: f64,
-    phi: &[f64],
-    gradients: Option<(&[f64], &[f64])>,
-    dphi: &[f64],
+    flux: &Flux,
     with_path: bool,
 ) -> (Vec<Vec<f64>>, Vec<Vec<f64>>) {
-    let (m, ncell, bins) = (grid.m(), grid.ncell(), chords.bins);
-    let hs = &chords.hs;
-    let phi_c = by_cell(phi, m, ncell, &grid.mirror);
+    let fields = emission_fields(grid, flux, chords.linear, with_path);
+    let lines = chord_integrals(grid, chords, sigma, g, &fields, with_path);
+    let (hs, bins) = (&chords.hs, chords.bins);
+    let dw = 2.0 * PI / bins as f64;
+    let mut energy = Vec::with_capacity(hs.len());
+    let mut paths = Vec::with_capacity(hs.len());
+    for (hi, &h) in hs.iter().enumerate() {
+        let (e1, l1) = crate::fur::medulla_fast::single_scatter_with_path(sigma, g, h, bins);
+        let mut e = e1.clone();
+        let mut moment: Vec<f64> = e1.iter().zip(&l1).map(|(e, l)| e * l).collect();
+        for k in 0..bins {
+            let r = hi * bins + k;
+            // Mean path length of orders ≥ 2 from the flat-source integrals (moment and energy
+            // with the same quadrature), applied to the reconstructed energy.
+            let path2 = if lines.flat[r] > 0.0 {
+                -lines.derivative[r] / lines.flat[r]
+            } else {
+                0.0
+            };
+            e[k] += lines.emission[r] * dw;
+            moment[k] += path2 * lines.emission[r] * dw;
+        }
+        let path: Vec<f64> = e
+            .iter()
+            .zip(&moment)
+            .map(|(&e, &mm)| if e > 0.0 && with_path { mm / e } else { 0.0 })
+            .collect();
+        energy.push(e);
+        paths.push(path);
+    }
+    (energy, paths)
+}
+
+/// The flux fields the final emission is formed from, each [cell][direction < M]: the cell
+/// means, their two derivatives (the linear source's own x and y, the y one changing sign in
+/// the mirror; or, for the flat source, polar differences of the neighbouring cells' means),
+/// and the absorption derivative of the means (zeros without path lengths).
+fn emission_fields(grid: &Grid, flux: &Flux, linear: bool, with_path: bool) -> [Vec<f64>; 4] {
+    let (m, ncell) = (grid.m(), grid.ncell());
+    let len = grid.mh() * ncell;
+    let phi_c = by_cell(&flux.phi[..len], m, ncell, &grid.mirror);
     let dphi_c = if with_path {
-        by_cell(dphi, m, ncell, &grid.mirror)
+        by_cell(&flux.dphi, m, ncell, &grid.mirror)
     } else {
         vec![0.0; m * ncell]
     };
-    // Derivatives of the flux in each cell: the linear source's own (x, y; y changes sign in the
-    // mirror), or polar differences of the neighbouring cells' means for the flat source.
-    let (grad_r, grad_b) = match gradients {
-        Some((gx, gy)) => (
+    let (grad_r, grad_b) = if linear {
+        let (gx, gy) = (&flux.phi[len..2 * len], &flux.phi[2 * len..]);
+        (
             by_cell_signed(gx, m, ncell, &grid.mirror, 1.0),
             by_cell_signed(gy, m, ncell, &grid.mirror, -1.0),
-        ),
-        None => grid.polar.gradients(&grid.centres, &phi_c, m),
+        )
+    } else {
+        grid.polar.gradients(&grid.centres, &phi_c, m)
     };
+    [phi_c, grad_r, grad_b, dphi_c]
+}
+
+/// Line integrals along the rotated chords, per (entry, bin) `hi · bins + k`.
+struct ChordSums {
+    /// Of the emission, linear in each cell.
+    emission: Vec<f64>,
+    /// Of the emission's cell means alone.
+    flat: Vec<f64>,
+    /// Absorption derivative of `flat`.
+    derivative: Vec<f64>,
+}
+
+/// The chord integrals of the emission of `fields` ([`emission_fields`]) at the exact exit
+/// direction θ_k = π − ω_k of every bin, formed for a block of bins at a time:
+/// E[c, k] = Σ_j field[c][j] σ ρ(θ_k − θ_j) 2π/M, one matrix product per field.
+fn chord_integrals(
+    grid: &Grid,
+    chords: &Chords,
+    sigma: f64,
+    g: f64,
+    fields: &[Vec<f64>; 4],
+    with_path: bool,
+) -> ChordSums {
+    let (m, ncell, bins) = (grid.m(), grid.ncell(), chords.bins);
+    let n_entries = chords.hs.len();
     let dw = 2.0 * PI / bins as f64;
     let wdir = 2.0 * PI / m as f64;
-    // Emission at the exact exit direction θ_k = π − ω_k of every cell, for a block of bins at a
-    // time: E[c, k] = Σ_j field[c][j] σ ρ(θ_k − θ_j) 2π/M, one matrix product per field.
-    let fields = [&phi_c, &grad_r, &grad_b, &dphi_c];
     let views: Vec<_> = fields
         .iter()
         .map(|v| nalgebra::DMatrixView::from_slice(v, m, ncell))
         .collect();
-    let mut acc = vec![0.0; hs.len() * bins];
-    let mut flat = vec![0.0; hs.len() * bins];
-    let mut dacc = vec![0.0; hs.len() * bins];
+    let mut acc = vec![0.0; n_entries * bins];
+    let mut flat = vec![0.0; n_entries * bins];
+    let mut dacc = vec![0.0; n_entries * bins];
     let mut emission: Vec<nalgebra::DMatrix<f64>> =
         vec![nalgebra::DMatrix::zeros(ncell, BIN_BLOCK); 4];
     for k0 in (0..bins).step_by(BIN_BLOCK) {
@@ -1393,7 +1464,7 @@ fn final_rays(
             let k = k0 + kk;
             let col = |f: usize| emission[f].column(kk);
             let (e0, er, eb, ed) = (col(0), col(1), col(2), col(3));
-            for hi in 0..hs.len() {
+            for hi in 0..n_entries {
                 let r = hi * bins + k;
                 let (mut a, mut fl, mut da) = (0.0, 0.0, 0.0);
                 for s in chords.offset[r]..chords.offset[r + 1] {
@@ -1412,33 +1483,11 @@ fn final_rays(
             }
         }
     }
-    let mut energy = Vec::with_capacity(hs.len());
-    let mut paths = Vec::with_capacity(hs.len());
-    for (hi, &h) in hs.iter().enumerate() {
-        let (e1, l1) = crate::fur::medulla_fast::single_scatter_with_path(sigma, g, h, bins);
-        let mut e = e1.clone();
-        let mut moment: Vec<f64> = e1.iter().zip(&l1).map(|(e, l)| e * l).collect();
-        for k in 0..bins {
-            let r = hi * bins + k;
-            // Mean path length of orders ≥ 2 from the flat-source integrals (moment and energy
-            // with the same quadrature), applied to the reconstructed energy.
-            let path2 = if flat[r] > 0.0 {
-                -dacc[r] / flat[r]
-            } else {
-                0.0
-            };
-            e[k] += acc[r] * dw;
-            moment[k] += path2 * acc[r] * dw;
-        }
-        let path: Vec<f64> = e
-            .iter()
-            .zip(&moment)
-            .map(|(&e, &mm)| if e > 0.0 && with_path { mm / e } else { 0.0 })
-            .collect();
-        energy.push(e);
-        paths.push(path);
+    ChordSums {
+        emission: acc,
+        flat,
+        derivative: dacc,
     }
-    (energy, paths)
 }
 
 #[cfg(test)]
@@ -1592,20 +1641,20 @@ mod tests {
         for grp in 0..36 {
             let r = grp * 20..(grp + 1) * 20;
             let a: f64 = e[r.clone()].iter().sum();
-            let b: f64 = m.energy[r.clone()].iter().sum();
-            let se = correlated_group_error(&m.std_error, m.correlation_length, r);
+            let b: f64 = m.profile.energy[r.clone()].iter().sum();
+            let se = correlated_group_error(&m.profile.std_error, m.correlation_length, r);
             worst = worst.max((a - b).abs() / (5.0 * se + 0.01 * b));
         }
         assert!(worst < 1.0, "worst group {worst}");
-        let max = m.energy.iter().cloned().fold(0.0, f64::max);
+        let max = m.profile.energy.iter().cloned().fold(0.0, f64::max);
         for k in 0..720 {
-            if m.energy[k] > 0.1 * max {
-                let rel = (d.path_length[0][k] / m.path_length[k] - 1.0).abs();
+            if m.profile.energy[k] > 0.1 * max {
+                let rel = (d.path_length[0][k] / m.profile.path_length[k] - 1.0).abs();
                 assert!(
                     rel < 0.03,
                     "bin {k}: path {} vs {}",
                     d.path_length[0][k],
-                    m.path_length[k]
+                    m.profile.path_length[k]
                 );
             }
         }

@@ -751,29 +751,26 @@ impl FarFieldGeometry {
             }
             // Medulla-scattered lobes (Eq. 5.8/5.9, App. A).
             if fiber.exists(Path::TttT, h) && a_tt < 1.0 {
-                self.deposit_medulla_scattering(h, gt, hp, w, factors, shapes, &mut n_s);
+                let entry = EntryOffset { h, w, gt, hp };
+                self.deposit_medulla_scattering(entry, factors, shapes, &mut n_s);
             }
         }
 
         (n_u, n_s)
     }
 
-    /// Deposit the light scattered in the medulla from entry offset `h` (h-weight `w`) into the
-    /// azimuthal profile `n_s`: the energy entering each of the three medulla chords × (1 − A_tt)
-    /// × the exit cortex attenuation, shaped by C^N around the chord's entry direction (exit
-    /// refraction ignored), a fraction λ spread uniformly. `gt` is the cortex refraction angle,
-    /// `hp` the offset on the medulla.
-    #[allow(clippy::too_many_arguments)]
+    /// Deposit the light scattered in the medulla from one entry offset into the azimuthal
+    /// profile `n_s`: the energy entering each of the three medulla chords × (1 − A_tt) × the
+    /// exit cortex attenuation, shaped by C^N around the chord's entry direction (exit
+    /// refraction ignored), a fraction λ spread uniformly.
     fn deposit_medulla_scattering(
         &self,
-        h: f64,
-        gt: f64,
-        hp: f64,
-        w: f64,
+        entry: EntryOffset,
         f: PathFactors,
         shapes: &MedullaShapes,
         n_s: &mut [f64],
     ) {
+        let EntryOffset { h, w, gt, hp } = entry;
         let PathFactors {
             f_o,
             t_o,
@@ -816,6 +813,18 @@ impl FarFieldGeometry {
             n_s.iter_mut().for_each(|v| *v += u);
         }
     }
+}
+
+/// One entry offset of the h quadrature.
+#[derive(Clone, Copy)]
+struct EntryOffset {
+    /// Offset h and its quadrature weight.
+    h: f64,
+    w: f64,
+    /// Cortex refraction angle γ_t.
+    gt: f64,
+    /// Offset on the medulla h′.
+    hp: f64,
 }
 
 /// Interface and attenuation factors of one entry offset h.

@@ -41,7 +41,7 @@
 //!
 //! Path lengths are in medulla radii (multiply by the medulla radius in the renderer's unit).
 
-use super::rng::{SplitMix64, derive_seed};
+use crate::math::rng::{SplitMix64, derive_seed};
 use crate::optics::henyey_greenstein::{planar_hg_density_cos, sample_planar_hg};
 use serde::{Deserialize, Serialize};
 use std::f64::consts::{FRAC_PI_2, PI};
@@ -81,11 +81,7 @@ impl Geometry {
     #[inline]
     fn dist(&self, p: [f64; 2], d: [f64; 2]) -> f64 {
         match self {
-            Geometry::Azimuthal { .. } => {
-                let b = p[0] * d[0] + p[1] * d[1];
-                let c = 1.0 - (p[0] * p[0] + p[1] * p[1]);
-                -b + (b * b + c.max(0.0)).sqrt()
-            }
+            Geometry::Azimuthal { .. } => disc_distance(p, d),
             Geometry::Longitudinal { .. } => {
                 if d[0] > 0.0 {
                     (2.0 - p[0]).max(0.0) / d[0]
@@ -192,7 +188,8 @@ pub struct McSettings {
     pub max_order: Option<u32>,
 }
 
-/// Result for one entry (σ, g, geometry).
+/// Result for one entry (σ, g, geometry), of every estimator (this module's and
+/// [`crate::fur::medulla_fast`]'s).
 #[derive(Debug, Clone)]
 pub struct Profile {
     /// Scattered energy per bin, per unit incident energy (sums to the scattered fraction).
@@ -212,6 +209,21 @@ pub struct Profile {
     pub scattered_std_error: f64,
 }
 
+impl Profile {
+    /// No scattered energy in any of `bins` bins; `ballistic` passes unscattered.
+    pub fn unscattered(bins: usize, ballistic: f64) -> Profile {
+        Profile {
+            energy: vec![0.0; bins],
+            path_length: vec![0.0; bins],
+            std_error: vec![0.0; bins],
+            ballistic,
+            ballistic_mc: ballistic,
+            scattered: 0.0,
+            scattered_std_error: 0.0,
+        }
+    }
+}
+
 /// Stream key of an entry, so that every (seed, family, σ, g, h/θ) has its own stream.
 fn stream_seed(seed: u64, sigma: f64, g: f64, geom: &Geometry) -> u64 {
     let (family, x) = match *geom {
@@ -223,10 +235,19 @@ fn stream_seed(seed: u64, sigma: f64, g: f64, geom: &Geometry) -> u64 {
     derive_seed(seed, &[family, bits(sigma), bits(g), bits(x)])
 }
 
+/// `d` rotated counter-clockwise by `angle`.
 #[inline]
-fn rotate(d: [f64; 2], angle: f64) -> [f64; 2] {
+pub(super) fn rotate(d: [f64; 2], angle: f64) -> [f64; 2] {
     let (s, c) = angle.sin_cos();
     [c * d[0] - s * d[1], s * d[0] + c * d[1]]
+}
+
+/// Distance from `p` inside the unit disc along unit `d` to the boundary.
+#[inline]
+pub(super) fn disc_distance(p: [f64; 2], d: [f64; 2]) -> f64 {
+    let b = p[0] * d[0] + p[1] * d[1];
+    let c = 1.0 - (p[0] * p[0] + p[1] * p[1]);
+    -b + (b * b + c.max(0.0)).sqrt()
 }
 
 /// Simulate one table entry. `sigma` ≥ 0 per unit medulla radius, `g` ∈ [0, 1).
@@ -235,17 +256,8 @@ pub fn simulate(sigma: f64, g: f64, geom: Geometry, s: &McSettings) -> Profile {
     assert!(bins >= 2 && bins.is_multiple_of(2), "bins must be even");
     let chord = geom.chord();
     let ballistic = (-sigma * chord).exp();
-    let zero = |b: f64| Profile {
-        energy: vec![0.0; bins],
-        path_length: vec![0.0; bins],
-        std_error: vec![0.0; bins],
-        ballistic: b,
-        ballistic_mc: b,
-        scattered: 0.0,
-        scattered_std_error: 0.0,
-    };
     if sigma <= 0.0 || chord <= 0.0 || s.photons == 0 {
-        return zero(if chord <= 0.0 { 1.0 } else { ballistic });
+        return Profile::unscattered(bins, if chord <= 0.0 { 1.0 } else { ballistic });
     }
     let mut rng = SplitMix64::new(stream_seed(s.seed, sigma, g, &geom));
     match s.estimator {
@@ -264,6 +276,8 @@ struct NextEvent {
     g: f64,
     sigma: f64,
     geom: Geometry,
+    /// Cumulative "scatter and collide again" masses of the last score, per bin.
+    q: Vec<f64>,
 }
 
 impl NextEvent {
@@ -271,19 +285,18 @@ impl NextEvent {
     /// phase-function mass times the transmittance to the boundary into `e` (and the path
     /// length into `sum_len`), the cumulative "scatter and collide again" masses into `q`.
     /// Returns (scored total, Σ q).
-    #[allow(clippy::too_many_arguments)]
     fn score(
-        &self,
+        &mut self,
         p: [f64; 2],
         d: [f64; 2],
         ws: f64,
         len: f64,
         e: &mut [f64],
         sum_len: &mut [f64],
-        q: &mut [f64],
     ) -> (f64, f64) {
         let mut total = 0.0;
         let mut acc_q = 0.0;
+        let q = &mut self.q;
         for (k, wk) in self.dirs.iter().enumerate() {
             let rho_dw = planar_hg_density_cos(wk[0] * d[0] + wk[1] * d[1], self.g) * self.dw;
             let sk = self.geom.dist(p, *wk);
@@ -298,15 +311,15 @@ impl NextEvent {
         (total, acc_q)
     }
 
-    /// A direction with probability proportional to the bin masses `q` (cumulative, total
+    /// A direction with probability proportional to the bin masses of the last score (total
     /// `acc_q`), uniform inside its bin; returns it with its density.
-    fn sample_direction(&self, q: &[f64], acc_q: f64, rng: &mut SplitMix64) -> ([f64; 2], f64) {
-        let bins = self.dirs.len();
-        let u = rng.uniform() * acc_q;
+    fn sample_direction(&self, acc_q: f64, rng: &mut SplitMix64) -> ([f64; 2], f64) {
+        let (bins, q) = (self.dirs.len(), &self.q);
+        let u = rng.next_f64() * acc_q;
         let k = q.partition_point(|&c| c <= u).min(bins - 1);
         let qk = q[k] - if k > 0 { q[k - 1] } else { 0.0 };
         (
-            self.geom.direction_in_bin(k, rng.uniform(), bins),
+            self.geom.direction_in_bin(k, rng.next_f64(), bins),
             qk / (acc_q * self.dw),
         )
     }
@@ -322,12 +335,13 @@ fn simulate_expected(
     rng: &mut SplitMix64,
 ) -> Profile {
     let bins = s.bins;
-    let nee = NextEvent {
+    let mut nee = NextEvent {
         dirs: geom.bin_directions(bins),
         dw: 2.0 * PI / bins as f64,
         g,
         sigma,
         geom,
+        q: vec![0.0; bins],
     };
     let n = s.photons as f64;
     // Scattered fraction, accurately for small σ·L.
@@ -338,13 +352,12 @@ fn simulate_expected(
     let mut sum2 = vec![0.0; bins];
     let mut sum_len = vec![0.0; bins];
     let mut e = vec![0.0; bins];
-    let mut q = vec![0.0; bins];
     let mut tot_sum = 0.0;
     let mut tot_sum2 = 0.0;
     for _ in 0..s.photons {
         e.iter_mut().for_each(|v| *v = 0.0);
         // Forced first collision: t ~ σe^{−σt}/(1−e^{−σL}) on [0, L], weight w0.
-        let t = -(-rng.uniform() * w0).ln_1p() / sigma;
+        let t = -(-rng.next_f64() * w0).ln_1p() / sigma;
         let mut p = [p0[0] + t * d0[0], p0[1] + t * d0[1]];
         let mut d = d0;
         let mut w = w0;
@@ -360,9 +373,9 @@ fn simulate_expected(
             // negligible).
             let depth = sigma * geom.depth(p);
             let pi_nee = (NEE_DEPTH - depth).exp().min(1.0);
-            let evaluate = pi_nee >= 1.0 || rng.uniform() < pi_nee;
+            let evaluate = pi_nee >= 1.0 || rng.next_f64() < pi_nee;
             let acc_q = if evaluate {
-                let scored = nee.score(p, d, w / pi_nee, len, &mut e, &mut sum_len, &mut q);
+                let scored = nee.score(p, d, w / pi_nee, len, &mut e, &mut sum_len);
                 photon_total += scored.0;
                 scored.1
             } else {
@@ -376,9 +389,9 @@ fn simulate_expected(
             // Either way the weight takes the exact ratio ρ(ω)(1 − e^{−σ s(ω)}) / pdf(ω), so
             // that the collision-before-escape event is forced without bias.
             let (nd, pdf) = if evaluate && pi_nee >= 1.0 && acc_q > 0.0 {
-                nee.sample_direction(&q, acc_q, rng)
+                nee.sample_direction(acc_q, rng)
             } else {
-                let nd = rotate(d, sample_planar_hg(rng.uniform(), g));
+                let nd = rotate(d, sample_planar_hg(rng.next_f64(), g));
                 (nd, planar_hg_density_cos(nd[0] * d[0] + nd[1] * d[1], g))
             };
             if pdf <= 0.0 {
@@ -388,7 +401,7 @@ fn simulate_expected(
             let not_escape = -(-sigma * sd).exp_m1();
             w *= planar_hg_density_cos(nd[0] * d[0] + nd[1] * d[1], g) * not_escape / pdf;
             if w < roulette_below {
-                if rng.uniform() < ROULETTE_SURVIVAL {
+                if rng.next_f64() < ROULETTE_SURVIVAL {
                     w /= ROULETTE_SURVIVAL;
                 } else {
                     break;
@@ -396,7 +409,7 @@ fn simulate_expected(
             }
             d = nd;
             // Collision distance conditioned on colliding before the boundary.
-            let t = -(-rng.uniform() * not_escape).ln_1p() / sigma;
+            let t = -(-rng.next_f64() * not_escape).ln_1p() / sigma;
             p = [p[0] + t * d[0], p[1] + t * d[1]];
             len += t;
             order += 1;
@@ -408,9 +421,14 @@ fn simulate_expected(
         tot_sum += photon_total;
         tot_sum2 += photon_total * photon_total;
     }
-    finish(
-        sum, sum2, sum_len, tot_sum, tot_sum2, n, ballistic, ballistic,
-    )
+    let tallies = Tallies {
+        sum,
+        sum2,
+        sum_len,
+        total: tot_sum,
+        total2: tot_sum2,
+    };
+    tallies.profile(n, ballistic, ballistic)
 }
 
 /// Optical depth below which the next-event estimate is always evaluated (see
@@ -443,7 +461,7 @@ fn simulate_histogram(
         let mut order = 0u32;
         loop {
             let to_boundary = geom.dist(p, d);
-            let t = -rng.uniform_open0().ln() / sigma;
+            let t = -rng.next_f64_open0().ln() / sigma;
             if t >= to_boundary {
                 if order == 0 {
                     n_ballistic += 1;
@@ -460,58 +478,64 @@ fn simulate_histogram(
             p = [p[0] + t * d[0], p[1] + t * d[1]];
             len += t;
             order += 1;
-            d = rotate(d, sample_planar_hg(rng.uniform(), g));
+            d = rotate(d, sample_planar_hg(rng.next_f64(), g));
         }
     }
     // Unit weights: sum² = sum.
-    let sum2 = sum.clone();
-    let tot: f64 = sum.iter().sum();
+    let total: f64 = sum.iter().sum();
     let n = s.photons as f64;
-    finish(
+    let tallies = Tallies {
+        sum2: sum.clone(),
         sum,
-        sum2,
         sum_len,
-        tot,
-        tot,
-        n,
-        ballistic,
-        n_ballistic as f64 / n,
-    )
+        total,
+        total2: total,
+    };
+    tallies.profile(n, ballistic, n_ballistic as f64 / n)
 }
 
-#[allow(clippy::too_many_arguments)]
-fn finish(
+/// Sums over the photons of one entry: per bin the scored energy, its square and its
+/// path-length moment; over the photons' scored totals, the same two sums.
+struct Tallies {
     sum: Vec<f64>,
     sum2: Vec<f64>,
     sum_len: Vec<f64>,
-    tot_sum: f64,
-    tot_sum2: f64,
-    n: f64,
-    ballistic: f64,
-    ballistic_mc: f64,
-) -> Profile {
-    let se = |s: f64, s2: f64| {
-        if n > 1.0 {
-            ((s2 - s * s / n).max(0.0) / (n * (n - 1.0))).sqrt()
-        } else {
-            0.0
+    total: f64,
+    total2: f64,
+}
+
+impl Tallies {
+    /// The profile of `n` photons, with the analytic and Monte Carlo ballistic fractions.
+    fn profile(self, n: f64, ballistic: f64, ballistic_mc: f64) -> Profile {
+        let se = |s: f64, s2: f64| {
+            if n > 1.0 {
+                ((s2 - s * s / n).max(0.0) / (n * (n - 1.0))).sqrt()
+            } else {
+                0.0
+            }
+        };
+        let std_error = self
+            .sum
+            .iter()
+            .zip(&self.sum2)
+            .map(|(&s, &s2)| se(s, s2))
+            .collect();
+        let path_length = self
+            .sum
+            .iter()
+            .zip(&self.sum_len)
+            .map(|(&s, &l)| if s > 0.0 { l / s } else { 0.0 })
+            .collect();
+        let energy: Vec<f64> = self.sum.iter().map(|s| s / n).collect();
+        Profile {
+            scattered: energy.iter().sum(),
+            energy,
+            path_length,
+            std_error,
+            ballistic,
+            ballistic_mc,
+            scattered_std_error: se(self.total, self.total2),
         }
-    };
-    let std_error = sum.iter().zip(&sum2).map(|(&s, &s2)| se(s, s2)).collect();
-    let path_length = sum
-        .iter()
-        .zip(&sum_len)
-        .map(|(&s, &l)| if s > 0.0 { l / s } else { 0.0 })
-        .collect();
-    let energy: Vec<f64> = sum.iter().map(|s| s / n).collect();
-    Profile {
-        scattered: energy.iter().sum(),
-        energy,
-        path_length,
-        std_error,
-        ballistic,
-        ballistic_mc,
-        scattered_std_error: se(tot_sum, tot_sum2),
     }
 }
 

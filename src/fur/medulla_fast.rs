@@ -39,8 +39,8 @@
 //!
 //! Pure: no I/O, no threads.
 
-use super::medulla::Geometry;
-use super::rng::{SplitMix64, derive_seed};
+use super::medulla::{Geometry, Profile, disc_distance, rotate};
+use crate::math::rng::{SplitMix64, derive_seed};
 use crate::optics::henyey_greenstein::{planar_hg_density_cos, sample_planar_hg};
 use std::f64::consts::PI;
 
@@ -84,20 +84,11 @@ impl Default for AdaptiveSettings {
 /// Result for one entry (σ, g, h').
 #[derive(Debug, Clone)]
 pub struct AdaptiveProfile {
-    /// Scattered energy per bin per unit incident energy.
-    pub energy: Vec<f64>,
-    /// Mean in-medulla path length (medulla radii) of the energy in each bin.
-    pub path_length: Vec<f64>,
-    /// Standard error of `energy` per bin (spread of batch means).
-    pub std_error: Vec<f64>,
+    /// The profile: `std_error` from the spread of batch means; `ballistic_mc` is the analytic
+    /// `ballistic` (the first collision is forced).
+    pub profile: Profile,
     /// Fitted correlation length of the bin errors, in bins (see the module documentation).
     pub correlation_length: f64,
-    /// exp(−σ·chord).
-    pub ballistic: f64,
-    /// Sum of `energy`.
-    pub scattered: f64,
-    /// Standard error of `scattered`.
-    pub scattered_std_error: f64,
     /// Photons used.
     pub photons: u64,
     /// Largest relative standard error over bins above the threshold.
@@ -146,13 +137,8 @@ pub fn simulate_adaptive(sigma: f64, g: f64, h: f64, s: &AdaptiveSettings) -> Ad
     let ballistic = (-sigma * chord).exp();
     if sigma <= 0.0 || chord <= 0.0 {
         return AdaptiveProfile {
-            energy: vec![0.0; bins],
-            path_length: vec![0.0; bins],
-            std_error: vec![0.0; bins],
+            profile: Profile::unscattered(bins, if chord <= 0.0 { 1.0 } else { ballistic }),
             correlation_length: 0.0,
-            ballistic: if chord <= 0.0 { 1.0 } else { ballistic },
-            scattered: 0.0,
-            scattered_std_error: 0.0,
             photons: 0,
             worst_rel_error: 0.0,
         };
@@ -176,34 +162,13 @@ pub fn simulate_adaptive(sigma: f64, g: f64, h: f64, s: &AdaptiveSettings) -> Ad
             (h + 0.0).to_bits(),
         ],
     ));
-    let mut sum = vec![0.0; bins];
-    let mut sum_len = vec![0.0; bins];
-    let mut batches = BatchMeans::new(s.batch_photons, bins);
-    let mut photons = 0u64;
-    let mut worst;
-    let mut bsum = vec![0.0; bins];
-    loop {
-        bsum.iter_mut().for_each(|v| *v = 0.0);
-        walk.batch(s.batch_photons, &mut rng, &mut bsum, &mut sum_len);
-        photons += s.batch_photons;
-        for (a, b) in sum.iter_mut().zip(&bsum) {
-            *a += b;
-        }
-        batches.add(&bsum);
-        if batches.means.len() < s.min_batches {
-            continue;
-        }
-        let se = batch_std_error(&batches.means);
-        let energy: Vec<f64> = (0..bins).map(|k| e1[k] + sum[k] / photons as f64).collect();
-        let max = energy.iter().cloned().fold(0.0, f64::max);
-        worst = (0..bins)
-            .filter(|&k| energy[k] > s.threshold * max)
-            .map(|k| se[k] / energy[k])
-            .fold(0.0, f64::max);
-        if worst <= s.target_rel_error || photons >= s.max_photons {
-            break;
-        }
-    }
+    let BatchRun {
+        sum,
+        sum_len,
+        batches,
+        photons,
+        worst,
+    } = run_batches(&mut walk, &mut rng, &e1, s);
     let n = photons as f64;
     let energy: Vec<f64> = (0..bins).map(|k| e1[k] + sum[k] / n).collect();
     let path_length = (0..bins)
@@ -221,15 +186,74 @@ pub fn simulate_adaptive(sigma: f64, g: f64, h: f64, s: &AdaptiveSettings) -> Ad
     let scattered_std_error = batch_std_error(&totals)[0];
     let correlation_length = fit_correlation_length(&batch_means, &std_error, &energy, s);
     AdaptiveProfile {
-        scattered: energy.iter().sum(),
-        energy,
-        path_length,
-        std_error,
+        profile: Profile {
+            scattered: energy.iter().sum(),
+            energy,
+            path_length,
+            std_error,
+            ballistic,
+            ballistic_mc: ballistic,
+            scattered_std_error,
+        },
         correlation_length,
-        ballistic,
-        scattered_std_error,
         photons,
         worst_rel_error: worst,
+    }
+}
+
+/// The batches of one entry up to the stopping rule.
+struct BatchRun {
+    /// Per bin: the scores of orders ≥ 2 and their path-length moments, summed over photons.
+    sum: Vec<f64>,
+    sum_len: Vec<f64>,
+    batches: BatchMeans,
+    /// Photons used.
+    photons: u64,
+    /// Largest relative standard error over the bins above the threshold, at the stop.
+    worst: f64,
+}
+
+/// Batches of the walk of orders ≥ 2 until the estimate, with the closed-form order 1 `e1`
+/// added, meets the stopping rule of `s` (see the module documentation).
+fn run_batches(
+    walk: &mut Walker,
+    rng: &mut SplitMix64,
+    e1: &[f64],
+    s: &AdaptiveSettings,
+) -> BatchRun {
+    let bins = s.bins;
+    let mut sum = vec![0.0; bins];
+    let mut sum_len = vec![0.0; bins];
+    let mut batches = BatchMeans::new(s.batch_photons, bins);
+    let mut photons = 0u64;
+    let mut bsum = vec![0.0; bins];
+    loop {
+        bsum.iter_mut().for_each(|v| *v = 0.0);
+        walk.batch(s.batch_photons, rng, &mut bsum, &mut sum_len);
+        photons += s.batch_photons;
+        for (a, b) in sum.iter_mut().zip(&bsum) {
+            *a += b;
+        }
+        batches.add(&bsum);
+        if batches.means.len() < s.min_batches {
+            continue;
+        }
+        let se = batch_std_error(&batches.means);
+        let energy: Vec<f64> = (0..bins).map(|k| e1[k] + sum[k] / photons as f64).collect();
+        let max = energy.iter().cloned().fold(0.0, f64::max);
+        let worst = (0..bins)
+            .filter(|&k| energy[k] > s.threshold * max)
+            .map(|k| se[k] / energy[k])
+            .fold(0.0, f64::max);
+        if worst <= s.target_rel_error || photons >= s.max_photons {
+            return BatchRun {
+                sum,
+                sum_len,
+                batches,
+                photons,
+                worst,
+            };
+        }
     }
 }
 
@@ -440,8 +464,8 @@ impl Walker {
         let roulette_below = ROULETTE_THRESHOLD * w0;
         let x0 = -(1.0 - self.h * self.h).max(0.0).sqrt();
         for (i, &pi) in perm.iter().enumerate() {
-            let u_t = (i as f64 + rng.uniform()) / n as f64;
-            let u_d = (pi as f64 + rng.uniform()) / n as f64;
+            let u_t = (i as f64 + rng.next_f64()) / n as f64;
+            let u_d = (pi as f64 + rng.next_f64()) / n as f64;
             // Forced first collision (its escapes are the closed-form order 1), deflection
             // importance-sampled from ρ·(1 − e^{−σs}) by inverting its cumulative at u_d,
             // forced second collision.
@@ -449,46 +473,46 @@ impl Walker {
             let mut p = [x0 + t, self.h];
             let total_q = self.score(p, [1.0, 0.0], 0.0, 0.0, sum, sum_len);
             let k = self.pick(u_d * total_q);
-            let a = -PI + (k as f64 + rng.uniform()) * self.dw;
+            let a = -PI + (k as f64 + rng.next_f64()) * self.dw;
             let mut d = [a.cos(), a.sin()];
-            let sd = dist(p, d);
+            let sd = disc_distance(p, d);
             let not_escape = -(-sigma * sd).exp_m1();
             let mut w =
                 w0 * planar_hg_density_cos(d[0], g) * not_escape * total_q * self.dw / self.q[k];
-            let t2 = -(-rng.uniform() * not_escape).ln_1p() / sigma;
+            let t2 = -(-rng.next_f64() * not_escape).ln_1p() / sigma;
             p = [p[0] + t2 * d[0], p[1] + t2 * d[1]];
             let mut len = t + t2;
             loop {
                 let depth = sigma * (1.0 - (p[0] * p[0] + p[1] * p[1]).sqrt()).max(0.0);
                 let pi_nee = (self.nee_depth - depth).exp().min(1.0);
-                let evaluate = pi_nee >= 1.0 || rng.uniform() < pi_nee;
+                let evaluate = pi_nee >= 1.0 || rng.next_f64() < pi_nee;
                 let mut total_q = 0.0;
                 if evaluate {
                     total_q = self.score(p, d, w / pi_nee, len, sum, sum_len);
                 }
                 let (nd, pdf) = if evaluate && pi_nee >= 1.0 && total_q > 0.0 {
-                    let k = self.pick(rng.uniform() * total_q);
-                    let a = -PI + (k as f64 + rng.uniform()) * self.dw;
+                    let k = self.pick(rng.next_f64() * total_q);
+                    let a = -PI + (k as f64 + rng.next_f64()) * self.dw;
                     ([a.cos(), a.sin()], self.q[k] / (total_q * self.dw))
                 } else {
-                    let nd = rotate(d, sample_planar_hg(rng.uniform(), g));
+                    let nd = rotate(d, sample_planar_hg(rng.next_f64(), g));
                     (nd, planar_hg_density_cos(nd[0] * d[0] + nd[1] * d[1], g))
                 };
                 if pdf <= 0.0 {
                     break;
                 }
-                let sd = dist(p, nd);
+                let sd = disc_distance(p, nd);
                 let not_escape = -(-sigma * sd).exp_m1();
                 w *= planar_hg_density_cos(nd[0] * d[0] + nd[1] * d[1], g) * not_escape / pdf;
                 if w < roulette_below {
-                    if rng.uniform() < ROULETTE_SURVIVAL {
+                    if rng.next_f64() < ROULETTE_SURVIVAL {
                         w /= ROULETTE_SURVIVAL;
                     } else {
                         break;
                     }
                 }
                 d = nd;
-                let t = -(-rng.uniform() * not_escape).ln_1p() / sigma;
+                let t = -(-rng.next_f64() * not_escape).ln_1p() / sigma;
                 p = [p[0] + t * d[0], p[1] + t * d[1]];
                 len += t;
             }
@@ -622,20 +646,6 @@ fn exp_nonpositive(x: f64) -> f64 {
     pz * scale
 }
 
-#[inline]
-fn rotate(d: [f64; 2], angle: f64) -> [f64; 2] {
-    let (s, c) = angle.sin_cos();
-    [c * d[0] - s * d[1], s * d[0] + c * d[1]]
-}
-
-/// Distance from `p` inside the unit disc along unit `d` to the boundary.
-#[inline]
-fn dist(p: [f64; 2], d: [f64; 2]) -> f64 {
-    let b = p[0] * d[0] + p[1] * d[1];
-    let c = 1.0 - (p[0] * p[0] + p[1] * p[1]);
-    -b + (b * b + c.max(0.0)).sqrt()
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -707,12 +717,12 @@ mod tests {
         // error of the adaptive estimate and Poisson errors of the analog counts.
         for (sigma, g, h) in [(0.5, 0.0, 0.2), (3.0, 0.6, -0.7), (10.0, 0.8, 0.95)] {
             let a = simulate_adaptive(sigma, g, h, &settings(4000, 0.0, 7));
-            let exact = 1.0 - a.ballistic;
+            let exact = 1.0 - a.profile.ballistic;
             assert!(
-                (a.scattered - exact).abs() < 5.0 * a.scattered_std_error,
+                (a.profile.scattered - exact).abs() < 5.0 * a.profile.scattered_std_error,
                 "σ={sigma}: {} vs {exact} ± {}",
-                a.scattered,
-                a.scattered_std_error
+                a.profile.scattered,
+                a.profile.scattered_std_error
             );
             let n = 400_000;
             let b = simulate(
@@ -730,9 +740,10 @@ mod tests {
             let mut worst: f64 = 0.0;
             for c in 0..45 {
                 let r = c * 16..(c + 1) * 16;
-                let ea: f64 = a.energy[r.clone()].iter().sum();
+                let ea: f64 = a.profile.energy[r.clone()].iter().sum();
                 let eb: f64 = b.energy[r.clone()].iter().sum();
-                let va = correlated_group_error(&a.std_error, a.correlation_length, r).powi(2);
+                let va =
+                    correlated_group_error(&a.profile.std_error, a.correlation_length, r).powi(2);
                 let z = (ea - eb) / (va + ea / n as f64).sqrt();
                 worst = worst.max(z.abs());
             }
@@ -783,19 +794,25 @@ mod tests {
                 let r = c * group..(c + 1) * group;
                 let sums: Vec<f64> = runs
                     .iter()
-                    .map(|p| p.energy[r.clone()].iter().sum())
+                    .map(|p| p.profile.energy[r.clone()].iter().sum())
                     .collect();
                 let mean = sums.iter().sum::<f64>() / n;
                 let sd = (sums.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt();
                 let model = runs
                     .iter()
-                    .map(|p| correlated_group_error(&p.std_error, p.correlation_length, r.clone()))
+                    .map(|p| {
+                        correlated_group_error(
+                            &p.profile.std_error,
+                            p.correlation_length,
+                            r.clone(),
+                        )
+                    })
                     .sum::<f64>()
                     / n;
                 let quad = runs
                     .iter()
                     .map(|p| {
-                        p.std_error[r.clone()]
+                        p.profile.std_error[r.clone()]
                             .iter()
                             .map(|x| x * x)
                             .sum::<f64>()

@@ -21,7 +21,6 @@ pub mod disc;
 pub mod farfield;
 pub mod medulla;
 pub mod medulla_fast;
-pub mod rng;
 pub mod slab;
 pub mod tt;
 

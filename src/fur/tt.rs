@@ -173,6 +173,25 @@ pub fn compress_table_log(
     compress(table, channel, rel_tol, max_rank, Some(floor_rel))
 }
 
+/// Index of `channel` in `t`.
+pub(super) fn channel_index(t: &TableContent, channel: &str) -> Result<usize, FurError> {
+    t.channels
+        .iter()
+        .position(|c| c.name == channel)
+        .ok_or_else(|| FurError::NoChannel(channel.to_string()))
+}
+
+/// Values of `channel` of `t`, row-major.
+pub(super) fn channel_values(t: &TableContent, channel: &str) -> Result<Vec<f64>, FurError> {
+    let (nc, ci) = (t.channels.len(), channel_index(t, channel)?);
+    Ok(t.data
+        .iter()
+        .skip(ci)
+        .step_by(nc)
+        .map(|&v| f64::from(v))
+        .collect())
+}
+
 fn compress(
     table: &TableContent,
     channel: &str,
@@ -180,20 +199,9 @@ fn compress(
     max_rank: usize,
     log_floor_rel: Option<f64>,
 ) -> Result<(TableContent, CompressionReport), FurError> {
-    let nc = table.channels.len();
-    let ci = table
-        .channels
-        .iter()
-        .position(|c| c.name == channel)
-        .ok_or_else(|| FurError::NoChannel(channel.to_string()))?;
     let dims: Vec<usize> = table.axes.iter().map(Axis::len).collect();
-    let dense: Vec<f64> = table
-        .data
-        .iter()
-        .skip(ci)
-        .step_by(nc)
-        .map(|&v| v as f64)
-        .collect();
+    let ci = channel_index(table, channel)?;
+    let dense = channel_values(table, channel)?;
     let log_floor = log_floor_rel
         .map(|f| f * dense.iter().fold(0.0f64, |m, v| m.max(v.abs())))
         .filter(|f| *f > 0.0);
@@ -390,14 +398,14 @@ mod tests {
     fn truncation_error_respects_tolerance_on_tall_unfoldings() {
         let dims = [3, 40, 2, 5];
         let mut a = Vec::new();
-        let mut rng = crate::fur::rng::SplitMix64::new(9);
+        let mut rng = crate::math::rng::SplitMix64::new(9);
         for i in 0..3 {
             for j in 0..40 {
                 for k in 0..2 {
                     for l in 0..5 {
                         let (x, y) = (i as f64 / 3.0, j as f64 / 40.0);
                         let smooth = 1.0 / (1.0 + x + 3.0 * y * (l as f64 + 1.0) + k as f64);
-                        a.push(smooth + 0.05 * (rng.uniform() - 0.5));
+                        a.push(smooth + 0.05 * (rng.next_f64() - 0.5));
                     }
                 }
             }

@@ -492,8 +492,8 @@ mod tests {
 
     /// Default and five random parameter sets (fixed seed).
     fn parameter_sets() -> Vec<ArtistParams> {
-        let mut rng = crate::fur::rng::SplitMix64::new(0x5ade_2012);
-        let mut u = |lo: f64, hi: f64| lo + (hi - lo) * rng.uniform();
+        let mut rng = crate::math::rng::SplitMix64::new(0x5ade_2012);
+        let mut u = |lo: f64, hi: f64| lo + (hi - lo) * rng.next_f64();
         let mut sets = vec![ArtistParams::default()];
         for set in 0..5 {
             let mut colour = || [u(0.05, 1.0), u(0.05, 1.0), u(0.05, 1.0)];

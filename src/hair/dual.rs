@@ -19,7 +19,7 @@
 use super::diffuse::{DIFFUSE_THETA_H_VARIANCE, DiffuseTerms};
 use super::elliptic::orientation_indices;
 use super::fiber::{
-    FiberSlice, FresnelModel, LOBES, OffsetQuadrature, hemisphere_breakpoints,
+    FiberSlice, FresnelModel, LOBES, OffsetQuadrature, PointwiseFiber, hemisphere_breakpoints,
     hemisphere_breakpoints_trt,
 };
 use serde::{Deserialize, Serialize};
@@ -280,6 +280,19 @@ impl PhysicalFiber {
             axis_ratio: 1.0,
         }
     }
+
+    /// The fibre's pointwise `N_p` at absorption `sigma_a` on `panels` Gauss–Legendre panels
+    /// of 8 nodes (the cross-section aside: circular).
+    pub fn pointwise(&self, sigma_a: f64, panels: usize) -> PointwiseFiber {
+        PointwiseFiber {
+            eta: self.eta,
+            sigma_a,
+            w: self.azimuthal_width_rad,
+            fresnel: self.fresnel,
+            panels,
+            order: 8,
+        }
+    }
 }
 
 /// Quadrature settings for the `h` integral: composite Gauss–Legendre in `γ_i = asin h` with
@@ -486,16 +499,11 @@ impl PhysicalBcsdf {
         let f = &self.fiber;
         let panels = ((PI / (0.5 * f.azimuthal_width_rad)).ceil() as usize).max(64);
         let n = azimuthal_orientation_averaged_pointwise(
-            f.eta,
+            &f.pointwise(self.sigma_a, panels),
             f.axis_ratio,
             DEFAULT_ORIENTATION_NODES,
             self.theta_i,
             phi,
-            self.sigma_a,
-            f.azimuthal_width_rad,
-            f.fresnel,
-            panels,
-            8,
         );
         let t_h = 0.5 * (self.theta_i + theta_o);
         let c2 = cos2_theta_d(self.theta_i, theta_o);
@@ -645,29 +653,35 @@ mod tests {
         }
     }
 
+    /// The energies of `f_s` scattered into `|φ| < π/2` and `|φ| ≥ π/2` by brute-force 2-D
+    /// Gauss–Legendre integration over (θ_o, φ).
+    fn brute_force_hemispheres(f_s: &PhysicalBcsdf) -> (f64, f64) {
+        use crate::math::quadrature::gauss_legendre_interval;
+        let (to, wo) = gauss_legendre_interval(48, -PI / 2.0, PI / 2.0);
+        let (pb, wb) = gauss_legendre_interval(24, 0.0, PI / 2.0);
+        let (pf, wf) = gauss_legendre_interval(24, PI / 2.0, PI);
+        let (mut back, mut fwd) = (0.0, 0.0);
+        for (t, w1) in to.iter().zip(&wo) {
+            for (p, w2) in pb.iter().zip(&wb) {
+                back += 2.0 * w1 * w2 * f_s.eval(*t, *p) * t.cos().powi(2);
+            }
+            for (p, w2) in pf.iter().zip(&wf) {
+                fwd += 2.0 * w1 * w2 * f_s.eval(*t, *p) * t.cos().powi(2);
+            }
+        }
+        (back, fwd)
+    }
+
     /// Brute-force 2-D integration of the pointwise f_s over (θ_o, φ) reproduces the factored
     /// hemisphere energies (checks the longitudinal renormalisation and the φ split).
     #[test]
     fn brute_force_two_dimensional_integral_matches_factored_averages() {
-        use crate::math::quadrature::gauss_legendre_interval;
         let fiber = blond();
         let q = HQuadrature::default();
         for (theta_i, s) in [(deg(20.0), 0.25), (deg(-70.0), 0.0)] {
             let (eb, ef) = hemisphere_lobe_energies(&fiber, theta_i, s, &q);
             let f_s = PhysicalBcsdf::new(&fiber, theta_i, s);
-            let (to, wo) = gauss_legendre_interval(48, -PI / 2.0, PI / 2.0);
-            let (pb, wb) = gauss_legendre_interval(24, 0.0, PI / 2.0);
-            let (pf, wf) = gauss_legendre_interval(24, PI / 2.0, PI);
-            let mut back = 0.0;
-            let mut fwd = 0.0;
-            for (t, w1) in to.iter().zip(&wo) {
-                for (p, w2) in pb.iter().zip(&wb) {
-                    back += 2.0 * w1 * w2 * f_s.eval(*t, *p) * t.cos().powi(2);
-                }
-                for (p, w2) in pf.iter().zip(&wf) {
-                    fwd += 2.0 * w1 * w2 * f_s.eval(*t, *p) * t.cos().powi(2);
-                }
-            }
+            let (back, fwd) = brute_force_hemispheres(&f_s);
             let (sb, sf): (f64, f64) = (eb.iter().sum(), ef.iter().sum());
             assert!(
                 (back - sb).abs() < 2e-4 && (fwd - sf).abs() < 2e-4,
@@ -683,7 +697,6 @@ mod tests {
     /// 1 + albedo split as predicted.
     #[test]
     fn diffuse_terms_add_their_albedo_exactly() {
-        use crate::math::quadrature::gauss_legendre_interval;
         let q = HQuadrature::default();
         let base = blond();
         for (l, h) in [(0.2, 0.0), (0.0, 0.03), (0.1, 0.02)] {
@@ -719,18 +732,7 @@ mod tests {
             let theta_i = deg(20.0);
             let (eb, ef) = hemisphere_lobe_energies(&fiber, theta_i, 0.0, &q);
             let f_s = PhysicalBcsdf::new(&fiber, theta_i, 0.0);
-            let (to, wo) = gauss_legendre_interval(48, -PI / 2.0, PI / 2.0);
-            let (pb, wb) = gauss_legendre_interval(24, 0.0, PI / 2.0);
-            let (pf, wf) = gauss_legendre_interval(24, PI / 2.0, PI);
-            let (mut back, mut fwd) = (0.0, 0.0);
-            for (t, w1) in to.iter().zip(&wo) {
-                for (p, w2) in pb.iter().zip(&wb) {
-                    back += 2.0 * w1 * w2 * f_s.eval(*t, *p) * t.cos().powi(2);
-                }
-                for (p, w2) in pf.iter().zip(&wf) {
-                    fwd += 2.0 * w1 * w2 * f_s.eval(*t, *p) * t.cos().powi(2);
-                }
-            }
+            let (back, fwd) = brute_force_hemispheres(&f_s);
             let (sb, sf): (f64, f64) = (eb.iter().sum(), ef.iter().sum());
             assert!((sb + sf - 1.0).abs() < 1e-12);
             println!(
@@ -824,16 +826,7 @@ mod tests {
         let (x, w) = gauss_legendre_interval(200, 0.0, PI / 2.0);
         let mut back = [0.0; LOBES];
         for (phi, wt) in x.iter().zip(&w) {
-            let n = azimuthal_pointwise(
-                1.55,
-                theta,
-                *phi,
-                s,
-                fiber.azimuthal_width_rad,
-                fiber.fresnel,
-                400,
-                8,
-            );
+            let n = azimuthal_pointwise(&fiber.pointwise(s, 400), theta, *phi);
             for p in 0..LOBES {
                 back[p] += 2.0 * wt * n[p];
             }
@@ -1001,18 +994,9 @@ mod accuracy {
         let (x, w) = gauss_legendre_interval(256, 0.0, PI);
         let (mut pb, mut pf) = (0.0, 0.0);
         for (phi, wt) in x.iter().zip(&w) {
-            let n: f64 = azimuthal_pointwise(
-                1.55,
-                theta,
-                *phi,
-                s,
-                fiber.azimuthal_width_rad,
-                fiber.fresnel,
-                90,
-                8,
-            )
-            .iter()
-            .sum();
+            let n: f64 = azimuthal_pointwise(&fiber.pointwise(s, 90), theta, *phi)
+                .iter()
+                .sum();
             if *phi < PI / 2.0 {
                 pb += 2.0 * wt * n
             } else {

@@ -22,7 +22,7 @@
 //!   like the circular one; the fixed-orientation form is [`azimuthal_elliptic_pointwise`]
 //!   (FIB-24).
 
-use super::fiber::{FresnelModel, LOBES, azimuthal_pointwise_trt, bravais_indices, wrap_angle};
+use super::fiber::{LOBES, PointwiseFiber, azimuthal_pointwise_trt, bravais_indices, wrap_angle};
 use std::f64::consts::{FRAC_PI_2, PI};
 
 /// Smallest accepted axis ratio (Marschner et al. 2003's range 0.85–1; the first-order
@@ -88,54 +88,35 @@ pub fn validate_axis_ratio(axis_ratio: f64) -> Result<(), String> {
 /// the azimuths of the directions toward the light and toward the viewer measured from the
 /// major axis (rad); R and TT are the circular fibre's, TRT uses η*(φ_h). Arguments otherwise
 /// as [`super::fiber::azimuthal_pointwise`].
-#[allow(clippy::too_many_arguments)]
 pub fn azimuthal_elliptic_pointwise(
-    eta: f64,
+    f: &PointwiseFiber,
     axis_ratio: f64,
     theta_rad: f64,
     phi_i: f64,
     phi_o: f64,
-    sigma_a: f64,
-    w: f64,
-    fresnel: FresnelModel,
-    panels: usize,
-    order: usize,
 ) -> [f64; LOBES] {
     let psi = 0.5 * (phi_i + phi_o);
     azimuthal_pointwise_trt(
-        eta,
-        trt_index(eta, axis_ratio, psi),
+        f,
+        trt_index(f.eta, axis_ratio, psi),
         theta_rad,
         phi_o - phi_i,
-        sigma_a,
-        w,
-        fresnel,
-        panels,
-        order,
     )
 }
 
 /// `N_p(θ, φ)` averaged over the orientation of the major axis (what the tables store), by the
 /// node rule of [`orientation_indices`].
-#[allow(clippy::too_many_arguments)]
 pub fn azimuthal_orientation_averaged_pointwise(
-    eta: f64,
+    f: &PointwiseFiber,
     axis_ratio: f64,
     nodes: usize,
     theta_rad: f64,
     phi_rad: f64,
-    sigma_a: f64,
-    w: f64,
-    fresnel: FresnelModel,
-    panels: usize,
-    order: usize,
 ) -> [f64; LOBES] {
-    let idx = orientation_indices(eta, axis_ratio, nodes);
+    let idx = orientation_indices(f.eta, axis_ratio, nodes);
     let mut out = [0.0; LOBES];
     for &n in &idx {
-        let v = azimuthal_pointwise_trt(
-            eta, n, theta_rad, phi_rad, sigma_a, w, fresnel, panels, order,
-        );
+        let v = azimuthal_pointwise_trt(f, n, theta_rad, phi_rad);
         for p in 0..LOBES {
             out[p] += v[p] / idx.len() as f64;
         }
@@ -187,7 +168,7 @@ pub fn elliptic_trt_caustics(
 mod tests {
     use super::*;
     use crate::hair::fiber::{
-        FiberSlice, OffsetQuadrature, azimuthal_pointwise, hemisphere_breakpoints,
+        FiberSlice, FresnelModel, OffsetQuadrature, azimuthal_pointwise, hemisphere_breakpoints,
         hemisphere_breakpoints_trt,
     };
 
@@ -322,28 +303,16 @@ mod tests {
     fn circular_axis_ratio_reproduces_the_circular_model() {
         assert_eq!(orientation_indices(1.55, 1.0, 8), vec![1.55]);
         for (t, phi_i, phi_o) in [(0.0, 0.3, 0.5), (0.6, -1.0, 2.0), (1.2, 2.5, 2.6)] {
-            let a = azimuthal_elliptic_pointwise(
-                1.55,
-                1.0,
-                t,
-                phi_i,
-                phi_o,
-                0.2,
-                0.1,
-                FresnelModel::ThreeD,
-                200,
-                8,
-            );
-            let b = azimuthal_pointwise(
-                1.55,
-                t,
-                phi_o - phi_i,
-                0.2,
-                0.1,
-                FresnelModel::ThreeD,
-                200,
-                8,
-            );
+            let f = PointwiseFiber {
+                eta: 1.55,
+                sigma_a: 0.2,
+                w: 0.1,
+                fresnel: FresnelModel::ThreeD,
+                panels: 200,
+                order: 8,
+            };
+            let a = azimuthal_elliptic_pointwise(&f, 1.0, t, phi_i, phi_o);
+            let b = azimuthal_pointwise(&f, t, phi_o - phi_i);
             assert_eq!(a, b);
             assert_eq!(
                 hemisphere_breakpoints_trt(1.55, 1.55, t),

@@ -504,39 +504,44 @@ impl FiberSlice {
     }
 }
 
+/// A fibre and the quadrature of a pointwise `N_p` evaluation ([`azimuthal_pointwise`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PointwiseFiber {
+    /// Index of refraction.
+    pub eta: f64,
+    /// Absorption per unit radius (see [`attenuations`]).
+    pub sigma_a: f64,
+    /// Azimuthal width: standard deviation of the wrapped normal blur (rad), > 0.
+    pub w: f64,
+    pub fresnel: FresnelModel,
+    /// Gauss–Legendre panels in `γ_i ∈ [−π/2, π/2]` and nodes per panel.
+    pub panels: usize,
+    pub order: usize,
+}
+
 /// `N_p(θ, φ)` at one point by direct integration over the full width `h ∈ [−1, 1]`
-/// (no symmetry used), for width `w > 0`. Reference implementation for tests and small
-/// queries: `panels` Gauss–Legendre panels of `order` nodes in `γ_i ∈ [−π/2, π/2]`.
-#[allow(clippy::too_many_arguments)]
-pub fn azimuthal_pointwise(
-    eta: f64,
-    theta_rad: f64,
-    phi_rad: f64,
-    sigma_a: f64,
-    w: f64,
-    fresnel: FresnelModel,
-    panels: usize,
-    order: usize,
-) -> [f64; LOBES] {
-    azimuthal_pointwise_trt(
-        eta, eta, theta_rad, phi_rad, sigma_a, w, fresnel, panels, order,
-    )
+/// (no symmetry used), for width `f.w > 0`. Reference implementation for tests and small
+/// queries: `f.panels` Gauss–Legendre panels of `f.order` nodes in `γ_i ∈ [−π/2, π/2]`.
+pub fn azimuthal_pointwise(f: &PointwiseFiber, theta_rad: f64, phi_rad: f64) -> [f64; LOBES] {
+    azimuthal_pointwise_trt(f, f.eta, theta_rad, phi_rad)
 }
 
 /// [`azimuthal_pointwise`] with the TRT exit azimuth computed for its own index `eta_trt` (the
-/// effective index η* of an elliptic fibre); attenuations use `eta` (decision FIB-23).
-#[allow(clippy::too_many_arguments)]
+/// effective index η* of an elliptic fibre); attenuations use `f.eta` (decision FIB-23).
 pub fn azimuthal_pointwise_trt(
-    eta: f64,
+    f: &PointwiseFiber,
     eta_trt: f64,
     theta_rad: f64,
     phi_rad: f64,
-    sigma_a: f64,
-    w: f64,
-    fresnel: FresnelModel,
-    panels: usize,
-    order: usize,
 ) -> [f64; LOBES] {
+    let PointwiseFiber {
+        eta,
+        sigma_a,
+        w,
+        fresnel,
+        panels,
+        order,
+    } = *f;
     let (x, wq) = gauss_legendre(order);
     let step = PI / panels as f64;
     let mut out = [0.0; LOBES];
@@ -616,6 +621,19 @@ mod tests {
 
     fn deg(x: f64) -> f64 {
         x.to_radians()
+    }
+
+    /// A keratin fibre (η = 1.55, 3-D Fresnel) with absorption `sigma_a` and width `w`, on
+    /// `panels` panels of 8 nodes.
+    fn fiber(sigma_a: f64, w: f64, panels: usize) -> PointwiseFiber {
+        PointwiseFiber {
+            eta: 1.55,
+            sigma_a,
+            w,
+            fresnel: FresnelModel::ThreeD,
+            panels,
+            order: 8,
+        }
     }
 
     fn energies(theta: f64, sigma_a: f64, fresnel: FresnelModel) -> [f64; LOBES] {
@@ -766,8 +784,7 @@ mod tests {
             (deg(10.0), 0.05, 0.0),
         ] {
             let smooth = azimuthal_smooth_roots(1.55, t, phi, s, FresnelModel::ThreeD);
-            let rough =
-                azimuthal_pointwise(1.55, t, phi, s, deg(0.2), FresnelModel::ThreeD, 2000, 8);
+            let rough = azimuthal_pointwise(&fiber(s, deg(0.2), 2000), t, phi);
             for p in 0..3 {
                 let tol = 2e-3 * smooth[p].abs() + 1e-6;
                 assert!(
@@ -786,8 +803,8 @@ mod tests {
         let t = deg(25.0);
         let s = 0.2;
         for phi in [0.1, 0.7, 1.9, 3.0] {
-            let a = azimuthal_pointwise(1.55, t, phi, s, w, FresnelModel::ThreeD, 600, 8);
-            let b = azimuthal_pointwise(1.55, t, -phi, s, w, FresnelModel::ThreeD, 600, 8);
+            let a = azimuthal_pointwise(&fiber(s, w, 600), t, phi);
+            let b = azimuthal_pointwise(&fiber(s, w, 600), t, -phi);
             for p in 0..LOBES {
                 assert!((a[p] - b[p]).abs() < 1e-12 * (1.0 + a[p]), "symmetry p={p}");
             }
@@ -798,8 +815,7 @@ mod tests {
         let step = PI / (n - 1) as f64;
         let grid = slice.azimuthal_on_grid(s, w, 0.0, step, n);
         for j in [0, 40, 200, 360] {
-            let a =
-                azimuthal_pointwise(1.55, t, step * j as f64, s, w, FresnelModel::ThreeD, 600, 8);
+            let a = azimuthal_pointwise(&fiber(s, w, 600), t, step * j as f64);
             for p in 0..LOBES {
                 assert!(
                     (grid[j][p] - a[p]).abs() < 1e-9,

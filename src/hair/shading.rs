@@ -8,7 +8,8 @@
 //! writes `[θ_h]` or `[θ_d]`), the half angle θ_h = (θ_i + θ_r)/2, Marschner's difference angle
 //! θ_d = (θ_r − θ_i)/2, the lobe shifts and widths of the fibre, the renderer's single
 //! scattering `f_s^direct`, the fraction of direct light reaching the point and the forward
-//! scattering along the shadow path ([`ForwardScattering`]).
+//! scattering along the shadow path ([`ForwardScattering`]), the last three per light
+//! ([`LightAtPoint`]).
 //!
 //! Conventions (decisions in `docs/decisions.md`, DS-31):
 //! - `g` is the unit-area Gaussian [`gaussian`]`(x, variance)` for f_back and the broadened lobes
@@ -121,23 +122,36 @@ pub fn f_s_scatter_diffuse(diffuse: &DiffuseTerms) -> f64 {
     diffuse.forward_average()
 }
 
+/// What the renderer knows of one light at a shading point.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LightAtPoint {
+    /// The renderer's own single scattering f_s^direct.
+    pub f_s_direct: f64,
+    /// Fraction of the light's direct illumination reaching the point.
+    pub direct_fraction: f64,
+    /// Forward scattering along the shadow path.
+    pub forward: ForwardScattering,
+}
+
 /// Everything a light contributes at a shading point, per channel:
 /// `(F^direct + F^scatter) cos θ_i` with
 /// F^direct = directFraction (f_s^direct + d_b f_back^direct) and
 /// F^scatter = max(T_f − directFraction, 0) d_f (f_s^scatter + π d_b f_back^scatter)
-/// (thesis §4.7.2; the renderer supplies `f_s_direct`, its own single scattering).
-#[allow(clippy::too_many_arguments)]
+/// (thesis §4.7.2).
 pub fn dual_scattering(
     ds: &DualScattering,
     alpha_rad: [f64; 3],
     beta_rad: [f64; 3],
     a: &ShadingAngles,
-    f_s_direct: f64,
-    direct_fraction: f64,
-    forward: &ForwardScattering,
+    light: &LightAtPoint,
     d_b: f64,
     d_f: f64,
 ) -> f64 {
+    let LightAtPoint {
+        f_s_direct,
+        direct_fraction,
+        forward,
+    } = *light;
     let f_direct = direct_fraction * (f_s_direct + d_b * f_back(ds, a, 0.0));
     let weight = (forward.transmittance - direct_fraction).max(0.0) * d_f;
     let f_scatter = weight
@@ -257,7 +271,12 @@ mod tests {
         let a = ShadingAngles::new(0.3, -0.1);
         let f_s = 0.8;
         let lit = ForwardScattering::same_orientation(&ds, 0.0, FORWARD_DENSITY);
-        let l = dual_scattering(&ds, alpha, beta, &a, f_s, 1.0, &lit, 0.7, FORWARD_DENSITY);
+        let light = |direct_fraction, forward| LightAtPoint {
+            f_s_direct: f_s,
+            direct_fraction,
+            forward,
+        };
+        let l = dual_scattering(&ds, alpha, beta, &a, &light(1.0, lit), 0.7, FORWARD_DENSITY);
         let want = (f_s + 0.7 * f_back(&ds, &a, 0.0)) * 0.3f64.cos();
         assert!((l - want).abs() < 1e-14 * want, "{l} vs {want}");
         let shadowed = ForwardScattering::same_orientation(&ds, 10.0, FORWARD_DENSITY);
@@ -266,9 +285,7 @@ mod tests {
             alpha,
             beta,
             &a,
-            f_s,
-            0.0,
-            &shadowed,
+            &light(0.0, shadowed),
             0.7,
             FORWARD_DENSITY,
         );

@@ -50,30 +50,7 @@ pub const EXACT_DEG: f64 = 1.0;
 /// Points of the cumulative-distribution table of [`RadiusSampler`] (uniform in `ln r`).
 const CDF_POINTS: usize = 4096;
 
-/// A small deterministic generator (Steele, Lea & Flood 2014, SplitMix64).
-#[derive(Debug, Clone)]
-pub struct SplitMix64(u64);
-
-impl SplitMix64 {
-    /// Generator from a seed.
-    pub fn new(seed: u64) -> Self {
-        SplitMix64(seed)
-    }
-
-    /// Next 64 random bits.
-    pub fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-
-    /// Uniform in `[0, 1)`.
-    pub fn next_f64(&mut self) -> f64 {
-        (self.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
-    }
-}
+pub use crate::math::rng::SplitMix64;
 
 /// FNV-1a hash of bytes (seeds).
 pub fn fnv1a(bytes: &[u8]) -> u64 {

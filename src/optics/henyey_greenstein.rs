@@ -1,4 +1,5 @@
-//! Henyey–Greenstein phase functions.
+//! Henyey–Greenstein phase functions (Henyey & Greenstein 1941), the one definition every
+//! module uses.
 //!
 //! - [`planar_hg_density`] / [`sample_planar_hg`]: the **planar (2-D)** Henyey–Greenstein
 //!   function used by 2-D transport (Davis 2006; Tseng 2015 Eq. A.1), a density over the signed
@@ -6,8 +7,11 @@
 //!   ρ(θ; g) = (1/2π) · (1 − g²) / (1 + g² − 2g cos θ).
 //!   It is the wrapped Cauchy distribution: ∫ρ dθ = 1 and E[cos θ] = g exactly; g = 0 is uniform
 //!   (1/2π). Valid for |g| < 1.
-//! - [`hg_density_sr`]: the usual 3-D Henyey–Greenstein function per steradian,
-//!   p(θ; g) = (1 − g²) / (4π (1 + g² − 2g cos θ)^{3/2}), normalised over 4π.
+//! - [`hg_density_sr`]: the usual 3-D Henyey–Greenstein function per steradian (Henyey &
+//!   Greenstein 1941), p(θ; g) = (1 − g²) / (4π (1 + g² − 2g cos θ)^{3/2}), normalised over 4π;
+//!   its Legendre moments are exactly g^l.
+//!
+//! Every function takes the angle (or its cosine) first and the asymmetry `g` second.
 
 use std::f64::consts::PI;
 

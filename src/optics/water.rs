@@ -101,14 +101,7 @@ impl WaterIndexModel {
     pub fn index(&self, wavelength_nm: f64) -> Result<f64, WaterIndexError> {
         match *self {
             WaterIndexModel::Iapws1997 { temperature_c } => {
-                if !(200.0..=1100.0).contains(&wavelength_nm) {
-                    return Err(WaterIndexError::WavelengthOutOfDomain {
-                        model: "iapws1997",
-                        wavelength_nm,
-                        min_nm: 200.0,
-                        max_nm: 1100.0,
-                    });
-                }
+                wavelength_within("iapws1997", wavelength_nm, 200.0, 1100.0)?;
                 if !(0.0..=100.0).contains(&temperature_c) {
                     return Err(WaterIndexError::TemperatureOutOfDomain { temperature_c });
                 }
@@ -120,14 +113,7 @@ impl WaterIndexModel {
                 ))
             }
             WaterIndexModel::SadeghiTable32 => {
-                if !(380.0..=700.0).contains(&wavelength_nm) {
-                    return Err(WaterIndexError::WavelengthOutOfDomain {
-                        model: "sadeghi-table-3.2",
-                        wavelength_nm,
-                        min_nm: 380.0,
-                        max_nm: 700.0,
-                    });
-                }
+                wavelength_within("sadeghi-table-3.2", wavelength_nm, 380.0, 700.0)?;
                 Ok(crate::math::interp::interp1_uniform(
                     &SADEGHI_TABLE_3_2,
                     380.0,
@@ -136,6 +122,25 @@ impl WaterIndexModel {
                 ))
             }
         }
+    }
+}
+
+/// `Ok` when `wavelength_nm` lies in `[min_nm, max_nm]`, the domain of `model`.
+fn wavelength_within(
+    model: &'static str,
+    wavelength_nm: f64,
+    min_nm: f64,
+    max_nm: f64,
+) -> Result<(), WaterIndexError> {
+    if (min_nm..=max_nm).contains(&wavelength_nm) {
+        Ok(())
+    } else {
+        Err(WaterIndexError::WavelengthOutOfDomain {
+            model,
+            wavelength_nm,
+            min_nm,
+            max_nm,
+        })
     }
 }
 

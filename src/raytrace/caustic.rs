@@ -477,17 +477,18 @@ impl ColumnFilter {
         out
     }
 
-    /// The transferred Airy correction of one column (see [`AiryTransfer`]), at the caustic
-    /// positions `positions` (fractional rows, per bow; see [`ColumnFilter::fold_positions`]).
-    fn transfer_column(
+    /// The bows of one column for the airy-local transfer `t`: per bow with an order, a sphere
+    /// bow and a caustic position, the shift from the sphere's caustic and the strength (the
+    /// column's intensity over the shifted sphere GO's, summed over [`STRENGTH_RANGE_DEG`] on
+    /// the bright side). Arguments as [`ColumnFilter::transfer_column`].
+    fn column_bows(
         &self,
         t: &AiryTransfer,
-        rows: (usize, usize),
+        (j0, j1): (usize, usize),
         cols: &[Vec<f64>],
         orders: [Option<usize>; 2],
         positions: [Option<f64>; 2],
-    ) -> (CausticWindow, [bool; 2]) {
-        let (j0, j1) = rows;
+    ) -> [Option<ColumnBow>; 2] {
         let mut bows: [Option<ColumnBow>; 2] = [None, None];
         for (b, (sign, order)) in [1.0, -1.0].into_iter().zip(orders).enumerate() {
             let (Some(c), Some(sb), Some(position)) = (order, &t.bows[b], positions[b]) else {
@@ -523,6 +524,36 @@ impl ColumnFilter {
                 });
             }
         }
+        bows
+    }
+
+    /// Whether the caustic at row `p` of bow `b` (0: primary) lies inside the bow's search
+    /// range less one row at either end (a caustic found on its edge lies outside it).
+    fn inside_search_range(&self, (j0, j1): (usize, usize), b: usize, p: f64) -> bool {
+        let range = if b == 0 {
+            PRIMARY_SEARCH_DEG
+        } else {
+            SECONDARY_SEARCH_DEG
+        };
+        let (a, z) = (
+            self.row(range.0.to_radians()).max(j0),
+            self.row(range.1.to_radians()).min(j1),
+        );
+        p > a as f64 + 1.0 && p < z as f64 - 1.0
+    }
+
+    /// The transferred Airy correction of one column (see [`AiryTransfer`]), at the caustic
+    /// positions `positions` (fractional rows, per bow; see [`ColumnFilter::fold_positions`]).
+    fn transfer_column(
+        &self,
+        t: &AiryTransfer,
+        rows: (usize, usize),
+        cols: &[Vec<f64>],
+        orders: [Option<usize>; 2],
+        positions: [Option<f64>; 2],
+    ) -> (CausticWindow, [bool; 2]) {
+        let (j0, j1) = rows;
+        let bows = self.column_bows(t, rows, cols, orders, positions);
         let nvals = cols.len();
         // The column's deviation from the shifted, scaled sphere GO in channel c at row j.
         let deviation = |bw: &ColumnBow, c: usize, j: usize| -> Option<f64> {
@@ -603,24 +634,10 @@ impl ColumnFilter {
                 *v = unclipped.max(0.0);
             }
         }
-        // The search range of each bow, less one row at either end: a caustic found on its
-        // edge lies outside it.
-        let inside = |b: usize, p: f64| {
-            let range = if b == 0 {
-                PRIMARY_SEARCH_DEG
-            } else {
-                SECONDARY_SEARCH_DEG
-            };
-            let (a, z) = (
-                self.row(range.0.to_radians()).max(j0),
-                self.row(range.1.to_radians()).min(j1),
-            );
-            p > a as f64 + 1.0 && p < z as f64 - 1.0
-        };
         let in_domain = [0, 1].map(|b| {
             bows[b].is_some_and(|bw| {
                 (AIRY_DOMAIN_STRENGTH.0..=AIRY_DOMAIN_STRENGTH.1).contains(&bw.strength)
-                    && inside(b, bw.position)
+                    && self.inside_search_range(rows, b, bw.position)
                     && lowest[b] >= -AIRY_DOMAIN_NEGATIVE * largest[b]
             })
         });
@@ -824,6 +841,46 @@ impl ColumnFilter {
             .collect()
     }
 
+    /// The bows of one column (the peaks of its primary and secondary intensity within their
+    /// search ranges) and the window rows around them; `None` without a bow. Arguments as
+    /// [`ColumnFilter::filter_column`].
+    fn bow_window(
+        &self,
+        (j0, j1): (usize, usize),
+        cols: &[Vec<f64>],
+        primary: Option<usize>,
+        secondary: Option<usize>,
+    ) -> Option<BowWindow> {
+        let reach = window_reach_rad(2.0 * self.sigma * DEFAULT_CAUSTIC_WINDOW_SIGMAS);
+        let peak = |c: Option<usize>, (lo, hi): (f64, f64)| -> Option<f64> {
+            let c = c?;
+            let (a, b) = (
+                self.row(lo.to_radians()).max(j0),
+                self.row(hi.to_radians()).min(j1),
+            );
+            (a..=b)
+                .max_by(|&x, &y| cols[c][x - j0].total_cmp(&cols[c][y - j0]))
+                .map(|j| self.step * j as f64)
+        };
+        let bows: Vec<f64> = [
+            peak(primary, PRIMARY_SEARCH_DEG),
+            peak(secondary, SECONDARY_SEARCH_DEG),
+        ]
+        .into_iter()
+        .flatten()
+        .collect();
+        if bows.is_empty() {
+            return None;
+        }
+        let lo = self
+            .row(bows.iter().cloned().fold(f64::MAX, f64::min) - reach)
+            .max(j0);
+        let hi = self
+            .row(bows.iter().cloned().fold(f64::MIN, f64::max) + reach)
+            .min(j1);
+        Some((bows, lo, hi))
+    }
+
     /// The thesis's windowed Gaussian filter of several columns (see
     /// [`ColumnFilter::filter_columns_at`]).
     fn gaussian_windows(
@@ -834,56 +891,18 @@ impl ColumnFilter {
         secondary: Option<usize>,
     ) -> Vec<CausticWindow> {
         let (j0, j1) = rows;
-        let reach = window_reach_rad(2.0 * self.sigma * DEFAULT_CAUSTIC_WINDOW_SIGMAS);
-        // Per column: the bows and the window rows lo..=hi.
-        let windows: Vec<Option<(Vec<f64>, usize, usize)>> = blocks
+        let windows: Vec<Option<BowWindow>> = blocks
             .iter()
-            .map(|cols| {
-                let peak = |c: Option<usize>, (lo, hi): (f64, f64)| -> Option<f64> {
-                    let c = c?;
-                    let (a, b) = (
-                        self.row(lo.to_radians()).max(j0),
-                        self.row(hi.to_radians()).min(j1),
-                    );
-                    (a..=b)
-                        .max_by(|&x, &y| cols[c][x - j0].total_cmp(&cols[c][y - j0]))
-                        .map(|j| self.step * j as f64)
-                };
-                let bows: Vec<f64> = [
-                    peak(primary, PRIMARY_SEARCH_DEG),
-                    peak(secondary, SECONDARY_SEARCH_DEG),
-                ]
-                .into_iter()
-                .flatten()
-                .collect();
-                if bows.is_empty() {
-                    return None;
-                }
-                let lo = self
-                    .row(bows.iter().cloned().fold(f64::MAX, f64::min) - reach)
-                    .max(j0);
-                let hi = self
-                    .row(bows.iter().cloned().fold(f64::MIN, f64::max) + reach)
-                    .min(j1);
-                Some((bows, lo, hi))
-            })
+            .map(|cols| self.bow_window(rows, cols, primary, secondary))
             .collect();
         let lo = windows.iter().flatten().map(|w| w.1).min();
         let hi = windows.iter().flatten().map(|w| w.2).max();
         let (Some(lo), Some(hi)) = (lo, hi) else {
             return vec![CausticWindow::default(); blocks.len()];
         };
-        // The values of every column, row-major: row i holds `lanes` values.
         let nvals = blocks[0].len();
         let lanes = blocks.len() * nvals;
-        let mut m = vec![0.0; (j1 + 1 - j0) * lanes];
-        for (c, cols) in blocks.iter().enumerate() {
-            for (v, col) in cols.iter().enumerate() {
-                for (i, x) in col.iter().enumerate().take(j1 + 1 - j0) {
-                    m[i * lanes + c * nvals + v] = *x;
-                }
-            }
-        }
+        let m = interleave_rows(blocks, j1 + 1 - j0);
         let mut values: Vec<Vec<f64>> = windows
             .iter()
             .map(|w| {
@@ -937,6 +956,25 @@ impl ColumnFilter {
             })
             .collect()
     }
+}
+
+/// The bows of one column (polar angles, rad) and its window rows `lo..=hi`.
+type BowWindow = (Vec<f64>, usize, usize);
+
+/// The first `rows` values of every column of `blocks` (`blocks[c][v]`: value `v` of column
+/// `c`), row-major: row i holds value v of column c at `c · nvals + v`.
+fn interleave_rows(blocks: &[&[Vec<f64>]], rows: usize) -> Vec<f64> {
+    let nvals = blocks[0].len();
+    let lanes = blocks.len() * nvals;
+    let mut m = vec![0.0; rows * lanes];
+    for (c, cols) in blocks.iter().enumerate() {
+        for (v, col) in cols.iter().enumerate() {
+            for (i, x) in col.iter().enumerate().take(rows) {
+                m[i * lanes + c * nvals + v] = *x;
+            }
+        }
+    }
+    m
 }
 
 #[cfg(test)]

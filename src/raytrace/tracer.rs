@@ -428,19 +428,17 @@ fn interact(d: [f64; 3], normal: [f64; 3], eta1: f64, eta2: f64, ea: &CVec, eb: 
     }
 }
 
-/// Trace one ray starting at emitting-plane coordinates (u, v); returns the outgoing ray of
-/// every order (invalid where absent) and whether the ray hit the drop.
-#[allow(clippy::too_many_arguments)]
+/// Trace one ray of the grid `g` starting at emitting-plane coordinates (u, v) through `shape`
+/// of relative index `n`; returns the outgoing ray of every order (invalid where absent) in
+/// `out` and whether the ray hit the drop.
 fn trace_ray(
+    g: &RayGrid,
     shape: &DropShape,
-    fr: &Frame,
-    dist: f64,
     n: f64,
-    max_order: usize,
-    u: f64,
-    v: f64,
+    (u, v): (f64, f64),
     out: &mut [RayOut],
 ) -> bool {
+    let (fr, dist, max_order) = (&g.fr, g.dist, g.orders - 1);
     for o in out.iter_mut() {
         *o = INVALID;
     }
@@ -718,7 +716,10 @@ const SILHOUETTE_INSET: f64 = 1e-6;
 
 /// One band of traced grid rows: per row, the outgoing rays `[column][order]`, the hit count
 /// and per column the ray's emitting-plane point and quadrature weight `(u, v, w)` (µm, µm²).
-type Band = Vec<(Vec<RayOut>, usize, Vec<(f64, f64, f64)>)>;
+type Band = Vec<BandRow>;
+
+/// One traced grid row of a [`Band`].
+type BandRow = (Vec<RayOut>, usize, Vec<(f64, f64, f64)>);
 
 /// Mean of the two inputs' |E|² carried by an outgoing ray of fields `ea`, `eb`.
 fn ray_flux(ea: &CVec, eb: &CVec) -> f64 {
@@ -761,7 +762,7 @@ fn trace_band(
             for (j, (slot, pt)) in row.chunks_mut(g.orders).zip(points.iter_mut()).enumerate() {
                 *pt = g.point_and_weight(i, j);
                 let (u, v, _) = *pt;
-                if trace_ray(shape, &g.fr, g.dist, cfg.n, cfg.max_order, u, v, slot) {
+                if trace_ray(g, shape, cfg.n, (u, v), slot) {
                     *hit += 1;
                 }
             }
@@ -1305,23 +1306,10 @@ fn trace_fields_on_columns(
         })
         .collect();
     let mut reach: Vec<Option<(usize, usize)>> = vec![None; orders];
-    let mut order_flux = vec![0.0; orders];
+    let mut tally = RayTally::new(orders);
     let mut patch_flux = vec![0.0; orders];
-    let mut hits = 0usize;
-    let mut hit_area = 0.0;
     {
-        // Per polar row, a view of each order's accumulators (bands are `[order][row][…]`).
-        let mut rows: Vec<RowViews<'_>> = Vec::with_capacity(grid.n_polar);
-        for acc in data.iter_mut() {
-            let block = acc.len() / orders;
-            let mut per_order: Vec<_> = acc
-                .chunks_mut(block)
-                .map(|b| b.chunks_mut(order_row_len))
-                .collect();
-            for _ in 0..block / order_row_len {
-                rows.push(per_order.iter_mut().map(|it| it.next().unwrap()).collect());
-            }
-        }
+        let mut rows = row_views(&mut data, orders, order_row_len);
         let sc_th: Vec<(f64, f64)> = (0..grid.n_polar)
             .map(|j| (grid.polar_step() * j as f64).sin_cos())
             .collect();
@@ -1335,41 +1323,16 @@ fn trace_fields_on_columns(
         while row0 < nr - 1 {
             let row1 = (row0 + band_rows).min(nr - 1); // rows row0..=row1 traced, cells row0..row1
             trace_band(&g, shape, cfg, row0, row1, &mut band);
-            for (ri, (row, hit, points)) in band.iter().enumerate() {
-                // Count each grid row once (the band's last row is the next band's first).
-                if row0 + ri == row1 && row1 != nr - 1 {
-                    continue;
-                }
-                hits += hit;
-                for (r, &(_, _, w)) in row.chunks(orders).zip(points) {
-                    if r[0].valid {
-                        hit_area += w;
-                    }
-                    for (o, ro) in r.iter().enumerate().filter(|(_, ro)| ro.valid) {
-                        order_flux[o] += ro.flux * w;
-                    }
-                }
-            }
+            // Count each grid row once (the band's last row is the next band's first).
+            let counted = if row1 == nr - 1 {
+                band.len()
+            } else {
+                row1 - row0
+            };
+            tally.add(&band[..counted], orders);
             let flux = build_triangles(&g, grid, n_columns, &band, &mut parts);
             sort_by_first_row(&parts, grid.n_polar, &mut tris);
-            let reached = reach.clone();
-            for t in &tris {
-                let (j0, j1) = (t.j0 as usize, t.j1 as usize);
-                let r = &mut reach[t.order as usize];
-                *r = Some(r.map_or((j0, j1), |(a, b)| (a.min(j0), b.max(j1))));
-            }
-            if reach != reached {
-                let within = |r: Option<(usize, usize)>, j: usize| {
-                    r.is_some_and(|(a, b)| (a..=b).contains(&j))
-                };
-                rows.par_iter_mut().enumerate().for_each(|(j, row)| {
-                    for (o, acc) in row.iter_mut().enumerate() {
-                        if within(reach[o], j) && !within(reached[o], j) {
-                            fault_in(acc);
-                        }
-                    }
-                });
-            }
+            extend_reach(&tris, &mut reach, &mut rows);
             patch_flux.iter_mut().zip(flux).for_each(|(a, b)| *a += b);
             rasterise(&g, grid, n_columns, &band, &tris, &sc_th, &mut rows);
             row0 = row1;
@@ -1382,13 +1345,90 @@ fn trace_fields_on_columns(
         bands: data,
         reach,
         n_columns,
-        order_cross_section_um2: order_flux,
+        order_cross_section_um2: tally.order_flux,
         patch_cross_section_um2: patch_flux,
         projected_area_um2: match g.layout {
-            RayGridLayout::Square => hits as f64 * g.cell,
-            RayGridLayout::Silhouette => hit_area,
+            RayGridLayout::Square => tally.hits as f64 * g.cell,
+            RayGridLayout::Silhouette => tally.hit_area,
         },
         rays_traced: nr * nr,
+    }
+}
+
+/// Per polar row, a view of each order's accumulators in the bands `data` (each
+/// `[order][row][order_row_len]`).
+fn row_views(
+    data: &mut [Vec<Complex32>],
+    orders: usize,
+    order_row_len: usize,
+) -> Vec<RowViews<'_>> {
+    let mut rows: Vec<RowViews<'_>> = Vec::new();
+    for acc in data.iter_mut() {
+        let block = acc.len() / orders;
+        let mut per_order: Vec<_> = acc
+            .chunks_mut(block)
+            .map(|b| b.chunks_mut(order_row_len))
+            .collect();
+        for _ in 0..block / order_row_len {
+            rows.push(per_order.iter_mut().map(|it| it.next().unwrap()).collect());
+        }
+    }
+    rows
+}
+
+/// What the traced rays carried: rays that hit the drop, the quadrature area of the hits and,
+/// per order, the flux-weighted area of its outgoing rays.
+struct RayTally {
+    hits: usize,
+    hit_area: f64,
+    order_flux: Vec<f64>,
+}
+
+impl RayTally {
+    fn new(orders: usize) -> Self {
+        RayTally {
+            hits: 0,
+            hit_area: 0.0,
+            order_flux: vec![0.0; orders],
+        }
+    }
+
+    /// Count the traced grid rows `rows`.
+    fn add(&mut self, rows: &[BandRow], orders: usize) {
+        for (row, hit, points) in rows {
+            self.hits += hit;
+            for (r, &(_, _, w)) in row.chunks(orders).zip(points) {
+                if r[0].valid {
+                    self.hit_area += w;
+                }
+                for (o, ro) in r.iter().enumerate().filter(|(_, ro)| ro.valid) {
+                    self.order_flux[o] += ro.flux * w;
+                }
+            }
+        }
+    }
+}
+
+/// Widen each order's polar reach to the rows of its triangles `tris`, and map the pages of
+/// the accumulator rows newly reached ([`fault_in`]).
+fn extend_reach(tris: &[Tri], reach: &mut [Option<(usize, usize)>], rows: &mut [RowViews<'_>]) {
+    let reached = reach.to_vec();
+    for t in tris {
+        let (j0, j1) = (t.j0 as usize, t.j1 as usize);
+        let r = &mut reach[t.order as usize];
+        *r = Some(r.map_or((j0, j1), |(a, b)| (a.min(j0), b.max(j1))));
+    }
+    if reach != reached.as_slice() {
+        let within =
+            |r: Option<(usize, usize)>, j: usize| r.is_some_and(|(a, b)| (a..=b).contains(&j));
+        let reach = &*reach;
+        rows.par_iter_mut().enumerate().for_each(|(j, row)| {
+            for (o, acc) in row.iter_mut().enumerate() {
+                if within(reach[o], j) && !within(reached[o], j) {
+                    fault_in(acc);
+                }
+            }
+        });
     }
 }
 

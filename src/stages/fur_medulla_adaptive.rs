@@ -7,7 +7,6 @@
 //! header arrays.
 
 use super::MedullaJob;
-use crate::fur::medulla::Profile;
 use crate::fur::medulla_fast::{AdaptiveSettings, simulate_adaptive};
 use crate::stages::{Chunk, Job, JobError, TaskSpec, check_chunks};
 use crate::table::TableContent;
@@ -61,21 +60,12 @@ impl Job for AdaptiveJob {
             .map(|i| {
                 job.mirror_source(i).is_none().then(|| {
                     let a = simulate_adaptive(sigma, g, job.entries[i], &s);
-                    let prof = Profile {
-                        energy: a.energy,
-                        path_length: a.path_length,
-                        std_error: a.std_error,
-                        ballistic: a.ballistic,
-                        ballistic_mc: a.ballistic,
-                        scattered: a.scattered,
-                        scattered_std_error: a.scattered_std_error,
-                    };
                     let extra = [
                         a.correlation_length as f32,
                         a.photons as f32,
                         a.worst_rel_error as f32,
                     ];
-                    (job.pack_row(sigma, &prof, Vec::new), extra)
+                    (job.pack_row(sigma, &a.profile, Vec::new), extra)
                 })
             })
             .collect();

@@ -140,7 +140,7 @@ fn legendre_export_reconstructs_to_reported_error() {
     for j in 0..=1800 {
         let t = j as f64 * 0.1;
         let mu = t.to_radians().cos();
-        let exact = synthetic::henyey_greenstein(0.75, mu) as f32 as f64;
+        let exact = scatterbake::optics::henyey_greenstein::hg_density_sr(mu, 0.75) as f32 as f64;
         worst = worst.max(
             (scatterbake::consumers::export::legendre::reconstruct(&chi, mu) - exact).abs() / exact,
         );

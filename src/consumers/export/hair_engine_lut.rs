@@ -364,7 +364,7 @@ pub fn write_dds(t: &Texture, path: &Path) -> Result<(), EngineLutError> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::fur::rng::SplitMix64;
+    use crate::math::rng::SplitMix64;
     use crate::stages::hair::{HairDualJob, HairDualParams};
 
     fn lut_table() -> TableContent {
@@ -427,8 +427,8 @@ mod tests {
                 let mut p = [0.5; 3];
                 let mut c = [0.5; 3];
                 for k in 0..dims {
-                    p[k] = rng.uniform();
-                    let i = (rng.uniform() * tex.size[k] as f64) as usize;
+                    p[k] = rng.next_f64();
+                    let i = (rng.next_f64() * tex.size[k] as f64) as usize;
                     c[k] = (i.min(tex.size[k] - 1) as f64 + 0.5) / tex.size[k] as f64;
                 }
                 let (got, want) = (tex.sample_linear(c), reference(c));

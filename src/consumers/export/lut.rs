@@ -161,7 +161,7 @@ mod tests {
         assert_eq!(lut.negatives.count, 0);
         for (k, v) in lut.rows.iter().enumerate() {
             let p =
-                crate::consumers::synthetic::henyey_greenstein(0.5, (k as f64).to_radians().cos());
+                crate::optics::henyey_greenstein::hg_density_sr((k as f64).to_radians().cos(), 0.5);
             for c in v {
                 assert!((c - p).abs() < 5e-3 * p, "angle {k}: {v:?} vs {p}");
             }
