@@ -10,8 +10,8 @@
 //! `dolp = (i_perp − i_par)/(i_perp + i_par)`. The refractive index options are those of `mie`
 //! (water by IAPWS R9-97 by default).
 
-use crate::commands::mie::IndexArgs;
-use anyhow::{Context, bail};
+use crate::args::{AngleRange, IndexArgs};
+use anyhow::Context;
 use scatterbake::raytrace::tracer::RayGridLayout;
 use scatterbake::stages::Job;
 use scatterbake::stages::raytrace::{RaytraceJob, RaytraceParams};
@@ -39,8 +39,8 @@ pub struct RaytraceArgs {
     #[arg(long, default_value = "silhouette", value_parser = ["silhouette", "square"])]
     pub ray_grid: String,
     /// Scattering angles START:STOP:STEP in degrees (STEP must divide 180).
-    #[arg(long, default_value = "0:180:0.1")]
-    pub angles: String,
+    #[arg(long, default_value = "0:180:0.1", value_parser = AngleRange::parse)]
+    pub angles: AngleRange,
     /// Skip the diffraction model (print geometric optics + interference only).
     #[arg(long)]
     pub no_diffraction_filter: bool,
@@ -66,18 +66,9 @@ pub struct RaytraceColumns {
 
 /// Compute the printed columns (no I/O).
 pub fn raytrace_columns(args: &RaytraceArgs) -> anyhow::Result<RaytraceColumns> {
-    let parts: Vec<f64> = args
-        .angles
-        .split(':')
-        .map(|s| s.trim().parse::<f64>())
-        .collect::<Result<_, _>>()
-        .context("--angles must be START:STOP:STEP in degrees")?;
-    let [start, stop, step] = parts[..] else {
-        bail!("--angles must be START:STOP:STEP in degrees");
-    };
-    if !(0.0..=180.0).contains(&start) || !(start..=180.0).contains(&stop) {
-        bail!("--angles must satisfy 0 <= START <= STOP <= 180");
-    }
+    let AngleRange { start, stop, step } = args.angles;
+    // The stage traces the whole 0–180° grid of this step; the range selects from it.
+    AngleRange::full(step).context("--angles")?;
     let sphere = args.shape == "sphere";
     let n = args
         .refractive
@@ -245,13 +236,25 @@ mod tests {
             .index(650.0)
             .unwrap();
         assert_eq!(default.n, iapws);
-        assert!(
-            raytrace_columns(&RaytraceArgs {
-                angles: "1:2".into(),
-                ..args
-            })
-            .is_err()
-        );
+        // One parser for every `--angles`: a malformed range is refused by clap, a step that
+        // does not divide 180 (the grid of the trace) when the columns are computed.
+        let parse = |angles: &str| {
+            let v = [
+                "t",
+                "--radius-um",
+                "400",
+                "--wavelength-nm",
+                "650",
+                "--angles",
+                angles,
+            ];
+            Cli::try_parse_from(v).map(|c| c.args)
+        };
+        for bad in ["1:2", "0:180:0", "0:180:-0.1", "150:140:1"] {
+            assert!(parse(bad).is_err(), "{bad}");
+        }
+        let err = raytrace_columns(&parse("130:145:0.07").unwrap()).unwrap_err();
+        assert!(format!("{err:#}").contains("must divide 180"), "{err:#}");
     }
 
     /// A Beard–Chuang drop prints the azimuth means of its 2-D table: the task's values only
