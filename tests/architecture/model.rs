@@ -8,6 +8,9 @@ use crate::source::{FileScan, PathUse, scan};
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
+/// Reads a file of the crate (`None` when it does not exist).
+pub type ReadFile = dyn Fn(&Path) -> Option<String>;
+
 /// One module: an out-of-line file module or an inline `mod name { … }` inside one.
 #[derive(Debug)]
 pub struct Module {
@@ -62,7 +65,7 @@ pub struct Crate {
 
 impl Crate {
     /// Loads the crate whose root file is `root` (relative to `dir`), reading files with `read`.
-    pub fn load(dir: &Path, root: &str, read: &dyn Fn(&Path) -> Option<String>) -> Crate {
+    pub fn load(dir: &Path, root: &str, read: &ReadFile) -> Crate {
         let mut c = Crate {
             files: Vec::new(),
             scans: Vec::new(),
@@ -72,26 +75,24 @@ impl Crate {
         };
         let root_src = read(&dir.join(root)).unwrap_or_default();
         c.add_file(
-            PathBuf::from(root),
-            root_src,
+            (PathBuf::from(root), root_src),
             Vec::new(),
             None,
-            dir,
-            read,
+            (dir, read),
             false,
         );
         c.find_externals();
         c
     }
 
+    /// Adds the file `rel` with text `src` as the module `path`, and the modules it declares,
+    /// read with `read` from `dir`.
     fn add_file(
         &mut self,
-        rel: PathBuf,
-        src: String,
+        (rel, src): (PathBuf, String),
         path: Vec<String>,
         parent: Option<usize>,
-        dir: &Path,
-        read: &dyn Fn(&Path) -> Option<String>,
+        (dir, read): (&Path, &ReadFile),
         test_only: bool,
     ) -> usize {
         let file = self.files.len();
@@ -120,7 +121,7 @@ impl Crate {
                 .find_map(|p| read(&dir.join(p)).map(|s| (p.clone(), s)));
             match found {
                 Some((p, s)) => {
-                    let m = self.add_file(p, s, child_path, Some(owner), dir, read, d.in_test);
+                    let m = self.add_file((p, s), child_path, Some(owner), (dir, read), d.in_test);
                     self.modules[owner].children.insert(d.name, m);
                 }
                 None => self.problems.push(format!(
@@ -328,12 +329,12 @@ impl Crate {
                 let Some(target) = self.resolve(m, &p.leaf.segments, 0) else {
                     continue;
                 };
-                if p.is_reexport {
-                    if let Some(Target::Module(k)) = self.resolve(m, &p.leaf.segments[..1], 0) {
-                        if self.is_within(k, self.module_at(file, &[]).unwrap_or(m)) {
-                            continue;
-                        }
-                    }
+                let own = self.module_at(file, &[]).unwrap_or(m);
+                if p.is_reexport
+                    && let Some(Target::Module(k)) = self.resolve(m, &p.leaf.segments[..1], 0)
+                    && self.is_within(k, own)
+                {
+                    continue;
                 }
                 let to = self.node(&target);
                 if to != Node::File(file) {
