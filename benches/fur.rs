@@ -1,7 +1,7 @@
 //! Medulla Monte Carlo estimators, timed in the same run: `cargo bench --bench fur`.
 //! Time per photon of the expected-value (next-event + survival biasing) estimator against the
 //! plain histogram peer, azimuthal σ = 2.5, g = 0.4, h' = 0.5, 720 bins. Combine the time ratio
-//! with the variance ratio (examples/fur_efficiency.rs, docs/fur.md) for the equal-time gain.
+//! with the variance ratio (examples/studies/fur_efficiency.rs, docs/fur.md) for the equal-time gain.
 use criterion::{Criterion, criterion_group, criterion_main};
 use scatterbake::fur::medulla::{Estimator, Geometry, McSettings, simulate};
 use std::hint::black_box;

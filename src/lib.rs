@@ -1,21 +1,21 @@
 //! scatterbake: precomputed light-scattering tables for renderers.
 //!
-//! The modules follow the data flow; each depends only on those listed before it:
-//! 0. [`math`]: numerical primitives (interpolation, quadrature, 3-vectors);
-//!    [`error`]: error pieces every layer shares (I/O failures with their path, cause chains);
-//!    each layer has its own error type ([`table::TableError`], [`stages::PlanError`],
-//!    [`stages::JobError`], [`pipeline::PipelineError`], [`consumers::ConsumerError`], …);
-//!    [`progress`]: where builds, renders and plots report how far they are;
-//!    [`provenance`]: canonical JSON, content keys, tool version and git commit of tables;
-//! 1. [`table`]: the `.sbt` table file format (writer, reader, verifier, lookup API);
-//! 2. [`optics`]: optics primitives shared by every stage (Fresnel, water index, colour,
-//!    Henyey–Greenstein, Airy function);
-//! 3. physics, pure and free of I/O: [`mie`] (Lorenz–Mie), [`debye`] (Debye series, Airy
-//!    theory), [`raytrace`] (patch-based wave-optics ray tracing of raindrops), [`hair`]
-//!    (fibre lobes, Dual Scattering), [`fur`] (medulla transport, far field);
-//! 4. [`stages`] (manifest parameters → jobs), [`manifest`], [`pipeline`] and [`catalog`]
-//!    (manifests → tasks → tables: I/O, parallelism, resume, progress);
-//! 5. [`consumers`]: reading, exporting, plotting and rendering tables.
+//! The modules follow the data flow in layers. This table is the rule `tests/architecture`
+//! enforces: a module imports only from its own layer and lower-numbered ones, and no file
+//! imports itself through others (names not yet in the crate are skipped):
+//!
+//! | layer | modules | role |
+//! |---|---|---|
+//! | 0 | `math`, `error`, `progress`, `provenance` | numerical primitives (interpolation, quadrature, 3-vectors); error pieces every layer shares (I/O failures with their path, cause chains); progress reports; canonical JSON and content keys |
+//! | 1 | `table` | the `.sbt` table file format (writer, reader, verifier, lookup API) |
+//! | 2 | `optics` | optics primitives shared by every stage (Fresnel, water index, colour, Henyey–Greenstein, Airy function) |
+//! | 3 | `mie`, `debye`, `raytrace`, `hair`, `fur`, `cloth` | physics, pure and free of I/O: Lorenz–Mie, Debye series and Airy theory, patch-based wave-optics ray tracing of raindrops, fibre lobes and Dual Scattering, fur medulla transport and far field, cloth |
+//! | 4 | `stages`, `manifest`, `workdir`, `pipeline`, `catalog` | manifest parameters → jobs of pure tasks → tables: I/O, parallelism, resume, progress |
+//! | 5 | `consumers` | reading, exporting, plotting and rendering tables |
+//!
+//! Each layer has its own error type ([`table::TableError`], [`stages::PlanError`],
+//! [`stages::JobError`], [`pipeline::PipelineError`], [`consumers::ConsumerError`], …) built on
+//! the shared pieces of [`error`].
 //!
 //! The command line is a separate crate (`cli/`, binary `scatterbake`); this library never sees
 //! its argument parser.

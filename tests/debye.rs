@@ -302,83 +302,99 @@ fn airy_vs_debye_table() {
     );
     println!("|---|---|---|---|---|---|---|");
     // Perpendicular rows per order.
-    struct Row {
-        a: f64,
-        /// max |Airy − Debye| over the four maxima (deg).
-        maxima: f64,
-        /// |peak Airy/Debye − 1|.
-        peak: f64,
-        l2: f64,
-        /// |Airy − Debye| of the main maximum (deg).
-        main: f64,
-    }
-    let mut perp: [Vec<Row>; 2] = [Vec::new(), Vec::new()];
+    let mut perp: [Vec<AiryRow>; 2] = [Vec::new(), Vec::new()];
     for a_mm in [0.1, 0.2, 0.4, 0.7, 1.0] {
         let x = scatterbake::mie::size_parameter(a_mm * 1e3, 650.0);
         let d = DebyeCoefficients::new(x, Complex64::new(n, 0.0)).unwrap();
         for order in [1usize, 2] {
-            let bow = AiryRainbow::new(x, n, order);
-            // window: from 1.5 Airy units on the dark side to the 4th maximum on the lit side
-            let (t0, t1) = (bow.angle_at(-2.5), bow.angle_at(6.6));
-            let (lo, hi) = (t0.min(t1), t0.max(t1));
-            let count = 6000;
-            let angles: Vec<f64> = (0..=count)
-                .map(|k| lo + (hi - lo) * k as f64 / count as f64)
-                .collect();
-            let (s1, s2) = d.amplitudes_deg(&OrderSet::Orders(vec![order + 1]), &angles);
-            for (pol, debye) in [
-                ("perp", s1.iter().map(|v| v.norm_sqr()).collect::<Vec<_>>()),
-                ("par", s2.iter().map(|v| v.norm_sqr()).collect::<Vec<_>>()),
-            ] {
-                let airy: Vec<f64> = angles
-                    .iter()
-                    .map(|&t| {
-                        let (p, q) = airy_rainbow(&bow, t);
-                        if pol == "perp" { p } else { q }
-                    })
-                    .collect();
-                let mut md = local_maxima(&angles, &debye);
-                let mut ma = local_maxima(&angles, &airy);
-                if bow.side < 0.0 {
-                    md.reverse();
-                    ma.reverse();
-                }
-                let k = md.len().min(ma.len()).min(4);
-                let diffs: Vec<String> = (0..k).map(|i| format!("{:+.3}", ma[i] - md[i])).collect();
-                let hd = debye.iter().cloned().fold(0.0, f64::max);
-                let ha = airy.iter().cloned().fold(0.0, f64::max);
-                let num: f64 = debye.iter().zip(&airy).map(|(u, v)| (u - v).powi(2)).sum();
-                let den: f64 = debye.iter().map(|u| u * u).sum();
-                let l2 = (num / den).sqrt();
-                println!(
-                    "| {a_mm} | {} | {pol} | {} | {} | {:.3} | {:.3} |",
-                    if order == 1 {
-                        "primary (p=2)"
-                    } else {
-                        "secondary (p=3)"
-                    },
-                    md[..k]
-                        .iter()
-                        .map(|v| format!("{v:.3}"))
-                        .collect::<Vec<_>>()
-                        .join(", "),
-                    diffs.join(", "),
-                    ha / hd,
-                    l2
-                );
-                if pol == "perp" {
-                    assert_eq!(k, 4, "a={a_mm} order {order}: maxima {md:?} / {ma:?}");
-                    perp[order - 1].push(Row {
-                        a: a_mm,
-                        maxima: (0..k).map(|i| (ma[i] - md[i]).abs()).fold(0.0, f64::max),
-                        peak: (ha / hd - 1.0).abs(),
-                        l2,
-                        main: (ma[0] - md[0]).abs(),
-                    });
-                }
-            }
+            perp[order - 1].push(airy_vs_debye_rows(&d, x, n, a_mm, order));
         }
     }
+    check_airy_rows(&perp);
+}
+
+/// Airy theory against the Debye term of one drop radius and bow order, perpendicular
+/// polarisation.
+struct AiryRow {
+    a: f64,
+    /// max |Airy − Debye| over the four maxima (deg).
+    maxima: f64,
+    /// |peak Airy/Debye − 1|.
+    peak: f64,
+    l2: f64,
+    /// |Airy − Debye| of the main maximum (deg).
+    main: f64,
+}
+
+/// Prints the table rows of one drop (`d`, size parameter `x`, radius `a_mm`) and bow order;
+/// returns the perpendicular one.
+fn airy_vs_debye_rows(d: &DebyeCoefficients, x: f64, n: f64, a_mm: f64, order: usize) -> AiryRow {
+    let mut perp = None;
+    let bow = AiryRainbow::new(x, n, order);
+    // window: from 1.5 Airy units on the dark side to the 4th maximum on the lit side
+    let (t0, t1) = (bow.angle_at(-2.5), bow.angle_at(6.6));
+    let (lo, hi) = (t0.min(t1), t0.max(t1));
+    let count = 6000;
+    let angles: Vec<f64> = (0..=count)
+        .map(|k| lo + (hi - lo) * k as f64 / count as f64)
+        .collect();
+    let (s1, s2) = d.amplitudes_deg(&OrderSet::Orders(vec![order + 1]), &angles);
+    for (pol, debye) in [
+        ("perp", s1.iter().map(|v| v.norm_sqr()).collect::<Vec<_>>()),
+        ("par", s2.iter().map(|v| v.norm_sqr()).collect::<Vec<_>>()),
+    ] {
+        let airy: Vec<f64> = angles
+            .iter()
+            .map(|&t| {
+                let (p, q) = airy_rainbow(&bow, t);
+                if pol == "perp" { p } else { q }
+            })
+            .collect();
+        let mut md = local_maxima(&angles, &debye);
+        let mut ma = local_maxima(&angles, &airy);
+        if bow.side < 0.0 {
+            md.reverse();
+            ma.reverse();
+        }
+        let k = md.len().min(ma.len()).min(4);
+        let diffs: Vec<String> = (0..k).map(|i| format!("{:+.3}", ma[i] - md[i])).collect();
+        let hd = debye.iter().cloned().fold(0.0, f64::max);
+        let ha = airy.iter().cloned().fold(0.0, f64::max);
+        let num: f64 = debye.iter().zip(&airy).map(|(u, v)| (u - v).powi(2)).sum();
+        let den: f64 = debye.iter().map(|u| u * u).sum();
+        let l2 = (num / den).sqrt();
+        println!(
+            "| {a_mm} | {} | {pol} | {} | {} | {:.3} | {:.3} |",
+            if order == 1 {
+                "primary (p=2)"
+            } else {
+                "secondary (p=3)"
+            },
+            md[..k]
+                .iter()
+                .map(|v| format!("{v:.3}"))
+                .collect::<Vec<_>>()
+                .join(", "),
+            diffs.join(", "),
+            ha / hd,
+            l2
+        );
+        if pol == "perp" {
+            assert_eq!(k, 4, "a={a_mm} order {order}: maxima {md:?} / {ma:?}");
+            perp = Some(AiryRow {
+                a: a_mm,
+                maxima: (0..k).map(|i| (ma[i] - md[i]).abs()).fold(0.0, f64::max),
+                peak: (ha / hd - 1.0).abs(),
+                l2,
+                main: (ma[0] - md[0]).abs(),
+            });
+        }
+    }
+    perp.expect("a perpendicular row")
+}
+
+/// The figures quoted in docs/debye.md, and convergence to the asymptote.
+fn check_airy_rows(perp: &[Vec<AiryRow>; 2]) {
     for (order, rows) in perp.iter().enumerate() {
         // Convergence to the asymptote: every error falls as the drop grows.
         for w in rows.windows(2) {
@@ -414,7 +430,7 @@ fn airy_vs_debye_table() {
         assert!(r.l2 < 0.095, "primary {} mm: L2 {}", r.a, r.l2);
     }
     // 1 mm, both bows: maxima within 0.012°, peak within 3 %.
-    for rows in &perp {
+    for rows in perp {
         let r = rows.last().unwrap();
         assert!(
             r.maxima < 0.012 && r.peak < 0.03,

@@ -579,9 +579,9 @@ fn verify_refuses_non_table_files_from_the_magic() {
 }
 
 /// `mie --n-medium`: a sphere in a medium is the sphere of relative index and size parameter in
-/// the medium; a coated sphere from the command line; both Q_back conventions in every format.
+/// the medium; both Q_back conventions are stated.
 #[test]
-fn mie_in_a_medium_coated_and_both_backscatter_conventions() {
+fn mie_in_a_medium_is_the_relative_sphere() {
     let d = tempfile::tempdir().unwrap();
     let json = |args: &[&str]| -> serde_json::Value {
         let o = run(args, d.path());
@@ -628,6 +628,13 @@ fn mie_in_a_medium_coated_and_both_backscatter_conventions() {
         medium["qback_per_sr"].as_f64().unwrap(),
     );
     assert!((qb / per_sr / (4.0 * std::f64::consts::PI) - 1.0).abs() < 1e-12);
+}
+
+/// A coated sphere from the command line, with both Q_back conventions in every format; a core
+/// larger than the sphere and Debye orders of a coated sphere are refused.
+#[test]
+fn mie_coated_sphere_and_both_backscatter_conventions() {
+    let d = tempfile::tempdir().unwrap();
     for format in ["table", "csv"] {
         let o = run(
             &[
@@ -756,13 +763,21 @@ fn validate_reads_a_mieplot_file_for_one_sphere() {
 #[test]
 fn validate_a_table_against_point_references_like_with_like() {
     let d = tempfile::tempdir().unwrap();
+    let points = validate_bow_table_against_points(d.path());
+    validate_mieplot_layout_after_rescale(d.path(), &points);
+    validate_names_coarse_and_ambiguous_references(d.path(), &points);
+}
+
+/// Builds `t/bow.sbt` (radii 40 and 50 µm) in `dir`, writes `points.txt` (`mie` at 50 µm,
+/// 0.005°), checks that it validates the table, and returns it.
+fn validate_bow_table_against_points(dir: &Path) -> String {
     std::fs::write(
-        d.path().join("m.toml"),
+        dir.join("m.toml"),
         "[[table]]\nname = \"bow\"\nstage = \"mie\"\n[table.params]\nradii_um = [40.0, 50.0]\n\
          wavelengths_nm = [650.0]\nangle_step_deg = 0.05\nsun_diameter_deg = 0.5\n",
     )
     .unwrap();
-    let b = run(&["build", "m.toml", "--out", "t"], d.path());
+    let b = run(&["build", "m.toml", "--out", "t"], dir);
     assert!(b.status.success(), "{}", text(&b));
     let mie = run(
         &[
@@ -774,11 +789,11 @@ fn validate_a_table_against_point_references_like_with_like() {
             "--angle-step-deg",
             "0.005",
         ],
-        d.path(),
+        dir,
     );
     assert!(mie.status.success(), "{}", text(&mie));
     let points = String::from_utf8(mie.stdout).unwrap();
-    std::fs::write(d.path().join("points.txt"), &points).unwrap();
+    std::fs::write(dir.join("points.txt"), &points).unwrap();
     let ok = run(
         &[
             "validate",
@@ -788,7 +803,7 @@ fn validate_a_table_against_point_references_like_with_like() {
             "--tolerance",
             "1e-4",
         ],
-        d.path(),
+        dir,
     );
     let t = text(&ok);
     assert!(ok.status.success(), "{t}");
@@ -798,6 +813,12 @@ fn validate_a_table_against_point_references_like_with_like() {
     );
     assert!(t.contains("taken through the table's operators"), "{t}");
     assert!(t.contains("0.5 deg uniform sun disc"), "{t}");
+    points
+}
+
+/// The points of [`validate_bow_table_against_points`] in a MiePlot layout (raw intensities on
+/// another scale, titles in mm and µm): they validate after --rescale only.
+fn validate_mieplot_layout_after_rescale(dir: &Path, points: &str) {
     // the same numbers in a MiePlot layout: raw intensities (any scale), titles in mm and µm
     let mut mieplot = String::from(
         "MiePlot-style export\nRadius = 0.05 mm\nWavelength = 0.65 um\n\nAngle\tIntensity (perpendicular)\tIntensity (parallel)\n",
@@ -814,7 +835,7 @@ fn validate_a_table_against_point_references_like_with_like() {
             3.7e4 * f[2]
         ));
     }
-    std::fs::write(d.path().join("mieplot.txt"), mieplot).unwrap();
+    std::fs::write(dir.join("mieplot.txt"), mieplot).unwrap();
     let args = |extra: &[&'static str]| {
         let mut a = vec![
             "validate",
@@ -827,17 +848,19 @@ fn validate_a_table_against_point_references_like_with_like() {
         a.extend_from_slice(extra);
         a
     };
-    let rescaled = run(&args(&["--rescale"]), d.path());
+    let rescaled = run(&args(&["--rescale"]), dir);
     assert!(rescaled.status.success(), "{}", text(&rescaled));
     assert!(text(&rescaled).contains("[radius=50 um]"));
-    assert_clean_failure(&run(&args(&[]), d.path()), &["try --rescale"]);
+    assert_clean_failure(&run(&args(&[]), dir), &["try --rescale"]);
     assert_clean_failure(
-        &run(
-            &args(&["--rescale", "--reference-kind", "binned"]),
-            d.path(),
-        ),
+        &run(&args(&["--rescale", "--reference-kind", "binned"]), dir),
         &["--reference-kind point"],
     );
+}
+
+/// A reference sampled too coarsely names its sampling error; one that does not say which radius
+/// it is, against a table of two, is refused.
+fn validate_names_coarse_and_ambiguous_references(dir: &Path, points: &str) {
     // a coarse reference: the sampling error is named
     let coarse = run(
         &[
@@ -849,9 +872,9 @@ fn validate_a_table_against_point_references_like_with_like() {
             "--angle-step-deg",
             "0.05",
         ],
-        d.path(),
+        dir,
     );
-    std::fs::write(d.path().join("coarse.txt"), coarse.stdout).unwrap();
+    std::fs::write(dir.join("coarse.txt"), coarse.stdout).unwrap();
     assert_clean_failure(
         &run(
             &[
@@ -862,7 +885,7 @@ fn validate_a_table_against_point_references_like_with_like() {
                 "--tolerance",
                 "1e-4",
             ],
-            d.path(),
+            dir,
         ),
         &["angle step (0.05 deg) limits"],
     );
@@ -872,12 +895,9 @@ fn validate_a_table_against_point_references_like_with_like() {
         .filter(|l| !l.starts_with("# radius_um"))
         .map(|l| format!("{l}\n"))
         .collect();
-    std::fs::write(d.path().join("bare.txt"), bare).unwrap();
+    std::fs::write(dir.join("bare.txt"), bare).unwrap();
     assert_clean_failure(
-        &run(
-            &["validate", "t/bow.sbt", "--reference", "bare.txt"],
-            d.path(),
-        ),
+        &run(&["validate", "t/bow.sbt", "--reference", "bare.txt"], dir),
         &["--entry radius=VALUE"],
     );
 }

@@ -24,6 +24,23 @@ const NAMES: [&str; 12] = [
     "N_G_R", "N_G_TT", "N_G_TRT",
 ];
 
+/// The JSON export of the default set: its θ samples and one column per (name, channel).
+struct Exported {
+    theta: Vec<f64>,
+    json: serde_json::Value,
+}
+
+impl Exported {
+    fn channel(&self, name: &str, c: usize) -> Vec<f64> {
+        self.json[name]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|v| v[c].as_f64().unwrap())
+            .collect()
+    }
+}
+
 #[test]
 fn c_header_lookup_matches_the_table_and_rsl_holds_the_same_arrays() {
     let d = tempfile::tempdir().unwrap();
@@ -36,22 +53,25 @@ fn c_header_lookup_matches_the_table_and_rsl_holds_the_same_arrays() {
     run("json", "ds.json");
     run("c", "ds.h");
     run("rsl", "ds.sl");
-    let j: serde_json::Value =
+    let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(d.path().join("ds.json")).unwrap()).unwrap();
-    let theta: Vec<f64> = j["theta_deg"]
+    let theta: Vec<f64> = json["theta_deg"]
         .as_array()
         .unwrap()
         .iter()
         .map(|v| v.as_f64().unwrap())
         .collect();
-    let channel = |name: &str, c: usize| -> Vec<f64> {
-        j[name]
-            .as_array()
-            .unwrap()
-            .iter()
-            .map(|v| v[c].as_f64().unwrap())
-            .collect()
-    };
+    let e = Exported { theta, json };
+    c_lookup_matches(d.path(), &e);
+    rsl_arrays_match(
+        &std::fs::read_to_string(d.path().join("ds.sl")).unwrap(),
+        &e,
+    );
+}
+
+/// Compiles a program printing `ds_lookup` of `ds.h` (in `dir`) at random angles and compares
+/// with linear interpolation of the JSON.
+fn c_lookup_matches(dir: &Path, e: &Exported) {
     // Random angles (fixed LCG), including the ends and beyond them (clamped).
     let mut state = 0x2012_u64;
     let mut angles = vec![-90.0, 90.0, -95.0, 0.0];
@@ -61,8 +81,29 @@ fn c_header_lookup_matches_the_table_and_rsl_holds_the_same_arrays() {
             .wrapping_add(1442695040888963407);
         angles.push(-90.0 + 180.0 * (state >> 11) as f64 / (1u64 << 53) as f64);
     }
-    let mut main = String::from("#include <stdio.h>\n#include \"ds.h\"\nint main(void) {\n");
+    let got = run_c_lookups(dir, &angles);
+    let mut k = 0;
+    let mut worst: f64 = 0.0;
     for a in &angles {
+        for name in NAMES {
+            for c in 0..3 {
+                let v = e.channel(name, c);
+                let want = scatterbake::math::interp::interp1(&e.theta, &v, *a);
+                let scale = v.iter().fold(0.0f64, |m, x| m.max(x.abs())).max(1e-300);
+                worst = worst.max((got[k] - want).abs() / scale);
+                k += 1;
+            }
+        }
+    }
+    assert!(worst < 1e-12, "C lookup vs table: {worst:e}");
+    let g = (-0.01f64 / 0.08).exp() / (2.0 * std::f64::consts::PI * 0.04).sqrt();
+    assert!((got[k] - g).abs() < 1e-15 * g);
+}
+
+/// What the compiled program prints: `ds_lookup` per angle, name and channel, then `g(0.1, 0.04)`.
+fn run_c_lookups(dir: &Path, angles: &[f64]) -> Vec<f64> {
+    let mut main = String::from("#include <stdio.h>\n#include \"ds.h\"\nint main(void) {\n");
+    for a in angles {
         for name in NAMES {
             for c in 0..3 {
                 main.push_str(&format!(
@@ -73,11 +114,11 @@ fn c_header_lookup_matches_the_table_and_rsl_holds_the_same_arrays() {
         }
     }
     main.push_str("    printf(\"%.17g\\n\", g(0.1, 0.04));\n    return 0;\n}\n");
-    std::fs::write(d.path().join("main.c"), main).unwrap();
+    std::fs::write(dir.join("main.c"), main).unwrap();
     let cc = Command::new("cc")
         .args(["-std=c99", "-D_DEFAULT_SOURCE", "-Wall", "-Werror", "-O1"])
         .args(["main.c", "-lm", "-o", "ds_test"])
-        .current_dir(d.path())
+        .current_dir(dir)
         .output()
         .unwrap_or_else(|e| panic!("this test needs a C compiler `cc` on PATH: {e}"));
     assert!(
@@ -85,30 +126,15 @@ fn c_header_lookup_matches_the_table_and_rsl_holds_the_same_arrays() {
         "cc: {}",
         String::from_utf8_lossy(&cc.stderr)
     );
-    let out = Command::new(d.path().join("ds_test")).output().unwrap();
-    let got: Vec<f64> = String::from_utf8_lossy(&out.stdout)
+    let out = Command::new(dir.join("ds_test")).output().unwrap();
+    String::from_utf8_lossy(&out.stdout)
         .lines()
         .map(|l| l.parse().unwrap())
-        .collect();
-    let mut k = 0;
-    let mut worst: f64 = 0.0;
-    for a in &angles {
-        for name in NAMES {
-            for c in 0..3 {
-                let v = channel(name, c);
-                let want = scatterbake::math::interp::interp1(&theta, &v, *a);
-                let scale = v.iter().fold(0.0f64, |m, x| m.max(x.abs())).max(1e-300);
-                worst = worst.max((got[k] - want).abs() / scale);
-                k += 1;
-            }
-        }
-    }
-    assert!(worst < 1e-12, "C lookup vs table: {worst:e}");
-    let g = (-0.01f64 / 0.08).exp() / (2.0 * std::f64::consts::PI * 0.04).sqrt();
-    assert!((got[k] - g).abs() < 1e-15 * g);
+        .collect()
+}
 
-    // RSL: every array holds the JSON's values in order.
-    let rsl = std::fs::read_to_string(d.path().join("ds.sl")).unwrap();
+/// RSL: every array holds the JSON's values in order.
+fn rsl_arrays_match(rsl: &str, e: &Exported) {
     for name in NAMES {
         let line = rsl
             .lines()
@@ -126,11 +152,11 @@ fn c_header_lookup_matches_the_table_and_rsl_holds_the_same_arrays() {
                     .collect::<Vec<_>>()
             })
             .collect();
-        assert_eq!(nums.len(), 3 * theta.len(), "{name}");
+        assert_eq!(nums.len(), 3 * e.theta.len(), "{name}");
         for (i, chunk) in nums.chunks(3).enumerate() {
             for (c, got) in chunk.iter().enumerate() {
                 // serde_json reads decimal text to within an ulp, not always exactly.
-                let want = channel(name, c)[i];
+                let want = e.channel(name, c)[i];
                 assert!(
                     (got - want).abs() <= 4.0 * f64::EPSILON * want.abs(),
                     "{name}[{i}][{c}]: {got} vs {want}"

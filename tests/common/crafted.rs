@@ -155,6 +155,9 @@ fn with_first_axis(axis: Value, n: usize) -> Vec<u8> {
     file_with(h, &floats(n * 3 * 2, |i| i as f32), |_| {})
 }
 
+/// Adds one case: its name, bytes and whether a reader must accept it.
+type Add<'a> = dyn FnMut(&'static str, Vec<u8>, bool) + 'a;
+
 /// Every crafted case.
 pub fn cases() -> Vec<Case> {
     let mut v = Vec::new();
@@ -162,8 +165,16 @@ pub fn cases() -> Vec<Case> {
         |name: &'static str, bytes: Vec<u8>, valid: bool| v.push(Case { name, bytes, valid });
     let raw = base_raw();
     add("valid_base", file_with(base_header(), &raw, |_| {}), true);
+    structure_cases(&mut add);
+    size_cases(&raw, &mut add);
+    preamble_cases(&raw, &mut add);
+    payload_frame_cases(&raw, &mut add);
+    json_cases(&raw, &mut add);
+    v
+}
 
-    // Structure: axes and channels.
+/// Structure: axes and channels, and the axis count at and over the limit.
+fn structure_cases(add: &mut Add) {
     let mut h = base_header();
     set_axes(&mut h, json!([]), 2);
     add("no_axes", file_with(h, &floats(2, |_| 1.0), |_| {}), false);
@@ -258,11 +269,13 @@ pub fn cases() -> Vec<Case> {
     };
     add("axes_16_of_2", many(16, 2), true);
     add("axes_17_of_1", many(17, 1), false);
+}
 
-    // Sizes.
+/// Sizes.
+fn size_cases(raw: &[u8], add: &mut Add) {
     add(
         "shape_overflows_u64",
-        file_with(base_header(), &raw, |h| {
+        file_with(base_header(), raw, |h| {
             let ax = json!([
                 uniform_axis("x", json!(0.0), json!(1.0), json!(1u64 << 40)),
                 uniform_axis("y", json!(0.0), json!(1.0), json!(1u64 << 40))
@@ -274,7 +287,7 @@ pub fn cases() -> Vec<Case> {
     );
     add(
         "declares_1tib",
-        file_with(base_header(), &raw, |h| {
+        file_with(base_header(), raw, |h| {
             let ax = json!([uniform_axis("x", json!(0.0), json!(1.0), json!(1u64 << 38))]);
             set_axes(h, ax, 1);
             h["payload"]["uncompressed_bytes"] = json!(1u64 << 40);
@@ -283,7 +296,7 @@ pub fn cases() -> Vec<Case> {
     );
     add(
         "declares_1gib_backed_by_18_floats",
-        file_with(base_header(), &raw, |h| {
+        file_with(base_header(), raw, |h| {
             let ax = json!([uniform_axis("x", json!(0.0), json!(1.0), json!(1u64 << 28))]);
             set_axes(h, ax, 1);
             h["payload"]["uncompressed_bytes"] = json!(1u64 << 30);
@@ -292,35 +305,37 @@ pub fn cases() -> Vec<Case> {
     );
     add(
         "uncompressed_bytes_disagree_with_shape",
-        file_with(base_header(), &raw, |h| {
+        file_with(base_header(), raw, |h| {
             h["payload"]["uncompressed_bytes"] = json!(76);
         }),
         false,
     );
     add(
         "shape_disagrees_with_axes",
-        file_with(base_header(), &raw, |h| {
+        file_with(base_header(), raw, |h| {
             h["layout"]["shape"] = json!([2, 3, 3]);
         }),
         false,
     );
     add(
         "axis_order_disagrees",
-        file_with(base_header(), &raw, |h| {
+        file_with(base_header(), raw, |h| {
             h["layout"]["axis_order"] = json!(["scattering_angle", "wavelength", "channel"]);
         }),
         false,
     );
     add(
         "compressed_bytes_overflow",
-        file_with(base_header(), &raw, |h| {
+        file_with(base_header(), raw, |h| {
             h["payload"]["compressed_bytes"] = json!(u64::MAX - 8);
         }),
         false,
     );
+}
 
-    // Preamble.
-    let (text, c) = header_text(&raw);
+/// Preamble.
+fn preamble_cases(raw: &[u8], add: &mut Add) {
+    let (text, c) = header_text(raw);
     add(
         "flags_nonzero",
         assemble(1, 0, 1, text.as_bytes(), &c),
@@ -352,44 +367,46 @@ pub fn cases() -> Vec<Case> {
     add("trailing_byte", f, false);
     let f = assemble(1, 0, 0, text.as_bytes(), &c);
     add("truncated_payload", f[..f.len() - 1].to_vec(), false);
+}
 
-    // Payload frames.
+/// Payload frames.
+fn payload_frame_cases(raw: &[u8], add: &mut Add) {
     let two = [zstd_frame(&raw[..36]), zstd_frame(&raw[36..])].concat();
     add(
         "two_zstd_frames",
-        file_with(base_header(), &raw, |h| {
+        file_with(base_header(), raw, |h| {
             h["payload"]["compressed_bytes"] = json!(two.len());
             h["payload"]["sha256_compressed"] = json!(sha_hex(&two));
         }),
         false,
     );
     let mut h = base_header();
-    set_payload(&mut h, &raw, &two);
+    set_payload(&mut h, raw, &two);
     add(
         "two_zstd_frames_payload",
         assemble(1, 0, 0, &serde_json::to_vec(&h).unwrap(), &two),
         false,
     );
-    let one_plus = [zstd_frame(&raw), zstd_frame(&[])].concat();
+    let one_plus = [zstd_frame(raw), zstd_frame(&[])].concat();
     let mut h = base_header();
-    set_payload(&mut h, &raw, &one_plus);
+    set_payload(&mut h, raw, &one_plus);
     add(
         "frame_then_empty_frame",
         assemble(1, 0, 0, &serde_json::to_vec(&h).unwrap(), &one_plus),
         false,
     );
-    let no_size = zstd_frame_unsized(&raw);
+    let no_size = zstd_frame_unsized(raw);
     let mut h = base_header();
-    set_payload(&mut h, &raw, &no_size);
+    set_payload(&mut h, raw, &no_size);
     add(
         "frame_without_content_size",
         assemble(1, 0, 0, &serde_json::to_vec(&h).unwrap(), &no_size),
         false,
     );
     let mut skippable = vec![0x50, 0x2A, 0x4D, 0x18, 4, 0, 0, 0, 1, 2, 3, 4];
-    skippable.extend_from_slice(&zstd_frame(&raw));
+    skippable.extend_from_slice(&zstd_frame(raw));
     let mut h = base_header();
-    set_payload(&mut h, &raw, &skippable);
+    set_payload(&mut h, raw, &skippable);
     add(
         "skippable_frame_first",
         assemble(1, 0, 0, &serde_json::to_vec(&h).unwrap(), &skippable),
@@ -397,7 +414,7 @@ pub fn cases() -> Vec<Case> {
     );
     let short = zstd_frame(&raw[..64]);
     let mut h = base_header();
-    set_payload(&mut h, &raw, &short);
+    set_payload(&mut h, raw, &short);
     add(
         "frame_content_shorter_than_header",
         assemble(1, 0, 0, &serde_json::to_vec(&h).unwrap(), &short),
@@ -405,7 +422,7 @@ pub fn cases() -> Vec<Case> {
     );
     add(
         "sha256_uppercase",
-        file_with(base_header(), &raw, |h| {
+        file_with(base_header(), raw, |h| {
             let s = h["payload"]["sha256_compressed"]
                 .as_str()
                 .unwrap()
@@ -428,8 +445,11 @@ pub fn cases() -> Vec<Case> {
         ),
         true,
     );
+}
 
-    // JSON.
+/// JSON.
+fn json_cases(raw: &[u8], add: &mut Add) {
+    let (text, c) = header_text(raw);
     let dup = text.replacen('{', "{\"description\":\"first\",", 1);
     add(
         "duplicate_top_key",
@@ -497,37 +517,36 @@ pub fn cases() -> Vec<Case> {
     );
     add(
         "missing_payload_field",
-        file_with(base_header(), &raw, |h| {
+        file_with(base_header(), raw, |h| {
             h.as_object_mut().unwrap().remove("payload");
         }),
         false,
     );
     add(
         "schema_version_2_pow_32",
-        file_with(base_header(), &raw, |h| {
+        file_with(base_header(), raw, |h| {
             h["schema"]["version"] = json!(1u64 << 32)
         }),
         false,
     );
     add(
         "channel_name_number",
-        file_with(base_header(), &raw, |h| h["channels"][0]["name"] = json!(7)),
+        file_with(base_header(), raw, |h| h["channels"][0]["name"] = json!(7)),
         false,
     );
     add(
         "unknown_top_field_1_0",
-        file_with(base_header(), &raw, |h| h["extra"] = json!(1)),
+        file_with(base_header(), raw, |h| h["extra"] = json!(1)),
         false,
     );
     let mut h = base_header();
-    set_payload(&mut h, &raw, &c);
+    set_payload(&mut h, raw, &c);
     h["extra"] = json!({"nested": [1, 2]});
     add(
         "unknown_top_field_1_1",
         assemble(1, 1, 0, &serde_json::to_vec(&h).unwrap(), &c),
         true,
     );
-    v
 }
 
 /// A small valid tensor-train table (`fur-medulla-tt/1`) of a 3-D channel, with the dense
@@ -569,111 +588,131 @@ pub fn tensor_train_table() -> (Table, Vec<f32>) {
 /// valid" and the case's fragment of the rule, and accept the valid one.
 pub fn tensor_train_cases() -> Vec<(Case, &'static str)> {
     let (base, _) = tensor_train_table();
-    let mut out = Vec::new();
-    let mut add =
-        |name: &'static str, valid: bool, fragment: &'static str, f: &dyn Fn(&mut Table)| {
+    let mut edits = tt_rank_edits();
+    edits.extend(tt_layout_edits());
+    edits
+        .into_iter()
+        .map(|(name, valid, fragment, edit)| {
             let mut t = base.clone();
-            f(&mut t);
+            edit(&mut t);
             let bytes = t.to_bytes().unwrap();
-            out.push((Case { name, bytes, valid }, fragment));
-        };
-    let set = |t: &mut Table, k: &str, v: Value| {
-        t.header.attributes.insert(k.into(), v);
-    };
-    let ranks = |t: &Table| -> Vec<u64> {
-        t.header.attributes["ranks"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .map(|v| v.as_u64().unwrap())
-            .collect()
-    };
-    add("tt_valid", true, "", &|_| {});
-    add(
-        "tt_ranks_one_short",
-        false,
-        "inconsistent ranks/dims",
-        &|t| {
-            let mut r = ranks(t);
-            r.pop();
-            set(t, "ranks", json!(r));
-        },
-    );
-    add("tt_last_rank_not_one", false, "first and last rank", &|t| {
-        let mut r = ranks(t);
-        *r.last_mut().unwrap() = 2;
-        set(t, "ranks", json!(r));
-    });
-    add(
-        "tt_inner_rank_changed",
-        false,
-        "inconsistent ranks/dims",
-        &|t| {
-            let mut r = ranks(t);
-            r[1] += 1;
-            set(t, "ranks", json!(r));
-        },
-    );
-    add(
-        "tt_rank_exceeds_unfolding",
-        false,
-        "exceeds its unfolding",
-        &|t| {
-            let mut r = ranks(t);
-            r[1] = 1_000_000_000;
-            set(t, "ranks", json!(r));
-        },
-    );
-    add(
-        "tt_dims_disagree_with_cores",
-        false,
-        "inconsistent ranks/dims",
-        &|t| {
-            set(t, "dims", json!([4, 3, 6]));
-        },
-    );
-    add("tt_dims_beyond_limit", false, "limit", &|t| {
-        set(t, "dims", json!([1u64 << 40, 1u64 << 40, 5]));
-    });
-    add(
-        "tt_dims_not_integers",
-        false,
-        "not a non-negative integer",
-        &|t| {
-            set(t, "dims", json!([4.5, 3, 5]));
-        },
-    );
-    add("tt_offsets_short_of_values", false, "core offsets", &|t| {
-        let mut o: Vec<u64> = t.header.attributes["core_offsets"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .map(|v| v.as_u64().unwrap())
-            .collect();
-        *o.last_mut().unwrap() -= 1;
-        set(t, "core_offsets", json!(o));
-    });
-    add("tt_source_axes_short", false, "source axes", &|t| {
-        let mut a = t.header.attributes["source_axes"]
-            .as_array()
-            .unwrap()
-            .clone();
-        a.pop();
-        set(t, "source_axes", json!(a));
-    });
-    add("tt_nan_core_value", false, "non-finite", &|t| {
-        t.data[1] = f32::NAN;
-    });
-    add("tt_negative_log_floor", false, "log_floor", &|t| {
-        set(t, "log_floor", json!(-1.0));
-    });
-    add(
-        "tt_missing_ranks",
-        false,
-        "missing attribute `ranks`",
-        &|t| {
-            t.header.attributes.remove("ranks");
-        },
-    );
-    out
+            (Case { name, bytes, valid }, fragment)
+        })
+        .collect()
+}
+
+/// One edit of the valid tensor-train table: name, whether it stays valid, the fragment of the
+/// rule a reader's error must name, the edit.
+type TtEdit = (&'static str, bool, &'static str, fn(&mut Table));
+
+fn set_attr(t: &mut Table, k: &str, v: Value) {
+    t.header.attributes.insert(k.into(), v);
+}
+
+fn tt_ranks(t: &Table) -> Vec<u64> {
+    t.header.attributes["ranks"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_u64().unwrap())
+        .collect()
+}
+
+/// The valid table and edits of its ranks.
+fn tt_rank_edits() -> Vec<TtEdit> {
+    vec![
+        ("tt_valid", true, "", |_| {}),
+        (
+            "tt_ranks_one_short",
+            false,
+            "inconsistent ranks/dims",
+            |t| {
+                let mut r = tt_ranks(t);
+                r.pop();
+                set_attr(t, "ranks", json!(r));
+            },
+        ),
+        ("tt_last_rank_not_one", false, "first and last rank", |t| {
+            let mut r = tt_ranks(t);
+            *r.last_mut().unwrap() = 2;
+            set_attr(t, "ranks", json!(r));
+        }),
+        (
+            "tt_inner_rank_changed",
+            false,
+            "inconsistent ranks/dims",
+            |t| {
+                let mut r = tt_ranks(t);
+                r[1] += 1;
+                set_attr(t, "ranks", json!(r));
+            },
+        ),
+        (
+            "tt_rank_exceeds_unfolding",
+            false,
+            "exceeds its unfolding",
+            |t| {
+                let mut r = tt_ranks(t);
+                r[1] = 1_000_000_000;
+                set_attr(t, "ranks", json!(r));
+            },
+        ),
+    ]
+}
+
+/// Edits of the dims, offsets, source axes, values and other attributes.
+fn tt_layout_edits() -> Vec<TtEdit> {
+    vec![
+        (
+            "tt_dims_disagree_with_cores",
+            false,
+            "inconsistent ranks/dims",
+            |t| {
+                set_attr(t, "dims", json!([4, 3, 6]));
+            },
+        ),
+        ("tt_dims_beyond_limit", false, "limit", |t| {
+            set_attr(t, "dims", json!([1u64 << 40, 1u64 << 40, 5]));
+        }),
+        (
+            "tt_dims_not_integers",
+            false,
+            "not a non-negative integer",
+            |t| {
+                set_attr(t, "dims", json!([4.5, 3, 5]));
+            },
+        ),
+        ("tt_offsets_short_of_values", false, "core offsets", |t| {
+            let mut o: Vec<u64> = t.header.attributes["core_offsets"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|v| v.as_u64().unwrap())
+                .collect();
+            *o.last_mut().unwrap() -= 1;
+            set_attr(t, "core_offsets", json!(o));
+        }),
+        ("tt_source_axes_short", false, "source axes", |t| {
+            let mut a = t.header.attributes["source_axes"]
+                .as_array()
+                .unwrap()
+                .clone();
+            a.pop();
+            set_attr(t, "source_axes", json!(a));
+        }),
+        ("tt_nan_core_value", false, "non-finite", |t| {
+            t.data[1] = f32::NAN;
+        }),
+        ("tt_negative_log_floor", false, "log_floor", |t| {
+            set_attr(t, "log_floor", json!(-1.0));
+        }),
+        (
+            "tt_missing_ranks",
+            false,
+            "missing attribute `ranks`",
+            |t| {
+                t.header.attributes.remove("ranks");
+            },
+        ),
+    ]
 }

@@ -5,6 +5,7 @@
 //!     --water-index-model iapws1997 --temperature-c 20] [--n-medium 1.333]
 //!     [(--core-radius-um RC | --core-x XC) --core-index N+Ki] [--angle-step-deg 0.1 |
 //!     --angles START:STOP:STEP | --angles-deg 0,90,180] [--format table|csv|json] [--csv FILE]
+//!     [--debye-orders 2,3 [--debye-per-order]]
 //! ```
 //! The index options give the sphere's own (absolute) index; `--n-medium` (default 1) is the
 //! real index of the non-absorbing medium around it: the relative index is `index/n_medium` and,
@@ -18,258 +19,23 @@
 //! `∫_{4π} phase dΩ = 1`, `dolp = (i_perp − i_par)/(i_perp + i_par)`; the raw Bohren–Huffman
 //! intensities are `s1_sq` = |S1|², `s2_sq` = |S2|² and `s11` = (|S1|² + |S2|²)/2
 //! (dimensionless, CSV and JSON only).
+//!
+//! With `--debye-orders`, the coherent sum of the chosen Debye-series terms of the same sphere
+//! is printed in the same columns (`i_perp`, `i_par`, `phase` still divided by the full sphere's
+//! `π x² Q_sca`); `--debye-per-order` adds one column `phase_p<k>` per order.
 
+use crate::args::{AngleRange, IndexArgs, parse_complex_index};
+use crate::curve::{
+    CURVE_CSV_COLUMNS, CURVE_TABLE_COLUMNS, CurveFormat, CurveReport, CurveRow, curve_json,
+    q_back_line,
+};
 use anyhow::{Context, bail};
 use num_complex::Complex64;
+use scatterbake::debye::{DebyeCoefficients, OrderSet};
 use scatterbake::mie::coated::{CoatedSphere, coated_coefficients};
 use scatterbake::mie::{Q_BACK_CONVENTIONS, Sphere, size_parameter};
-use scatterbake::optics::water::WaterIndexModel;
-#[allow(unused_imports)]
-use scatterbake::table::Table;
 use std::fmt::Write as _;
 use std::path::PathBuf;
-
-/// Output format of `scatterbake mie`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub enum MieFormat {
-    /// Aligned columns with a `#` header block (MiePlot style).
-    Table,
-    /// Comma-separated values with a header row.
-    Csv,
-    /// One JSON object.
-    Json,
-}
-
-/// Largest number of angles a single query may ask for.
-const MAX_ANGLES: usize = 10_000_000;
-
-/// Parse `N+Ki`, `N-Ki` (refused: k must be ≥ 0) or `N`.
-fn parse_complex_index(s: &str) -> Result<(f64, f64), String> {
-    let t = s.trim().replace(' ', "");
-    let bad = || format!("`{s}` is not a refractive index of the form N+Ki (e.g. 1.55+0.002i)");
-    let (n, k) = match t.strip_suffix(['i', 'j']) {
-        Some(body) => {
-            // Split at the last sign that is not an exponent sign.
-            let bytes = body.as_bytes();
-            let pos = (1..bytes.len())
-                .rev()
-                .find(|&i| matches!(bytes[i], b'+' | b'-') && !matches!(bytes[i - 1], b'e' | b'E'))
-                .ok_or_else(bad)?;
-            let n: f64 = body[..pos].parse().map_err(|_| bad())?;
-            let k: f64 = body[pos..]
-                .trim_start_matches('+')
-                .parse()
-                .map_err(|_| bad())?;
-            (n, k)
-        }
-        None => (t.parse().map_err(|_| bad())?, 0.0),
-    };
-    if !(n > 0.0) || !n.is_finite() {
-        return Err(format!("real part {n} of `{s}` must be positive"));
-    }
-    if !(k >= 0.0) || !k.is_finite() {
-        return Err(format!(
-            "imaginary part {k} of `{s}` must be ≥ 0 (absorbing convention m = n + ik, e^(-iωt))"
-        ));
-    }
-    Ok((n, k))
-}
-
-/// Parse `START:STOP:STEP` (degrees).
-fn parse_angle_range(s: &str) -> Result<(f64, f64, f64), String> {
-    let parts: Vec<&str> = s.split(':').collect();
-    let bad = || format!("`{s}` is not START:STOP:STEP in degrees (e.g. 0:180:0.05)");
-    if parts.len() != 3 {
-        return Err(bad());
-    }
-    let v: Vec<f64> = parts
-        .iter()
-        .map(|p| p.trim().parse::<f64>().map_err(|_| bad()))
-        .collect::<Result<_, _>>()?;
-    let (start, stop, step) = (v[0], v[1], v[2]);
-    if !(0.0..=180.0).contains(&start) || !(0.0..=180.0).contains(&stop) || !(stop >= start) {
-        return Err(format!("`{s}`: need 0 ≤ START ≤ STOP ≤ 180"));
-    }
-    if !(step > 0.0) || (stop - start) / step > MAX_ANGLES as f64 {
-        return Err(format!(
-            "`{s}`: STEP must be > 0 and give at most {MAX_ANGLES} angles"
-        ));
-    }
-    Ok((start, stop, step))
-}
-
-#[cfg(test)]
-mod parse_tests {
-    use super::*;
-
-    #[test]
-    fn complex_index_forms() {
-        assert_eq!(parse_complex_index("1.55+0.002i").unwrap(), (1.55, 0.002));
-        assert_eq!(parse_complex_index("1.333").unwrap(), (1.333, 0.0));
-        assert_eq!(parse_complex_index("1.5+1e-3i").unwrap(), (1.5, 1e-3));
-        assert!(parse_complex_index("1.5-0.1i").is_err());
-        assert!(parse_complex_index("abc").is_err());
-        assert_eq!(parse_angle_range("0:180:0.5").unwrap(), (0.0, 180.0, 0.5));
-        assert!(parse_angle_range("0:190:1").is_err());
-        assert!(parse_angle_range("0:180:0").is_err());
-    }
-}
-
-/// Refractive-index options of every command that takes an index (`mie`, `airy`, `raytrace`):
-/// an explicit relative index, or water at the wavelength from a named model (IAPWS R9-97 by
-/// default, or Table 3.2 of Sadeghi 2012 as `sadeghi-table-3.2`), the names and defaults of the
-/// manifest keys `water_index_model` and `temperature_c`.
-#[derive(Debug, Clone, clap::Args)]
-pub struct IndexArgs {
-    /// Relative complex refractive index as `N+Ki` (e.g. `1.55+0.002i`, or `1.333`); the same
-    /// as `--n N --k K`.
-    #[arg(long, conflicts_with_all = ["n", "k", "water"], value_parser = parse_complex_index)]
-    pub index: Option<(f64, f64)>,
-    /// Use the index of water at the wavelength (the default when no index is given).
-    #[arg(long)]
-    pub water: bool,
-    /// Real part of the relative refractive index (default: water at the wavelength).
-    #[arg(long, conflicts_with = "water")]
-    pub n: Option<f64>,
-    /// Imaginary part (absorption), k ≥ 0 (default 0).
-    #[arg(long)]
-    pub k: Option<f64>,
-    /// Water index model when no --index/--n is given.
-    #[arg(long, default_value = "iapws1997", value_parser = ["iapws1997", "sadeghi-table-3.2"])]
-    pub water_index_model: String,
-    /// Water temperature (°C) for iapws1997.
-    #[arg(long, default_value_t = 20.0)]
-    pub temperature_c: f64,
-}
-
-impl IndexArgs {
-    /// The explicit index (n, k), if one was given (`--index`, or `--n` with optional `--k`).
-    pub fn explicit(&self) -> anyhow::Result<Option<(f64, f64)>> {
-        let (n, k) = match self.index {
-            Some((n, k)) => (Some(n), k),
-            None => (self.n, self.k.unwrap_or(0.0)),
-        };
-        if !(k >= 0.0) || !k.is_finite() {
-            bail!("--k {k} must be ≥ 0 (absorbing convention m = n + ik, e^(-iωt))");
-        }
-        match n {
-            Some(n) if !(n > 0.0) || !n.is_finite() => bail!("--n {n} must be positive"),
-            Some(n) => Ok(Some((n, k))),
-            None => Ok(None),
-        }
-    }
-
-    /// The water model named by `--water-index-model` and `--temperature-c`.
-    pub fn water_model(&self) -> anyhow::Result<WaterIndexModel> {
-        Ok(WaterIndexModel::from_name(
-            &self.water_index_model,
-            Some(self.temperature_c),
-        )?)
-    }
-
-    /// (n, k) at `wavelength_nm`: the explicit index, or water (with `--k` if given); without
-    /// a wavelength only an explicit `--n`/`--index` works.
-    pub fn resolve(&self, wavelength_nm: Option<f64>) -> anyhow::Result<(f64, f64)> {
-        if let Some(nk) = self.explicit()? {
-            return Ok(nk);
-        }
-        let Some(l) = wavelength_nm else {
-            bail!("--x needs --n or --index (no wavelength to evaluate the water index)");
-        };
-        Ok((self.water_model()?.index(l)?, self.k.unwrap_or(0.0)))
-    }
-
-    /// Real index n at `wavelength_nm` for methods without absorption (`what`, e.g. "ray
-    /// tracing"): k must be 0.
-    pub fn resolve_real(&self, wavelength_nm: f64, what: &str) -> anyhow::Result<f64> {
-        let (n, k) = self.resolve(Some(wavelength_nm))?;
-        if k != 0.0 {
-            bail!("{what} treats non-absorbing drops only: k must be 0 (use `mie` for k > 0)");
-        }
-        Ok(n)
-    }
-}
-
-/// Header of the CSV output of `mie`, `mie --debye-orders` and `airy` (extra columns follow).
-pub const CURVE_CSV_COLUMNS: &str = "angle_deg,s1_sq,s2_sq,s11,i_perp,i_par,phase,dolp";
-
-/// One printed row: angle (deg), raw |S1|², |S2|², s11 = (|S1|² + |S2|²)/2 (dimensionless), the
-/// normalised i_perp, i_par, phase (1/sr, divided by `norm` = π x² Q_sca) and dolp.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct CurveRow {
-    pub angle_deg: f64,
-    pub s1_sq: f64,
-    pub s2_sq: f64,
-    pub s11: f64,
-    pub i_perp: f64,
-    pub i_par: f64,
-    pub phase: f64,
-    pub dolp: f64,
-}
-
-impl CurveRow {
-    /// Row from the raw intensities and the normalisation π x² Q_sca.
-    pub fn new(angle_deg: f64, s1_sq: f64, s2_sq: f64, norm: f64) -> Self {
-        let s11 = 0.5 * (s1_sq + s2_sq);
-        CurveRow {
-            angle_deg,
-            s1_sq,
-            s2_sq,
-            s11,
-            i_perp: s1_sq / norm,
-            i_par: s2_sq / norm,
-            phase: s11 / norm,
-            dolp: if s11 > 0.0 {
-                (s1_sq - s2_sq) / (s1_sq + s2_sq)
-            } else {
-                0.0
-            },
-        }
-    }
-
-    /// The CSV fields of [`CURVE_CSV_COLUMNS`].
-    pub fn csv(&self) -> String {
-        format!(
-            "{},{:e},{:e},{:e},{:e},{:e},{:e},{}",
-            self.angle_deg,
-            self.s1_sq,
-            self.s2_sq,
-            self.s11,
-            self.i_perp,
-            self.i_par,
-            self.phase,
-            self.dolp
-        )
-    }
-
-    /// The MiePlot-style table line (angle, i_perp, i_par, phase), as `export --format mieplot`.
-    pub fn table(&self) -> String {
-        format!(
-            "{:>12.4} {:>20.10e} {:>20.10e} {:>20.10e}",
-            self.angle_deg, self.i_perp, self.i_par, self.phase
-        )
-    }
-}
-
-/// Column header of the MiePlot-style table (after the `#` comment lines).
-pub const CURVE_TABLE_COLUMNS: &str =
-    "#  angle_deg               i_perp                i_par                phase";
-
-/// JSON arrays of the rows: `angle_deg`, `s1_sq`, `s2_sq`, `s11`, `i_perp`, `i_par`, `phase`,
-/// `dolp`.
-pub fn curve_json(rows: &[CurveRow]) -> serde_json::Map<String, serde_json::Value> {
-    let col = |f: fn(&CurveRow) -> f64| serde_json::json!(rows.iter().map(f).collect::<Vec<_>>());
-    let mut o = serde_json::Map::new();
-    o.insert("angle_deg".into(), col(|r| r.angle_deg));
-    o.insert("s1_sq".into(), col(|r| r.s1_sq));
-    o.insert("s2_sq".into(), col(|r| r.s2_sq));
-    o.insert("s11".into(), col(|r| r.s11));
-    o.insert("i_perp".into(), col(|r| r.i_perp));
-    o.insert("i_par".into(), col(|r| r.i_par));
-    o.insert("phase".into(), col(|r| r.phase));
-    o.insert("dolp".into(), col(|r| r.dolp));
-    o
-}
 
 /// Arguments of `scatterbake mie`.
 #[derive(Debug, Clone, clap::Args)]
@@ -304,14 +70,14 @@ pub struct MieArgs {
     #[arg(long, default_value_t = 0.1)]
     pub angle_step_deg: f64,
     /// Angle range `START:STOP:STEP` in degrees, within 0–180 (overrides --angle-step-deg).
-    #[arg(long, conflicts_with = "angles_deg", value_parser = parse_angle_range)]
-    pub angles: Option<(f64, f64, f64)>,
+    #[arg(long, conflicts_with = "angles_deg", value_parser = AngleRange::parse)]
+    pub angles: Option<AngleRange>,
     /// Explicit comma-separated angles in degrees (overrides --angle-step-deg).
     #[arg(long, value_delimiter = ',')]
     pub angles_deg: Option<Vec<f64>>,
     /// Output format on stdout.
-    #[arg(long, value_enum, default_value_t = MieFormat::Table)]
-    pub format: MieFormat,
+    #[arg(long, value_enum, default_value_t = CurveFormat::Table)]
+    pub format: CurveFormat,
     /// Also write CSV to this file.
     #[arg(long)]
     pub csv: Option<PathBuf>,
@@ -398,29 +164,16 @@ impl MieQuery {
             ),
         };
         let angles_deg = match (&args.angles_deg, args.angles) {
-            (None, Some((start, stop, step))) => {
-                let count = ((stop - start) / step + 1e-9).floor() as usize + 1;
-                (0..count).map(|i| start + step * i as f64).collect()
-            }
+            (None, Some(range)) => range.angles(),
             (Some(a), _) => {
                 if let Some(bad) = a.iter().find(|t| !(0.0..=180.0).contains(*t)) {
                     bail!("angle {bad} is outside 0–180°");
                 }
                 a.clone()
             }
-            (None, None) => {
-                let step = args.angle_step_deg;
-                let count = 180.0 / step;
-                if step.is_nan() || step <= 0.0 || (count - count.round()).abs() > 1e-6 {
-                    bail!("--angle-step-deg must divide 180");
-                }
-                if count > MAX_ANGLES as f64 {
-                    bail!("--angle-step-deg {step} gives more than {MAX_ANGLES} angles");
-                }
-                (0..=count.round() as usize)
-                    .map(|i| i as f64 * step)
-                    .collect()
-            }
+            (None, None) => AngleRange::full(args.angle_step_deg)
+                .context("--angle-step-deg")?
+                .angles(),
         };
         let (s1, s2) = sphere.amplitudes_deg(&angles_deg);
         Ok(MieQuery {
@@ -545,25 +298,93 @@ impl MieQuery {
     }
 }
 
-/// The header line stating both backscattering efficiencies with their conventions.
-pub fn q_back_line(q_back: f64) -> String {
-    format!(
-        "Q_back = {:.10} (radar convention: 4 pi (dC_sca/dOmega at 180 deg)/(pi r^2) = 4 |S1(180)|^2/x^2)  Q_back_per_sr = {:.10e} (MiePlot, per steradian: Q_back/(4 pi) = |S1(180)|^2/(pi x^2))",
-        q_back,
-        q_back / (4.0 * std::f64::consts::PI)
-    )
+/// Arguments of `scatterbake mie`: one sphere, optionally split into Debye-series terms.
+#[derive(Debug, Clone, clap::Args)]
+pub struct MieCommandArgs {
+    #[command(flatten)]
+    pub mie: MieArgs,
+    /// Debye orders p to sum (0 = diffraction + external reflection, 1 = transmission,
+    /// 2 = primary bow, 3 = secondary, ...); without it the plain Mie result is printed.
+    #[arg(long, value_delimiter = ',')]
+    pub debye_orders: Option<Vec<usize>>,
+    /// Also print one `phase_p<k>` column per order.
+    #[arg(long, requires = "debye_orders")]
+    pub debye_per_order: bool,
 }
 
-/// Runs `scatterbake mie` (prints to stdout; writes `--csv` if given).
-pub fn run_mie(args: &MieArgs) -> anyhow::Result<()> {
-    let q = MieQuery::solve(args)?;
-    if let Some(path) = &args.csv {
+/// Solves a `--debye-orders` query (no I/O). `None` when no orders were requested.
+pub fn solve_debye(args: &MieCommandArgs) -> anyhow::Result<Option<CurveReport>> {
+    let Some(orders) = &args.debye_orders else {
+        return Ok(None);
+    };
+    if orders.is_empty()
+        || orders
+            .iter()
+            .any(|&p| p > scatterbake::stages::debye::MAX_ORDER)
+    {
+        bail!(
+            "--debye-orders needs orders in 0..={}",
+            scatterbake::stages::debye::MAX_ORDER
+        );
+    }
+    let q = MieQuery::solve(&args.mie)?;
+    if q.core.is_some() {
+        bail!("--debye-orders treats homogeneous spheres only (no --core-x/--core-radius-um)");
+    }
+    let d = DebyeCoefficients::from_mie(q.sphere.coefficients.clone());
+    let (s1, s2) = d.amplitudes_deg(&OrderSet::Orders(orders.clone()), &q.angles_deg);
+    let norm = d.mie_normalisation();
+    let mut extra = Vec::new();
+    if args.debye_per_order {
+        for &p in orders {
+            let (a, b) = d.amplitudes_deg(&OrderSet::Orders(vec![p]), &q.angles_deg);
+            let v = a
+                .iter()
+                .zip(&b)
+                .map(|(u, w)| 0.5 * (u.norm_sqr() + w.norm_sqr()) / norm)
+                .collect();
+            extra.push((format!("phase_p{p}"), v));
+        }
+    }
+    let e = q.sphere.efficiencies;
+    Ok(Some(CurveReport {
+        header: vec![
+            format!(
+                "Debye series orders {orders:?} (Bohren & Huffman conventions), x = {}, m = {} + {}i",
+                q.x, q.m.re, q.m.im
+            ),
+            format!(
+                "full sphere: Q_ext = {:.10}  Q_sca = {:.10}  n_stop = {}; phase = s11/(pi x^2 Q_sca) of the full sphere",
+                e.q_ext,
+                e.q_sca,
+                d.n_stop()
+            ),
+            q_back_line(e.q_back) + " (full sphere)",
+            "i_perp = |S1|^2/(pi x^2 Q_sca), i_par = |S2|^2/(pi x^2 Q_sca) of the coherent sum of the orders (1/sr); s1_sq = |S1|^2, s2_sq = |S2|^2 (dimensionless) in --format csv|json"
+                .into(),
+        ],
+        angles_deg: q.angles_deg,
+        s1_sq: s1.iter().map(|v| v.norm_sqr()).collect(),
+        s2_sq: s2.iter().map(|v| v.norm_sqr()).collect(),
+        normalisation: norm,
+        extra,
+    }))
+}
+
+/// Runs `scatterbake mie`: the Debye-series terms with `--debye-orders`, else the plain Mie
+/// result (prints to stdout; writes `--csv` if given).
+pub fn run_mie(args: &MieCommandArgs) -> anyhow::Result<()> {
+    if let Some(r) = solve_debye(args)? {
+        return r.print(args.mie.format, args.mie.csv.as_ref());
+    }
+    let q = MieQuery::solve(&args.mie)?;
+    if let Some(path) = &args.mie.csv {
         std::fs::write(path, q.to_csv()).with_context(|| format!("writing {}", path.display()))?;
     }
-    let out = match args.format {
-        MieFormat::Table => q.to_table(),
-        MieFormat::Csv => q.to_csv(),
-        MieFormat::Json => serde_json::to_string_pretty(&q.to_json())? + "\n",
+    let out = match args.mie.format {
+        CurveFormat::Table => q.to_table(),
+        CurveFormat::Csv => q.to_csv(),
+        CurveFormat::Json => serde_json::to_string_pretty(&q.to_json())? + "\n",
     };
     print!("{out}");
     Ok(())
@@ -573,17 +394,25 @@ pub fn run_mie(args: &MieArgs) -> anyhow::Result<()> {
 mod tests {
     use super::*;
     use clap::Parser;
+    use scatterbake::optics::water::WaterIndexModel;
 
     #[derive(Parser)]
     struct Cli {
         #[command(flatten)]
-        args: MieArgs,
+        args: MieCommandArgs,
+    }
+
+    /// clap's own consistency checks of the arguments.
+    #[test]
+    fn clap_definitions_are_consistent() {
+        use clap::CommandFactory;
+        Cli::command().debug_assert();
     }
 
     #[test]
     fn query_by_radius_uses_water_index_and_reports_bh_values() {
         let cli = Cli::parse_from(["t", "--x", "5.2128", "--n", "1.55", "--angles-deg", "0,180"]);
-        let q = MieQuery::solve(&cli.args).unwrap();
+        let q = MieQuery::solve(&cli.args.mie).unwrap();
         let j = q.to_json();
         assert!((j["qsca"].as_f64().unwrap() - 3.10547).abs() < 1e-5);
         assert_eq!(j["angle_deg"].as_array().unwrap().len(), 2);
@@ -596,7 +425,7 @@ mod tests {
             "--angle-step-deg",
             "45",
         ]);
-        let q = MieQuery::solve(&cli.args).unwrap();
+        let q = MieQuery::solve(&cli.args.mie).unwrap();
         assert_eq!(q.angles_deg, vec![0.0, 45.0, 90.0, 135.0, 180.0]);
         assert!((q.m.re - 1.3352).abs() < 2e-3);
         assert!(q.to_table().contains("Q_sca"));
@@ -605,7 +434,7 @@ mod tests {
             6
         );
         let bad = Cli::parse_from(["t", "--x", "5", "--angle-step-deg", "0.1"]);
-        assert!(MieQuery::solve(&bad.args).is_err());
+        assert!(MieQuery::solve(&bad.args.mie).is_err());
     }
 
     /// `i_perp`/`i_par` are |S1|², |S2|² over π x² Q_sca (1/sr), `phase` their mean; the raw
@@ -623,7 +452,7 @@ mod tests {
             "--format",
             "json",
         ]);
-        let q = MieQuery::solve(&cli.args).unwrap();
+        let q = MieQuery::solve(&cli.args.mie).unwrap();
         assert_eq!((q.m.re, q.m.im), (1.33, 0.001));
         let j = q.to_json();
         let col = |k: &str| -> Vec<f64> {
@@ -663,7 +492,7 @@ mod tests {
             "--k",
             "0.01",
         ]);
-        let q = MieQuery::solve(&cli.args).unwrap();
+        let q = MieQuery::solve(&cli.args.mie).unwrap();
         let iapws = WaterIndexModel::default().index(650.0).unwrap();
         assert_eq!((q.m.re, q.m.im), (iapws, 0.01));
     }
@@ -675,7 +504,7 @@ mod tests {
         let q = |extra: &[&str]| {
             let mut a = vec!["t", "--radius-um", "1", "--wavelength-nm", "500"];
             a.extend(extra);
-            MieQuery::solve(&Cli::parse_from(a).args).unwrap()
+            MieQuery::solve(&Cli::parse_from(a).args.mie).unwrap()
         };
         let medium = q(&[
             "--index",
@@ -713,14 +542,14 @@ mod tests {
             assert!(text.contains("n_medium = 1.25"), "{text}");
         }
         let bad = Cli::parse_from(["t", "--x", "5", "--n", "1.5", "--n-medium", "0"]);
-        assert!(MieQuery::solve(&bad.args).is_err());
+        assert!(MieQuery::solve(&bad.args.mie).is_err());
     }
 
     /// A coated sphere from the command line is the library's coated solution; a core of the
     /// shell's own index is the homogeneous sphere.
     #[test]
     fn coated_sphere_options() {
-        let solve = |a: &[&str]| MieQuery::solve(&Cli::parse_from(a).args);
+        let solve = |a: &[&str]| MieQuery::solve(&Cli::parse_from(a).args.mie);
         let q = solve(&[
             "t",
             "--x",
@@ -772,6 +601,12 @@ mod tests {
         for (a, b) in same.s1_sq.iter().zip(&homogeneous.s1_sq) {
             assert!((a - b).abs() < 1e-11 * b, "{a} vs {b}");
         }
+    }
+
+    /// Core options with radii (core radius and the medium's wavelength), and the refusals.
+    #[test]
+    fn coated_sphere_options_with_radii_and_errors() {
+        let solve = |a: &[&str]| MieQuery::solve(&Cli::parse_from(a).args.mie);
         // With radii: core radius and the medium's wavelength.
         let r = solve(&[
             "t",
@@ -824,5 +659,57 @@ mod tests {
             .is_err()
         );
         assert!(Cli::try_parse_from(["t", "--x", "5", "--core-x", "1", "--n", "1.5"]).is_err());
+    }
+
+    /// `--debye-orders` with all of 0..=400 reproduces the Mie columns at x = 50 (the rest is
+    /// the tail of grazing waves), and per-order columns appear.
+    #[test]
+    fn debye_orders_query() {
+        let all: Vec<String> = (0..=400).map(|p| p.to_string()).collect();
+        let orders = all.join(",");
+        let cli = Cli::parse_from([
+            "t",
+            "--x",
+            "50",
+            "--n",
+            "1.333",
+            "--k",
+            "0.001",
+            "--angle-step-deg",
+            "10",
+            "--debye-orders",
+            &orders,
+        ]);
+        let r = solve_debye(&cli.args).unwrap().unwrap();
+        let q = MieQuery::solve(&cli.args.mie).unwrap();
+        for i in 0..r.angles_deg.len() {
+            assert!(
+                (r.s1_sq[i] / q.s1_sq[i] - 1.0).abs() < 1e-6,
+                "angle {}",
+                r.angles_deg[i]
+            );
+        }
+        let cli = Cli::parse_from([
+            "t",
+            "--x",
+            "50",
+            "--n",
+            "1.333",
+            "--angles-deg",
+            "0,138",
+            "--debye-orders",
+            "2,3",
+            "--debye-per-order",
+        ]);
+        let r = solve_debye(&cli.args).unwrap().unwrap();
+        assert_eq!(r.extra.len(), 2);
+        assert!(
+            r.to_csv().contains(
+                "\nangle_deg,s1_sq,s2_sq,s11,i_perp,i_par,phase,dolp,phase_p2,phase_p3\n"
+            )
+        );
+        assert!(r.to_json()["phase_p3"].as_array().unwrap().len() == 2);
+        let plain = Cli::parse_from(["t", "--x", "5", "--n", "1.5"]);
+        assert!(solve_debye(&plain.args).unwrap().is_none());
     }
 }

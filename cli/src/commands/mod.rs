@@ -1,32 +1,21 @@
-//! One module per subcommand family; each holds the clap argument struct and the glue that
-//! calls the library.
+//! One module per subcommand, named after it; each holds the clap argument struct and the glue
+//! that calls the library. Options shared by several commands are in `crate::args`, the printed
+//! curves of `mie` and `airy` in `crate::curve`.
 
+pub mod airy;
 pub mod build;
-pub mod debye;
-pub mod hair;
-pub mod legendre;
-pub mod lut;
+pub mod catalog;
+pub mod dual_scattering;
+pub mod export;
+pub mod hair_lut;
+pub mod inspect;
 pub mod medulla;
+pub mod medulla_assets;
 pub mod mie;
-pub mod mieplot;
-pub mod mitsuba;
 pub mod plot;
 pub mod plot_raytrace;
 pub mod raytrace;
 pub mod render;
-pub mod table;
-
-/// A clap value parser for a library enum that names its variants (`NAMES`) and parses them
-/// (`FromStr`): `--help` lists the names and a wrong one is refused with the list.
-pub fn named<T>(names: &'static [&'static str]) -> impl clap::builder::TypedValueParser<Value = T>
-where
-    T: std::str::FromStr + Clone + Send + Sync + 'static,
-    T::Err: std::fmt::Display,
-{
-    use clap::builder::TypedValueParser as _;
-    clap::builder::PossibleValuesParser::new(names)
-        .try_map(|s| s.parse::<T>().map_err(|e| e.to_string()))
-}
-
-#[cfg(test)]
-mod consumer_tests;
+pub mod stages;
+pub mod validate;
+pub mod verify;

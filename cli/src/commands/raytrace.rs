@@ -10,7 +10,7 @@
 //! `dolp = (i_perp − i_par)/(i_perp + i_par)`. The refractive index options are those of `mie`
 //! (water by IAPWS R9-97 by default).
 
-use crate::commands::mie::IndexArgs;
+use crate::args::{AngleRange, IndexArgs};
 use anyhow::{Context, bail};
 use scatterbake::raytrace::shape::DropShape;
 use scatterbake::raytrace::sphere1d::{DiffractionModel, sphere_phase_curves};
@@ -40,8 +40,8 @@ pub struct RaytraceArgs {
     #[arg(long, default_value = "silhouette", value_parser = ["silhouette", "square"])]
     pub ray_grid: String,
     /// Scattering angles START:STOP:STEP in degrees (STEP must divide 180).
-    #[arg(long, default_value = "0:180:0.1")]
-    pub angles: String,
+    #[arg(long, default_value = "0:180:0.1", value_parser = AngleRange::parse)]
+    pub angles: AngleRange,
     /// Skip the diffraction model (print geometric optics + interference only).
     #[arg(long)]
     pub no_diffraction_filter: bool,
@@ -67,22 +67,10 @@ pub struct RaytraceColumns {
 
 /// Compute the printed columns (no I/O).
 pub fn raytrace_columns(args: &RaytraceArgs) -> anyhow::Result<RaytraceColumns> {
-    let parts: Vec<f64> = args
-        .angles
-        .split(':')
-        .map(|s| s.trim().parse::<f64>())
-        .collect::<Result<_, _>>()
-        .context("--angles must be START:STOP:STEP in degrees")?;
-    let [start, stop, step] = parts[..] else {
-        bail!("--angles must be START:STOP:STEP in degrees");
-    };
-    if !(0.0..=180.0).contains(&start) || !(start..=180.0).contains(&stop) {
-        bail!("--angles must satisfy 0 <= START <= STOP <= 180");
-    }
-    let intervals = 180.0 / step;
-    if !(step > 0.0) || (intervals - intervals.round()).abs() > 1e-6 || intervals.round() < 2.0 {
-        bail!("--angles STEP must be > 0 and divide 180");
-    }
+    let AngleRange { start, stop, step } = args.angles;
+    // The trace covers the whole 0–180° grid of this step; the range selects from it.
+    AngleRange::full(step).context("--angles")?;
+    let n_polar = (180.0 / step).round() as usize + 1;
     if !(10.0..=5000.0).contains(&args.radius_um) {
         bail!(
             "--radius-um {} is outside 10–5000 µm (geometric optics needs x ≫ 1)",
@@ -119,7 +107,7 @@ pub fn raytrace_columns(args: &RaytraceArgs) -> anyhow::Result<RaytraceColumns> 
             },
             max_order: 3,
             grid: DirectionGrid {
-                n_polar: intervals.round() as usize + 1,
+                n_polar,
                 n_azimuth: 72,
             },
             diffraction_filter: !args.no_diffraction_filter,
@@ -240,13 +228,25 @@ mod tests {
             .index(650.0)
             .unwrap();
         assert_eq!(default.n, iapws);
-        assert!(
-            raytrace_columns(&RaytraceArgs {
-                angles: "1:2".into(),
-                ..args
-            })
-            .is_err()
-        );
+        // One parser for every `--angles`: a malformed range is refused by clap, a step that
+        // does not divide 180 (the grid of the trace) when the columns are computed.
+        let parse = |angles: &str| {
+            let v = [
+                "t",
+                "--radius-um",
+                "400",
+                "--wavelength-nm",
+                "650",
+                "--angles",
+                angles,
+            ];
+            Cli::try_parse_from(v).map(|c| c.args)
+        };
+        for bad in ["1:2", "0:180:0", "0:180:-0.1", "150:140:1"] {
+            assert!(parse(bad).is_err(), "{bad}");
+        }
+        let err = raytrace_columns(&parse("130:145:0.07").unwrap()).unwrap_err();
+        assert!(format!("{err:#}").contains("must divide 180"), "{err:#}");
     }
 
     /// A Beard–Chuang drop prints the azimuth means of its 2-D table: the bows where they

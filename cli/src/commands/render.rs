@@ -43,7 +43,7 @@ pub struct RenderRainbowArgs {
     /// Horizontal field of view.
     #[arg(long, default_value_t = 120.0)]
     pub fov_deg: f64,
-    #[arg(long, default_value = "fisheye", value_parser = crate::commands::named::<Lens>(&Lens::NAMES))]
+    #[arg(long, default_value = "fisheye", value_parser = crate::args::named::<Lens>(&Lens::NAMES))]
     pub lens: Lens,
     #[arg(long, default_value_t = 1024)]
     pub width: usize,

@@ -1,4 +1,4 @@
-//! `scatterbake` glue for [`scatterbake::consumers::export::mitsuba`].
+//! `scatterbake export --format mitsuba`: glue for [`scatterbake::consumers::export::mitsuba`].
 
 #[allow(unused_imports)]
 use scatterbake::consumers::export::mitsuba::*;
@@ -7,6 +7,9 @@ use scatterbake::consumers::read::phase::{EntrySelection, PhaseTable, describe_e
 use scatterbake::table::Table;
 use std::fmt::Write as _;
 use std::path::PathBuf;
+
+/// Number of tabphase values unless `--samples` says otherwise.
+pub const DEFAULT_SAMPLES: usize = 4096;
 
 /// `scatterbake export --format mitsuba`.
 #[derive(Debug, Clone, clap::Args)]
@@ -18,13 +21,13 @@ pub struct MitsubaArgs {
     pub entry: Vec<EntrySelection>,
     /// rgb: three lists (linear sRGB, D65); spectral: one per wavelength; wavelength: one at
     /// --wavelength-nm; luminance: CIE Y weighted.
-    #[arg(long, default_value = "rgb", value_parser = crate::commands::named::<MitsubaMode>(&MitsubaMode::NAMES))]
+    #[arg(long, default_value = "rgb", value_parser = crate::args::named::<MitsubaMode>(&MitsubaMode::NAMES))]
     pub mode: MitsubaMode,
     /// Wavelength for --mode wavelength (nearest table wavelength is used).
     #[arg(long)]
     pub wavelength_nm: Option<f64>,
     /// Number of values (uniform in cos θ over [-1, 1]).
-    #[arg(long, default_value_t = 4096)]
+    #[arg(long, default_value_t = DEFAULT_SAMPLES)]
     pub samples: usize,
     /// XML snippet output (default: stdout).
     #[arg(long)]

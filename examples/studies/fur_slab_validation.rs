@@ -15,12 +15,9 @@ use scatterbake::fur::medulla::{Estimator, Geometry, McSettings, simulate};
 use scatterbake::fur::slab::{SlabSettings, solve_slab};
 use std::time::Instant;
 
-fn main() {
-    let args: Vec<String> = std::env::args().collect();
-    let ne: u64 = args.get(1).map_or(20_000, |s| s.parse().unwrap());
-    let nh: u64 = args.get(2).map_or(20_000_000, |s| s.parse().unwrap());
-    // Held out: none of these σ, g, θ'_i is on the default or thesis grids.
-    let points: Vec<(f64, f64, f64)> = vec![
+/// Held out: none of these σ, g, θ'_i is on the default or thesis grids.
+fn held_out_points() -> Vec<(f64, f64, f64)> {
+    vec![
         (0.13, 0.05, 33.0),
         (0.13, 0.61, -84.0),
         (0.77, 0.33, 5.0),
@@ -45,7 +42,14 @@ fn main() {
         (20.0, 0.8, 7.0),
         (20.0, 0.8, -63.0),
         (20.0, 0.8, 86.0),
-    ];
+    ]
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().collect();
+    let ne: u64 = args.get(1).map_or(20_000, |s| s.parse().unwrap());
+    let nh: u64 = args.get(2).map_or(20_000_000, |s| s.parse().unwrap());
+    let points = held_out_points();
     println!(
         "sigma,g,theta_i_deg,bins_analog,max_rel_dev_analog,median_rel_dev_analog,median_rel_se_analog,mean_z2_analog,max_abs_z_analog,frac_abs_z_gt3_analog,bins_expected,max_rel_dev_expected,median_rel_dev_expected,median_rel_se_expected,max_abs_z_expected,energy_identity_dev,solve_s,mc_s"
     );

@@ -3,7 +3,8 @@
 //! reconstructs to the reported truncation error, Mitsuba snippet, plots and the renderer write
 //! decodable images of the requested size that show what they should.
 
-use crate::commands::{legendre, lut, mieplot, mitsuba, plot, plot_raytrace, render};
+use crate::commands::export::{legendre, mieplot, mitsuba, rgb_lut};
+use crate::commands::{plot, plot_raytrace, render, validate};
 use clap::Parser;
 use scatterbake::consumers::synthetic;
 use scatterbake::table::write_table_atomic;
@@ -73,7 +74,7 @@ fn mieplot_export_then_validate_is_exact() {
     .unwrap();
     assert_eq!(rep.max_rel_error, [0.0; 3], "{rep:?}");
     // validate with zero tolerance passes for the right entry and fails for another.
-    mieplot::run_validate(&parse(&[
+    validate::run_validate(&parse(&[
         ts,
         "--reference",
         os,
@@ -84,7 +85,7 @@ fn mieplot_export_then_validate_is_exact() {
     ]))
     .unwrap();
     assert!(
-        mieplot::run_validate(&parse(&[
+        validate::run_validate(&parse(&[
             ts,
             "--reference",
             os,
@@ -446,7 +447,7 @@ fn rgb_lut_applies_only_the_disc_the_table_lacks() {
         let mut argv = vec![t.to_str().unwrap(), "--samples", "3601", "--out"];
         argv.push(out.to_str().unwrap());
         argv.extend_from_slice(extra);
-        lut::run_lut(&parse::<lut::LutArgs>(&argv)).map(|_| out)
+        rgb_lut::run_lut(&parse::<rgb_lut::LutArgs>(&argv)).map(|_| out)
     };
     let a = run(&disc, &[], "disc.csv").unwrap();
     let b = run(&point, &["--sun-diameter-deg", "0"], "point0.csv").unwrap();
@@ -581,7 +582,7 @@ fn coarse_entry_axes_are_not_interpolated() {
     );
     run("radius=500").unwrap();
     // rgb-lut reads entries the same way.
-    let err = lut::run_lut(&parse::<lut::LutArgs>(&[
+    let err = rgb_lut::run_lut(&parse::<rgb_lut::LutArgs>(&[
         t.to_str().unwrap(),
         "--entry",
         "radius=450",

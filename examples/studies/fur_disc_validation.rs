@@ -100,6 +100,29 @@ fn env_or(key: &str, default: f64) -> f64 {
     std::env::var(key).map_or(default, |v| v.parse().unwrap())
 }
 
+/// The five bins of largest |z| against the adaptive reference, on stderr.
+fn print_largest_z(
+    (sigma, g, h): (f64, f64, f64),
+    bins: &[usize],
+    z: &[f64],
+    e: &[f64],
+    e_mc: &[f64],
+    se_mc: &[f64],
+) {
+    let mut by_z: Vec<(f64, usize)> = bins.iter().zip(z).map(|(&k, &z)| (z.abs(), k)).collect();
+    by_z.sort_by(|a, b| b.0.total_cmp(&a.0));
+    for &(zk, k) in by_z.iter().take(5) {
+        eprintln!(
+            "{sigma},{g},{h}: bin {:.2} deg solver {:.5e} reference {:.5e} ± {:.2e} (z {zk:.1}, rel {:.4})",
+            -180.0 + (k as f64 + 0.5) * 0.5,
+            e[k],
+            e_mc[k],
+            se_mc[k],
+            (e[k] - e_mc[k]) / e_mc[k]
+        );
+    }
+}
+
 fn main() {
     let dir = std::env::args()
         .nth(1)
@@ -155,20 +178,7 @@ fn main() {
             lrel.sort_by(f64::total_cmp);
             let n = bins.len();
             if std::env::var("VALIDATION_DETAIL").is_ok() {
-                // The five bins of largest |z| against the adaptive reference, on stderr.
-                let mut by_z: Vec<(f64, usize)> =
-                    bins.iter().zip(&z).map(|(&k, &z)| (z.abs(), k)).collect();
-                by_z.sort_by(|a, b| b.0.total_cmp(&a.0));
-                for &(zk, k) in by_z.iter().take(5) {
-                    eprintln!(
-                        "{sigma},{g},{h}: bin {:.2} deg solver {:.5e} reference {:.5e} ± {:.2e} (z {zk:.1}, rel {:.4})",
-                        -180.0 + (k as f64 + 0.5) * 0.5,
-                        e[k],
-                        e_mc[k],
-                        se_mc[k],
-                        (e[k] - e_mc[k]) / e_mc[k]
-                    );
-                }
+                print_largest_z((sigma, g, h), &bins, &z, e, &e_mc, &se_mc);
             }
             let nh = ANALOG_PHOTONS as f64;
             let se_h = |k: usize| (hist[k] * (1.0 - hist[k]) / nh).max(1.0 / (nh * nh)).sqrt();

@@ -7,6 +7,42 @@ use scatterbake::fur::tt::compress_table;
 use scatterbake::table::{Provenance, Table, write_table_atomic};
 use std::time::Instant;
 
+/// Relative standard error over bins above 1e-3 of each row's maximum (energy channel).
+fn print_std_error_summary(content: &scatterbake::table::TableContent) {
+    let nc = content.channels.len();
+    let (ei, si) = (
+        content
+            .channels
+            .iter()
+            .position(|c| c.name == "energy")
+            .unwrap(),
+        content
+            .channels
+            .iter()
+            .position(|c| c.name == "std_error")
+            .unwrap(),
+    );
+    let row = content.axes.last().unwrap().len() * if content.axes.len() == 5 { 2 } else { 1 };
+    let (mut worst, mut sum_rel, mut count) = (0.0f64, 0.0f64, 0usize);
+    for r in content.data.chunks(row * nc) {
+        let max = (0..row).map(|k| r[k * nc + ei]).fold(0.0f32, f32::max);
+        for k in 0..row {
+            let e = r[k * nc + ei];
+            if max > 0.0 && e > 1e-3 * max {
+                let rel = (r[k * nc + si] / e) as f64;
+                worst = worst.max(rel);
+                sum_rel += rel;
+                count += 1;
+            }
+        }
+    }
+    println!(
+        "  relative std error on bins > 1e-3 of row max: mean {:.4}, worst {:.4}",
+        sum_rel / count.max(1) as f64,
+        worst
+    );
+}
+
 fn main() -> anyhow::Result<()> {
     let args: Vec<String> = std::env::args().collect();
     let manifest = std::fs::read_to_string(&args[1])?;
@@ -42,39 +78,7 @@ fn main() -> anyhow::Result<()> {
                 .and_then(|v| v.as_f64())
                 .map_or("no".to_string(), |v| format!("{v:.2}"))
         );
-        // Relative standard error over bins above 1e-3 of each row's maximum (energy channel).
-        let nc = content.channels.len();
-        let (ei, si) = (
-            content
-                .channels
-                .iter()
-                .position(|c| c.name == "energy")
-                .unwrap(),
-            content
-                .channels
-                .iter()
-                .position(|c| c.name == "std_error")
-                .unwrap(),
-        );
-        let row = content.axes.last().unwrap().len() * if content.axes.len() == 5 { 2 } else { 1 };
-        let (mut worst, mut sum_rel, mut count) = (0.0f64, 0.0f64, 0usize);
-        for r in content.data.chunks(row * nc) {
-            let max = (0..row).map(|k| r[k * nc + ei]).fold(0.0f32, f32::max);
-            for k in 0..row {
-                let e = r[k * nc + ei];
-                if max > 0.0 && e > 1e-3 * max {
-                    let rel = (r[k * nc + si] / e) as f64;
-                    worst = worst.max(rel);
-                    sum_rel += rel;
-                    count += 1;
-                }
-            }
-        }
-        println!(
-            "  relative std error on bins > 1e-3 of row max: mean {:.4}, worst {:.4}",
-            sum_rel / count.max(1) as f64,
-            worst
-        );
+        print_std_error_summary(&content);
         if let Some(tol) = tt_tol {
             let ch = if content.schema.name == "fur-medulla-longitudinal" {
                 "pdf"

@@ -1,4 +1,4 @@
-//! `scatterbake` glue for [`scatterbake::consumers::export::lut`].
+//! `scatterbake export --format rgb-lut`: glue for [`scatterbake::consumers::export::lut`].
 
 #[allow(unused_imports)]
 use scatterbake::consumers::export::lut::*;
@@ -9,6 +9,9 @@ use scatterbake::table::Table;
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
+/// Number of rows unless `--samples` says otherwise: 0.025° apart.
+pub const DEFAULT_SAMPLES: usize = 7201;
+
 /// `scatterbake export --format rgb-lut`.
 #[derive(Debug, Clone, clap::Args)]
 pub struct LutArgs {
@@ -17,7 +20,7 @@ pub struct LutArgs {
     #[arg(long = "entry", value_name = "NAME=VALUE")]
     pub entry: Vec<EntrySelection>,
     /// Number of rows (uniform in angle over [0, 180] deg).
-    #[arg(long, default_value_t = 7201)]
+    #[arg(long, default_value_t = DEFAULT_SAMPLES)]
     pub samples: usize,
     /// Sun disc of the texture (deg). Default: the disc the table already averaged over
     /// (attribute `sun_diameter_deg`; nothing more is applied), 0.5 for a point-sun table. A

@@ -1,4 +1,4 @@
-//! `scatterbake` glue for [`scatterbake::consumers::export::legendre`].
+//! `scatterbake export --format legendre`: glue for [`scatterbake::consumers::export::legendre`].
 
 #[allow(unused_imports)]
 use scatterbake::consumers::export::legendre::*;

@@ -1,51 +1,13 @@
-//! `scatterbake` glue for [`scatterbake::consumers::export::mieplot`].
+//! `scatterbake validate`: compare a phase-function table, or one sphere computed here, with a
+//! MiePlot-style reference text file.
 
 use anyhow::{Context, bail};
-#[allow(unused_imports)]
 use scatterbake::consumers::export::mieplot::*;
 use scatterbake::consumers::read::phase::{EntrySelection, PhaseTable, describe_entry};
 use scatterbake::consumers::validate::{
     OperatedReference, ReferenceKind, ReferenceMetadata, TableOperators, apply_table_operators,
 };
-#[allow(unused_imports)]
-use scatterbake::table::Table;
 use std::path::PathBuf;
-
-/// `scatterbake export --format mieplot`.
-#[derive(Debug, Clone, clap::Args)]
-pub struct MiePlotArgs {
-    /// Phase-function table (.sbt) following the phase contract.
-    pub table: PathBuf,
-    #[arg(long = "entry", value_name = "NAME=VALUE")]
-    pub entry: Vec<EntrySelection>,
-    /// Wavelength (nm); default: the table's first wavelength. Interpolated linearly between
-    /// table wavelengths (the table's lookup formula).
-    #[arg(long)]
-    pub wavelength_nm: Option<f64>,
-    /// Output text file (default: stdout).
-    #[arg(long)]
-    pub out: Option<PathBuf>,
-}
-
-/// Run the MiePlot-style export.
-pub fn run_mieplot(args: &MiePlotArgs) -> anyhow::Result<()> {
-    let pt = PhaseTable::open(&args.table)?;
-    let wl = args.wavelength_nm.unwrap_or_else(|| pt.wavelengths_nm()[0]);
-    let d = from_table(&pt, &args.entry, wl)?;
-    let e = pt.resolve_entry(&args.entry)?;
-    let text = write_mieplot(
-        &d,
-        &[
-            format!("table: {}", args.table.display()),
-            format!("entry: {}", describe_entry(&pt.table, &e)),
-        ],
-    );
-    match &args.out {
-        Some(p) => std::fs::write(p, text)?,
-        None => print!("{text}"),
-    }
-    Ok(())
-}
 
 /// `scatterbake validate`: compare a table, or one sphere computed here, against a
 /// MiePlot-style reference text file (our export or a file saved by MiePlot).
@@ -72,7 +34,7 @@ pub struct ValidateArgs {
     pub radius_um: Option<f64>,
     /// Sphere mode: the sphere's index (--index N+Ki, --n/--k, or water at the wavelength).
     #[command(flatten)]
-    pub refractive: crate::commands::mie::IndexArgs,
+    pub refractive: crate::args::IndexArgs,
     /// Sphere mode: index of the medium around the sphere (MiePlot's "refractive index of the
     /// surrounding medium").
     #[arg(long, default_value_t = 1.0)]
@@ -102,7 +64,7 @@ pub enum ReferenceKindArg {
 /// Sphere mode of `validate`: the sphere's raw |S1|², |S2|² at the reference's angles against
 /// the reference's perpendicular and parallel columns (MiePlot prints raw intensities).
 pub fn run_validate_sphere(args: &ValidateArgs) -> anyhow::Result<()> {
-    use crate::commands::mie::{MieArgs, MieFormat, MieQuery};
+    use crate::commands::mie::{MieArgs, MieQuery};
     let (r, layout) = read_mieplot_layout(
         &std::fs::read_to_string(&args.reference)
             .with_context(|| format!("reading {}", args.reference.display()))?,
@@ -123,7 +85,7 @@ pub fn run_validate_sphere(args: &ValidateArgs) -> anyhow::Result<()> {
         angle_step_deg: 1.0,
         angles: None,
         angles_deg: Some(r.angle_deg.clone()),
-        format: MieFormat::Table,
+        format: crate::curve::CurveFormat::Table,
         csv: None,
     })?;
     let s11: Vec<f64> = q

@@ -54,6 +54,75 @@ fn sum_fields(
         .collect()
 }
 
+/// Ray fields per order on the angles `ang` (deg) of a drop of radius `a` (µm):
+/// unfiltered geometric optics, the Airy-uniform caustic channel, and that channel with plane
+/// Fresnel coefficients.
+fn ray_fields(a: f64, ang: &[f64]) -> [Vec<Vec<OrderField>>; 3] {
+    let go = SphereGo::new(a, LAMBDA_NM, N, MAX_P);
+    let plane = go.clone().with_surface_coefficients(false);
+    let per_order = |f: &dyn Fn(usize, f64) -> OrderField| -> Vec<Vec<OrderField>> {
+        (0..=MAX_P)
+            .map(|p| ang.iter().map(|t| f(p, t.to_radians())).collect())
+            .collect()
+    };
+    [
+        per_order(&|p, t| go.order_field(p, t)),
+        per_order(&|p, t| go.order_field_uniform(p, t)),
+        per_order(&|p, t| plane.order_field_uniform(p, t)),
+    ]
+}
+
+/// Debye amplitudes (S1, S2) of one term on the band's angles.
+type Amplitudes = (Vec<Complex64>, Vec<Complex64>);
+
+/// The coherent sum of the Debye terms `deb`.
+fn coherent_sum(deb: &[Amplitudes]) -> Amplitudes {
+    let n = deb[0].0.len();
+    let mut s1 = vec![Complex64::new(0.0, 0.0); n];
+    let mut s2 = s1.clone();
+    for (a, b) in deb {
+        for j in 0..n {
+            s1[j] += a[j];
+            s2[j] += b[j];
+        }
+    }
+    (s1, s2)
+}
+
+/// 1° windows of the two caustic tails (where in the band the deficit sits): Airy channel over
+/// the Debye term.
+fn print_caustic_windows(
+    ang: &[f64],
+    deb: &[Amplitudes],
+    airy_f: &[Vec<OrderField>],
+    x: f64,
+    a: f64,
+) {
+    for p in [2usize, 3] {
+        let w: Vec<String> = (0..5)
+            .map(|k| {
+                let (lo, hi) = (BAND.0 + k as f64, BAND.0 + k as f64 + 1.0);
+                let sel = |v: &[f64]| -> f64 {
+                    let s: Vec<f64> = ang
+                        .iter()
+                        .zip(v)
+                        .filter(|(t, _)| **t >= lo && **t <= hi)
+                        .map(|(_, v)| *v)
+                        .collect();
+                    mean(&s)
+                };
+                let dv = sel(&debye_intensity(&deb[p].0, &deb[p].1, x));
+                let av = sel(&ray_intensity(&airy_f[p], a));
+                format!("{av:.2}/{dv:.2e}", av = av / dv)
+            })
+            .collect();
+        println!(
+            "  p{p} Airy/Debye in 1° windows from 131°: {}",
+            w.join("  ")
+        );
+    }
+}
+
 fn main() -> anyhow::Result<()> {
     let step = 0.005;
     let nang = ((BAND.1 - BAND.0) / step).round() as usize + 1;
@@ -70,7 +139,7 @@ fn main() -> anyhow::Result<()> {
         let d = DebyeCoefficients::new(x, Complex64::new(N, 0.0))?;
         let amp = |set: &OrderSet| d.amplitudes_deg(set, &ang);
         // Debye amplitudes per order
-        let deb: Vec<(Vec<Complex64>, Vec<Complex64>)> = (0..=MAX_P)
+        let deb: Vec<Amplitudes> = (0..=MAX_P)
             .map(|p| amp(&OrderSet::Orders(vec![p])))
             .collect();
         let mie = amp(&OrderSet::From(0));
@@ -79,41 +148,7 @@ fn main() -> anyhow::Result<()> {
         let diff = d.term_sphere(da, db).amplitudes_deg(&ang);
         let (ra, rb) = d.external_reflection();
         let refl = d.term_sphere(ra, rb).amplitudes_deg(&ang);
-        let dsum = |ps: std::ops::RangeInclusive<usize>| -> (Vec<Complex64>, Vec<Complex64>) {
-            let mut s1 = vec![Complex64::new(0.0, 0.0); nang];
-            let mut s2 = s1.clone();
-            for p in ps {
-                for j in 0..nang {
-                    s1[j] += deb[p].0[j];
-                    s2[j] += deb[p].1[j];
-                }
-            }
-            (s1, s2)
-        };
-        // ray fields per order
-        let go = SphereGo::new(a, LAMBDA_NM, N, MAX_P);
-        let plane = go.clone().with_surface_coefficients(false);
-        let plane_f: Vec<Vec<OrderField>> = (0..=MAX_P)
-            .map(|p| {
-                ang.iter()
-                    .map(|t| plane.order_field_uniform(p, t.to_radians()))
-                    .collect()
-            })
-            .collect();
-        let go_f: Vec<Vec<OrderField>> = (0..=MAX_P)
-            .map(|p| {
-                ang.iter()
-                    .map(|t| go.order_field(p, t.to_radians()))
-                    .collect()
-            })
-            .collect();
-        let airy_f: Vec<Vec<OrderField>> = (0..=MAX_P)
-            .map(|p| {
-                ang.iter()
-                    .map(|t| go.order_field_uniform(p, t.to_radians()))
-                    .collect()
-            })
-            .collect();
+        let [go_f, airy_f, plane_f] = ray_fields(a, &ang);
 
         let mie_b = mean(&debye_intensity(&mie.0, &mie.1, x));
         println!(
@@ -153,7 +188,7 @@ fn main() -> anyhow::Result<()> {
         row("p0_diffraction", dd, 0.0, 0.0, 0.0);
         row("p0_reflection", dr, g0, g0, g0);
         for hi in [3usize, MAX_P] {
-            let (s1, s2) = dsum(0..=hi);
+            let (s1, s2) = coherent_sum(&deb[..=hi]);
             let dc = mean(&debye_intensity(&s1, &s2, x));
             let di: f64 = (0..=hi)
                 .map(|p| mean(&debye_intensity(&deb[p].0, &deb[p].1, x)))
@@ -175,30 +210,7 @@ fn main() -> anyhow::Result<()> {
             );
         }
         row("mie", mie_b, f64::NAN, f64::NAN, f64::NAN);
-        // 1° windows of the two caustic tails (where in the band the deficit sits)
-        for p in [2usize, 3] {
-            let w: Vec<String> = (0..5)
-                .map(|k| {
-                    let (lo, hi) = (BAND.0 + k as f64, BAND.0 + k as f64 + 1.0);
-                    let sel = |v: &[f64]| -> f64 {
-                        let s: Vec<f64> = ang
-                            .iter()
-                            .zip(v)
-                            .filter(|(t, _)| **t >= lo && **t <= hi)
-                            .map(|(_, v)| *v)
-                            .collect();
-                        mean(&s)
-                    };
-                    let dv = sel(&debye_intensity(&deb[p].0, &deb[p].1, x));
-                    let av = sel(&ray_intensity(&airy_f[p], a));
-                    format!("{av:.2}/{dv:.2e}", av = av / dv)
-                })
-                .collect();
-            println!(
-                "  p{p} Airy/Debye in 1° windows from 131°: {}",
-                w.join("  ")
-            );
-        }
+        print_caustic_windows(&ang, &deb, &airy_f, x, a);
     }
     let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/docs/data/raytrace");
     std::fs::create_dir_all(dir)?;
