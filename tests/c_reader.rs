@@ -12,9 +12,9 @@ use std::process::Command;
 
 /// Build the cdylib crate `scatterbake-capi` and return the directory holding
 /// libscatterbake_table.{so,dylib}. Uses the cargo that runs this test, the same target
-/// directory and the `test` profile, so the scatterbake-table rlib (the only crate of this
-/// workspace that capi depends on) already built for this test is reused and only the small
-/// capi crate is compiled (a no-op when up to date).
+/// directory and the `test` profile. capi depends on the format crate `scatterbake-table` alone,
+/// so only that crate's few dependencies are built for it (a no-op when up to date); building
+/// the library and its test targets as well is not needed.
 fn lib_dir() -> PathBuf {
     let exe = std::env::current_exe().unwrap();
     // target/<profile dir>/deps/<test exe> -> target/<profile dir>
@@ -22,19 +22,12 @@ fn lib_dir() -> PathBuf {
     let target_dir = profile_dir.parent().unwrap();
     let out = Command::new(env!("CARGO"))
         .args([
-            // `-p scatterbake --tests`: resolve features with scatterbake's dev-dependencies,
-            // exactly as the `cargo test` running this did, so the dependencies it shares with
-            // capi (scatterbake-table, serde, zstd, ...) are reused instead of rebuilt with
-            // another feature set.
             "build",
-            "-p",
-            "scatterbake",
             "-p",
             "scatterbake-capi",
             "--profile",
             "test",
             "--lib",
-            "--tests",
             "--quiet",
         ])
         .arg("--manifest-path")

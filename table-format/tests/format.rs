@@ -1,0 +1,214 @@
+//! Table format: round trip, corruption detection, version handling, lookup API.
+
+use proptest::prelude::*;
+use scatterbake_table::{
+    Axis, Channel, Provenance, Schema, Table, TableContent, TableError, write_table_atomic,
+};
+use sha2::{Digest, Sha256};
+use std::path::Path;
+
+fn sample_table() -> Table {
+    let wl = vec![400.0, 550.0, 700.0];
+    let n_angle = 7;
+    let mut data = Vec::new();
+    for (i, _) in wl.iter().enumerate() {
+        for j in 0..n_angle {
+            data.push(i as f32 + 0.25 * j as f32);
+            data.push(-(j as f32) * 1.5e-3);
+        }
+    }
+    let mut attributes = serde_json::Map::new();
+    attributes.insert("normalization".into(), "test".into());
+    Table::from_content(
+        TableContent {
+            schema: Schema::new("test-phase", 3),
+            description: "synthetic".into(),
+            axes: vec![
+                Axis::values("wavelength", "nm", wl),
+                Axis::uniform("scattering_angle", "deg", 0.0, 30.0, n_angle),
+            ],
+            channels: vec![
+                Channel::new("phase", "1/sr", "test channel"),
+                Channel::new("dolp", "1", "second channel"),
+            ],
+            attributes,
+            data,
+        },
+        Provenance {
+            tool: "scatterbake".into(),
+            tool_version: "test".into(),
+            parameters: serde_json::json!({"a": 1}),
+            parameters_digest: "00".into(),
+            created_utc: "2026-01-01T00:00:00Z".into(),
+            ..Default::default()
+        },
+    )
+    .unwrap()
+}
+
+fn bytes() -> Vec<u8> {
+    sample_table().to_bytes().unwrap()
+}
+
+#[test]
+fn round_trip_preserves_header_and_payload() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("t.sbt");
+    let mut t = sample_table();
+    write_table_atomic(&mut t, &path).unwrap();
+    let r = Table::open(&path).unwrap();
+    assert_eq!(r.header, t.header);
+    assert_eq!(r.data, t.data);
+    assert_eq!(r.header.layout.shape, vec![3, 7, 2]);
+    assert_eq!(r.header.schema.to_string(), "test-phase/3");
+    // No temporary files left behind.
+    let names: Vec<_> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert_eq!(names.len(), 1, "{names:?}");
+}
+
+#[test]
+fn every_single_byte_flip_is_detected() {
+    let good = bytes();
+    for pos in 0..good.len() {
+        for x in [0x01u8, 0x80, 0xff] {
+            let mut b = good.clone();
+            b[pos] ^= x;
+            assert!(
+                Table::from_bytes(&b, Path::new("flip.sbt")).is_err(),
+                "flip {x:#x} at byte {pos} of {} went undetected",
+                good.len()
+            );
+        }
+    }
+}
+
+proptest! {
+    #[test]
+    fn random_byte_corruption_is_detected(pos in 0usize..100_000, x in 1u8..=255) {
+        let good = bytes();
+        let pos = pos % good.len();
+        let mut b = good.clone();
+        b[pos] ^= x;
+        prop_assert!(Table::from_bytes(&b, Path::new("p.sbt")).is_err());
+    }
+
+    /// Arbitrary bytes never panic the reader and are refused (with the magic prepended too:
+    /// they cannot carry a matching SHA-256 of the header).
+    #[test]
+    fn arbitrary_bytes_are_refused_without_panic(data in proptest::collection::vec(any::<u8>(), 0..512)) {
+        prop_assert!(Table::from_bytes(&data, Path::new("fuzz.sbt")).is_err());
+        let mut with_magic = b"SBTABLE\0".to_vec();
+        with_magic.extend_from_slice(&data);
+        prop_assert!(Table::from_bytes(&with_magic, Path::new("fuzz.sbt")).is_err());
+    }
+}
+
+#[test]
+fn every_truncation_is_detected() {
+    let good = bytes();
+    for len in 0..good.len() {
+        let e = Table::from_bytes(&good[..len], Path::new("t.sbt")).unwrap_err();
+        let msg = e.to_string();
+        assert!(msg.contains("t.sbt"), "error must name the file: {msg}");
+    }
+    let mut longer = good.clone();
+    longer.push(0);
+    assert!(matches!(
+        Table::from_bytes(&longer, Path::new("t.sbt")),
+        Err(TableError::TrailingBytes { .. })
+    ));
+}
+
+#[test]
+fn wrong_magic_is_named() {
+    let mut b = bytes();
+    b[0] = b'X';
+    let e = Table::from_bytes(&b, Path::new("t.sbt")).unwrap_err();
+    assert!(matches!(e, TableError::BadMagic { .. }));
+    assert!(e.to_string().contains("not a scatterbake table"));
+}
+
+/// Rewrite the version fields and fix up the header checksum, as a future writer would.
+fn with_version(mut b: Vec<u8>, major: u16, minor: u16) -> Vec<u8> {
+    b[8..10].copy_from_slice(&major.to_le_bytes());
+    b[10..12].copy_from_slice(&minor.to_le_bytes());
+    let hlen = u64::from_le_bytes(b[16..24].try_into().unwrap()) as usize;
+    let mut h = Sha256::new();
+    h.update(&b[..24]);
+    h.update(&b[56..56 + hlen]);
+    let d = h.finalize();
+    b[24..56].copy_from_slice(&d);
+    b
+}
+
+#[test]
+fn newer_major_is_refused_newer_minor_is_read() {
+    let e = Table::from_bytes(&with_version(bytes(), 2, 0), Path::new("t.sbt")).unwrap_err();
+    assert!(matches!(e, TableError::NewerMajor { major: 2, .. }), "{e}");
+    assert!(e.to_string().contains("newer"));
+    let t = Table::from_bytes(&with_version(bytes(), 1, 9), Path::new("t.sbt")).unwrap();
+    assert_eq!(t.data, sample_table().data);
+}
+
+#[test]
+fn failed_write_keeps_existing_table() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("t.sbt");
+    let mut t = sample_table();
+    write_table_atomic(&mut t, &path).unwrap();
+    let before = std::fs::read(&path).unwrap();
+    // A table that cannot be serialised must not touch the existing file.
+    let bad = TableContent {
+        schema: Schema::new("x", 1),
+        description: String::new(),
+        axes: vec![Axis::values("a", "1", vec![0.0, 1.0])],
+        channels: vec![Channel::new("c", "1", "")],
+        attributes: Default::default(),
+        data: vec![1.0],
+    };
+    assert!(Table::from_content(bad, Provenance::default()).is_err());
+    assert_eq!(std::fs::read(&path).unwrap(), before);
+}
+
+#[test]
+fn sample_interpolates_and_clamps() {
+    let t = sample_table();
+    // phase = i + 0.25 j with j = angle / 30.
+    let v = t.sample(&[475.0, 45.0]).unwrap();
+    assert!((v[0] - (0.5 + 0.25 * 1.5)).abs() < 1e-6, "{v:?}");
+    // Clamped below and above.
+    let lo = t.sample_channel("phase", &[100.0, -10.0]).unwrap();
+    assert!((lo - 0.0).abs() < 1e-7);
+    let hi = t.sample_channel("phase", &[900.0, 500.0]).unwrap();
+    assert!((hi - (2.0 + 0.25 * 6.0)).abs() < 1e-6);
+    assert!(t.sample(&[f64::NAN, 0.0]).is_err());
+    assert!(t.sample(&[1.0]).is_err());
+    assert!(t.sample_channel("nope", &[1.0, 1.0]).is_err());
+}
+
+/// Axis labels (decision MIE-17) survive a round trip, are absent from the header when unused,
+/// and a label count that differs from the samples' is refused.
+#[test]
+fn axis_labels_round_trip_and_are_checked() {
+    let content = |labels: Vec<String>| TableContent {
+        schema: Schema::new("x", 1),
+        description: String::new(),
+        axes: vec![Axis::labelled("distribution", "1", vec![0.0, 1.0], labels)],
+        channels: vec![Channel::new("c", "1", "")],
+        attributes: Default::default(),
+        data: vec![1.0, 2.0],
+    };
+    let names = vec!["gamma r_eff=3 um v_eff=0.1".to_string(), "fog".to_string()];
+    let mut t = Table::from_content(content(names.clone()), Provenance::default()).unwrap();
+    let bytes = t.to_bytes().unwrap();
+    let r = Table::from_bytes(&bytes, Path::new("t.sbt")).unwrap();
+    assert_eq!(r.header.axes[0].labels, names);
+    assert_eq!(r.header.axes[0].label(1), Some("fog"));
+    let mut plain = sample_table();
+    let text = String::from_utf8_lossy(&plain.to_bytes().unwrap()).to_string();
+    assert!(!text.contains("\"labels\""), "no labels key when unused");
+    assert!(Table::from_content(content(vec!["one".into()]), Provenance::default()).is_err());
+}
