@@ -527,171 +527,168 @@ mod tests {
             let normalised = spec.normalise_to_analytic_total;
             assert_eq!(a.contains_key("value_normalisation"), normalised);
             assert_eq!(
-                a["reconstruction_error"]
-                    .get("tensor_train_only")
-                    .is_some(),
+                a["reconstruction_error"].get("tensor_train_only").is_some(),
                 normalised
             );
         }
     }
 
-/// Compress the dense source table of one family into its asset (a sealed-ready table with
-/// provenance; write it with [`Table::to_bytes`]). The header records the source's content key
-/// and errors, the compression settings and the measured reconstruction errors.
-pub fn compress_asset_before(source: &Table, spec: &AssetSpec) -> Result<Table, FurError> {
-    let h = &source.header;
-    if h.schema.name != spec.family {
-        return Err(FurError::WrongSchema {
-            expected: spec.family,
-            found: h.schema.name.clone(),
-        });
-    }
-    let mut content = TableContent {
-        schema: h.schema.clone(),
-        description: h.description.clone(),
-        axes: h.axes.clone(),
-        channels: h.channels.clone(),
-        attributes: h.attributes.clone(),
-        data: source.data.clone(),
-    };
-    if spec.normalise_to_analytic_total {
-        normalise_azimuthal(&mut content, spec.channel)?;
-    }
-    let (mut tt, _) = match spec.log_floor_rel {
-        Some(f) => compress_table_log(&content, spec.channel, spec.rel_tol, spec.max_rank, f)?,
-        None => compress_table(&content, spec.channel, spec.rel_tol, spec.max_rank)?,
-    };
-    if let Some(bits) = spec.core_mantissa_bits {
-        for v in &mut tt.data {
-            *v = round_mantissa(*v, bits);
-        }
-    }
-    let dense = channel_values(&content, spec.channel)?;
-    // The source as built (before any normalisation): the asset's error against it.
-    let raw = TableContent {
-        data: source.data.clone(),
-        ..content.clone()
-    };
-    let raw_dense = channel_values(&raw, spec.channel)?;
-    let back = super::tt::reconstruct_table(&tt)?;
-    let approx: Vec<f64> = back.data.iter().map(|&v| f64::from(v)).collect();
-    let profile = if spec.family == "fur-medulla-longitudinal" {
-        2 * h.axes.last().map_or(1, |a| a.len())
-    } else {
-        h.axes.last().map_or(1, |a| a.len())
-    };
-    // Monte Carlo sources carry standard errors; deterministic ones (adding-doubling,
-    // characteristics) a discretisation error in `solver_error`.
-    let deterministic = h.attributes.contains_key("solver_error");
-    let std_error = if spec.family == "fur-medulla-azimuthal" && !deterministic {
-        Some(channel_values(&content, "std_error")?)
-    } else {
-        None
-    };
-    let mut recon = reconstruction_errors(&raw_dense, &approx, profile, std_error.as_deref());
-    if spec.normalise_to_analytic_total {
-        recon["tensor_train_only"] = reconstruction_errors(&dense, &approx, profile, None);
-        recon["normalisation_only"] =
-            reconstruction_errors(&raw_dense, &dense, profile, std_error.as_deref());
-    }
-    let a = &mut tt.attributes;
-    // The per-entry arrays of the source header are summarised, not copied (size).
-    let mut src_attrs = h.attributes.clone();
-    let mut summaries = serde_json::Map::new();
-    src_attrs.retain(|k, v| match v.as_array() {
-        Some(arr) => {
-            let vals: Vec<f64> = arr.iter().filter_map(|x| x.as_f64()).collect();
-            summaries.insert(k.clone(), quantiles(vals));
-            false
-        }
-        None => true,
-    });
-    src_attrs.insert(
-        "per_entry_arrays_summary".into(),
-        serde_json::Value::Object(summaries),
-    );
-    a.insert(
-        "source_attributes".into(),
-        serde_json::Value::Object(src_attrs),
-    );
-    a.insert("reconstruction_error".into(), recon.clone());
-    if spec.normalise_to_analytic_total {
-        a.insert("value_normalisation".into(), "each profile (sigma, g, h') of the source channel was scaled so that its bins sum to the analytic scattered fraction 1 - exp(-sigma 2 sqrt(1 - h'^2)) before compression (ratio estimator; removes the error of the profile's overall level: Monte Carlo noise or the solver's energy-identity deviation); reconstruction_error is against the source as built, tensor_train_only against the scaled values".into());
-    }
-    let source_error = match &std_error {
-        Some(se) => {
-            let (mut s2, mut n2) = (0.0f64, 0.0f64);
-            for (s, v) in se.iter().zip(&raw_dense) {
-                s2 += s * s;
-                n2 += v * v;
-            }
-            json!({
-                "kind": "Monte Carlo standard error of the source table (channel std_error)",
-                "rel_frobenius": if n2 > 0.0 { (s2 / n2).sqrt() } else { 0.0 },
-                "per_entry_worst_rel_std_error": h.attributes.get("worst_rel_std_error")
-                    .and_then(|v| v.as_array())
-                    .map(|arr| quantiles(arr.iter().filter_map(|x| x.as_f64()).filter(|x| *x > 0.0).collect()))
-                    .unwrap_or(json!(null)),
-            })
-        }
-        None => {
-            let method = h
-                .attributes
-                .get("method")
-                .and_then(|m| m.as_str())
-                .unwrap_or("deterministic");
-            let median = h.attributes.get("solver_error_median");
-            let mut e = json!({
-                "kind": format!(
-                    "discretisation error of the {method} solver (source header solver_error{}); no sampling noise",
-                    if median.is_some() { ", solver_error_median" } else { "" }
-                ),
-                "solver_error": h.attributes.get("solver_error").cloned().unwrap_or(json!(null)),
+    /// Compress the dense source table of one family into its asset (a sealed-ready table with
+    /// provenance; write it with [`Table::to_bytes`]). The header records the source's content key
+    /// and errors, the compression settings and the measured reconstruction errors.
+    pub fn compress_asset_before(source: &Table, spec: &AssetSpec) -> Result<Table, FurError> {
+        let h = &source.header;
+        if h.schema.name != spec.family {
+            return Err(FurError::WrongSchema {
+                expected: spec.family,
+                found: h.schema.name.clone(),
             });
-            if let Some(m) = median {
-                e["solver_error_median"] = m.clone();
-            }
-            e
         }
-    };
-    a.insert("source_error".into(), source_error);
-    a.insert(
-        "source_parameters_digest".into(),
-        h.provenance.parameters_digest.clone().into(),
-    );
-    a.insert(
-        "source_manifest".into(),
-        "manifests/full/fur-medulla-assets.toml".into(),
-    );
-    a.insert("source_entry".into(), spec.source_table.into());
-    let mut parameters = json!({
-        "source_parameters_digest": h.provenance.parameters_digest,
-        "source_parameters": h.provenance.parameters,
-        "channel": spec.channel,
-        "rel_tol": spec.rel_tol,
-        "max_rank": spec.max_rank,
-        "log_floor_rel": spec.log_floor_rel,
-        "normalise_to_analytic_total": spec.normalise_to_analytic_total,
-    });
-    if let Some(b) = spec.core_mantissa_bits {
-        parameters["core_mantissa_bits"] = b.into();
+        let mut content = TableContent {
+            schema: h.schema.clone(),
+            description: h.description.clone(),
+            axes: h.axes.clone(),
+            channels: h.channels.clone(),
+            attributes: h.attributes.clone(),
+            data: source.data.clone(),
+        };
+        if spec.normalise_to_analytic_total {
+            normalise_azimuthal(&mut content, spec.channel)?;
+        }
+        let (mut tt, _) = match spec.log_floor_rel {
+            Some(f) => compress_table_log(&content, spec.channel, spec.rel_tol, spec.max_rank, f)?,
+            None => compress_table(&content, spec.channel, spec.rel_tol, spec.max_rank)?,
+        };
+        if let Some(bits) = spec.core_mantissa_bits {
+            for v in &mut tt.data {
+                *v = round_mantissa(*v, bits);
+            }
+        }
+        let dense = channel_values(&content, spec.channel)?;
+        // The source as built (before any normalisation): the asset's error against it.
+        let raw = TableContent {
+            data: source.data.clone(),
+            ..content.clone()
+        };
+        let raw_dense = channel_values(&raw, spec.channel)?;
+        let back = crate::fur::tt::reconstruct_table(&tt)?;
+        let approx: Vec<f64> = back.data.iter().map(|&v| f64::from(v)).collect();
+        let profile = if spec.family == "fur-medulla-longitudinal" {
+            2 * h.axes.last().map_or(1, |a| a.len())
+        } else {
+            h.axes.last().map_or(1, |a| a.len())
+        };
+        // Monte Carlo sources carry standard errors; deterministic ones (adding-doubling,
+        // characteristics) a discretisation error in `solver_error`.
+        let deterministic = h.attributes.contains_key("solver_error");
+        let std_error = if spec.family == "fur-medulla-azimuthal" && !deterministic {
+            Some(channel_values(&content, "std_error")?)
+        } else {
+            None
+        };
+        let mut recon = reconstruction_errors(&raw_dense, &approx, profile, std_error.as_deref());
+        if spec.normalise_to_analytic_total {
+            recon["tensor_train_only"] = reconstruction_errors(&dense, &approx, profile, None);
+            recon["normalisation_only"] =
+                reconstruction_errors(&raw_dense, &dense, profile, std_error.as_deref());
+        }
+        let a = &mut tt.attributes;
+        // The per-entry arrays of the source header are summarised, not copied (size).
+        let mut src_attrs = h.attributes.clone();
+        let mut summaries = serde_json::Map::new();
+        src_attrs.retain(|k, v| match v.as_array() {
+            Some(arr) => {
+                let vals: Vec<f64> = arr.iter().filter_map(|x| x.as_f64()).collect();
+                summaries.insert(k.clone(), quantiles(vals));
+                false
+            }
+            None => true,
+        });
+        src_attrs.insert(
+            "per_entry_arrays_summary".into(),
+            serde_json::Value::Object(summaries),
+        );
+        a.insert(
+            "source_attributes".into(),
+            serde_json::Value::Object(src_attrs),
+        );
+        a.insert("reconstruction_error".into(), recon.clone());
+        if spec.normalise_to_analytic_total {
+            a.insert("value_normalisation".into(), "each profile (sigma, g, h') of the source channel was scaled so that its bins sum to the analytic scattered fraction 1 - exp(-sigma 2 sqrt(1 - h'^2)) before compression (ratio estimator; removes the error of the profile's overall level: Monte Carlo noise or the solver's energy-identity deviation); reconstruction_error is against the source as built, tensor_train_only against the scaled values".into());
+        }
+        let source_error = match &std_error {
+            Some(se) => {
+                let (mut s2, mut n2) = (0.0f64, 0.0f64);
+                for (s, v) in se.iter().zip(&raw_dense) {
+                    s2 += s * s;
+                    n2 += v * v;
+                }
+                json!({
+                    "kind": "Monte Carlo standard error of the source table (channel std_error)",
+                    "rel_frobenius": if n2 > 0.0 { (s2 / n2).sqrt() } else { 0.0 },
+                    "per_entry_worst_rel_std_error": h.attributes.get("worst_rel_std_error")
+                        .and_then(|v| v.as_array())
+                        .map(|arr| quantiles(arr.iter().filter_map(|x| x.as_f64()).filter(|x| *x > 0.0).collect()))
+                        .unwrap_or(json!(null)),
+                })
+            }
+            None => {
+                let method = h
+                    .attributes
+                    .get("method")
+                    .and_then(|m| m.as_str())
+                    .unwrap_or("deterministic");
+                let median = h.attributes.get("solver_error_median");
+                let mut e = json!({
+                    "kind": format!(
+                        "discretisation error of the {method} solver (source header solver_error{}); no sampling noise",
+                        if median.is_some() { ", solver_error_median" } else { "" }
+                    ),
+                    "solver_error": h.attributes.get("solver_error").cloned().unwrap_or(json!(null)),
+                });
+                if let Some(m) = median {
+                    e["solver_error_median"] = m.clone();
+                }
+                e
+            }
+        };
+        a.insert("source_error".into(), source_error);
+        a.insert(
+            "source_parameters_digest".into(),
+            h.provenance.parameters_digest.clone().into(),
+        );
+        a.insert(
+            "source_manifest".into(),
+            "manifests/full/fur-medulla-assets.toml".into(),
+        );
+        a.insert("source_entry".into(), spec.source_table.into());
+        let mut parameters = json!({
+            "source_parameters_digest": h.provenance.parameters_digest,
+            "source_parameters": h.provenance.parameters,
+            "channel": spec.channel,
+            "rel_tol": spec.rel_tol,
+            "max_rank": spec.max_rank,
+            "log_floor_rel": spec.log_floor_rel,
+            "normalise_to_analytic_total": spec.normalise_to_analytic_total,
+        });
+        if let Some(b) = spec.core_mantissa_bits {
+            parameters["core_mantissa_bits"] = b.into();
+        }
+        let digest = crate::provenance::content_key("fur-medulla-tt", 1, &parameters);
+        let provenance = Provenance {
+            tool: "scatterbake".into(),
+            tool_version: env!("CARGO_PKG_VERSION").into(),
+            // No commit: the asset's bytes depend on its inputs only (reproducible).
+            git_commit: None,
+            manifest: Some("manifests/full/fur-medulla-assets.toml".into()),
+            entry: Some(spec.file.trim_end_matches(".sbt").into()),
+            stage: Some("fur-medulla-tt@1".into()),
+            parameters,
+            parameters_digest: digest,
+            created_utc: h.provenance.created_utc.clone(),
+        };
+        Table::from_content(tt, provenance).map_err(|e| FurError::TensorTrain(e.to_string()))
     }
-    let digest = crate::provenance::content_key("fur-medulla-tt", 1, &parameters);
-    let provenance = Provenance {
-        tool: "scatterbake".into(),
-        tool_version: env!("CARGO_PKG_VERSION").into(),
-        // No commit: the asset's bytes depend on its inputs only (reproducible).
-        git_commit: None,
-        manifest: Some("manifests/full/fur-medulla-assets.toml".into()),
-        entry: Some(spec.file.trim_end_matches(".sbt").into()),
-        stage: Some("fur-medulla-tt@1".into()),
-        parameters,
-        parameters_digest: digest,
-        created_utc: h.provenance.created_utc.clone(),
-    };
-    Table::from_content(tt, provenance).map_err(|e| FurError::TensorTrain(e.to_string()))
-}
-
 
     #[test]
     fn print_asset_digests() {
