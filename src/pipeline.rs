@@ -874,10 +874,13 @@ impl<'a> TaskRunner<'a> {
                 self.progress.table(name, TableStep::Written);
             }
             Err(e) => {
-                self.errors.lock().expect("lock").push(PipelineError::Finish {
-                    table: name.clone(),
-                    source: Box::new(e),
-                });
+                self.errors
+                    .lock()
+                    .expect("lock")
+                    .push(PipelineError::Finish {
+                        table: name.clone(),
+                        source: Box::new(e),
+                    });
                 self.progress.table(name, TableStep::Failed);
             }
         }
@@ -1097,5 +1100,89 @@ mod tests {
         assert!(alone.contains("out/index.json"), "{alone}");
         assert!(build_outcome(Vec::new(), Ok(())).is_ok());
         assert!(build_outcome(vec![task()], Ok(())).is_err());
+    }
+
+    /// Records what a build reports.
+    #[derive(Default)]
+    struct Recorder {
+        steps: Mutex<Vec<(String, TableStep)>>,
+        started: Mutex<Vec<(u64, String)>>,
+        advanced: AtomicUsize,
+        finished: AtomicUsize,
+    }
+
+    impl Progress for Recorder {
+        fn start(&self, total: u64, what: &str) {
+            self.started.lock().unwrap().push((total, what.to_string()));
+        }
+        fn advance(&self, n: u64) {
+            self.advanced.fetch_add(n as usize, Ordering::SeqCst);
+        }
+        fn table(&self, name: &str, step: TableStep) {
+            self.steps.lock().unwrap().push((name.to_string(), step));
+        }
+        fn finish(&self) {
+            self.finished.fetch_add(1, Ordering::SeqCst);
+        }
+    }
+
+    impl Recorder {
+        /// The steps of table `name`, in the order reported.
+        fn of(&self, name: &str) -> Vec<TableStep> {
+            let steps = self.steps.lock().unwrap();
+            steps
+                .iter()
+                .filter(|(n, _)| n == name)
+                .map(|&(_, s)| s)
+                .collect()
+        }
+    }
+
+    /// Every table's steps in order, every task once, for a whole build, a build with nothing
+    /// to do, and two shards (the first leaves `b` waiting for the second's tasks).
+    #[test]
+    fn a_build_reports_each_table_step_and_every_task() {
+        use TableStep::*;
+        let d = tempfile::tempdir().unwrap();
+        let m = d.path().join("m.toml");
+        std::fs::write(
+            &m,
+            "[[table]]\nname = \"a\"\nstage = \"water-index\"\n[table.params]\n\
+             wavelength_nm = [300.0, 1000.0, 1.0]\ntemperature_c = [20.0]\n\n\
+             [[table]]\nname = \"b\"\nstage = \"water-index\"\n[table.params]\n\
+             wavelength_nm = [300.0, 1000.0, 1.0]\ntemperature_c = [0.0, 10.0, 20.0]\n",
+        )
+        .unwrap();
+        let opts = |out: &str, shard: Option<Shard>| BuildOptions {
+            manifests: vec![m.clone()],
+            out_dir: d.path().join(out),
+            jobs: Some(2),
+            shard,
+            force: false,
+        };
+        let r = Recorder::default();
+        build(&opts("all", None), &r).unwrap();
+        assert_eq!(r.of("a"), [Computing { tasks: 1 }, Writing, Written]);
+        assert_eq!(r.of("b"), [Computing { tasks: 3 }, Writing, Written]);
+        assert_eq!(*r.started.lock().unwrap(), [(4, "tasks".to_string())]);
+        assert_eq!(r.advanced.load(Ordering::SeqCst), 4);
+        assert_eq!(r.finished.load(Ordering::SeqCst), 1);
+
+        let r = Recorder::default();
+        build(&opts("all", None), &r).unwrap();
+        assert_eq!(r.of("a"), [UpToDate]);
+        assert_eq!(r.of("b"), [UpToDate]);
+        assert_eq!(r.advanced.load(Ordering::SeqCst), 0);
+
+        // Global tasks a0 = 0, b0..b2 = 1..3: shard 0/2 computes a0 and b1.
+        let r = Recorder::default();
+        let report = build(&opts("sh", Some(Shard { index: 0, count: 2 })), &r).unwrap();
+        assert_eq!(r.of("a"), [Computing { tasks: 1 }, Writing, Written]);
+        assert_eq!(r.of("b"), [Computing { tasks: 1 }, Waiting]);
+        assert_eq!(report.tables_pending, ["b"]);
+        let r = Recorder::default();
+        build(&opts("sh", Some(Shard { index: 1, count: 2 })), &r).unwrap();
+        assert_eq!(r.of("a"), [UpToDate]);
+        assert_eq!(r.of("b"), [Computing { tasks: 2 }, Writing, Written]);
     }
 }

@@ -71,8 +71,14 @@ mod tests {
     #[test]
     fn steps_read_as_one_line() {
         let line = |s: TableStep| format!("w: {s}");
-        assert_eq!(line(TableStep::Computing { tasks: 1 }), "w: computing 1 task");
-        assert_eq!(line(TableStep::Computing { tasks: 6 }), "w: computing 6 tasks");
+        assert_eq!(
+            line(TableStep::Computing { tasks: 1 }),
+            "w: computing 1 task"
+        );
+        assert_eq!(
+            line(TableStep::Computing { tasks: 6 }),
+            "w: computing 6 tasks"
+        );
         assert_eq!(line(TableStep::UpToDate), "w: up to date");
         assert!(!line(TableStep::Waiting).contains('\n'));
     }

@@ -64,7 +64,10 @@ mod tests {
         assert_eq!(content_key("mie", 3, &a), content_key("mie", 3, &b));
         assert_ne!(content_key("mie", 3, &a), content_key("mie", 4, &a));
         assert_ne!(content_key("mie", 3, &a), content_key("debye", 3, &a));
-        assert_ne!(content_key("mie", 3, &a), content_key("mie", 3, &json!({"b": 2})));
+        assert_ne!(
+            content_key("mie", 3, &a),
+            content_key("mie", 3, &json!({"b": 2}))
+        );
         // SHA-256 of `{"algorithm_version":1,"parameters":{},"stage":"s"}`.
         assert_eq!(
             content_key("s", 1, &json!({})),

@@ -225,7 +225,10 @@ mod tests {
         };
         s.done = 5;
         let computing = TableStep::Computing { tasks: 4 };
-        assert_eq!(s.line("build", "w", computing), "build: w: computing 4 tasks");
+        assert_eq!(
+            s.line("build", "w", computing),
+            "build: w: computing 4 tasks"
+        );
         assert_eq!(
             s.line("build", "w", TableStep::Written),
             "build: w: written [5/12 tasks]"

@@ -21,10 +21,10 @@
 //! (other axes at their middle sample) or a line plot for 1-D tables.
 
 use super::style::{PALETTE, axis_label, short_number, wavelength_colour, xyz_colour};
+use crate::consumers::ConsumerError;
 use crate::consumers::read::operators::SunDisc;
 use crate::consumers::read::phase::{EntrySelection, PhaseCurves, PhaseTable};
 use crate::consumers::read::spectrum::{THETA_STEP_DEG, xyz_vs_angle};
-use crate::consumers::ConsumerError;
 use crate::progress::Progress;
 use crate::table::Table;
 use plotters::prelude::*;

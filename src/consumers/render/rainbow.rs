@@ -37,15 +37,15 @@
 //! `fov_deg` across the width) — the thesis does not say which fisheye mapping; we choose the
 //! equidistant one because bow radii can then be read off linearly.
 
+use crate::consumers::ConsumerError;
 use crate::consumers::read::phase::{EntrySelection, PhaseTable};
 pub use crate::consumers::read::spectrum::SunSpectrum;
 use crate::consumers::read::spectrum::{
     Polarisation, THETA_STEP_DEG, disc_average_spectrum, disc_samples, xyz_along, xyz_vs_angle_of,
 };
-use crate::consumers::ConsumerError;
-use crate::progress::Progress;
 use crate::math::vec3::{V3, cross, dot, normalize};
 use crate::optics::colour::{linear_srgb_luminance, srgb_encode, xyz_to_linear_srgb};
+use crate::progress::Progress;
 use rayon::prelude::*;
 
 /// Camera lens model.
@@ -596,8 +596,8 @@ pub fn table_bow_radius(xyz: &[[f64; 3]], lo_deg: f64, hi_deg: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::progress::Silent;
     use crate::consumers::synthetic::peak_table;
+    use crate::progress::Silent;
 
     fn cam() -> Camera {
         Camera {
