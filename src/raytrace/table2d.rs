@@ -663,7 +663,6 @@ impl SizeMix {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use rayon::prelude::*;
 
     /// A wavelength's fields are computed once for all its requests and dropped after the last.
     #[test]
@@ -690,5 +689,45 @@ mod tests {
         cache.get(650.0, 3, fields);
         assert_eq!(count(), 3);
         assert_eq!(cache.slots.lock().unwrap().len(), 2);
+    }
+
+    /// The airy-local domain (decision RT-33) on columns whose caustics are known: the
+    /// sphere's own GO columns are in it for both bows; a caustic three times weaker than the
+    /// sphere's is not (strength); a column whose `i_perp`, `i_par` do not carry the caustic its
+    /// order channel shows is not (the transfer would drive them negative).
+    #[test]
+    fn airy_domain_holds_on_the_sphere_and_not_on_foreign_caustics() {
+        let go = SphereGo::new(400.0, 650.0, 1.331, 3);
+        let step = 0.0125f64.to_radians();
+        let split = 0.5 * (go.rainbow_angle_rad(2).unwrap() + go.rainbow_angle_rad(3).unwrap());
+        let filter =
+            ColumnFilter::new(14401, step, filter_sigma_deg(0.4).to_radians(), split, true);
+        let transfer = sphere_airy_transfer(&go, &filter, step, 4);
+        let filter = filter.with_airy_transfer(transfer);
+        let rows = filter.needed_rows();
+        let domain = |cols: &[Vec<f64>]| {
+            let pos = filter.fold_positions(rows, cols, Some(4), Some(5));
+            filter.airy_domain(rows, cols, Some(4), Some(5), pos)
+        };
+        let sphere = sphere_columns(&go, &filter, step, 4, false);
+        assert_eq!(domain(&sphere), [true, true]);
+        let scaled = |f: &dyn Fn(usize) -> f64| -> Vec<Vec<f64>> {
+            sphere
+                .iter()
+                .enumerate()
+                .map(|(c, v)| v.iter().map(|x| x * f(c)).collect())
+                .collect()
+        };
+        assert_eq!(domain(&scaled(&|_| 0.3)), [false, false]);
+        assert_eq!(
+            domain(&scaled(&|c| if c < 2 { 0.01 } else { 1.0 })),
+            [false, false]
+        );
+        // Without a transfer (the gaussian model) no column is in the domain.
+        let plain = ColumnFilter::new(14401, step, 0.001, split, true);
+        assert_eq!(
+            plain.airy_domain(rows, &sphere, Some(4), Some(5), [None, None]),
+            [false, false]
+        );
     }
 }

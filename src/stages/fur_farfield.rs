@@ -619,7 +619,7 @@ mod tests {
         let common = "samples = [\"raccoon\"], theta_i_deg = [-40.0], theta_r_cells = 30, phi_cells = 60, h_samples = 100, medulla_rows = 5, medulla_bins = 120, photons = 4000, seed = 3, medulla_sigma_scaling = \"kappa_half\"";
         let run = |extra: &str| {
             let job = plan_str(&format!("{{ {common}{extra} }}")).unwrap();
-            let chunk = job.run_task(0).unwrap();
+            let chunk = job.run_task(0).unwrap().values;
             (job.parameters(), chunk)
         };
         let (p_fly, fly) = run(", medulla_source = \"monte-carlo\"");
