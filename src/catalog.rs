@@ -344,7 +344,7 @@ fn write_catalog(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::consumers::synthetic::henyey_greenstein_table;
+    use crate::fixtures::henyey_greenstein_table;
     use crate::table::write_table_atomic_sealed;
 
     /// The catalog of `dir` from reading every table (none listed from an earlier catalog).

@@ -9,7 +9,7 @@
 //! | 0 | `math`, `error`, `progress`, `provenance` | numerical primitives (interpolation, quadrature, 3-vectors); error pieces every layer shares (I/O failures with their path, cause chains); progress reports; canonical JSON and content keys |
 //! | 1 | `table` | the `.sbt` table file format (writer, reader, verifier, lookup API) |
 //! | 2 | `optics` | optics primitives shared by every stage (Fresnel, water index, colour, Henyey–Greenstein, Airy function) |
-//! | 3 | `mie`, `debye`, `raytrace`, `hair`, `fur`, `cloth` | physics, pure and free of I/O: Lorenz–Mie, Debye series and Airy theory, patch-based wave-optics ray tracing of raindrops, fibre lobes and Dual Scattering, fur medulla transport and far field, cloth |
+//! | 3 | `mie`, `debye`, `raytrace`, `hair`, `fur`, `cloth`, `fixtures` | physics, pure and free of I/O: Lorenz–Mie, Debye series and Airy theory, patch-based wave-optics ray tracing of raindrops, fibre lobes and Dual Scattering, fur medulla transport and far field, cloth; synthetic tables with analytically known properties for tests (feature `fixtures`) |
 //! | 4 | `stages`, `manifest`, `workdir`, `pipeline`, `catalog` | manifest parameters → jobs of pure tasks → tables: I/O, parallelism, resume, progress |
 //! | 5 | `consumers` | reading, exporting, plotting and rendering tables |
 //!
@@ -36,6 +36,10 @@ pub mod fur;
 pub mod hair;
 pub mod mie;
 pub mod raytrace;
+
+/// Synthetic tables with analytically known properties (tests, demos, other readers).
+#[cfg(any(test, feature = "fixtures"))]
+pub mod fixtures;
 
 pub mod catalog;
 pub mod manifest;

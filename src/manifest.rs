@@ -371,6 +371,56 @@ pub fn default_manifests(dir: &Path) -> std::io::Result<Vec<PathBuf>> {
 mod tests {
     use super::*;
 
+    /// Test helper: plan every entry of a manifest file (a relative path is taken from the package
+    /// root) with its registered stage, panicking with the manifest error; returns (table name,
+    /// job) pairs.
+    fn plan_manifest_file(path: &str) -> Vec<(String, Box<dyn Job>)> {
+        let full = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(path);
+        let text = std::fs::read_to_string(&full).unwrap_or_else(|e| panic!("{}: {e}", full.display()));
+        parse_manifest(std::path::Path::new(path), &text)
+            .unwrap_or_else(|e| panic!("{e}"))
+            .into_iter()
+            .map(|t| (t.name, t.job))
+            .collect()
+    }
+
+    /// The shipped hair manifests parse and plan (their tables build in the pipeline).
+    #[test]
+    fn shipped_hair_manifests_plan() {
+        for path in ["manifests/hair-dual.toml", "manifests/full/hair-dual.toml"] {
+            assert!(!plan_manifest_file(path).is_empty(), "{path}");
+        }
+    }
+
+    /// The shipped fur medulla manifests plan with the documented grids.
+    #[test]
+    fn shipped_manifests_plan_with_the_documented_grids() {
+        // (file, tasks of each table in order): Monte Carlo and adaptive one per (σ, g),
+        // characteristics one per σ, adding–doubling one per g.
+        for (file, tasks) in [
+            ("manifests/fur-medulla.toml", [9, 5]),
+            ("manifests/full/fur-medulla-full.toml", [1024, 1024]),
+            ("manifests/full/fur-medulla-thesis.toml", [64, 16]),
+        ] {
+            let jobs = plan_manifest_file(file);
+            assert_eq!(jobs.len(), 2, "{file}");
+            for ((_, job), n) in jobs.into_iter().zip(tasks) {
+                assert_eq!(job.tasks().len(), n, "{file}");
+                if file.contains("full/") {
+                    let p: crate::stages::fur_medulla::MedullaParams = serde_json::from_value(job.parameters()).unwrap();
+                    let sigma = p.sigma.points();
+                    assert_eq!((sigma.len(), sigma[0], sigma[63]), (64, 0.0, 20.0));
+                    assert!((sigma[1] - 20.0 / 63.0).abs() < 1e-12);
+                    let g = p.g.points();
+                    assert!((g[1] - 0.8 / 15.0).abs() < 1e-12 && g[15] == 0.8);
+                    let e = p.h.or(p.theta_i_deg).unwrap().points();
+                    assert_eq!(e.len(), 64);
+                }
+            }
+        }
+    }
+
+
     fn err(src: &str) -> ManifestError {
         match parse_manifest(Path::new("m.toml"), src) {
             Ok(_) => panic!("expected an error"),

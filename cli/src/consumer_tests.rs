@@ -6,7 +6,7 @@
 use crate::commands::export::{legendre, mieplot, mitsuba, rgb_lut};
 use crate::commands::{plot, plot_raytrace, render, validate};
 use clap::Parser;
-use scatterbake::consumers::synthetic;
+use scatterbake::fixtures;
 use scatterbake::table::write_table_atomic;
 use std::path::{Path, PathBuf};
 
@@ -24,7 +24,7 @@ fn parse<A: clap::Args>(argv: &[&str]) -> A {
 
 fn hg_table(dir: &Path) -> PathBuf {
     let p = dir.join("hg.sbt");
-    let mut t = synthetic::henyey_greenstein_table(
+    let mut t = fixtures::henyey_greenstein_table(
         &[450.0, 550.0, 650.0],
         &[100.0, 500.0],
         |k, r| 0.6 + 0.05 * k as f64 + 0.1 * r as f64,
@@ -231,7 +231,7 @@ fn plots_and_render_write_images_that_show_the_data() {
     let peak = dir.path().join("peak.sbt");
     let wl: Vec<f64> = (0..33).map(|i| 380.0 + 10.0 * i as f64).collect();
     write_table_atomic(
-        &mut synthetic::peak_table(&wl, |_| 138.0, 0.3, 1e-4, 1801),
+        &mut fixtures::peak_table(&wl, |_| 138.0, 0.3, 1e-4, 1801),
         &peak,
     )
     .unwrap();
@@ -341,8 +341,8 @@ fn previews_of_non_phase_tables() {
 fn render_and_plot_two_d_tables() {
     let dir = tempfile::tempdir().unwrap();
     let wl: Vec<f64> = (0..5).map(|i| 450.0 + 50.0 * i as f64).collect();
-    let t1 = synthetic::peak_table(&wl, |_| 138.0, 0.3, 1e-4, 1801);
-    let mut t2 = synthetic::lat_long_from_1d(&t1, &[0.0, 10.0, 20.0], 10.0, |_, _| 1.0);
+    let t1 = fixtures::peak_table(&wl, |_| 138.0, 0.3, 1e-4, 1801);
+    let mut t2 = fixtures::lat_long_from_1d(&t1, &[0.0, 10.0, 20.0], 10.0, |_, _| 1.0);
     let p2 = dir.path().join("sphere2d.sbt");
     write_table_atomic(&mut t2, &p2).unwrap();
     let out = dir.path().join("sky2d.png");
@@ -415,7 +415,7 @@ fn peak_pair(dir: &Path) -> (PathBuf, PathBuf) {
     let wl: Vec<f64> = (0..9).map(|i| 380.0 + 40.0 * i as f64).collect();
     let mut pair = vec![];
     for (name, sun) in [("disc.sbt", 0.5), ("point.sbt", 0.0)] {
-        let mut t = synthetic::peak_table(&wl, |w| 137.0 + w / 500.0, 0.3, 1e-4, 3601);
+        let mut t = fixtures::peak_table(&wl, |w| 137.0 + w / 500.0, 0.3, 1e-4, 3601);
         t.header
             .attributes
             .insert("sun_diameter_deg".into(), sun.into());

@@ -88,7 +88,7 @@ fn c_lookup_matches(dir: &Path, e: &Exported) {
         for name in NAMES {
             for c in 0..3 {
                 let v = e.channel(name, c);
-                let want = scatterbake::math::interp::interp1(&e.theta, &v, *a);
+                let want = scatterbake::table::interp::interp1(&e.theta, &v, *a);
                 let scale = v.iter().fold(0.0f64, |m, x| m.max(x.abs())).max(1e-300);
                 worst = worst.max((got[k] - want).abs() / scale);
                 k += 1;

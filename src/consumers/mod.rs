@@ -25,8 +25,6 @@ pub mod image;
 pub mod plot;
 pub mod read;
 pub mod render;
-#[cfg(any(test, feature = "fixtures"))]
-pub mod synthetic;
 pub mod validate;
 
 pub use error::ConsumerError;

@@ -1,9 +1,7 @@
-//! Numerical primitives with no physics in them, each once: interpolation and grid location,
-//! quadrature rules, 3-vectors, a seeded pseudo-random generator. The table reader and every
-//! layer above use them.
+//! Numerical primitives with no physics in them, each once: quadrature rules, 3-vectors, a
+//! seeded pseudo-random generator. Interpolation and grid location are defined once, beside the
+//! table reader that uses them: [`crate::table::interp`].
 
-/// Interpolation and grid location, defined beside the table reader that uses them.
-pub use scatterbake_table::interp;
 pub mod quadrature;
 pub mod rng;
 pub mod vec3;

@@ -22,7 +22,7 @@
 //!   + (2n+1)/(n(n+1)) Re(a_n b*_n)]`.
 
 use super::riccati::{RiccatiBessel, log_derivative_complex, n_stop_default};
-use super::{MieError, check_domain};
+use super::domain::{MieError, check_domain};
 use num_complex::Complex64;
 
 /// Mie coefficients of one sphere.

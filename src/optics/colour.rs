@@ -63,7 +63,7 @@ pub fn cie1931_xyz_bar(wavelength_nm: f64) -> [f64; 3] {
 /// Relative spectral power of CIE D65 (normalised to 100 at 560 nm); zero outside 380–780 nm.
 pub fn d65_spd(wavelength_nm: f64) -> f64 {
     let t = tables();
-    crate::math::interp::interp1_uniform(&t.d65, CMF_START_NM, 1.0, wavelength_nm)
+    crate::table::interp::interp1_uniform(&t.d65, CMF_START_NM, 1.0, wavelength_nm)
         * f64::from(u8::from((380.0..=780.0).contains(&wavelength_nm)))
 }
 

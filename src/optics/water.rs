@@ -114,7 +114,7 @@ impl WaterIndexModel {
             }
             WaterIndexModel::SadeghiTable32 => {
                 wavelength_within("sadeghi-table-3.2", wavelength_nm, 380.0, 700.0)?;
-                Ok(crate::math::interp::interp1_uniform(
+                Ok(crate::table::interp::interp1_uniform(
                     &SADEGHI_TABLE_3_2,
                     380.0,
                     10.0,

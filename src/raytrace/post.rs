@@ -42,7 +42,7 @@ pub fn filter_sigma_deg(radius_mm: f64) -> f64 {
     }
     let grid: Vec<f64> = t.iter().map(|r| r.0).collect();
     let vals: Vec<f64> = t.iter().map(|r| r.1).collect();
-    crate::math::interp::interp1(&grid, &vals, radius_mm)
+    crate::table::interp::interp1(&grid, &vals, radius_mm)
 }
 
 /// Gaussian blur of samples `values` given on the uniform polar grid `theta_j = start + j·step`
@@ -61,7 +61,7 @@ pub fn gaussian_blur(
         .map(|&th| {
             let s = sigma_at(th);
             if s <= 0.0 || n < 2 {
-                return crate::math::interp::interp1_uniform(values, start_rad, step_rad, th);
+                return crate::table::interp::interp1_uniform(values, start_rad, step_rad, th);
             }
             let c = (th - start_rad) / step_rad;
             let half = (4.0 * s / step_rad).ceil() as i64 + 1;

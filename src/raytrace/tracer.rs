@@ -38,7 +38,7 @@
 //! table.
 
 use super::shape::{DropShape, add, cross, dot, normalize, scale, sub};
-use crate::math::interp::interp1_uniform;
+use crate::table::interp::interp1_uniform;
 use crate::optics::fresnel::{fresnel_amplitudes_real, fresnel_power_consistent_real};
 use num_complex::{Complex32, Complex64};
 use rayon::prelude::*;

@@ -6,7 +6,7 @@
 //! length of the bin errors, the photons used and the achieved worst relative error), stored as
 //! header arrays.
 
-use super::MedullaJob;
+use super::job::MedullaJob;
 use crate::fur::medulla_fast::{AdaptiveSettings, simulate_adaptive};
 use crate::stages::{Chunk, Job, JobError, TaskSpec, check_chunks};
 use crate::table::TableContent;

@@ -6,7 +6,7 @@
 //! table layout and conventions are identical; only the header attributes that describe the
 //! method differ.
 
-use super::MedullaJob;
+use super::job::MedullaJob;
 use crate::fur::disc::{DiscSettings, DiscSolver};
 use crate::fur::medulla::Profile;
 use crate::stages::{Chunk, Job, JobError, TaskSpec, check_chunks};

@@ -4,7 +4,7 @@
 //! the Monte Carlo rows, so the table layout and conventions are identical. Only the header
 //! attributes that describe the method differ.
 
-use super::MedullaJob;
+use super::job::MedullaJob;
 use crate::fur::medulla::Profile;
 use crate::fur::slab::{SlabSettings, limit_shape, solve_slab};
 use crate::stages::{Chunk, Job, JobError, TaskSpec, check_chunks};

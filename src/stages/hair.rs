@@ -1145,17 +1145,3 @@ mod tests {
         }
     }
 }
-
-/// The shipped manifests parse and plan (their tables build in the pipeline).
-#[cfg(test)]
-mod manifest_tests {
-    #[test]
-    fn shipped_manifests_plan() {
-        for path in ["manifests/hair-dual.toml", "manifests/full/hair-dual.toml"] {
-            assert!(
-                !crate::stages::plan_manifest_file(path).is_empty(),
-                "{path}"
-            );
-        }
-    }
-}

@@ -39,3 +39,18 @@ pub fn registry() -> Vec<Box<dyn Stage>> {
 pub fn find(name: &str) -> Option<Box<dyn Stage>> {
     registry().into_iter().find(|s| s.name() == name)
 }
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn every_registered_stage_documents_distinct_parameters() {
+        for s in crate::stages::registry() {
+            let docs = s.parameters();
+            assert!(!docs.is_empty(), "{}", s.name());
+            let mut names: Vec<&str> = docs.iter().map(|d| d.name).collect();
+            names.sort_unstable();
+            names.dedup();
+            assert_eq!(names.len(), docs.len(), "{}: duplicate names", s.name());
+        }
+    }
+}

@@ -595,20 +595,6 @@ pub fn assert_planning(stage: &dyn Stage, rejected: &[&str], accepted: &[&str]) 
     }
 }
 
-/// Test helper: plan every entry of a manifest file (a relative path is taken from the package
-/// root) with its registered stage, panicking with the manifest error; returns (table name,
-/// job) pairs.
-#[cfg(test)]
-pub fn plan_manifest_file(path: &str) -> Vec<(String, Box<dyn Job>)> {
-    let full = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(path);
-    let text = std::fs::read_to_string(&full).unwrap_or_else(|e| panic!("{}: {e}", full.display()));
-    crate::manifest::parse_manifest(std::path::Path::new(path), &text)
-        .unwrap_or_else(|e| panic!("{e}"))
-        .into_iter()
-        .map(|t| (t.name, t.job))
-        .collect()
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -657,18 +643,6 @@ mod tests {
         assert!(e.to_string().contains("bogus"), "{e}");
         let e = parse("{ step_deg = 0.1 }").unwrap_err();
         assert!(e.to_string().contains("radii_um"), "{e}");
-    }
-
-    #[test]
-    fn every_registered_stage_documents_distinct_parameters() {
-        for s in crate::stages::registry() {
-            let docs = s.parameters();
-            assert!(!docs.is_empty(), "{}", s.name());
-            let mut names: Vec<&str> = docs.iter().map(|d| d.name).collect();
-            names.sort_unstable();
-            names.dedup();
-            assert_eq!(names.len(), docs.len(), "{}: duplicate names", s.name());
-        }
     }
 
     #[test]

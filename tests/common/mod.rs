@@ -6,7 +6,7 @@
 
 pub mod crafted;
 
-use scatterbake::consumers::synthetic::{henyey_greenstein_table, peak_table};
+use scatterbake::fixtures::{henyey_greenstein_table, peak_table};
 use scatterbake::table::{
     Axis, Channel, Provenance, Schema, Table, TableContent, write_table_atomic,
 };

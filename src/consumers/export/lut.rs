@@ -147,7 +147,7 @@ pub fn rgb_lut(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::consumers::synthetic::henyey_greenstein_table;
+    use crate::fixtures::henyey_greenstein_table;
 
     #[test]
     fn grey_table_gives_grey_lut_equal_to_the_phase_function() {
@@ -173,7 +173,7 @@ mod tests {
     #[test]
     fn out_of_gamut_colours_are_clamped_and_counted() {
         let wl: Vec<f64> = (0..33).map(|i| 380.0 + 10.0 * i as f64).collect();
-        let t = crate::consumers::synthetic::peak_table(
+        let t = crate::fixtures::peak_table(
             &wl,
             |l| 100.0 + (l - 380.0) / 4.0,
             0.3,

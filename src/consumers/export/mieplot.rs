@@ -546,7 +546,7 @@ pub fn read_mieplot_file(path: &Path) -> Result<MiePlotData, ConsumerError> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::consumers::synthetic::henyey_greenstein_table;
+    use crate::fixtures::henyey_greenstein_table;
 
     fn table() -> PhaseTable {
         let t = henyey_greenstein_table(

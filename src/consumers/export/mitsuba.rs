@@ -137,7 +137,7 @@ pub fn tabphase_point_values(angles_deg: &[f64], phase: &[f64], n: usize) -> Vec
     mu_grid(n)
         .into_iter()
         .map(|mu| {
-            crate::math::interp::interp1(angles_deg, phase, mu.clamp(-1.0, 1.0).acos().to_degrees())
+            crate::table::interp::interp1(angles_deg, phase, mu.clamp(-1.0, 1.0).acos().to_degrees())
         })
         .collect()
 }
@@ -148,7 +148,7 @@ pub fn mitsuba_eval(values: &[f64], mu: f64) -> f64 {
     let n = values.len();
     let h = 2.0 / (n - 1) as f64;
     let integral: f64 = values.windows(2).map(|w| 0.5 * (w[0] + w[1]) * h).sum();
-    let v = crate::math::interp::interp1_uniform(values, -1.0, h, mu);
+    let v = crate::table::interp::interp1_uniform(values, -1.0, h, mu);
     v / integral / (2.0 * PI)
 }
 
@@ -367,7 +367,7 @@ pub fn xml_snippet(lists: &[NamedList], source: &str) -> String {
 mod tests {
     use super::*;
     use crate::consumers::read::phase::PhaseTable;
-    use crate::consumers::synthetic::henyey_greenstein_table;
+    use crate::fixtures::henyey_greenstein_table;
     use crate::optics::henyey_greenstein::hg_density_sr;
 
     #[test]
@@ -406,7 +406,7 @@ mod tests {
     fn cell_averages_keep_the_power_of_a_narrow_forward_peak() {
         // 99 % of the power in a 0.03° wide forward peak (like a large drop's diffraction
         // lobe), 1 % spread isotropically.
-        let t = crate::consumers::synthetic::peak_table(&[550.0], |_| 0.0, 0.03, 1e-7, 36001);
+        let t = crate::fixtures::peak_table(&[550.0], |_| 0.0, 0.03, 1e-7, 36001);
         let c = PhaseTable::new(t).unwrap().curves(&[]).unwrap();
         let avg = tabphase_values(&c.angles_deg, &c.phase[0], 4096);
         let pts = tabphase_point_values(&c.angles_deg, &c.phase[0], 4096);
@@ -466,7 +466,7 @@ mod tests {
         // Peak at 138° for red light, 140° for blue: the red channel must peak at the smaller
         // angle.
         let wl: Vec<f64> = (0..33).map(|i| 380.0 + 10.0 * i as f64).collect();
-        let t = crate::consumers::synthetic::peak_table(
+        let t = crate::fixtures::peak_table(
             &wl,
             |l| 140.0 - 2.0 * (l - 450.0) / 200.0,
             0.3,

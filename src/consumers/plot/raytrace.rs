@@ -455,7 +455,7 @@ pub fn previews_2d(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::consumers::synthetic::{lat_long_from_1d, peak_table};
+    use crate::fixtures::{lat_long_from_1d, peak_table};
 
     #[test]
     fn bow_peaks_follow_the_table_and_pictures_are_written() {

@@ -251,7 +251,7 @@ pub fn resolve_axis_value(table: &Table, axis: usize, value: f64) -> Result<f64,
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::consumers::synthetic::henyey_greenstein_table;
+    use crate::fixtures::henyey_greenstein_table;
 
     fn table(sun: Option<f64>) -> Table {
         let mut t = henyey_greenstein_table(&[550.0], &[400.0, 500.0], |_, _| 0.5, 181, 0.0);

@@ -259,13 +259,13 @@ impl PhaseCurves {
     /// wavelengths at one angle: value = `v[j] (1 − t) + v[j + 1] t`. Needs ≥ 2 angles.
     pub fn locate_angle(&self, angle_deg: f64) -> (usize, f64) {
         match self.uniform_step {
-            Some(step) => crate::math::interp::locate_uniform(
+            Some(step) => crate::table::interp::locate_uniform(
                 self.angles_deg[0],
                 step,
                 self.angles_deg.len(),
                 angle_deg,
             ),
-            None => crate::math::interp::locate(&self.angles_deg, angle_deg),
+            None => crate::table::interp::locate(&self.angles_deg, angle_deg),
         }
     }
 
@@ -274,14 +274,14 @@ impl PhaseCurves {
     pub fn phase_at(&self, k: usize, angle_deg: f64) -> f64 {
         // Fast path for uniform grids (the contract's preferred layout); same formula.
         if let Some(step) = self.uniform_step {
-            return crate::math::interp::interp1_uniform(
+            return crate::table::interp::interp1_uniform(
                 &self.phase[k],
                 self.angles_deg[0],
                 step,
                 angle_deg,
             );
         }
-        crate::math::interp::interp1(&self.angles_deg, &self.phase[k], angle_deg)
+        crate::table::interp::interp1(&self.angles_deg, &self.phase[k], angle_deg)
     }
 }
 
@@ -455,7 +455,7 @@ mod tests {
         assert!(e.contains("raytrace-phase/3"), "{e}");
     }
 
-    use crate::consumers::synthetic::henyey_greenstein_table;
+    use crate::fixtures::henyey_greenstein_table;
 
     #[test]
     fn unknown_entry_axis_lists_the_entry_axes_with_their_ranges() {
@@ -478,7 +478,7 @@ mod tests {
 
     #[test]
     fn layout_errors_of_a_file_name_the_file() {
-        use crate::consumers::synthetic::{lat_long_from_1d, peak_table};
+        use crate::fixtures::{lat_long_from_1d, peak_table};
         let d = tempfile::tempdir().unwrap();
         let path = d.path().join("latlong.sbt");
         let one_d = peak_table(&[550.0], |_| 138.0, 0.3, 1e-3, 181);

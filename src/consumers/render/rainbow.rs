@@ -596,7 +596,7 @@ pub fn table_bow_radius(xyz: &[[f64; 3]], lo_deg: f64, hi_deg: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::consumers::synthetic::peak_table;
+    use crate::fixtures::peak_table;
     use crate::progress::Silent;
 
     fn cam() -> Camera {
@@ -838,7 +838,7 @@ mod tests {
     #[test]
     fn sphere_as_2d_table_renders_the_same_bow_as_1d() {
         let t1 = dispersive_1d();
-        let t2 = crate::consumers::synthetic::lat_long_from_1d(&t1, &[0.0, 10.0], 10.0, |_, _| 1.0);
+        let t2 = crate::fixtures::lat_long_from_1d(&t1, &[0.0, 10.0], 10.0, |_, _| 1.0);
         let pt = PhaseTable::new(t1).unwrap();
         let (sc, cam) = (horizon_scene(0.5), horizon_cam());
         let r1 = render(&pt, &[], &sc, &cam, &Silent).unwrap();
@@ -875,7 +875,7 @@ mod tests {
             );
         }
         // Elevations outside the table's axis are refused with the range in the message.
-        let t3 = crate::consumers::synthetic::lat_long_from_1d(
+        let t3 = crate::fixtures::lat_long_from_1d(
             &dispersive_1d(),
             &[0.0, 10.0],
             10.0,
@@ -902,8 +902,8 @@ mod tests {
         .unwrap();
         let f_sym = |_: f64, phi: f64| 1.0 + 0.8 * phi.to_radians().cos();
         let f_asym = |_: f64, phi: f64| 1.0 + 0.5 * phi.to_radians().sin();
-        let sym = crate::consumers::synthetic::lat_long_from_1d(&t1, &[0.0], 10.0, f_sym);
-        let asym = crate::consumers::synthetic::lat_long_from_1d(&t1, &[0.0], 10.0, f_asym);
+        let sym = crate::fixtures::lat_long_from_1d(&t1, &[0.0], 10.0, f_sym);
+        let asym = crate::fixtures::lat_long_from_1d(&t1, &[0.0], 10.0, f_asym);
         let rs = render_2d(&slice_of(sym, 0.0), &sc, &cam, &Silent).unwrap();
         let ra = render_2d(&slice_of(asym, 0.0), &sc, &cam, &Silent).unwrap();
         let (w, h) = (cam.width, cam.height);

@@ -147,7 +147,7 @@ mod tests {
     fn samples_are_honoured_or_refused() {
         let dir = tempfile::tempdir().unwrap();
         let table = dir.path().join("hg.sbt");
-        let mut t = scatterbake::consumers::synthetic::henyey_greenstein_table(
+        let mut t = scatterbake::fixtures::henyey_greenstein_table(
             &[450.0, 550.0, 650.0],
             &[1.0],
             |_, _| 0.7,

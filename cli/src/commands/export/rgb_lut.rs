@@ -118,7 +118,7 @@ pub fn run_lut(args: &LutArgs) -> anyhow::Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use scatterbake::consumers::synthetic::henyey_greenstein_table;
+    use scatterbake::fixtures::henyey_greenstein_table;
 
     /// The written PNG, decoded with the png crate and the documented formula, equals the LUT
     /// to 0.03 % everywhere (HG g = 0.9 spans almost 4 decades).
