@@ -17,7 +17,7 @@ Standalone use: copy this file and ``python/scatterbake_table.py`` (the pure-Pyt
 numpy + zstandard) side by side; inside the installed ``scatterbake`` package the library's own
 reader is used. Both read the same files and verify every checksum.
 
-Conventions (docs/consumers.md, "Mitsuba 3: 2-D tables"):
+Conventions (docs/consumers.md, "Mitsuba 3: 2-D tables as a phase function"):
 
 - The drops' symmetry axis is the world vector ``up`` (default (0, 0, 1)); the table's frame is
   rebuilt around it for every query, so no sun azimuth is needed.
@@ -38,6 +38,12 @@ Conventions (docs/consumers.md, "Mitsuba 3: 2-D tables"):
   [0, 180]°, whose azimuth axis does not start at 0°, with negative or non-finite phase values,
   an unknown schema version, a wavelength outside the table or an entry value that is not a
   stored sample is refused when the plugin is created (``ValueError``).
+- Normalisation (parameter ``normalise``, default true): the tables integrate to 1 as bin
+  sums; under the bilinear lookup the forward lobe's first node (a bin average over
+  [0, Δθ/2]) spreads over [0, Δθ] and ∫ p dΩ exceeds 1 (1.16 on a 0.25° grid). Every
+  (wavelength, sun elevation) is divided by its integral under the lookup
+  (``TableData.integral``), so an albedo-1 medium conserves energy; ``normalise = false``
+  keeps the stored values (as ``render rainbow``).
 - Colour (parameter ``mode``): ``"rgb"`` (RGB variants, default there): each linear-sRGB
   channel is Σ_k W_ck p_k over the table's wavelengths, W from the CIE 1931 2° colour-matching
   functions and a D65 sun integrated over each wavelength's cell (the weights of

@@ -149,6 +149,25 @@ def test_scalar_variant_agrees_with_llvm(table):
     np.testing.assert_allclose(out["scalar_rgb"], out["llvm_ad_rgb"], rtol=1e-3)
 
 
+def test_spectral_mode_is_the_table_at_each_sampled_wavelength(table):
+    """Spectral variant: each of Mitsuba's wavelengths reads the table there (linear between
+    the table's wavelengths, as mode mono); outside the table's 420–660 nm nothing scatters."""
+    rng = np.random.default_rng(11)
+    view = directions(16, rng)
+    light = np.tile([1.0, 0.0, 0.0], (16, 1))
+    mi.set_variant("llvm_ad_spectral")
+    ph = load(table)
+    m = interaction(view)
+    m.wavelengths = mi.Spectrum(480.0, 510.0, 600.0, 700.0)
+    ctx = mi.PhaseFunctionContext()
+    spectral = np.array(ph.eval_pdf(ctx, m, vec(light))[0]).T
+    for lane, wl in enumerate((480.0, 510.0, 600.0)):
+        mono = np.array(load(table, wavelength_nm=wl).eval_pdf(ctx, m, vec(light))[0]).T
+        np.testing.assert_allclose(spectral[:, lane], mono[:, lane], rtol=1e-5, atol=1e-9)
+    assert np.all(spectral[:, 3] == 0.0)
+    assert np.all(spectral[:, :3] > 0.0)
+
+
 def cell_quadrature(data, wi, sub_polar, sub_az=1):
     """World directions and solid angles of a sub_polar × sub_az grid (midpoints, uniform in
     cos θ and φ) in every table cell, in the frame of the incident direction −wi, and the cell
