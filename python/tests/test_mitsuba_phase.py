@@ -5,7 +5,7 @@ against `scatterbake render rainbow` of the same table.
 Needs the `mitsuba` wheel (3.9; .ci/run installs it) and, for its LLVM variant, an LLVM newer
 than Debian 12's default 15 (Dr.Jit 1.5's kernels do not compile with it; .ci/run installs
 libllvm19). The table is built by the command line of this checkout from
-python/tests/data/rainbow-2d-small.toml (a 0.5 mm Beard–Chuang drop, sun on the horizon).
+python/tests/data/rainbow-2d-small.toml (a 0.5 mm Beard–Chuang drop, sun at 0° and 10°).
 """
 
 import math
@@ -126,6 +126,19 @@ def test_eval_is_the_table_lookup_with_the_sun_on_the_light_side(table):
                       for k, x in ((1, 480.0), (2, 540.0)))
             for a in (345.0, 0.0)]
     assert v == pytest.approx(0.5 * (ends[0] + ends[1]), rel=2e-3)
+    # Light 4° above the horizon: linear between the (normalised) 0° and 10° slices.
+    integral_all = mitsuba_phase.TableData(t, "rgb").integral  # wavelength × elevation
+    e = math.radians(4.0)
+    light4 = np.stack([np.cos(az_sun) * math.cos(e), np.sin(az_sun) * math.cos(e),
+                       np.full(n, math.sin(e))], -1)
+    polar, az = table_angles(-light4, view)
+    keep = az < 345.0
+    slices = [np.array([[t.sample([500.0, w, el, p, a])[ic] / integral_all[k, ie]
+                         for k, w in enumerate(wl)] for p, a in zip(polar, az)]) @ weights.T
+              for ie, el in enumerate((0.0, 10.0))]
+    ref = 0.6 * slices[0] + 0.4 * slices[1]
+    got = np.array(rgb.eval_pdf(ctx, interaction(view), vec(light4))[0]).T
+    np.testing.assert_allclose(got[keep], ref[keep], rtol=2e-3, atol=1e-6 * ref.max())
 
 
 def test_scalar_variant_agrees_with_llvm(table):
@@ -196,6 +209,7 @@ def cell_quadrature(data, wi, sub_polar, sub_az=1):
 
 @pytest.mark.parametrize("mode,wi", [
     ("importance", [1.0, 0.0, 0.0]),  # light side wi: the sun on the horizon, the table itself
+    ("importance", [0.9945219, 0.0, 0.1045285]),  # sun 6° high: mixture of the 0° and 10° slices
     ("radiance", [0.6, 0.0, -0.8]),  # wi below the table's elevations: nearest elevation
 ])
 def test_sampling_density_is_the_pdf_and_integrates_to_one(table, mode, wi):
@@ -210,7 +224,7 @@ def test_sampling_density_is_the_pdf_and_integrates_to_one(table, mode, wi):
     w, solid, cell_of = cell_quadrature(data, wi, 2, 2)
     pdf = np.array(ph.eval_pdf(ctx, interaction(np.tile(wi, (len(w), 1))), vec(w))[1], dtype=float)
     assert np.sum(pdf * solid) == pytest.approx(1.0, abs=1e-4)
-    if mode == "importance":
+    if mode == "importance" and wi[2] == 0.0:
         # The value (each channel) integrates to 1 under the bilinear lookup (as stored:
         # 1.16). Quadrature: 16 midpoints in cos θ per cell, exact in φ; its error, all in the
         # forward lobe's first cell, is 0.24 % (1.1 % with 4 midpoints).
@@ -251,12 +265,12 @@ def test_refusals_and_the_elevation_range(table, tmp_path):
     other = ROOT / "assets" / "fur-medulla" / "fur-medulla-azimuthal.sbt"
     with pytest.raises(Exception, match="is not `raytrace-phase-2d`"):
         load(other)
-    # Light from 10° above the horizon: the table (sun at 0° only, tolerance 0.25°) has no
-    # value there, and the plugin scatters nothing rather than using the 0° slice.
+    # Light from 12° above the horizon: the table (sun 0°–10°, tolerance 0.25°) has no value
+    # there, and the plugin scatters nothing rather than using the 10° slice.
     ph = load(table)
     ctx = mi.PhaseFunctionContext()
     view = np.array([[-0.6, 0.0, 0.8], [-0.6, 0.0, 0.8]])
-    e = np.radians([10.0, 0.2])
+    e = np.radians([12.0, 10.2])
     light = np.stack([np.cos(e), np.zeros(2), np.sin(e)], -1)
     value = np.array(ph.eval_pdf(ctx, interaction(view), vec(light))[0]).T
     assert np.all(value[0] == 0.0)
