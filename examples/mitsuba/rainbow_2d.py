@@ -36,11 +36,15 @@ BOW_WINDOWS = (("primary", 36.0, 46.0), ("secondary", 48.0, 56.0))
 
 
 def load_plugin():
-    """Import the phase-function module as a standalone file with the pure-Python reader."""
-    sys.path.insert(0, str(ROOT / "python"))
-    sys.path.insert(0, str(ROOT / "python" / "scatterbake"))
-    import mitsuba_phase
-
+    """The phase-function module: from the installed ``scatterbake`` package, else this
+    checkout's file with the pure-Python reader (python/scatterbake_table.py)."""
+    try:
+        from scatterbake import mitsuba_phase
+    except ImportError:
+        for p in (ROOT / "python", ROOT / "python" / "scatterbake"):
+            if str(p) not in sys.path:
+                sys.path.append(str(p))
+        import mitsuba_phase
     return mitsuba_phase
 
 

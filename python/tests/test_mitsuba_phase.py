@@ -1,6 +1,7 @@
 """The Mitsuba 3 phase function for 2-D ray-traced tables (python/scatterbake/mitsuba_phase.py),
-used as a standalone file with the pure-Python reader, against the table's own lookup and
-against `scatterbake render rainbow` of the same table.
+used as a standalone file with the pure-Python reader, against the table's own lookup; and a
+render by examples/mitsuba/rainbow_2d.py (through the installed package and its reader when
+there is one) against `scatterbake render rainbow` of the same table.
 
 Needs the `mitsuba` wheel (3.9; .ci/run installs it) and, for its LLVM variant, an LLVM newer
 than Debian 12's default 15 (Dr.Jit 1.5's kernels do not compile with it; .ci/run installs
@@ -20,9 +21,10 @@ import pytest
 
 from conftest import ROOT, cli_path
 
-sys.path.insert(0, str(ROOT / "python"))
-sys.path.insert(0, str(ROOT / "python" / "scatterbake"))
-sys.path.insert(0, str(ROOT / "examples" / "mitsuba"))
+# Appended, so that `import scatterbake` keeps finding the installed package.
+sys.path.append(str(ROOT / "python"))
+sys.path.append(str(ROOT / "python" / "scatterbake"))
+sys.path.append(str(ROOT / "examples" / "mitsuba"))
 import mitsuba_phase  # noqa: E402
 import rainbow_2d  # noqa: E402
 import scatterbake_table  # noqa: E402
