@@ -530,8 +530,9 @@ def _make_class():
 
         def to_string(self):
             d = self.data
+            elevations = [float(e) for e in d.elevations_deg]
             return (
-                f"ScatterbakePhase2D[mode={d.mode}, sun_elevation={list(d.elevations_deg)} deg, "
+                f"ScatterbakePhase2D[mode={d.mode}, sun_elevation={elevations} deg, "
                 f"polar × azimuth = {len(d.polar_deg)} × {len(d.azimuth_deg)}, up={self.up}]"
             )
 
