@@ -10,7 +10,8 @@
 //!    Henyey–Greenstein, Airy function);
 //! 3. physics, pure and free of I/O: [`mie`] (Lorenz–Mie), [`debye`] (Debye series, Airy
 //!    theory), [`raytrace`] (patch-based wave-optics ray tracing of raindrops), [`hair`]
-//!    (fibre lobes, Dual Scattering), [`fur`] (medulla transport, far field);
+//!    (fibre lobes, Dual Scattering), [`fur`] (medulla transport, far field), [`cloth`]
+//!    (microcylinder cloth model);
 //! 4. [`stages`] (manifest parameters → jobs), [`manifest`], [`pipeline`] and [`catalog`]
 //!    (manifests → tasks → tables: I/O, parallelism, resume, progress);
 //! 5. [`consumers`]: reading, exporting, plotting and rendering tables.
@@ -26,6 +27,7 @@ pub mod table;
 
 pub mod optics;
 
+pub mod cloth;
 pub mod debye;
 pub mod fur;
 pub mod hair;

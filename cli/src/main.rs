@@ -56,6 +56,9 @@ enum Command {
     /// Dual Scattering averages for one hair parameter set, as JSON or CSV.
     #[command(name = "dual-scattering", visible_alias = "hair-json")]
     HairJson(crate::commands::hair::DualScatteringArgs),
+    /// Cloth BRDF (Sadeghi et al. 2013 microcylinder model) of a fabric preset at one pair of
+    /// directions, with its surface and volume lobes.
+    Cloth(crate::commands::cloth::ClothArgs),
     /// Compare a phase-function table with a MiePlot-style reference text file.
     Validate(crate::commands::mieplot::ValidateArgs),
     /// List stages with their parameters and defaults.
@@ -224,6 +227,7 @@ fn run(cmd: Command) -> Result<i32> {
         Command::MedullaAssets(a) => crate::commands::medulla::run_medulla_assets(&a).map(|_| 0),
         Command::HairLut(a) => crate::commands::hair::run_hair_lut(&a).map(|_| 0),
         Command::HairJson(a) => crate::commands::hair::run_dual_scattering(&a).map(|_| 0),
+        Command::Cloth(a) => crate::commands::cloth::run_cloth(&a).map(|_| 0),
         Command::Validate(a) => crate::commands::mieplot::run_validate(&a).map(|_| 0),
         Command::Stages => crate::commands::table::run_stages().map(|_| 0),
         Command::Catalog(a) => crate::commands::table::run_catalog(&a),

@@ -2,6 +2,7 @@
 //! calls the library.
 
 pub mod build;
+pub mod cloth;
 pub mod debye;
 pub mod hair;
 pub mod legendre;
