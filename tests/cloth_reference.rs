@@ -43,16 +43,6 @@ struct Row {
 
 fn fabric_rows(name: &str) -> [Row; 2] {
     let s = |b: [f64; 3], k: f64| b.map(|x| x * k);
-    let r = |eta, a, kd, gs, gv, cover, offsets, lengths| Row {
-        eta,
-        a,
-        kd,
-        gs,
-        gv,
-        cover,
-        offsets,
-        lengths,
-    };
     let satin = [1.0, 0.37, 0.30];
     match name {
         "linen_plain" => {
@@ -167,6 +157,29 @@ fn fabric_rows(name: &str) -> [Row; 2] {
             ]
         }
         _ => unreachable!(),
+    }
+}
+
+#[allow(clippy::too_many_arguments)]
+fn r(
+    eta: f64,
+    a: [f64; 3],
+    kd: f64,
+    gs: f64,
+    gv: f64,
+    cover: f64,
+    offsets: &'static [f64],
+    lengths: &'static [f64],
+) -> Row {
+    Row {
+        eta,
+        a,
+        kd,
+        gs,
+        gv,
+        cover,
+        offsets,
+        lengths,
     }
 }
 
@@ -754,7 +767,7 @@ fn printed_tol(v: f64) -> f64 {
 #[test]
 fn thread_f_s_matches_the_check_values() {
     let mut worst = 0.0f64;
-    for (name, q, expected) in THREAD_F_S {
+    for &(name, q, expected) in THREAD_F_S {
         let optics = preset(name).unwrap().families[0].optics;
         let q = q.map(f64::to_radians);
         let f = thread_bsdf(
@@ -811,7 +824,7 @@ fn thread_f_s_matches_the_independent_evaluation() {
 #[test]
 fn fabric_brdf_matches_the_check_values() {
     let mut worst = 0.0f64;
-    for (name, q, expected) in FABRIC_F {
+    for &(name, q, expected) in FABRIC_F {
         let m = model(name);
         let r = q.map(f64::to_radians);
         let f = m.eval_angles(r[0], r[1], r[2], r[3]).total();
