@@ -31,6 +31,7 @@ pub use scatterbake_table as table;
 
 pub mod optics;
 
+pub mod cloth;
 pub mod debye;
 pub mod fur;
 pub mod hair;

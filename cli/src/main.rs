@@ -60,6 +60,9 @@ enum Command {
     /// Dual Scattering averages for one hair parameter set, as JSON or CSV.
     #[command(visible_alias = "hair-json")]
     DualScattering(dual_scattering::DualScatteringArgs),
+    /// Cloth BRDF (Sadeghi et al. 2013 microcylinder model) of a fabric preset at one pair of
+    /// directions, with its surface and volume lobes.
+    Cloth(cloth::ClothArgs),
     /// Compare a phase-function table with a MiePlot-style reference text file.
     Validate(validate::ValidateArgs),
     /// List stages with their parameters and defaults.
@@ -109,6 +112,7 @@ fn run(cmd: Command) -> Result<i32> {
         Command::MedullaAssets(a) => medulla_assets::run_medulla_assets(&a).map(|_| 0),
         Command::HairLut(a) => hair_lut::run_hair_lut(&a).map(|_| 0),
         Command::DualScattering(a) => dual_scattering::run_dual_scattering(&a).map(|_| 0),
+        Command::Cloth(a) => cloth::run_cloth(&a).map(|_| 0),
         Command::Validate(a) => validate::run_validate(&a).map(|_| 0),
         Command::Stages => stages::run_stages().map(|_| 0),
         Command::Catalog(a) => catalog::run_catalog(&a),

@@ -2,6 +2,7 @@
 //! manifest entry's `[table.params]` into a [`Job`] (independent pure tasks plus an assemble
 //! step); the pipeline runs jobs. Each stage lives in its own module; this file lists them.
 
+pub mod cloth;
 mod common;
 pub mod debye;
 pub mod fur_farfield;
@@ -32,6 +33,7 @@ pub fn registry() -> Vec<Box<dyn Stage>> {
         Box::new(crate::stages::mixture::MixtureStage),
         Box::new(crate::stages::mixture_2d::Mixture2dStage),
         Box::new(crate::stages::fur_farfield::FurFarFieldStage),
+        Box::new(crate::stages::cloth::ClothStage),
     ]
 }
 

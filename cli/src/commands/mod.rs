@@ -5,6 +5,7 @@
 pub mod airy;
 pub mod build;
 pub mod catalog;
+pub mod cloth;
 pub mod dual_scattering;
 pub mod export;
 pub mod hair_lut;

@@ -1,0 +1,265 @@
+//! `cloth` stage: the microcylinder cloth BRDF of Sadeghi et al. 2013 (thesis ch. 5) of one
+//! fabric preset on a 4-D angle grid, with sampling CDFs, the directional albedo in the header
+//! and the energy verdict. Physics and grids: [`crate::cloth`]; layout: `docs/cloth.md`.
+
+use crate::cloth::tabulate::{
+    AngleGrid, CHANNELS, EnergyMode, albedo_summary, interpolation_error, lookup_rgb, tabulate_row,
+};
+use crate::cloth::{ClothModel, ModelOptions, PRESET_NAMES, preset};
+use crate::stages::{
+    Chunk, Job, JobError, PlanError, StageSpec, TaskSpec, check_chunks, stage_params,
+};
+use crate::table::{Axis, Channel, Schema, TableContent};
+
+/// The stage.
+pub struct ClothStage;
+
+stage_params! {
+    /// Parameters of `[table.params]`.
+    pub struct ClothParams {
+        /// Fabric preset.
+        pub fabric: String = required, "string",
+            "linen_plain, silk_crepe_de_chine, polyester_satin_front, polyester_satin_back, silk_shot or velvet";
+        /// Angle step of the grid, degrees.
+        pub step_deg: f64 = default(5.0), "float, deg",
+            "grid step of θ_i, φ_i, θ_r, φ_r; must divide 90";
+        /// Tangent quadrature step, degrees.
+        pub ramp_step_deg: f64 = default(1.0), "float, deg",
+            "largest step in tangent elevation on the ramps of the tangent curves";
+        /// Energy handling near grazing incidence.
+        pub energy: String = default("as-printed".to_string()), "string",
+            "as-printed (the thesis's model; albedo > 1 near grazing) or clamp (rows scaled to albedo ≤ 1)";
+        /// Points of the interpolation-error estimate.
+        pub check_points: usize = default(2000), "integer",
+            "off-grid points where the table is compared with the model evaluated directly";
+    }
+}
+
+impl StageSpec for ClothStage {
+    const NAME: &'static str = "cloth";
+    const VERSION: u32 = 1;
+    const SUMMARY: &'static str = "microcylinder cloth BRDF (Sadeghi et al. 2013) of a fabric preset, with sampling CDFs and albedo";
+    type Params = ClothParams;
+    fn plan_params(&self, p: ClothParams) -> Result<Box<dyn Job>, PlanError> {
+        let fabric = preset(&p.fabric).map_err(|e| PlanError::invalid("fabric", e.to_string()))?;
+        let grid = AngleGrid::new(fabric.symmetry(), p.step_deg)
+            .map_err(|e| PlanError::invalid("step_deg", e.to_string()))?;
+        if !(p.ramp_step_deg > 0.0 && p.ramp_step_deg <= 10.0) {
+            return Err(PlanError::invalid("ramp_step_deg", "must be in (0, 10]"));
+        }
+        let energy = match p.energy.as_str() {
+            "as-printed" => EnergyMode::AsPrinted,
+            "clamp" => EnergyMode::Clamp,
+            _ => return Err(PlanError::invalid("energy", "must be as-printed or clamp")),
+        };
+        let options = ModelOptions {
+            ramp_step_deg: p.ramp_step_deg,
+            ..ModelOptions::default()
+        };
+        Ok(Box::new(ClothJob {
+            model: ClothModel::new(fabric, options),
+            grid,
+            energy,
+            p,
+        }))
+    }
+}
+
+/// A planned cloth table.
+pub struct ClothJob {
+    p: ClothParams,
+    model: ClothModel,
+    grid: AngleGrid,
+    energy: EnergyMode,
+}
+
+impl ClothJob {
+    /// Values of one task: the θ_i row, then per φ_i the albedo (RGB) and the energy scale.
+    /// Scalars of a task: the RGB directional albedo and the energy scale per φ_i.
+    fn scalars_len(&self) -> usize {
+        4 * self.grid.phi_i_deg.len()
+    }
+}
+
+impl Job for ClothJob {
+    fn parameters(&self) -> serde_json::Value {
+        serde_json::to_value(&self.p).expect("params serialise")
+    }
+    fn tasks(&self) -> Vec<TaskSpec> {
+        self.grid
+            .theta_deg
+            .iter()
+            .map(|t| TaskSpec {
+                label: format!("{} θ_i={t}°", self.p.fabric),
+                params: serde_json::json!({ "theta_i_deg": t }),
+            })
+            .collect()
+    }
+    fn run_task(&self, index: usize) -> Result<Chunk, JobError> {
+        let row = tabulate_row(&self.model, &self.grid, index, self.energy);
+        let mut scalars = Vec::with_capacity(self.scalars_len());
+        for (a, s) in row.albedo.iter().zip(&row.scale) {
+            scalars.extend(a);
+            scalars.push(*s);
+        }
+        Ok(Chunk::new(row.values, scalars))
+    }
+    fn payload_bytes(&self) -> Option<u64> {
+        Some(crate::stages::f32_payload_bytes(&[
+            self.grid.theta_deg.len(),
+            self.grid.row_len(),
+        ]))
+    }
+    fn assemble(&self, chunks: Vec<Chunk>) -> Result<TableContent, JobError> {
+        let n = self.grid.row_len();
+        check_chunks(&chunks, self.grid.theta_deg.len(), n, self.scalars_len())?;
+        let mut data = Vec::with_capacity(n * chunks.len());
+        let (mut albedo, mut scale) = (Vec::new(), Vec::new());
+        for c in &chunks {
+            data.extend_from_slice(&c.values);
+            let tail: Vec<[f64; 4]> = c
+                .scalars
+                .chunks(4)
+                .map(|x| [x[0], x[1], x[2], x[3]])
+                .collect();
+            albedo.push(tail.iter().map(|x| [x[0], x[1], x[2]]).collect::<Vec<_>>());
+            scale.push(tail.iter().map(|x| x[3]).collect::<Vec<_>>());
+        }
+        let attributes = self.attributes(&data, &albedo, &scale)?;
+        let g = &self.grid;
+        let theta =
+            |name: &str| Axis::uniform(name, "deg", g.theta_deg[0], g.step_deg, g.theta_deg.len());
+        Ok(TableContent {
+            schema: Schema::new("cloth-brdf", 1),
+            description: format!(
+                "cloth BRDF f(omega_i -> omega_r) of {} (Sadeghi et al. 2013), 1/sr, with sampling CDFs",
+                self.p.fabric
+            ),
+            axes: vec![
+                theta("theta_i"),
+                Axis::uniform(
+                    "phi_i",
+                    "deg",
+                    g.phi_i_deg[0],
+                    g.step_deg,
+                    g.phi_i_deg.len(),
+                ),
+                theta("theta_r"),
+                Axis::uniform("phi_r", "deg", -180.0, g.step_deg, g.phi_r_deg.len()),
+            ],
+            channels: channels(),
+            attributes,
+            data,
+        })
+    }
+}
+
+fn channels() -> Vec<Channel> {
+    let meaning = [
+        "BRDF, red (linear Rec. 709), 1/sr",
+        "BRDF, green, 1/sr",
+        "BRDF, blue, 1/sr",
+        "marginal CDF over theta_r cells of the luminance-weighted cosine BRDF (value at the cell's upper edge)",
+        "conditional CDF over phi_r given the theta_r cell (value at this phi_r node)",
+    ];
+    CHANNELS
+        .iter()
+        .zip(meaning)
+        .map(|(n, m)| Channel::new(n, if n.starts_with("cdf") { "1" } else { "1/sr" }, m))
+        .collect()
+}
+
+impl ClothJob {
+    /// Header attributes: frame, readings, symmetry, albedo grid, energy verdict and the
+    /// measured interpolation error.
+    fn attributes(
+        &self,
+        data: &[f32],
+        albedo: &[Vec<[f64; 3]>],
+        scale: &[Vec<f64>],
+    ) -> Result<serde_json::Map<String, serde_json::Value>, JobError> {
+        use crate::table::interp::{locate, multilinear};
+        let g = &self.grid;
+        let summary = albedo_summary(g, albedo);
+        let clamp = self.energy == EnergyMode::Clamp;
+        let scale_at = |t: f64, p: f64| {
+            let pos = [locate(&g.theta_deg, t), locate(&g.phi_i_deg, p)];
+            let n_p = g.phi_i_deg.len();
+            multilinear(&pos, &[g.theta_deg.len(), n_p], |k| scale[k / n_p][k % n_p])
+        };
+        let (l2, max) = interpolation_error(
+            &self.model,
+            g,
+            self.p.check_points,
+            |q| lookup_rgb(g, data, q),
+            scale_at,
+        );
+        let sym = self.model.fabric().symmetry();
+        let value = serde_json::json!({
+            "model": "Sadeghi, Bisker, De Deken & Jensen 2013 microcylinder cloth model (thesis ch. 5, eqs. 5.6-5.20); readings CLOTH-1..CLOTH-12 of docs/decisions.md",
+            "fabric": self.p.fabric,
+            "presets": PRESET_NAMES,
+            "frame": "cloth normal +z, warp (family 1) +x, weft +y; theta from the normal, phi from +x toward +y; omega_i toward the light (the model is not reciprocal: do not swap)",
+            "symmetry": {
+                "mirror_x": sym.mirror_x, "mirror_y": sym.mirror_y, "swap_xy": sym.swap_xy,
+                "phi_i_domain_deg": [g.phi_i_deg[0], g.phi_i_deg[g.phi_i_deg.len() - 1]],
+                "reduce": "apply the same mirrors to phi_i and phi_r until phi_i lies in the domain: y->-y (phi -> -phi), x->-x (phi -> 180-phi), x<->y (phi -> 90-phi)",
+            },
+            "grid": "theta_i, theta_r at cell centres (k+1/2)*step; phi_i nodes over the domain; phi_r nodes -180..180 with the last repeating the first",
+            "interpolation": "multilinear",
+            "interpolation_error_l2_relative": l2,
+            "interpolation_error_max_over_peak": max,
+            "interpolation_check_points": self.p.check_points,
+            "energy": if clamp { "clamp" } else { "as-printed" },
+            "energy_conserving": clamp || summary.max <= 1.0,
+            "albedo_max_as_printed": summary.max,
+            "albedo_above_one_from_theta_i_deg": summary.above_one_from_theta_i_deg,
+            "albedo_average_rgb_as_printed": summary.average,
+            "albedo_rgb_as_printed": albedo,
+            "albedo_layout": "[theta_i][phi_i][rgb] at the table's theta_i and phi_i nodes, directional albedo of the model as printed",
+            "energy_scale": scale,
+            "sampling": "pick a theta_r cell by cdf_theta_r, a phi_r interval by cdf_phi_r, place omega_r uniformly in (theta_r, phi_r) inside; pdf = w_cell / (W dtheta dphi sin theta_r)",
+            "tangent_nodes": [self.model.nodes()[0].len(), self.model.nodes()[1].len()],
+        });
+        match value {
+            serde_json::Value::Object(m) => Ok(m),
+            _ => unreachable!("json! of an object literal is an object"),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::stages::run_in_memory;
+
+    fn plan(toml_text: &str) -> Result<Box<dyn Job>, PlanError> {
+        let params: ClothParams = toml::from_str(toml_text).map_err(PlanError::from)?;
+        ClothStage.plan_params(params)
+    }
+
+    #[test]
+    fn bad_parameters_are_refused() {
+        assert!(plan("fabric = \"denim\"").is_err());
+        assert!(plan("fabric = \"velvet\"\nstep_deg = 7.0").is_err());
+        assert!(plan("fabric = \"velvet\"\nenergy = \"fudge\"").is_err());
+    }
+
+    #[test]
+    fn coarse_table_of_linen() {
+        let job = plan("fabric = \"linen_plain\"\nstep_deg = 15.0\ncheck_points = 50").unwrap();
+        let t = run_in_memory(job.as_ref()).unwrap();
+        assert_eq!(
+            t.axes.iter().map(|a| a.len()).collect::<Vec<_>>(),
+            [6, 4, 6, 25]
+        );
+        assert!(t.data.iter().all(|v| v.is_finite() && *v >= 0.0));
+        assert_eq!(t.attributes["energy_conserving"], true);
+        assert!(
+            t.attributes["interpolation_error_l2_relative"]
+                .as_f64()
+                .unwrap()
+                > 0.0
+        );
+    }
+}
