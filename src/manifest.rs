@@ -376,7 +376,8 @@ mod tests {
     /// job) pairs.
     fn plan_manifest_file(path: &str) -> Vec<(String, Box<dyn Job>)> {
         let full = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(path);
-        let text = std::fs::read_to_string(&full).unwrap_or_else(|e| panic!("{}: {e}", full.display()));
+        let text =
+            std::fs::read_to_string(&full).unwrap_or_else(|e| panic!("{}: {e}", full.display()));
         parse_manifest(std::path::Path::new(path), &text)
             .unwrap_or_else(|e| panic!("{e}"))
             .into_iter()
@@ -407,7 +408,8 @@ mod tests {
             for ((_, job), n) in jobs.into_iter().zip(tasks) {
                 assert_eq!(job.tasks().len(), n, "{file}");
                 if file.contains("full/") {
-                    let p: crate::stages::fur_medulla::MedullaParams = serde_json::from_value(job.parameters()).unwrap();
+                    let p: crate::stages::fur_medulla::MedullaParams =
+                        serde_json::from_value(job.parameters()).unwrap();
                     let sigma = p.sigma.points();
                     assert_eq!((sigma.len(), sigma[0], sigma[63]), (64, 0.0, 20.0));
                     assert!((sigma[1] - 20.0 / 63.0).abs() < 1e-12);
@@ -419,7 +421,6 @@ mod tests {
             }
         }
     }
-
 
     fn err(src: &str) -> ManifestError {
         match parse_manifest(Path::new("m.toml"), src) {

@@ -96,6 +96,15 @@ fn fabric_rows(name: &str) -> [Row; 2] {
                 &[1.0],
             ),
         ],
+        _ => more_fabric_rows(name),
+    }
+}
+
+/// The rows of the fabrics after the satin front (Table 5.2 and Table E.1, continued).
+fn more_fabric_rows(name: &str) -> [Row; 2] {
+    let s = |b: [f64; 3], k: f64| b.map(|x| x * k);
+    let satin = [1.0, 0.37, 0.30];
+    match name {
         "polyester_satin_back" => [
             r(
                 1.539,
@@ -943,8 +952,8 @@ fn symmetry_error(name: &str, map: impl Fn([f64; 3]) -> [f64; 3]) -> f64 {
     let mut worst = 0.0f64;
     for k in 0..8 {
         let x = |p: usize| ((k * p + 5) % 101) as f64 / 101.0;
-        let wi = scatterbake::cloth::direction(x(7) * 1.4, x(11) * 6.28);
-        let wr = scatterbake::cloth::direction(x(13) * 1.4, x(17) * 6.28);
+        let wi = scatterbake::cloth::direction(x(7) * 1.4, x(11) * std::f64::consts::TAU);
+        let wr = scatterbake::cloth::direction(x(13) * 1.4, x(17) * std::f64::consts::TAU);
         let a = m.eval(wi, wr).total();
         let b = m.eval(map(wi), map(wr)).total();
         worst = worst.max(rel(b[1], a[1]));

@@ -21,8 +21,8 @@
 //! - `g = (4/(x² Q_sca)) Σ [n(n+2)/(n+1) Re(a_n a*_{n+1} + b_n b*_{n+1})
 //!   + (2n+1)/(n(n+1)) Re(a_n b*_n)]`.
 
-use super::riccati::{RiccatiBessel, log_derivative_complex, n_stop_default};
 use super::domain::{MieError, check_domain};
+use super::riccati::{RiccatiBessel, log_derivative_complex, n_stop_default};
 use num_complex::Complex64;
 
 /// Mie coefficients of one sphere.

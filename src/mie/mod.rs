@@ -42,7 +42,6 @@ pub use domain::{
 
 use num_complex::Complex64;
 
-
 /// The two backscattering conventions, as labelled wherever both are printed.
 pub const Q_BACK_CONVENTIONS: &str = "q_back: radar convention, 4 pi (dC_sca/dOmega at 180 deg) / (pi r^2) = |sum_n (2n+1) (-1)^n (a_n - b_n)|^2 / x^2 = 4 |S1(180)|^2 / x^2; q_back_per_sr: per steradian (MiePlot), (dC_sca/dOmega at 180 deg) / (pi r^2) = q_back / (4 pi) = |S1(180)|^2 / (pi x^2)";
 

@@ -38,8 +38,8 @@
 //! table.
 
 use super::shape::{DropShape, add, cross, dot, normalize, scale, sub};
-use crate::table::interp::interp1_uniform;
 use crate::optics::fresnel::{fresnel_amplitudes_real, fresnel_power_consistent_real};
+use crate::table::interp::interp1_uniform;
 use num_complex::{Complex32, Complex64};
 use rayon::prelude::*;
 use std::f64::consts::{FRAC_PI_2, PI};

@@ -27,8 +27,8 @@ use crate::stages::{Job, ParamDoc, PlanError, StageParams, StageSpec};
 
 #[path = "fur_medulla_job.rs"]
 mod job;
-pub use job::{Grid, MedullaParams, Method};
 use job::{Family, MedullaJob};
+pub use job::{Grid, MedullaParams, Method};
 
 #[path = "fur_medulla_adaptive.rs"]
 mod adaptive_job;

@@ -520,4 +520,3 @@ impl MedullaJob {
         Ok(a)
     }
 }
-

@@ -173,13 +173,7 @@ mod tests {
     #[test]
     fn out_of_gamut_colours_are_clamped_and_counted() {
         let wl: Vec<f64> = (0..33).map(|i| 380.0 + 10.0 * i as f64).collect();
-        let t = crate::fixtures::peak_table(
-            &wl,
-            |l| 100.0 + (l - 380.0) / 4.0,
-            0.3,
-            1e-6,
-            3601,
-        );
+        let t = crate::fixtures::peak_table(&wl, |l| 100.0 + (l - 380.0) / 4.0, 0.3, 1e-6, 3601);
         let pt = PhaseTable::new(t).unwrap();
         let disc = SunDisc::plan(&pt.table, Some(0.0)).unwrap();
         let lut = rgb_lut(&pt, &[], &disc, 1801).unwrap();

@@ -137,7 +137,11 @@ pub fn tabphase_point_values(angles_deg: &[f64], phase: &[f64], n: usize) -> Vec
     mu_grid(n)
         .into_iter()
         .map(|mu| {
-            crate::table::interp::interp1(angles_deg, phase, mu.clamp(-1.0, 1.0).acos().to_degrees())
+            crate::table::interp::interp1(
+                angles_deg,
+                phase,
+                mu.clamp(-1.0, 1.0).acos().to_degrees(),
+            )
         })
         .collect()
 }

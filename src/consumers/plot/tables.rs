@@ -729,8 +729,7 @@ mod tests {
         plot_debye_components(&PhaseTable::new(t).unwrap(), &[], 650.0, &out, (600, 400)).unwrap();
         assert!(std::fs::metadata(&out).unwrap().len() > 1000);
         let wl: Vec<f64> = vec![450.0, 650.0];
-        let hg =
-            crate::fixtures::henyey_greenstein_table(&wl, &[1.0], |_, _| 0.5, 181, 0.0);
+        let hg = crate::fixtures::henyey_greenstein_table(&wl, &[1.0], |_, _| 0.5, 181, 0.0);
         let e = plot_debye_components(&PhaseTable::new(hg).unwrap(), &[], 650.0, &out, (600, 400))
             .unwrap_err();
         assert!(e.to_string().contains("phase_p"), "{e}");

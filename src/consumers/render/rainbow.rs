@@ -875,12 +875,8 @@ mod tests {
             );
         }
         // Elevations outside the table's axis are refused with the range in the message.
-        let t3 = crate::fixtures::lat_long_from_1d(
-            &dispersive_1d(),
-            &[0.0, 10.0],
-            10.0,
-            |_, _| 1.0,
-        );
+        let t3 =
+            crate::fixtures::lat_long_from_1d(&dispersive_1d(), &[0.0, 10.0], 10.0, |_, _| 1.0);
         let t3 = crate::consumers::read::phase2d::Phase2dTable::new(t3).unwrap();
         let err = t3.resolve_elevation(Some(25.0)).unwrap_err().to_string();
         assert!(err.contains("[0, 10]"), "{err}");
