@@ -208,23 +208,11 @@ pub fn run_dual_scattering(args: &DualScatteringArgs) -> anyhow::Result<()> {
 mod tests {
     use super::*;
 
-    /// A `hair-dual/1` table of the stage parameters `toml_src`, written to `dir/name`.
-    fn write_table(dir: &std::path::Path, toml_src: &str, name: &str) -> PathBuf {
-        use scatterbake::table::{Provenance, write_table_atomic};
-        let params: HairDualParams = toml::from_str(toml_src).unwrap();
-        let job = HairDualJob::new(params).unwrap();
-        let content = scatterbake::stages::run_in_memory(&job).unwrap();
-        let mut table = Table::from_content(content, Provenance::default()).unwrap();
-        let path = dir.join(name);
-        write_table_atomic(&mut table, &path).unwrap();
-        path
-    }
-
     /// End to end through the `.sbt` format: the runner reads a written one-colour table.
     #[test]
     fn runner_works_from_sbt_files() {
         let dir = tempfile::tempdir().unwrap();
-        let one = write_table(
+        let one = crate::consumer_tests::write_hair_dual_table(
             dir.path(),
             "sigma_a_rgb = [0.1, 0.2, 0.4]\ntheta_count = 5",
             "one.sbt",
@@ -256,7 +244,7 @@ mod tests {
             serde_json::from_str(&std::fs::read_to_string(&json_path).unwrap()).unwrap();
         assert_eq!(j["theta_deg"][2].as_f64().unwrap(), 0.0);
         // A LUT table is not a one-colour table: the JSON export refuses it.
-        let lut = write_table(
+        let lut = crate::consumer_tests::write_hair_dual_table(
             dir.path(),
             "roughness_deg = [5.0, 10.0]\nabsorption_count = 4\ntheta_count = 5",
             "lut.sbt",

@@ -122,25 +122,12 @@ pub fn run_hair_lut(args: &HairLutArgs) -> anyhow::Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use scatterbake::stages::hair::{HairDualJob, HairDualParams};
-
-    /// A `hair-dual/1` table of the stage parameters `toml_src`, written to `dir/name`.
-    fn write_table(dir: &std::path::Path, toml_src: &str, name: &str) -> PathBuf {
-        use scatterbake::table::{Provenance, write_table_atomic};
-        let params: HairDualParams = toml::from_str(toml_src).unwrap();
-        let job = HairDualJob::new(params).unwrap();
-        let content = scatterbake::stages::run_in_memory(&job).unwrap();
-        let mut table = Table::from_content(content, Provenance::default()).unwrap();
-        let path = dir.join(name);
-        write_table_atomic(&mut table, &path).unwrap();
-        path
-    }
 
     /// End to end through the `.sbt` format: the runner reads a written table.
     #[test]
     fn runner_works_from_sbt_files() {
         let dir = tempfile::tempdir().unwrap();
-        let lut = write_table(
+        let lut = crate::consumer_tests::write_hair_dual_table(
             dir.path(),
             "roughness_deg = [5.0, 10.0]\nabsorption_count = 4\ntheta_count = 5",
             "lut.sbt",
