@@ -10,7 +10,7 @@
 //! | 1 | `table` | the `.sbt` table file format (writer, reader, verifier, lookup API) |
 //! | 2 | `optics` | optics primitives shared by every stage (Fresnel, water index, colour, Henyey–Greenstein, Airy function) |
 //! | 3 | `mie`, `debye`, `raytrace`, `hair`, `fur`, `cloth`, `fixtures` | physics, pure and free of I/O: Lorenz–Mie, Debye series and Airy theory, patch-based wave-optics ray tracing of raindrops, fibre lobes and Dual Scattering, fur medulla transport and far field, cloth; synthetic tables with analytically known properties for tests (feature `fixtures`) |
-//! | 4 | `stages`, `manifest`, `workdir`, `pipeline`, `catalog` | manifest parameters → jobs of pure tasks → tables: I/O, parallelism, resume, progress |
+//! | 4 | `stages`, `manifest`, `workdir`, `pipeline`, `plan`, `catalog` | manifest parameters → jobs of pure tasks → tables: I/O, parallelism, resume, progress |
 //! | 5 | `consumers` | reading, exporting, plotting and rendering tables |
 //!
 //! Each layer has its own error type ([`table::TableError`], [`stages::PlanError`],
@@ -45,6 +45,7 @@ pub mod fixtures;
 pub mod catalog;
 pub mod manifest;
 pub mod pipeline;
+pub mod plan;
 pub mod stages;
 pub mod workdir;
 

@@ -584,12 +584,13 @@ fn build_outcome(
 
 /// Plan every table of the manifests; a table name may appear only once across them, and a
 /// table whose size is known at plan time must fit the reader's default limit.
-fn plan_manifests(manifests: &[PathBuf]) -> Result<Vec<PlannedTable>, PipelineError> {
+pub(crate) fn plan_manifests(manifests: &[PathBuf]) -> Result<Vec<PlannedTable>, PipelineError> {
     let limit = crate::table::ReadLimits::default().max_payload_bytes;
     let mut planned: Vec<PlannedTable> = Vec::new();
     for m in manifests {
         for t in load_manifest(m)? {
-            if let Some(bytes) = t.job.payload_bytes().filter(|&b| b > limit) {
+            let bytes = t.job.payload_bytes();
+            if bytes > limit {
                 return Err(PipelineError::TableTooLarge {
                     name: t.name,
                     manifest: t.manifest,

@@ -81,6 +81,27 @@ impl ClothJob {
     }
 }
 
+impl ClothJob {
+    /// Axes: θ_i × φ_i × θ_r × φ_r (degrees).
+    fn table_axes(&self) -> Vec<Axis> {
+        let g = &self.grid;
+        let theta =
+            |name: &str| Axis::uniform(name, "deg", g.theta_deg[0], g.step_deg, g.theta_deg.len());
+        vec![
+            theta("theta_i"),
+            Axis::uniform(
+                "phi_i",
+                "deg",
+                g.phi_i_deg[0],
+                g.step_deg,
+                g.phi_i_deg.len(),
+            ),
+            theta("theta_r"),
+            Axis::uniform("phi_r", "deg", -180.0, g.step_deg, g.phi_r_deg.len()),
+        ]
+    }
+}
+
 impl Job for ClothJob {
     fn parameters(&self) -> serde_json::Value {
         serde_json::to_value(&self.p).expect("params serialise")
@@ -104,11 +125,23 @@ impl Job for ClothJob {
         }
         Ok(Chunk::new(row.values, scalars))
     }
-    fn payload_bytes(&self) -> Option<u64> {
-        Some(crate::stages::f32_payload_bytes(&[
-            self.grid.theta_deg.len(),
-            self.grid.row_len(),
-        ]))
+    fn shape(&self) -> crate::stages::PlannedShape {
+        crate::stages::PlannedShape::new(self.table_axes(), channels().len())
+    }
+    /// Every BRDF value of the grid (`cost::CLOTH_VALUE_CPU_S`, the thread integrals over
+    /// the fabric's threads and tangent curves included).
+    fn estimated_cpu_seconds(&self) -> f64 {
+        crate::stages::cost::CLOTH_VALUE_CPU_S
+            * (self.grid.theta_deg.len() * self.grid.row_len()) as f64
+    }
+    fn estimated_stored_fraction(&self) -> f64 {
+        crate::stages::cost::STORED_FRACTION_CLOTH
+    }
+    /// The directional albedo (RGB) and sampling scale of every (θ_i, φ_i).
+    fn estimated_attribute_bytes(&self) -> u64 {
+        use crate::stages::cost::{ATTRIBUTE_BYTES, ATTRIBUTE_BYTES_PER_SCALAR};
+        let n = (self.grid.theta_deg.len() * self.grid.phi_i_deg.len()) as u64;
+        ATTRIBUTE_BYTES + ATTRIBUTE_BYTES_PER_SCALAR * 4 * n
     }
     fn assemble(&self, chunks: Vec<Chunk>) -> Result<TableContent, JobError> {
         let n = self.grid.row_len();
@@ -126,27 +159,13 @@ impl Job for ClothJob {
             scale.push(tail.iter().map(|x| x[3]).collect::<Vec<_>>());
         }
         let attributes = self.attributes(&data, &albedo, &scale)?;
-        let g = &self.grid;
-        let theta =
-            |name: &str| Axis::uniform(name, "deg", g.theta_deg[0], g.step_deg, g.theta_deg.len());
         Ok(TableContent {
             schema: Schema::new("cloth-brdf", 1),
             description: format!(
                 "cloth BRDF f(omega_i -> omega_r) of {} (Sadeghi et al. 2013), 1/sr, with sampling CDFs",
                 self.p.fabric
             ),
-            axes: vec![
-                theta("theta_i"),
-                Axis::uniform(
-                    "phi_i",
-                    "deg",
-                    g.phi_i_deg[0],
-                    g.step_deg,
-                    g.phi_i_deg.len(),
-                ),
-                theta("theta_r"),
-                Axis::uniform("phi_r", "deg", -180.0, g.step_deg, g.phi_r_deg.len()),
-            ],
+            axes: self.table_axes(),
             channels: channels(),
             attributes,
             data,

@@ -7,6 +7,7 @@ use crate::mie::filters::FilterSettings;
 use crate::mie::filters::{PolarisedPhase, SunDiscOperator};
 use crate::mie::{check_domain, in_medium};
 use crate::optics::water::WaterIndexModel;
+use crate::stages::cost::MIE_CPU_S_PER_TERM_ANGLE;
 use crate::stages::phase_contract;
 use crate::stages::{Chunk, JobError, PlanError, TaskSpec, check_chunks, checks};
 use crate::table::Axis;
@@ -161,14 +162,22 @@ impl FilteredPhase {
         self.settings.output_intervals + 1
     }
 
-    /// Bytes of the table: `entries` × wavelengths × angles × `channels` f32 values.
-    pub fn payload_bytes(&self, entries: usize, channels: usize) -> u64 {
-        crate::stages::f32_payload_bytes(&[
-            entries,
-            self.wavelengths_nm.len(),
-            self.angles(),
-            channels,
-        ])
+    /// Estimated CPU seconds of one Lorenz–Mie or Debye sphere of radius `radius_um` at
+    /// `wavelength_nm` (vacuum) in a medium of index `n_medium`: the series has about x terms,
+    /// each evaluated on the intermediate angular grid (`MIE_CPU_S_PER_TERM_ANGLE`).
+    pub fn estimated_sphere_cpu_s(&self, radius_um: f64, wavelength_nm: f64, n_medium: f64) -> f64 {
+        let x = 2.0 * std::f64::consts::PI * radius_um * 1000.0 * n_medium / wavelength_nm;
+        let terms = x + 4.0 * x.cbrt() + 2.0;
+        let angles = self.settings.intermediate_intervals() as f64 + 1.0;
+        MIE_CPU_S_PER_TERM_ANGLE * terms * angles
+    }
+
+    /// [`Self::estimated_sphere_cpu_s`] summed over every wavelength of the table.
+    pub fn estimated_entry_cpu_s(&self, radius_um: f64, n_medium: f64) -> f64 {
+        self.wavelengths_nm
+            .iter()
+            .map(|&l| self.estimated_sphere_cpu_s(radius_um, l, n_medium))
+            .sum()
     }
 
     /// The sun-disc operator (built on first use).

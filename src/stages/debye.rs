@@ -74,13 +74,35 @@ impl StageSpec for DebyeStage {
     }
 }
 
+impl DebyeJob {
+    fn radius_axis(&self) -> Axis {
+        Axis::values("radius", "um", self.p.radii_um.clone())
+    }
+}
+
 impl Job for DebyeJob {
     /// Known at plan time (checked against the reader's limit before any task runs).
-    fn payload_bytes(&self) -> Option<u64> {
-        Some(self.filter.payload_bytes(
-            self.p.radii_um.len(),
+    fn shape(&self) -> crate::stages::PlannedShape {
+        crate::stages::PlannedShape::new(
+            self.filter.axes(self.radius_axis()),
             CONTRACT_CHANNELS + self.p.orders.len(),
-        ))
+        )
+    }
+    /// One sphere per radius and wavelength, with the Debye orders' extra recurrences
+    /// (`DEBYE_COST_FACTOR`).
+    fn estimated_cpu_seconds(&self) -> f64 {
+        let spheres: f64 = (self.p.radii_um.iter())
+            .map(|&r| self.filter.estimated_entry_cpu_s(r, 1.0))
+            .sum();
+        crate::stages::cost::DEBYE_COST_FACTOR * spheres
+    }
+    fn estimated_stored_fraction(&self) -> f64 {
+        crate::stages::cost::STORED_FRACTION_DEBYE
+    }
+    /// Per task: cross-sections, asymmetry and the water index in the header.
+    fn estimated_attribute_bytes(&self) -> u64 {
+        use crate::stages::cost::{ATTRIBUTE_BYTES, ATTRIBUTE_BYTES_PER_SCALAR};
+        ATTRIBUTE_BYTES + ATTRIBUTE_BYTES_PER_SCALAR * 5 * self.tasks().len() as u64
     }
     fn parameters(&self) -> serde_json::Value {
         serde_json::to_value(&self.p).expect("params serialise")
@@ -150,9 +172,7 @@ impl Job for DebyeJob {
             schema: Schema::new("debye-phase", 1),
             description: "Lorenz-Mie phase functions of water drops split into Debye-series orders"
                 .into(),
-            axes: self
-                .filter
-                .axes(Axis::values("radius", "um", self.p.radii_um.clone())),
+            axes: self.filter.axes(self.radius_axis()),
             channels,
             attributes: a,
             data,

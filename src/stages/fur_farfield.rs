@@ -318,6 +318,22 @@ impl FarFieldJob {
             sigma_scaling: self.p.medulla_sigma_scaling,
         }
     }
+    /// Axes: sample × θ_i × θ_r × φ.
+    fn table_axes(&self) -> Vec<Axis> {
+        let (nt, np) = (self.p.theta_r_cells, self.p.phi_cells);
+        let dt = 180.0 / nt as f64;
+        let dp = 360.0 / np as f64;
+        vec![
+            Axis::values(
+                "sample",
+                "index",
+                (0..self.samples.len()).map(|i| i as f64).collect(),
+            ),
+            Axis::values("theta_i", "deg", self.p.theta_i_deg.clone()),
+            Axis::uniform("theta_r", "deg", -90.0 + 0.5 * dt, dt, nt),
+            Axis::uniform("phi", "deg", -180.0 + 0.5 * dp, dp, np),
+        ]
+    }
     fn chunk_len(&self) -> usize {
         self.p.theta_i_deg.len() * self.p.theta_r_cells * self.p.phi_cells * CHANNELS
     }
@@ -327,11 +343,25 @@ const CHANNELS: usize = 1 + COMPONENTS.len();
 
 impl Job for FarFieldJob {
     /// Known at plan time: samples × θ_i × θ_r cells × φ cells × channels.
-    fn payload_bytes(&self) -> Option<u64> {
-        Some(crate::stages::f32_payload_bytes(&[
-            self.samples.len(),
-            self.chunk_len(),
-        ]))
+    fn shape(&self) -> crate::stages::PlannedShape {
+        crate::stages::PlannedShape::new(self.table_axes(), CHANNELS)
+    }
+    /// Per sample and θ_i, `h_samples` paths through the fibre binned into θ_r × φ cells
+    /// (`cost::FARFIELD_PATH_CELL_CPU_S`); the Monte Carlo medulla (no tables) adds
+    /// `photons` histories per medulla row.
+    fn estimated_cpu_seconds(&self) -> f64 {
+        use crate::stages::cost::{FARFIELD_PATH_CELL_CPU_S, MEDULLA_PHOTON_CPU_S};
+        let per = (self.samples.len() * self.p.theta_i_deg.len()) as f64;
+        let cells = (self.p.theta_r_cells * self.p.phi_cells) as f64;
+        let mut t = per * FARFIELD_PATH_CELL_CPU_S * self.p.h_samples as f64 * cells.sqrt();
+        if self.tables.is_none() {
+            let photons = (self.p.photons * self.p.medulla_rows as u64) as f64;
+            t += self.samples.len() as f64 * MEDULLA_PHOTON_CPU_S * photons;
+        }
+        t
+    }
+    fn estimated_stored_fraction(&self) -> f64 {
+        crate::stages::cost::STORED_FRACTION_FARFIELD
     }
     fn parameters(&self) -> serde_json::Value {
         let mut v = serde_json::to_value(&self.p).expect("params serialise");
@@ -386,9 +416,6 @@ impl Job for FarFieldJob {
         check_chunks(&chunks, self.samples.len(), self.chunk_len(), 0)?;
         let energies = self.energies(&chunks);
         let attributes = self.attributes(energies);
-        let (nt, np) = (self.p.theta_r_cells, self.p.phi_cells);
-        let dt = 180.0 / nt as f64;
-        let dp = 360.0 / np as f64;
         let mut channels = vec![Channel::new(
             "energy",
             "1/rad^2",
@@ -400,16 +427,7 @@ impl Job for FarFieldJob {
         Ok(TableContent {
             schema: Schema::new("fur-farfield", 1),
             description: "far-field fur scattering profiles of Tseng 2015 Table 4.2 samples (practical coaxial-cylinder model)".into(),
-            axes: vec![
-                Axis::values(
-                    "sample",
-                    "index",
-                    (0..self.samples.len()).map(|i| i as f64).collect(),
-                ),
-                Axis::values("theta_i", "deg", self.p.theta_i_deg.clone()),
-                Axis::uniform("theta_r", "deg", -90.0 + 0.5 * dt, dt, nt),
-                Axis::uniform("phi", "deg", -180.0 + 0.5 * dp, dp, np),
-            ],
+            axes: self.table_axes(),
             channels,
             attributes,
             data: concat_values(chunks),

@@ -37,8 +37,15 @@ impl AdaptiveJob {
 
 impl Job for AdaptiveJob {
     /// The table of the Monte Carlo job it replaces.
-    fn payload_bytes(&self) -> Option<u64> {
-        self.inner.payload_bytes()
+    fn shape(&self) -> crate::stages::PlannedShape {
+        self.inner.shape()
+    }
+    fn estimated_cpu_seconds(&self) -> f64 {
+        // At most `photons` next-event histories per entry; cheaper than analog ones.
+        crate::stages::cost::MEDULLA_ADAPTIVE_COST_FACTOR * self.inner.estimated_cpu_seconds()
+    }
+    fn estimated_stored_fraction(&self) -> f64 {
+        crate::stages::cost::STORED_FRACTION_MEDULLA_ADAPTIVE
     }
     fn parameters(&self) -> serde_json::Value {
         self.inner.parameters()

@@ -37,8 +37,16 @@ impl DiscJob {
 
 impl Job for DiscJob {
     /// The table of the Monte Carlo job it replaces.
-    fn payload_bytes(&self) -> Option<u64> {
-        self.inner.payload_bytes()
+    fn shape(&self) -> crate::stages::PlannedShape {
+        self.inner.shape()
+    }
+    fn estimated_cpu_seconds(&self) -> f64 {
+        // One plane-wave solve per (σ, g), dearer with σ (more iterations).
+        let solves: f64 = self.inner.sigma.iter().map(|s| 1.0 + s).sum();
+        crate::stages::cost::MEDULLA_DISC_SOLVE_CPU_S * solves * self.inner.g.len() as f64
+    }
+    fn estimated_stored_fraction(&self) -> f64 {
+        crate::stages::cost::STORED_FRACTION_MEDULLA_AZIMUTHAL
     }
     fn parameters(&self) -> serde_json::Value {
         self.inner.parameters()

@@ -132,6 +132,28 @@ pub(super) struct MedullaJob {
 }
 
 impl MedullaJob {
+    /// σ × g × h × φ (azimuthal) or σ × g × θ_i × lobe × θ_r (longitudinal).
+    pub(super) fn table_axes(&self) -> Vec<Axis> {
+        let b = self.p.bins;
+        let dw_deg = 360.0 / b as f64;
+        let mut axes = vec![
+            Axis::values("sigma", "1/medulla_radius", self.sigma.clone()),
+            Axis::values("g", "1", self.g.clone()),
+        ];
+        match self.family {
+            Family::Azimuthal => axes.extend([
+                Axis::values("h", "1", self.entries.clone()),
+                Axis::uniform("phi", "deg", -180.0 + 0.5 * dw_deg, dw_deg, b),
+            ]),
+            Family::Longitudinal => axes.extend([
+                Axis::values("theta_i", "deg", self.entries.clone()),
+                Axis::values("lobe", "1", vec![0.0, 1.0]),
+                Axis::uniform("theta_r", "deg", -90.0 + 0.5 * dw_deg, dw_deg, b / 2),
+            ]),
+        }
+        axes
+    }
+
     pub(super) fn channels(&self) -> usize {
         match self.family {
             Family::Azimuthal => 3,
@@ -339,14 +361,27 @@ impl MedullaJob {
 
 impl Job for MedullaJob {
     /// Known at plan time: σ × g × entries × bins × channels.
-    fn payload_bytes(&self) -> Option<u64> {
-        Some(crate::stages::f32_payload_bytes(&[
-            self.sigma.len(),
-            self.g.len(),
-            self.entries.len(),
-            self.p.bins,
-            self.channels(),
-        ]))
+    fn shape(&self) -> crate::stages::PlannedShape {
+        crate::stages::PlannedShape::new(self.table_axes(), self.channels())
+    }
+    /// Photon histories: `photons` per entry of every (σ, g), each costing more with σ (more
+    /// scattering events), `cost::MEDULLA_PHOTON_CPU_S · (1 + σ)`.
+    fn estimated_cpu_seconds(&self) -> f64 {
+        let photons = self.p.photons.unwrap_or(0) as f64 * self.entries.len() as f64;
+        let per_g: f64 = self.sigma.iter().map(|s| 1.0 + s).sum();
+        crate::stages::cost::MEDULLA_PHOTON_CPU_S * photons * per_g * self.g.len() as f64
+    }
+    fn estimated_stored_fraction(&self) -> f64 {
+        match self.family {
+            Family::Azimuthal => crate::stages::cost::STORED_FRACTION_MEDULLA_AZIMUTHAL_MC,
+            Family::Longitudinal => crate::stages::cost::STORED_FRACTION_MEDULLA_LONGITUDINAL_MC,
+        }
+    }
+    /// Per (σ, g, entry) Monte Carlo statistics in the header.
+    fn estimated_attribute_bytes(&self) -> u64 {
+        let entries = (self.sigma.len() * self.g.len() * self.entries.len()) as u64;
+        crate::stages::cost::ATTRIBUTE_BYTES
+            + crate::stages::cost::MEDULLA_ATTRIBUTE_BYTES_PER_ENTRY * entries
     }
     fn parameters(&self) -> serde_json::Value {
         serde_json::to_value(&self.p).expect("params serialise")
@@ -396,8 +431,7 @@ impl Job for MedullaJob {
         let data = concat_values(chunks);
         let dw_deg = 360.0 / b as f64;
         let mut a = self.monte_carlo_attributes(&scal, dw_deg)?;
-        let sigma_ax = Axis::values("sigma", "1/medulla_radius", self.sigma.clone());
-        let g_ax = Axis::values("g", "1", self.g.clone());
+        let axes = self.table_axes();
         let content = match self.family {
             Family::Azimuthal => {
                 a.insert(
@@ -412,12 +446,7 @@ impl Job for MedullaJob {
                 TableContent {
                     schema: Schema::new("fur-medulla-azimuthal", 1),
                     description: "fur medulla azimuthal scattering profile C^N(phi'; h', sigma, g) (scattered energy per exit-direction bin)".into(),
-                    axes: vec![
-                        sigma_ax,
-                        g_ax,
-                        Axis::values("h", "1", self.entries.clone()),
-                        Axis::uniform("phi", "deg", -180.0 + 0.5 * dw_deg, dw_deg, b),
-                    ],
+                    axes,
                     channels: vec![
                         Channel::new("energy", "1", "scattered exiting energy in the bin per unit incident energy"),
                         Channel::new("path_length", "medulla_radius", "mean in-medulla path length of the energy in the bin"),
@@ -440,13 +469,7 @@ impl Job for MedullaJob {
                 TableContent {
                     schema: Schema::new("fur-medulla-longitudinal", 1),
                     description: "fur medulla longitudinal scattering lobes C^M(theta'_r; theta'_i, sigma, g) of a slab of thickness 2".into(),
-                    axes: vec![
-                        sigma_ax,
-                        g_ax,
-                        Axis::values("theta_i", "deg", self.entries.clone()),
-                        Axis::values("lobe", "1", vec![0.0, 1.0]),
-                        Axis::uniform("theta_r", "deg", -90.0 + 0.5 * dw_deg, dw_deg, b / 2),
-                    ],
+                    axes,
                     channels: vec![
                         Channel::new("pdf", "1/rad", "lobe-normalised density of theta_r"),
                         Channel::new("cdf", "1", "lobe cumulative distribution at the bin's upper edge"),

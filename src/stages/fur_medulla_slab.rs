@@ -33,8 +33,16 @@ impl SlabJob {
 
 impl Job for SlabJob {
     /// The table of the Monte Carlo job it replaces.
-    fn payload_bytes(&self) -> Option<u64> {
-        self.inner.payload_bytes()
+    fn shape(&self) -> crate::stages::PlannedShape {
+        self.inner.shape()
+    }
+    fn estimated_cpu_seconds(&self) -> f64 {
+        // One adding–doubling solve per g for every σ and θ'_i.
+        let cells = self.inner.g.len() * self.inner.sigma.len() * self.inner.entries.len();
+        crate::stages::cost::MEDULLA_SLAB_SOLVE_CPU_S * cells as f64
+    }
+    fn estimated_stored_fraction(&self) -> f64 {
+        crate::stages::cost::STORED_FRACTION_MEDULLA_LONGITUDINAL
     }
     fn parameters(&self) -> serde_json::Value {
         self.inner.parameters()

@@ -263,6 +263,10 @@ trait ThetaRows: Send + Sync {
     fn assemble_rows(&self, chunks: Vec<Chunk>) -> Result<TableContent, JobError>;
     /// Values per row (per θ) of the table.
     fn row_len(&self) -> usize;
+    /// The table's axes and channel count (see [`Job::shape`]).
+    fn planned_shape(&self) -> crate::stages::PlannedShape;
+    /// See [`Job::estimated_stored_fraction`].
+    fn stored_fraction(&self) -> f64;
 }
 
 impl<T: ThetaRows> Job for T {
@@ -288,11 +292,17 @@ impl<T: ThetaRows> Job for T {
     fn assemble(&self, chunks: Vec<Chunk>) -> Result<TableContent, JobError> {
         self.assemble_rows(chunks)
     }
-    fn payload_bytes(&self) -> Option<u64> {
-        Some(crate::stages::f32_payload_bytes(&[
-            self.theta_deg().len(),
-            self.row_len(),
-        ]))
+    fn shape(&self) -> crate::stages::PlannedShape {
+        self.planned_shape()
+    }
+    /// A set-up, then every value of every row computed twice (the quadrature-doubling
+    /// check), `cost::HAIR_CPU_S`.
+    fn estimated_cpu_seconds(&self) -> f64 {
+        let [table, per_value] = crate::stages::cost::HAIR_CPU_S;
+        table + per_value * (self.theta_deg().len() * self.row_len()) as f64
+    }
+    fn estimated_stored_fraction(&self) -> f64 {
+        self.stored_fraction()
     }
 }
 
@@ -516,6 +526,16 @@ impl HairDualJob {
 impl ThetaRows for HairDualJob {
     fn row_len(&self) -> usize {
         self.n_roughness() * self.n_absorption() * DUAL_TABLE_CHANNELS
+    }
+    fn planned_shape(&self) -> crate::stages::PlannedShape {
+        crate::stages::PlannedShape::new(self.dual_axes(), dual_channels().len())
+    }
+    fn stored_fraction(&self) -> f64 {
+        if self.artist.is_some() {
+            crate::stages::cost::STORED_FRACTION_HAIR_DUAL_ARTIST
+        } else {
+            crate::stages::cost::STORED_FRACTION_HAIR_DUAL
+        }
     }
     fn params_json(&self) -> Value {
         serde_json::to_value(&self.params).expect("params serialise")
@@ -806,6 +826,16 @@ impl HairAzimuthalJob {
 
     /// Channels per (absorption, φ): R, TT, TRT, residual, sum, and `diffuse` when a diffuse term
     /// is set.
+    /// Axes: absorption × θ × φ.
+    fn azimuthal_axes(&self) -> Vec<Axis> {
+        let (nt, np) = (self.params.theta_count, self.params.phi_count);
+        vec![
+            self.absorption.axis(),
+            Axis::uniform("theta", "deg", 0.0, 90.0 / (nt - 1) as f64, nt),
+            Axis::uniform("phi", "deg", 0.0, 180.0 / (np - 1) as f64, np),
+        ]
+    }
+
     fn channel_count(&self) -> usize {
         if self.diffuse.is_zero() {
             AZ_CHANNELS
@@ -832,6 +862,12 @@ impl HairAzimuthalJob {
 impl ThetaRows for HairAzimuthalJob {
     fn row_len(&self) -> usize {
         self.absorption.sigma_values().len() * self.params.phi_count * self.channel_count()
+    }
+    fn planned_shape(&self) -> crate::stages::PlannedShape {
+        crate::stages::PlannedShape::new(self.azimuthal_axes(), self.channel_count())
+    }
+    fn stored_fraction(&self) -> f64 {
+        crate::stages::cost::STORED_FRACTION_HAIR_AZIMUTHAL
     }
     fn params_json(&self) -> Value {
         serde_json::to_value(&self.params).expect("params serialise")
@@ -910,11 +946,7 @@ impl ThetaRows for HairAzimuthalJob {
         Ok(TableContent {
             schema: Schema::new("hair-azimuthal", 1),
             description: "azimuthal scattering functions of a rough dielectric hair fibre".into(),
-            axes: vec![
-                self.absorption.axis(),
-                Axis::uniform("theta", "deg", 0.0, 90.0 / (nt - 1) as f64, nt),
-                Axis::uniform("phi", "deg", 0.0, 180.0 / (np - 1) as f64, np),
-            ],
+            axes: self.azimuthal_axes(),
             channels,
             attributes,
             data,

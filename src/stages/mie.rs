@@ -170,11 +170,34 @@ impl MieJob {
 
 impl Job for MieJob {
     /// Known at plan time (checked against the reader's limit before any task runs).
-    fn payload_bytes(&self) -> Option<u64> {
-        Some(
-            self.filter
-                .payload_bytes(self.entries.len(), CONTRACT_CHANNELS),
-        )
+    fn shape(&self) -> crate::stages::PlannedShape {
+        crate::stages::PlannedShape::new(self.filter.axes(self.entry_axis()), CONTRACT_CHANNELS)
+    }
+    /// Every sphere of every task: a radius entry is one sphere per wavelength; a
+    /// distribution is counted as its `radius_points` Gauss–Legendre nodes (the sampled rule
+    /// chooses its own count, so its estimate is rougher).
+    fn estimated_cpu_seconds(&self) -> f64 {
+        let n = self.p.n_medium;
+        (0..self.entries.len())
+            .map(|e| match &self.entries {
+                Entries::Radii(r) => self.filter.estimated_entry_cpu_s(r[e], n),
+                Entries::Distributions(d) => {
+                    let (nodes, _) = d[e].quadrature(self.p.radius_points);
+                    nodes
+                        .iter()
+                        .map(|&r| self.filter.estimated_entry_cpu_s(r, n))
+                        .sum()
+                }
+            })
+            .sum()
+    }
+    fn estimated_stored_fraction(&self) -> f64 {
+        crate::stages::cost::STORED_FRACTION_MIE
+    }
+    /// Per task: cross-sections, asymmetry and the water index in the header.
+    fn estimated_attribute_bytes(&self) -> u64 {
+        use crate::stages::cost::{ATTRIBUTE_BYTES, ATTRIBUTE_BYTES_PER_SCALAR};
+        ATTRIBUTE_BYTES + ATTRIBUTE_BYTES_PER_SCALAR * 5 * self.tasks().len() as u64
     }
     fn parameters(&self) -> serde_json::Value {
         serde_json::to_value(&self.p).expect("params serialise")

@@ -212,13 +212,53 @@ fn mix_entry(job: &MixtureJob, index: usize) -> Result<(PolarisedPhase, f64), Jo
     Ok((mixed.curve, mixed.traced_fraction))
 }
 
+impl MixtureJob {
+    /// The `distribution` axis: entry numbers labelled with each mixture.
+    fn distribution_axis(&self) -> Axis {
+        Axis::labelled(
+            "distribution",
+            "1",
+            (0..self.p.distributions.len()).map(|i| i as f64).collect(),
+            self.p
+                .distributions
+                .iter()
+                .map(MixtureEntry::label)
+                .collect(),
+        )
+    }
+}
+
 impl Job for MixtureJob {
     /// Known at plan time (checked against the reader's limit before any task runs).
-    fn payload_bytes(&self) -> Option<u64> {
-        Some(
-            self.filter
-                .payload_bytes(self.p.distributions.len(), CONTRACT_CHANNELS),
+    fn shape(&self) -> crate::stages::PlannedShape {
+        crate::stages::PlannedShape::new(
+            self.filter.axes(self.distribution_axis()),
+            CONTRACT_CHANNELS,
         )
+    }
+    /// Lorenz–Mie spheres below the handover radius as in the `mie` stage; traced spheres
+    /// above it at `cost::TRACED_SPHERE_CPU_S` each per wavelength.
+    fn estimated_cpu_seconds(&self) -> f64 {
+        let waves = self.filter.wavelengths_nm.len() as f64;
+        let mut total = 0.0;
+        for e in 0..self.p.distributions.len() {
+            for &r in &self.p.distributions[e].nodes(self.p.radius_points).0 {
+                total += if r < self.p.handover_radius_um {
+                    self.filter.estimated_entry_cpu_s(r, 1.0)
+                } else {
+                    waves * crate::stages::cost::TRACED_SPHERE_CPU_S
+                };
+            }
+        }
+        total
+    }
+    fn estimated_stored_fraction(&self) -> f64 {
+        crate::stages::cost::STORED_FRACTION_MIE
+    }
+    /// Per task: cross-sections, asymmetry and the water index in the header.
+    fn estimated_attribute_bytes(&self) -> u64 {
+        use crate::stages::cost::{ATTRIBUTE_BYTES, ATTRIBUTE_BYTES_PER_SCALAR};
+        ATTRIBUTE_BYTES + ATTRIBUTE_BYTES_PER_SCALAR * 5 * self.tasks().len() as u64
     }
     fn parameters(&self) -> serde_json::Value {
         serde_json::to_value(&self.p).expect("params serialise")
@@ -258,16 +298,7 @@ impl Job for MixtureJob {
             description:
                 "phase functions of drop-size mixtures (Lorenz–Mie small drops, traced large drops)"
                     .into(),
-            axes: self.filter.axes(Axis::labelled(
-                "distribution",
-                "1",
-                (0..entries).map(|i| i as f64).collect(),
-                self.p
-                    .distributions
-                    .iter()
-                    .map(MixtureEntry::label)
-                    .collect(),
-            )),
+            axes: self.filter.axes(self.distribution_axis()),
             channels: phase_contract::channels("over the mixture's scattering cross-section"),
             attributes: a,
             data,

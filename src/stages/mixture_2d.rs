@@ -184,11 +184,45 @@ impl Mixture2dJob {
     }
 }
 
+impl Mixture2dJob {
+    /// The `distribution` axis that replaces the `raytrace` table's radius axis.
+    fn distribution_axis(&self) -> Axis {
+        Axis::labelled(
+            "distribution",
+            "1",
+            (0..self.nodes.len()).map(|i| i as f64).collect(),
+            self.p
+                .distributions
+                .iter()
+                .map(MixtureEntry::label)
+                .collect(),
+        )
+    }
+}
+
 impl Job for Mixture2dJob {
-    /// One entry per distribution, each the size of its first radius's `raytrace` table.
-    fn payload_bytes(&self) -> Option<u64> {
-        let one = self.jobs.first()?.first()?.payload_bytes()?;
-        Some(one.saturating_mul(self.jobs.len() as u64))
+    /// One entry per distribution, each with the grid of its first radius's `raytrace` table.
+    fn shape(&self) -> crate::stages::PlannedShape {
+        let mut shape = self.jobs[0][0].shape();
+        shape.axes[0] = self.distribution_axis();
+        shape
+    }
+    /// Every radius of every distribution traced as one `raytrace` table.
+    fn estimated_cpu_seconds(&self) -> f64 {
+        self.jobs
+            .iter()
+            .flatten()
+            .map(Job::estimated_cpu_seconds)
+            .sum()
+    }
+    fn estimated_stored_fraction(&self) -> f64 {
+        self.jobs[0][0].estimated_stored_fraction()
+    }
+    fn estimated_attribute_bytes(&self) -> u64 {
+        self.jobs
+            .iter()
+            .map(|j| j[0].estimated_attribute_bytes())
+            .sum()
     }
     fn parameters(&self) -> serde_json::Value {
         serde_json::to_value(&self.p).expect("params serialise")
@@ -251,16 +285,7 @@ impl Job for Mixture2dJob {
             }
         }
         let mut t = content.expect("at least one distribution");
-        t.axes[0] = Axis::labelled(
-            "distribution",
-            "1",
-            (0..self.nodes.len()).map(|i| i as f64).collect(),
-            self.p
-                .distributions
-                .iter()
-                .map(MixtureEntry::label)
-                .collect(),
-        );
+        t.axes[0] = self.distribution_axis();
         let a = &mut t.attributes;
         a.remove("radius_um");
         a.insert("shape".into(), "beard-chuang mixture".into());

@@ -4,6 +4,7 @@
 
 pub mod cloth;
 mod common;
+pub mod cost;
 pub mod debye;
 pub mod fur_farfield;
 pub mod fur_medulla;

@@ -36,6 +36,7 @@ use crate::raytrace::table2d::{
     entry_integral_2d, trace_table_2d,
 };
 use crate::raytrace::tracer::{DirectionGrid, RayGridLayout};
+use crate::stages::cost::{RAYTRACE_2D_COST, SPHERE_CPU_S_PER_RADIUS_OVER_WAVELENGTH};
 use crate::stages::phase_contract;
 use crate::stages::{
     Chunk, Job, JobError, PlanError, StageSpec, TaskSpec, check_chunk, check_chunks, checks,
@@ -409,6 +410,44 @@ impl RaytraceJob {
             .collect()
     }
 
+    /// The table's axes: radius × wavelength × scattering angle (spheres), or radius ×
+    /// wavelength × sun elevation × outgoing polar × outgoing azimuth (2-D shapes).
+    fn table_axes(&self) -> Vec<Axis> {
+        let mut axes = vec![
+            Axis::values("radius", "um", self.p.radii_um.clone()),
+            Axis::values("wavelength", "nm", self.p.wavelengths_nm.clone()),
+        ];
+        if self.two_d {
+            let grid = self.direction_grid();
+            axes.extend([
+                Axis::values("sun_elevation", "deg", self.p.sun_elevation_deg.clone()),
+                Axis::uniform(
+                    "outgoing_polar",
+                    "deg",
+                    0.0,
+                    self.p.polar_step_deg,
+                    grid.n_polar,
+                ),
+                Axis::uniform(
+                    "outgoing_azimuth",
+                    "deg",
+                    0.0,
+                    self.p.azimuth_step_deg,
+                    grid.n_azimuth,
+                ),
+            ]);
+        } else {
+            axes.push(Axis::uniform(
+                "scattering_angle",
+                "deg",
+                0.0,
+                self.p.angle_step_deg,
+                self.n_angles(),
+            ));
+        }
+        axes
+    }
+
     /// Values per entry (task): angles, or polar × azimuth directions, times channels.
     fn entry_len(&self) -> usize {
         let channels = self.channels().len();
@@ -504,15 +543,48 @@ impl RaytraceJob {
 
 impl Job for RaytraceJob {
     /// Known at plan time: tasks × (angles, or polar × azimuth directions) × channels.
-    fn payload_bytes(&self) -> Option<u64> {
-        let tasks = self.task_pairs().len();
-        let channels = self.channels().len();
-        Some(if self.two_d {
-            let grid = self.direction_grid();
-            crate::stages::f32_payload_bytes(&[tasks, grid.n_polar, grid.n_azimuth, channels])
+    fn shape(&self) -> crate::stages::PlannedShape {
+        crate::stages::PlannedShape::new(self.table_axes(), self.channels().len())
+    }
+    /// Spheres: per task ∝ radius/λ (the internal grid's step is ≤ λ/(10a)). 2-D shapes
+    /// (`RAYTRACE_2D_COST`): a set-up, then per task a part growing with the drop's size
+    /// parameter, one per ray traced and one per direction computed.
+    fn estimated_cpu_seconds(&self) -> f64 {
+        let pairs = self.task_pairs();
+        if !self.two_d {
+            let size: f64 = pairs.iter().map(|&(a_um, l_nm)| a_um / l_nm).sum();
+            return SPHERE_CPU_S_PER_RADIUS_OVER_WAVELENGTH * size;
+        }
+        let grid = self.direction_grid();
+        let computed_azimuths = if self.p.mirror_half {
+            grid.n_azimuth / 2 + 1
         } else {
-            crate::stages::f32_payload_bytes(&[tasks, self.n_angles(), channels])
-        })
+            grid.n_azimuth
+        };
+        let rays = (self.p.rays * self.p.rays) as f64;
+        let directions = (grid.n_polar * computed_azimuths) as f64;
+        let [table, per_size, per_ray, per_direction] = RAYTRACE_2D_COST;
+        let radius_mm = self.p.radii_um[0] / 1000.0;
+        let per_task: f64 = (pairs.iter())
+            .map(|&(l_nm, _)| {
+                per_size * radius_mm * 550.0 / l_nm + per_ray * rays + per_direction * directions
+            })
+            .sum();
+        table + per_task
+    }
+    fn estimated_stored_fraction(&self) -> f64 {
+        use crate::stages::cost::*;
+        match (self.two_d, self.p.diagnostic_channels) {
+            (false, _) => STORED_FRACTION_RAYTRACE_SPHERE,
+            (true, true) => STORED_FRACTION_RAYTRACE_2D_DIAGNOSTIC,
+            (true, false) => STORED_FRACTION_RAYTRACE_2D,
+        }
+    }
+    /// Per task: integrals, and for 2-D shapes the transfer weights of every azimuth column.
+    fn estimated_attribute_bytes(&self) -> u64 {
+        use crate::stages::cost::{ATTRIBUTE_BYTES, ATTRIBUTE_BYTES_PER_SCALAR};
+        let tasks = self.task_pairs().len() as u64;
+        ATTRIBUTE_BYTES + ATTRIBUTE_BYTES_PER_SCALAR * tasks * (1 + self.domain_values() as u64)
     }
     fn parameters(&self) -> serde_json::Value {
         serde_json::to_value(&self.p).expect("params serialise")
@@ -694,11 +766,7 @@ impl RaytraceJob {
         at.insert("angular_resampling".into(), format!("point samples of the GO+phase field on an internal grid of step ≤ λ/(10a); filtered channels are Gaussian averages of it; the forward lobe is the exact average over each {}° bin", self.p.angle_step_deg).into());
         at.insert("method".into(), "exact 1-D geometric optics plus phase for spheres (two-branch phasor sum of Airy theory), validated against the 2-D patch tracer and Lorenz–Mie (docs/raytrace.md)".into());
         at.insert("validated_domain".into(), "spheres of radius 0.1–1 mm in 380–700 nm (x ≳ 1000): supernumerary positions within 0.02° (primary) and 0.05° (secondary) of Lorenz–Mie; not valid within ~1° of 0° (forward lobe only approximate) and near 180° (glory, axial caustic clamped at a quarter bin)".into());
-        let axes = vec![
-            Axis::values("radius", "um", self.p.radii_um.clone()),
-            Axis::values("wavelength", "nm", self.p.wavelengths_nm.clone()),
-            Axis::uniform("scattering_angle", "deg", 0.0, self.p.angle_step_deg, na),
-        ];
+        let axes = self.table_axes();
         Ok(TableContent {
             schema: Schema::new("raytrace-phase", 2),
             description: "ray-traced (geometric optics + phase) phase function of water spheres"
@@ -743,8 +811,6 @@ impl RaytraceJob {
         mut at: serde_json::Map<String, serde_json::Value>,
     ) -> Result<TableContent, JobError> {
         let ints = self.renormalise_2d(&mut data, channels.len())?;
-        let grid = self.direction_grid();
-        let (np, na) = (grid.n_polar, grid.n_azimuth);
         at.insert("integral_check".into(), serde_json::json!({"what": "bin-sum of phase over 4π per entry before renormalisation (below 1 by the flux of triangles discarded at the silhouette, above 1 where cusp caustics are point-sampled); every channel but dolp was divided by it, so the stored table integrates to 1 on its grid", "values": ints}));
         at.insert("angular_resampling".into(), "point samples of the coherent patch sum at the grid directions; filtered channels are Gaussian averages along the polar angle per azimuth column; the forward lobe is the exact average over each polar bin".into());
         if self.p.sphere_higher_orders && self.max_order < SPHERE_MAX_ORDER {
@@ -790,13 +856,7 @@ impl RaytraceJob {
         at.insert("forward_lobe".into(), "Fraunhofer lobe of the equal-projected-area disc (azimuthally symmetric approximation for non-circular silhouettes)".into());
         at.insert("method".into(), "patch-based wave-optics ray tracer (Sadeghi 2012, ch. 3) with 3-D complex field vectors, spherical-triangle patches, coherent sums; see docs/raytrace.md".into());
         at.insert("validated_domain".into(), "validated on spheres (0.4 mm, 650 nm) against the exact 1-D path and Lorenz–Mie; Beard–Chuang results checked for volume, axis ratios, symmetry and energy; accuracy depends on rays_per_side (docs/raytrace.md)".into());
-        let axes = vec![
-            Axis::values("radius", "um", self.p.radii_um.clone()),
-            Axis::values("wavelength", "nm", self.p.wavelengths_nm.clone()),
-            Axis::values("sun_elevation", "deg", self.p.sun_elevation_deg.clone()),
-            Axis::uniform("outgoing_polar", "deg", 0.0, self.p.polar_step_deg, np),
-            Axis::uniform("outgoing_azimuth", "deg", 0.0, self.p.azimuth_step_deg, na),
-        ];
+        let axes = self.table_axes();
         Ok(TableContent {
             schema: Schema::new("raytrace-phase-2d", 2),
             description: format!(

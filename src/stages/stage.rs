@@ -12,7 +12,7 @@
 //! object-safe form the registry and the manifest reader use, follows from it.
 
 use crate::error::error_chain;
-use crate::table::TableContent;
+use crate::table::{Axis, TableContent};
 use serde::Serialize;
 use serde::de::DeserializeOwned;
 
@@ -97,6 +97,9 @@ pub enum JobError {
     /// plan-time size check would have been wrong).
     #[error("the table has {assembled} bytes of values, but the job planned {planned}")]
     PlannedSize { planned: u64, assembled: u64 },
+    /// The assembled table's axes or channels differ from those the job planned (a stage bug).
+    #[error("the table is {assembled}, but the job planned {planned}")]
+    PlannedShape { planned: String, assembled: String },
     /// A header attribute that does not encode as JSON.
     #[error("encoding the table attributes as JSON")]
     Attributes(#[from] serde_json::Error),
@@ -215,11 +218,54 @@ pub trait Job: Send + Sync {
     fn run_task(&self, index: usize) -> Result<Chunk, JobError>;
     /// Assemble the chunks (in task order) into the table.
     fn assemble(&self, chunks: Vec<Chunk>) -> Result<TableContent, JobError>;
-    /// Uncompressed size of the table's values in bytes, known before any task runs (`None`:
-    /// the stage does not say; `Some(u64::MAX)` when the count overflows). The pipeline refuses
-    /// at plan time a table the reader would refuse (`ReadLimits::max_payload_bytes`).
-    fn payload_bytes(&self) -> Option<u64> {
-        None
+    /// The table's grid, known before any task runs: the axes `assemble` will produce and the
+    /// number of channels ([`assemble_checked`] holds every run to it).
+    fn shape(&self) -> PlannedShape;
+    /// Uncompressed size of the table's values in bytes, known before any task runs
+    /// (`u64::MAX` when the count overflows). The pipeline refuses at plan time a table the
+    /// reader would refuse (`ReadLimits::max_payload_bytes`).
+    fn payload_bytes(&self) -> u64 {
+        self.shape().payload_bytes()
+    }
+    /// Estimated CPU seconds of the whole job (every task and the assembly) on one core of the
+    /// reference machine, from a cost model of the stage calibrated on measured builds
+    /// (docs/pipeline.md, "Planning a build"). An estimate for sizing jobs, not a promise.
+    fn estimated_cpu_seconds(&self) -> f64;
+    /// Estimated stored fraction of the payload: zstd-compressed bytes over uncompressed, as
+    /// measured on tables of the stage (`crate::stages::cost`).
+    fn estimated_stored_fraction(&self) -> f64;
+    /// Estimated bytes of the header's `attributes` object (compact JSON): stage-specific
+    /// conventions plus per-task records such as integrals and cross-sections.
+    fn estimated_attribute_bytes(&self) -> u64 {
+        crate::stages::cost::ATTRIBUTE_BYTES
+    }
+}
+
+/// A table's grid as a job plans it: its axes (outermost first) and channel count.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PlannedShape {
+    pub axes: Vec<Axis>,
+    pub channels: usize,
+}
+
+impl PlannedShape {
+    /// The shape of a table with these axes and `channels` channels.
+    pub fn new(axes: Vec<Axis>, channels: usize) -> Self {
+        PlannedShape { axes, channels }
+    }
+    /// Axis lengths, then the channel count (the table's `layout.shape`).
+    pub fn dims(&self) -> Vec<usize> {
+        let mut d: Vec<usize> = self.axes.iter().map(Axis::len).collect();
+        d.push(self.channels);
+        d
+    }
+    /// `4 · Π dims` bytes of f32 values (`u64::MAX` on overflow).
+    pub fn payload_bytes(&self) -> u64 {
+        f32_payload_bytes(&self.dims())
+    }
+    /// Number of values (`u64::MAX` on overflow).
+    pub fn values(&self) -> u64 {
+        self.payload_bytes() / 4
     }
 }
 
@@ -259,16 +305,38 @@ pub fn run_in_memory(job: &dyn Job) -> Result<TableContent, JobError> {
     assemble_checked(job, chunks)
 }
 
-/// [`Job::assemble`], then check that the table has the size [`Job::payload_bytes`] announced
-/// (every run checks the plan-time estimate the pipeline relies on).
+/// [`Job::assemble`], then check that the table has the axes (names and lengths), channel
+/// count and size [`Job::shape`] announced (every run checks the plan the pipeline and
+/// `build --plan` rely on).
 pub fn assemble_checked(job: &dyn Job, chunks: Vec<Chunk>) -> Result<TableContent, JobError> {
-    let planned = job.payload_bytes();
+    let planned = job.shape();
     let content = job.assemble(chunks)?;
     let assembled = 4 * content.data.len() as u64;
-    match planned {
-        Some(planned) if planned != assembled => Err(JobError::PlannedSize { planned, assembled }),
-        _ => Ok(content),
+    if planned.payload_bytes() != assembled {
+        return Err(JobError::PlannedSize {
+            planned: planned.payload_bytes(),
+            assembled,
+        });
     }
+    let describe = |axes: &[Axis], channels: usize| {
+        let mut s: Vec<String> = axes
+            .iter()
+            .map(|a| format!("{} {}", a.name, a.len()))
+            .collect();
+        s.push(format!("{channels} channels"));
+        s.join(" × ")
+    };
+    let (want, got) = (
+        describe(&planned.axes, planned.channels),
+        describe(&content.axes, content.channels.len()),
+    );
+    if want != got {
+        return Err(JobError::PlannedShape {
+            planned: want,
+            assembled: got,
+        });
+    }
+    Ok(content)
 }
 
 /// A computation stage, registered in [`crate::stages::registry`]. Implemented for every
@@ -672,6 +740,86 @@ mod tests {
             Err(JobError::ChunkCount {
                 expected: 3,
                 got: 2
+            })
+        ));
+    }
+
+    /// A job that plans one shape and assembles another.
+    struct Mismatched {
+        planned: Vec<Axis>,
+        assembled: Vec<Axis>,
+    }
+
+    impl Job for Mismatched {
+        fn parameters(&self) -> serde_json::Value {
+            serde_json::Value::Null
+        }
+        fn tasks(&self) -> Vec<TaskSpec> {
+            Vec::new()
+        }
+        fn run_task(&self, _: usize) -> Result<Chunk, JobError> {
+            Ok(Chunk::default())
+        }
+        fn assemble(&self, _: Vec<Chunk>) -> Result<TableContent, JobError> {
+            let n: usize = self.assembled.iter().map(Axis::len).product();
+            Ok(TableContent {
+                schema: crate::table::Schema::new("test", 1),
+                description: String::new(),
+                axes: self.assembled.clone(),
+                channels: vec![crate::table::Channel::new("v", "1", "value")],
+                attributes: serde_json::Map::new(),
+                data: vec![0.0; n],
+            })
+        }
+        fn shape(&self) -> PlannedShape {
+            PlannedShape::new(self.planned.clone(), 1)
+        }
+        fn estimated_cpu_seconds(&self) -> f64 {
+            0.0
+        }
+        fn estimated_stored_fraction(&self) -> f64 {
+            1.0
+        }
+    }
+
+    #[test]
+    fn an_assembly_unlike_the_plan_is_refused() {
+        let ab = vec![
+            Axis::uniform("a", "1", 0.0, 1.0, 2),
+            Axis::uniform("b", "1", 0.0, 1.0, 3),
+        ];
+        let ba = vec![
+            Axis::uniform("b", "1", 0.0, 1.0, 3),
+            Axis::uniform("a", "1", 0.0, 1.0, 2),
+        ];
+        let same = Mismatched {
+            planned: ab.clone(),
+            assembled: ab.clone(),
+        };
+        assert!(assemble_checked(&same, Vec::new()).is_ok());
+        // Same size, axes swapped: the plan's axes would be wrong.
+        let swapped = Mismatched {
+            planned: ab.clone(),
+            assembled: ba,
+        };
+        let e = assemble_checked(&swapped, Vec::new())
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains(
+                "the table is b 3 × a 2 × 1 channels, but the job planned a 2 × b 3 × 1 channels"
+            ),
+            "{e}"
+        );
+        let larger = Mismatched {
+            planned: ab,
+            assembled: vec![Axis::uniform("a", "1", 0.0, 1.0, 7)],
+        };
+        assert!(matches!(
+            assemble_checked(&larger, Vec::new()),
+            Err(JobError::PlannedSize {
+                planned: 24,
+                assembled: 28
             })
         ));
     }

@@ -79,6 +79,22 @@ impl WaterIndexJob {
     }
 }
 
+impl WaterIndexJob {
+    /// Axes: temperature (°C) × vacuum wavelength (nm).
+    fn table_axes(&self) -> Vec<Axis> {
+        vec![
+            Axis::values("temperature", "degC", self.p.temperature_c.clone()),
+            Axis::uniform(
+                "wavelength",
+                "nm",
+                self.p.wavelength_nm[0],
+                self.p.wavelength_nm[2],
+                self.count,
+            ),
+        ]
+    }
+}
+
 impl Job for WaterIndexJob {
     fn parameters(&self) -> serde_json::Value {
         serde_json::to_value(&self.p).expect("params serialise")
@@ -105,11 +121,21 @@ impl Job for WaterIndexJob {
         Ok(Chunk::values(values))
     }
     /// Temperatures × wavelengths × one channel of f32.
-    fn payload_bytes(&self) -> Option<u64> {
-        Some(crate::stages::f32_payload_bytes(&[
-            self.p.temperature_c.len(),
-            self.count,
-        ]))
+    fn shape(&self) -> crate::stages::PlannedShape {
+        crate::stages::PlannedShape::new(self.table_axes(), 1)
+    }
+    /// One IAPWS R9-97 evaluation per value (`cost::WATER_INDEX_VALUE_CPU_S`).
+    fn estimated_cpu_seconds(&self) -> f64 {
+        let values = (self.p.temperature_c.len() * self.count) as f64;
+        crate::stages::cost::WATER_INDEX_VALUE_CPU_S * values
+    }
+    fn estimated_stored_fraction(&self) -> f64 {
+        crate::stages::cost::STORED_FRACTION_WATER_INDEX
+    }
+    /// The model's name and the density of water at each temperature.
+    fn estimated_attribute_bytes(&self) -> u64 {
+        use crate::stages::cost::ATTRIBUTE_BYTES_PER_SCALAR;
+        400 + ATTRIBUTE_BYTES_PER_SCALAR * self.p.temperature_c.len() as u64
     }
     fn assemble(&self, chunks: Vec<Chunk>) -> Result<TableContent, JobError> {
         // chunks are per temperature; the table is temperature × wavelength.
@@ -137,16 +163,7 @@ impl Job for WaterIndexJob {
         Ok(TableContent {
             schema: Schema::new("water-index", 1),
             description: "real refractive index of liquid water relative to vacuum".into(),
-            axes: vec![
-                Axis::values("temperature", "degC", self.p.temperature_c.clone()),
-                Axis::uniform(
-                    "wavelength",
-                    "nm",
-                    self.p.wavelength_nm[0],
-                    self.p.wavelength_nm[2],
-                    self.count,
-                ),
-            ],
+            axes: self.table_axes(),
             channels: vec![Channel::new(
                 "n",
                 "1",

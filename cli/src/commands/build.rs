@@ -28,11 +28,21 @@ pub struct BuildArgs {
     /// Do not draw preview pictures into OUT/previews/.
     #[arg(long)]
     pub no_previews: bool,
+    /// Compute nothing: print each table's tasks, axes, size (uncompressed and estimated on
+    /// disk) and estimated CPU time, and the totals.
+    #[arg(long)]
+    pub plan: bool,
+    /// With --plan: print the plan as JSON (keys `tables`, `total_bytes`, …).
+    #[arg(long, requires = "plan")]
+    pub json: bool,
 }
 
 /// Run a build; returns the exit code.
 pub fn run_build(a: BuildArgs) -> Result<i32> {
     let manifests = manifests_to_build(a.manifests)?;
+    if a.plan {
+        return print_plan(&manifests, a.json);
+    }
     if a.jobs == Some(0) {
         bail!("--jobs must be at least 1");
     }
@@ -95,5 +105,77 @@ fn draw_previews(out: &Path, tables: &[String]) {
         {
             eprintln!("warning: previews of {name}: {:#}", anyhow::Error::from(e));
         }
+    }
+}
+
+/// `build --plan`: the plan as a table on stdout, or as JSON.
+fn print_plan(manifests: &[PathBuf], json: bool) -> Result<i32> {
+    let plan = scatterbake::plan::plan_build(manifests)?;
+    if json {
+        println!("{}", serde_json::to_string_pretty(&plan)?);
+        return Ok(0);
+    }
+    println!(
+        "{:<36} {:>6} {:>11} {:>11} {:>10}  axes × channels",
+        "table", "tasks", "values", "on disk", "CPU"
+    );
+    for t in &plan.tables {
+        let axes: Vec<String> = t
+            .axes
+            .iter()
+            .map(|a| format!("{} {}", a.name, a.len))
+            .collect();
+        println!(
+            "{:<36} {:>6} {:>11} {:>11} {:>10}  {} × {} ch",
+            t.name,
+            t.tasks,
+            t.values,
+            human_bytes(t.estimated_bytes),
+            human_seconds(t.estimated_cpu_s),
+            axes.join(" × "),
+            t.channels
+        );
+    }
+    println!(
+        "total: {} table(s), {} tasks, {} uncompressed, ≈ {} on disk, ≈ {} CPU (≈ {} wall on {} core(s))",
+        plan.tables.len(),
+        plan.total_tasks,
+        human_bytes(plan.total_payload_bytes),
+        human_bytes(plan.total_bytes),
+        human_seconds(plan.total_cpu_s),
+        human_seconds(plan.total_cpu_s / cores() as f64),
+        cores()
+    );
+    Ok(0)
+}
+
+fn cores() -> usize {
+    std::thread::available_parallelism().map_or(1, std::num::NonZero::get)
+}
+
+/// Bytes with a binary unit (KiB, MiB, GiB, TiB).
+fn human_bytes(b: u64) -> String {
+    let mut v = b as f64;
+    for unit in ["B", "KiB", "MiB", "GiB"] {
+        if v < 1024.0 {
+            return if unit == "B" {
+                format!("{b} B")
+            } else {
+                format!("{v:.1} {unit}")
+            };
+        }
+        v /= 1024.0;
+    }
+    format!("{v:.1} TiB")
+}
+
+/// Seconds as s, min or h.
+fn human_seconds(s: f64) -> String {
+    if s < 120.0 {
+        format!("{s:.1} s")
+    } else if s < 7200.0 {
+        format!("{:.1} min", s / 60.0)
+    } else {
+        format!("{:.1} h", s / 3600.0)
     }
 }
