@@ -74,3 +74,77 @@ fn a_140_gib_ray_traced_table_is_refused_at_plan_time() {
     }
     assert!(!d.path().join("out").exists(), "nothing is written");
 }
+
+/// Steps that are infinite, huge or tiny are refused when planned, naming the key, for every
+/// stage with a uniform grid; none reaches a task (a division by a zero count, an overflowing
+/// sample count or an allocation the size of the address space).
+#[test]
+fn hostile_grid_steps_are_refused_when_planned() {
+    let stages = [
+        (
+            "mie",
+            "radii_um = [10.0]\nwavelengths_nm = [550.0]\nangle_step_deg = {v}",
+            "angle_step_deg",
+        ),
+        (
+            "debye",
+            "radii_um = [10.0]\nwavelengths_nm = [550.0]\nangle_step_deg = {v}",
+            "angle_step_deg",
+        ),
+        (
+            "mixture",
+            "distributions = [{ kind = \"monodisperse\", radius_um = 10.0 }]\nwavelengths_nm = [550.0]\nangle_step_deg = {v}",
+            "angle_step_deg",
+        ),
+        (
+            "raytrace",
+            "shape = \"sphere\"\nradii_um = [400.0]\nwavelengths_nm = [550.0]\nangle_step_deg = {v}",
+            "angle_step_deg",
+        ),
+        (
+            "raytrace",
+            "shape = \"beard-chuang\"\nradii_um = [1000.0]\nwavelengths_nm = [550.0]\nrays = 16\npolar_step_deg = {v}\nazimuth_step_deg = 10.0",
+            "polar_step_deg",
+        ),
+        (
+            "raytrace",
+            "shape = \"beard-chuang\"\nradii_um = [1000.0]\nwavelengths_nm = [550.0]\nrays = 16\npolar_step_deg = 1.0\nazimuth_step_deg = {v}",
+            "azimuth_step_deg",
+        ),
+    ];
+    let d = tempfile::tempdir().unwrap();
+    for v in ["inf", "1e308", "1e-300", "200.0", "nan"] {
+        for (stage, params, key) in stages {
+            let m = d.path().join("m.toml");
+            std::fs::write(
+                &m,
+                format!(
+                    "[[table]]\nname = \"t\"\nstage = \"{stage}\"\n[table.params]\n{}\n",
+                    params.replace("{v}", v)
+                ),
+            )
+            .unwrap();
+            let t = refused_build(d.path(), &m);
+            assert!(
+                t.contains(key) && t.contains("m.toml:"),
+                "{stage} {key} = {v}: {t}"
+            );
+            assert!(
+                !d.path().join("out").exists(),
+                "{stage} {key} = {v}: nothing is written"
+            );
+        }
+    }
+    // A water-index step so small that its sample count overflows.
+    let m = d.path().join("w.toml");
+    std::fs::write(
+        &m,
+        "[[table]]\nname = \"w\"\nstage = \"water-index\"\n[table.params]\nwavelength_nm = [400.0, 700.0, 1e-300]\ntemperature_c = [20.0]\n",
+    )
+    .unwrap();
+    let t = refused_build(d.path(), &m);
+    assert!(
+        t.contains("wavelength_nm") && t.contains("1e6 samples"),
+        "{t}"
+    );
+}

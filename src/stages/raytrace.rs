@@ -142,7 +142,8 @@ fn divides(total: f64, step: f64) -> Option<usize> {
         return None;
     }
     let n = total / step;
-    if (n - n.round()).abs() < 1e-6 && n.round() >= 2.0 {
+    // At most 1e7 steps: a tiny step would overflow the grid's sample count.
+    if (n - n.round()).abs() < 1e-6 && (2.0..=1e7).contains(&n.round()) {
         Some(n.round() as usize)
     } else {
         None
@@ -211,13 +212,13 @@ fn check_two_d_grid(p: &RaytraceParams) -> Result<(), PlanError> {
     if divides(180.0, p.polar_step_deg).is_none() {
         return Err(PlanError::invalid(
             "polar_step_deg",
-            "must be > 0 and divide 180",
+            "must be > 0 and divide 180 into 2 to 1e7 steps",
         ));
     }
     if divides(360.0, p.azimuth_step_deg).is_none() {
         return Err(PlanError::invalid(
             "azimuth_step_deg",
-            "must be > 0 and divide 360",
+            "must be > 0 and divide 360 into 2 to 1e7 steps",
         ));
     }
     if !(8..=20_000).contains(&p.rays) {
@@ -303,7 +304,7 @@ impl RaytraceJob {
             if divides(180.0, job.p.angle_step_deg).is_none() {
                 return Err(PlanError::invalid(
                     "angle_step_deg",
-                    "must be > 0 and divide 180",
+                    "must be > 0 and divide 180 into 2 to 1e7 steps",
                 ));
             }
             return Ok(job);

@@ -586,14 +586,21 @@ pub mod checks {
         Ok(())
     }
 
-    /// Number of intervals `180/step` of a uniform scattering-angle grid; the step must divide
-    /// 180° into at most 1e6 intervals.
+    /// Number of intervals `180/step` of a uniform scattering-angle grid; the step must be
+    /// finite and divide 180° into 1 to 1e6 intervals (an infinite or huge step would give
+    /// none).
     pub fn angle_step_intervals(key: &str, step_deg: f64) -> Result<usize, PlanError> {
         let ratio = 180.0 / step_deg;
-        if !(step_deg > 0.0) || (ratio - ratio.round()).abs() > 1e-6 || ratio.round() > 1e6 {
+        let usable = step_deg.is_finite()
+            && step_deg > 0.0
+            && (ratio - ratio.round()).abs() <= 1e-6
+            && (1.0..=1e6).contains(&ratio.round());
+        if !usable {
             return Err(PlanError::invalid(
                 key,
-                "must be > 0 with 180/step an integer ≤ 1e6",
+                format!(
+                    "{step_deg:?} is not usable: must be finite, in (0, 180], with 180/step an integer ≤ 1e6"
+                ),
             ));
         }
         Ok(ratio.round() as usize)

@@ -43,10 +43,15 @@ impl StageSpec for WaterIndexStage {
                 format!("range {start}–{stop} nm leaves the IAPWS R9-97 domain 200–1100 nm"),
             ));
         }
-        let count = ((stop - start) / step + 1e-9).floor() as usize + 1;
-        if count > 1_000_000 {
-            return Err(PlanError::invalid("wavelength_nm", "more than 1e6 samples"));
+        // Counted in f64 first: a tiny step must not overflow the integer count.
+        let intervals = ((stop - start) / step + 1e-9).floor();
+        if !(intervals < 1e6) {
+            return Err(PlanError::invalid(
+                "wavelength_nm",
+                format!("step {step:?} nm gives more than 1e6 samples"),
+            ));
         }
+        let count = intervals as usize + 1;
         if p.temperature_c.is_empty() {
             return Err(PlanError::invalid("temperature_c", "must not be empty"));
         }
