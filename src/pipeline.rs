@@ -267,14 +267,18 @@ fn task_key(table_key: &str, index: usize, params: &serde_json::Value) -> String
 /// field and stored the values only) are refused, never decoded, and their tasks recomputed.
 pub const CHECKPOINT_FORMAT: u32 = 2;
 
-#[derive(Serialize, Deserialize)]
-struct Checkpoint {
+/// A checkpoint as decoded, its strings borrowed from the file's bytes (so that a length
+/// prefix is checked against the bytes present before anything is allocated).
+#[derive(Deserialize)]
+struct Checkpoint<'a> {
     /// [`CHECKPOINT_FORMAT`].
     format: u32,
     /// Task key.
-    key: String,
+    #[serde(borrow)]
+    key: &'a str,
     /// HMAC-SHA-256 (hex) of the task key, values and scalars under the directory's secret.
-    sha256: String,
+    #[serde(borrow)]
+    sha256: &'a str,
     values: Vec<f32>,
     scalars: Vec<f64>,
 }
@@ -307,8 +311,10 @@ pub fn read_checkpoint(
             ));
         }
     }
-    let (c, used): (Checkpoint, usize) =
-        bincode::serde::decode_from_slice(&bytes, bincode_config())
+    // Strings borrowed from the file, so that a length prefix is checked against the bytes
+    // present before anything is allocated (serde caps the preallocation of the vectors).
+    let (c, used): (Checkpoint<'_>, usize) =
+        bincode::serde::borrow_decode_from_slice(&bytes, bincode_config())
             .map_err(|e| format!("truncated or not a checkpoint ({} bytes: {e})", bytes.len()))?;
     if used != bytes.len() {
         return Err(format!(
@@ -316,6 +322,7 @@ pub fn read_checkpoint(
             bytes.len()
         ));
     }
+    debug_assert_eq!(c.format, CHECKPOINT_FORMAT, "checked before decoding");
     if c.key != task_key {
         return Err("belongs to another task".into());
     }
@@ -1018,6 +1025,36 @@ mod tests {
         later.extend(&std::fs::read(&path).unwrap());
         std::fs::write(&path, later).unwrap();
         assert!(read_checkpoint(&path, &key, &secret).is_err());
+    }
+
+    /// A checkpoint whose length prefixes declare more than any file holds (2^62 values, or a
+    /// 2^62-byte task key) is refused as truncated, without allocating what it declares.
+    #[test]
+    fn checkpoints_declaring_huge_lengths_are_refused_without_allocating() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("t.chunk");
+        let secret = CheckpointKey::from_bytes([7; 32]);
+        let key = "k".repeat(64);
+        let huge = {
+            // bincode's standard varint: 0xFD then the u64 little-endian.
+            let mut b = vec![0xFD];
+            b.extend((1u64 << 62).to_le_bytes());
+            b
+        };
+        let mut values_huge =
+            bincode::serde::encode_to_vec(CHECKPOINT_FORMAT, bincode_config()).unwrap();
+        values_huge.extend(bincode::serde::encode_to_vec(&key, bincode_config()).unwrap());
+        values_huge
+            .extend(bincode::serde::encode_to_vec("0".repeat(64), bincode_config()).unwrap());
+        values_huge.extend(&huge);
+        let mut key_huge =
+            bincode::serde::encode_to_vec(CHECKPOINT_FORMAT, bincode_config()).unwrap();
+        key_huge.extend(&huge);
+        for bytes in [values_huge, key_huge] {
+            std::fs::write(&path, &bytes).unwrap();
+            let why = read_checkpoint(&path, &key, &secret).unwrap_err();
+            assert!(why.contains("truncated"), "{why}");
+        }
     }
 
     #[test]
