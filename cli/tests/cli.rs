@@ -901,3 +901,48 @@ fn validate_names_coarse_and_ambiguous_references(dir: &Path, points: &str) {
         &["--entry radius=VALUE"],
     );
 }
+
+/// `scatterbake raytrace` refuses what the `raytrace` stage refuses, with the same reasons (one
+/// domain, `raytrace::domain`), naming the option.
+#[test]
+fn raytrace_options_outside_the_tracers_domain_are_refused() {
+    let d = tempfile::tempdir().unwrap();
+    let base = [
+        "raytrace",
+        "--wavelength-nm",
+        "550",
+        "--angles",
+        "130:140:0.5",
+    ];
+    for (extra, expected) in [
+        (
+            vec!["--radius-um", "5"],
+            "--radius-um 5 µm is outside 10–5000 µm",
+        ),
+        (
+            vec![
+                "--radius-um",
+                "1000",
+                "--shape",
+                "beard-chuang",
+                "--rays",
+                "4",
+            ],
+            "--rays 4 is outside 8–20000",
+        ),
+        (
+            vec![
+                "--radius-um",
+                "1000",
+                "--shape",
+                "beard-chuang",
+                "--sun-elevation-deg",
+                "95",
+            ],
+            "--sun-elevation-deg 95° is outside 0–90°",
+        ),
+    ] {
+        let args: Vec<&str> = base.iter().copied().chain(extra).collect();
+        assert_clean_failure(&run(&args, d.path()), &[expected]);
+    }
+}

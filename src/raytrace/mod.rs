@@ -15,6 +15,7 @@
 //! `mixture-phase/1`) are [`crate::stages::raytrace`] and [`crate::stages::mixture`].
 
 pub mod caustic;
+pub mod domain;
 pub mod mixture;
 pub mod post;
 pub mod shape;

@@ -87,11 +87,9 @@ impl StageSpec for Mixture2dStage {
             let key = format!("distributions[{i}]");
             let (radii, weights) =
                 entry_nodes(e, p.radius_points).map_err(|m| PlanError::invalid(&key, m))?;
-            if let Some(r) = radii.iter().find(|r| !(10.0..=5000.0).contains(*r)) {
-                return Err(PlanError::invalid(
-                    &key,
-                    format!("radius {r} µm is outside 10–5000 µm"),
-                ));
+            for &r in &radii {
+                crate::raytrace::domain::check_radius_um(r)
+                    .map_err(|why| PlanError::invalid(&key, format!("radius {why}")))?;
             }
             nodes.push((radii, weights));
         }

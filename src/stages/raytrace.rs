@@ -26,6 +26,7 @@
 //! i_perp = |S1|²/(π x² Q_sca).
 
 use crate::optics::water::{SADEGHI_WAVELENGTHS_NM, WaterIndexModel};
+use crate::raytrace::domain;
 use crate::raytrace::post::{filter_sigma_deg, integral_1d};
 use crate::raytrace::shape::{CosineSeries, DropShape};
 use crate::raytrace::sphere1d::{
@@ -221,19 +222,16 @@ fn check_two_d_grid(p: &RaytraceParams) -> Result<(), PlanError> {
             "must be > 0 and divide 360 into 2 to 1e7 steps",
         ));
     }
-    if !(8..=20_000).contains(&p.rays) {
-        return Err(PlanError::invalid("rays", "must be within 8–20000"));
-    }
-    if p.sun_elevation_deg.is_empty()
-        || p.sun_elevation_deg.windows(2).any(|w| w[1] <= w[0])
-        || p.sun_elevation_deg
-            .iter()
-            .any(|e| !(0.0..=90.0).contains(e))
-    {
+    domain::check_rays(p.rays).map_err(|why| PlanError::invalid("rays", why))?;
+    if p.sun_elevation_deg.is_empty() || p.sun_elevation_deg.windows(2).any(|w| w[1] <= w[0]) {
         return Err(PlanError::invalid(
             "sun_elevation_deg",
             "must be strictly increasing within 0–90",
         ));
+    }
+    for &e in &p.sun_elevation_deg {
+        domain::check_sun_elevation_deg(e)
+            .map_err(|why| PlanError::invalid("sun_elevation_deg", why))?;
     }
     Ok(())
 }
@@ -249,11 +247,8 @@ impl RaytraceJob {
             &p.wavelengths_nm,
         )?;
         checks::increasing("radii_um", &p.radii_um, true)?;
-        if let Some(r) = p.radii_um.iter().find(|r| !(10.0..=5000.0).contains(*r)) {
-            return Err(PlanError::invalid(
-                "radii_um",
-                format!("{r} µm is outside 10–5000 µm (geometric optics needs x ≫ 1)"),
-            ));
+        for &r in &p.radii_um {
+            domain::check_radius_um(r).map_err(|why| PlanError::invalid("radii_um", why))?;
         }
         let two_d_shape = p.shape != "sphere";
         let max_order = p

@@ -12,6 +12,7 @@
 
 use crate::args::{AngleRange, IndexArgs};
 use anyhow::{Context, bail};
+use scatterbake::raytrace::domain::{check_radius_um, check_rays, check_sun_elevation_deg};
 use scatterbake::raytrace::shape::DropShape;
 use scatterbake::raytrace::sphere1d::{DiffractionModel, sphere_phase_curves};
 use scatterbake::raytrace::table2d::{Table2dOptions, azimuth_mean_curves};
@@ -71,12 +72,7 @@ pub fn raytrace_columns(args: &RaytraceArgs) -> anyhow::Result<RaytraceColumns> 
     // The trace covers the whole 0–180° grid of this step; the range selects from it.
     AngleRange::full(step).context("--angles")?;
     let n_polar = (180.0 / step).round() as usize + 1;
-    if !(10.0..=5000.0).contains(&args.radius_um) {
-        bail!(
-            "--radius-um {} is outside 10–5000 µm (geometric optics needs x ≫ 1)",
-            args.radius_um
-        );
-    }
+    check_radius_um(args.radius_um).map_err(|why| anyhow::anyhow!("--radius-um {why}"))?;
     let n = args
         .refractive
         .resolve_real(args.wavelength_nm, "ray tracing")?;
@@ -92,12 +88,9 @@ pub fn raytrace_columns(args: &RaytraceArgs) -> anyhow::Result<RaytraceColumns> 
             !args.no_diffraction_filter,
         )
     } else {
-        if !(8..=20_000).contains(&args.rays) {
-            bail!("--rays must be within 8–20000");
-        }
-        if !(0.0..=90.0).contains(&args.sun_elevation_deg) {
-            bail!("--sun-elevation-deg must be within 0–90");
-        }
+        check_rays(args.rays).map_err(|why| anyhow::anyhow!("--rays {why}"))?;
+        check_sun_elevation_deg(args.sun_elevation_deg)
+            .map_err(|why| anyhow::anyhow!("--sun-elevation-deg {why}"))?;
         let opts = Table2dOptions {
             rays: args.rays,
             ray_grid: if args.ray_grid == "square" {
