@@ -7,7 +7,7 @@ pub mod mieplot;
 pub mod mitsuba;
 pub mod rgb_lut;
 
-use anyhow::{Result, bail};
+use anyhow::{Context as _, Result, bail};
 use scatterbake::table::Table;
 use std::path::PathBuf;
 
@@ -72,6 +72,34 @@ pub struct ExportArgs {
     sun_diameter_deg: Option<f64>,
 }
 
+/// The name of `format` on the command line.
+fn format_name(format: ExportFormat) -> String {
+    use clap::ValueEnum as _;
+    format
+        .to_possible_value()
+        .map(|v| v.get_name().to_string())
+        .unwrap_or_default()
+}
+
+/// Refuse a phase-function format for a table that does not follow the phase contract, before
+/// any work, saying what the table is and which formats apply to it (reads the header only).
+fn check_phase_format(file: &std::path::Path, format: ExportFormat) -> Result<()> {
+    let header = scatterbake::table::read_header_only(file)?;
+    if let Err(why) = scatterbake::consumers::read::phase::PhaseTable::check_header(&header) {
+        bail!(
+            "--format {} applies to 1-D phase-function tables (axes … × wavelength × \
+             scattering_angle, channels phase, i_perp, i_par: schemas mie-phase, debye-phase, \
+             raytrace-phase, mixture-phase); {} is a `{}/{}` table ({why}). Formats for any \
+             table: csv, json, exr",
+            format_name(format),
+            file.display(),
+            header.schema.name,
+            header.schema.version
+        );
+    }
+    Ok(())
+}
+
 pub fn run_export(a: ExportArgs) -> Result<()> {
     use scatterbake::consumers::export::generic::GenericFormat;
     if a.samples.is_some() && !matches!(a.format, ExportFormat::Mitsuba | ExportFormat::RgbLut) {
@@ -88,10 +116,17 @@ pub fn run_export(a: ExportArgs) -> Result<()> {
             .out
             .ok_or_else(|| anyhow::anyhow!("--out is required for --format csv|json|exr"))?;
         let t = Table::open(&a.file)?;
-        scatterbake::consumers::export::generic::export(&t, format, &out)?;
+        scatterbake::consumers::export::generic::export(&t, format, &out).with_context(|| {
+            format!(
+                "exporting {} as {}",
+                a.file.display(),
+                format_name(a.format)
+            )
+        })?;
         println!("wrote {}", out.display());
         return Ok(());
     }
+    check_phase_format(&a.file, a.format)?;
     match a.format {
         ExportFormat::Mitsuba => mitsuba::run_mitsuba(&mitsuba::MitsubaArgs {
             table: a.file,
