@@ -45,7 +45,7 @@ pub fn run_mitsuba(args: &MitsubaArgs) -> anyhow::Result<()> {
     let lists = build_lists(&c, args.mode, args.wavelength_nm, args.samples)?;
     let source = format!(
         "{} [{}]",
-        args.table.display(),
+        crate::display::path(&args.table),
         describe_entry(&pt.table, &c.entry)
     );
     let xml = xml_snippet(&lists, &source);

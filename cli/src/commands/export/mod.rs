@@ -35,9 +35,12 @@ pub enum ExportFormat {
 pub struct ExportArgs {
     /// Table file (.sbt).
     file: PathBuf,
+    /// Output format: csv, json, exr for any table; mitsuba, legendre, mieplot, rgb-lut for
+    /// 1-D phase-function tables.
     #[arg(long, value_enum)]
     format: ExportFormat,
-    /// Output file (required for csv/json/exr; stdout otherwise when omitted).
+    /// Output file: required for csv, json, exr and rgb-lut (.exr, .png or .csv); mitsuba,
+    /// legendre and mieplot write to stdout when it is omitted.
     #[arg(long)]
     out: Option<PathBuf>,
     /// Entry selection NAME=VALUE per entry axis (phase formats; default: first sample of each).
@@ -92,7 +95,7 @@ fn check_phase_format(file: &std::path::Path, format: ExportFormat) -> Result<()
              raytrace-phase, mixture-phase); {} is a `{}/{}` table ({why}). Formats for any \
              table: csv, json, exr",
             format_name(format),
-            file.display(),
+            crate::display::path(file),
             header.schema.name,
             header.schema.version
         );
@@ -119,11 +122,11 @@ pub fn run_export(a: ExportArgs) -> Result<()> {
         scatterbake::consumers::export::generic::export(&t, format, &out).with_context(|| {
             format!(
                 "exporting {} as {}",
-                a.file.display(),
+                crate::display::path(&a.file),
                 format_name(a.format)
             )
         })?;
-        println!("wrote {}", out.display());
+        println!("wrote {}", crate::display::path(&out));
         return Ok(());
     }
     check_phase_format(&a.file, a.format)?;
