@@ -210,6 +210,46 @@ fn option_values_are_used_as_given_or_refused() {
         &["--height 1", "at least 2"],
     );
     assert!(!d.path().join("s.png").exists());
+    // A range whose STEP does not reach STOP is refused, not cut short.
+    fails_with(
+        &["mie", "--x", "10", "--n", "1.33", "--angles", "0:1:0.3"],
+        d.path(),
+        &["does not divide", "the last angle would be 0.9, not 1"],
+    );
+    // "Nearest table wavelength" options say which wavelength they use.
+    let t = succeeds(
+        &[
+            "export",
+            &table,
+            "--format",
+            "legendre",
+            "--wavelength-nm",
+            "500",
+            "--out",
+            "l.txt",
+        ],
+        d.path(),
+    );
+    assert!(
+        t.contains(
+            "--wavelength-nm 500: the table has no such wavelength; using the nearest, 450 nm"
+        ),
+        "{t}"
+    );
+    let t = succeeds(
+        &[
+            "export",
+            &table,
+            "--format",
+            "legendre",
+            "--wavelength-nm",
+            "650",
+            "--out",
+            "l.txt",
+        ],
+        d.path(),
+    );
+    assert!(!t.contains("note:"), "{t}");
 }
 
 /// A name holding a newline, an escape sequence and a carriage return is printed with those

@@ -89,7 +89,7 @@ pub fn run_plot_raytrace(args: &PlotRaytraceArgs) -> anyhow::Result<()> {
     match args.kind {
         RaytracePlotKind::Latlong => {
             let s = &inputs[0].slice;
-            let k = nearest(&s.wavelengths_nm, args.wavelength_nm);
+            let k = crate::args::nearest_wavelength(&s.wavelengths_nm, args.wavelength_nm);
             let prefix = format!("{}: ", inputs[0].label);
             plot_latlong(
                 s,

@@ -37,7 +37,7 @@ pub fn run_legendre(args: &LegendreArgs) -> anyhow::Result<()> {
     let pt = scatterbake::consumers::read::phase::PhaseTable::open(&args.table)?;
     let c = pt.curves(&args.entry)?;
     let ks: Vec<usize> = match args.wavelength_nm {
-        Some(w) => vec![c.nearest_wavelength(w)],
+        Some(w) => vec![crate::args::nearest_wavelength(&c.wavelengths_nm, w)],
         None => (0..c.wavelengths_nm.len()).collect(),
     };
     let mut s = String::new();
