@@ -119,6 +119,11 @@ fn help_explains_entry_and_export_formats() {
     assert!(export_line.contains("rgb-lut"), "{export_line}");
     let help = succeeds(&["export", "--help"], d.path());
     assert!(help.contains("rgb-lut"), "{help}");
+    let lut = help.lines().find(|l| l.contains("rgb-lut:")).unwrap();
+    assert!(
+        lut.contains(".exr") && lut.contains(".png") && lut.contains(".csv"),
+        "{lut}"
+    );
     assert!(
         help.contains("required for csv, json, exr and rgb-lut"),
         "--out help names every format that needs it: {help}"

@@ -26,7 +26,8 @@ pub enum ExportFormat {
     Legendre,
     /// MiePlot-style text table: angle, i_perp, i_par, phase (phase-function tables).
     Mieplot,
-    /// Sun-disc-convolved linear-sRGB lookup vs angle, `.csv` or `.png` (phase-function tables).
+    /// Sun-disc-averaged linear-sRGB lookup texture vs angle, `.exr`, `.png` or `.csv`
+    /// (phase-function tables).
     RgbLut,
 }
 
