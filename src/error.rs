@@ -25,14 +25,18 @@ impl IoError {
     }
 }
 
-/// An error and its sources, outermost first, joined by `: ` (the form `{:#}` gives in the
-/// command line).
+/// An error and its sources, outermost first, joined by `: ` (what the command line prints). A
+/// source whose text the message already ends with (an error that quotes its cause and also
+/// returns it as its source) is not repeated.
 pub fn error_chain(e: &(dyn std::error::Error + 'static)) -> String {
     let mut s = e.to_string();
     let mut cause = e.source();
     while let Some(c) = cause {
-        s.push_str(": ");
-        s.push_str(&c.to_string());
+        let text = c.to_string();
+        if !s.ends_with(&text) {
+            s.push_str(": ");
+            s.push_str(&text);
+        }
         cause = c.source();
     }
     s
@@ -47,5 +51,21 @@ mod tests {
         let e =
             IoError::doing("writing", Path::new("out/t.sbt"))(std::io::Error::other("disk full"));
         assert_eq!(error_chain(&e), "writing out/t.sbt: disk full");
+    }
+
+    /// An error that quotes its source in its own message prints the source once.
+    #[test]
+    fn a_quoted_source_is_not_repeated() {
+        #[derive(Debug, thiserror::Error)]
+        #[error("{path}: {source}")]
+        struct Quoting {
+            path: String,
+            source: std::io::Error,
+        }
+        let e = Quoting {
+            path: "nope.sbt".into(),
+            source: std::io::Error::from(std::io::ErrorKind::NotFound),
+        };
+        assert_eq!(error_chain(&e), "nope.sbt: entity not found");
     }
 }

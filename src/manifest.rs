@@ -19,19 +19,35 @@ use std::ops::Range;
 use std::path::{Path, PathBuf};
 use toml::de::{DeTable, DeValue, ValueDeserializer};
 
-/// A manifest error with its location.
-#[derive(Debug, thiserror::Error)]
-#[error("{file}:{line}:{column}: {key_part}{message}", key_part = key.as_ref().map(|k| format!("key `{k}`: ")).unwrap_or_default())]
+/// A manifest error with its location: `FILE:LINE:COLUMN: key `K`: message`, or `FILE: message`
+/// when the problem has no place in the text (the file could not be read).
+#[derive(Debug)]
 pub struct ManifestError {
     pub file: PathBuf,
-    /// 1-based line.
+    /// 1-based line; 0 when the problem has no place in the text.
     pub line: usize,
-    /// 1-based column.
+    /// 1-based column; 0 when the problem has no place in the text.
     pub column: usize,
     /// Dotted key path, when the problem is at a key.
     pub key: Option<String>,
     pub message: String,
 }
+
+impl std::fmt::Display for ManifestError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}", self.file.display())?;
+        if self.line > 0 {
+            write!(f, ":{}:{}", self.line, self.column)?;
+        }
+        f.write_str(": ")?;
+        if let Some(k) = &self.key {
+            write!(f, "key `{k}`: ")?;
+        }
+        f.write_str(&self.message)
+    }
+}
+
+impl std::error::Error for ManifestError {}
 
 /// One planned output table.
 pub struct PlannedTable {
@@ -122,7 +138,7 @@ pub fn load_manifest(file: &Path) -> Result<Vec<PlannedTable>, ManifestError> {
         line: 0,
         column: 0,
         key: None,
-        message: format!("cannot read manifest: {e}"),
+        message: format!("the manifest could not be read: {e}"),
     })?;
     parse_manifest(file, &src)
 }

@@ -2,9 +2,10 @@
 //! for bit, reproduces the lookup formula, reads newer minor versions with unknown header fields,
 //! and rejects corrupt files and newer majors.
 //!
-//! Needs `python3` with numpy and zstandard (`python3 -m pip install numpy zstandard`). The
-//! tests fail, naming what is missing, when those are not importable; setting
-//! `SCATTERBAKE_SKIP_PYTHON=1` skips them deliberately (docs/testing.md).
+//! Runs in the tests' own Python environment (`tests/common/python.rs`: a virtual environment
+//! under `target/` with numpy and zstandard, created on first use); the tests fail with the fix
+//! when it cannot be created. Setting `SCATTERBAKE_SKIP_PYTHON=1` skips them deliberately
+//! (docs/testing.md).
 
 mod common;
 
@@ -15,48 +16,26 @@ use std::process::Command;
 /// Environment variable that deliberately skips the Python reader tests when set to `1`.
 const SKIP_VAR: &str = "SCATTERBAKE_SKIP_PYTHON";
 
-/// True when the Python tests are deliberately skipped; otherwise panics unless `python3` can
-/// import numpy and zstandard, naming the missing modules.
+/// True when the Python tests are deliberately skipped; otherwise provisions the tests' Python
+/// environment (numpy, zstandard), failing loudly with the fix when it cannot.
 fn skip_or_require_python() -> bool {
     if std::env::var(SKIP_VAR).is_ok_and(|v| v == "1") {
         eprintln!("SKIPPED: {SKIP_VAR}=1 (the Python reader is not tested)");
         return true;
     }
-    let probe = "import importlib.util\n\
-                 print(', '.join(m for m in ('numpy', 'zstandard') if importlib.util.find_spec(m) is None))";
-    let out = Command::new("python3")
-        .args(["-c", probe])
-        .output()
-        .unwrap_or_else(|e| {
-            panic!(
-                "the Python reader tests need `python3` on PATH ({e}); install it with numpy and \
-                 zstandard, or set {SKIP_VAR}=1 to skip them deliberately"
-            )
-        });
-    assert!(
-        out.status.success(),
-        "python3 failed: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let missing = String::from_utf8_lossy(&out.stdout).trim().to_string();
-    assert!(
-        missing.is_empty(),
-        "python3 cannot import {missing} (needed by python/scatterbake_table.py): run \
-         `python3 -m pip install numpy zstandard`, or set {SKIP_VAR}=1 to skip the Python reader \
-         tests deliberately"
-    );
+    common::python::python();
     false
 }
 
 fn run(table: &Path, dump: &Path, coords: &[f64]) -> std::process::Output {
     let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("python/test_reader.py");
-    Command::new("python3")
+    Command::new(common::python::python())
         .arg(script)
         .arg(table)
         .arg(dump)
         .args(coords.iter().map(|c| c.to_string()))
         .output()
-        .expect("python3 runs")
+        .expect("the tests' Python runs")
 }
 
 #[test]

@@ -20,6 +20,25 @@ where
         .try_map(|s| s.parse::<T>().map_err(|e| e.to_string()))
 }
 
+/// The index of the table wavelength nearest `asked_nm`, for options documented as "nearest
+/// table wavelength": when that is not the wavelength asked for, a note on stderr says which one
+/// is used, so the value is never changed silently.
+pub fn nearest_wavelength(wavelengths_nm: &[f64], asked_nm: f64) -> usize {
+    let mut best = 0;
+    for (k, &w) in wavelengths_nm.iter().enumerate() {
+        if (w - asked_nm).abs() < (wavelengths_nm[best] - asked_nm).abs() {
+            best = k;
+        }
+    }
+    let used = wavelengths_nm[best];
+    if (used - asked_nm).abs() > 1e-9 * asked_nm.abs().max(1.0) {
+        eprintln!(
+            "note: --wavelength-nm {asked_nm}: the table has no such wavelength; using the nearest, {used} nm (table wavelengths {wavelengths_nm:?} nm)"
+        );
+    }
+    best
+}
+
 /// Parse `N+Ki`, `N-Ki` (refused: k must be ≥ 0) or `N`.
 pub fn parse_complex_index(s: &str) -> Result<(f64, f64), String> {
     let t = s.trim().replace(' ', "");
@@ -80,6 +99,17 @@ impl AngleRange {
                 "`{s}`: STEP must be > 0 and give at most {MAX_ANGLES} angles"
             ));
         }
+        // STOP is an angle of the range: a STEP that does not reach it would end the range
+        // elsewhere without saying so.
+        let intervals = (stop - start) / step;
+        if (intervals - intervals.round()).abs() > 1e-6 {
+            let last = ((start + intervals.floor() * step) * 1e9).round() / 1e9;
+            return Err(format!(
+                "`{s}`: STEP {step} does not divide STOP − START = {}: the last angle would be \
+                 {last}, not {stop}",
+                stop - start
+            ));
+        }
         Ok(AngleRange { start, stop, step })
     }
 
@@ -102,7 +132,7 @@ impl AngleRange {
 
     /// The angles START, START + STEP, … up to STOP (inclusive, to 1e-9 steps).
     pub fn angles(&self) -> Vec<f64> {
-        let count = ((self.stop - self.start) / self.step + 1e-9).floor() as usize + 1;
+        let count = ((self.stop - self.start) / self.step + 1e-6).floor() as usize + 1;
         (0..count)
             .map(|i| self.start + self.step * i as f64)
             .collect()
@@ -214,6 +244,7 @@ mod tests {
             "1:2",
             "a:b:c",
             "0:180:1e-9",
+            "0:1:0.3",
         ] {
             assert!(AngleRange::parse(bad).is_err(), "{bad}");
         }

@@ -196,7 +196,7 @@ impl CurveReport {
     pub fn print(&self, format: CurveFormat, csv: Option<&PathBuf>) -> anyhow::Result<()> {
         if let Some(path) = csv {
             std::fs::write(path, self.to_csv())
-                .with_context(|| format!("writing {}", path.display()))?;
+                .with_context(|| format!("writing {}", crate::display::path(path)))?;
         }
         let out = match format {
             CurveFormat::Table => self.to_table(),

@@ -8,6 +8,7 @@ mod commands;
 #[cfg(test)]
 mod consumer_tests;
 mod curve;
+mod display;
 mod progress;
 
 use anyhow::Result;
@@ -90,7 +91,10 @@ fn run_cli() -> i32 {
     match run(cli.command) {
         Ok(code) => code,
         Err(e) => {
-            eprintln!("error: {e:#}");
+            eprintln!(
+                "error: {}",
+                display::lines(&scatterbake::error::error_chain(e.as_ref()))
+            );
             1
         }
     }
@@ -168,5 +172,46 @@ mod tests {
             .map(|p| p.file_stem().unwrap().to_string_lossy().into_owned())
             .collect();
         assert_eq!(files, commands);
+    }
+
+    /// Every option and argument of every command (and subcommand) says what it is in `--help`.
+    #[test]
+    fn every_argument_has_help_text() {
+        fn walk(cmd: &clap::Command, path: &str, missing: &mut Vec<String>) {
+            for a in cmd.get_arguments() {
+                let id = a.get_id().as_str();
+                if a.is_hide_set() || id == "help" || id == "version" {
+                    continue;
+                }
+                if a.get_help().is_none_or(|h| h.to_string().trim().is_empty()) {
+                    missing.push(format!("{path} {id}"));
+                }
+            }
+            for sub in cmd.get_subcommands() {
+                walk(sub, &format!("{path} {}", sub.get_name()), missing);
+            }
+        }
+        let mut missing = Vec::new();
+        walk(&super::Cli::command(), "scatterbake", &mut missing);
+        assert!(missing.is_empty(), "arguments without help: {missing:?}");
+    }
+
+    /// The summary of `export` names every format `--format` takes.
+    #[test]
+    fn export_summary_names_every_format() {
+        let cli = super::Cli::command();
+        let export = cli.find_subcommand("export").unwrap();
+        let summary = export.get_about().unwrap().to_string();
+        let format = export
+            .get_arguments()
+            .find(|a| a.get_id() == "format")
+            .unwrap();
+        for v in format.get_possible_values() {
+            assert!(
+                summary.contains(v.get_name()),
+                "`{}` missing from: {summary}",
+                v.get_name()
+            );
+        }
     }
 }

@@ -62,10 +62,13 @@ impl State {
                 .collect();
             match names.len() {
                 0 => None,
-                n if n <= NAMED => Some(format!("{verb} {}", names.join(", "))),
+                n if n <= NAMED => Some(format!(
+                    "{verb} {}",
+                    crate::display::text(&names.join(", "))
+                )),
                 n => Some(format!(
                     "{verb} {} and {} more",
-                    names[..NAMED].join(", "),
+                    crate::display::text(&names[..NAMED].join(", ")),
                     n - NAMED
                 )),
             }
@@ -83,6 +86,7 @@ impl State {
 
     /// The line reporting table `name` at `step`, with the work done so far after an outcome.
     fn line(&self, command: &str, name: &str, step: TableStep) -> String {
+        let name = crate::display::text(name);
         let outcome = matches!(
             step,
             TableStep::Written | TableStep::Waiting | TableStep::Failed

@@ -3,15 +3,19 @@
 //! (`tables/rainbow-mie.sbt`: the default Mie table's stage, axes and operators, fewer radii and
 //! wavelengths):
 //!
-//! - the Python blocks and the docstring example run in `python3` (numpy and zstandard required,
-//!   as for the Python reader tests); the sampled point must equal the Rust lookup at the
-//!   coordinates the example's comment names, in the table's axis order;
+//! - the Python blocks and the docstring example run in the tests' Python environment
+//!   (`tests/common/python.rs`: numpy and zstandard, provisioned under `target/`); the sampled
+//!   point must equal the Rust lookup at the coordinates the example's comment names, in the
+//!   table's axis order;
 //! - the C block of docs/consumers.md is compiled inside a `main` against the C ABI library and
 //!   run, and must print the same value;
 //! - every `scatterbake …` command line of a `sh` block or synopsis: each option it names must be
 //!   an option of that command (checked against `--help`), and the commands without placeholders
 //!   whose input is the fixture table run and must succeed;
 //! - the README's manifest example is planned by the library.
+
+#[path = "../../tests/common/python.rs"]
+mod python;
 
 use scatterbake::table::Table;
 use std::path::{Path, PathBuf};
@@ -128,12 +132,12 @@ fn rust_sample(dir: &Path, at: [f64; 3]) -> Vec<f64> {
 /// Run a Python example in `dir` and return the first channel of its `p` (`phase`).
 fn run_python(dir: &Path, example: &str) -> f64 {
     let code = format!("{example}\nprint('PHASE', float(p[0]))\n");
-    let o = Command::new("python3")
+    let o = Command::new(python::python())
         .arg("-c")
         .arg(&code)
         .current_dir(dir)
         .output()
-        .unwrap_or_else(|e| panic!("the documentation examples need python3 on PATH: {e}"));
+        .unwrap_or_else(|e| panic!("the tests' Python does not run: {e}"));
     let out = String::from_utf8_lossy(&o.stdout);
     assert!(
         o.status.success(),

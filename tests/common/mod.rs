@@ -5,6 +5,7 @@
 #![allow(dead_code)]
 
 pub mod crafted;
+pub mod python;
 
 use scatterbake::fixtures::{henyey_greenstein_table, peak_table};
 use scatterbake::table::{

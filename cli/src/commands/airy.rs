@@ -3,14 +3,14 @@
 //!
 //! ```text
 //! scatterbake airy --radius-um R --wavelength-nm L [--order 1|2] [--index N | --n N |
-//!     --water-index-model M --temperature-c T] [--angle-step-deg S | --angles-deg a,b,c]
+//!     --water-index-model M --temperature-c T] [--angle-step-deg S | --angles START:STOP:STEP]
 //!     [--format table|csv|json] [--csv FILE]
 //! ```
 //! Columns: those of `mie` (`angle_deg, s1_sq, s2_sq, s11, i_perp, i_par, phase, dolp`: raw
 //! Bohren–Huffman |S1|², |S2|², s11, then `i_perp`, `i_par`, `phase` divided by `π x² Q_sca`
 //! with `Q_sca = 2`, the large-x limit, stated in the header).
 
-use crate::args::IndexArgs;
+use crate::args::{AngleRange, IndexArgs};
 use crate::curve::{CurveFormat, CurveReport};
 use anyhow::bail;
 use scatterbake::debye::airy::{AiryRainbow, airy_rainbow};
@@ -32,18 +32,14 @@ pub struct AiryArgs {
     /// Refractive index (real: Airy theory of a non-absorbing drop; k must be 0).
     #[command(flatten)]
     pub refractive: IndexArgs,
-    /// Uniform angle step (degrees) over the window --from-deg..--to-deg.
-    #[arg(long, default_value_t = 0.01)]
+    /// Angle step (degrees) of the default window: 3 Airy units on the dark side of the bow to
+    /// past the 4th supernumerary, within 0–180°.
+    #[arg(long, default_value_t = 0.01, conflicts_with = "angles")]
     pub angle_step_deg: f64,
-    /// Window start (deg); default: 3 Airy units on the dark side of the bow.
-    #[arg(long)]
-    pub from_deg: Option<f64>,
-    /// Window end (deg); default: past the 4th supernumerary.
-    #[arg(long)]
-    pub to_deg: Option<f64>,
-    /// Explicit comma-separated angles in degrees (overrides the window).
-    #[arg(long, value_delimiter = ',')]
-    pub angles_deg: Option<Vec<f64>>,
+    /// Angle range `START:STOP:STEP` in degrees instead of the default window (as in `mie` and
+    /// `raytrace`); Airy theory needs 0 < START and STOP < 180.
+    #[arg(long, value_parser = AngleRange::parse)]
+    pub angles: Option<AngleRange>,
     /// Output format on stdout.
     #[arg(long, value_enum, default_value_t = CurveFormat::Table)]
     pub format: CurveFormat,
@@ -68,23 +64,38 @@ pub fn solve_airy(args: &AiryArgs) -> anyhow::Result<CurveReport> {
     }
     let x = size_parameter(args.radius_um, args.wavelength_nm);
     let bow = AiryRainbow::new(x, n, args.order);
-    let angles_deg = match &args.angles_deg {
-        Some(a) => {
-            if let Some(bad) = a.iter().find(|t| !(0.0 < **t && **t < 180.0)) {
-                bail!("angle {bad} is outside (0, 180)°");
+    let angles_deg = match args.angles {
+        Some(range) => {
+            if !(range.start > 0.0 && range.stop < 180.0) {
+                bail!(
+                    "--angles {}:{}:{}: Airy theory needs angles strictly between 0 and 180°",
+                    range.start,
+                    range.stop,
+                    range.step
+                );
             }
-            a.clone()
+            range.angles()
         }
         None => {
+            // The window is the bow's own; where it would reach 0° or 180° (a bow of a high
+            // order or an index near its limit) it stops just inside, where Airy theory holds.
             let (z0, z1) = (bow.angle_at(-3.0), bow.angle_at(8.0));
-            let lo = args.from_deg.unwrap_or(z0.min(z1)).max(0.001);
-            let hi = args.to_deg.unwrap_or(z0.max(z1)).min(179.999);
+            let lo = z0.min(z1).max(0.001);
+            let hi = z0.max(z1).min(179.999);
             let step = args.angle_step_deg;
-            if step.is_nan() || step <= 0.0 || hi <= lo {
-                bail!("need --angle-step-deg > 0 and a non-empty window");
+            if !(step > 0.0) || (hi - lo) / step > crate::args::MAX_ANGLES as f64 {
+                bail!(
+                    "--angle-step-deg {step} must be > 0 and give at most {} angles over the \
+                     window {lo:.3}–{hi:.3}°",
+                    crate::args::MAX_ANGLES
+                );
             }
-            let count = ((hi - lo) / step).floor() as usize;
-            (0..=count).map(|k| lo + k as f64 * step).collect()
+            AngleRange {
+                start: lo,
+                stop: hi,
+                step,
+            }
+            .angles()
         }
     };
     let (s1_sq, s2_sq): (Vec<f64>, Vec<f64>) =

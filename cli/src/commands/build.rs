@@ -76,7 +76,7 @@ pub fn run_build(a: BuildArgs) -> Result<i32> {
         report.tasks_computed,
         report.tasks_reused,
         t0.elapsed().as_secs_f64(),
-        a.out.join("index.json").display()
+        crate::display::path(&a.out.join("index.json"))
     );
     Ok(0)
 }

@@ -39,6 +39,7 @@ pub struct ClothArgs {
     /// Largest step in tangent elevation of the tangent-curve quadrature, degrees.
     #[arg(long, default_value_t = 1.0)]
     pub ramp_step_deg: f64,
+    /// Output format on stdout.
     #[arg(long, value_enum, default_value_t = ClothFormat::Text)]
     pub format: ClothFormat,
 }

@@ -49,8 +49,10 @@ pub enum FormatArg {
 /// parameter set, or of a one-colour `hair-dual` table given with `--table`.
 #[derive(clap::Args, Debug, Clone)]
 pub struct DualScatteringArgs {
+    /// Fibre model: physical (Marschner/Zinke fibre) or artist (Sadeghi et al. 2010).
     #[arg(long, value_enum, default_value = "physical")]
     pub model: ModelArg,
+    /// Fibre index of refraction (physical fibre).
     #[arg(long, default_value_t = 1.55)]
     pub eta: f64,
     /// σ_a per unit radius for R,G,B, as `R,G,B` or three values (default: 0.2,0.3,0.5, the
@@ -77,10 +79,13 @@ pub struct DualScatteringArgs {
     /// three-d or bravais.
     #[arg(long, default_value = "three-d")]
     pub fresnel: String,
+    /// Samples of the light inclination θ_i over [−90°, 90°], endpoints included.
     #[arg(long, default_value_t = 64)]
     pub theta_samples: usize,
+    /// Backscattering density factor d_b in σ̄_b (Zinke et al. 2008).
     #[arg(long, default_value_t = 0.7)]
     pub d_b: f64,
+    /// ā_f, ā_b are clamped to at most this before Ā_b, Δ̄_b, σ̄_b² (0.5–1).
     #[arg(long, default_value_t = 0.99)]
     pub clamp: f64,
     /// Lambertian-cylinder term: BRDF value k_d of an opaque Lambertian fibre surface (BCSDF
@@ -105,6 +110,7 @@ pub struct DualScatteringArgs {
     /// Read a one-colour `hair-dual` table instead of computing.
     #[arg(long)]
     pub table: Option<PathBuf>,
+    /// Output format: json, csv, rsl (shader arrays) or c (C99 header).
     #[arg(long, value_enum, default_value = "json")]
     pub format: FormatArg,
     /// Output file (stdout when absent).
@@ -198,7 +204,8 @@ pub fn run_dual_scattering(args: &DualScatteringArgs) -> anyhow::Result<()> {
         FormatArg::C => dual_shader_tables(&t, ShaderLanguage::C)?,
     };
     match &args.out {
-        Some(p) => std::fs::write(p, text).with_context(|| format!("writing {}", p.display()))?,
+        Some(p) => std::fs::write(p, text)
+            .with_context(|| format!("writing {}", crate::display::path(p)))?,
         None => println!("{text}"),
     }
     Ok(())

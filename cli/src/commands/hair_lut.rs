@@ -52,7 +52,7 @@ pub fn run_hair_lut(args: &HairLutArgs) -> anyhow::Result<()> {
             .and_then(|e| e.to_str())
             .is_some_and(|e| e.eq_ignore_ascii_case(wanted)),
         "{}: hair-lut --engine {} writes {}; the output must end in .{wanted}",
-        args.out.display(),
+        crate::display::path(&args.out),
         if args.engine == EngineArg::Exr {
             "exr"
         } else if args.engine == EngineArg::Unreal {
@@ -75,7 +75,7 @@ pub fn run_hair_lut(args: &HairLutArgs) -> anyhow::Result<()> {
             write_dual_lut_exr(&layout, &args.out)?;
             eprintln!(
                 "wrote {} ({}×{} texels, {} roughness layers, channels ds0–ds2.RGBA)",
-                args.out.display(),
+                crate::display::path(&args.out),
                 layout.width,
                 layout.height,
                 layout.n_roughness
@@ -87,7 +87,7 @@ pub fn run_hair_lut(args: &HairLutArgs) -> anyhow::Result<()> {
             eng::write_dds(&tex, &args.out)?;
             eprintln!(
                 "wrote {} (Unreal Dual Scattering LUT {:?}: |sin θ|, roughness, sqrt(colour) → ā_f, ā_b, β̄_f², β̄_b²)",
-                args.out.display(),
+                crate::display::path(&args.out),
                 tex.size
             );
         }
@@ -109,9 +109,9 @@ pub fn run_hair_lut(args: &HairLutArgs) -> anyhow::Result<()> {
             eng::write_dds(&ng, &ng_path)?;
             eprintln!(
                 "wrote {} (HDRP fiber scattering LUT {:?}) and {} (N^G LUT {:?} at β_R = {beta}°)",
-                args.out.display(),
+                crate::display::path(&args.out),
                 tex.size,
-                ng_path.display(),
+                crate::display::path(&ng_path),
                 ng.size
             );
         }

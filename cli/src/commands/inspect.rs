@@ -1,5 +1,6 @@
 //! `scatterbake inspect`: a table's header, axes, channels, provenance and sizes.
 
+use crate::display::text as esc;
 use anyhow::Result;
 use scatterbake::table::{AxisPoints, Table};
 use std::path::PathBuf;
@@ -7,6 +8,7 @@ use std::path::PathBuf;
 /// Arguments of `scatterbake inspect`.
 #[derive(clap::Args, Debug)]
 pub struct InspectArgs {
+    /// Table file (.sbt).
     pub file: PathBuf,
     /// Print the raw JSON header.
     #[arg(long)]
@@ -24,27 +26,10 @@ pub fn run_inspect(a: &InspectArgs) -> Result<()> {
     Ok(())
 }
 
-/// A header string made safe for a terminal: control characters (escape sequences, carriage
-/// returns, newlines, bidirectional overrides) are shown escaped, e.g. `\u{1b}`.
-fn esc(s: &str) -> String {
-    s.chars()
-        .map(|c| {
-            if c.is_control()
-                || ('\u{202a}'..='\u{202e}').contains(&c)
-                || ('\u{2066}'..='\u{2069}').contains(&c)
-            {
-                c.escape_unicode().to_string()
-            } else {
-                c.to_string()
-            }
-        })
-        .collect()
-}
-
 fn print_summary(file: &std::path::Path, t: &Table) -> Result<()> {
     let h = &t.header;
     let size = std::fs::metadata(file)?.len();
-    println!("file:        {}", esc(&file.display().to_string()));
+    println!("file:        {}", crate::display::path(file));
     println!("schema:      {}", esc(&h.schema.to_string()));
     println!("description: {}", esc(&h.description));
     println!(

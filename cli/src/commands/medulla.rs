@@ -38,13 +38,16 @@ pub struct MedullaArgs {
     /// Photons (Monte Carlo paths), as the manifest key `photons`.
     #[arg(long, default_value_t = 10_000)]
     pub photons: u64,
+    /// Random seed of the Monte Carlo paths.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
     /// Exit bins over the full circle (even; bins/2 per lobe for the slab).
     #[arg(long, default_value_t = 720)]
     pub bins: usize,
+    /// Estimator: expected (next-event, lower noise) or histogram (exit bins of the paths).
     #[arg(long, value_enum, default_value_t = MedullaEstimator::Expected)]
     pub estimator: MedullaEstimator,
+    /// Output format on stdout.
     #[arg(long, value_enum, default_value_t = MedullaFormat::Csv)]
     pub format: MedullaFormat,
 }

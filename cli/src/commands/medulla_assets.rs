@@ -37,7 +37,7 @@ pub struct MedullaAssetsArgs {
 pub fn run_medulla_assets(a: &MedullaAssetsArgs) -> anyhow::Result<()> {
     use anyhow::Context;
     use scatterbake::fur::assets::{AssetSpec, MAX_ASSET_BYTES, compress_asset};
-    std::fs::create_dir_all(&a.out).with_context(|| a.out.display().to_string())?;
+    std::fs::create_dir_all(&a.out).with_context(|| crate::display::path(&a.out))?;
     let mut az = AssetSpec::AZIMUTHAL;
     if let Some(r) = a.azimuthal_max_rank {
         az.max_rank = r;
@@ -122,7 +122,7 @@ pub fn run_medulla_assets(a: &MedullaAssetsArgs) -> anyhow::Result<()> {
             spec.file
         );
         scatterbake::table::format::write_atomic(&a.out.join(spec.file), &bytes)
-            .with_context(|| a.out.join(spec.file).display().to_string())?;
+            .with_context(|| crate::display::path(&a.out.join(spec.file)))?;
     }
     Ok(())
 }

@@ -379,7 +379,8 @@ pub fn run_mie(args: &MieCommandArgs) -> anyhow::Result<()> {
     }
     let q = MieQuery::solve(&args.mie)?;
     if let Some(path) = &args.mie.csv {
-        std::fs::write(path, q.to_csv()).with_context(|| format!("writing {}", path.display()))?;
+        std::fs::write(path, q.to_csv())
+            .with_context(|| format!("writing {}", crate::display::path(path)))?;
     }
     let out = match args.mie.format {
         CurveFormat::Table => q.to_table(),

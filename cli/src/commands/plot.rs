@@ -28,8 +28,13 @@ fn parse_range(s: &str) -> Result<(f64, f64), String> {
 pub struct PlotArgs {
     /// Table (.sbt).
     pub table: PathBuf,
+    /// What to draw: auto (every preview of the table's kind), phase (phase function vs
+    /// angle), strip (rainbow colour strip), lee (Lee diagram), heatmap (2-D map), line (1-D
+    /// curves), orders (Debye or ray orders).
     #[arg(long, value_enum, default_value = "auto")]
     pub kind: PlotKind,
+    /// Entry selection, NAME=VALUE per entry axis, repeatable (e.g. radius=400; default: the
+    /// first sample of each entry axis).
     #[arg(long = "entry", value_name = "NAME=VALUE")]
     pub entry: Vec<EntrySelection>,
     /// Channel for heatmaps (default: the first).
@@ -49,8 +54,10 @@ pub struct PlotArgs {
     /// A value smaller than the table's is refused.
     #[arg(long)]
     pub sun_diameter_deg: Option<f64>,
+    /// Image width in pixels.
     #[arg(long, default_value_t = 1000)]
     pub width: u32,
+    /// Image height in pixels.
     #[arg(long, default_value_t = 600)]
     pub height: u32,
     /// Output .png or .svg (a directory for --kind auto).
@@ -65,7 +72,7 @@ pub fn run_plot(args: &PlotArgs) -> anyhow::Result<()> {
     match args.kind {
         PlotKind::Auto => {
             for p in previews(&args.table, &args.out)? {
-                eprintln!("wrote {}", p.display());
+                eprintln!("wrote {}", crate::display::path(&p));
             }
             return Ok(());
         }
@@ -110,7 +117,7 @@ pub fn run_plot(args: &PlotArgs) -> anyhow::Result<()> {
         PlotKind::Heatmap | PlotKind::Line => {
             let t = Table::open(&args.table)
                 .map_err(|e| anyhow!(e))
-                .with_context(|| args.table.display().to_string())?;
+                .with_context(|| crate::display::path(&args.table))?;
             if args.kind == PlotKind::Heatmap {
                 plot_heatmap(&t, &args.entry, args.channel.as_deref(), &args.out, size)?
             } else {
@@ -118,7 +125,7 @@ pub fn run_plot(args: &PlotArgs) -> anyhow::Result<()> {
             }
         }
     }
-    eprintln!("wrote {}", args.out.display());
+    eprintln!("wrote {}", crate::display::path(&args.out));
     Ok(())
 }
 /// Plot kind.

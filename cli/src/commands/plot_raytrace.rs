@@ -17,6 +17,8 @@ pub struct PlotRaytraceArgs {
     /// 2-D tables (`raytrace-phase-2d`); the bows plot draws one curve/strip per table.
     #[arg(required = true)]
     pub tables: Vec<PathBuf>,
+    /// bows: the bows near the rainbow angles per outgoing azimuth with colour strips;
+    /// latlong: a latitude–longitude map of the outgoing directions.
     #[arg(long, value_enum, default_value = "bows")]
     pub kind: RaytracePlotKind,
     /// Entry selection for extra entry axes (e.g. radius=1000); `--sun-elevation-deg` selects
@@ -36,8 +38,10 @@ pub struct PlotRaytraceArgs {
     /// Polar-angle range of the bows plot, LO,HI in deg.
     #[arg(long, default_value = "120,150")]
     pub polar_range: String,
+    /// Image width in pixels.
     #[arg(long, default_value_t = 1500)]
     pub width: u32,
+    /// Image height in pixels (default: from the plot's layout).
     #[arg(long)]
     pub height: Option<u32>,
     /// Output .png or .svg.
@@ -61,12 +65,12 @@ pub fn run_plot_raytrace(args: &PlotRaytraceArgs) -> anyhow::Result<()> {
     for path in &args.tables {
         let t2 = Phase2dTable::open(path)?;
         let d = SunDisc::plan(&t2.table, args.sun_diameter_deg)
-            .with_context(|| path.display().to_string())?;
+            .with_context(|| crate::display::path(path))?;
         if let Some(first) = disc {
             anyhow::ensure!(
                 first == d,
                 "{}: {} (the first table: {}); one figure needs one sun disc",
-                path.display(),
+                crate::display::path(path),
                 d.describe(),
                 first.describe()
             );
@@ -85,7 +89,7 @@ pub fn run_plot_raytrace(args: &PlotRaytraceArgs) -> anyhow::Result<()> {
     match args.kind {
         RaytracePlotKind::Latlong => {
             let s = &inputs[0].slice;
-            let k = nearest(&s.wavelengths_nm, args.wavelength_nm);
+            let k = crate::args::nearest_wavelength(&s.wavelengths_nm, args.wavelength_nm);
             let prefix = format!("{}: ", inputs[0].label);
             plot_latlong(
                 s,
@@ -126,7 +130,7 @@ pub fn run_plot_raytrace(args: &PlotRaytraceArgs) -> anyhow::Result<()> {
             }
         }
     }
-    eprintln!("wrote {}", args.out.display());
+    eprintln!("wrote {}", crate::display::path(&args.out));
     Ok(())
 }
 /// What to draw.

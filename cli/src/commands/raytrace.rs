@@ -235,10 +235,10 @@ mod tests {
             ];
             Cli::try_parse_from(v).map(|c| c.args)
         };
-        for bad in ["1:2", "0:180:0", "0:180:-0.1", "150:140:1"] {
+        for bad in ["1:2", "0:180:0", "0:180:-0.1", "150:140:1", "130:145:0.07"] {
             assert!(parse(bad).is_err(), "{bad}");
         }
-        let err = raytrace_columns(&parse("130:145:0.07").unwrap()).unwrap_err();
+        let err = raytrace_columns(&parse("130:144.7:0.7").unwrap()).unwrap_err();
         assert!(format!("{err:#}").contains("must divide 180"), "{err:#}");
     }
 

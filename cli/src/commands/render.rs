@@ -29,6 +29,8 @@ pub struct RenderRainbowArgs {
     /// 2-D table (`raytrace-phase-2d`, drops with vertical symmetry axis).
     #[arg(long)]
     pub table: PathBuf,
+    /// Entry selection, NAME=VALUE per entry axis, repeatable (e.g. radius=400; default: the
+    /// first sample of each entry axis).
     #[arg(long = "entry", value_name = "NAME=VALUE")]
     pub entry: Vec<EntrySelection>,
     /// Sun elevation; default 25° for 1-D tables, the table's lowest sun elevation for 2-D
@@ -43,11 +45,13 @@ pub struct RenderRainbowArgs {
     /// Horizontal field of view.
     #[arg(long, default_value_t = 120.0)]
     pub fov_deg: f64,
+    /// Projection: fisheye (equidistant) or rectilinear.
     #[arg(long, default_value = "fisheye", value_parser = crate::args::named::<Lens>(&Lens::NAMES))]
     pub lens: Lens,
+    /// Image width in pixels.
     #[arg(long, default_value_t = 1024)]
     pub width: usize,
-    /// Default: width · 2/3.
+    /// Image height in pixels (at least 2); default: width · 2/3, at least 2.
     #[arg(long)]
     pub height: Option<usize>,
     /// Elevation of the view axis (toward the antisolar azimuth); default: the midpoint between
@@ -57,8 +61,10 @@ pub struct RenderRainbowArgs {
     /// Rain extinction coefficient (1/km).
     #[arg(long, default_value_t = 0.5)]
     pub extinction_per_km: f64,
+    /// Top of the rain layer above the camera (m).
     #[arg(long, default_value_t = 1500.0)]
     pub rain_top_m: f64,
+    /// Horizontal distance from the camera to the rain's near edge (m; clear air nearer).
     #[arg(long, default_value_t = 300.0)]
     pub rain_near_m: f64,
     /// Ray-marching steps per view ray.
@@ -98,8 +104,13 @@ enum Source {
 fn check_args(args: &RenderRainbowArgs) -> anyhow::Result<()> {
     anyhow::ensure!(
         args.width >= 2 && args.steps >= 1,
-        "width ≥ 2 and steps ≥ 1"
+        "--width {} and --steps {}: need a width of at least 2 pixels and at least 1 step",
+        args.width,
+        args.steps
     );
+    if let Some(h) = args.height {
+        anyhow::ensure!(h >= 2, "--height {h}: need at least 2 pixels");
+    }
     anyhow::ensure!(
         args.fov_deg > 0.0 && (args.lens == Lens::Fisheye || args.fov_deg < 179.0),
         "fov must be positive (and below 179° for a rectilinear lens)"
@@ -119,7 +130,7 @@ fn image_format(out: &std::path::Path) -> anyhow::Result<()> {
         Some(e) if e.eq_ignore_ascii_case("png") => Ok(()),
         _ => anyhow::bail!(
             "{}: render writes PNG images; the output must end in .png",
-            out.display()
+            crate::display::path(out)
         ),
     }
 }
@@ -128,11 +139,11 @@ fn image_format(out: &std::path::Path) -> anyhow::Result<()> {
 fn load_source(args: &RenderRainbowArgs) -> anyhow::Result<(Source, f64, SunDisc, String)> {
     let table = Table::open(&args.table)
         .map_err(|e| anyhow::anyhow!(e))
-        .with_context(|| args.table.display().to_string())?;
+        .with_context(|| crate::display::path(&args.table))?;
     let disc = SunDisc::plan(&table, args.sun_diameter_deg)
-        .with_context(|| args.table.display().to_string())?;
+        .with_context(|| crate::display::path(&args.table))?;
     if is_2d(&table) {
-        let t2 = Phase2dTable::new(table).with_context(|| args.table.display().to_string())?;
+        let t2 = Phase2dTable::new(table).with_context(|| crate::display::path(&args.table))?;
         let e = t2.resolve_elevation(args.sun_elevation_deg)?;
         let slice = t2.slice(e, &args.entry, "phase")?;
         let polarised = match args.polariser_deg {
@@ -153,7 +164,7 @@ fn load_source(args: &RenderRainbowArgs) -> anyhow::Result<(Source, f64, SunDisc
         );
         Ok((Source::TwoD(Box::new(slice), polarised), e, disc, label))
     } else {
-        let pt = PhaseTable::new(table).with_context(|| args.table.display().to_string())?;
+        let pt = PhaseTable::new(table).with_context(|| crate::display::path(&args.table))?;
         let label = describe_entry(&pt.table, &pt.resolve_entry(&args.entry)?);
         let e = args.sun_elevation_deg.unwrap_or(25.0);
         Ok((Source::OneD(Box::new(pt)), e, disc, label))
@@ -229,7 +240,7 @@ pub fn run_render_rainbow(args: &RenderRainbowArgs) -> anyhow::Result<()> {
     write_png(&args.out, camera.width, camera.height, &rgb)?;
     eprintln!(
         "rendered {} ({}x{}, {:?}, fov {} deg, sun {} deg, {}) in {seconds:.1} s, exposure {:.4e}",
-        args.out.display(),
+        crate::display::path(&args.out),
         camera.width,
         camera.height,
         camera.lens,

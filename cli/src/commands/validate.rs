@@ -20,6 +20,8 @@ pub struct ValidateArgs {
     /// found from a header line naming them, else by position).
     #[arg(long)]
     pub reference: PathBuf,
+    /// Entry selection, NAME=VALUE per entry axis (default: the one the reference names, or the
+    /// table's only entry).
     #[arg(long = "entry", value_name = "NAME=VALUE")]
     pub entry: Vec<EntrySelection>,
     /// Wavelength (nm); default: the reference's `# wavelength_nm:` line. For a sphere: the
@@ -67,9 +69,9 @@ pub fn run_validate_sphere(args: &ValidateArgs) -> anyhow::Result<()> {
     use crate::commands::mie::{MieArgs, MieQuery};
     let (r, layout) = read_mieplot_layout(
         &std::fs::read_to_string(&args.reference)
-            .with_context(|| format!("reading {}", args.reference.display()))?,
+            .with_context(|| format!("reading {}", crate::display::path(&args.reference)))?,
     )
-    .with_context(|| format!("parsing {}", args.reference.display()))?;
+    .with_context(|| format!("parsing {}", crate::display::path(&args.reference)))?;
     if let Some(bad) = r.angle_deg.iter().find(|a| !(0.0..=180.0).contains(*a)) {
         bail!("reference angle {bad} is outside 0–180°");
     }
@@ -106,7 +108,7 @@ pub fn run_validate_sphere(args: &ValidateArgs) -> anyhow::Result<()> {
         q.m.re,
         q.m.im,
         q.n_medium,
-        args.reference.display(),
+        crate::display::path(&args.reference),
         c.rows,
         if layout.decimal_comma {
             ", decimal commas"
@@ -170,9 +172,9 @@ struct TableReference {
 /// Read the reference and, for a point reference, apply the table's operators.
 fn table_reference(pt: &PhaseTable, args: &ValidateArgs) -> anyhow::Result<TableReference> {
     let text = std::fs::read_to_string(&args.reference)
-        .with_context(|| format!("reading {}", args.reference.display()))?;
+        .with_context(|| format!("reading {}", crate::display::path(&args.reference)))?;
     let (data, layout) = read_mieplot_layout(&text)
-        .with_context(|| format!("parsing {}", args.reference.display()))?;
+        .with_context(|| format!("parsing {}", crate::display::path(&args.reference)))?;
     let meta = ReferenceMetadata::parse(&layout.header);
     let kind = match args.reference_kind {
         ReferenceKindArg::Auto => meta.kind(),
@@ -184,7 +186,10 @@ fn table_reference(pt: &PhaseTable, args: &ValidateArgs) -> anyhow::Result<Table
         ReferenceKind::Point => {
             let ops = TableOperators::of(pt)?;
             let o = apply_table_operators(&data, &ops).with_context(|| {
-                format!("averaging {} like the table", args.reference.display())
+                format!(
+                    "averaging {} like the table",
+                    crate::display::path(&args.reference)
+                )
             })?;
             Some((ops, o))
         }
@@ -338,9 +343,9 @@ pub fn run_validate(args: &ValidateArgs) -> anyhow::Result<()> {
     let rep = compare(&pt, &selection, wl, compared, args.rescale)?;
     println!(
         "{} [{}] vs {} at {wl} nm",
-        table.display(),
+        crate::display::path(table),
         describe_entry(&pt.table, &entry),
-        args.reference.display(),
+        crate::display::path(&args.reference),
     );
     match &reference.operated {
         Some((ops, o)) => println!(

@@ -1,12 +1,14 @@
 //! `scatterbake verify`: checksums, sizes and structure of table files, and the sample values of
 //! phase-function tables.
 
+use crate::display;
 use anyhow::Result;
 use std::path::PathBuf;
 
 /// Arguments of `scatterbake verify`.
 #[derive(clap::Args, Debug)]
 pub struct VerifyArgs {
+    /// Table files (.sbt) to verify.
     #[arg(required = true)]
     pub files: Vec<PathBuf>,
     /// Treat NaN, infinite or negative samples of a phase-function table as errors
@@ -47,19 +49,30 @@ fn verify_one(f: &std::path::Path, limits: &scatterbake::table::ReadLimits, stri
             let problems = value_problems(&v);
             let n: usize = v.header.layout.shape.iter().product();
             if problems.is_empty() {
-                println!("ok   {} ({}, {n} values)", f.display(), v.header.schema);
+                println!(
+                    "ok   {} ({}, {n} values)",
+                    display::path(f),
+                    display::text(&v.header.schema.to_string())
+                );
                 true
             } else if strict {
-                eprintln!("BAD  {}: {}", f.display(), problems.join("; "));
+                eprintln!("BAD  {}: {}", display::path(f), problems.join("; "));
                 false
             } else {
-                println!("ok   {} ({}, {n} values)", f.display(), v.header.schema);
-                eprintln!("warning: {}: {}", f.display(), problems.join("; "));
+                println!(
+                    "ok   {} ({}, {n} values)",
+                    display::path(f),
+                    display::text(&v.header.schema.to_string())
+                );
+                eprintln!("warning: {}: {}", display::path(f), problems.join("; "));
                 true
             }
         }
         Err(e) => {
-            eprintln!("BAD  {e}");
+            eprintln!(
+                "BAD  {}",
+                display::text(&scatterbake::error::error_chain(&e))
+            );
             false
         }
     }
@@ -78,19 +91,22 @@ fn value_problems(v: &scatterbake::table::Verified) -> Vec<String> {
         if s.nan[i] > 0 {
             out.push(format!(
                 "channel `{}` has {} NaN value(s)",
-                c.name, s.nan[i]
+                display::text(&c.name),
+                s.nan[i]
             ));
         }
         if s.infinite[i] > 0 {
             out.push(format!(
                 "channel `{}` has {} infinite value(s)",
-                c.name, s.infinite[i]
+                display::text(&c.name),
+                s.infinite[i]
             ));
         }
         if ["phase", "i_perp", "i_par"].contains(&c.name.as_str()) && s.negative[i] > 0 {
             out.push(format!(
                 "channel `{}` has {} negative value(s)",
-                c.name, s.negative[i]
+                display::text(&c.name),
+                s.negative[i]
             ));
         }
     }

@@ -11,8 +11,12 @@
 //!   vertical atlas of `|a0|` slices, each `|a1|` rows tall: pixel `(x, y) = (i2, i0·|a1| + i1)`.
 //!   Lookup for a continuous coordinate `c` on a uniform axis `start + k·step`:
 //!   `k = (c − start)/step`, texel centre `k + 0.5` in pixel units (clamp to edge). The full table
-//!   header (JSON) is stored in the EXR attribute `scatterbake_header` so the file stays
-//!   self-describing.
+//!   header (JSON) is stored in the EXR `string` attribute `scatterbake_header` so the file stays
+//!   self-describing. Its bytes are the UTF-8 encoding of the JSON text, unchanged (headers hold
+//!   β, σ, θ, −, µ, …): OpenEXR defines text as a sequence of bytes and stores them as given.
+//!   Decode them as UTF-8 ([`read_exr_header`]); a reader that maps each byte to one character
+//!   (Latin-1, like `Display` of the `exr` crate's `Text`) garbles every non-ASCII character
+//!   (decision EXP-2 in docs/decisions.md).
 
 use crate::consumers::ConsumerError;
 use crate::error::IoError;
@@ -100,6 +104,61 @@ pub fn to_json(table: &Table) -> serde_json::Value {
     serde_json::json!({ "header": h, "rows": rows })
 }
 
+/// Name of the EXR attribute holding the table header (JSON text, UTF-8).
+pub const EXR_HEADER_ATTRIBUTE: &str = "scatterbake_header";
+
+/// The UTF-8 bytes of `text` as an EXR name (channel names: 1 to 255 bytes, no NUL).
+fn exr_text(text: &str, what: &str) -> Result<exr::meta::attribute::Text, ConsumerError> {
+    if text.is_empty() || text.len() > 255 || text.contains('\0') {
+        return Err(ConsumerError::layout(format!(
+            "{what} `{}` cannot be stored in EXR (1 to 255 bytes of UTF-8, no NUL)",
+            text.escape_debug()
+        )));
+    }
+    Ok(exr::meta::attribute::Text::from_bytes_unchecked(
+        text.as_bytes().into(),
+    ))
+}
+
+/// The table header stored in an EXR file written by [`to_exr`] (attribute
+/// [`EXR_HEADER_ATTRIBUTE`], UTF-8 JSON), read back from the file's first part.
+pub fn read_exr_header(path: &Path) -> Result<crate::table::Header, ConsumerError> {
+    let meta =
+        exr::meta::MetaData::read_from_file(path, false).map_err(|source| ConsumerError::Exr {
+            what: format!("reading the EXR header of {}", path.display()),
+            source,
+        })?;
+    let missing = || {
+        ConsumerError::invalid(format!(
+            "{}: no `{EXR_HEADER_ATTRIBUTE}` text attribute (not a scatterbake EXR export)",
+            path.display()
+        ))
+    };
+    let header = meta.headers.first().ok_or_else(missing)?;
+    let Some(exr::meta::attribute::AttributeValue::Text(text)) =
+        header
+            .own_attributes
+            .other
+            .get(&exr::meta::attribute::Text::new_or_panic(
+                EXR_HEADER_ATTRIBUTE,
+            ))
+    else {
+        return Err(missing());
+    };
+    let json = std::str::from_utf8(text.bytes()).map_err(|e| {
+        ConsumerError::invalid(format!(
+            "{}: `{EXR_HEADER_ATTRIBUTE}` is not UTF-8 text ({e})",
+            path.display()
+        ))
+    })?;
+    serde_json::from_str(json).map_err(|e| {
+        ConsumerError::invalid(format!(
+            "{}: `{EXR_HEADER_ATTRIBUTE}` is not a table header ({e})",
+            path.display()
+        ))
+    })
+}
+
 /// EXR bytes of a table (layout in the module docs).
 pub fn to_exr(table: &Table) -> Result<Vec<u8>, ConsumerError> {
     use exr::prelude::*;
@@ -118,10 +177,10 @@ pub fn to_exr(table: &Table) -> Result<Vec<u8>, ConsumerError> {
         let samples: Vec<f32> = (0..width * height)
             .map(|p| table.data[p * nc + c])
             .collect();
-        let name = Text::new_or_none(&ch.name).ok_or_else(|| {
-            ConsumerError::layout(format!("channel name `{}` is not valid in EXR", ch.name))
-        })?;
-        list.push(AnyChannel::new(name, FlatSamples::F32(samples)));
+        list.push(AnyChannel::new(
+            exr_text(&ch.name, "channel name")?,
+            FlatSamples::F32(samples),
+        ));
     }
     let header_json = serde_json::to_string(h)?;
     let mut layer = Layer::new(
@@ -130,10 +189,11 @@ pub fn to_exr(table: &Table) -> Result<Vec<u8>, ConsumerError> {
         Encoding::SMALL_LOSSLESS,
         AnyChannels::sort(list),
     );
-    let header_text = Text::new_or_none(&header_json)
-        .ok_or_else(|| ConsumerError::layout("the table header is not valid EXR text"))?;
+    // An attribute value has no length limit; the JSON has no NUL byte (it escapes control
+    // characters), so the bytes are stored as they are.
+    let header_text = Text::from_bytes_unchecked(header_json.into_bytes().into());
     layer.attributes.other.insert(
-        Text::new_or_panic("scatterbake_header"),
+        Text::new_or_panic(EXR_HEADER_ATTRIBUTE),
         AttributeValue::Text(header_text),
     );
     let image = Image::from_layer(layer);

@@ -14,12 +14,14 @@
 //! view_dir)) (the angle between the direction toward the sun and the view direction; 180° at
 //! the antisolar point), interpolating linearly between rows. A channel that comes out negative
 //! (a colour outside the sRGB gamut) is written as 0, and the count and most negative value are
-//! printed and stored with the texture (EXR attribute and PNG `tEXt` chunk `negative_values`, CSV
+//! printed and stored with the texture (header attribute in the EXR's `scatterbake_header` and
+//! PNG `tEXt` chunk `negative_values`, CSV
 //! line `# negative_values: …`): the policy of every export ([`NegativeClamp`]).
 //!
 //! The disc is the table's own (`sun_diameter_deg`, already averaged: nothing more is
 //! convolved) unless `--sun-diameter-deg` asks for a wider one ([`SunDisc`]); what was done is
-//! printed and stored with the texture (EXR attribute `sun_disc`, PNG `tEXt` chunk
+//! printed and stored with the texture (header attribute `sun_disc` in the EXR's
+//! `scatterbake_header`, PNG `tEXt` chunk
 //! `scatterbake_sun_disc`, CSV first line `# sun_disc: …`).
 //!
 //! Output, by the extension of `--out`:

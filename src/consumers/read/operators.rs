@@ -70,8 +70,8 @@ pub enum OperatorError {
     #[error(
         "{axis}={value} {unit} lies between the samples {below} and {above} {unit} of `{axis}`, \
          an axis the table does not declare interpolable (attribute `interpolable_axes`: \
-         {declared:?}); blending neighbouring samples would superimpose two different \
-         {axis}s. Choose a stored sample: the nearest is {nearest} {unit} (samples {samples:?})"
+         {declared:?}); blending neighbouring samples would superimpose the entries at two \
+         different values of `{axis}`. Choose a stored sample: the nearest is {nearest} {unit} (samples {samples:?})"
     )]
     NotASample {
         axis: String,

@@ -105,7 +105,27 @@ impl PhaseTable {
 
     /// Check a table in memory against the contract.
     pub fn new(table: Table) -> Result<Self, ConsumerError> {
-        let schema = &table.header.schema;
+        let (wavelength_axis, [ch_phase, ch_perp, ch_par]) = Self::check_header(&table.header)?;
+        check_finite(&table, &[ch_phase, ch_perp, ch_par])?;
+        let last = table.axes().len() - 1;
+        Ok(PhaseTable {
+            entry_axes: (0..last).filter(|&i| i != wavelength_axis).collect(),
+            angle_axis: last,
+            wavelength_axis,
+            ch_phase,
+            ch_perp,
+            ch_par,
+            table,
+        })
+    }
+
+    /// Check a table header against the layout part of the contract (axes, units, channels;
+    /// the values are checked by [`PhaseTable::new`]): the index of the wavelength axis and of
+    /// the channels `phase`, `i_perp`, `i_par`.
+    pub fn check_header(
+        header: &crate::table::Header,
+    ) -> Result<(usize, [usize; 3]), ConsumerError> {
+        let schema = &header.schema;
         if schema.name == "raytrace-phase" && !(1..=2).contains(&schema.version) {
             return Err(ConsumerError::layout(format!(
                 "`raytrace-phase/{}` is not a version this reader knows (it reads \
@@ -113,7 +133,7 @@ impl PhaseTable {
                 schema.version
             )));
         }
-        let axes = table.axes();
+        let axes = &header.axes;
         if axes.len() < 2 {
             return Err(ConsumerError::layout(
                 "a phase-function table needs at least the axes wavelength and scattering_angle",
@@ -149,23 +169,17 @@ impl PhaseTable {
             )));
         }
         let ch = |n: &str| {
-            table.channel_index(n).map_err(|_| {
-                ConsumerError::layout(format!(
-                    "table has no channel `{n}` required by the phase contract"
-                ))
-            })
+            header
+                .channels
+                .iter()
+                .position(|c| c.name == n)
+                .ok_or_else(|| {
+                    ConsumerError::layout(format!(
+                        "table has no channel `{n}` required by the phase contract"
+                    ))
+                })
         };
-        let (ch_phase, ch_perp, ch_par) = (ch("phase")?, ch("i_perp")?, ch("i_par")?);
-        check_finite(&table, &[ch_phase, ch_perp, ch_par])?;
-        Ok(PhaseTable {
-            entry_axes: (0..last).filter(|&i| i != wavelength_axis).collect(),
-            angle_axis: last,
-            wavelength_axis,
-            ch_phase,
-            ch_perp,
-            ch_par,
-            table,
-        })
+        Ok((wavelength_axis, [ch("phase")?, ch("i_perp")?, ch("i_par")?]))
     }
 
     /// Wavelengths of the table (nm).

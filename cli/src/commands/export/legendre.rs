@@ -10,6 +10,7 @@ use scatterbake::table::Table;
 pub struct LegendreArgs {
     /// Phase-function table (.sbt) following the phase contract.
     pub table: std::path::PathBuf,
+    /// Entry selection, NAME=VALUE per entry axis (default: first sample of each).
     #[arg(long = "entry", value_name = "NAME=VALUE")]
     pub entry: Vec<scatterbake::consumers::read::phase::EntrySelection>,
     /// Highest Legendre order L (moments χ_0..χ_L).
@@ -36,12 +37,12 @@ pub fn run_legendre(args: &LegendreArgs) -> anyhow::Result<()> {
     let pt = scatterbake::consumers::read::phase::PhaseTable::open(&args.table)?;
     let c = pt.curves(&args.entry)?;
     let ks: Vec<usize> = match args.wavelength_nm {
-        Some(w) => vec![c.nearest_wavelength(w)],
+        Some(w) => vec![crate::args::nearest_wavelength(&c.wavelengths_nm, w)],
         None => (0..c.wavelengths_nm.len()).collect(),
     };
     let mut s = String::new();
     let _ = writeln!(s, "# scatterbake legendre export");
-    let _ = writeln!(s, "# table: {}", args.table.display());
+    let _ = writeln!(s, "# table: {}", crate::display::path(&args.table));
     let _ = writeln!(
         s,
         "# entry: {}",

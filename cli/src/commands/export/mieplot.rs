@@ -9,6 +9,7 @@ use std::path::PathBuf;
 pub struct MiePlotArgs {
     /// Phase-function table (.sbt) following the phase contract.
     pub table: PathBuf,
+    /// Entry selection, NAME=VALUE per entry axis (default: first sample of each).
     #[arg(long = "entry", value_name = "NAME=VALUE")]
     pub entry: Vec<EntrySelection>,
     /// Wavelength (nm); default: the table's first wavelength. Interpolated linearly between
@@ -29,7 +30,7 @@ pub fn run_mieplot(args: &MiePlotArgs) -> anyhow::Result<()> {
     let text = write_mieplot(
         &d,
         &[
-            format!("table: {}", args.table.display()),
+            format!("table: {}", crate::display::path(&args.table)),
             format!("entry: {}", describe_entry(&pt.table, &e)),
         ],
     );

@@ -42,10 +42,13 @@ pub fn run_mitsuba(args: &MitsubaArgs) -> anyhow::Result<()> {
     anyhow::ensure!(args.samples >= 2, "--samples must be at least 2");
     let pt = PhaseTable::open(&args.table)?;
     let c = pt.curves(&args.entry)?;
+    if let (MitsubaMode::Wavelength, Some(w)) = (args.mode, args.wavelength_nm) {
+        crate::args::nearest_wavelength(&c.wavelengths_nm, w);
+    }
     let lists = build_lists(&c, args.mode, args.wavelength_nm, args.samples)?;
     let source = format!(
         "{} [{}]",
-        args.table.display(),
+        crate::display::path(&args.table),
         describe_entry(&pt.table, &c.entry)
     );
     let xml = xml_snippet(&lists, &source);

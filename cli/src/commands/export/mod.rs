@@ -7,7 +7,7 @@ pub mod mieplot;
 pub mod mitsuba;
 pub mod rgb_lut;
 
-use anyhow::{Result, bail};
+use anyhow::{Context as _, Result, bail};
 use scatterbake::table::Table;
 use std::path::PathBuf;
 
@@ -26,7 +26,8 @@ pub enum ExportFormat {
     Legendre,
     /// MiePlot-style text table: angle, i_perp, i_par, phase (phase-function tables).
     Mieplot,
-    /// Sun-disc-convolved linear-sRGB lookup vs angle, `.csv` or `.png` (phase-function tables).
+    /// Sun-disc-averaged linear-sRGB lookup texture vs angle, `.exr`, `.png` or `.csv`
+    /// (phase-function tables).
     RgbLut,
 }
 
@@ -35,9 +36,12 @@ pub enum ExportFormat {
 pub struct ExportArgs {
     /// Table file (.sbt).
     file: PathBuf,
+    /// Output format: csv, json, exr for any table; mitsuba, legendre, mieplot, rgb-lut for
+    /// 1-D phase-function tables.
     #[arg(long, value_enum)]
     format: ExportFormat,
-    /// Output file (required for csv/json/exr; stdout otherwise when omitted).
+    /// Output file: required for csv, json, exr and rgb-lut (.exr, .png or .csv); mitsuba,
+    /// legendre and mieplot write to stdout when it is omitted.
     #[arg(long)]
     out: Option<PathBuf>,
     /// Entry selection NAME=VALUE per entry axis (phase formats; default: first sample of each).
@@ -72,6 +76,34 @@ pub struct ExportArgs {
     sun_diameter_deg: Option<f64>,
 }
 
+/// The name of `format` on the command line.
+fn format_name(format: ExportFormat) -> String {
+    use clap::ValueEnum as _;
+    format
+        .to_possible_value()
+        .map(|v| v.get_name().to_string())
+        .unwrap_or_default()
+}
+
+/// Refuse a phase-function format for a table that does not follow the phase contract, before
+/// any work, saying what the table is and which formats apply to it (reads the header only).
+fn check_phase_format(file: &std::path::Path, format: ExportFormat) -> Result<()> {
+    let header = scatterbake::table::read_header_only(file)?;
+    if let Err(why) = scatterbake::consumers::read::phase::PhaseTable::check_header(&header) {
+        bail!(
+            "--format {} applies to 1-D phase-function tables (axes … × wavelength × \
+             scattering_angle, channels phase, i_perp, i_par: schemas mie-phase, debye-phase, \
+             raytrace-phase, mixture-phase); {} is a `{}/{}` table ({why}). Formats for any \
+             table: csv, json, exr",
+            format_name(format),
+            crate::display::path(file),
+            header.schema.name,
+            header.schema.version
+        );
+    }
+    Ok(())
+}
+
 pub fn run_export(a: ExportArgs) -> Result<()> {
     use scatterbake::consumers::export::generic::GenericFormat;
     if a.samples.is_some() && !matches!(a.format, ExportFormat::Mitsuba | ExportFormat::RgbLut) {
@@ -88,10 +120,17 @@ pub fn run_export(a: ExportArgs) -> Result<()> {
             .out
             .ok_or_else(|| anyhow::anyhow!("--out is required for --format csv|json|exr"))?;
         let t = Table::open(&a.file)?;
-        scatterbake::consumers::export::generic::export(&t, format, &out)?;
-        println!("wrote {}", out.display());
+        scatterbake::consumers::export::generic::export(&t, format, &out).with_context(|| {
+            format!(
+                "exporting {} as {}",
+                crate::display::path(&a.file),
+                format_name(a.format)
+            )
+        })?;
+        println!("wrote {}", crate::display::path(&out));
         return Ok(());
     }
+    check_phase_format(&a.file, a.format)?;
     match a.format {
         ExportFormat::Mitsuba => mitsuba::run_mitsuba(&mitsuba::MitsubaArgs {
             table: a.file,

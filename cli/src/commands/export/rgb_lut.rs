@@ -17,6 +17,7 @@ pub const DEFAULT_SAMPLES: usize = 7201;
 pub struct LutArgs {
     /// Phase-function table (.sbt) following the phase contract.
     pub table: PathBuf,
+    /// Entry selection, NAME=VALUE per entry axis (default: first sample of each).
     #[arg(long = "entry", value_name = "NAME=VALUE")]
     pub entry: Vec<EntrySelection>,
     /// Number of rows (uniform in angle over [0, 180] deg).
@@ -50,7 +51,10 @@ fn lut_format(out: &std::path::Path) -> anyhow::Result<LutFormat> {
         Some("csv") => Ok(LutFormat::Csv),
         Some("png") => Ok(LutFormat::Png),
         Some("exr") => Ok(LutFormat::Exr),
-        _ => anyhow::bail!("{}: output must end in .exr, .csv or .png", out.display()),
+        _ => anyhow::bail!(
+            "{}: output must end in .exr, .csv or .png",
+            crate::display::path(out)
+        ),
     }
 }
 
@@ -101,7 +105,7 @@ pub fn run_lut(args: &LutArgs) -> anyhow::Result<()> {
             let entry = pt.resolve_entry(&args.entry)?;
             let t = lut_table(
                 &lut,
-                &args.table.display().to_string(),
+                &crate::display::path(&args.table),
                 &scatterbake::consumers::read::phase::describe_entry(&pt.table, &entry),
                 &disc,
             )?;
