@@ -10,7 +10,8 @@
 //! - [`render`]: a reference spectral renderer of rainbows in a rain volume;
 //! - [`validate`]: a table against a reference curve, like with like (a point reference is
 //!   taken through the table's own angular operators first);
-//! - [`image`]: PNG writing shared by `plot` and `render`.
+//! - [`image`]: PNG writing shared by `plot` and `render`;
+//! - [`catalog_page`]: the browsable catalog `index.html` of a directory of tables.
 //!
 //! Every consumer reports failures as a [`ConsumerError`], and the long ones (a render, a Lee
 //! diagram) their progress to a [`crate::progress::Progress`].
@@ -19,6 +20,7 @@
 //! [`crate::table::Table::sample`]). The C ABI for other languages is the `capi/` crate and
 //! the Python reader `python/scatterbake_table.py`.
 
+pub mod catalog_page;
 mod error;
 pub mod export;
 pub mod image;

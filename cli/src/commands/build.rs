@@ -28,6 +28,9 @@ pub struct BuildArgs {
     /// Do not draw preview pictures into OUT/previews/.
     #[arg(long)]
     pub no_previews: bool,
+    /// Do not write the browsable catalog page OUT/index.html (`scatterbake catalog --html`).
+    #[arg(long)]
+    pub no_html: bool,
     /// Compute nothing: print each table's tasks, axes, size (uncompressed and estimated on
     /// disk) and estimated CPU time, and the totals.
     #[arg(long)]
@@ -67,6 +70,11 @@ pub fn run_build(a: BuildArgs) -> Result<i32> {
     }
     if !a.no_previews {
         draw_previews(&a.out, &report.tables_written);
+    }
+    if !a.no_html {
+        let catalog = scatterbake::catalog::rebuild(&a.out)?;
+        let opts = scatterbake::consumers::catalog_page::PageOptions::default();
+        super::catalog::write_page(&a.out, &catalog, &opts)?;
     }
     println!(
         "built {} table(s), {} up to date, {} pending other shards; tasks: {} computed, {} reused from checkpoints; {:.1} s; catalog {}",
