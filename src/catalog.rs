@@ -163,7 +163,7 @@ struct Stamps {
 /// `path` parsed as JSON, or `None` when missing, unreadable, larger than [`MAX_INDEX_BYTES`]
 /// or not of type `T`.
 fn read_json<T: serde::de::DeserializeOwned>(path: &Path) -> Option<T> {
-    let file = std::fs::File::open(path).ok()?;
+    let file = crate::table::open_regular(path).ok()?;
     let mut bytes = Vec::new();
     file.take(MAX_INDEX_BYTES + 1)
         .read_to_end(&mut bytes)
@@ -292,7 +292,7 @@ fn read_entry(p: &Path, file: String) -> Result<(CatalogEntry, FileStamp), Strin
     // The stamp of what is read: taken from the open file, so that a file renamed into place
     // meanwhile is never listed under the stamp of the one it replaced.
     let read = || -> std::io::Result<(Vec<u8>, FileStamp)> {
-        let mut f = std::fs::File::open(p)?;
+        let mut f = crate::table::open_regular(p)?;
         let stamp = FileStamp::of(&f.metadata()?);
         let mut bytes = Vec::new();
         f.read_to_end(&mut bytes)?;

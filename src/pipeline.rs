@@ -296,7 +296,7 @@ pub fn read_checkpoint(
     task_key: &str,
     secret: &CheckpointKey,
 ) -> Result<Option<Chunk>, String> {
-    let bytes = match std::fs::read(path) {
+    let bytes = match crate::table::read_regular(path) {
         Ok(b) => b,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
         Err(e) => return Err(format!("unreadable ({e})")),
@@ -421,6 +421,12 @@ pub fn table_path(out_dir: &Path, name: &str) -> PathBuf {
 fn up_to_date(path: &Path, key: &str, listed: &crate::catalog::Listed) -> bool {
     if let Some(e) = listed.unchanged(path) {
         return e.parameters_digest == key;
+    }
+    // Only a regular file can be an up-to-date table: a FIFO or device planted under the
+    // table's name is not opened by the reader (which would block on a FIFO), and is replaced
+    // when the table is written.
+    if crate::table::open_regular(path).is_err() {
+        return false;
     }
     match crate::table::read_header_only(path) {
         Ok(h) if h.provenance.parameters_digest == key => crate::table::verify_sealed(path).is_ok(),

@@ -156,7 +156,7 @@ pub fn checkpoint_key(out: &Path) -> Result<CheckpointKey, WorkdirError> {
         path: path.clone(),
         source,
     };
-    match std::fs::read(&path) {
+    match crate::table::read_regular(&path) {
         Ok(bytes) => return key_from_file(&path, &bytes),
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
         Err(e) => return Err(io(e)),
@@ -177,7 +177,7 @@ pub fn checkpoint_key(out: &Path) -> Result<CheckpointKey, WorkdirError> {
     match std::fs::hard_link(tmp.path(), &path) {
         Ok(()) => Ok(CheckpointKey(secret)),
         Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {
-            let bytes = std::fs::read(&path).map_err(io)?;
+            let bytes = crate::table::read_regular(&path).map_err(io)?;
             key_from_file(&path, &bytes)
         }
         Err(e) => Err(io(e)),
@@ -243,12 +243,23 @@ pub fn lock_out_dir(out: &Path) -> Result<OutLock, WorkdirError> {
         path: path.clone(),
         source,
     };
-    let file = std::fs::OpenOptions::new()
-        .create(true)
-        .truncate(false)
-        .write(true)
-        .open(&path)
-        .map_err(io)?;
+    let mut opts = std::fs::OpenOptions::new();
+    // read and write: opening a FIFO so never waits for (or fails for want of) the other end
+    opts.create(true).truncate(false).read(true).write(true);
+    #[cfg(unix)]
+    {
+        // non-blocking: a FIFO planted as the lock is refused below instead of waiting for a
+        // reader forever
+        use std::os::unix::fs::OpenOptionsExt;
+        opts.custom_flags(libc::O_NONBLOCK);
+    }
+    let file = opts.open(&path).map_err(io)?;
+    if !file.metadata().map_err(io)?.is_file() {
+        return Err(io(std::io::Error::new(
+            std::io::ErrorKind::InvalidInput,
+            "not a regular file; remove it (the build recreates its lock)",
+        )));
+    }
     file.lock().map_err(io)?;
     Ok(OutLock { _file: file })
 }

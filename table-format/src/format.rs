@@ -352,6 +352,63 @@ pub fn host_tag() -> String {
     .clone()
 }
 
+/// Open `path` for reading only if it is a regular file (following symbolic links), for callers
+/// that must not block on or stream from a file planted under a name they own (the build's
+/// output directory); the table reader itself accepts any readable file and refuses a non-table
+/// from its first 8 bytes (`docs/table-format.md`). A FIFO, a
+/// socket, a device or a directory is refused with an `InvalidInput` error naming what it is,
+/// without blocking (the file is opened non-blocking, so opening a FIFO that has no writer
+/// returns at once) and without reading a byte (a link to `/dev/zero` is refused, not read
+/// until memory runs out). The check is made on the opened file, so it cannot be raced.
+pub fn open_regular(path: &Path) -> std::io::Result<std::fs::File> {
+    let mut opts = std::fs::OpenOptions::new();
+    opts.read(true);
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::OpenOptionsExt;
+        opts.custom_flags(libc::O_NONBLOCK);
+    }
+    let f = opts.open(path)?;
+    let kind = f.metadata()?.file_type();
+    if kind.is_file() {
+        return Ok(f);
+    }
+    Err(std::io::Error::new(
+        std::io::ErrorKind::InvalidInput,
+        format!("not a regular file ({})", file_kind(&kind)),
+    ))
+}
+
+/// The whole of the regular file at `path` ([`open_regular`]).
+pub fn read_regular(path: &Path) -> std::io::Result<Vec<u8>> {
+    use std::io::Read;
+    let mut bytes = Vec::new();
+    open_regular(path)?.read_to_end(&mut bytes)?;
+    Ok(bytes)
+}
+
+/// What a file that is not a regular file is, in words.
+fn file_kind(kind: &std::fs::FileType) -> &'static str {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileTypeExt;
+        if kind.is_fifo() {
+            return "a FIFO";
+        }
+        if kind.is_socket() {
+            return "a socket";
+        }
+        if kind.is_char_device() || kind.is_block_device() {
+            return "a device";
+        }
+    }
+    if kind.is_dir() {
+        "a directory"
+    } else {
+        "not a file"
+    }
+}
+
 /// Write `bytes` to `path` atomically: a temporary file in the same directory, fsync, rename,
 /// fsync of the directory. A crash at any point leaves either the old file or the new one under
 /// `path`, never a partial file; the temporary file a crash leaves is named after its host and

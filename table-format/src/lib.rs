@@ -18,8 +18,8 @@ pub mod tt;
 mod validate;
 
 pub use format::{
-    FORMAT_MAJOR, FORMAT_MINOR, FileStamp, MAGIC, TableError, WrittenTable, write_table_atomic,
-    write_table_atomic_sealed,
+    FORMAT_MAJOR, FORMAT_MINOR, FileStamp, MAGIC, TableError, WrittenTable, open_regular,
+    read_regular, write_table_atomic, write_table_atomic_sealed,
 };
 pub use model::{
     Axis, AxisPoints, Channel, Header, Layout, PayloadInfo, Provenance, Schema, Table, TableContent,

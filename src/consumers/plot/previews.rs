@@ -23,8 +23,36 @@ use std::path::{Path, PathBuf};
 /// get the figures of their schema family (`super::previews`); unknown schemas a heatmap of the
 /// last two axes with every other axis at its middle sample (first non-constant channel), or a
 /// line plot when 1-D.
+///
+/// The pictures never land outside `out_dir`: `out_dir` must be a real directory (a symbolic
+/// link is refused), every picture is drawn into a fresh private directory inside it and then
+/// renamed into place, so a symbolic link planted under a picture's name is replaced, not
+/// followed.
 pub fn previews(table_path: &Path, out_dir: &Path) -> Result<Vec<PathBuf>, ConsumerError> {
     std::fs::create_dir_all(out_dir).map_err(IoError::doing("creating", out_dir))?;
+    let meta = std::fs::symlink_metadata(out_dir).map_err(IoError::doing("reading", out_dir))?;
+    if !meta.is_dir() {
+        return Err(ConsumerError::Invalid(format!(
+            "{} is a symbolic link or not a directory; refusing to draw previews through it",
+            out_dir.display()
+        )));
+    }
+    let staging = tempfile::Builder::new()
+        .prefix(".previews-")
+        .tempdir_in(out_dir)
+        .map_err(IoError::doing("creating a directory in", out_dir))?;
+    let drawn = draw_previews_into(table_path, staging.path())?;
+    let mut written = Vec::with_capacity(drawn.len());
+    for p in drawn {
+        let dest = out_dir.join(p.file_name().expect("a picture has a file name"));
+        std::fs::rename(&p, &dest).map_err(IoError::doing("moving a preview to", &dest))?;
+        written.push(dest);
+    }
+    Ok(written)
+}
+
+/// [`previews`] drawn into `out_dir`, a directory this process created.
+fn draw_previews_into(table_path: &Path, out_dir: &Path) -> Result<Vec<PathBuf>, ConsumerError> {
     let stem = table_path
         .file_stem()
         .and_then(|s| s.to_str())
