@@ -482,6 +482,13 @@ fn draw_lines<DB: DrawingBackend<ErrorType: 'static>>(
             p.title
         )));
     }
+    if !y0.is_finite() {
+        return Err(ConsumerError::invalid(format!(
+            "line panel `{}` has no finite value to draw (every value is NaN or infinite; \
+             `scatterbake verify` counts them per channel)",
+            p.title
+        )));
+    }
     let x1 = if x1 > x0 { x1 } else { x0 + 1.0 };
     let x_labels = (area.dim_in_pixel().0 / 75).clamp(3, 12) as usize;
     let mut builder = ChartBuilder::on(area);
@@ -739,6 +746,35 @@ mod tests {
         assert_eq!(format_tick(0.0015), "0.0015");
         assert_eq!(format_tick(80.0), "80");
         assert_eq!(format_tick(2.5e-5), "2.5e-5");
+    }
+
+    #[test]
+    fn a_line_panel_without_a_finite_value_is_an_error_not_a_panic() {
+        let panel = |y: f64| {
+            Panel::Lines(LinePanel {
+                title: "t".into(),
+                x_label: "x".into(),
+                y_label: "y".into(),
+                log_y: false,
+                series: vec![Series {
+                    label: String::new(),
+                    colour: BLUE,
+                    dash: Dash::Solid,
+                    points: vec![(0.0, y), (1.0, y)],
+                }],
+                legend: Legend::default(),
+            })
+        };
+        for y in [f64::NAN, f64::INFINITY] {
+            let fig = Figure {
+                title: String::new(),
+                cols: 1,
+                size: (200, 150),
+                panels: vec![panel(y)],
+            };
+            let e = render_rgb(&fig).unwrap_err().to_string();
+            assert!(e.contains("no finite value"), "{e}");
+        }
     }
 
     #[test]

@@ -41,7 +41,21 @@ pub fn previews(table_path: &Path, out_dir: &Path) -> Result<Vec<PathBuf>, Consu
         .prefix(".previews-")
         .tempdir_in(out_dir)
         .map_err(IoError::doing("creating a directory in", out_dir))?;
-    let drawn = draw_previews_into(table_path, staging.path())?;
+    // an error names the picture where it was to go, not the private directory
+    let drawn = draw_previews_into(table_path, staging.path()).map_err(|e| {
+        let staged = staging.path().display().to_string();
+        let mut chain = e.to_string();
+        let mut cause = std::error::Error::source(&e);
+        while let Some(c) = cause {
+            chain = format!("{chain}: {c}");
+            cause = c.source();
+        }
+        if chain.contains(&staged) {
+            ConsumerError::Invalid(chain.replace(&staged, &out_dir.display().to_string()))
+        } else {
+            e
+        }
+    })?;
     let mut written = Vec::with_capacity(drawn.len());
     for p in drawn {
         let dest = out_dir.join(p.file_name().expect("a picture has a file name"));
