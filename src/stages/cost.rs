@@ -88,5 +88,8 @@ pub const STORED_FRACTION_RAYTRACE_SPHERE: f64 = 0.78;
 pub const STORED_FRACTION_RAYTRACE_2D_DIAGNOSTIC: f64 = 0.32;
 /// `raytrace` 2-D shapes, the four contract channels only.
 pub const STORED_FRACTION_RAYTRACE_2D: f64 = 0.66;
+/// `raytrace` compact 2-D tables (`compression`), of the dense grid's payload: measured at
+/// tolerance 0.01 (docs/raytrace.md, "Compact tables").
+pub const STORED_FRACTION_RAYTRACE_2D_COMPACT: f64 = 0.01;
 /// `water-index`: 0.756.
 pub const STORED_FRACTION_WATER_INDEX: f64 = 0.76;
