@@ -290,15 +290,47 @@ fn segment_error(a: usize, b: usize, at: impl Fn(usize) -> (f64, f64)) -> [f64; 
     sums
 }
 
-/// Whether the errors of a segment's lines meet `tol` in `norm`.
-fn fits<I: ParallelIterator<Item = [f64; 3]>>(lines: I, tol: f64, norm: ErrorNorm) -> bool {
+/// Whether the errors of a segment's lines meet `tol` in `norm`; for [`ErrorNorm::Rms`] within
+/// each group of lines (`group(line)`: the indices of the windows a line belongs to).
+fn fits<I>(lines: I, tol: f64, norm: ErrorNorm, group: impl Fn(usize) -> u8 + Sync) -> bool
+where
+    I: IndexedParallelIterator<Item = [f64; 3]>,
+{
+    const GROUPS: usize = ERROR_WINDOWS.len();
     match norm {
         ErrorNorm::Max => lines.all(|e| e[0] <= tol),
         ErrorNorm::Rms => {
-            let [_, e2, n] = lines.reduce(|| [0.0; 3], |x, y| [0.0, x[1] + y[1], x[2] + y[2]]);
-            e2 <= tol * tol * n
+            let sums = lines.enumerate().fold(
+                || [[0.0; 2]; GROUPS],
+                |mut acc, (i, e)| {
+                    let g = group(i);
+                    for (w, a) in acc.iter_mut().enumerate() {
+                        if g & (1 << w) != 0 {
+                            *a = [a[0] + e[1], a[1] + e[2]];
+                        }
+                    }
+                    acc
+                },
+            );
+            let total = sums.reduce(
+                || [[0.0; 2]; GROUPS],
+                |mut x, y| {
+                    for (a, b) in x.iter_mut().zip(y) {
+                        *a = [a[0] + b[0], a[1] + b[1]];
+                    }
+                    x
+                },
+            );
+            total.iter().all(|[e2, n]| *e2 <= tol * tol * n)
         }
     }
+}
+
+/// The windows (bit w for [`ERROR_WINDOWS`]`[w]`) holding the polar angle `theta_deg`.
+fn windows_of(theta_deg: f64) -> u8 {
+    (ERROR_WINDOWS.iter().enumerate())
+        .filter(|(_, w)| (w.1..=w.2).contains(&theta_deg))
+        .fold(0, |g, (i, _)| g | (1 << i))
 }
 
 /// The knots of a filtered entry: azimuth positions `0..=n_azimuth` (the last is 360°, the
@@ -309,14 +341,15 @@ pub fn choose_knots(c: &Components, tol: f64, norm: ErrorNorm) -> (Vec<usize>, V
         let i = j * na + k % na;
         (c.i_perp[i], c.i_par[i])
     };
+    let dth = c.grid.polar_step().to_degrees();
     let azimuth = greedy_knots(na + 1, |a, b| {
         let lines = (0..np).into_par_iter().map(|j| segment_error(a, b, |k| at(j, k)));
-        fits(lines, tol, norm)
+        fits(lines, tol, norm, |j| windows_of(dth * j as f64))
     });
     let polar = greedy_knots(np, |a, b| {
         let lines = (azimuth[..azimuth.len() - 1].par_iter())
             .map(|&k| segment_error(a, b, |j| at(j, k)));
-        fits(lines, tol, norm)
+        fits(lines, tol, norm, |_| 1)
     });
     (polar, azimuth)
 }
@@ -421,11 +454,28 @@ pub fn compact_entry(c: &Components, spec: &SunDiscResampled) -> CompactEntry {
     let tol = spec.tolerance;
     // Max: (1 + a)(1 + p) − 1 ≤ tol with a = p: p = √(1 + tol) − 1. Rms: the triangle
     // inequality, tol/2 each (the windows' values are then measured, not implied). Less a margin for the f32 rounding of the stored values.
-    let per_dimension = match spec.norm {
+    let mut per_dimension = match spec.norm {
         ErrorNorm::Max => ((1.0 + tol).sqrt() - 1.0) * 0.99,
         ErrorNorm::Rms => 0.5 * tol * 0.99,
     };
-    let (polar, azimuth) = choose_knots(c, per_dimension, spec.norm);
+    // The root mean square of a window is measured, not implied by its segments': tighter
+    // knots until it holds (a few halvings at most; the max norm holds at once).
+    let mut tries = 0;
+    loop {
+        let entry = entry_on_knots(c, choose_knots(c, per_dimension, spec.norm));
+        tries += 1;
+        if entry_error(&entry.errors, spec.norm) <= tol || tries == RMS_TRIES {
+            return entry;
+        }
+        per_dimension *= 0.5;
+    }
+}
+
+/// Knot choices [`compact_entry`] tries before it returns an entry over its tolerance.
+const RMS_TRIES: usize = 4;
+
+/// The entry's values on the knots `(polar, azimuth)` and its errors.
+fn entry_on_knots(c: &Components, (polar, azimuth): (Vec<usize>, Vec<usize>)) -> CompactEntry {
     let na = c.grid.n_azimuth;
     let mut values = Vec::with_capacity(polar.len() * azimuth.len() * 4);
     for &j in &polar {
