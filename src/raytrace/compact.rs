@@ -173,7 +173,9 @@ fn circular_kernel(sigma: f64, n: usize) -> Vec<(isize, f64)> {
             let images = (4.0 * sigma / n_f).ceil() as i64 + 1;
             (0..n as isize)
                 .map(|d| {
-                    let s: f64 = (-images..=images).map(|m| g(d as f64 + m as f64 * n_f)).sum();
+                    let s: f64 = (-images..=images)
+                        .map(|m| g(d as f64 + m as f64 * n_f))
+                        .sum();
                     (d, s)
                 })
                 .collect()
@@ -190,7 +192,10 @@ fn circular_kernel(sigma: f64, n: usize) -> Vec<(isize, f64)> {
 /// σ/sin θ, wrapped.
 pub fn disc_filter(values: &[f64], grid: DirectionGrid, sigma_deg: f64) -> Vec<f64> {
     let (np, na) = (grid.n_polar, grid.n_azimuth);
-    let (dth, dph) = (grid.polar_step().to_degrees(), grid.azimuth_step().to_degrees());
+    let (dth, dph) = (
+        grid.polar_step().to_degrees(),
+        grid.azimuth_step().to_degrees(),
+    );
     let s = sigma_deg / dth;
     let r = (4.0 * s).ceil() as isize;
     let kernel: Vec<f64> = {
@@ -203,30 +208,31 @@ pub fn disc_filter(values: &[f64], grid: DirectionGrid, sigma_deg: f64) -> Vec<f
     let half = if na % 2 == 0 { na / 2 } else { 0 };
     let last = np as isize - 1;
     let mut polar = vec![0.0; np * na];
-    polar
-        .par_chunks_mut(na)
-        .enumerate()
-        .for_each(|(j, out)| {
-            for (i, w) in kernel.iter().enumerate() {
-                let jj = j as isize + i as isize - r;
-                // Across a pole: the row mirrored about it, on the opposite azimuth.
-                let (row, shift) = if jj < 0 {
-                    ((-jj).min(last), half)
-                } else if jj > last {
-                    ((2 * last - jj).max(0), half)
-                } else {
-                    (jj, 0)
-                };
-                let src = &values[row as usize * na..][..na];
-                for (k, o) in out.iter_mut().enumerate() {
-                    *o += w * src[(k + shift) % na];
-                }
+    polar.par_chunks_mut(na).enumerate().for_each(|(j, out)| {
+        for (i, w) in kernel.iter().enumerate() {
+            let jj = j as isize + i as isize - r;
+            // Across a pole: the row mirrored about it, on the opposite azimuth.
+            let (row, shift) = if jj < 0 {
+                ((-jj).min(last), half)
+            } else if jj > last {
+                ((2 * last - jj).max(0), half)
+            } else {
+                (jj, 0)
+            };
+            let src = &values[row as usize * na..][..na];
+            for (k, o) in out.iter_mut().enumerate() {
+                *o += w * src[(k + shift) % na];
             }
-        });
+        }
+    });
     let mut out = vec![0.0; np * na];
     out.par_chunks_mut(na).enumerate().for_each(|(j, row)| {
         let sin = (dth * j as f64).to_radians().sin();
-        let sigma = if sin > 1e-12 { sigma_deg / (sin * dph) } else { f64::INFINITY };
+        let sigma = if sin > 1e-12 {
+            sigma_deg / (sin * dph)
+        } else {
+            f64::INFINITY
+        };
         let src = &polar[j * na..][..na];
         let ker = circular_kernel(sigma, na);
         for (k, o) in row.iter_mut().enumerate() {
@@ -283,7 +289,9 @@ fn segment_error(a: usize, b: usize, at: impl Fn(usize) -> (f64, f64)) -> [f64; 
         let t = (i - a) as f64 / (b - a) as f64;
         let (p, q) = at(i);
         let phase = (0.5 * (p + q)).max(f64::MIN_POSITIVE);
-        let d = ((1.0 - t) * pa + t * pb - p).abs().max(((1.0 - t) * qa + t * qb - q).abs());
+        let d = ((1.0 - t) * pa + t * pb - p)
+            .abs()
+            .max(((1.0 - t) * qa + t * qb - q).abs());
         let rel = d / phase;
         sums = [sums[0].max(rel), sums[1] + rel * rel, sums[2] + 1.0];
     }
@@ -343,12 +351,14 @@ pub fn choose_knots(c: &Components, tol: f64, norm: ErrorNorm) -> (Vec<usize>, V
     };
     let dth = c.grid.polar_step().to_degrees();
     let azimuth = greedy_knots(na + 1, |a, b| {
-        let lines = (0..np).into_par_iter().map(|j| segment_error(a, b, |k| at(j, k)));
+        let lines = (0..np)
+            .into_par_iter()
+            .map(|j| segment_error(a, b, |k| at(j, k)));
         fits(lines, tol, norm, |j| windows_of(dth * j as f64))
     });
     let polar = greedy_knots(np, |a, b| {
-        let lines = (azimuth[..azimuth.len() - 1].par_iter())
-            .map(|&k| segment_error(a, b, |j| at(j, k)));
+        let lines =
+            (azimuth[..azimuth.len() - 1].par_iter()).map(|&k| segment_error(a, b, |j| at(j, k)));
         fits(lines, tol, norm, |_| 1)
     });
     (polar, azimuth)
@@ -377,7 +387,11 @@ pub struct CompactEntry {
 fn knot_values(p: f64, q: f64) -> [f32; 4] {
     let (p32, q32) = (p as f32, q as f32);
     let sum = p32 as f64 + q32 as f64;
-    let dolp = if sum > 0.0 { (p32 as f64 - q32 as f64) / sum } else { 0.0 };
+    let dolp = if sum > 0.0 {
+        (p32 as f64 - q32 as f64) / sum
+    } else {
+        0.0
+    };
     [(0.5 * sum) as f32, p32, q32, dolp as f32]
 }
 
@@ -441,7 +455,11 @@ fn measure(c: &Components, polar: &[usize], azimuth: &[usize], values: &[f32]) -
         });
     sums.iter()
         .map(|s| WindowError {
-            rms_relative: if s[1] > 0.0 { (s[0] / s[1]).sqrt() } else { 0.0 },
+            rms_relative: if s[1] > 0.0 {
+                (s[0] / s[1]).sqrt()
+            } else {
+                0.0
+            },
             max_relative: s[2],
         })
         .collect()
@@ -521,7 +539,12 @@ fn sample_entry(e: &CompactEntry, j: usize, k: usize) -> [f32; 4] {
     // At one of the entry's own knots the stored values, exactly.
     if e.polar_rows[s] == j && e.azimuth_positions[m] == k {
         let i = (s * nk + m) * 4;
-        return [e.values[i], e.values[i + 1], e.values[i + 2], e.values[i + 3]];
+        return [
+            e.values[i],
+            e.values[i + 1],
+            e.values[i + 2],
+            e.values[i + 3],
+        ];
     }
     let (p, q) = (interp(1), interp(2));
     let dolp = if p + q > 0.0 { (p - q) / (p + q) } else { 0.0 };
@@ -569,11 +592,11 @@ impl CompactEntry {
 
     /// The entry from [`Self::scalars`] and its values, and the scalars after it; `None` when
     /// they do not describe an entry on `grid`.
-    pub fn from_parts<'a>(
-        scalars: &'a [f64],
+    pub fn from_parts(
+        scalars: &[f64],
         values: Vec<f32>,
         grid: DirectionGrid,
-    ) -> Option<(Self, &'a [f64])> {
+    ) -> Option<(Self, &[f64])> {
         let count = |x: f64| (x >= 2.0 && x.fract() == 0.0 && x < 1e9).then_some(x as usize);
         let (np, na) = (count(*scalars.first()?)?, count(*scalars.get(1)?)?);
         let windows = ERROR_WINDOWS.len();
@@ -646,7 +669,13 @@ mod tests {
     /// Greedy knots of a piecewise-linear series are exactly its corners.
     #[test]
     fn greedy_knots_find_the_corners_of_a_polyline() {
-        let f = |i: usize| if i <= 40 { i as f64 } else { 40.0 + 3.0 * (i - 40) as f64 };
+        let f = |i: usize| {
+            if i <= 40 {
+                i as f64
+            } else {
+                40.0 + 3.0 * (i - 40) as f64
+            }
+        };
         let fits = |a: usize, b: usize| {
             (a + 1..b).all(|i| {
                 let t = (i - a) as f64 / (b - a) as f64;
@@ -668,7 +697,8 @@ mod tests {
                 .map(|i| {
                     let th = 0.1 * (i / na) as f64;
                     let ph = 5f64 * (i % na) as f64;
-                    1.0 + (-((th - 138.0 - shift - 0.1 * ph.to_radians().cos()) / 0.5).powi(2)).exp()
+                    1.0 + (-((th - 138.0 - shift - 0.1 * ph.to_radians().cos()) / 0.5).powi(2))
+                        .exp()
                 })
                 .collect();
             let q = p.iter().map(|x| 0.3 * x).collect();
@@ -688,13 +718,31 @@ mod tests {
                 norm: ErrorNorm::Max,
             };
             let e = compact_entry(&c, &spec);
-            assert!(entry_error(&e.errors, ErrorNorm::Max) <= 0.01, "{:?}", e.errors);
+            assert!(
+                entry_error(&e.errors, ErrorNorm::Max) <= 0.01,
+                "{:?}",
+                e.errors
+            );
             assert!(entry_error(&e.errors, ErrorNorm::Max) > 0.0);
-            let rms = compact_entry(&c, &SunDiscResampled { norm: ErrorNorm::Rms, ..spec });
-            assert!(entry_error(&rms.errors, ErrorNorm::Rms) <= 0.01, "{:?}", rms.errors);
+            let rms = compact_entry(
+                &c,
+                &SunDiscResampled {
+                    norm: ErrorNorm::Rms,
+                    ..spec
+                },
+            );
+            assert!(
+                entry_error(&rms.errors, ErrorNorm::Rms) <= 0.01,
+                "{:?}",
+                rms.errors
+            );
             assert!(rms.polar_rows.len() <= e.polar_rows.len());
             assert!(e.polar_rows.len() < np / 4, "{} rows", e.polar_rows.len());
-            assert!(e.azimuth_positions.len() < na, "{}", e.azimuth_positions.len());
+            assert!(
+                e.azimuth_positions.len() < na,
+                "{}",
+                e.azimuth_positions.len()
+            );
             let s = e.scalars();
             let (back, rest) = CompactEntry::from_parts(&s, e.values.clone(), g).unwrap();
             assert_eq!(back, e);
@@ -742,7 +790,10 @@ mod tests {
             serde_json::json!({"kind": "sun-disc-resampled", "tolerance": 0.01, "x": 1}),
         ] {
             let e = Compression::from_value(bad.clone()).unwrap_err();
-            assert!(e.contains("sun-disc-resampled") || e.contains("tolerance"), "{bad}: {e}");
+            assert!(
+                e.contains("sun-disc-resampled") || e.contains("tolerance"),
+                "{bad}: {e}"
+            );
         }
     }
 }

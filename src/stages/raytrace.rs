@@ -26,7 +26,7 @@
 //! i_perp = |S1|²/(π x² Q_sca).
 
 use crate::optics::water::{SADEGHI_WAVELENGTHS_NM, WaterIndexModel};
-use crate::raytrace::compact::{self, CompactEntry, Compression, Components};
+use crate::raytrace::compact::{self, CompactEntry, Components, Compression};
 use crate::raytrace::domain;
 use crate::raytrace::post::{filter_sigma_deg, integral_1d};
 use crate::raytrace::shape::{CosineSeries, DropShape};
@@ -633,8 +633,11 @@ impl Job for RaytraceJob {
     /// Compact tables: of the dense grid's payload (the plan's upper bound).
     fn estimated_stored_fraction(&self) -> f64 {
         use crate::stages::cost::*;
-        if self.compact_spec().is_some() {
-            return STORED_FRACTION_RAYTRACE_2D_COMPACT;
+        if let Some(spec) = self.compact_spec() {
+            return match spec.norm {
+                compact::ErrorNorm::Max => STORED_FRACTION_RAYTRACE_2D_COMPACT_MAX,
+                compact::ErrorNorm::Rms => STORED_FRACTION_RAYTRACE_2D_COMPACT_RMS,
+            };
         }
         match (self.two_d, self.p.diagnostic_channels) {
             (false, _) => STORED_FRACTION_RAYTRACE_SPHERE,
@@ -963,7 +966,12 @@ impl RaytraceJob {
         let nch = self.channels().len();
         let integral = renormalise_entry(index, &mut values, grid, nch)?;
         let filtered = |c: usize| {
-            let v: Vec<f64> = values.iter().skip(c).step_by(nch).map(|&x| x as f64).collect();
+            let v: Vec<f64> = values
+                .iter()
+                .skip(c)
+                .step_by(nch)
+                .map(|&x| x as f64)
+                .collect();
             compact::disc_filter(&v, grid, spec.sigma_deg())
         };
         let (i_perp, i_par) = (filtered(1), filtered(2));
@@ -1033,17 +1041,27 @@ impl RaytraceJob {
             crate::table::AxisPoints::Values(_) => unreachable!("the dense grid is uniform"),
         };
         let (dp, da) = (step(&axes[3]), step(&axes[4]));
-        axes[3] = Axis::values("outgoing_polar", "deg", polar.iter().map(|&j| j as f64 * dp).collect());
+        axes[3] = Axis::values(
+            "outgoing_polar",
+            "deg",
+            polar.iter().map(|&j| j as f64 * dp).collect(),
+        );
         let na = grid.n_azimuth;
-        let az = azimuth.iter().map(|&k| if k == na { 360.0 } else { k as f64 * da });
+        let az = azimuth
+            .iter()
+            .map(|&k| if k == na { 360.0 } else { k as f64 * da });
         axes[4] = Axis::values("outgoing_azimuth", "deg", az.collect());
         let mut t = self.content_2d(data, self.channels(), at, &ints, axes)?;
         t.attributes.insert("integral_check".into(), serde_json::json!({"what": "bin-sum of phase over 4π per entry of the dense table before renormalisation; every channel but dolp of the dense entry was divided by it, then seen through the sun's disc and resampled (compression)", "values": ints}));
         t.attributes.insert("angular_resampling".into(), "compact: the dense entries (point samples of the coherent patch sum on the uniform grid of the compression's dense_grid, renormalised) seen through the sun's disc, then sampled at the outgoing_polar and outgoing_azimuth knots (compression); bilinear interpolation between knots is the table's value".into());
-        t.attributes.insert("compression".into(), self.compression_attribute(spec, &entries, &polar, &azimuth));
+        t.attributes.insert(
+            "compression".into(),
+            self.compression_attribute(spec, &entries, &polar, &azimuth),
+        );
         // The disc consumers find already applied (docs/consumers.md): they convolve only the
         // difference to the disc they show.
-        t.attributes.insert("sun_diameter_deg".into(), spec.sun_diameter_deg.into());
+        t.attributes
+            .insert("sun_diameter_deg".into(), spec.sun_diameter_deg.into());
         Ok(t)
     }
 
@@ -1651,9 +1669,7 @@ mod compact_tests {
     const BASE: &str = "shape = \"beard-chuang\"\nradii_um = [400.0]\nwavelengths_nm = [650.0]\nsun_elevation_deg = [10.0, 30.0]\nrays = 300\npolar_step_deg = 0.05\nazimuth_step_deg = 5.0\ndiagnostic_channels = false\n";
 
     fn compact_lines(tolerance: f64) -> String {
-        format!(
-            "{BASE}compression = {{ kind = \"sun-disc-resampled\", tolerance = {tolerance} }}"
-        )
+        format!("{BASE}compression = {{ kind = \"sun-disc-resampled\", tolerance = {tolerance} }}")
     }
 
     /// The dense table's entry `e` seen through the sun's disc: (i_perp, i_par) on its grid.
@@ -1726,13 +1742,18 @@ mod compact_tests {
                 };
                 let (ip, ia) = (bil(&p), bil(&q));
                 let phase = 0.5 * (ip + ia);
-                let got = table.sample(&[400.0, 650.0, elevation, theta, phi]).unwrap();
+                let got = table
+                    .sample(&[400.0, 650.0, elevation, theta, phi])
+                    .unwrap();
                 for (g, want) in got[..3].iter().zip([phase, ip, ia]) {
                     worst = worst.max((g - want).abs() / phase);
                 }
             }
         }
-        assert!(worst > 0.0 && worst <= stated * (1.0 + 1e-6) + 1e-7, "{worst} vs {stated}");
+        assert!(
+            worst > 0.0 && worst <= stated * (1.0 + 1e-6) + 1e-7,
+            "{worst} vs {stated}"
+        );
         let rms = crate::stages::table_from_lines(
             &RaytraceStage,
             &compact_lines(0.01).replace(" }", ", norm = \"rms\" }"),
@@ -1770,15 +1791,33 @@ mod compact_tests {
             matches!(e, JobError::CompressionTolerance { entry: 0, .. }),
             "{e}"
         );
-        assert!(e.to_string().contains("exceeds the stated tolerance"), "{e}");
+        assert!(
+            e.to_string().contains("exceeds the stated tolerance"),
+            "{e}"
+        );
         let spec = "compression = { kind = \"sun-disc-resampled\", tolerance = 0.01 }";
         for (lines, says) in [
-            (format!("shape = \"sphere\"\nradii_um = [400.0]\n{spec}"), "2-D"),
-            (BASE.replace("diagnostic_channels = false\n", &format!("{spec}\n")), "diagnostic_channels"),
-            (format!("{BASE}compression = \"zstd\""), "sun-disc-resampled"),
-            (format!("{BASE}compression = {{ kind = \"sun-disc-resampled\", tolerance = 2.0 }}"), "tolerance"),
+            (
+                format!("shape = \"sphere\"\nradii_um = [400.0]\n{spec}"),
+                "2-D",
+            ),
+            (
+                BASE.replace("diagnostic_channels = false\n", &format!("{spec}\n")),
+                "diagnostic_channels",
+            ),
+            (
+                format!("{BASE}compression = \"zstd\""),
+                "sun-disc-resampled",
+            ),
+            (
+                format!("{BASE}compression = {{ kind = \"sun-disc-resampled\", tolerance = 2.0 }}"),
+                "tolerance",
+            ),
         ] {
-            let e = crate::stages::plan_from_lines(&RaytraceStage, &lines).err().unwrap().to_string();
+            let e = crate::stages::plan_from_lines(&RaytraceStage, &lines)
+                .err()
+                .unwrap()
+                .to_string();
             assert!(e.contains(says), "{lines}: {e}");
         }
     }

@@ -345,17 +345,9 @@ pub fn assemble_checked(job: &dyn Job, chunks: Vec<Chunk>) -> Result<TableConten
             assembled,
         });
     }
-    let describe = |axes: &[Axis], channels: usize| {
-        let mut s: Vec<String> = axes
-            .iter()
-            .map(|a| format!("{} {}", a.name, a.len()))
-            .collect();
-        s.push(format!("{channels} channels"));
-        s.join(" × ")
-    };
     let (want, got) = (
-        describe(&planned.axes, planned.channels),
-        describe(&content.axes, content.channels.len()),
+        describe_shape(&planned.axes, planned.channels),
+        describe_shape(&content.axes, content.channels.len()),
     );
     if want != got {
         return Err(JobError::PlannedShape {
@@ -366,27 +358,33 @@ pub fn assemble_checked(job: &dyn Job, chunks: Vec<Chunk>) -> Result<TableConten
     Ok(content)
 }
 
+/// A table's grid in words: `name length` per axis, then the channel count.
+fn describe_shape(axes: &[Axis], channels: usize) -> String {
+    let mut s: Vec<String> = axes
+        .iter()
+        .map(|a| format!("{} {}", a.name, a.len()))
+        .collect();
+    s.push(format!("{channels} channels"));
+    s.join(" × ")
+}
+
 /// [`assemble_checked`] of an adaptive plan: the same axis names and channel count, no axis
 /// longer than planned, and values for exactly the table's grid.
 fn check_adaptive_shape(
     planned: &PlannedShape,
     content: TableContent,
 ) -> Result<TableContent, JobError> {
-    let describe = |axes: &[Axis], channels: usize| {
-        let mut s: Vec<String> = axes
-            .iter()
-            .map(|a| format!("{} {}", a.name, a.len()))
-            .collect();
-        s.push(format!("{channels} channels"));
-        s.join(" × ")
-    };
     let fits = planned.axes.len() == content.axes.len()
         && planned.channels == content.channels.len()
-        && (planned.axes.iter().zip(&content.axes)).all(|(p, a)| p.name == a.name && a.len() <= p.len());
+        && (planned.axes.iter().zip(&content.axes))
+            .all(|(p, a)| p.name == a.name && a.len() <= p.len());
     if !fits {
         return Err(JobError::PlannedShape {
-            planned: format!("at most {}", describe(&planned.axes, planned.channels)),
-            assembled: describe(&content.axes, content.channels.len()),
+            planned: format!(
+                "at most {}",
+                describe_shape(&planned.axes, planned.channels)
+            ),
+            assembled: describe_shape(&content.axes, content.channels.len()),
         });
     }
     if content.data.len() != content.expected_len() {
