@@ -634,6 +634,9 @@ impl Job for RaytraceJob {
     fn estimated_stored_fraction(&self) -> f64 {
         use crate::stages::cost::*;
         if let Some(spec) = self.compact_spec() {
+            if matches!(self.shape, Some(DropShape::Sphere { .. })) {
+                return STORED_FRACTION_RAYTRACE_2D_COMPACT_SPHERE;
+            }
             return match spec.norm {
                 compact::ErrorNorm::Max => STORED_FRACTION_RAYTRACE_2D_COMPACT_MAX,
                 compact::ErrorNorm::Rms => STORED_FRACTION_RAYTRACE_2D_COMPACT_RMS,
@@ -1762,6 +1765,34 @@ mod compact_tests {
         assert_eq!(c["norm"], "rms");
         let window_rms = c["max_window_rms_relative"].as_f64().unwrap();
         assert!(window_rms > 0.0 && window_rms <= 0.01, "{window_rms}");
+    }
+
+    /// A compact plan bounds its table by the dense grid (azimuth closed at 360°) and estimates
+    /// the stored size from the fraction measured for its shape and norm.
+    #[test]
+    fn compact_plans_bound_the_table_by_its_dense_grid() {
+        use crate::stages::cost::*;
+        let plan = |lines: &str| crate::stages::plan_from_lines(&RaytraceStage, lines).unwrap();
+        let sphere = plan(&compact_lines(0.01));
+        let shape = sphere.shape();
+        assert!(shape.adaptive);
+        assert_eq!(shape.axes[3].len(), 3601);
+        assert_eq!(shape.axes[4].len(), 73);
+        assert_eq!(
+            sphere.estimated_stored_fraction(),
+            STORED_FRACTION_RAYTRACE_2D_COMPACT_SPHERE
+        );
+        let drop = compact_lines(0.01).replace("[400.0]", "[1500.0]");
+        assert_eq!(
+            plan(&drop).estimated_stored_fraction(),
+            STORED_FRACTION_RAYTRACE_2D_COMPACT_MAX
+        );
+        let rms = drop.replace(" }", ", norm = \"rms\" }");
+        assert_eq!(
+            plan(&rms).estimated_stored_fraction(),
+            STORED_FRACTION_RAYTRACE_2D_COMPACT_RMS
+        );
+        assert!(!plan(BASE).shape().adaptive);
     }
 
     /// `compression = "none"` is the default table, with the same resolved parameters (content
