@@ -341,24 +341,21 @@ fn windows_of(theta_deg: f64) -> u8 {
         .fold(0, |g, (i, _)| g | (1 << i))
 }
 
-/// The knots of a filtered entry: azimuth positions `0..=n_azimuth` (the last is 360°, the
-/// first column again) and polar rows, each dimension's budget `tol` in `norm`.
+/// The knots of a filtered entry: azimuth columns and polar rows, from the first to the last
+/// of the dense grid's (as in the dense table, the azimuth axis stops one step short of
+/// 360°), each dimension's budget `tol` in `norm`.
 pub fn choose_knots(c: &Components, tol: f64, norm: ErrorNorm) -> (Vec<usize>, Vec<usize>) {
     let (np, na) = (c.grid.n_polar, c.grid.n_azimuth);
-    let at = |j: usize, k: usize| {
-        let i = j * na + k % na;
-        (c.i_perp[i], c.i_par[i])
-    };
+    let at = |j: usize, k: usize| (c.i_perp[j * na + k], c.i_par[j * na + k]);
     let dth = c.grid.polar_step().to_degrees();
-    let azimuth = greedy_knots(na + 1, |a, b| {
+    let azimuth = greedy_knots(na, |a, b| {
         let lines = (0..np)
             .into_par_iter()
             .map(|j| segment_error(a, b, |k| at(j, k)));
         fits(lines, tol, norm, |j| windows_of(dth * j as f64))
     });
     let polar = greedy_knots(np, |a, b| {
-        let lines =
-            (azimuth[..azimuth.len() - 1].par_iter()).map(|&k| segment_error(a, b, |j| at(j, k)));
+        let lines = (azimuth.par_iter()).map(|&k| segment_error(a, b, |j| at(j, k)));
         fits(lines, tol, norm, |_| 1)
     });
     (polar, azimuth)
@@ -498,7 +495,7 @@ fn entry_on_knots(c: &Components, (polar, azimuth): (Vec<usize>, Vec<usize>)) ->
     let mut values = Vec::with_capacity(polar.len() * azimuth.len() * 4);
     for &j in &polar {
         for &k in &azimuth {
-            let i = j * na + k % na;
+            let i = j * na + k;
             values.extend(knot_values(c.i_perp[i], c.i_par[i]));
         }
     }
@@ -613,7 +610,7 @@ impl CompactEntry {
             ok.then_some(v)
         };
         let polar_rows = knots(&rest[..np], grid.n_polar - 1)?;
-        let azimuth_positions = knots(&rest[np..np + na], grid.n_azimuth)?;
+        let azimuth_positions = knots(&rest[np..np + na], grid.n_azimuth - 1)?;
         let errs = &rest[np + na..np + na + 2 * windows];
         let errors = errs
             .chunks(2)

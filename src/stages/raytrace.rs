@@ -587,20 +587,12 @@ impl RaytraceJob {
 
 impl Job for RaytraceJob {
     /// Known at plan time: tasks × (angles, or polar × azimuth directions) × channels.
-    /// Compact tables: the dense grid (azimuth closed at 360°) as the upper bound of the knots
-    /// chosen while the tasks run.
+    /// Compact tables: the dense grid as the upper bound of the knots chosen while the tasks
+    /// run.
     fn shape(&self) -> crate::stages::PlannedShape {
         let channels = self.channels().len();
         if self.compact_spec().is_some() {
-            let mut axes = self.table_axes();
-            axes[4] = Axis::uniform(
-                "outgoing_azimuth",
-                "deg",
-                0.0,
-                self.p.azimuth_step_deg,
-                self.direction_grid().n_azimuth + 1,
-            );
-            return crate::stages::PlannedShape::adaptive(axes, channels);
+            return crate::stages::PlannedShape::adaptive(self.table_axes(), channels);
         }
         crate::stages::PlannedShape::new(self.table_axes(), channels)
     }
@@ -1049,11 +1041,8 @@ impl RaytraceJob {
             "deg",
             polar.iter().map(|&j| j as f64 * dp).collect(),
         );
-        let na = grid.n_azimuth;
-        let az = azimuth
-            .iter()
-            .map(|&k| if k == na { 360.0 } else { k as f64 * da });
-        axes[4] = Axis::values("outgoing_azimuth", "deg", az.collect());
+        let az = azimuth.iter().map(|&k| k as f64 * da).collect();
+        axes[4] = Axis::values("outgoing_azimuth", "deg", az);
         let mut t = self.content_2d(data, self.channels(), at, &ints, axes)?;
         t.attributes.insert("integral_check".into(), serde_json::json!({"what": "bin-sum of phase over 4π per entry of the dense table before renormalisation; every channel but dolp of the dense entry was divided by it, then seen through the sun's disc and resampled (compression)", "values": ints}));
         t.attributes.insert("angular_resampling".into(), "compact: the dense entries (point samples of the coherent patch sum on the uniform grid of the compression's dense_grid, renormalised) seen through the sun's disc, then sampled at the outgoing_polar and outgoing_azimuth knots (compression); bilinear interpolation between knots is the table's value".into());
@@ -1711,7 +1700,7 @@ mod compact_tests {
         assert_eq!(c["entries"].as_array().unwrap().len(), 2);
         assert_eq!(c["knots"]["outgoing_polar"], compact.axes[3].len());
         assert_eq!(c["knots"]["outgoing_azimuth"], compact.axes[4].len());
-        assert_eq!(compact.axes[4].coords().last(), Some(&360.0));
+        assert_eq!(compact.axes[4].coords().last(), Some(&355.0));
         // At 300² rays the ray noise of this coarse grid keeps every 5° azimuth column; the
         // polar axis still drops a third of its rows.
         assert!(
@@ -1767,7 +1756,7 @@ mod compact_tests {
         assert!(window_rms > 0.0 && window_rms <= 0.01, "{window_rms}");
     }
 
-    /// A compact plan bounds its table by the dense grid (azimuth closed at 360°) and estimates
+    /// A compact plan bounds its table by the dense grid and estimates
     /// the stored size from the fraction measured for its shape and norm.
     #[test]
     fn compact_plans_bound_the_table_by_its_dense_grid() {
@@ -1777,7 +1766,7 @@ mod compact_tests {
         let shape = sphere.shape();
         assert!(shape.adaptive);
         assert_eq!(shape.axes[3].len(), 3601);
-        assert_eq!(shape.axes[4].len(), 73);
+        assert_eq!(shape.axes[4].len(), 72);
         assert_eq!(
             sphere.estimated_stored_fraction(),
             STORED_FRACTION_RAYTRACE_2D_COMPACT_SPHERE
