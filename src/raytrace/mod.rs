@@ -7,6 +7,7 @@
 //! - [`sphere1d`]: the fast exact 1-D geometric-optics-plus-phase path for spheres;
 //! - [`post`]: the Gaussian diffraction filter and the forward Fraunhofer lobe;
 //! - [`caustic`]: the caustic windows of 2-D table columns and their filters;
+//! - [`compact`]: compact 2-D entries, seen through the sun's disc and resampled adaptively;
 //! - [`table2d`]: one entry of a 2-D table from a trace (filters, lobe, added sphere orders,
 //!   mirror symmetry);
 //! - [`mixture`]: drop-size mixtures of Lorenz–Mie and traced spheres.
@@ -15,6 +16,7 @@
 //! `mixture-phase/1`) are [`crate::stages::raytrace`] and [`crate::stages::mixture`].
 
 pub mod caustic;
+pub mod compact;
 pub mod domain;
 pub mod mixture;
 pub mod post;

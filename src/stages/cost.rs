@@ -88,5 +88,15 @@ pub const STORED_FRACTION_RAYTRACE_SPHERE: f64 = 0.78;
 pub const STORED_FRACTION_RAYTRACE_2D_DIAGNOSTIC: f64 = 0.32;
 /// `raytrace` 2-D shapes, the four contract channels only.
 pub const STORED_FRACTION_RAYTRACE_2D: f64 = 0.66;
+/// `raytrace` compact 2-D tables (`compression`, tolerance 0.01, thesis grid), stored bytes
+/// over the dense grid's payload (the plan's upper bound), for Beard–Chuang drops, which most
+/// entries of a database are (docs/raytrace.md, "Compact tables"): `norm = "max"` 0.24–0.34
+/// (1 mm, 600 nm, sun 10°; 1.5 mm, 550 nm, sun 30°); spheres (≤ 0.4 mm) store 0.001–0.002.
+pub const STORED_FRACTION_RAYTRACE_2D_COMPACT_MAX: f64 = 0.34;
+/// As [`STORED_FRACTION_RAYTRACE_2D_COMPACT_MAX`] for `norm = "rms"`: 0.059–0.075.
+pub const STORED_FRACTION_RAYTRACE_2D_COMPACT_RMS: f64 = 0.073;
+/// Compact 2-D tables of spheres (Beard–Chuang drops ≤ 0.4 mm): `norm = "max"` 0.0009–0.0020
+/// (0.4 mm, 650 nm, sun 0°; 0.3 mm, 450 nm, sun 20°), `rms` 0.0001 (0.4 mm); the larger.
+pub const STORED_FRACTION_RAYTRACE_2D_COMPACT_SPHERE: f64 = 0.002;
 /// `water-index`: 0.756.
 pub const STORED_FRACTION_WATER_INDEX: f64 = 0.76;

@@ -159,6 +159,7 @@ impl Mixture2dParams {
             diffraction_model: None,
             profile_theta_deg: None,
             profile_r: None,
+            compression: Default::default(),
         }
     }
 }

@@ -26,6 +26,7 @@
 //! i_perp = |S1|²/(π x² Q_sca).
 
 use crate::optics::water::{SADEGHI_WAVELENGTHS_NM, WaterIndexModel};
+use crate::raytrace::compact::{self, CompactEntry, Components, Compression};
 use crate::raytrace::domain;
 use crate::raytrace::post::{filter_sigma_deg, integral_1d};
 use crate::raytrace::shape::{CosineSeries, DropShape};
@@ -110,6 +111,12 @@ stage_params! {
             "shape = profile: polar angles from the downward pole";
         pub profile_r: Option<Vec<f64>> = optional("none"), "list of float",
             "shape = profile: radii at profile_theta_deg (any unit; rescaled to radii_um equal volume)";
+        /// 2-D shapes: the dense table, or the compact form seen through the sun's disc and
+        /// resampled adaptively within a stated error (decision RT-39). Not written to the
+        /// resolved parameters when `none`, so that dense tables keep their content keys.
+        #[serde(skip_serializing_if = "Compression::is_none")]
+        pub compression: Compression = default(Compression::None), "string or table",
+            "none: the dense table on the uniform grid; { kind = \"sun-disc-resampled\", tolerance = 0.01 } (optional sun_diameter_deg, default 0.5): every entry convolved with the sun's disc (Gaussian of the disc's second moment, σ = diameter/4 of arc) and resampled onto adaptive polar and azimuth knots so that phase, i_perp and i_par stay within tolerance × phase of the filtered dense entry at every direction of the dense grid, measured at build time (refused otherwise); 2-D shapes with diagnostic_channels = false (docs/raytrace.md, Compact tables)";
     }
 }
 
@@ -236,6 +243,46 @@ fn check_two_d_grid(p: &RaytraceParams) -> Result<(), PlanError> {
     Ok(())
 }
 
+/// Divide the intensity channels of 2-D entry `e` by its bin-sum over 4π (decision RT-21) and
+/// return the bin-sum; an entry that cannot be normalised or integrates implausibly is refused.
+fn renormalise_entry(
+    e: usize,
+    entry: &mut [f32],
+    grid: DirectionGrid,
+    nch: usize,
+) -> Result<f64, JobError> {
+    let s = entry_integral_2d(entry, grid, nch);
+    if !(s > 0.0 && s.is_finite()) {
+        return Err(JobError::NotNormalisable {
+            entry: e,
+            integral: s,
+        });
+    }
+    crate::stages::check_phase_integral(e, s)?;
+    divide_intensities(entry, grid.n_azimuth * nch, nch, s);
+    Ok(s)
+}
+
+/// Compression is for 2-D shapes with the contract's four channels.
+fn check_compression(p: &RaytraceParams, two_d_shape: bool) -> Result<(), PlanError> {
+    if p.compression.is_none() {
+        return Ok(());
+    }
+    if !two_d_shape {
+        return Err(PlanError::invalid(
+            "compression",
+            "compact tables are 2-D (beard-chuang, profile); sphere tables are 1-D and small: use compression = \"none\"",
+        ));
+    }
+    if p.diagnostic_channels {
+        return Err(PlanError::invalid(
+            "compression",
+            "compact tables hold the contract's four channels (phase, i_perp, i_par, dolp): set diagnostic_channels = false",
+        ));
+    }
+    Ok(())
+}
+
 impl RaytraceJob {
     /// Validate parameters and plan.
     pub fn new(p: RaytraceParams) -> Result<Self, PlanError> {
@@ -275,6 +322,7 @@ impl RaytraceJob {
                 "mirror_half = true makes the table exactly mirror-symmetric, which contradicts mirror_symmetrise = false (keep the ray-noise asymmetry); set mirror_symmetrise = true or mirror_half = false",
             ));
         }
+        check_compression(&p, two_d_shape)?;
         let two_d = match p.shape.as_str() {
             "sphere" => false,
             "beard-chuang" | "profile" => true,
@@ -539,8 +587,14 @@ impl RaytraceJob {
 
 impl Job for RaytraceJob {
     /// Known at plan time: tasks × (angles, or polar × azimuth directions) × channels.
+    /// Compact tables: the dense grid as the upper bound of the knots chosen while the tasks
+    /// run.
     fn shape(&self) -> crate::stages::PlannedShape {
-        crate::stages::PlannedShape::new(self.table_axes(), self.channels().len())
+        let channels = self.channels().len();
+        if self.compact_spec().is_some() {
+            return crate::stages::PlannedShape::adaptive(self.table_axes(), channels);
+        }
+        crate::stages::PlannedShape::new(self.table_axes(), channels)
     }
     /// Spheres: per task ∝ radius/λ (the internal grid's step is ≤ λ/(10a)). 2-D shapes
     /// (`RAYTRACE_2D_COST`): a set-up, then per task a part growing with the drop's size
@@ -568,8 +622,18 @@ impl Job for RaytraceJob {
             .sum();
         table + per_task
     }
+    /// Compact tables: of the dense grid's payload (the plan's upper bound).
     fn estimated_stored_fraction(&self) -> f64 {
         use crate::stages::cost::*;
+        if let Some(spec) = self.compact_spec() {
+            if matches!(self.shape, Some(DropShape::Sphere { .. })) {
+                return STORED_FRACTION_RAYTRACE_2D_COMPACT_SPHERE;
+            }
+            return match spec.norm {
+                compact::ErrorNorm::Max => STORED_FRACTION_RAYTRACE_2D_COMPACT_MAX,
+                compact::ErrorNorm::Rms => STORED_FRACTION_RAYTRACE_2D_COMPACT_RMS,
+            };
+        }
         match (self.two_d, self.p.diagnostic_channels) {
             (false, _) => STORED_FRACTION_RAYTRACE_SPHERE,
             (true, true) => STORED_FRACTION_RAYTRACE_2D_DIAGNOSTIC,
@@ -614,14 +678,21 @@ impl Job for RaytraceJob {
             return Ok(Chunk::values(self.sphere_entry(f, s)?));
         }
         let t = self.trace_entry(f, s)?;
-        let weights = t.domain_weights.unwrap_or_default();
-        Ok(Chunk::new(
-            t.values,
-            weights.into_iter().flatten().collect(),
-        ))
+        let weights = t.domain_weights.unwrap_or_default().into_iter().flatten();
+        if let Some(spec) = self.compact_spec() {
+            let (integral, entry) = self.compact_task(index, t.values, spec)?;
+            let mut scalars = vec![integral];
+            scalars.extend(entry.scalars());
+            scalars.extend(weights);
+            return Ok(Chunk::new(entry.values, scalars));
+        }
+        Ok(Chunk::new(t.values, weights.collect()))
     }
 
     fn assemble(&self, chunks: Vec<Chunk>) -> Result<TableContent, JobError> {
+        if let Some(spec) = self.compact_spec() {
+            return self.assemble_compact(chunks, spec);
+        }
         let scalars = self.domain_values();
         let tasks = self.task_pairs().len();
         check_chunks(&chunks, tasks, self.entry_len(), scalars)?;
@@ -782,20 +853,9 @@ impl RaytraceJob {
     fn renormalise_2d(&self, data: &mut [f32], nch: usize) -> Result<Vec<f64>, JobError> {
         let grid = self.direction_grid();
         let len = grid.n_polar * grid.n_azimuth * nch;
-        let mut ints = vec![];
-        for (e, entry) in data.chunks_mut(len).enumerate() {
-            let s = entry_integral_2d(entry, grid, nch);
-            ints.push(s);
-            if !(s > 0.0 && s.is_finite()) {
-                return Err(JobError::NotNormalisable {
-                    entry: e,
-                    integral: s,
-                });
-            }
-            crate::stages::check_phase_integral(e, s)?;
-            divide_intensities(entry, grid.n_azimuth * nch, nch, s);
-        }
-        Ok(ints)
+        (data.chunks_mut(len).enumerate())
+            .map(|(e, entry)| renormalise_entry(e, entry, grid, nch))
+            .collect()
     }
 
     /// The 2-D table of one drop: radius × wavelength × sun elevation × outgoing polar ×
@@ -804,9 +864,22 @@ impl RaytraceJob {
         &self,
         mut data: Vec<f32>,
         channels: Vec<Channel>,
-        mut at: serde_json::Map<String, serde_json::Value>,
+        at: serde_json::Map<String, serde_json::Value>,
     ) -> Result<TableContent, JobError> {
         let ints = self.renormalise_2d(&mut data, channels.len())?;
+        self.content_2d(data, channels, at, &ints, self.table_axes())
+    }
+
+    /// The 2-D table's content from its renormalised values, on `axes`, with the attributes of
+    /// every 2-D table (`ints`: the entries' bin-sums before renormalisation).
+    fn content_2d(
+        &self,
+        data: Vec<f32>,
+        channels: Vec<Channel>,
+        mut at: serde_json::Map<String, serde_json::Value>,
+        ints: &[f64],
+        axes: Vec<Axis>,
+    ) -> Result<TableContent, JobError> {
         at.insert("integral_check".into(), serde_json::json!({"what": "bin-sum of phase over 4π per entry before renormalisation (below 1 by the flux of triangles discarded at the silhouette, above 1 where cusp caustics are point-sampled); every channel but dolp was divided by it, so the stored table integrates to 1 on its grid", "values": ints}));
         at.insert("angular_resampling".into(), "point samples of the coherent patch sum at the grid directions; filtered channels are Gaussian averages along the polar angle per azimuth column; the forward lobe is the exact average over each polar bin".into());
         if self.p.sphere_higher_orders && self.max_order < SPHERE_MAX_ORDER {
@@ -852,7 +925,6 @@ impl RaytraceJob {
         at.insert("forward_lobe".into(), "Fraunhofer lobe of the equal-projected-area disc (azimuthally symmetric approximation for non-circular silhouettes)".into());
         at.insert("method".into(), "patch-based wave-optics ray tracer (Sadeghi 2012, ch. 3) with 3-D complex field vectors, spherical-triangle patches, coherent sums; see docs/raytrace.md".into());
         at.insert("validated_domain".into(), "validated on spheres (0.4 mm, 650 nm) against the exact 1-D path and Lorenz–Mie; Beard–Chuang results checked for volume, axis ratios, symmetry and energy; accuracy depends on rays_per_side (docs/raytrace.md)".into());
-        let axes = self.table_axes();
         Ok(TableContent {
             schema: Schema::new("raytrace-phase-2d", 2),
             description: format!(
@@ -863,6 +935,179 @@ impl RaytraceJob {
             channels,
             attributes: at,
             data,
+        })
+    }
+}
+
+/// Compact 2-D tables (`compression`, decision RT-39).
+impl RaytraceJob {
+    /// The compact form's parameters, for 2-D tables that ask for it.
+    fn compact_spec(&self) -> Option<compact::SunDiscResampled> {
+        match self.p.compression {
+            Compression::SunDiscResampled(c) if self.two_d => Some(c),
+            _ => None,
+        }
+    }
+
+    /// Task `index`'s entry renormalised, seen through the sun's disc and compacted; its
+    /// bin-sum before renormalisation. Refused when the measured error exceeds the tolerance.
+    fn compact_task(
+        &self,
+        index: usize,
+        mut values: Vec<f32>,
+        spec: compact::SunDiscResampled,
+    ) -> Result<(f64, CompactEntry), JobError> {
+        let grid = self.direction_grid();
+        let nch = self.channels().len();
+        let integral = renormalise_entry(index, &mut values, grid, nch)?;
+        let filtered = |c: usize| {
+            let v: Vec<f64> = values
+                .iter()
+                .skip(c)
+                .step_by(nch)
+                .map(|&x| x as f64)
+                .collect();
+            compact::disc_filter(&v, grid, spec.sigma_deg())
+        };
+        let (i_perp, i_par) = (filtered(1), filtered(2));
+        drop(values);
+        let c = Components {
+            grid,
+            i_perp: &i_perp,
+            i_par: &i_par,
+        };
+        let entry = compact::compact_entry(&c, &spec);
+        let measured = compact::entry_error(&entry.errors, spec.norm);
+        if !(measured <= spec.tolerance) {
+            return Err(JobError::CompressionTolerance {
+                entry: index,
+                measured,
+                tolerance: spec.tolerance,
+            });
+        }
+        Ok((integral, entry))
+    }
+
+    /// The compact table from the tasks' chunks: entries on the union of their knots.
+    fn assemble_compact(
+        &self,
+        chunks: Vec<Chunk>,
+        spec: compact::SunDiscResampled,
+    ) -> Result<TableContent, JobError> {
+        let tasks = self.task_pairs().len();
+        if chunks.len() != tasks {
+            return Err(JobError::ChunkCount {
+                expected: tasks,
+                got: chunks.len(),
+            });
+        }
+        let (grid, domain) = (self.direction_grid(), self.domain_values());
+        let (mut ints, mut entries, mut weights) = (vec![], vec![], vec![]);
+        for (index, c) in chunks.into_iter().enumerate() {
+            let bad = |got: usize| JobError::ChunkLength {
+                index,
+                part: crate::stages::ChunkPart::Scalars,
+                got,
+                expected: 1 + 2 + 2 * compact::ERROR_WINDOWS.len() + domain,
+            };
+            let n = c.scalars.len();
+            let (Some(&integral), Some(rest)) = (c.scalars.first(), c.scalars.get(1..)) else {
+                return Err(bad(n));
+            };
+            let Some((entry, rest)) = CompactEntry::from_parts(rest, c.values, grid) else {
+                return Err(bad(n));
+            };
+            if rest.len() != domain {
+                return Err(bad(n));
+            }
+            ints.push(integral);
+            weights.push(rest.to_vec());
+            entries.push(entry);
+        }
+        let (polar, azimuth, data) = compact::merge_entries(&entries);
+        let mut at = self.common_attributes();
+        if domain > 0 {
+            let w: Vec<&[f64]> = weights.iter().map(Vec::as_slice).collect();
+            at.insert("airy_local_domain".into(), self.domain_attribute(&w));
+        }
+        let mut axes = self.table_axes();
+        let step = |axis: &Axis| match axis.points {
+            crate::table::AxisPoints::Uniform { step, .. } => step,
+            crate::table::AxisPoints::Values(_) => unreachable!("the dense grid is uniform"),
+        };
+        let (dp, da) = (step(&axes[3]), step(&axes[4]));
+        axes[3] = Axis::values(
+            "outgoing_polar",
+            "deg",
+            polar.iter().map(|&j| j as f64 * dp).collect(),
+        );
+        let az = azimuth.iter().map(|&k| k as f64 * da).collect();
+        axes[4] = Axis::values("outgoing_azimuth", "deg", az);
+        let mut t = self.content_2d(data, self.channels(), at, &ints, axes)?;
+        t.attributes.insert("integral_check".into(), serde_json::json!({"what": "bin-sum of phase over 4π per entry of the dense table before renormalisation; every channel but dolp of the dense entry was divided by it, then seen through the sun's disc and resampled (compression)", "values": ints}));
+        t.attributes.insert("angular_resampling".into(), "compact: the dense entries (point samples of the coherent patch sum on the uniform grid of the compression's dense_grid, renormalised) seen through the sun's disc, then sampled at the outgoing_polar and outgoing_azimuth knots (compression); bilinear interpolation between knots is the table's value".into());
+        t.attributes.insert(
+            "compression".into(),
+            self.compression_attribute(spec, &entries, &polar, &azimuth),
+        );
+        // The disc consumers find already applied (docs/consumers.md): they convolve only the
+        // difference to the disc they show.
+        t.attributes
+            .insert("sun_diameter_deg".into(), spec.sun_diameter_deg.into());
+        Ok(t)
+    }
+
+    /// The header's `compression` record: the operator applied, the error's definition and
+    /// the errors measured per entry and window.
+    fn compression_attribute(
+        &self,
+        spec: compact::SunDiscResampled,
+        entries: &[CompactEntry],
+        polar: &[usize],
+        azimuth: &[usize],
+    ) -> serde_json::Value {
+        let grid = self.direction_grid();
+        let windows: serde_json::Map<String, serde_json::Value> = (compact::ERROR_WINDOWS.iter())
+            .map(|&(name, lo, hi)| (name.to_string(), serde_json::json!([lo, hi])))
+            .collect();
+        let per_entry: Vec<serde_json::Value> = (self.task_pairs().iter().zip(entries))
+            .map(|(&(l, e), entry)| {
+                let errors: serde_json::Map<String, serde_json::Value> = (compact::ERROR_WINDOWS.iter())
+                    .zip(&entry.errors)
+                    .map(|(w, x)| (w.0.to_string(), serde_json::json!({"rms_relative": x.rms_relative, "max_relative": x.max_relative})))
+                    .collect();
+                serde_json::json!({
+                    "wavelength_nm": l,
+                    "sun_elevation_deg": e,
+                    "polar_knots": entry.polar_rows.len(),
+                    "azimuth_knots": entry.azimuth_positions.len(),
+                    "errors": errors,
+                })
+            })
+            .collect();
+        let max = (entries.iter())
+            .map(|e| compact::entry_error(&e.errors, compact::ErrorNorm::Max))
+            .fold(0.0, f64::max);
+        let rms = (entries.iter())
+            .map(|e| compact::entry_error(&e.errors, compact::ErrorNorm::Rms))
+            .fold(0.0, f64::max);
+        serde_json::json!({
+            "kind": compact::SUN_DISC_RESAMPLED,
+            "tolerance": spec.tolerance,
+            "norm": spec.norm,
+            "max_relative_error": max,
+            "max_window_rms_relative": rms,
+            "sun_diameter_deg": spec.sun_diameter_deg,
+            "sun_disc": format!("applied: every entry is the dense entry convolved with the sun's disc, a uniform disc of diameter {d}° taken as the Gaussian of its second moment, σ = {s}° of arc per axis, separably: along outgoing_polar with σ, reflected across the poles onto the opposite azimuth; along outgoing_azimuth with σ/sin(outgoing_polar), wrapped around the circle (the row's mean at the poles). A renderer must not convolve this table with the sun's disc again", d = spec.sun_diameter_deg, s = spec.sigma_deg()),
+            "error_definition": "the table's bilinear interpolation between knots (what Table::sample returns) against the dense entry seen through the same disc, at every direction of the dense grid: max_relative is the largest |compact − dense| of phase, i_perp and i_par divided by the dense phase at that direction; rms_relative is the root mean square of that relative error, weighted by solid angle (sin θ), over a window of outgoing_polar (= scattering angle); norm says which the tolerance bounds (max: max_relative over all directions; rms: rms_relative in every window). The entry errors are measured at build time on the stored f32 values; entries of a table share the union of their knots, each evaluated there from its own bilinear interpolant, which adds one f32 rounding (< 1e-7 relative). dolp follows from i_perp and i_par (error up to about 2 × tolerance, absolute)",
+            "windows_deg": windows,
+            "dense_grid": {
+                "outgoing_polar_step_deg": self.p.polar_step_deg,
+                "outgoing_azimuth_step_deg": self.p.azimuth_step_deg,
+                "directions": grid.n_polar * grid.n_azimuth,
+            },
+            "knots": {"outgoing_polar": polar.len(), "outgoing_azimuth": azimuth.len()},
+            "entries": per_entry,
         })
     }
 }
@@ -1404,5 +1649,196 @@ mod tests {
         );
         assert_eq!(bc.attributes["max_order"], 3);
         assert_eq!(bc.channels.len(), n_channels_2d(4, true));
+    }
+}
+
+#[cfg(test)]
+mod compact_tests {
+    use super::*;
+    use crate::table::{Provenance, Table};
+
+    /// A sphere (Beard–Chuang at 0.4 mm) at two sun elevations, small enough for a unit test.
+    const BASE: &str = "shape = \"beard-chuang\"\nradii_um = [400.0]\nwavelengths_nm = [650.0]\nsun_elevation_deg = [10.0, 30.0]\nrays = 300\npolar_step_deg = 0.05\nazimuth_step_deg = 5.0\ndiagnostic_channels = false\n";
+
+    fn compact_lines(tolerance: f64) -> String {
+        format!("{BASE}compression = {{ kind = \"sun-disc-resampled\", tolerance = {tolerance} }}")
+    }
+
+    /// The dense table's entry `e` seen through the sun's disc: (i_perp, i_par) on its grid.
+    fn filtered_dense(t: &TableContent, e: usize) -> (Vec<f64>, Vec<f64>) {
+        let (np, na) = (t.axes[3].len(), t.axes[4].len());
+        let grid = DirectionGrid {
+            n_polar: np,
+            n_azimuth: na,
+        };
+        let entry = &t.data[e * np * na * 4..][..np * na * 4];
+        let comp = |c: usize| {
+            let v: Vec<f64> = entry.iter().skip(c).step_by(4).map(|&x| x as f64).collect();
+            compact::disc_filter(&v, grid, 0.125)
+        };
+        (comp(1), comp(2))
+    }
+
+    /// A compact table samples (Table::sample, the readers' bilinear lookup) within its stated
+    /// tolerance of the dense table seen through the same disc, at random directions of both
+    /// entries (the reference interpolated bilinearly on the dense grid); the largest error
+    /// found stays within the header's measured maximum; the header is consistent with the
+    /// axes; the polar axis is shorter than the dense one; the `rms` norm meets its tolerance
+    /// in every window.
+    #[test]
+    fn compact_tables_sample_within_their_stated_error() {
+        let dense = crate::stages::table_from_lines(&RaytraceStage, BASE);
+        let compact = crate::stages::table_from_lines(&RaytraceStage, &compact_lines(0.01));
+        let c = &compact.attributes["compression"];
+        assert_eq!(c["kind"], "sun-disc-resampled");
+        assert_eq!(c["tolerance"], 0.01);
+        assert!(c["sun_disc"].as_str().unwrap().starts_with("applied"));
+        assert_eq!(compact.attributes["sun_diameter_deg"], 0.5);
+        assert_eq!(dense.attributes["sun_diameter_deg"], 0.0);
+        let stated = c["max_relative_error"].as_f64().unwrap();
+        assert!(stated > 0.0 && stated <= 0.01, "{stated}");
+        assert_eq!(c["entries"].as_array().unwrap().len(), 2);
+        assert_eq!(c["knots"]["outgoing_polar"], compact.axes[3].len());
+        assert_eq!(c["knots"]["outgoing_azimuth"], compact.axes[4].len());
+        assert_eq!(compact.axes[4].coords().last(), Some(&355.0));
+        // At 300² rays the ray noise of this coarse grid keeps every 5° azimuth column; the
+        // polar axis still drops a third of its rows.
+        assert!(
+            compact.axes[3].len() * 3 < dense.axes[3].len() * 2,
+            "knots {}",
+            c["knots"]
+        );
+        let table = Table::from_content(compact, Provenance::default()).unwrap();
+        let (np, na) = (dense.axes[3].len(), dense.axes[4].len());
+        let (dp, da) = (0.05, 5.0);
+        let mut rng = 0x2545f4914f6cdd1du64;
+        let mut uniform = || {
+            rng ^= rng << 13;
+            rng ^= rng >> 7;
+            rng ^= rng << 17;
+            (rng >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let mut worst = 0.0f64;
+        for (e, elevation) in [10.0, 30.0].into_iter().enumerate() {
+            let (p, q) = filtered_dense(&dense, e);
+            for _ in 0..4000 {
+                // Within the dense grid's azimuth range, which stops one step short of 360°.
+                let (theta, phi) = (180.0 * uniform(), da * (na - 1) as f64 * uniform());
+                let (j, u) = ((theta / dp).floor() as usize, (theta / dp).fract());
+                let (k, t) = ((phi / da).floor() as usize, (phi / da).fract());
+                let (j1, k1) = ((j + 1).min(np - 1), (k + 1).min(na - 1));
+                let bil = |f: &[f64]| {
+                    let lo = (1.0 - t) * f[j * na + k] + t * f[j * na + k1];
+                    let hi = (1.0 - t) * f[j1 * na + k] + t * f[j1 * na + k1];
+                    (1.0 - u) * lo + u * hi
+                };
+                let (ip, ia) = (bil(&p), bil(&q));
+                let phase = 0.5 * (ip + ia);
+                let got = table
+                    .sample(&[400.0, 650.0, elevation, theta, phi])
+                    .unwrap();
+                for (g, want) in got[..3].iter().zip([phase, ip, ia]) {
+                    worst = worst.max((g - want).abs() / phase);
+                }
+            }
+        }
+        assert!(
+            worst > 0.0 && worst <= stated * (1.0 + 1e-6) + 1e-7,
+            "{worst} vs {stated}"
+        );
+        let rms = crate::stages::table_from_lines(
+            &RaytraceStage,
+            &compact_lines(0.01).replace(" }", ", norm = \"rms\" }"),
+        );
+        let c = &rms.attributes["compression"];
+        assert_eq!(c["norm"], "rms");
+        let window_rms = c["max_window_rms_relative"].as_f64().unwrap();
+        assert!(window_rms > 0.0 && window_rms <= 0.01, "{window_rms}");
+    }
+
+    /// A compact plan bounds its table by the dense grid and estimates
+    /// the stored size from the fraction measured for its shape and norm.
+    #[test]
+    fn compact_plans_bound_the_table_by_its_dense_grid() {
+        use crate::stages::cost::*;
+        let plan = |lines: &str| crate::stages::plan_from_lines(&RaytraceStage, lines).unwrap();
+        let sphere = plan(&compact_lines(0.01));
+        let shape = sphere.shape();
+        assert!(shape.adaptive);
+        assert_eq!(shape.axes[3].len(), 3601);
+        assert_eq!(shape.axes[4].len(), 72);
+        assert_eq!(
+            sphere.estimated_stored_fraction(),
+            STORED_FRACTION_RAYTRACE_2D_COMPACT_SPHERE
+        );
+        let drop = compact_lines(0.01).replace("[400.0]", "[1500.0]");
+        assert_eq!(
+            plan(&drop).estimated_stored_fraction(),
+            STORED_FRACTION_RAYTRACE_2D_COMPACT_MAX
+        );
+        let rms = drop.replace(" }", ", norm = \"rms\" }");
+        assert_eq!(
+            plan(&rms).estimated_stored_fraction(),
+            STORED_FRACTION_RAYTRACE_2D_COMPACT_RMS
+        );
+        assert!(!plan(BASE).shape().adaptive);
+    }
+
+    /// `compression = "none"` is the default table, with the same resolved parameters (content
+    /// key); a tolerance below the f32 rounding of the stored values is refused at build time;
+    /// compression on spheres or with the diagnostic channels is refused at plan time.
+    #[test]
+    fn compression_none_is_the_dense_table_and_unmeetable_tolerances_are_refused() {
+        let one = BASE.replace("[10.0, 30.0]", "[30.0]");
+        let default = crate::stages::plan_from_lines(&RaytraceStage, &one).unwrap();
+        let none =
+            crate::stages::plan_from_lines(&RaytraceStage, &format!("{one}compression = \"none\""))
+                .unwrap();
+        assert_eq!(default.parameters(), none.parameters());
+        assert!(default.parameters().get("compression").is_none());
+        let a = crate::stages::run_in_memory(default.as_ref()).unwrap();
+        let b = crate::stages::run_in_memory(none.as_ref()).unwrap();
+        assert_eq!(a, b);
+        assert!(!a.attributes.contains_key("compression"));
+        let tight = crate::stages::plan_from_lines(
+            &RaytraceStage,
+            &compact_lines(1e-9).replace("[10.0, 30.0]", "[30.0]"),
+        )
+        .unwrap();
+        assert!(tight.parameters()["compression"]["tolerance"] == 1e-9);
+        let e = crate::stages::run_in_memory(tight.as_ref()).unwrap_err();
+        assert!(
+            matches!(e, JobError::CompressionTolerance { entry: 0, .. }),
+            "{e}"
+        );
+        assert!(
+            e.to_string().contains("exceeds the stated tolerance"),
+            "{e}"
+        );
+        let spec = "compression = { kind = \"sun-disc-resampled\", tolerance = 0.01 }";
+        for (lines, says) in [
+            (
+                format!("shape = \"sphere\"\nradii_um = [400.0]\n{spec}"),
+                "2-D",
+            ),
+            (
+                BASE.replace("diagnostic_channels = false\n", &format!("{spec}\n")),
+                "diagnostic_channels",
+            ),
+            (
+                format!("{BASE}compression = \"zstd\""),
+                "sun-disc-resampled",
+            ),
+            (
+                format!("{BASE}compression = {{ kind = \"sun-disc-resampled\", tolerance = 2.0 }}"),
+                "tolerance",
+            ),
+        ] {
+            let e = crate::stages::plan_from_lines(&RaytraceStage, &lines)
+                .err()
+                .unwrap()
+                .to_string();
+            assert!(e.contains(says), "{lines}: {e}");
+        }
     }
 }

@@ -83,6 +83,16 @@ pub enum JobError {
         got: usize,
         expected: usize,
     },
+    /// A compact table entry whose error, measured against the dense entry seen through the
+    /// same sun disc, exceeds the tolerance its manifest states; the table is not written.
+    #[error(
+        "entry {entry}: the compact table's error {measured:.3e} (in the stated norm, against the dense entry seen through the sun's disc) exceeds the stated tolerance {tolerance:e}; the table is not written (tolerances below the f32 rounding of the stored values, about 1e-7, cannot be met)"
+    )]
+    CompressionTolerance {
+        entry: usize,
+        measured: f64,
+        tolerance: f64,
+    },
     /// A table entry whose phase function cannot be normalised to ∫ p dΩ = 1.
     #[error("entry {entry}: ∫ p dΩ = {integral}, not positive and finite; cannot normalise")]
     NotNormalisable { entry: usize, integral: f64 },
@@ -246,12 +256,26 @@ pub trait Job: Send + Sync {
 pub struct PlannedShape {
     pub axes: Vec<Axis>,
     pub channels: usize,
+    /// The axis lengths are upper bounds: the job chooses the samples of some axes while it
+    /// runs (e.g. compact 2-D raytrace tables); names, order and channels are still exact.
+    pub adaptive: bool,
 }
 
 impl PlannedShape {
     /// The shape of a table with these axes and `channels` channels.
     pub fn new(axes: Vec<Axis>, channels: usize) -> Self {
-        PlannedShape { axes, channels }
+        PlannedShape {
+            axes,
+            channels,
+            adaptive: false,
+        }
+    }
+    /// A shape whose axis lengths are upper bounds of the table's.
+    pub fn adaptive(axes: Vec<Axis>, channels: usize) -> Self {
+        PlannedShape {
+            adaptive: true,
+            ..PlannedShape::new(axes, channels)
+        }
     }
     /// Axis lengths, then the channel count (the table's `layout.shape`).
     pub fn dims(&self) -> Vec<usize> {
@@ -311,6 +335,9 @@ pub fn run_in_memory(job: &dyn Job) -> Result<TableContent, JobError> {
 pub fn assemble_checked(job: &dyn Job, chunks: Vec<Chunk>) -> Result<TableContent, JobError> {
     let planned = job.shape();
     let content = job.assemble(chunks)?;
+    if planned.adaptive {
+        return check_adaptive_shape(&planned, content);
+    }
     let assembled = 4 * content.data.len() as u64;
     if planned.payload_bytes() != assembled {
         return Err(JobError::PlannedSize {
@@ -318,22 +345,52 @@ pub fn assemble_checked(job: &dyn Job, chunks: Vec<Chunk>) -> Result<TableConten
             assembled,
         });
     }
-    let describe = |axes: &[Axis], channels: usize| {
-        let mut s: Vec<String> = axes
-            .iter()
-            .map(|a| format!("{} {}", a.name, a.len()))
-            .collect();
-        s.push(format!("{channels} channels"));
-        s.join(" × ")
-    };
     let (want, got) = (
-        describe(&planned.axes, planned.channels),
-        describe(&content.axes, content.channels.len()),
+        describe_shape(&planned.axes, planned.channels),
+        describe_shape(&content.axes, content.channels.len()),
     );
     if want != got {
         return Err(JobError::PlannedShape {
             planned: want,
             assembled: got,
+        });
+    }
+    Ok(content)
+}
+
+/// A table's grid in words: `name length` per axis, then the channel count.
+fn describe_shape(axes: &[Axis], channels: usize) -> String {
+    let mut s: Vec<String> = axes
+        .iter()
+        .map(|a| format!("{} {}", a.name, a.len()))
+        .collect();
+    s.push(format!("{channels} channels"));
+    s.join(" × ")
+}
+
+/// [`assemble_checked`] of an adaptive plan: the same axis names and channel count, no axis
+/// longer than planned, and values for exactly the table's grid.
+fn check_adaptive_shape(
+    planned: &PlannedShape,
+    content: TableContent,
+) -> Result<TableContent, JobError> {
+    let fits = planned.axes.len() == content.axes.len()
+        && planned.channels == content.channels.len()
+        && (planned.axes.iter().zip(&content.axes))
+            .all(|(p, a)| p.name == a.name && a.len() <= p.len());
+    if !fits {
+        return Err(JobError::PlannedShape {
+            planned: format!(
+                "at most {}",
+                describe_shape(&planned.axes, planned.channels)
+            ),
+            assembled: describe_shape(&content.axes, content.channels.len()),
+        });
+    }
+    if content.data.len() != content.expected_len() {
+        return Err(JobError::PlannedSize {
+            planned: 4 * content.expected_len() as u64,
+            assembled: 4 * content.data.len() as u64,
         });
     }
     Ok(content)

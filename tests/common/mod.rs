@@ -17,6 +17,7 @@ use std::path::{Path, PathBuf};
 /// built tables.
 pub fn tables(dir: &Path) -> Vec<PathBuf> {
     let mut out = synthetic_tables(dir);
+    out.push(compact_raytrace_table(dir));
     let built = Path::new(env!("CARGO_MANIFEST_DIR")).join("tables");
     if let Ok(rd) = std::fs::read_dir(&built) {
         let mut v: Vec<PathBuf> = rd
@@ -27,6 +28,22 @@ pub fn tables(dir: &Path) -> Vec<PathBuf> {
         out.extend(v);
     }
     out
+}
+
+/// A small compact 2-D `raytrace` table (`compression`: explicit, non-uniform polar and
+/// azimuth axes chosen at build time), written into `dir`: every reader samples it as the Rust
+/// reader does.
+pub fn compact_raytrace_table(dir: &Path) -> PathBuf {
+    let stage = scatterbake::stages::find("raytrace").expect("raytrace stage");
+    let params = r#"{ shape = "beard-chuang", radii_um = [1500.0], wavelengths_nm = [550.0], sun_elevation_deg = [30.0], rays = 60, polar_step_deg = 0.25, azimuth_step_deg = 10.0, diagnostic_channels = false, compression = { kind = "sun-disc-resampled", tolerance = 0.01 } }"#;
+    let job = stage
+        .plan(toml::de::ValueDeserializer::parse(params).unwrap())
+        .unwrap();
+    let content = scatterbake::stages::run_in_memory(job.as_ref()).unwrap();
+    let mut t = Table::from_content(content, Provenance::default()).unwrap();
+    let p = dir.join("raytrace-compact.sbt");
+    write_table_atomic(&mut t, &p).unwrap();
+    p
 }
 
 /// Write the synthetic tables (every layout: explicit and uniform axes, 1 to 4 axes, 1 to 4

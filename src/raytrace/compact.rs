@@ -1,0 +1,796 @@
+//! Compact 2-D phase tables: one entry seen through the sun's disc, then resampled onto
+//! adaptive polar and azimuth knots where linear interpolation meets a stated tolerance
+//! (docs/raytrace.md, "Compact tables"; docs/decisions.md RT-39).
+//!
+//! A dense entry carries pixel-scale ray and fringe structure (8–9 % at the thesis
+//! resolution) that the sun's 0.5° disc removes, so the error a compact entry states is defined
+//! as a renderer sees it: against the dense entry convolved with the same disc.
+//!
+//! - The disc: the Gaussian with the second moment of a uniform disc of diameter `d`
+//!   (σ = d/4 of arc per axis; 0.125° for the 0.5° sun), applied separably: along the polar
+//!   (scattering) angle with σ, along the azimuth about the incident direction with σ/sin θ
+//!   (wrapped around the circle; the whole row's mean at the poles), reflecting across the
+//!   poles onto the opposite azimuth.
+//! - Knots: azimuth first (every polar row checked), then polar (every kept azimuth column
+//!   checked), each the greedy furthest knot whose linear interpolation keeps i_perp and i_par
+//!   within `tolerance/2 − …` of the filtered values, relative to the filtered phase at each
+//!   direction; the bilinear interpolant on both then stays within the tolerance (the bound is
+//!   re-measured on every dense direction, with the stored f32 values).
+
+use crate::raytrace::tracer::DirectionGrid;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+/// The sun's apparent diameter compact tables assume by default (deg).
+pub const SUN_DIAMETER_DEG: f64 = 0.5;
+
+/// The `compression` key of the `raytrace` stage.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub enum Compression {
+    /// The dense table on the uniform direction grid.
+    #[default]
+    None,
+    /// Seen through the sun's disc, resampled onto adaptive knots.
+    SunDiscResampled(SunDiscResampled),
+}
+
+/// Parameters of [`Compression::SunDiscResampled`].
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SunDiscResampled {
+    /// Largest error of the compact entry against the disc-filtered dense entry, relative to
+    /// the filtered phase at each direction, of phase, i_perp and i_par.
+    pub tolerance: f64,
+    /// Apparent diameter of the sun (deg).
+    #[serde(default = "default_sun_diameter_deg")]
+    pub sun_diameter_deg: f64,
+    /// What the tolerance bounds.
+    #[serde(default)]
+    pub norm: ErrorNorm,
+}
+
+/// What the tolerance of a compact table bounds.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ErrorNorm {
+    /// The error at every direction of the dense grid, relative to the phase there.
+    #[default]
+    Max,
+    /// The root mean square of the relative error (solid-angle weighted) over each of
+    /// [`ERROR_WINDOWS`]; the knots meet it over every interval between knots.
+    Rms,
+}
+
+fn default_sun_diameter_deg() -> f64 {
+    SUN_DIAMETER_DEG
+}
+
+/// The `kind` naming [`Compression::SunDiscResampled`] in manifests and headers.
+pub const SUN_DISC_RESAMPLED: &str = "sun-disc-resampled";
+
+impl Compression {
+    /// True for the dense table.
+    pub fn is_none(&self) -> bool {
+        *self == Compression::None
+    }
+
+    /// The value from its manifest form: `"none"` or `{ kind = "sun-disc-resampled", tolerance
+    /// = …, sun_diameter_deg = … }`.
+    pub fn from_value(v: serde_json::Value) -> Result<Self, String> {
+        const FORMS: &str = "\"none\" or { kind = \"sun-disc-resampled\", tolerance = 0.01 } (optional sun_diameter_deg, default 0.5)";
+        match v {
+            serde_json::Value::String(s) if s == "none" => Ok(Compression::None),
+            serde_json::Value::Object(mut m) => {
+                match m.remove("kind") {
+                    Some(serde_json::Value::String(k)) if k == SUN_DISC_RESAMPLED => {}
+                    Some(k) => return Err(format!("unknown kind {k}; expected {FORMS}")),
+                    None => return Err(format!("a table needs `kind`; expected {FORMS}")),
+                }
+                let spec: SunDiscResampled = serde_json::from_value(m.into())
+                    .map_err(|e| format!("{e}; expected {FORMS}"))?;
+                spec.check()?;
+                Ok(Compression::SunDiscResampled(spec))
+            }
+            other => Err(format!("unknown compression {other}; expected {FORMS}")),
+        }
+    }
+}
+
+impl SunDiscResampled {
+    /// Tolerance within (0, 1), sun diameter within (0, 10]°.
+    pub fn check(&self) -> Result<(), String> {
+        if !(self.tolerance > 0.0 && self.tolerance < 1.0) {
+            return Err(format!(
+                "tolerance {} must lie within (0, 1) (a relative error)",
+                self.tolerance
+            ));
+        }
+        if !(self.sun_diameter_deg > 0.0 && self.sun_diameter_deg <= 10.0) {
+            return Err(format!(
+                "sun_diameter_deg {} must lie within (0, 10]",
+                self.sun_diameter_deg
+            ));
+        }
+        Ok(())
+    }
+
+    /// Gaussian σ (deg of arc) with the second moment of the uniform disc: radius/2.
+    pub fn sigma_deg(&self) -> f64 {
+        self.sun_diameter_deg / 4.0
+    }
+}
+
+impl Serialize for Compression {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        match self {
+            Compression::None => s.serialize_str("none"),
+            Compression::SunDiscResampled(c) => serde_json::json!({
+                "kind": SUN_DISC_RESAMPLED,
+                "tolerance": c.tolerance,
+                "sun_diameter_deg": c.sun_diameter_deg,
+                "norm": c.norm,
+            })
+            .serialize(s),
+        }
+    }
+}
+
+impl<'de> Deserialize<'de> for Compression {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let v = serde_json::Value::deserialize(d)?;
+        Compression::from_value(v).map_err(serde::de::Error::custom)
+    }
+}
+
+/// Scattering-angle windows over which compact entries report their error (deg, inclusive).
+pub const ERROR_WINDOWS: [(&str, f64, f64); 4] = [
+    ("primary", 134.0, 150.0),
+    ("secondary", 115.0, 134.0),
+    ("bows", 125.0, 145.0),
+    ("all", 0.0, 180.0),
+];
+
+/// The polarised components of one entry on its uniform direction grid, `[polar][azimuth]`.
+pub struct Components<'a> {
+    pub grid: DirectionGrid,
+    pub i_perp: &'a [f64],
+    pub i_par: &'a [f64],
+}
+
+/// `(offset, weight)` pairs of a normalised Gaussian of `sigma` samples on a circle of `n`
+/// samples (wrapped; uniform when σ is infinite or NaN).
+fn circular_kernel(sigma: f64, n: usize) -> Vec<(isize, f64)> {
+    let g = |d: f64| (-0.5 * (d / sigma).powi(2)).exp();
+    let mut w: Vec<(isize, f64)> = if !(sigma.is_finite()) || sigma > n as f64 {
+        (0..n as isize).map(|d| (d, 1.0)).collect()
+    } else {
+        let r = (4.0 * sigma).ceil() as isize;
+        if 2 * r < n as isize {
+            (-r..=r).map(|d| (d, g(d as f64))).collect()
+        } else {
+            // Wrapped: every offset once, with the weights of all its images.
+            let n_f = n as f64;
+            let images = (4.0 * sigma / n_f).ceil() as i64 + 1;
+            (0..n as isize)
+                .map(|d| {
+                    let s: f64 = (-images..=images)
+                        .map(|m| g(d as f64 + m as f64 * n_f))
+                        .sum();
+                    (d, s)
+                })
+                .collect()
+        }
+    };
+    let total: f64 = w.iter().map(|p| p.1).sum();
+    w.iter_mut().for_each(|p| p.1 /= total);
+    w
+}
+
+/// `values` (`[polar][azimuth]` on `grid`) convolved with the Gaussian of `sigma_deg` of arc:
+/// along the polar angle (reflected across both poles onto the opposite azimuth when the
+/// azimuth count is even, onto the same azimuth otherwise), then along the azimuth with
+/// σ/sin θ, wrapped.
+pub fn disc_filter(values: &[f64], grid: DirectionGrid, sigma_deg: f64) -> Vec<f64> {
+    let (np, na) = (grid.n_polar, grid.n_azimuth);
+    let (dth, dph) = (
+        grid.polar_step().to_degrees(),
+        grid.azimuth_step().to_degrees(),
+    );
+    let s = sigma_deg / dth;
+    let r = (4.0 * s).ceil() as isize;
+    let kernel: Vec<f64> = {
+        let k: Vec<f64> = (-r..=r)
+            .map(|d| (-0.5 * (d as f64 / s).powi(2)).exp())
+            .collect();
+        let t: f64 = k.iter().sum();
+        k.iter().map(|x| x / t).collect()
+    };
+    let half = if na % 2 == 0 { na / 2 } else { 0 };
+    let last = np as isize - 1;
+    let mut polar = vec![0.0; np * na];
+    polar.par_chunks_mut(na).enumerate().for_each(|(j, out)| {
+        for (i, w) in kernel.iter().enumerate() {
+            let jj = j as isize + i as isize - r;
+            // Across a pole: the row mirrored about it, on the opposite azimuth.
+            let (row, shift) = if jj < 0 {
+                ((-jj).min(last), half)
+            } else if jj > last {
+                ((2 * last - jj).max(0), half)
+            } else {
+                (jj, 0)
+            };
+            let src = &values[row as usize * na..][..na];
+            for (k, o) in out.iter_mut().enumerate() {
+                *o += w * src[(k + shift) % na];
+            }
+        }
+    });
+    let mut out = vec![0.0; np * na];
+    out.par_chunks_mut(na).enumerate().for_each(|(j, row)| {
+        let sin = (dth * j as f64).to_radians().sin();
+        let sigma = if sin > 1e-12 {
+            sigma_deg / (sin * dph)
+        } else {
+            f64::INFINITY
+        };
+        let src = &polar[j * na..][..na];
+        let ker = circular_kernel(sigma, na);
+        for (k, o) in row.iter_mut().enumerate() {
+            *o = ker
+                .iter()
+                .map(|&(d, w)| w * src[(k as isize + d).rem_euclid(na as isize) as usize])
+                .sum();
+        }
+    });
+    out
+}
+
+/// Knots `0 = k_0 < … < k_m = n − 1` of `n` samples, each the furthest from its predecessor
+/// (exponential, then binary search) for which `fits(a, b)` holds; adjacent samples always fit.
+pub fn greedy_knots(n: usize, fits: impl Fn(usize, usize) -> bool) -> Vec<usize> {
+    let mut knots = vec![0];
+    let mut a = 0;
+    while a + 1 < n {
+        let (mut good, mut bad) = (a + 1, None);
+        let mut step = 2;
+        while bad.is_none() && good < n - 1 {
+            let b = (a + step).min(n - 1);
+            if fits(a, b) {
+                good = b;
+            } else {
+                bad = Some(b);
+            }
+            step *= 2;
+        }
+        if let Some(mut hi) = bad {
+            while hi - good > 1 {
+                let mid = (good + hi) / 2;
+                if fits(a, mid) {
+                    good = mid;
+                } else {
+                    hi = mid;
+                }
+            }
+        }
+        knots.push(good);
+        a = good;
+    }
+    knots
+}
+
+/// Over the samples between `a` and `b` of the series `at(i)` (i_perp, i_par), the error of
+/// linear interpolation relative to the phase (the larger of i_perp's and i_par's): its
+/// largest value, the sum of its squares and the number of samples.
+fn segment_error(a: usize, b: usize, at: impl Fn(usize) -> (f64, f64)) -> [f64; 3] {
+    let (pa, qa) = at(a);
+    let (pb, qb) = at(b);
+    let mut sums = [0.0f64; 3];
+    for i in a + 1..b {
+        let t = (i - a) as f64 / (b - a) as f64;
+        let (p, q) = at(i);
+        let phase = (0.5 * (p + q)).max(f64::MIN_POSITIVE);
+        let d = ((1.0 - t) * pa + t * pb - p)
+            .abs()
+            .max(((1.0 - t) * qa + t * qb - q).abs());
+        let rel = d / phase;
+        sums = [sums[0].max(rel), sums[1] + rel * rel, sums[2] + 1.0];
+    }
+    sums
+}
+
+/// Whether the errors of a segment's lines meet `tol` in `norm`; for [`ErrorNorm::Rms`] within
+/// each group of lines (`group(line)`: the indices of the windows a line belongs to).
+fn fits<I>(lines: I, tol: f64, norm: ErrorNorm, group: impl Fn(usize) -> u8 + Sync) -> bool
+where
+    I: IndexedParallelIterator<Item = [f64; 3]>,
+{
+    const GROUPS: usize = ERROR_WINDOWS.len();
+    match norm {
+        ErrorNorm::Max => lines.all(|e| e[0] <= tol),
+        ErrorNorm::Rms => {
+            let sums = lines.enumerate().fold(
+                || [[0.0; 2]; GROUPS],
+                |mut acc, (i, e)| {
+                    let g = group(i);
+                    for (w, a) in acc.iter_mut().enumerate() {
+                        if g & (1 << w) != 0 {
+                            *a = [a[0] + e[1], a[1] + e[2]];
+                        }
+                    }
+                    acc
+                },
+            );
+            let total = sums.reduce(
+                || [[0.0; 2]; GROUPS],
+                |mut x, y| {
+                    for (a, b) in x.iter_mut().zip(y) {
+                        *a = [a[0] + b[0], a[1] + b[1]];
+                    }
+                    x
+                },
+            );
+            total.iter().all(|[e2, n]| *e2 <= tol * tol * n)
+        }
+    }
+}
+
+/// The windows (bit w for [`ERROR_WINDOWS`]`[w]`) holding the polar angle `theta_deg`.
+fn windows_of(theta_deg: f64) -> u8 {
+    (ERROR_WINDOWS.iter().enumerate())
+        .filter(|(_, w)| (w.1..=w.2).contains(&theta_deg))
+        .fold(0, |g, (i, _)| g | (1 << i))
+}
+
+/// The knots of a filtered entry: azimuth columns and polar rows, from the first to the last
+/// of the dense grid's (as in the dense table, the azimuth axis stops one step short of
+/// 360°), each dimension's budget `tol` in `norm`.
+pub fn choose_knots(c: &Components, tol: f64, norm: ErrorNorm) -> (Vec<usize>, Vec<usize>) {
+    let (np, na) = (c.grid.n_polar, c.grid.n_azimuth);
+    let at = |j: usize, k: usize| (c.i_perp[j * na + k], c.i_par[j * na + k]);
+    let dth = c.grid.polar_step().to_degrees();
+    let azimuth = greedy_knots(na, |a, b| {
+        let lines = (0..np)
+            .into_par_iter()
+            .map(|j| segment_error(a, b, |k| at(j, k)));
+        fits(lines, tol, norm, |j| windows_of(dth * j as f64))
+    });
+    let polar = greedy_knots(np, |a, b| {
+        let lines = (azimuth.par_iter()).map(|&k| segment_error(a, b, |j| at(j, k)));
+        fits(lines, tol, norm, |_| 1)
+    });
+    (polar, azimuth)
+}
+
+/// The error of phase, i_perp and i_par relative to the phase over one window: root mean
+/// square (solid-angle weighted) and largest.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct WindowError {
+    pub rms_relative: f64,
+    pub max_relative: f64,
+}
+
+/// One compact entry: knots (polar rows, azimuth positions of the dense grid), its values
+/// `[polar knot][azimuth knot][phase, i_perp, i_par, dolp]` and its measured errors per
+/// [`ERROR_WINDOWS`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct CompactEntry {
+    pub polar_rows: Vec<usize>,
+    pub azimuth_positions: Vec<usize>,
+    pub values: Vec<f32>,
+    pub errors: Vec<WindowError>,
+}
+
+/// The stored channels at one knot from the filtered components.
+fn knot_values(p: f64, q: f64) -> [f32; 4] {
+    let (p32, q32) = (p as f32, q as f32);
+    let sum = p32 as f64 + q32 as f64;
+    let dolp = if sum > 0.0 {
+        (p32 as f64 - q32 as f64) / sum
+    } else {
+        0.0
+    };
+    [(0.5 * sum) as f32, p32, q32, dolp as f32]
+}
+
+/// `(segment, t)` of every dense sample `0..n` between consecutive `knots`.
+fn segments(knots: &[usize], n: usize) -> Vec<(usize, f64)> {
+    (0..n)
+        .map(|i| {
+            let s = knots.partition_point(|&k| k <= i).clamp(1, knots.len() - 1) - 1;
+            let t = (i - knots[s]) as f64 / (knots[s + 1] - knots[s]) as f64;
+            (s, t)
+        })
+        .collect()
+}
+
+/// Sums of one window: weighted squared relative error, weights, largest relative error.
+type Sums = [f64; 3];
+
+/// The errors of the bilinear interpolant of `values` on the knots against the filtered
+/// components, per [`ERROR_WINDOWS`] (solid-angle weights sin θ for the mean square).
+fn measure(c: &Components, polar: &[usize], azimuth: &[usize], values: &[f32]) -> Vec<WindowError> {
+    let (np, na) = (c.grid.n_polar, c.grid.n_azimuth);
+    let nk = azimuth.len();
+    let cols = segments(azimuth, na);
+    let rows = segments(polar, np);
+    let dth = c.grid.polar_step().to_degrees();
+    let zero = || vec![[0.0; 3]; ERROR_WINDOWS.len()];
+    let sums = (0..np)
+        .into_par_iter()
+        .fold(zero, |mut acc: Vec<Sums>, j| {
+            let (s, u) = rows[j];
+            let theta = dth * j as f64;
+            let w = theta.to_radians().sin();
+            let v = |jk: usize, kk: usize, ch: usize| values[(jk * nk + kk) * 4 + ch] as f64;
+            for (k, &(m, t)) in cols.iter().enumerate() {
+                let interp = |ch: usize| {
+                    let lo = (1.0 - t) * v(s, m, ch) + t * v(s, m + 1, ch);
+                    let hi = (1.0 - t) * v(s + 1, m, ch) + t * v(s + 1, m + 1, ch);
+                    (1.0 - u) * lo + u * hi
+                };
+                let (p, q) = (c.i_perp[j * na + k], c.i_par[j * na + k]);
+                let phase = 0.5 * (p + q);
+                let rel = [interp(0) - phase, interp(1) - p, interp(2) - q]
+                    .iter()
+                    .map(|d| d.abs() / phase.max(f64::MIN_POSITIVE))
+                    .fold(0.0, f64::max);
+                for (a, &(_, lo, hi)) in acc.iter_mut().zip(&ERROR_WINDOWS) {
+                    if (lo..=hi).contains(&theta) {
+                        a[0] += w * rel * rel;
+                        a[1] += w;
+                        a[2] = a[2].max(rel);
+                    }
+                }
+            }
+            acc
+        })
+        .reduce(zero, |mut a, b| {
+            for (x, y) in a.iter_mut().zip(b) {
+                *x = [x[0] + y[0], x[1] + y[1], x[2].max(y[2])];
+            }
+            a
+        });
+    sums.iter()
+        .map(|s| WindowError {
+            rms_relative: if s[1] > 0.0 {
+                (s[0] / s[1]).sqrt()
+            } else {
+                0.0
+            },
+            max_relative: s[2],
+        })
+        .collect()
+}
+
+/// The compact form of one entry from its dense, disc-filtered components: knots with half
+/// the tolerance per dimension (so their product stays within it), the stored values and the
+/// measured errors.
+pub fn compact_entry(c: &Components, spec: &SunDiscResampled) -> CompactEntry {
+    let tol = spec.tolerance;
+    // Max: (1 + a)(1 + p) − 1 ≤ tol with a = p: p = √(1 + tol) − 1. Rms: the triangle
+    // inequality, tol/2 each (the windows' values are then measured, not implied). Less a margin for the f32 rounding of the stored values.
+    let mut per_dimension = match spec.norm {
+        ErrorNorm::Max => ((1.0 + tol).sqrt() - 1.0) * 0.99,
+        ErrorNorm::Rms => 0.5 * tol * 0.99,
+    };
+    // The root mean square of a window is measured, not implied by its segments': tighter
+    // knots until it holds (a few halvings at most; the max norm holds at once).
+    let mut tries = 0;
+    loop {
+        let entry = entry_on_knots(c, choose_knots(c, per_dimension, spec.norm));
+        tries += 1;
+        if entry_error(&entry.errors, spec.norm) <= tol || tries == RMS_TRIES {
+            return entry;
+        }
+        per_dimension *= 0.5;
+    }
+}
+
+/// Knot choices [`compact_entry`] tries before it returns an entry over its tolerance.
+const RMS_TRIES: usize = 4;
+
+/// The entry's values on the knots `(polar, azimuth)` and its errors.
+fn entry_on_knots(c: &Components, (polar, azimuth): (Vec<usize>, Vec<usize>)) -> CompactEntry {
+    let na = c.grid.n_azimuth;
+    let mut values = Vec::with_capacity(polar.len() * azimuth.len() * 4);
+    for &j in &polar {
+        for &k in &azimuth {
+            let i = j * na + k;
+            values.extend(knot_values(c.i_perp[i], c.i_par[i]));
+        }
+    }
+    let errors = measure(c, &polar, &azimuth, &values);
+    CompactEntry {
+        polar_rows: polar,
+        azimuth_positions: azimuth,
+        values,
+        errors,
+    }
+}
+
+/// The error of an entry in `norm`: the largest relative error over all directions (the
+/// [`ERROR_WINDOWS`] entry `all`), or the largest root mean square of the windows.
+pub fn entry_error(errors: &[WindowError], norm: ErrorNorm) -> f64 {
+    match norm {
+        ErrorNorm::Max => errors.last().map_or(f64::INFINITY, |e| e.max_relative),
+        ErrorNorm::Rms => errors.iter().map(|e| e.rms_relative).fold(0.0, f64::max),
+    }
+}
+
+/// Linear interpolation of the channels of one entry (values `[polar][azimuth][4]` on its
+/// knots) at the dense sample `(j, k)`: phase, i_perp, i_par interpolated, dolp recomputed.
+fn sample_entry(e: &CompactEntry, j: usize, k: usize) -> [f32; 4] {
+    let locate = |knots: &[usize], i: usize| -> (usize, f64) {
+        let s = knots.partition_point(|&x| x <= i).clamp(1, knots.len() - 1) - 1;
+        (s, (i - knots[s]) as f64 / (knots[s + 1] - knots[s]) as f64)
+    };
+    let (s, u) = locate(&e.polar_rows, j);
+    let (m, t) = locate(&e.azimuth_positions, k);
+    let nk = e.azimuth_positions.len();
+    let v = |jk: usize, kk: usize, ch: usize| e.values[(jk * nk + kk) * 4 + ch] as f64;
+    let interp = |ch: usize| {
+        let lo = (1.0 - t) * v(s, m, ch) + t * v(s, m + 1, ch);
+        let hi = (1.0 - t) * v(s + 1, m, ch) + t * v(s + 1, m + 1, ch);
+        (1.0 - u) * lo + u * hi
+    };
+    // At one of the entry's own knots the stored values, exactly.
+    if e.polar_rows[s] == j && e.azimuth_positions[m] == k {
+        let i = (s * nk + m) * 4;
+        return [
+            e.values[i],
+            e.values[i + 1],
+            e.values[i + 2],
+            e.values[i + 3],
+        ];
+    }
+    let (p, q) = (interp(1), interp(2));
+    let dolp = if p + q > 0.0 { (p - q) / (p + q) } else { 0.0 };
+    [interp(0) as f32, p as f32, q as f32, dolp as f32]
+}
+
+/// The entries on the union of their knots (polar rows, azimuth positions), each entry's
+/// bilinear interpolant evaluated there (the same piecewise-bilinear function: its own knots
+/// are among the union's), entries in order.
+pub fn merge_entries(entries: &[CompactEntry]) -> (Vec<usize>, Vec<usize>, Vec<f32>) {
+    let union = |f: fn(&CompactEntry) -> &Vec<usize>| {
+        let mut all: Vec<usize> = entries.iter().flat_map(|e| f(e).iter().copied()).collect();
+        all.sort_unstable();
+        all.dedup();
+        all
+    };
+    let polar = union(|e| &e.polar_rows);
+    let azimuth = union(|e| &e.azimuth_positions);
+    let mut data = Vec::with_capacity(entries.len() * polar.len() * azimuth.len() * 4);
+    for e in entries {
+        for &j in &polar {
+            for &k in &azimuth {
+                data.extend(sample_entry(e, j, k));
+            }
+        }
+    }
+    (polar, azimuth, data)
+}
+
+impl CompactEntry {
+    /// The entry as scalars: counts, knots, values' count, errors (window by window: rms,
+    /// max); the values travel as the chunk's values.
+    pub fn scalars(&self) -> Vec<f64> {
+        let mut s = vec![
+            self.polar_rows.len() as f64,
+            self.azimuth_positions.len() as f64,
+        ];
+        s.extend(self.polar_rows.iter().map(|&x| x as f64));
+        s.extend(self.azimuth_positions.iter().map(|&x| x as f64));
+        for e in &self.errors {
+            s.extend([e.rms_relative, e.max_relative]);
+        }
+        s
+    }
+
+    /// The entry from [`Self::scalars`] and its values, and the scalars after it; `None` when
+    /// they do not describe an entry on `grid`.
+    pub fn from_parts(
+        scalars: &[f64],
+        values: Vec<f32>,
+        grid: DirectionGrid,
+    ) -> Option<(Self, &[f64])> {
+        let count = |x: f64| (x >= 2.0 && x.fract() == 0.0 && x < 1e9).then_some(x as usize);
+        let (np, na) = (count(*scalars.first()?)?, count(*scalars.get(1)?)?);
+        let windows = ERROR_WINDOWS.len();
+        let rest = scalars.get(2..)?;
+        if rest.len() < np + na + 2 * windows || values.len() != np * na * 4 {
+            return None;
+        }
+        let knots = |xs: &[f64], last: usize| -> Option<Vec<usize>> {
+            let v: Vec<usize> = xs.iter().map(|&x| x as usize).collect();
+            let ok = xs.iter().zip(&v).all(|(x, i)| *x == *i as f64)
+                && v.first() == Some(&0)
+                && v.last() == Some(&last)
+                && v.windows(2).all(|w| w[0] < w[1]);
+            ok.then_some(v)
+        };
+        let polar_rows = knots(&rest[..np], grid.n_polar - 1)?;
+        let azimuth_positions = knots(&rest[np..np + na], grid.n_azimuth - 1)?;
+        let errs = &rest[np + na..np + na + 2 * windows];
+        let errors = errs
+            .chunks(2)
+            .map(|e| WindowError {
+                rms_relative: e[0],
+                max_relative: e[1],
+            })
+            .collect();
+        let entry = CompactEntry {
+            polar_rows,
+            azimuth_positions,
+            values,
+            errors,
+        };
+        Some((entry, &rest[np + na + 2 * windows..]))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn grid(np: usize, na: usize) -> DirectionGrid {
+        DirectionGrid {
+            n_polar: np,
+            n_azimuth: na,
+        }
+    }
+
+    /// The filter keeps a constant, keeps the mean of each row's azimuth profile (wrapped), and
+    /// at the poles averages the whole row.
+    #[test]
+    fn disc_filter_keeps_constants_and_row_means() {
+        let g = grid(181, 36);
+        let c = vec![2.5; 181 * 36];
+        for v in disc_filter(&c, g, 3.0) {
+            assert!((v - 2.5).abs() < 1e-12);
+        }
+        let f: Vec<f64> = (0..181 * 36)
+            .map(|i| 1.0 + 0.5 * ((i % 36) as f64 * 10f64.to_radians()).cos())
+            .collect();
+        let out = disc_filter(&f, g, 3.0);
+        for j in [0, 90, 180] {
+            let row = &out[j * 36..][..36];
+            let mean: f64 = row.iter().sum::<f64>() / 36.0;
+            assert!((mean - 1.0).abs() < 1e-12, "row {j}: {mean}");
+        }
+        // At the poles the row is flat (the disc covers every azimuth); at 90° barely damped.
+        assert!(out[..36].iter().all(|v| (v - 1.0).abs() < 1e-9));
+        assert!((out[90 * 36] - 1.5).abs() < 0.01, "{}", out[90 * 36]);
+    }
+
+    /// Greedy knots of a piecewise-linear series are exactly its corners.
+    #[test]
+    fn greedy_knots_find_the_corners_of_a_polyline() {
+        let f = |i: usize| {
+            if i <= 40 {
+                i as f64
+            } else {
+                40.0 + 3.0 * (i - 40) as f64
+            }
+        };
+        let fits = |a: usize, b: usize| {
+            (a + 1..b).all(|i| {
+                let t = (i - a) as f64 / (b - a) as f64;
+                ((1.0 - t) * f(a) + t * f(b) - f(i)).abs() < 1e-9
+            })
+        };
+        assert_eq!(greedy_knots(101, fits), vec![0, 40, 100]);
+        assert_eq!(greedy_knots(2, |_, _| false), vec![0, 1]);
+    }
+
+    /// A smooth entry compacts to few knots within its tolerance; the merged grid reproduces
+    /// every entry at its own knots; the scalars round-trip.
+    #[test]
+    fn compact_entries_meet_their_tolerance_and_merge() {
+        let g = grid(1801, 72);
+        let (np, na) = (g.n_polar, g.n_azimuth);
+        let make = |shift: f64| -> (Vec<f64>, Vec<f64>) {
+            let p: Vec<f64> = (0..np * na)
+                .map(|i| {
+                    let th = 0.1 * (i / na) as f64;
+                    let ph = 5f64 * (i % na) as f64;
+                    1.0 + (-((th - 138.0 - shift - 0.1 * ph.to_radians().cos()) / 0.5).powi(2))
+                        .exp()
+                })
+                .collect();
+            let q = p.iter().map(|x| 0.3 * x).collect();
+            (p, q)
+        };
+        let mut entries = vec![];
+        for shift in [0.0, 1.5] {
+            let (p, q) = make(shift);
+            let c = Components {
+                grid: g,
+                i_perp: &p,
+                i_par: &q,
+            };
+            let spec = SunDiscResampled {
+                tolerance: 0.01,
+                sun_diameter_deg: 0.5,
+                norm: ErrorNorm::Max,
+            };
+            let e = compact_entry(&c, &spec);
+            assert!(
+                entry_error(&e.errors, ErrorNorm::Max) <= 0.01,
+                "{:?}",
+                e.errors
+            );
+            assert!(entry_error(&e.errors, ErrorNorm::Max) > 0.0);
+            let rms = compact_entry(
+                &c,
+                &SunDiscResampled {
+                    norm: ErrorNorm::Rms,
+                    ..spec
+                },
+            );
+            assert!(
+                entry_error(&rms.errors, ErrorNorm::Rms) <= 0.01,
+                "{:?}",
+                rms.errors
+            );
+            assert!(rms.polar_rows.len() <= e.polar_rows.len());
+            assert!(e.polar_rows.len() < np / 4, "{} rows", e.polar_rows.len());
+            assert!(
+                e.azimuth_positions.len() < na,
+                "{}",
+                e.azimuth_positions.len()
+            );
+            let s = e.scalars();
+            let (back, rest) = CompactEntry::from_parts(&s, e.values.clone(), g).unwrap();
+            assert_eq!(back, e);
+            assert!(rest.is_empty());
+            entries.push(e);
+        }
+        let (polar, azimuth, data) = merge_entries(&entries);
+        let nk = azimuth.len();
+        for (n, e) in entries.iter().enumerate() {
+            for (s, &j) in e.polar_rows.iter().enumerate() {
+                let a = polar.binary_search(&j).unwrap();
+                for (m, &k) in e.azimuth_positions.iter().enumerate() {
+                    let b = azimuth.binary_search(&k).unwrap();
+                    let at = ((n * polar.len() + a) * nk + b) * 4;
+                    let own = (s * e.azimuth_positions.len() + m) * 4;
+                    assert_eq!(data[at..at + 4], e.values[own..own + 4]);
+                }
+            }
+        }
+    }
+
+    /// The manifest forms: "none", a table with kind and tolerance; others are refused with
+    /// the forms named.
+    #[test]
+    fn compression_values_parse_or_say_what_is_expected() {
+        let none = Compression::from_value(serde_json::json!("none")).unwrap();
+        assert!(none.is_none());
+        let c = Compression::from_value(
+            serde_json::json!({"kind": "sun-disc-resampled", "tolerance": 0.02}),
+        )
+        .unwrap();
+        assert_eq!(
+            c,
+            Compression::SunDiscResampled(SunDiscResampled {
+                tolerance: 0.02,
+                sun_diameter_deg: 0.5,
+                norm: ErrorNorm::Max,
+            })
+        );
+        for bad in [
+            serde_json::json!("zip"),
+            serde_json::json!({"kind": "zip", "tolerance": 0.02}),
+            serde_json::json!({"tolerance": 0.02}),
+            serde_json::json!({"kind": "sun-disc-resampled", "tolerance": 0.0}),
+            serde_json::json!({"kind": "sun-disc-resampled", "tolerance": 0.01, "x": 1}),
+        ] {
+            let e = Compression::from_value(bad.clone()).unwrap_err();
+            assert!(
+                e.contains("sun-disc-resampled") || e.contains("tolerance"),
+                "{bad}: {e}"
+            );
+        }
+    }
+}
