@@ -25,15 +25,20 @@ fn column(v: &serde_json::Value, key: &str) -> Vec<f64> {
 
 /// RMS and largest relative error of (perp, par) against the reference, relative to its phase.
 fn errors(perp: &[f64], par: &[f64], rp: &[f64], ra: &[f64]) -> (f64, f64) {
-    let (mut sq, mut max, mut n) = (0.0, 0.0f64, 0);
+    let (mut sq, mut max, mut n, mut at) = (0.0, 0.0f64, 0, 0);
     for j in 0..rp.len() {
         let phase = 0.5 * (rp[j] + ra[j]);
         for e in [(perp[j] - rp[j]).abs(), (par[j] - ra[j]).abs()] {
             let r = e / phase;
             sq += r * r;
-            max = max.max(r);
+            if r > max {
+                (max, at) = (r, j);
+            }
             n += 1;
         }
+    }
+    if std::env::var_os("SHOW_MAX").is_some() {
+        eprintln!("largest error at index {at} of {}", rp.len());
     }
     ((sq / n as f64).sqrt(), max)
 }

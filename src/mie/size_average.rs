@@ -22,10 +22,13 @@
 //! the returned quantity: `e = (L(Δ_curve) − out · Δ_{C_sca})/⟨C_sca⟩`, i.e. after the sun disc
 //! and bins where the stage applies them (smoothing in angle averages the ripple in `x` away, so
 //! the rule stops earlier than on point values). The entry's estimate is the RMS over the output
-//! angles and both channels (`i_perp`, `i_par`) of `Σ_panels |e|` relative to the returned
-//! phase function. `Δ` measures the error of the coarser rule, so it over-estimates that of the
-//! returned finer one. It is trusted only once it has been seen to shrink: a panel is *settled*
-//! after at least two halvings with its last estimate no larger than the one before.
+//! angles and both channels (`i_perp`, `i_par`) of `Σ_panels f |e|` relative to the returned
+//! phase function, where `f = max(1, ρ/(1 − ρ))` extrapolates the panel's observed ratio `ρ` of
+//! two successive differences (a geometric tail; `ρ ≤ 0.9`). `Δ` measures the error of the
+//! coarser rule, so for fast convergence it over-estimates that of the returned finer one; for
+//! slow, noise-like convergence (resonances sampled at random) `f` inflates it. It is trusted only once it has been seen to shrink on a rule fine
+//! enough not to alias the ripple: a panel is *settled* after at least two halvings, with its
+//! last estimate no larger than the one before and a step of at most [`TRUSTED_STEP_X`] in `x`.
 //!
 //! **Stopping.** Refine the panel with the largest estimate until the total is ≤ the tolerance
 //! and every panel is settled (or negligible). A tolerance that cannot be met within the node
@@ -54,6 +57,11 @@ pub const PANEL_QUANTILES: [f64; 9] = [1e-3, 0.02, 0.1, 0.3, 0.5, 0.7, 0.9, 0.98
 pub const FIRST_INTERVALS: usize = 6;
 /// A panel whose estimate is below this fraction of the tolerance need not be settled.
 pub const NEGLIGIBLE: f64 = 0.01;
+/// Largest observed ratio of two successive estimates used by [`Panel::extrapolation`].
+pub const MAX_RATIO: f64 = 0.9;
+/// Largest step in `x` at which a panel's estimate is trusted: a coarser rule can alias the
+/// ripple in `x` (period ~1–10) so that two levels agree by coincidence.
+pub const TRUSTED_STEP_X: f64 = 1.0;
 /// Gregory end weights of the first (and, mirrored, last) three nodes.
 const END_WEIGHTS: [f64; 3] = [3.0 / 8.0, 7.0 / 6.0, 23.0 / 24.0];
 /// Scalars appended to every node's curve: the number 1, then the cross-sections `π r²`,
@@ -208,8 +216,26 @@ impl Panel {
         v
     }
 
-    fn settled(&self, tolerance: f64) -> bool {
-        (self.level >= 2 && self.error <= self.previous_error)
+    /// Factor from the last difference to the remaining error: with the observed ratio
+    /// `ρ = error/previous_error` of two halvings (clamped to [`MAX_RATIO`]), a geometric tail
+    /// `ρ/(1 − ρ)`, never below 1 (the difference itself). Slow, noise-like convergence (the
+    /// narrow resonances of clear water sampled at random) is inflated, fast convergence is not
+    /// credited beyond the plain difference.
+    fn extrapolation(&self) -> f64 {
+        if !self.previous_error.is_finite() || !(self.previous_error > 0.0) {
+            return 1.0;
+        }
+        let rho = (self.error / self.previous_error).min(MAX_RATIO);
+        (rho / (1.0 - rho)).max(1.0)
+    }
+
+    /// Whether the panel's estimate can be trusted (module doc): two halvings, the last
+    /// estimate no larger than the one before, and a step of at most [`TRUSTED_STEP_X`] in `x`
+    /// (`x_per_um` = 2π/λ); or an estimate below [`NEGLIGIBLE`] of the tolerance.
+    fn settled(&self, tolerance: f64, x_per_um: f64) -> bool {
+        (self.level >= 2
+            && self.error <= self.previous_error
+            && self.step() * x_per_um <= TRUSTED_STEP_X)
             || (self.level >= 1 && self.error <= NEGLIGIBLE * tolerance)
     }
 }
@@ -388,26 +414,30 @@ fn totals<I: RadiusIntegrand>(panels: &[Panel], integrand: &I) -> Result<Totals,
 }
 
 /// Updates every panel's error from its last halving against the current totals; returns the
-/// entry's estimate (module doc).
+/// entry's estimate (module doc): per panel the error vector of the last halving, scaled by
+/// [`Panel::extrapolation`], summed in absolute value over panels, RMS over angles and channels.
 fn estimate(panels: &mut [Panel], t: &Totals, c_sca: f64) -> f64 {
     let k = t.phase.len();
     let mut combined = vec![0.0; 2 * k];
+    let mut e = vec![0.0; 2 * k];
     for p in panels.iter_mut() {
         let Some((fd, dc)) = &p.finished_delta else {
             continue;
         };
         let (mut sq, mut count) = (0.0, 0usize);
-        for (j, c) in combined.iter_mut().enumerate() {
+        for (j, ej) in e.iter_mut().enumerate() {
             let ph = t.phase[j % k];
-            if !(ph > 0.0) {
-                continue;
-            }
-            let e = ((fd[j] - t.out[j] * dc) / c_sca).abs() / ph;
-            *c += e;
-            sq += e * e;
-            count += 1;
+            *ej = if ph > 0.0 {
+                ((fd[j] - t.out[j] * dc) / c_sca).abs() / ph
+            } else {
+                0.0
+            };
+            sq += *ej * *ej;
+            count += usize::from(ph > 0.0);
         }
         p.error = (sq / count.max(1) as f64).sqrt();
+        let factor = p.extrapolation();
+        combined.iter_mut().zip(&e).for_each(|(c, v)| *c += factor * v);
     }
     let n = combined.iter().enumerate().filter(|(j, _)| t.phase[j % k] > 0.0).count();
     (combined.iter().map(|e| e * e).sum::<f64>() / n.max(1) as f64).sqrt()
@@ -448,7 +478,7 @@ pub fn average<I: RadiusIntegrand>(
             panels
                 .iter()
                 .enumerate()
-                .filter(|(_, p)| !p.settled(tol))
+                .filter(|(_, p)| !p.settled(tol, integrand.wavenumber_per_um()))
                 .max_by(|a, b| a.1.error.total_cmp(&b.1.error))
         };
         let Some((i, _)) = pick else {
