@@ -40,7 +40,10 @@ fn case(name: &str) -> Case {
     Case {
         distribution: serde_json::from_value(json["distribution"].clone()).unwrap(),
         wavelength_nm: json["wavelength_nm"].as_f64().unwrap(),
-        m: Complex64::new(json["m"][0].as_f64().unwrap(), json["m"][1].as_f64().unwrap()),
+        m: Complex64::new(
+            json["m"][0].as_f64().unwrap(),
+            json["m"][1].as_f64().unwrap(),
+        ),
         json,
     }
 }

@@ -53,7 +53,10 @@ fn main() -> anyhow::Result<()> {
     } else {
         tolerances
     };
-    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/mie_distribution_reference.json");
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/tests/data/mie_distribution_reference.json"
+    );
     let reference: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(path)?)?;
     let load = std::fs::read_to_string("/proc/loadavg").unwrap_or_default();
     println!("load average at start: {}", load.trim());

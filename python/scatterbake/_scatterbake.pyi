@@ -215,7 +215,7 @@ def mie_distribution(
     n_medium: float = 1.0,
     angles_deg: Optional[_Angles] = None,
     tolerance: float = 1e-3,
-    max_radius_nodes: int = 20000,
+    max_radius_nodes: int = 100000,
     radius_points: Optional[int] = None,
 ) -> DistributionResult:
     """Size-distribution-averaged phase function of spheres of index ``m`` at the vacuum

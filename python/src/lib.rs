@@ -500,7 +500,9 @@ fn mie_distribution(
             max_nodes: max_radius_nodes,
         };
         let a = py
-            .detach(move || average_at_angles(&dist, in_medium, rel, &angles, &limits).map(|a| (a, angles)))
+            .detach(move || {
+                average_at_angles(&dist, in_medium, rel, &angles, &limits).map(|a| (a, angles))
+            })
             .map_err(|e| value_error(&e))?;
         let (a, angles) = a;
         return Ok(DistributionResult {
@@ -508,7 +510,14 @@ fn mie_distribution(
             m: rel,
             n_medium,
             dolp: f1(py, dolp(&a.i_perp, &a.i_par)),
-            phase: f1(py, a.i_perp.iter().zip(&a.i_par).map(|(p, q)| 0.5 * (p + q)).collect()),
+            phase: f1(
+                py,
+                a.i_perp
+                    .iter()
+                    .zip(&a.i_par)
+                    .map(|(p, q)| 0.5 * (p + q))
+                    .collect(),
+            ),
             angles_deg: f1(py, angles),
             i_perp: f1(py, a.i_perp),
             i_par: f1(py, a.i_par),

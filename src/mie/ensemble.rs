@@ -10,8 +10,7 @@
 
 use super::distributions::SizeDistribution;
 use super::filters::{
-    FINE_CELL_POINTS, FilterSettings, PolarisedPhase, SunDiscOperator, gaussian_blur,
-    resample_bins,
+    FINE_CELL_POINTS, FilterSettings, PolarisedPhase, SunDiscOperator, gaussian_blur, resample_bins,
 };
 use super::size_average::{AverageLimits, BinnedCurve, SizeAverageError, average};
 use super::{MieError, Sphere, size_parameter};
@@ -141,9 +140,13 @@ pub fn compute_entry(
     sun: &SunDiscOperator,
 ) -> Result<EntryResult, SizeAverageError> {
     match distribution {
-        SizeDistribution::Monodisperse { .. } => {
-            Ok(gauss_legendre_entry(distribution, wavelength_nm, m, settings, sun)?)
-        }
+        SizeDistribution::Monodisperse { .. } => Ok(gauss_legendre_entry(
+            distribution,
+            wavelength_nm,
+            m,
+            settings,
+            sun,
+        )?),
         _ if settings.radius_tolerance > 0.0 => {
             let integrand = BinnedCurve::new(wavelength_nm, m, settings, sun);
             let limits = AverageLimits {

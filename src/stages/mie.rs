@@ -179,15 +179,21 @@ impl Job for MieJob {
         crate::stages::PlannedShape::new(self.filter.axes(self.entry_axis()), CONTRACT_CHANNELS)
     }
     /// Every sphere of every task: a radius entry is one sphere per wavelength; a
-    /// distribution is counted as its `radius_points` Gauss–Legendre nodes (the sampled rule
-    /// chooses its own count, so its estimate is rougher).
+    /// distribution is counted as its `radius_points` Gauss–Legendre nodes, or, with the
+    /// adaptive rule, as the node count expected at `radius_tolerance`
+    /// (`mie::size_average::planned_radii_um`; the rule chooses its own count, so this estimate
+    /// is rougher).
     fn estimated_cpu_seconds(&self) -> f64 {
         let n = self.p.n_medium;
         (0..self.entries.len())
             .map(|e| match &self.entries {
                 Entries::Radii(r) => self.filter.estimated_entry_cpu_s(r[e], n),
                 Entries::Distributions(d) => {
-                    let (nodes, _) = d[e].quadrature(self.p.radius_points);
+                    let nodes = if self.p.radius_tolerance > 0.0 {
+                        crate::mie::size_average::planned_radii_um(&d[e], self.p.radius_tolerance)
+                    } else {
+                        d[e].quadrature(self.p.radius_points).0
+                    };
                     nodes
                         .iter()
                         .map(|&r| self.filter.estimated_entry_cpu_s(r, n))

@@ -8,7 +8,7 @@
 //!     [--debye-orders 2,3 [--debye-per-order]]
 //! scatterbake mie --distribution lognormal:R,S | gamma:REFF,VEFF | marshall-palmer:RATE[,MIN,MAX]
 //!     --wavelength-nm L [index and angle options as above] [--tolerance 1e-3]
-//!     [--max-radius-nodes 20000]
+//!     [--max-radius-nodes 100000]
 //! ```
 //! The index options give the sphere's own (absolute) index; `--n-medium` (default 1) is the
 //! real index of the non-absorbing medium around it: the relative index is `index/n_medium` and,
@@ -355,7 +355,11 @@ pub fn parse_distribution(text: &str) -> Result<SizeDistribution, String> {
         .ok_or_else(|| format!("{text:?}: expected KIND:PARAMETERS, e.g. lognormal:6,1.35"))?;
     let values = rest
         .split(',')
-        .map(|v| v.trim().parse::<f64>().map_err(|e| format!("{text:?}: {v:?}: {e}")))
+        .map(|v| {
+            v.trim()
+                .parse::<f64>()
+                .map_err(|e| format!("{text:?}: {v:?}: {e}"))
+        })
         .collect::<Result<Vec<f64>, _>>()?;
     let d = match (kind, values.as_slice()) {
         ("lognormal", &[median_radius_um, geometric_sigma]) => SizeDistribution::Lognormal {
