@@ -330,8 +330,6 @@ pub fn relative_difference(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mie::filters::{FINE_CELL_POINTS, fine_intervals, resample_bins};
-    use num_complex::Complex64;
 
     /// The sampler reproduces the moment ratio ⟨r³⟩/⟨r²⟩ of a gamma distribution (the effective
     /// radius, by definition) by plain Monte Carlo on its weights.

@@ -236,6 +236,9 @@ impl Panel {
     }
 }
 
+/// Node values kept apart from a sum, with their indices.
+type KeptNodes = Vec<(usize, Vec<f64>)>;
+
 /// `n(r) v(r)` at the nodes `indices` of a rule of `intervals` intervals on `[a, b]`, summed,
 /// with the values at `keep` indices returned separately (in parallel over nodes).
 fn evaluate_nodes<I: RadiusIntegrand>(
@@ -244,7 +247,7 @@ fn evaluate_nodes<I: RadiusIntegrand>(
     (a, b, intervals): (f64, f64, usize),
     indices: &[usize],
     keep: &[usize],
-) -> Result<(Vec<f64>, Vec<(usize, Vec<f64>)>), SizeAverageError> {
+) -> Result<(Vec<f64>, KeptNodes), SizeAverageError> {
     let len = integrand.curve_len() + CROSS_SECTIONS;
     let h = (b - a) / intervals as f64;
     let zero = || (vec![0.0; len], Vec::new());
@@ -277,7 +280,7 @@ fn evaluate_nodes<I: RadiusIntegrand>(
         })
 }
 
-fn take(kept: &mut Vec<(usize, Vec<f64>)>, index: usize) -> Vec<f64> {
+fn take(kept: &mut KeptNodes, index: usize) -> Vec<f64> {
     let at = kept
         .iter()
         .position(|(i, _)| *i == index)
