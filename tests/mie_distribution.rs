@@ -1,24 +1,158 @@
-//! Size-distribution entries of the `mie` stage: the sampled radius × angle average
-//! (`radius_tolerance`, decision MIE-16) against brute-force references.
+//! Size-distribution averages (`mie::size_average`, decision MIE-18) against brute-force
+//! references built independently.
 //!
-//! - `fog_lognormal_matches_dense_gauss_legendre` (default `cargo test`): a lognormal of fog
-//!   drops (median 3 µm, σ_g = 1.2, x ≈ 11–100 at 550 nm, m = 1.334 + 0.01i), 0.25° bins,
-//!   0.5° sun disc, against the Gauss–Legendre rule in ln r with 1024 nodes and exact cell
-//!   averages per node (the previous algorithm, independent code; its own convergence is checked
-//!   against 512 nodes: 8e-5 rms; 256 nodes are 4.8e-3 rms off). The small absorption damps the narrow resonances of clear water, which
-//!   no radius rule resolves: for clear water 512 and 1024 Gauss nodes still differ by 1.9 % rms.
-//! - `marshall_palmer_matches_reference` (ignored, ≈ 10 min on 2 cores): Marshall–Palmer rain
-//!   5 mm/h, 0.05–3 mm, 650 nm, 0.05° bins, 0.5° sun disc, against
-//!   `mie::ensemble::reference_entry` with 1024 nodes (exact cell averages per node):
-//!   `cargo test --release --test mie_distribution -- --ignored --nocapture`.
+//! - `point_values_match_references` and `bin_averages_match_references` (default `cargo
+//!   test`): the adaptive rule against `tests/data/mie_distribution_reference.json`, written by
+//!   `tests/data/mie_distribution_reference.py` (miepython coefficients, the distributions
+//!   written out from their definitions, dense midpoint rules in x at two steps; fog lognormal
+//!   6 µm / 1.35 and cloud gamma 10 µm / 0.1 with m = 1.333 + 0.001i, rain Marshall–Palmer
+//!   5 mm/h 50–100 µm with m = 1.333 + 0.0001i, 550 nm; the small absorption damps the narrow
+//!   resonances of clear water, which make a clear-water reference itself uncertain at ~2e-3).
+//!   The estimate must meet the tolerance and bound the true error (within the reference's own
+//!   error, from its two steps).
+//! - `rain_matches_reference_at_1e-3` (ignored, ≈ 1–2 min): the rain case at 1e-3, points and
+//!   1° bins.
+//! - `fog_entry_with_sun_disc_matches_dense_gauss_legendre` (default): a stage entry with the
+//!   sun disc (0.25° bins, 0.5° disc) against the Gauss–Legendre rule in ln r with 1024 nodes
+//!   and exact cell averages per node (independent code; 512 vs 1024 nodes checked).
 
 use num_complex::Complex64;
 use scatterbake::mie::distributions::SizeDistribution;
-use scatterbake::mie::ensemble::{
-    DEFAULT_RADIUS_TOLERANCE, compute_entry, reference_entry, relative_difference,
-};
+use scatterbake::mie::ensemble::{compute_entry, relative_difference};
 use scatterbake::mie::filters::FilterSettings;
+use scatterbake::mie::size_average::{
+    AverageLimits, BinnedCurve, SizeAverage, average, average_at_angles,
+};
 use scatterbake::optics::water::WaterIndexModel;
+
+const REFERENCE: &str = include_str!("data/mie_distribution_reference.json");
+
+struct Case {
+    distribution: SizeDistribution,
+    wavelength_nm: f64,
+    m: Complex64,
+    json: serde_json::Value,
+}
+
+fn case(name: &str) -> Case {
+    let all: serde_json::Value = serde_json::from_str(REFERENCE).unwrap();
+    let json = all["cases"][name].clone();
+    Case {
+        distribution: serde_json::from_value(json["distribution"].clone()).unwrap(),
+        wavelength_nm: json["wavelength_nm"].as_f64().unwrap(),
+        m: Complex64::new(
+            json["m"][0].as_f64().unwrap(),
+            json["m"][1].as_f64().unwrap(),
+        ),
+        json,
+    }
+}
+
+fn column(c: &Case, key: &str) -> Vec<f64> {
+    c.json[key]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_f64().unwrap())
+        .collect()
+}
+
+/// RMS and largest error of `a` against the reference `part` (`points` or `bins`), relative to
+/// the reference phase function, over both channels.
+fn errors(c: &Case, a: &SizeAverage, part: &str) -> (f64, f64) {
+    let rp = column(c, &format!("{part}_i_perp"));
+    let ra = column(c, &format!("{part}_i_par"));
+    assert_eq!(a.i_perp.len(), rp.len());
+    let (mut sq, mut max) = (0.0, 0.0f64);
+    for j in 0..rp.len() {
+        let phase = 0.5 * (rp[j] + ra[j]);
+        for e in [(a.i_perp[j] - rp[j]).abs(), (a.i_par[j] - ra[j]).abs()] {
+            sq += (e / phase).powi(2);
+            max = max.max(e / phase);
+        }
+    }
+    ((sq / (2 * rp.len()) as f64).sqrt(), max)
+}
+
+/// The reference's own RMS error bound (its two steps' difference) for `part`.
+fn reference_rms(c: &Case, part: &str) -> f64 {
+    c.json["coarse_vs_fine"][part]["rms"].as_f64().unwrap()
+}
+
+fn check(name: &str, part: &str, tolerance: f64, a: &SizeAverage) {
+    let c = case(name);
+    let (rms, max) = errors(&c, a, part);
+    let own = reference_rms(&c, part);
+    println!(
+        "{name} {part} tol {tolerance:.0e}: estimate {:.2e}, true rms {rms:.2e}, max {max:.2e}, {} spheres (reference's own: {own:.1e})",
+        a.error_estimate, a.radius_nodes
+    );
+    assert!(
+        own < 0.2 * tolerance,
+        "{name}: reference not converged ({own:.1e})"
+    );
+    assert!(a.error_estimate <= tolerance, "{}", a.error_estimate);
+    assert!(
+        rms <= a.error_estimate + own,
+        "{name} {part}: true rms {rms:.2e} above the estimate {:.2e}",
+        a.error_estimate
+    );
+    for (q, key) in [(a.q_ext, "q_ext"), (a.q_sca, "q_sca"), (a.g, "g")] {
+        let r = c.json[key].as_f64().unwrap();
+        assert!((q / r - 1.0).abs() < tolerance, "{name} {key}: {q} vs {r}");
+    }
+}
+
+fn points(name: &str, tolerance: f64) -> SizeAverage {
+    let c = case(name);
+    let limits = AverageLimits {
+        tolerance,
+        max_nodes: 100_000,
+    };
+    let angles = column(&c, "points_deg");
+    average_at_angles(&c.distribution, c.wavelength_nm, c.m, &angles, &limits).unwrap()
+}
+
+fn bins(name: &str, tolerance: f64) -> SizeAverage {
+    let c = case(name);
+    let settings = FilterSettings {
+        output_intervals: 180,
+        sun_diameter_deg: 0.0,
+        gaussian_sigma_deg: 0.0,
+        radius_points: 24,
+        radius_tolerance: tolerance,
+    };
+    let sun = settings.sun_operator();
+    let limits = AverageLimits {
+        tolerance,
+        max_nodes: 100_000,
+    };
+    let integrand = BinnedCurve::new(c.wavelength_nm, c.m, &settings, &sun);
+    average(&c.distribution, &integrand, &limits).unwrap()
+}
+
+#[test]
+fn point_values_match_references() {
+    for name in ["fog", "cloud"] {
+        for tolerance in [1e-2, 1e-3] {
+            check(name, "points", tolerance, &points(name, tolerance));
+        }
+    }
+    check("rain", "points", 1e-2, &points("rain", 1e-2));
+}
+
+#[test]
+fn bin_averages_match_references() {
+    check("fog", "bins", 1e-2, &bins("fog", 1e-2));
+}
+
+#[test]
+#[ignore = "rain at 1e-3 (points and 1-degree bins) takes 1-2 min on the shared 2-core machine; cargo test --release --test mie_distribution -- --ignored --nocapture"]
+fn rain_matches_reference_at_1e_3() {
+    check("rain", "points", 1e-3, &points("rain", 1e-3));
+    check("rain", "bins", 1e-3, &bins("rain", 1e-3));
+    check("fog", "bins", 1e-3, &bins("fog", 1e-3));
+}
 
 fn settings(output_intervals: usize, tolerance: f64, points: usize) -> FilterSettings {
     FilterSettings {
@@ -30,90 +164,46 @@ fn settings(output_intervals: usize, tolerance: f64, points: usize) -> FilterSet
     }
 }
 
-fn water(wavelength_nm: f64) -> Complex64 {
-    Complex64::new(
-        WaterIndexModel::default().index(wavelength_nm).unwrap(),
-        0.0,
-    )
-}
-
 #[test]
-fn fog_lognormal_matches_dense_gauss_legendre() {
+fn fog_entry_with_sun_disc_matches_dense_gauss_legendre() {
     let fog = SizeDistribution::Lognormal {
         median_radius_um: 3.0,
         geometric_sigma: 1.2,
     };
-    // a slightly absorbing drop (k = 0.01) damps the narrow resonances of clear water, which no
-    // radius rule resolves (clear water: 512 vs 1024 Gauss nodes still differ by 1.9 % rms)
-    let (l, m) = (550.0, water(550.0) + Complex64::new(0.0, 0.01));
+    // a slightly absorbing drop (k = 0.01) damps the narrow resonances of clear water, so that
+    // the Gauss–Legendre reference converges (clear water: 512 vs 1024 nodes differ by 1.9 %)
+    let n = WaterIndexModel::default().index(550.0).unwrap();
+    let (l, m) = (550.0, Complex64::new(n, 0.01));
     let run = |s: FilterSettings| compute_entry(&fog, l, m, &s, &s.sun_operator()).unwrap();
     let dense = run(settings(720, 0.0, 1024));
     let half = run(settings(720, 0.0, 512));
     let (ref_max, _, _, ref_rms) = relative_difference(&half.curve, &dense.curve);
-    let tol = DEFAULT_RADIUS_TOLERANCE;
+    let tol = 1e-3;
     assert!(
-        ref_rms < 0.1 * tol && ref_max < tol,
+        ref_rms < 0.2 * tol && ref_max < 2.0 * tol,
         "reference not converged: 512 vs 1024 nodes max {ref_max:.2e} rms {ref_rms:.2e}"
     );
-    let sampled = run(settings(720, tol, 24));
-    let (max, at, ch, rms) = relative_difference(&sampled.curve, &dense.curve);
+    let adaptive = run(settings(720, tol, 24));
+    let (max, at, ch, rms) = relative_difference(&adaptive.curve, &dense.curve);
     println!(
-        "fog: {} nodes, estimated rms {:.2e}; vs 1024 Gauss-Legendre nodes max {max:.2e} ({ch} at {at} deg), rms {rms:.2e}; reference 512 vs 1024: max {ref_max:.2e} rms {ref_rms:.2e}",
-        sampled.radius_nodes, sampled.error_rms
+        "fog with sun disc: {} nodes, estimated rms {:.2e}; vs 1024 Gauss-Legendre nodes max {max:.2e} ({ch} at {at} deg), rms {rms:.2e}; reference 512 vs 1024: max {ref_max:.2e} rms {ref_rms:.2e}",
+        adaptive.radius_nodes, adaptive.error_rms
     );
-    assert!(sampled.error_rms <= tol, "estimate {}", sampled.error_rms);
+    assert!(adaptive.error_rms <= tol, "estimate {}", adaptive.error_rms);
     assert!(
-        rms <= 2.0 * tol,
-        "rms relative error {rms:.2e} vs tolerance {tol}"
-    );
-    assert!(
-        max <= 10.0 * tol,
-        "max relative error {max:.2e} at {at} deg ({ch})"
+        rms <= adaptive.error_rms + ref_rms,
+        "rms {rms:.2e} above the estimate {:.2e}",
+        adaptive.error_rms
     );
     for (a, b, what) in [
-        (sampled.q_sca, dense.q_sca, "Q_sca"),
-        (sampled.q_ext, dense.q_ext, "Q_ext"),
-        (sampled.g, dense.g, "g"),
+        (adaptive.q_sca, dense.q_sca, "Q_sca"),
+        (adaptive.q_ext, dense.q_ext, "Q_ext"),
+        (adaptive.g, dense.g, "g"),
     ] {
-        assert!((a / b - 1.0).abs() < 1e-3, "{what}: {a} vs {b}");
+        assert!((a / b - 1.0).abs() < 1e-4, "{what}: {a} vs {b}");
     }
-    // a looser tolerance takes fewer nodes and lands farther
-    let loose = run(settings(720, 2.0 * tol, 24));
-    let (_, _, _, rms_loose) = relative_difference(&loose.curve, &dense.curve);
-    println!(
-        "fog at tolerance {}: {} nodes, rms {rms_loose:.2e}",
-        2.0 * tol,
-        loose.radius_nodes
-    );
-    assert!(loose.radius_nodes < sampled.radius_nodes);
-    assert!(rms_loose > rms, "{rms_loose:.2e} vs {rms:.2e}");
-    assert!(rms_loose <= 4.0 * tol, "{rms_loose:.2e}");
-}
-
-#[test]
-#[ignore = "long validation: a 1024-node exact reference of Marshall–Palmer rain at 650 nm (380 s on the shared 2-core machine at load average ~9); cargo test --release --test mie_distribution -- --ignored --nocapture"]
-fn marshall_palmer_matches_reference() {
-    let rain = SizeDistribution::MarshallPalmer {
-        rain_rate_mm_h: 5.0,
-        min_radius_um: 50.0,
-        max_radius_um: 3000.0,
-    };
-    let (l, m) = (650.0, water(650.0));
-    let tol = DEFAULT_RADIUS_TOLERANCE;
-    let s = settings(3600, tol, 24);
-    let sun = s.sun_operator();
-    let [reference, even, odd] = reference_entry(&rain, l, m, &s, &sun, 1024).unwrap();
-    let (_, _, _, ref_rms) = relative_difference(&even, &odd);
-    let sampled = compute_entry(&rain, l, m, &s, &sun).unwrap();
-    let (max, at, ch, rms) = relative_difference(&sampled.curve, &reference);
-    println!(
-        "Marshall-Palmer 650 nm: {} nodes, estimated rms {:.2e}; vs reference max {max:.2e} ({ch} at {at} deg), rms {rms:.2e}; reference halves differ by rms {ref_rms:.2e}",
-        sampled.radius_nodes, sampled.error_rms
-    );
-    // the reference's own noise (half of the halves' difference) adds to the comparison
-    assert!(rms <= 2.0 * tol + 0.5 * ref_rms, "rms {rms:.2e}");
-    assert!(
-        max <= 10.0 * tol + 0.5 * ref_rms * 10.0,
-        "max {max:.2e} at {at} deg"
-    );
+    // a looser tolerance takes fewer nodes
+    let loose = run(settings(720, 10.0 * tol, 24));
+    assert!(loose.radius_nodes < adaptive.radius_nodes);
+    assert!(loose.error_rms <= 10.0 * tol && loose.error_rms > adaptive.error_rms);
 }

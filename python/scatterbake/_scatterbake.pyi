@@ -201,6 +201,11 @@ class DistributionResult:
     """Quadrature radii (µm)."""
     weights: npt.NDArray[np.float64]
     """Quadrature weights ≈ n(r) dr (arbitrary scale)."""
+    error_estimate: Optional[float]
+    """Estimated RMS relative error of i_perp and i_par over the angles (relative to phase) of
+    the adaptive rule; None for a fixed ``radius_points`` rule."""
+    radius_nodes: int
+    """Spheres evaluated."""
 
 def mie_distribution(
     distribution: dict[str, Any],
@@ -209,7 +214,9 @@ def mie_distribution(
     *,
     n_medium: float = 1.0,
     angles_deg: Optional[_Angles] = None,
-    radius_points: int = 24,
+    tolerance: float = 1e-3,
+    max_radius_nodes: int = 100000,
+    radius_points: Optional[int] = None,
 ) -> DistributionResult:
     """Size-distribution-averaged phase function of spheres of index ``m`` at the vacuum
     wavelength ``wavelength_nm``.
@@ -218,10 +225,15 @@ def mie_distribution(
     (constructors :func:`scatterbake.lognormal`, :func:`scatterbake.gamma`,
     :func:`scatterbake.marshall_palmer`, :func:`scatterbake.monodisperse`), e.g.
     ``{"kind": "lognormal", "median_radius_um": 10, "geometric_sigma": 1.5}``.
-    Radii from a ``radius_points``-point Gauss–Legendre rule in ln r over the support; the
-    single-sphere phase functions are mixed with weights n(r) dr · C_sca(r) (the ``mie`` stage's
-    rule). Medium as :func:`mie` (wavelength and index divided by ``n_medium``). Every node must
-    lie in the validated Mie domain (ValueError otherwise). GIL released while computing."""
+    The single-sphere phase functions are mixed with weights n(r) dr · C_sca(r) (the ``mie``
+    stage's rule) by an adaptive radius rule (uniform in r on panels, steps halved) until the
+    estimated RMS error of ``i_perp`` and ``i_par`` over the angles, relative to ``phase``, is at
+    most ``tolerance``; ``error_estimate`` and ``radius_nodes`` report it. A tolerance that needs
+    more than ``max_radius_nodes`` spheres raises ValueError (never an unconverged result).
+    ``radius_points=N`` instead uses a fixed N-point Gauss–Legendre rule in ln r, with no error
+    estimate (``error_estimate`` is None). Medium as :func:`mie` (wavelength and index divided by
+    ``n_medium``). Every node must lie in the validated Mie domain (ValueError otherwise). GIL
+    released while computing."""
 
 class Axis:
     name: str

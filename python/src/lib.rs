@@ -16,6 +16,7 @@ use scatterbake::debye::{DebyeCoefficients, OrderSet};
 use scatterbake::error::error_chain;
 use scatterbake::mie::coated::{CoatedSphere, coated_coefficients};
 use scatterbake::mie::distributions::{SizeDistribution, ensemble_at_angles};
+use scatterbake::mie::size_average::{AverageLimits, average_at_angles};
 use scatterbake::mie::{Efficiencies, Sphere, size_parameter};
 use std::path::PathBuf;
 
@@ -30,8 +31,9 @@ pyo3::create_exception!(
 const MAX_ANGLES: usize = 10_000_000;
 /// Largest Debye order `p` accepted.
 const MAX_ORDER: usize = 100_000;
-/// Largest number of radius quadrature nodes.
+/// Largest number of radius quadrature nodes (fixed rule) and the largest node limit.
 const MAX_RADIUS_POINTS: usize = 10_000;
+const MAX_RADIUS_NODES: usize = 10_000_000;
 
 fn value_error(e: &(dyn std::error::Error + 'static)) -> PyErr {
     PyValueError::new_err(error_chain(e))
@@ -440,12 +442,19 @@ pub struct DistributionResult {
     radii_um: Py<PyArray1<f64>>,
     /// Quadrature weights `≈ n(r) dr` (arbitrary scale).
     weights: Py<PyArray1<f64>>,
+    /// Estimated RMS relative error of `i_perp`, `i_par` (relative to `phase`) of the adaptive
+    /// rule; `None` for a fixed `radius_points` rule.
+    error_estimate: Option<f64>,
+    /// Spheres evaluated.
+    radius_nodes: usize,
 }
 
 /// Phase function of a size distribution; see `_scatterbake.pyi`.
 #[pyfunction]
 #[pyo3(signature = (distribution, wavelength_nm, m, *, n_medium=1.0, angles_deg=None,
-    radius_points=24))]
+    tolerance=scatterbake::mie::size_average::DEFAULT_TOLERANCE,
+    max_radius_nodes=scatterbake::mie::size_average::DEFAULT_MAX_NODES, radius_points=None))]
+#[allow(clippy::too_many_arguments)]
 fn mie_distribution(
     py: Python<'_>,
     distribution: &Bound<'_, PyAny>,
@@ -453,7 +462,9 @@ fn mie_distribution(
     m: Complex64,
     n_medium: f64,
     angles_deg: Option<&Bound<'_, PyAny>>,
-    radius_points: usize,
+    tolerance: f64,
+    max_radius_nodes: usize,
+    radius_points: Option<usize>,
 ) -> PyResult<DistributionResult> {
     let json: String = py
         .import("json")?
@@ -467,18 +478,64 @@ fn mie_distribution(
             "wavelength_nm {wavelength_nm} must be positive and finite"
         )));
     }
-    if !(1..=MAX_RADIUS_POINTS).contains(&radius_points) {
+    if let Some(points) = radius_points
+        && !(1..=MAX_RADIUS_POINTS).contains(&points)
+    {
         return Err(PyValueError::new_err(format!(
-            "radius_points must be in 1..={MAX_RADIUS_POINTS}, got {radius_points}"
+            "radius_points must be in 1..={MAX_RADIUS_POINTS}, got {points}"
+        )));
+    }
+    if max_radius_nodes > MAX_RADIUS_NODES {
+        return Err(PyValueError::new_err(format!(
+            "max_radius_nodes must be at most {MAX_RADIUS_NODES}, got {max_radius_nodes}"
         )));
     }
     // the `mie` stage's convention: wavelength and index in the medium
     let (_, rel) = sphere_in_medium(m, Some(1.0), None, None, n_medium)?;
     let in_medium = wavelength_nm / n_medium;
     let angles = angles(py, angles_deg)?;
+    let Some(points) = radius_points else {
+        let limits = AverageLimits {
+            tolerance,
+            max_nodes: max_radius_nodes,
+        };
+        let a = py
+            .detach(move || {
+                average_at_angles(&dist, in_medium, rel, &angles, &limits).map(|a| (a, angles))
+            })
+            .map_err(|e| value_error(&e))?;
+        let (a, angles) = a;
+        return Ok(DistributionResult {
+            wavelength_nm,
+            m: rel,
+            n_medium,
+            dolp: f1(py, dolp(&a.i_perp, &a.i_par)),
+            phase: f1(
+                py,
+                a.i_perp
+                    .iter()
+                    .zip(&a.i_par)
+                    .map(|(p, q)| 0.5 * (p + q))
+                    .collect(),
+            ),
+            angles_deg: f1(py, angles),
+            i_perp: f1(py, a.i_perp),
+            i_par: f1(py, a.i_par),
+            qext: a.q_ext,
+            qsca: a.q_sca,
+            qback: a.q_back,
+            qback_per_sr: a.q_back / (4.0 * std::f64::consts::PI),
+            g: a.g,
+            radii_um: f1(py, a.radii_um),
+            weights: f1(py, a.weights),
+            error_estimate: Some(a.error_estimate),
+            radius_nodes: a.radius_nodes,
+        });
+    };
     let e = py
-        .detach(move || ensemble_at_angles(&dist, in_medium, rel, radius_points, &angles))
+        .detach(move || ensemble_at_angles(&dist, in_medium, rel, points, &angles))
         .map_err(|e| value_error(&e))?;
+    let radius_nodes = e.radii_um.len();
     Ok(DistributionResult {
         wavelength_nm,
         m: rel,
@@ -495,6 +552,8 @@ fn mie_distribution(
         g: e.g,
         radii_um: f1(py, e.radii_um),
         weights: f1(py, e.weights),
+        error_estimate: None,
+        radius_nodes,
     })
 }
 

@@ -167,6 +167,27 @@ def test_distribution_mixture_against_miepython(dist):
         assert abs(_sphere_integral(a, e.phase) - 1) < 2e-3
 
 
+def test_distribution_meets_its_tolerance_against_the_reference():
+    """The adaptive rule against the miepython brute-force reference of the Rust tests
+    (tests/data/mie_distribution_reference.json): the estimate meets the tolerance and bounds
+    the true RMS error, relative to the phase function over both polarisations."""
+    import json
+    import pathlib
+
+    path = pathlib.Path(__file__).parents[2] / "tests/data/mie_distribution_reference.json"
+    fog = json.loads(path.read_text())["cases"]["fog"]
+    m = complex(fog["m"][0], fog["m"][1])
+    e = sb.mie_distribution(fog["distribution"], fog["wavelength_nm"], m,
+                            angles_deg=fog["points_deg"], tolerance=1e-3)
+    rp, ra = np.array(fog["points_i_perp"]), np.array(fog["points_i_par"])
+    phase = 0.5 * (rp + ra)
+    rms = np.sqrt(np.mean(np.concatenate([(e.i_perp - rp) / phase, (e.i_par - ra) / phase]) ** 2))
+    assert e.error_estimate <= 1e-3 and rms <= e.error_estimate
+    assert e.radius_nodes >= len(e.radii_um) > 100
+    fixed = sb.mie_distribution(fog["distribution"], 550.0, m, angles_deg=[90.0], radius_points=8)
+    assert fixed.error_estimate is None and fixed.radius_nodes == 8
+
+
 def test_monodisperse_distribution_is_the_sphere():
     e = sb.mie_distribution(sb.monodisperse(3.0), 550.0, 1.33 + 0.001j, angles_deg=ANGLES)
     s = sb.mie(1.33 + 0.001j, radius_um=3.0, wavelength_nm=550.0, angles_deg=ANGLES)
@@ -191,6 +212,8 @@ def test_monodisperse_distribution_is_the_sphere():
         (lambda: sb.mie_distribution(sb.gamma(1.0, 0.7), 550.0, 1.33), "effective_variance"),
         (lambda: sb.mie_distribution(sb.lognormal(1.0, 1.5), 550.0, 1.33, radius_points=0),
          "radius_points"),
+        (lambda: sb.mie_distribution(sb.lognormal(6.0, 1.35), 550.0, 1.333, angles_deg=[30.0],
+                                     tolerance=1e-5, max_radius_nodes=500), "tolerance"),
     ],
 )
 def test_bad_input_is_a_value_error_with_the_library_message(call, match):

@@ -194,6 +194,85 @@ impl SizeDistribution {
     }
 }
 
+/// Points of the cumulative-distribution table of [`RadiusSampler`] (uniform in `ln r`).
+const CDF_POINTS: usize = 4096;
+
+/// Inverse-CDF sampler of radii with density `q(r) ∝ n(r) r²` on the (truncated) support.
+///
+/// The cumulative distribution is tabulated on [`CDF_POINTS`] nodes uniform in `ln r`
+/// (trapezoid rule) and inverted piecewise linearly, so `q` is piecewise constant in `ln r`;
+/// [`RadiusSampler::weight`] returns `n(r)/q(r)` of exactly this `q`, which keeps the
+/// estimator unbiased whatever the table's resolution.
+#[derive(Debug, Clone)]
+pub struct RadiusSampler {
+    ln_r: Vec<f64>,
+    cdf: Vec<f64>,
+    /// Dropped mass of `n(r) r²` (both tails, fraction of the support's).
+    pub truncated_fraction: f64,
+}
+
+impl RadiusSampler {
+    /// Sampler for `distribution` (not monodisperse), dropping at most `truncation` of the mass
+    /// of `n(r) r²` at each end.
+    pub fn new(distribution: &SizeDistribution, truncation: f64) -> Self {
+        let (lo, hi) = distribution.support_um();
+        let (a, b) = (lo.ln(), hi.ln());
+        let h = (b - a) / (CDF_POINTS - 1) as f64;
+        // density in ln r: n(r) r² · r
+        let f: Vec<f64> = (0..CDF_POINTS)
+            .map(|i| {
+                let r = (a + h * i as f64).exp();
+                distribution.density(r) * r * r * r
+            })
+            .collect();
+        let mut cdf = vec![0.0; CDF_POINTS];
+        for i in 1..CDF_POINTS {
+            cdf[i] = cdf[i - 1] + 0.5 * h * (f[i - 1] + f[i]);
+        }
+        let total = cdf[CDF_POINTS - 1];
+        // truncate: first node with cdf ≥ truncation·total, last with cdf ≤ (1 − truncation)·total
+        let i0 = cdf
+            .iter()
+            .position(|c| *c >= truncation * total)
+            .unwrap_or(0)
+            .saturating_sub(1);
+        let i1 = cdf
+            .iter()
+            .rposition(|c| *c <= (1.0 - truncation) * total)
+            .map_or(CDF_POINTS - 1, |i| (i + 1).min(CDF_POINTS - 1));
+        let kept = cdf[i1] - cdf[i0];
+        let ln_r: Vec<f64> = (i0..=i1).map(|i| a + h * i as f64).collect();
+        let cdf: Vec<f64> = (i0..=i1).map(|i| (cdf[i] - cdf[i0]) / kept).collect();
+        RadiusSampler {
+            ln_r,
+            cdf,
+            truncated_fraction: 1.0 - kept / total,
+        }
+    }
+
+    /// Radius (µm) at cumulative probability `u ∈ [0, 1)` and its importance weight
+    /// `n(r)·r/q_ln(ln r)` (`q_ln` the sampling density in `ln r`), i.e. `n(r) dr` per unit
+    /// probability: `Σ weight · g(r)/N` estimates `∫ n(r) g(r) dr` over the kept support.
+    pub fn sample(&self, distribution: &SizeDistribution, u: f64) -> (f64, f64) {
+        let k = self
+            .cdf
+            .partition_point(|c| *c <= u)
+            .clamp(1, self.cdf.len() - 1);
+        let (c0, c1) = (self.cdf[k - 1], self.cdf[k]);
+        let (l0, l1) = (self.ln_r[k - 1], self.ln_r[k]);
+        // q_ln constant on the segment; empty segments are never selected (c1 > u ≥ c0)
+        let q_ln = (c1 - c0) / (l1 - l0);
+        let t = if c1 > c0 { (u - c0) / (c1 - c0) } else { 0.5 };
+        let r = (l0 + t * (l1 - l0)).exp();
+        (r, distribution.density(r) * r / q_ln)
+    }
+
+    /// Kept support `[r_lo, r_hi]` (µm).
+    pub fn support_um(&self) -> (f64, f64) {
+        (self.ln_r[0].exp(), self.ln_r[self.ln_r.len() - 1].exp())
+    }
+}
+
 /// The ensemble of a size distribution at point angles (unfiltered): the normalised phase
 /// function and its polarised components on an arbitrary angle grid, with the averaged
 /// efficiencies. The weights are those of the `mie` stage (decision MIE-2): single-sphere

@@ -22,8 +22,9 @@
 //! Layout: [`riccati`] (Riccati–Bessel functions and log-derivatives, reusable by a Debye
 //! series), [`coefficients`] (`a_n`, `b_n`, efficiencies), [`angular`] (the vectorised
 //! `S_1`/`S_2` kernel), [`filters`] (sun disc, blur, bin resampling, the filter grids of a
-//! table), [`distributions`] and [`ensemble`] (size-distribution averages of a table entry); the
-//! `mie` stage is [`crate::stages::mie`].
+//! table), [`distributions`], [`size_average`] (size-distribution averages to a requested
+//! accuracy: the adaptive radius rule and its error estimate) and [`ensemble`] (a table entry of
+//! a distribution, and its brute-force reference); the `mie` stage is [`crate::stages::mie`].
 
 pub mod angular;
 pub mod coated;
@@ -33,6 +34,7 @@ pub mod domain;
 pub mod ensemble;
 pub mod filters;
 pub mod riccati;
+pub mod size_average;
 
 pub use angular::{AngularSeries, MirroredAmplitudes, amplitudes, amplitudes_mirrored};
 pub use coefficients::{Efficiencies, MieCoefficients};

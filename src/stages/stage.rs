@@ -66,6 +66,10 @@ pub enum JobError {
     /// The Lorenz–Mie or Debye computation of a task.
     #[error("Lorenz–Mie computation")]
     Mie(#[from] crate::mie::MieError),
+    /// The size-distribution average of a task (including a tolerance not met within the
+    /// node limit).
+    #[error("size-distribution average")]
+    SizeAverage(#[from] crate::mie::size_average::SizeAverageError),
     /// The refractive index of water at a task's wavelength.
     #[error("water refractive index")]
     WaterIndex(#[from] crate::optics::water::WaterIndexError),

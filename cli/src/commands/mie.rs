@@ -6,6 +6,9 @@
 //!     [(--core-radius-um RC | --core-x XC) --core-index N+Ki] [--angle-step-deg 0.1 |
 //!     --angles START:STOP:STEP | --angles-deg 0,90,180] [--format table|csv|json] [--csv FILE]
 //!     [--debye-orders 2,3 [--debye-per-order]]
+//! scatterbake mie --distribution lognormal:R,S | gamma:REFF,VEFF | marshall-palmer:RATE[,MIN,MAX]
+//!     --wavelength-nm L [index and angle options as above] [--tolerance 1e-3]
+//!     [--max-radius-nodes 100000]
 //! ```
 //! The index options give the sphere's own (absolute) index; `--n-medium` (default 1) is the
 //! real index of the non-absorbing medium around it: the relative index is `index/n_medium` and,
@@ -23,6 +26,17 @@
 //! With `--debye-orders`, the coherent sum of the chosen Debye-series terms of the same sphere
 //! is printed in the same columns (`i_perp`, `i_par`, `phase` still divided by the full sphere's
 //! `π x² Q_sca`); `--debye-per-order` adds one column `phase_p<k>` per order.
+//!
+//! With `--distribution`, the same columns are the size-distribution average (weights
+//! `n(r) dr · C_sca(r)`, the `mie` stage's) at point angles, by the adaptive radius rule of
+//! `mie::size_average` to `--tolerance` (the estimated RMS relative error of `i_perp`, `i_par`
+//! over the angles, relative to `phase`), which the header states with the spheres used; a
+//! tolerance not met within `--max-radius-nodes` spheres is an error. The parameters are those
+//! of the manifest's `distributions` entries: `lognormal:median_radius_um,geometric_sigma`,
+//! `gamma:effective_radius_um,effective_variance`,
+//! `marshall-palmer:rain_rate_mm_h[,min_radius_um,max_radius_um]` (defaults 50 and 3000 µm).
+//! `s1_sq`, `s2_sq` are then the mean `|S1|²`, `|S2|²` per drop and the normalisation the mean
+//! `π x² Q_sca` per drop.
 
 use crate::args::{AngleRange, IndexArgs, parse_complex_index};
 use crate::curve::{
@@ -33,6 +47,10 @@ use anyhow::{Context, bail};
 use num_complex::Complex64;
 use scatterbake::debye::{DebyeCoefficients, OrderSet};
 use scatterbake::mie::coated::{CoatedSphere, coated_coefficients};
+use scatterbake::mie::distributions::SizeDistribution;
+use scatterbake::mie::size_average::{
+    AverageLimits, DEFAULT_MAX_NODES, DEFAULT_TOLERANCE, average_at_angles,
+};
 use scatterbake::mie::{Q_BACK_CONVENTIONS, Sphere, size_parameter};
 use std::fmt::Write as _;
 use std::path::PathBuf;
@@ -163,18 +181,7 @@ impl MieQuery {
                 .context("coated-sphere query")?,
             ),
         };
-        let angles_deg = match (&args.angles_deg, args.angles) {
-            (None, Some(range)) => range.angles(),
-            (Some(a), _) => {
-                if let Some(bad) = a.iter().find(|t| !(0.0..=180.0).contains(*t)) {
-                    bail!("angle {bad} is outside 0–180°");
-                }
-                a.clone()
-            }
-            (None, None) => AngleRange::full(args.angle_step_deg)
-                .context("--angle-step-deg")?
-                .angles(),
-        };
+        let angles_deg = query_angles(args)?;
         let (s1, s2) = sphere.amplitudes_deg(&angles_deg);
         Ok(MieQuery {
             x,
@@ -298,7 +305,24 @@ impl MieQuery {
     }
 }
 
-/// Arguments of `scatterbake mie`: one sphere, optionally split into Debye-series terms.
+/// The angles of a query (`--angles`, `--angles-deg` or `--angle-step-deg`).
+fn query_angles(args: &MieArgs) -> anyhow::Result<Vec<f64>> {
+    Ok(match (&args.angles_deg, args.angles) {
+        (None, Some(range)) => range.angles(),
+        (Some(a), _) => {
+            if let Some(bad) = a.iter().find(|t| !(0.0..=180.0).contains(*t)) {
+                bail!("angle {bad} is outside 0–180°");
+            }
+            a.clone()
+        }
+        (None, None) => AngleRange::full(args.angle_step_deg)
+            .context("--angle-step-deg")?
+            .angles(),
+    })
+}
+
+/// Arguments of `scatterbake mie`: one sphere, optionally split into Debye-series terms, or a
+/// size distribution (`--distribution`).
 #[derive(Debug, Clone, clap::Args)]
 pub struct MieCommandArgs {
     #[command(flatten)]
@@ -310,6 +334,114 @@ pub struct MieCommandArgs {
     /// Also print one `phase_p<k>` column per order.
     #[arg(long, requires = "debye_orders")]
     pub debye_per_order: bool,
+    /// Average over a size distribution (with --wavelength-nm): `lognormal:R,S` (median radius
+    /// µm, geometric sigma), `gamma:REFF,VEFF` (effective radius µm, effective variance) or
+    /// `marshall-palmer:RATE[,MIN,MAX]` (rain rate mm/h, radius limits µm, default 50 and 3000).
+    #[arg(long, value_parser = parse_distribution, conflicts_with_all = ["radius_um", "x", "debye_orders", "core_x", "core_radius_um"], requires = "wavelength_nm")]
+    pub distribution: Option<SizeDistribution>,
+    /// Largest estimated RMS relative error of a --distribution average (relative to phase).
+    #[arg(long, default_value_t = DEFAULT_TOLERANCE, requires = "distribution")]
+    pub tolerance: f64,
+    /// Largest number of spheres of a --distribution average.
+    #[arg(long, default_value_t = DEFAULT_MAX_NODES, requires = "distribution")]
+    pub max_radius_nodes: usize,
+}
+
+/// Parses `KIND:P1,P2[,P3]` into the manifest's size distribution (parameters in the order and
+/// units of its keys, see [`MieCommandArgs::distribution`]).
+pub fn parse_distribution(text: &str) -> Result<SizeDistribution, String> {
+    let (kind, rest) = text
+        .split_once(':')
+        .ok_or_else(|| format!("{text:?}: expected KIND:PARAMETERS, e.g. lognormal:6,1.35"))?;
+    let values = rest
+        .split(',')
+        .map(|v| {
+            v.trim()
+                .parse::<f64>()
+                .map_err(|e| format!("{text:?}: {v:?}: {e}"))
+        })
+        .collect::<Result<Vec<f64>, _>>()?;
+    let d = match (kind, values.as_slice()) {
+        ("lognormal", &[median_radius_um, geometric_sigma]) => SizeDistribution::Lognormal {
+            median_radius_um,
+            geometric_sigma,
+        },
+        ("gamma", &[effective_radius_um, effective_variance]) => SizeDistribution::Gamma {
+            effective_radius_um,
+            effective_variance,
+        },
+        ("marshall-palmer", &[rain_rate_mm_h]) => SizeDistribution::MarshallPalmer {
+            rain_rate_mm_h,
+            min_radius_um: 50.0,
+            max_radius_um: 3000.0,
+        },
+        ("marshall-palmer", &[rain_rate_mm_h, min_radius_um, max_radius_um]) => {
+            SizeDistribution::MarshallPalmer {
+                rain_rate_mm_h,
+                min_radius_um,
+                max_radius_um,
+            }
+        }
+        _ => {
+            return Err(format!(
+                "{text:?}: expected lognormal:MEDIAN_RADIUS_UM,GEOMETRIC_SIGMA, gamma:EFFECTIVE_RADIUS_UM,EFFECTIVE_VARIANCE or marshall-palmer:RAIN_RATE_MM_H[,MIN_RADIUS_UM,MAX_RADIUS_UM]"
+            ));
+        }
+    };
+    d.validate().map_err(|e| format!("{text:?}: {e}"))?;
+    Ok(d)
+}
+
+/// Solves a `--distribution` query (no I/O). `None` when no distribution was given.
+pub fn solve_distribution(args: &MieCommandArgs) -> anyhow::Result<Option<CurveReport>> {
+    let Some(d) = &args.distribution else {
+        return Ok(None);
+    };
+    let a = &args.mie;
+    let Some(wavelength_nm) = a.wavelength_nm else {
+        bail!("--distribution needs --wavelength-nm");
+    };
+    if !(a.n_medium > 0.0 && a.n_medium.is_finite()) {
+        bail!("--n-medium {} must be a positive real index", a.n_medium);
+    }
+    let (n, k) = a.refractive.resolve(Some(wavelength_nm))?;
+    let m = Complex64::new(n, k) / a.n_medium;
+    let angles_deg = query_angles(a)?;
+    let limits = AverageLimits {
+        tolerance: args.tolerance,
+        max_nodes: args.max_radius_nodes,
+    };
+    let r = average_at_angles(d, wavelength_nm / a.n_medium, m, &angles_deg, &limits)
+        .context("size-distribution average")?;
+    let norm = r.phase_normalisation;
+    Ok(Some(CurveReport {
+        header: vec![
+            format!(
+                "size distribution {} (weights n(r) dr C_sca(r)), wavelength_nm: {wavelength_nm}, m = {} + {}i (relative to the medium), n_medium = {}",
+                d.label(),
+                m.re,
+                m.im,
+                a.n_medium
+            ),
+            format!(
+                "error_estimate = {:.3e} (RMS relative error of i_perp, i_par over the angles, relative to phase; tolerance {:.1e})  radius_nodes = {}",
+                r.error_estimate, args.tolerance, r.radius_nodes
+            ),
+            format!(
+                "Q_ext = {:.10}  Q_sca = {:.10}  g = {:.10} (<C>/<pi r^2>, g weighted by C_sca)",
+                r.q_ext, r.q_sca, r.g
+            ),
+            q_back_line(r.q_back),
+            format!(
+                "i_perp, i_par, phase = averages of the normalised curves (1/sr, integral over 4pi of phase = 1); s1_sq, s2_sq = mean |S1|^2, |S2|^2 per drop; mean pi x^2 Q_sca per drop = {norm:.10e}"
+            ),
+        ],
+        s1_sq: r.i_perp.iter().map(|v| v * norm).collect(),
+        s2_sq: r.i_par.iter().map(|v| v * norm).collect(),
+        angles_deg,
+        normalisation: norm,
+        extra: Vec::new(),
+    }))
 }
 
 /// Solves a `--debye-orders` query (no I/O). `None` when no orders were requested.
@@ -374,6 +506,9 @@ pub fn solve_debye(args: &MieCommandArgs) -> anyhow::Result<Option<CurveReport>>
 /// Runs `scatterbake mie`: the Debye-series terms with `--debye-orders`, else the plain Mie
 /// result (prints to stdout; writes `--csv` if given).
 pub fn run_mie(args: &MieCommandArgs) -> anyhow::Result<()> {
+    if let Some(r) = solve_distribution(args)? {
+        return r.print(args.mie.format, args.mie.csv.as_ref());
+    }
     if let Some(r) = solve_debye(args)? {
         return r.print(args.mie.format, args.mie.csv.as_ref());
     }
