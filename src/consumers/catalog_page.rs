@@ -70,12 +70,6 @@ pub struct PageReport {
     pub not_plotted: Vec<(String, String)>,
 }
 
-/// One table's curves, as embedded in the page.
-#[derive(Debug, Clone, PartialEq)]
-struct PlotData {
-    json: Value,
-}
-
 /// Write `dir/index.html` for `catalog` (the catalog of `dir`).
 pub fn write_catalog_page(
     dir: &Path,
@@ -93,7 +87,7 @@ pub fn write_catalog_page(
         let own = files.of(&entry.name, &names);
         match plot_data(&path, &header, opts) {
             Ok(p) => {
-                plots.push(p.json);
+                plots.push(p);
                 table_section(&mut sections, k, entry, &header, &own, None);
             }
             Err(why) => {
@@ -185,8 +179,8 @@ impl FilesBeside {
     }
 }
 
-/// The curves of a table, or why it has none.
-fn plot_data(path: &Path, header: &Header, opts: &PageOptions) -> Result<PlotData, String> {
+/// The curves of a table as embedded in the page ([`curves`]), or why it has none.
+fn plot_data(path: &Path, header: &Header, opts: &PageOptions) -> Result<Value, String> {
     if header.payload.uncompressed_bytes > opts.max_plot_payload_bytes {
         return Err(format!(
             "not plotted: its payload of {} exceeds the page's limit of {} (plot it with \
@@ -196,9 +190,7 @@ fn plot_data(path: &Path, header: &Header, opts: &PageOptions) -> Result<PlotDat
         ));
     }
     let table = Table::open(path).map_err(|e| format!("not plotted: {e}"))?;
-    Ok(PlotData {
-        json: curves(&table),
-    })
+    Ok(curves(&table))
 }
 
 /// Which axis plays which part in the plot.

@@ -157,6 +157,16 @@ pub struct Components<'a> {
     pub i_par: &'a [f64],
 }
 
+/// Weights of a normalised Gaussian of `sigma` samples at offsets `−r..=r`, r = ⌈4σ⌉.
+fn gaussian_weights(sigma: f64) -> Vec<f64> {
+    let r = (4.0 * sigma).ceil() as isize;
+    let k: Vec<f64> = (-r..=r)
+        .map(|d| (-0.5 * (d as f64 / sigma).powi(2)).exp())
+        .collect();
+    let total: f64 = k.iter().sum();
+    k.iter().map(|x| x / total).collect()
+}
+
 /// `(offset, weight)` pairs of a normalised Gaussian of `sigma` samples on a circle of `n`
 /// samples (wrapped; uniform when σ is infinite or NaN).
 fn circular_kernel(sigma: f64, n: usize) -> Vec<(isize, f64)> {
@@ -166,7 +176,7 @@ fn circular_kernel(sigma: f64, n: usize) -> Vec<(isize, f64)> {
     } else {
         let r = (4.0 * sigma).ceil() as isize;
         if 2 * r < n as isize {
-            (-r..=r).map(|d| (d, g(d as f64))).collect()
+            return (-r..=r).zip(gaussian_weights(sigma)).collect();
         } else {
             // Wrapped: every offset once, with the weights of all its images.
             let n_f = n as f64;
@@ -198,13 +208,7 @@ pub fn disc_filter(values: &[f64], grid: DirectionGrid, sigma_deg: f64) -> Vec<f
     );
     let s = sigma_deg / dth;
     let r = (4.0 * s).ceil() as isize;
-    let kernel: Vec<f64> = {
-        let k: Vec<f64> = (-r..=r)
-            .map(|d| (-0.5 * (d as f64 / s).powi(2)).exp())
-            .collect();
-        let t: f64 = k.iter().sum();
-        k.iter().map(|x| x / t).collect()
-    };
+    let kernel = gaussian_weights(s);
     let half = if na % 2 == 0 { na / 2 } else { 0 };
     let last = np as isize - 1;
     let mut polar = vec![0.0; np * na];
