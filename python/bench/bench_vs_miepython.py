@@ -1,6 +1,6 @@
 """Speed of scatterbake.mie against miepython in the same process.
 
-Same spheres (m = 1.333 + 1e-4i, x = 1e2, 1e3, 1e4), 3601 scattering angles 0–180°, both
+Same spheres (m = 1.333 + 1e-4i, x = 1e1, 1e2, 1e3, 1e4), 3601 scattering angles 0–180°, both
 computing S1, S2 and the efficiencies (miepython: efficiencies_mx + S1_S2). Each time is the
 best of several repetitions after one warm-up call (which also compiles numba's kernels).
 miepython picks its backend at import: numpy by default, numba with MIEPYTHON_USE_JIT=1; this
@@ -21,7 +21,7 @@ import miepython
 import scatterbake as sb
 
 M = 1.333 + 1e-4j
-SIZES = [1e2, 1e3, 1e4]
+SIZES = [1e1, 1e2, 1e3, 1e4]
 ANGLES = np.linspace(0.0, 180.0, 3601)
 MU = np.cos(np.radians(ANGLES))
 

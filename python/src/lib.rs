@@ -243,7 +243,7 @@ fn mie(
                 .map_err(|e| value_error(&e))?,
             ),
         };
-        let (s1, s2) = sphere.amplitudes_deg(&angles);
+        let (s1, s2) = sphere.amplitudes_deg_parallel(&angles);
         let norm = sphere.phase_normalisation();
         let i_perp: Vec<f64> = s1.iter().map(|s| s.norm_sqr() / norm).collect();
         let i_par: Vec<f64> = s2.iter().map(|s| s.norm_sqr() / norm).collect();

@@ -119,6 +119,86 @@ pub fn amplitudes(series: &AngularSeries, mu: &[f64]) -> (Vec<Complex64>, Vec<Co
     (out.s1, out.s2)
 }
 
+/// Two angles closer than this (degrees) are the same direction for the mirror pairing of
+/// [`amplitudes_at_angles`]: far below any angle a grid states (a grid `start + k·step` and its
+/// supplement differ by a few units in the last place of 180, ≈ 3e-14°), and at x = 10⁵ it moves
+/// `S` by ≈ x·Δθ ≈ 2e-12 relative.
+pub const MIRROR_PAIR_TOLERANCE_DEG: f64 = 1e-12;
+
+/// Work (angles × terms) below which [`amplitudes_at_angles`] stays on the calling thread even
+/// when asked to go parallel: a few hundred microseconds of series, less than waking the pool.
+const PARALLEL_MIN_WORK: usize = 1 << 18;
+
+/// Which cosines to sum for a list of scattering angles, and where each angle's amplitudes come
+/// from: an angle θ ≤ 90° is summed at `cos θ`; an angle θ > 90° is the mirror of the summed
+/// cosine of its supplement `180° − θ` when that angle is also asked for (to
+/// [`MIRROR_PAIR_TOLERANCE_DEG`]), else the mirror of its own `−cos θ`.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct MirrorPlan {
+    /// Cosines to sum (each also gives its mirror `−μ`).
+    pub mu: Vec<f64>,
+    /// Per requested angle: the index into `mu` and whether it is the mirror.
+    pub source: Vec<(usize, bool)>,
+}
+
+impl MirrorPlan {
+    pub fn new(angles_deg: &[f64]) -> Self {
+        let mut mu = Vec::with_capacity(angles_deg.len());
+        let mut source = vec![(0, false); angles_deg.len()];
+        // Angles summed directly, sorted for the supplement look-up: (angle, index into mu).
+        let mut direct: Vec<(f64, usize)> = Vec::new();
+        for (j, &a) in angles_deg.iter().enumerate() {
+            if a.is_nan() || a <= 90.0 {
+                source[j] = (mu.len(), false);
+                direct.push((a, mu.len()));
+                mu.push(a.to_radians().cos());
+            }
+        }
+        direct.sort_by(|p, q| p.0.total_cmp(&q.0));
+        for (j, &a) in angles_deg.iter().enumerate() {
+            if a.is_nan() || a <= 90.0 {
+                continue;
+            }
+            let supplement = 180.0 - a;
+            let k = direct.partition_point(|p| p.0 < supplement - MIRROR_PAIR_TOLERANCE_DEG);
+            source[j] = match direct.get(k) {
+                Some(&(d, i)) if (d - supplement).abs() <= MIRROR_PAIR_TOLERANCE_DEG => (i, true),
+                _ => {
+                    mu.push(-a.to_radians().cos());
+                    (mu.len() - 1, true)
+                }
+            };
+        }
+        MirrorPlan { mu, source }
+    }
+
+    /// The requested angles' amplitudes from the sums at [`Self::mu`].
+    pub fn gather(&self, amp: &MirroredAmplitudes) -> (Vec<Complex64>, Vec<Complex64>) {
+        self.source
+            .iter()
+            .map(|&(i, mirror)| match mirror {
+                false => (amp.s1[i], amp.s2[i]),
+                true => (amp.s1_mirror[i], amp.s2_mirror[i]),
+            })
+            .unzip()
+    }
+}
+
+/// `S_1`, `S_2` at scattering angles in degrees, summing each pair of supplementary angles
+/// (θ and 180° − θ, both asked for) once through the mirror identity: a grid over 0–180° costs
+/// about half its angles. `parallel` splits the sum over rayon's pool when the work is large
+/// enough to gain from it. Same values as [`amplitudes`] at `cos θ` up to rounding (and, for a
+/// paired angle, the ≤ [`MIRROR_PAIR_TOLERANCE_DEG`] between θ and its partner's supplement).
+pub fn amplitudes_at_angles(
+    series: &AngularSeries,
+    angles_deg: &[f64],
+    parallel: bool,
+) -> (Vec<Complex64>, Vec<Complex64>) {
+    let plan = MirrorPlan::new(angles_deg);
+    let parallel = parallel && plan.mu.len() * series.len() >= PARALLEL_MIN_WORK;
+    plan.gather(&amplitudes_mirrored(series, &plan.mu, parallel))
+}
+
 fn run(
     terms: &[[f64; 6]],
     mu: &[f64],
@@ -291,6 +371,33 @@ mod tests {
             p = next;
         }
         (s1, s2)
+    }
+
+    /// Angles paired with their supplements give the direct sums, and a 0–180° grid sums
+    /// only its half.
+    #[test]
+    fn angles_paired_by_mirror_match_direct_sums() {
+        let c = MieCoefficients::new(731.0, Complex64::new(1.333, 1e-4)).unwrap();
+        let series = AngularSeries::new(&c);
+        let grid: Vec<f64> = (0..=3600).map(|k| 0.0 + k as f64 * 0.05).collect();
+        let plan = MirrorPlan::new(&grid);
+        assert_eq!(plan.mu.len(), 1801);
+        // Unpaired angles beyond 90° (no supplement asked for), unsorted, with a repeat.
+        let loose = [170.3, 12.0, 95.5, 90.0, 170.3, 179.999, 0.0];
+        let loose_plan = MirrorPlan::new(&loose);
+        assert_eq!(loose_plan.mu.len(), loose.len());
+        for angles in [&grid[..], &loose[..]] {
+            for parallel in [false, true] {
+                let (s1, s2) = amplitudes_at_angles(&series, angles, parallel);
+                let mu: Vec<f64> = angles.iter().map(|a| a.to_radians().cos()).collect();
+                let (d1, d2) = amplitudes(&series, &mu);
+                let scale = d1.iter().chain(&d2).map(|v| v.norm()).fold(0.0, f64::max);
+                for j in 0..angles.len() {
+                    let e = (s1[j] - d1[j]).norm().max((s2[j] - d2[j]).norm()) / scale;
+                    assert!(e < 1e-11, "angle {}: {e:e}", angles[j]);
+                }
+            }
+        }
     }
 
     #[test]

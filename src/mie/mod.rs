@@ -36,7 +36,9 @@ pub mod filters;
 pub mod riccati;
 pub mod size_average;
 
-pub use angular::{AngularSeries, MirroredAmplitudes, amplitudes, amplitudes_mirrored};
+pub use angular::{
+    AngularSeries, MirroredAmplitudes, amplitudes, amplitudes_at_angles, amplitudes_mirrored,
+};
 pub use coefficients::{Efficiencies, MieCoefficients};
 pub use domain::{
     MieError, VALIDATED_DOMAIN, VALIDATED_DOMAIN_TEXT, ValidatedDomain, check_domain,
@@ -117,10 +119,15 @@ impl Sphere {
         std::f64::consts::PI * x * x * self.efficiencies.q_sca
     }
 
-    /// `S_1`, `S_2` at arbitrary scattering angles (degrees).
+    /// `S_1`, `S_2` at arbitrary scattering angles (degrees), on the calling thread; supplementary
+    /// angles are summed once ([`amplitudes_at_angles`]).
     pub fn amplitudes_deg(&self, angles_deg: &[f64]) -> (Vec<Complex64>, Vec<Complex64>) {
-        let mu: Vec<f64> = angles_deg.iter().map(|a| a.to_radians().cos()).collect();
-        amplitudes(&self.series, &mu)
+        amplitudes_at_angles(&self.series, angles_deg, false)
+    }
+
+    /// [`Self::amplitudes_deg`] split over rayon's pool when the sum is large enough to gain.
+    pub fn amplitudes_deg_parallel(&self, angles_deg: &[f64]) -> (Vec<Complex64>, Vec<Complex64>) {
+        amplitudes_at_angles(&self.series, angles_deg, true)
     }
 
     /// `S_1`, `S_2` at cosines `mu` and `−mu` (see [`amplitudes_mirrored`]).

@@ -182,7 +182,7 @@ impl MieQuery {
             ),
         };
         let angles_deg = query_angles(args)?;
-        let (s1, s2) = sphere.amplitudes_deg(&angles_deg);
+        let (s1, s2) = sphere.amplitudes_deg_parallel(&angles_deg);
         Ok(MieQuery {
             x,
             m,
