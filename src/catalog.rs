@@ -218,6 +218,12 @@ pub fn rebuild(dir: &Path) -> Result<Catalog, CatalogError> {
     rebuild_with(dir, &[])
 }
 
+/// [`rebuild`] reading and verifying every file, whatever the stamps of the previous catalog
+/// say (`scatterbake catalog --full`).
+pub fn rebuild_reading_all(dir: &Path) -> Result<Catalog, CatalogError> {
+    rebuild_listing(dir, &[], |_| Listed::default())
+}
+
 /// [`rebuild`], taking the entries of `fresh` tables (written by this process) as they are when
 /// their files still carry the stamps they were written with, and the entries of the catalog
 /// already in `dir` for the files that still carry the stamps listed there; every other file is
@@ -225,10 +231,19 @@ pub fn rebuild(dir: &Path) -> Result<Catalog, CatalogError> {
 /// hashing its 0.3 GB, and a shard of a job array writing into a shared directory reads only
 /// the tables written since the last catalog.
 pub fn rebuild_with(dir: &Path, fresh: &[FreshTable]) -> Result<Catalog, CatalogError> {
+    rebuild_listing(dir, fresh, Listed::load)
+}
+
+/// The rebuild, taking the previous catalog's entries from `listed` (read under the lock).
+fn rebuild_listing(
+    dir: &Path,
+    fresh: &[FreshTable],
+    listed: impl FnOnce(&Path) -> Listed,
+) -> Result<Catalog, CatalogError> {
     std::fs::create_dir_all(dir).map_err(IoError::doing("creating the catalog directory", dir))?;
     crate::workdir::check_out_dir(dir)?;
     let _lock = crate::workdir::lock_out_dir(dir)?;
-    let listed = Listed::load(dir);
+    let listed = listed(dir);
     let mut listing = Listing::default();
     for p in table_files(dir)? {
         let file = p.file_name().expect("file").to_string_lossy().into_owned();
@@ -358,8 +373,10 @@ mod tests {
 
     /// The catalog of `dir` from reading every table (none listed from an earlier catalog).
     fn full_read(dir: &Path) -> Catalog {
+        let all = rebuild_reading_all(dir).unwrap();
         let _ = std::fs::remove_file(dir.join(STAMPS_FILE));
-        rebuild(dir).unwrap()
+        assert_eq!(rebuild(dir).unwrap(), all);
+        all
     }
 
     /// A fresh table's entry is the entry a full read of the file gives; once the file at its
@@ -466,17 +483,20 @@ mod tests {
         assert_eq!(third, full_read(dir.path()));
         assert_eq!(second.tables[0], third.tables[0]);
 
-        // Unchanged stamps are trusted: bytes overwritten with the modification time set back
-        // are not read (`verify` reads every file), until a full read finds them.
+        // Bytes overwritten with the modification time set back: the status change time
+        // moved (no user can set it back), so the file is read again and found corrupt.
         let c = dir.path().join("c.sbt");
         let meta = std::fs::metadata(&c).unwrap();
+        std::thread::sleep(std::time::Duration::from_millis(20));
         let mut f = std::fs::OpenOptions::new().write(true).open(&c).unwrap();
         f.seek(SeekFrom::Start(meta.len() - 4)).unwrap();
         f.write_all(&[0xff; 4]).unwrap();
         f.set_modified(meta.modified().unwrap()).unwrap();
         drop(f);
-        assert_eq!(rebuild(dir.path()).unwrap(), third);
-        assert_eq!(full_read(dir.path()).invalid.len(), 2);
+        assert!(Listed::load(dir.path()).unchanged(&c).is_none());
+        let fourth = rebuild(dir.path()).unwrap();
+        assert_eq!(fourth.invalid.len(), 2, "{fourth:?}");
+        assert_eq!(fourth, full_read(dir.path()));
 
         // Stamps that are not JSON, or whose SHA-256 is not the entry's, are not used.
         std::fs::write(dir.path().join(STAMPS_FILE), b"{not json").unwrap();

@@ -228,7 +228,7 @@ pub struct BuildOptions {
 }
 
 /// What a build did.
-#[derive(Debug, Default, Clone, PartialEq, Eq)]
+#[derive(Debug, Default, Clone, PartialEq)]
 pub struct BuildReport {
     /// Tables already up to date, or written meanwhile by another shard or concurrent build.
     pub tables_up_to_date: Vec<String>,
@@ -242,6 +242,9 @@ pub struct BuildReport {
     pub tasks_reused: usize,
     /// Checkpoints not used (each `PATH: why`); their tasks were recomputed.
     pub checkpoints_rejected: Vec<String>,
+    /// The output directory's catalog as this build left it (`index.json`), for consumers
+    /// that present it (the catalog page) without listing the directory again.
+    pub catalog: Option<crate::catalog::Catalog>,
 }
 
 /// The content key of a planned table ([`crate::provenance::content_key`]).
@@ -413,15 +416,13 @@ pub fn table_path(out_dir: &Path, name: &str) -> PathBuf {
     out_dir.join(format!("{name}.sbt"))
 }
 
-/// The table at `path` has content key `key` and is sealed as written
-/// ([`crate::table::verify_sealed`]: checksummed compressed payload, not decompressed), or is
-/// the file the catalog `listed` lists at that path (same size, modification time, device and
-/// inode) with that key: a catalog lists only tables that were sealed when it read them or
-/// wrote them.
+/// The table at `path` has content key `key` in its own checksummed header (never the
+/// catalog's word for it: an edited `index.json` cannot make a stale table current) and is sealed
+/// as written: either it is the file the catalog `listed` lists at that path, unchanged since
+/// (same size, modification and status change times, device and inode; a catalog lists only
+/// tables that were sealed when it read or wrote them), or [`crate::table::verify_sealed`]
+/// checks it now (checksummed compressed payload, not decompressed).
 fn up_to_date(path: &Path, key: &str, listed: &crate::catalog::Listed) -> bool {
-    if let Some(e) = listed.unchanged(path) {
-        return e.parameters_digest == key;
-    }
     // Only a regular file can be an up-to-date table: a FIFO or device planted under the
     // table's name is not opened by the reader (which would block on a FIFO), and is replaced
     // when the table is written.
@@ -429,7 +430,9 @@ fn up_to_date(path: &Path, key: &str, listed: &crate::catalog::Listed) -> bool {
         return false;
     }
     match crate::table::read_header_only(path) {
-        Ok(h) if h.provenance.parameters_digest == key => crate::table::verify_sealed(path).is_ok(),
+        Ok(h) if h.provenance.parameters_digest == key => {
+            listed.unchanged(path).is_some() || crate::table::verify_sealed(path).is_ok()
+        }
         _ => false,
     }
 }
@@ -549,7 +552,8 @@ pub fn build(opts: &BuildOptions, progress: &dyn Progress) -> Result<BuildReport
     report.tables_written = run.written;
     report.tables_written.sort();
     sort_unwritten(&states, &opts.out_dir, &mut report, progress);
-    build_outcome(run.errors, update_catalog(&opts.out_dir, &fresh))?;
+    let catalog = update_catalog(&opts.out_dir, &fresh).map(|c| report.catalog = Some(c));
+    build_outcome(run.errors, catalog)?;
     Ok(report)
 }
 
@@ -643,7 +647,11 @@ fn plan_tables(
         let tasks = t.job.tasks();
         let first_global = next_global;
         next_global += tasks.len();
+        let work_dir = opts.out_dir.join(WORK_DIR).join(&t.name);
         if !opts.force && up_to_date(&path, &key, &listed) {
+            // Checkpoints of a sealed table are of no use: a build killed between sealing the
+            // table and removing them left them behind.
+            crate::workdir::remove_table_work_dir(&work_dir)?;
             progress.table(&t.name, TableStep::UpToDate);
             report.tables_up_to_date.push(t.name.clone());
             continue;
@@ -654,7 +662,6 @@ fn plan_tables(
             .map(|(i, s)| task_key(&key, i, &s.params))
             .collect::<Vec<_>>();
         let task_labels = tasks.into_iter().map(|s| s.label).collect();
-        let work_dir = opts.out_dir.join(WORK_DIR).join(&t.name);
         crate::workdir::refuse_symlink(&work_dir)?;
         states.push(TableState {
             first_global,
@@ -982,11 +989,10 @@ fn recompute(s: &TableState, task: usize, ctx: &Context) -> Result<Chunk, Pipeli
 fn update_catalog(
     out_dir: &Path,
     fresh: &[crate::catalog::FreshTable],
-) -> Result<(), PipelineError> {
+) -> Result<crate::catalog::Catalog, PipelineError> {
     let _ = std::fs::remove_dir(out_dir.join(WORK_DIR));
     crate::workdir::remove_orphan_temp_files(out_dir);
-    crate::catalog::rebuild_with(out_dir, fresh)?;
-    Ok(())
+    Ok(crate::catalog::rebuild_with(out_dir, fresh)?)
 }
 
 #[cfg(test)]

@@ -199,3 +199,28 @@ fn forged_or_foreign_checkpoints_are_not_used() {
     assert!(t.contains("6 computed, 0 reused"), "{t}");
     assert_same_table(d.path(), "mine");
 }
+
+/// Checkpoints left beside a finished table (a build killed after sealing the table, before
+/// removing its work directory) are removed by the next build, which finds the table up to date.
+#[test]
+fn checkpoints_left_beside_a_finished_table_are_removed() {
+    let d = tempfile::tempdir().unwrap();
+    let m = manifest(d.path());
+    let left = half_built(d.path(), &m, "out");
+    assert!(!left.is_empty());
+    let keep: Vec<(PathBuf, Vec<u8>)> = left
+        .iter()
+        .map(|(p, _)| (p.clone(), std::fs::read(p).unwrap()))
+        .collect();
+    build(d.path(), &m, "out", &[]);
+    assert!(!d.path().join("out/.work/w").exists());
+    // As a kill just after the table was renamed into place leaves them.
+    std::fs::create_dir_all(d.path().join("out/.work/w")).unwrap();
+    for (p, bytes) in &keep {
+        std::fs::write(p, bytes).unwrap();
+    }
+    let t = build(d.path(), &m, "out", &[]);
+    assert!(t.contains("built 0 table(s), 1 up to date"), "{t}");
+    assert!(!d.path().join("out/.work/w").exists(), "{t}");
+    assert!(!d.path().join("out/.work").exists(), "{t}");
+}

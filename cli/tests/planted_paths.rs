@@ -162,3 +162,81 @@ fn a_checkpoint_linked_to_dev_zero_is_named_and_recomputed() {
     );
     assert!(t.contains("built 1 table(s)"), "{t}");
 }
+
+/// A table overwritten in place and given back its modification time (what `touch -d` or
+/// `File::set_modified` allow) is not taken as up to date: its status change time moved, so the
+/// build checks it again, finds it corrupt and rebuilds it.
+#[test]
+fn an_in_place_edit_with_its_mtime_restored_is_rebuilt() {
+    use std::io::{Seek, SeekFrom, Write};
+    let d = tempfile::tempdir().unwrap();
+    let m = manifest(d.path());
+    let o = build(d.path(), &m, &["--no-previews"]);
+    assert!(o.status.success(), "{}", text(&o));
+    let table = d.path().join("out/w.sbt");
+    let good = std::fs::read(&table).unwrap();
+    let meta = std::fs::metadata(&table).unwrap();
+    std::thread::sleep(Duration::from_millis(20));
+    let mut f = std::fs::OpenOptions::new()
+        .write(true)
+        .open(&table)
+        .unwrap();
+    f.seek(SeekFrom::Start(meta.len() - 4)).unwrap();
+    f.write_all(&[0xff; 4]).unwrap();
+    f.set_modified(meta.modified().unwrap()).unwrap();
+    drop(f);
+    assert_eq!(
+        std::fs::metadata(&table).unwrap().modified().unwrap(),
+        meta.modified().unwrap()
+    );
+    let o = build(d.path(), &m, &["--no-previews"]);
+    let t = text(&o);
+    assert!(o.status.success(), "{t}");
+    assert!(t.contains("built 1 table(s), 0 up to date"), "{t}");
+    assert_eq!(std::fs::read(&table).unwrap(), good);
+}
+
+/// The content key a build compares is the table's own (its checksummed header), not the one
+/// `index.json` states: an `index.json` edited to give a stale table the key of new parameters
+/// does not make that table current.
+#[test]
+fn a_forged_index_key_does_not_make_a_stale_table_current() {
+    let d = tempfile::tempdir().unwrap();
+    let m = manifest(d.path());
+    let o = build(d.path(), &m, &["--no-previews"]);
+    assert!(o.status.success(), "{}", text(&o));
+    // New parameters; their key from a build of them elsewhere.
+    let other = tempfile::tempdir().unwrap();
+    let changed = std::fs::read_to_string(&m)
+        .unwrap()
+        .replace("75.0]", "75.0, 90.0]");
+    for dir in [d.path(), other.path()] {
+        std::fs::write(dir.join("w.toml"), &changed).unwrap();
+    }
+    let o = build(
+        other.path(),
+        &other.path().join("w.toml"),
+        &["--no-previews"],
+    );
+    assert!(o.status.success(), "{}", text(&o));
+    let key = |dir: &Path| -> String {
+        let index: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(dir.join("out/index.json")).unwrap()).unwrap();
+        index["tables"][0]["parameters_digest"]
+            .as_str()
+            .unwrap()
+            .to_string()
+    };
+    let (stale, new) = (key(d.path()), key(other.path()));
+    assert_ne!(stale, new);
+    let index = d.path().join("out/index.json");
+    let forged = std::fs::read_to_string(&index)
+        .unwrap()
+        .replace(&stale, &new);
+    std::fs::write(&index, forged).unwrap();
+    let o = build(d.path(), &m, &["--no-previews"]);
+    let t = text(&o);
+    assert!(o.status.success(), "{t}");
+    assert!(t.contains("built 1 table(s), 0 up to date"), "{t}");
+    assert_eq!(key(d.path()), new);
+}

@@ -422,17 +422,20 @@ pub fn write_atomic_parts(path: &Path, parts: &[&[u8]]) -> std::io::Result<()> {
     write_atomic_parts_stamped(path, parts).map(|_| ())
 }
 
-/// Identity of a written file: size, modification time and (on Unix) device and inode, as the
-/// file had them when it was renamed into place. A file found at the path later with the same
-/// stamp is that file (nothing rewrites a table in place). Serialised in the catalog's stamps
-/// file, `scatterbake::catalog::STAMPS_FILE` (`modified` as seconds and nanoseconds since the Unix
-/// epoch).
+/// Identity of a written file: size, modification time and (on Unix) device, inode and status
+/// change time, as the file had them once renamed into place. A file found at the path later
+/// with the same stamp is that file, unchanged: writing into a file in place moves its status
+/// change time, which (unlike the modification time) no user can set back. Serialised in the
+/// catalog's stamps file, `scatterbake::catalog::STAMPS_FILE` (times as seconds and nanoseconds
+/// since the Unix epoch).
 #[derive(Debug, Clone, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct FileStamp {
     len: u64,
     modified: Option<(u64, u32)>,
     #[cfg(unix)]
     dev_ino: (u64, u64),
+    #[cfg(unix)]
+    changed: (i64, i64),
 }
 
 impl FileStamp {
@@ -450,6 +453,8 @@ impl FileStamp {
                 .map(|d| (d.as_secs(), d.subsec_nanos())),
             #[cfg(unix)]
             dev_ino: (meta.dev(), meta.ino()),
+            #[cfg(unix)]
+            changed: (meta.ctime(), meta.ctime_nsec()),
         }
     }
 
@@ -486,9 +491,10 @@ pub fn write_atomic_parts_stamped(path: &Path, parts: &[&[u8]]) -> std::io::Resu
             .set_permissions(std::fs::Permissions::from_mode(0o644))?;
     }
     tmp.as_file().sync_all()?;
-    // A rename keeps the inode, size and modification time.
-    let stamp = FileStamp::of(&tmp.as_file().metadata()?);
-    tmp.persist(path).map_err(|e| e.error)?;
+    // Stamped once in place (a rename moves the status change time), from the open file: the
+    // inode renamed, whatever the path holds by then.
+    let file = tmp.persist(path).map_err(|e| e.error)?;
+    let stamp = FileStamp::of(&file.metadata()?);
     if let Ok(d) = std::fs::File::open(dir) {
         let _ = d.sync_all();
     }

@@ -15,6 +15,10 @@ pub struct CatalogArgs {
     /// an interactive plot (a static page; open it in a browser, no server needed).
     #[arg(long)]
     pub html: bool,
+    /// Read and verify every table, trusting nothing the previous catalog recorded (by default
+    /// a table whose size, times, device and inode are those listed is not read again).
+    #[arg(long)]
+    pub full: bool,
     /// With --html: tables whose uncompressed payload exceeds this many bytes are listed
     /// without a plot.
     #[arg(long, requires = "html", default_value_t = scatterbake::consumers::catalog_page::DEFAULT_MAX_PLOT_PAYLOAD_BYTES)]
@@ -23,7 +27,10 @@ pub struct CatalogArgs {
 
 /// Rebuild a directory's catalog; returns the exit code (1 if any table is invalid).
 pub fn run_catalog(a: &CatalogArgs) -> Result<i32> {
-    let c = scatterbake::catalog::rebuild(&a.dir)?;
+    let c = match a.full {
+        true => scatterbake::catalog::rebuild_reading_all(&a.dir)?,
+        false => scatterbake::catalog::rebuild(&a.dir)?,
+    };
     println!(
         "{}: {} table(s), {} invalid",
         crate::display::path(&a.dir.join("index.json")),

@@ -37,8 +37,9 @@ pub fn previews(table_path: &Path, out_dir: &Path) -> Result<Vec<PathBuf>, Consu
             out_dir.display()
         )));
     }
+    remove_orphan_staging(out_dir);
     let staging = tempfile::Builder::new()
-        .prefix(".previews-")
+        .prefix(&staging_prefix(std::process::id()))
         .tempdir_in(out_dir)
         .map_err(IoError::doing("creating a directory in", out_dir))?;
     // an error names the picture where it was to go, not the private directory
@@ -63,6 +64,36 @@ pub fn previews(table_path: &Path, out_dir: &Path) -> Result<Vec<PathBuf>, Consu
         written.push(dest);
     }
     Ok(written)
+}
+
+/// Prefix of the private directory a process draws its previews into:
+/// `.previews.<host>.<pid>.`, so that the next process can tell one a killed process left.
+fn staging_prefix(pid: u32) -> String {
+    format!(".previews.{}.{pid}.", crate::table::format::host_tag())
+}
+
+/// Remove the private preview directories in `out_dir` of processes of this host that no longer
+/// exist (left by a kill while drawing; needs `/proc`). Symbolic links and other hosts' directories
+/// are left alone.
+fn remove_orphan_staging(out_dir: &Path) {
+    let host_prefix = format!(".previews.{}.", crate::table::format::host_tag());
+    let (true, Ok(entries)) = (Path::new("/proc/self").exists(), std::fs::read_dir(out_dir)) else {
+        return;
+    };
+    for e in entries.flatten() {
+        let name = e.file_name().to_string_lossy().into_owned();
+        let Some(pid) = name
+            .strip_prefix(&host_prefix)
+            .and_then(|rest| rest.split('.').next())
+            .and_then(|pid| pid.parse::<u32>().ok())
+        else {
+            continue;
+        };
+        let is_dir = e.file_type().is_ok_and(|t| t.is_dir());
+        if is_dir && !Path::new("/proc").join(pid.to_string()).exists() {
+            let _ = std::fs::remove_dir_all(e.path());
+        }
+    }
 }
 
 /// [`previews`] drawn into `out_dir`, a directory this process created.
@@ -1159,6 +1190,36 @@ pub fn water_index(v: &View) -> Result<Vec<(&'static str, Figure)>, ConsumerErro
 
 #[cfg(test)]
 mod tests {
+    /// A staging directory of a process that no longer exists is removed; this process's own,
+    /// and a symbolic link named like one, are kept.
+    #[test]
+    fn orphan_staging_directories_are_removed() {
+        let d = tempfile::tempdir().unwrap();
+        // Above the kernel's pid limit (2^22): no such process.
+        let dead = d
+            .path()
+            .join(format!("{}abc123", super::staging_prefix(4_000_000_000)));
+        let alive = d.path().join(format!(
+            "{}def456",
+            super::staging_prefix(std::process::id())
+        ));
+        for dir in [&dead, &alive] {
+            std::fs::create_dir(dir).unwrap();
+            std::fs::write(dir.join("x-phase.png"), b"png").unwrap();
+        }
+        let outside = tempfile::tempdir().unwrap();
+        let link = d
+            .path()
+            .join(format!("{}link", super::staging_prefix(4_000_000_001)));
+        #[cfg(unix)]
+        std::os::unix::fs::symlink(outside.path(), &link).unwrap();
+        std::fs::write(outside.path().join("keep"), b"").unwrap();
+        super::remove_orphan_staging(d.path());
+        assert!(!dead.exists());
+        assert!(alive.join("x-phase.png").exists());
+        assert!(outside.path().join("keep").exists());
+    }
+
     use super::*;
     use crate::table::{Axis, Channel, Provenance, Schema, TableContent, write_table_atomic};
 
