@@ -71,10 +71,10 @@ pub fn run_build(a: BuildArgs) -> Result<i32> {
     if !a.no_previews {
         draw_previews(&a.out, &report.tables_written);
     }
-    if !a.no_html {
-        let catalog = scatterbake::catalog::rebuild(&a.out)?;
+    if let (false, Some(catalog)) = (a.no_html, &report.catalog) {
+        // The catalog the build just wrote: the directory is not listed a second time.
         let opts = scatterbake::consumers::catalog_page::PageOptions::default();
-        super::catalog::write_page(&a.out, &catalog, &opts)?;
+        super::catalog::write_page(&a.out, catalog, &opts)?;
     }
     println!(
         "built {} table(s), {} up to date, {} pending other shards; tasks: {} computed, {} reused from checkpoints; {:.1} s; catalog {}",
