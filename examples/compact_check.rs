@@ -20,7 +20,10 @@ const ENTRY_AXES: [&str; 3] = ["radius", "wavelength", "sun_elevation"];
 
 fn main() -> Result<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    ensure!(args.len() == 2, "usage: compact_check DENSE.sbt COMPACT.sbt");
+    ensure!(
+        args.len() == 2,
+        "usage: compact_check DENSE.sbt COMPACT.sbt"
+    );
     let dense = Table::open(&args[0]).with_context(|| format!("opening {}", args[0]))?;
     let compact = Table::open(&args[1]).with_context(|| format!("opening {}", args[1]))?;
     let stated = compact
@@ -32,7 +35,10 @@ fn main() -> Result<()> {
         .as_f64()
         .context("compression.sun_diameter_deg")?;
     let shape = dense.grid_shape();
-    ensure!(shape.len() == 5 && shape[..3] == [1, 1, 1], "one dense entry expected");
+    ensure!(
+        shape.len() == 5 && shape[..3] == [1, 1, 1],
+        "one dense entry expected"
+    );
     let grid = DirectionGrid {
         n_polar: shape[3],
         n_azimuth: shape[4],
@@ -48,7 +54,10 @@ fn main() -> Result<()> {
     let entry: Vec<f64> = (0..3).map(|a| dense.axes()[a].coord(0)).collect();
     for (a, name) in ENTRY_AXES.iter().enumerate() {
         ensure!(dense.axes()[a].name == *name, "axis {a} is not {name}");
-        ensure!(compact.axes()[a].coord(0) == entry[a], "the tables hold other entries");
+        ensure!(
+            compact.axes()[a].coord(0) == entry[a],
+            "the tables hold other entries"
+        );
     }
     let (polar, azimuth) = (dense.axes()[3].coords(), dense.axes()[4].coords());
     let ch: Vec<usize> = ["phase", "i_perp", "i_par"]
@@ -60,7 +69,10 @@ fn main() -> Result<()> {
         let w = theta.to_radians().sin();
         for (k, &phi) in azimuth.iter().enumerate() {
             let s = compact.sample(&[entry[0], entry[1], entry[2], theta, phi])?;
-            let (p, q) = (i_perp[j * grid.n_azimuth + k], i_par[j * grid.n_azimuth + k]);
+            let (p, q) = (
+                i_perp[j * grid.n_azimuth + k],
+                i_par[j * grid.n_azimuth + k],
+            );
             let phase = 0.5 * (p + q);
             let rel = [s[ch[0]] - phase, s[ch[1]] - p, s[ch[2]] - q]
                 .iter()

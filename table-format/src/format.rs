@@ -467,6 +467,18 @@ impl FileStamp {
 
 /// [`write_atomic_parts`], returning the stamp of the file it renamed into place.
 pub fn write_atomic_parts_stamped(path: &Path, parts: &[&[u8]]) -> std::io::Result<FileStamp> {
+    write_atomic_streamed(path, |w| {
+        parts.iter().try_for_each(|part| w.write_all(part))
+    })
+}
+
+/// [`write_atomic`] of what `write` writes (through a buffer), without holding it in memory;
+/// returns the stamp of the file it renamed into place. An error from `write` leaves no file
+/// (the temporary one is removed) and the file at `path`, if any, unchanged.
+pub fn write_atomic_streamed(
+    path: &Path,
+    write: impl FnOnce(&mut std::io::BufWriter<&mut std::fs::File>) -> std::io::Result<()>,
+) -> std::io::Result<FileStamp> {
     let dir = path
         .parent()
         .filter(|p| !p.as_os_str().is_empty())
@@ -480,8 +492,10 @@ pub fn write_atomic_parts_stamped(path: &Path, parts: &[&[u8]]) -> std::io::Resu
         .prefix(&format!(".{name}.{}.", temp_file_owner()))
         .suffix(".tmp")
         .tempfile_in(dir)?;
-    for part in parts {
-        tmp.write_all(part)?;
+    {
+        let mut buffered = std::io::BufWriter::with_capacity(1 << 20, tmp.as_file_mut());
+        write(&mut buffered)?;
+        buffered.flush()?;
     }
     #[cfg(unix)]
     {

