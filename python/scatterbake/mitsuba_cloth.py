@@ -60,9 +60,9 @@ import mitsuba as mi
 import numpy as np
 
 try:
-    from .mitsuba_phase import _buffer, _gather, _open_table
+    from .mitsuba_phase import _buffer, _gather, _open_table, check_schema, class_for_variant
 except ImportError:  # standalone file
-    from mitsuba_phase import _buffer, _gather, _open_table
+    from mitsuba_phase import _buffer, _gather, _open_table, check_schema, class_for_variant
 
 #: Name under which :func:`register` registers the plugin.
 PLUGIN_NAME = "scatterbake_cloth"
@@ -102,11 +102,7 @@ class ClothTable:
 
     def __init__(self, table):
         header = table.header
-        schema = header["schema"]
-        if schema["name"] != SCHEMA:
-            raise ValueError(f"schema `{schema['name']}` is not `{SCHEMA}`")
-        if schema["version"] not in SCHEMA_VERSIONS:
-            raise ValueError(f"`{SCHEMA}/{schema['version']}` is not a version this plugin reads")
+        check_schema(header, SCHEMA, SCHEMA_VERSIONS)
         names = tuple(a.name for a in table.axes)
         if names != AXES:
             raise ValueError(f"expected axes {AXES}, found {names}")
@@ -182,12 +178,7 @@ _CLASSES = {}
 
 def bsdf_class():
     """The plugin class for the current Mitsuba variant."""
-    variant = mi.variant()
-    if variant is None:
-        raise RuntimeError("call mi.set_variant before using the plugin")
-    if variant not in _CLASSES:
-        _CLASSES[variant] = _make_class()
-    return _CLASSES[variant]
+    return class_for_variant(_CLASSES, _make_class)
 
 
 def _cell(x, n):
