@@ -153,7 +153,8 @@ def test_sample_pdf_eval_agree_and_the_mean_weight_is_the_albedo(tables, fabric,
     pdf(), weight·pdf is eval(), and E[eval/pdf] over 2^20 samples is the directional albedo
     of the header at that (θ_i, φ_i) node within 4 standard errors plus 0.5 % (the header's
     albedo is a midpoint/trapezoid sum over the grid's cells, the plugin integrates the
-    multilinear interpolant)."""
+    multilinear interpolant); in radiance mode the mean weight is the integral of eval over
+    the light directions."""
     mi.set_variant("llvm_ad_rgb")
     table = tables[fabric]
     bsdf = load(table)
@@ -180,6 +181,23 @@ def test_sample_pdf_eval_agree_and_the_mean_weight_is_the_albedo(tables, fabric,
     err = w.std(axis=0) / math.sqrt(n)
     print(f"{fabric} θ_i={theta_i} φ_i={phi_i}: E[w] = {mean}, ± {err}, header albedo {albedo}")
     assert np.all(np.abs(mean - albedo) <= 4 * err + 0.005 * albedo), (mean, err, albedo)
+    # Radiance mode: si.wi is the viewer, the sampled wo the light, and the proposal the
+    # reciprocal configuration. E[weight] = ∫ f(wo → wi) cos θ_o dω_o, here against the
+    # midpoint rule of eval on a 0.25° × 0.5° grid of the hemisphere.
+    ctx_rad = mi.BSDFContext(mi.TransportMode.Radiance)
+    bs, weight = bsdf.sample(ctx_rad, si, sampler.next_1d(), sampler.next_2d())
+    np.testing.assert_allclose(np.array(bs.pdf), np.array(bsdf.pdf(ctx_rad, si, bs.wo)), rtol=1e-5)
+    w = np.array(weight, dtype=float).T
+    th_q = np.radians((np.arange(360) + 0.5) * 0.25)
+    ph_q = np.radians((np.arange(720) + 0.5) * 0.5)
+    tq, pq = [a.ravel() for a in np.meshgrid(th_q, ph_q, indexing="ij")]
+    wo = np.stack([np.sin(tq) * np.cos(pq), np.sin(tq) * np.sin(pq), np.cos(tq)], -1)
+    values = np.array(bsdf.eval(ctx_rad, interaction(np.tile(wi, (len(wo), 1))), vec(wo)),
+                      dtype=float).T
+    reverse = (values * np.sin(tq)[:, None]).sum(axis=0) * np.radians(0.25) * np.radians(0.5)
+    mean, err = w.mean(axis=0), w.std(axis=0) / math.sqrt(n)
+    print(f"  radiance mode: E[w] = {mean} ± {err}, quadrature {reverse}")
+    assert np.all(np.abs(mean - reverse) <= 4 * err + 0.005 * reverse), (mean, err, reverse)
 
 
 @pytest.mark.parametrize("fabric,theta_deg,phi_deg", [("polyester_satin_front", 40.0, 25.0),
