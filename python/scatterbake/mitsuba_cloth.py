@@ -88,8 +88,10 @@ def phi_i_domain_deg(mirror_x, mirror_y, swap_xy):
 
 def _wrap_deg(p):
     """Angle in [−180°, 180°) (numpy arrays and numbers, or Dr.Jit arrays)."""
-    if isinstance(p, (np.ndarray, float, int)):
-        return (np.asarray(p, dtype=float) + 180.0) % 360.0 - 180.0
+    if isinstance(p, np.ndarray):
+        return (p.astype(float) + 180.0) % 360.0 - 180.0
+    if isinstance(p, (float, int)):  # scalar variants
+        return float((p + 180.0) % 360.0 - 180.0)
     return p - 360.0 * dr.floor((p + 180.0) / 360.0)
 
 
