@@ -1,6 +1,6 @@
 """scatterbake from Python: Lorenz–Mie spheres (homogeneous and coated), Debye-series orders,
-size-distribution phase functions, scatterbake tables (``.sbt``) and table builds, computed by
-the scatterbake library (Rust) through PyO3.
+size-distribution phase functions, the microcylinder cloth BRDF (``cloth_brdf``), scatterbake
+tables (``.sbt``) and table builds, computed by the scatterbake library (Rust) through PyO3.
 
 Conventions (Bohren & Huffman 1983): time dependence exp(-iωt), refractive index m = n + ik with
 k ≥ 0 absorbing; radii in µm (``radius_um``), vacuum wavelengths in nm (``wavelength_nm``),
@@ -15,6 +15,7 @@ See docs/python.md.
 """
 
 from ._scatterbake import (
+    CLOTH_FABRICS,
     MIE_VALIDATED_DOMAIN,
     Q_BACK_CONVENTIONS,
     Axis,
@@ -26,6 +27,7 @@ from ._scatterbake import (
     TableError,
     __version__,
     build,
+    cloth_brdf,
     debye,
     mie,
     mie_distribution,
@@ -33,6 +35,7 @@ from ._scatterbake import (
 )
 
 __all__ = [
+    "CLOTH_FABRICS",
     "MIE_VALIDATED_DOMAIN",
     "Q_BACK_CONVENTIONS",
     "Axis",
@@ -44,6 +47,7 @@ __all__ = [
     "TableError",
     "__version__",
     "build",
+    "cloth_brdf",
     "debye",
     "gamma",
     "lognormal",

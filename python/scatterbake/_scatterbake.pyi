@@ -36,6 +36,9 @@ Q_BACK_CONVENTIONS: str
 """Both backscattering conventions in words."""
 MIE_VALIDATED_DOMAIN: str
 """The validated domain of the homogeneous-sphere solution and its measured accuracy."""
+CLOTH_FABRICS: tuple[str, ...]
+"""Names of the cloth fabric presets (thesis Tables 5.2 and E.1, docs/cloth.md), in the order of
+Table 5.2: the ``fabric`` of :func:`cloth_brdf` and of the ``cloth`` stage."""
 
 _Angles = Union[float, Sequence[float], npt.NDArray[np.floating]]
 _Path = Union[str, "PathLike[str]"]
@@ -300,3 +303,28 @@ def build(
     ``tables_pending``, ``tasks_computed``, ``tasks_reused``, ``checkpoints_rejected``.
     ValueError for a manifest that does not read or plan (the message names FILE:LINE:COLUMN).
     The GIL is released while building."""
+
+def cloth_brdf(
+    fabric: str,
+    theta_i_deg: float,
+    phi_i_deg: float,
+    theta_r_deg: float,
+    phi_r_deg: float,
+    *,
+    ramp_step_deg: float = 1.0,
+) -> dict[str, Any]:
+    """The microcylinder cloth BRDF (Sadeghi et al. 2013, as printed; docs/cloth.md) of the
+    fabric preset ``fabric`` (one of :data:`CLOTH_FABRICS`) at one direction pair: the record that
+    ``scatterbake cloth --format json`` prints, from the same library function.
+
+    Angles in degrees in the cloth frame: θ from the cloth normal, in [0, 90); φ from the warp
+    (+x, the first thread family of the thesis's tables) toward the weft (+y), any finite value.
+    ``i`` is the direction toward the light, ``r`` toward the viewer (the model is not
+    reciprocal: do not swap them). ``ramp_step_deg`` (0, 10] is the largest step in tangent
+    elevation of the tangent-curve quadrature.
+
+    Returns a dict: ``brdf`` (linear Rec. 709 RGB, 1/sr), ``surface`` (the white surface lobe,
+    repeated per channel) and ``volume`` (RGB) with ``brdf = surface + volume``; ``fabric``,
+    ``theta_i_deg``, ``phi_i_deg``, ``theta_r_deg``, ``phi_r_deg``, ``ramp_step_deg``, ``unit``
+    (``1/sr``), ``channels``, ``model`` and ``frame`` (texts). ValueError for an unknown fabric
+    (the message lists the presets) or an angle or step outside its range."""

@@ -138,6 +138,15 @@ def srgb_weights(wavelengths_nm):
     return w / sums, xyz[:, 1] / xyz[:, 1].sum()
 
 
+def check_schema(header, name, versions):
+    """Refuse (ValueError) a table whose header's schema is not ``name`` at one of ``versions``."""
+    schema = header["schema"]
+    if schema["name"] != name:
+        raise ValueError(f"schema `{schema['name']}` is not `{name}`")
+    if schema["version"] not in versions:
+        raise ValueError(f"`{name}/{schema['version']}` is not a version this plugin reads")
+
+
 def _axis_index(names, name):
     return names.index(name) if name in names else None
 
@@ -151,11 +160,7 @@ class TableData:
 
     def __init__(self, table, mode="rgb", wavelength_nm=None, entry=None, normalise=True):
         header = table.header
-        schema = header["schema"]
-        if schema["name"] != SCHEMA:
-            raise ValueError(f"schema `{schema['name']}` is not `{SCHEMA}`")
-        if schema["version"] not in SCHEMA_VERSIONS:
-            raise ValueError(f"`{SCHEMA}/{schema['version']}` is not a version this plugin reads")
+        check_schema(header, SCHEMA, SCHEMA_VERSIONS)
         names = [a.name for a in table.axes]
         n = len(names)
         if n < 4 or names[-3:] != ["sun_elevation", "outgoing_polar", "outgoing_azimuth"]:
@@ -319,15 +324,20 @@ def _locate(buf, n, x, active=True):
 _CLASSES = {}
 
 
-def phase_class():
-    """The plugin class for the current Mitsuba variant (Mitsuba's base classes differ per
-    variant, so the class is made once per variant)."""
+def class_for_variant(cache, make):
+    """The class ``make()`` builds for the current Mitsuba variant, kept in ``cache`` (Mitsuba's
+    base classes differ per variant, so a plugin class is made once per variant)."""
     variant = mi.variant()
     if variant is None:
         raise RuntimeError("call mi.set_variant before using the plugin")
-    if variant not in _CLASSES:
-        _CLASSES[variant] = _make_class()
-    return _CLASSES[variant]
+    if variant not in cache:
+        cache[variant] = make()
+    return cache[variant]
+
+
+def phase_class():
+    """The plugin class for the current Mitsuba variant."""
+    return class_for_variant(_CLASSES, _make_class)
 
 
 def _make_class():

@@ -3,15 +3,16 @@
 //! `python/scatterbake/_scatterbake.pyi` and `docs/python.md`).
 //!
 //! The bindings only convert: every number is computed by the library (`mie`, `mie::coated`,
-//! `debye`, `mie::distributions`, `table`, `pipeline`). Heavy work runs with the GIL released;
-//! library errors become `ValueError` (bad input), `scatterbake.TableError` (a `ValueError`: a
-//! file that is not a valid table) or `OSError` (files), with the library's message.
+//! `debye`, `mie::distributions`, `cloth`, `table`, `pipeline`). Heavy work runs with the GIL
+//! released; library errors become `ValueError` (bad input), `scatterbake.TableError` (a
+//! `ValueError`: a file that is not a valid table) or `OSError` (files), with the library's
+//! message.
 
 use num_complex::Complex64;
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyArrayDyn, PyArrayMethods, PyReadonlyArray1};
 use pyo3::exceptions::{PyKeyError, PyOSError, PyValueError};
 use pyo3::prelude::*;
-use pyo3::types::{PyDict, PyList};
+use pyo3::types::{PyDict, PyList, PyTuple};
 use scatterbake::debye::{DebyeCoefficients, OrderSet};
 use scatterbake::error::error_chain;
 use scatterbake::mie::coated::{CoatedSphere, coated_coefficients};
@@ -814,6 +815,33 @@ fn build<'py>(
     Ok(d)
 }
 
+/// The cloth BRDF of a fabric preset at one direction pair (`scatterbake cloth --format json`):
+/// the library's record as a dict; see `_scatterbake.pyi`.
+#[pyfunction]
+#[pyo3(signature = (fabric, theta_i_deg, phi_i_deg, theta_r_deg, phi_r_deg, *, ramp_step_deg=1.0))]
+fn cloth_brdf<'py>(
+    py: Python<'py>,
+    fabric: &str,
+    theta_i_deg: f64,
+    phi_i_deg: f64,
+    theta_r_deg: f64,
+    phi_r_deg: f64,
+    ramp_step_deg: f64,
+) -> PyResult<Bound<'py, PyAny>> {
+    let q = scatterbake::cloth::query::DirectionPairDeg {
+        theta_i_deg,
+        phi_i_deg,
+        theta_r_deg,
+        phi_r_deg,
+    };
+    let fabric = fabric.to_string();
+    let record = py
+        .detach(move || scatterbake::cloth::query::brdf_record(&fabric, q, ramp_step_deg))
+        .map_err(|e| value_error(&e))?;
+    let text = serde_json::to_string(&record).map_err(|e| PyValueError::new_err(e.to_string()))?;
+    py.import("json")?.call_method1("loads", (text,))
+}
+
 #[pymodule]
 fn _scatterbake(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(mie, m)?)?;
@@ -821,6 +849,7 @@ fn _scatterbake(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(mie_distribution, m)?)?;
     m.add_function(wrap_pyfunction!(open_table, m)?)?;
     m.add_function(wrap_pyfunction!(build, m)?)?;
+    m.add_function(wrap_pyfunction!(cloth_brdf, m)?)?;
     m.add_class::<MieResult>()?;
     m.add_class::<DebyeResult>()?;
     m.add_class::<DistributionResult>()?;
@@ -832,6 +861,10 @@ fn _scatterbake(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add(
         "MIE_VALIDATED_DOMAIN",
         scatterbake::mie::VALIDATED_DOMAIN_TEXT,
+    )?;
+    m.add(
+        "CLOTH_FABRICS",
+        PyTuple::new(m.py(), scatterbake::cloth::PRESET_NAMES)?,
     )?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())

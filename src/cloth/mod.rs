@@ -7,7 +7,9 @@
 //! - [`fabric`]: thread families, the six measured fabrics (Tables 5.2, E.1) and their
 //!   symmetries;
 //! - [`brdf`]: shadowing/masking, reweighting and the fabric BRDF (eqs. 5.12–5.20);
-//! - [`tabulate`]: the BRDF on angle grids, directional albedo and sampling CDFs for tables.
+//! - [`tabulate`]: the BRDF on angle grids, directional albedo and sampling CDFs for tables;
+//! - [`query`]: one checked evaluation at a direction pair in degrees and its record (the
+//!   command line's JSON, the Python package's `cloth_brdf`).
 //!
 //! Conventions: cloth frame `n = +z`, warp (family 1) `+x`, weft `+y`; θ from the normal, φ from
 //! `+x` toward `+y`; angles in radians in code (names end in `_rad`; `_deg` on table and command
@@ -20,6 +22,7 @@
 pub mod brdf;
 pub mod curve;
 pub mod fabric;
+pub mod query;
 pub mod tabulate;
 pub mod thread;
 

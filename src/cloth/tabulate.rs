@@ -15,7 +15,7 @@
 //! of cell k, stored at θ_r,k) and the conditional CDF over φ_r (value at node l = weight of the
 //! intervals before it), so a sample picks a cell by two binary searches and places ω_r
 //! uniformly in (θ_r, φ_r) inside it; its pdf per solid angle is
-//! `w_cell / (W Δθ Δφ sin θ_r)`.
+//! `w_cell / (W Δθ Δφ sin θ_r)` ([`sample_view`], [`view_pdf`]).
 
 use super::brdf::{ClothModel, PreparedDirection, direction};
 use super::fabric::Symmetry;
@@ -190,6 +190,76 @@ pub fn cdfs(grid: &AngleGrid, f: &[[f64; 3]]) -> (Vec<f64>, Vec<f64>) {
         }
     }
     (marginal, conditional)
+}
+
+/// One view direction drawn from a node's sampling tables, with its density.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ViewSample {
+    /// θ_r, radians.
+    pub theta_r_rad: f64,
+    /// φ_r in [−π, π], radians.
+    pub phi_r_rad: f64,
+    /// Density per solid angle, sr⁻¹.
+    pub pdf_sr: f64,
+}
+
+/// The (θ_r cell, φ_r interval) that holds `(theta_r_rad, phi_r_rad)` (θ_r in [0, π/2],
+/// φ_r in [−π, π]; the ends land in the end cells).
+pub fn view_cell(grid: &AngleGrid, theta_r_rad: f64, phi_r_rad: f64) -> (usize, usize) {
+    let h = grid.step_deg;
+    let (n_t, n_p) = (grid.theta_deg.len(), grid.phi_r_deg.len());
+    let k = ((theta_r_rad.to_degrees() / h).floor().max(0.0) as usize).min(n_t - 1);
+    let l = (((phi_r_rad.to_degrees() + 180.0) / h).floor().max(0.0) as usize).min(n_p - 2);
+    (k, l)
+}
+
+/// Draws ω_r from one (θ_i, φ_i) node's sampling tables by the procedure of the module
+/// documentation: `marginal` (one value per θ_r cell, channel `cdf_theta_r`) picks the θ_r cell,
+/// `conditional` (θ_r × φ_r nodes, channel `cdf_phi_r`) a φ_r interval of it, and ω_r is uniform
+/// in (θ_r, φ_r) inside, from the remainders of the two uniforms `u` ∈ [0, 1)².
+pub fn sample_view(
+    grid: &AngleGrid,
+    marginal: &[f64],
+    conditional: &[f64],
+    u: [f64; 2],
+) -> ViewSample {
+    let (n_t, n_p) = (grid.theta_deg.len(), grid.phi_r_deg.len());
+    let k = marginal.partition_point(|&m| m <= u[0]).min(n_t - 1);
+    let lo = if k > 0 { marginal[k - 1] } else { 0.0 };
+    let row = &conditional[k * n_p..(k + 1) * n_p];
+    let l = (row.partition_point(|&c| c <= u[1]).max(1) - 1).min(n_p - 2);
+    let within = |x: f64, a: f64, b: f64| {
+        if b > a {
+            ((x - a) / (b - a)).clamp(0.0, 1.0)
+        } else {
+            0.5
+        }
+    };
+    let h = grid.step_deg.to_radians();
+    let theta_r_rad = (k as f64 + within(u[0], lo, marginal[k])) * h;
+    let phi_r_rad = -std::f64::consts::PI + (l as f64 + within(u[1], row[l], row[l + 1])) * h;
+    ViewSample {
+        theta_r_rad,
+        phi_r_rad,
+        pdf_sr: view_pdf(grid, marginal, conditional, theta_r_rad, phi_r_rad),
+    }
+}
+
+/// The density per solid angle of [`sample_view`] at `(theta_r_rad, phi_r_rad)`:
+/// `w_cell / (W Δθ Δφ sin θ_r)`, the CDF increments being `w_cell / W`.
+pub fn view_pdf(
+    grid: &AngleGrid,
+    marginal: &[f64],
+    conditional: &[f64],
+    theta_r_rad: f64,
+    phi_r_rad: f64,
+) -> f64 {
+    let n_p = grid.phi_r_deg.len();
+    let (k, l) = view_cell(grid, theta_r_rad, phi_r_rad);
+    let lo = if k > 0 { marginal[k - 1] } else { 0.0 };
+    let cell = (marginal[k] - lo) * (conditional[k * n_p + l + 1] - conditional[k * n_p + l]);
+    let h = grid.step_deg.to_radians();
+    cell / (h * h * theta_r_rad.sin().max(f64::MIN_POSITIVE))
 }
 
 /// Deterministic low-discrepancy point `k` in [0, 1)^4 (Halton bases 2, 3, 5, 7).

@@ -1,8 +1,8 @@
 //! `scatterbake cloth`: the microcylinder cloth BRDF (Sadeghi et al. 2013) of one fabric preset
 //! at one direction pair, for checking against other implementations (docs/cloth.md).
 
-use scatterbake::cloth::{ClothModel, ModelOptions, PRESET_NAMES, preset};
-use serde_json::json;
+use scatterbake::cloth::PRESET_NAMES;
+use scatterbake::cloth::query::{DirectionPairDeg, brdf_at_deg, brdf_record};
 use std::io::Write;
 
 /// Output format.
@@ -51,67 +51,39 @@ pub fn run_cloth(args: &ClothArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// The text `run_cloth` prints.
+/// The text `run_cloth` prints. The checks and the JSON record are the library's
+/// (`cloth::query`), shared with the Python package's `cloth_brdf`.
 pub fn cloth_report(args: &ClothArgs) -> anyhow::Result<String> {
-    for (name, v) in [("--theta-i", args.theta_i), ("--theta-r", args.theta_r)] {
-        anyhow::ensure!(
-            (0.0..90.0).contains(&v),
-            "{name} must be in [0, 90) degrees (the BRDF is defined above the cloth)"
-        );
-    }
-    for (name, v) in [("--phi-i", args.phi_i), ("--phi-r", args.phi_r)] {
-        anyhow::ensure!(v.is_finite(), "{name} must be finite");
-    }
-    anyhow::ensure!(
-        args.ramp_step_deg > 0.0 && args.ramp_step_deg <= 10.0,
-        "--ramp-step-deg must be in (0, 10]"
-    );
-    let options = ModelOptions {
-        ramp_step_deg: args.ramp_step_deg,
-        ..ModelOptions::default()
+    let q = DirectionPairDeg {
+        theta_i_deg: args.theta_i,
+        phi_i_deg: args.phi_i,
+        theta_r_deg: args.theta_r,
+        phi_r_deg: args.phi_r,
     };
-    let model = ClothModel::new(preset(&args.fabric)?, options);
-    let v = model.eval_angles(
-        args.theta_i.to_radians(),
-        args.phi_i.to_radians(),
-        args.theta_r.to_radians(),
-        args.phi_r.to_radians(),
-    );
-    let brdf = v.total();
     Ok(match args.format {
         ClothFormat::Json => {
-            let value = json!({
-                "fabric": args.fabric,
-                "model": "Sadeghi et al. 2013 microcylinder cloth model (thesis ch. 5), as printed",
-                "frame": "cloth normal +z, warp +x, weft +y; theta from the normal, phi from +x toward +y; omega_i toward the light",
-                "theta_i_deg": args.theta_i,
-                "phi_i_deg": args.phi_i,
-                "theta_r_deg": args.theta_r,
-                "phi_r_deg": args.phi_r,
-                "unit": "1/sr",
-                "channels": "linear RGB (Rec. 709)",
-                "brdf": brdf,
-                "surface": vec![v.surface; 3],
-                "volume": v.volume,
-                "ramp_step_deg": args.ramp_step_deg,
-            });
+            let value = brdf_record(&args.fabric, q, args.ramp_step_deg)?;
             format!("{}\n", serde_json::to_string_pretty(&value)?)
         }
-        ClothFormat::Text => format!(
-            "{} (theta_i {}, phi_i {}) -> (theta_r {}, phi_r {}) deg: brdf RGB {:.6e} {:.6e} {:.6e} 1/sr (surface {:.6e}, volume {:.6e} {:.6e} {:.6e})\n",
-            args.fabric,
-            args.theta_i,
-            args.phi_i,
-            args.theta_r,
-            args.phi_r,
-            brdf[0],
-            brdf[1],
-            brdf[2],
-            v.surface,
-            v.volume[0],
-            v.volume[1],
-            v.volume[2]
-        ),
+        ClothFormat::Text => {
+            let v = brdf_at_deg(&args.fabric, q, args.ramp_step_deg)?;
+            let brdf = v.total();
+            format!(
+                "{} (theta_i {}, phi_i {}) -> (theta_r {}, phi_r {}) deg: brdf RGB {:.6e} {:.6e} {:.6e} 1/sr (surface {:.6e}, volume {:.6e} {:.6e} {:.6e})\n",
+                args.fabric,
+                args.theta_i,
+                args.phi_i,
+                args.theta_r,
+                args.phi_r,
+                brdf[0],
+                brdf[1],
+                brdf[2],
+                v.surface,
+                v.volume[0],
+                v.volume[1],
+                v.volume[2]
+            )
+        }
     })
 }
 
