@@ -9,17 +9,17 @@
 //! cargo run --release --example mie_distribution_cost -- compare WAVELENGTH_NM FILE [TOLERANCE...]
 //! cargo run --release --example mie_distribution_cost -- old WAVELENGTH_NM RADIUS_POINTS [FILE]
 //! ```
-//! - `table`: the 33-wavelength (380–700 nm) entry with the sampled radius × angle average
-//!   (`radius_tolerance`, default the stage's), wavelengths in parallel as the pipeline runs
-//!   tasks; then, for each `OLD_WAVELENGTH_NM`, the same entry by the sampled method and by the
-//!   previous Gauss–Legendre rule (24 nodes in ln r, exact cell averages per node), and their
-//!   time ratio.
+//! - `table`: the 33-wavelength (380–700 nm) entry with the adaptive radius rule of
+//!   `mie::size_average` (`radius_tolerance`, default the stage's: the estimated output error),
+//!   wavelengths in parallel as the pipeline runs tasks; then, for each `OLD_WAVELENGTH_NM`, the
+//!   same entry by the adaptive rule and by the fixed Gauss–Legendre rule (24 nodes in ln r,
+//!   exact cell averages per node, `radius_tolerance = 0`), and their time ratio.
 //! - `reference`: the brute-force reference at one wavelength (`mie::ensemble::reference_entry`:
 //!   `NODES` midpoint strata of `n(r) r²`, exact cell averages per node), written to `FILE`
 //!   (little-endian f64: i_perp then i_par over the 3601 bins), with the difference between its
 //!   two interleaved halves.
-//! - `compare`: the sampled entry at each tolerance against the reference in `FILE`: max and rms
-//!   relative error of `i_perp`, `i_par` and where the max is.
+//! - `compare`: the adaptive entry at each tolerance against the reference in `FILE`: max and
+//!   rms relative error of `i_perp`, `i_par` and where the max is.
 //! - `old`: the Gauss–Legendre rule of `RADIUS_POINTS` nodes at one wavelength (against `FILE`).
 use num_complex::Complex64;
 use rayon::prelude::*;
@@ -149,7 +149,7 @@ fn main() -> anyhow::Result<()> {
                 let (_, new_wall, new_cpu) = timed(|| entry(l, &s))?;
                 let (_, old_wall, old_cpu) = timed(|| entry(l, &settings(0.0, 24)))?;
                 println!(
-                    "  {l} nm, one entry: sampled {new_wall:.2} s wall / {new_cpu:.2} s CPU, Gauss-Legendre 24 nodes {old_wall:.2} s / {old_cpu:.2} s; CPU ratio old/new {:.1}",
+                    "  {l} nm, one entry: adaptive {new_wall:.2} s wall / {new_cpu:.2} s CPU, Gauss-Legendre 24 nodes {old_wall:.2} s / {old_cpu:.2} s; CPU ratio old/new {:.1}",
                     old_cpu / new_cpu
                 );
             }
@@ -191,7 +191,7 @@ fn main() -> anyhow::Result<()> {
                     "{l} nm, radius_tolerance {tol}: {} nodes, estimated rms {:.2e}, wall {wall:.2} s, CPU {cpu:.2} s",
                     r.radius_nodes, r.error_rms
                 );
-                report("sampled vs reference", &r.curve, &reference);
+                report("adaptive vs reference", &r.curve, &reference);
             }
         }
         Some("old") => {
