@@ -41,6 +41,19 @@ sbt_table *sbt_open_limit(const char *path, uint64_t max_payload_bytes, char *er
  * channel; values bit-identical to the Rust reader's). The limit (0 = 4 GiB) also bounds the
  * reconstructed payload. Any other table opens as with sbt_open_limit. */
 sbt_table *sbt_open_reconstructed(const char *path, uint64_t max_payload_bytes, char *err, size_t err_len);
+/* Open one entry of a table: entry[0 .. n_entry) fixes the first n_entry axes at these indices
+ * (e.g. {i_radius, i_wavelength, i_elevation} of a raytrace-phase-2d table; n_entry 0 opens the
+ * whole table). The file is verified exactly as by sbt_open (every checksum over the whole
+ * payload, which streams past in fixed-size chunks) and only the entry's samples are kept, so
+ * memory is bounded by the entry, not by the table (docs/table-format.md, "Reading one entry").
+ * The table keeps every axis: a fixed axis has length 1 and holds its chosen coordinate, so
+ * sbt_sample takes one coordinate per axis as before (any value for a fixed axis). NULL on
+ * failure (a refused file, more indices than axes, an index beyond its axis naming the axis,
+ * memory exhausted), with a message in err. */
+sbt_table *sbt_open_slice(const char *path, const size_t *entry, size_t n_entry, char *err, size_t err_len);
+/* Like sbt_open_slice with another limit on the whole uncompressed payload (0 = 4 GiB). */
+sbt_table *sbt_open_slice_limit(const char *path, const size_t *entry, size_t n_entry,
+                                uint64_t max_payload_bytes, char *err, size_t err_len);
 /* Free a table (NULL is ignored). */
 void sbt_close(sbt_table *t);
 
