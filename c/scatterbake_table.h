@@ -36,10 +36,11 @@ sbt_table *sbt_open(const char *path, char *err, size_t err_len);
 /* Like sbt_open with another payload limit in bytes (0 = the default 4 GiB). */
 sbt_table *sbt_open_limit(const char *path, uint64_t max_payload_bytes, char *err, size_t err_len);
 /* Like sbt_open_limit, but a tensor-train table (schema fur-medulla-tt/1, e.g. the shipped
- * assets/fur-medulla/ *.sbt) is checked (ranks, dims, core offsets, sizes: docs/table-format.md
- * "Tensor-train tables") and reconstructed into the dense table it holds (its source axes and
- * channel; values bit-identical to the Rust reader's). The limit (0 = 4 GiB) also bounds the
- * reconstructed payload. Any other table opens as with sbt_open_limit. */
+ * assets/fur-medulla/ *.sbt) is checked (ranks, dims, core offsets, sizes, the memory and the
+ * multiply-adds of the reconstruction: docs/table-format.md "Tensor-train tables") and
+ * reconstructed into the dense table it holds (its source axes and channel; values
+ * bit-identical to the Rust reader's; a value that is not finite is refused). The limit
+ * (0 = 4 GiB) also bounds the reconstruction's memory (output and intermediates). Any other table opens as with sbt_open_limit. */
 sbt_table *sbt_open_reconstructed(const char *path, uint64_t max_payload_bytes, char *err, size_t err_len);
 /* Open one entry of a table: entry[0 .. n_entry) fixes the first n_entry axes at these indices
  * (e.g. {i_radius, i_wavelength, i_elevation} of a raytrace-phase-2d table; n_entry 0 opens the

@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import hashlib
 import io
+import itertools
 import json
 import math
 import re
@@ -623,21 +624,53 @@ def _tt_uint_list(at: dict, key: str) -> list:
     return out
 
 
-def _tt_contract(cores, dims, ranks, first=None) -> np.ndarray:
+def _tt_contract(cores, dims, ranks, prefix=()) -> np.ndarray:
     """Left-to-right contraction in the order docs/table-format.md specifies (f64, multiply
-    then add, a = 0 .. r-1 in order), optionally for one index ``first`` of the first mode."""
+    then add, a = 0 .. r-1 in order), for the indices ``prefix`` of the first modes (the block
+    of the dense table they fix)."""
     m = np.ones((1, 1), dtype=np.float64)
     for k, core in enumerate(cores):
         r0, n, r1 = ranks[k], dims[k], ranks[k + 1]
         c = core.reshape(r0, n, r1)
-        if k == 0 and first is not None:
-            c = c[:, first:first + 1, :]
+        if k < len(prefix):
+            c = c[:, prefix[k]:prefix[k] + 1, :]
             n = 1
         nxt = np.zeros((m.shape[0], n, r1), dtype=np.float64)
         for a in range(r0):
             nxt += m[:, a][:, None, None] * c[a][None, :, :]
         m = nxt.reshape(-1, r1)
     return m[:, 0]
+
+
+#: Largest number of multiply-adds a reconstruction may take (docs/table-format.md, decision TF-2).
+TT_MAX_MULTIPLY_ADDS = 1 << 34
+_TT_BLOCK_BYTES = 8 << 20
+
+
+def _tt_cost(dims, ranks) -> tuple:
+    """``(fixed, bytes, multiply_adds)`` of the reconstruction, as the Rust reader's
+    ``reconstruction_cost``: blocks fix the first ``fixed`` modes (the fewest whose blocks keep
+    two consecutive f64 intermediates within 8 MiB, else all but the last); ``bytes`` counts the
+    f32 values, the f64 cores and a block's two largest consecutive intermediates. Both saturate
+    at 2**64 - 1 like the Rust reader's."""
+    d = len(dims)
+    top = _U64 - 1
+
+    def block(fixed):
+        blocks = math.prod(dims[:fixed])
+        work = sum(ranks[k] * ranks[k + 1] for k in range(fixed))
+        peak = max([1] + [ranks[k] + ranks[k + 1] for k in range(fixed)])
+        rows = 1
+        for k in range(fixed, d):
+            work += rows * ranks[k] * dims[k] * ranks[k + 1]
+            peak = max(peak, rows * ranks[k] + rows * dims[k] * ranks[k + 1])
+            rows *= dims[k]
+        return 8 * peak, blocks * work
+
+    fixed = next((f for f in range(d) if block(f)[0] <= _TT_BLOCK_BYTES), d - 1)
+    peak, work = block(fixed)
+    cores = sum(ranks[k] * dims[k] * ranks[k + 1] for k in range(d))
+    return fixed, min(4 * math.prod(dims) + 8 * cores + peak, top), min(work, top)
 
 
 def reconstruct_tensor_train(t: Table, name: str = "<table>", max_payload_bytes: int = DEFAULT_MAX_PAYLOAD_BYTES) -> Table:
@@ -649,6 +682,8 @@ def reconstruct_tensor_train(t: Table, name: str = "<table>", max_payload_bytes:
         return _reconstruct(t, max_payload_bytes)
     except _Bad as e:
         raise TableError(f"{name}: tensor-train table is not valid: {e}") from None
+    except MemoryError:
+        raise TableError(f"{name}: out of memory reconstructing the tensor train") from None
 
 
 def _reconstruct(t: Table, max_payload_bytes: int) -> Table:
@@ -684,6 +719,11 @@ def _reconstruct(t: Table, max_payload_bytes: int) -> Table:
             raise _Bad(f"inconsistent ranks: ranks[{k}] is 0")
         if ranks[k + 1] > ranks[k] * dims[k] or ranks[k] > dims[k] * ranks[k + 1]:
             raise _Bad(f"inconsistent ranks/dims: core {k} is {ranks[k]} x {dims[k]} x {ranks[k + 1]}, a rank exceeds its unfolding")
+    fixed, need, work = _tt_cost(dims, ranks)
+    if need > max_payload_bytes:
+        raise _Bad(f"the reconstruction needs {need} bytes (f32 values, f64 cores and intermediates), more than the reader's limit of {max_payload_bytes} bytes")
+    if work > TT_MAX_MULTIPLY_ADDS:
+        raise _Bad(f"the reconstruction takes {work} multiply-adds, more than the limit of {TT_MAX_MULTIPLY_ADDS} (dims {dims}, ranks {ranks})")
     values = t.data.reshape(-1)
     nv = values.shape[0]
     if offsets[0] != 0 or offsets[d] != nv:
@@ -743,12 +783,17 @@ def _reconstruct(t: Table, max_payload_bytes: int) -> Table:
     if not isinstance(src_attrs, dict):
         raise _Bad("attribute `source_attributes` is not an object")
     out = np.empty(total, dtype=np.float32)
-    block = total // dims[0]
-    for i in range(dims[0]):
-        v = _tt_contract(cores, dims, ranks, first=i)
-        if log_floor is not None:
-            v = np.exp(v)
-        out[i * block:(i + 1) * block] = v.astype(np.float32)
+    size = math.prod(dims[fixed:])
+    for b, prefix in enumerate(itertools.product(*(range(n) for n in dims[:fixed]))):
+        v = _tt_contract(cores, dims, ranks, prefix)
+        with np.errstate(over="ignore"):
+            if log_floor is not None:
+                v = np.exp(v)
+            v = v.astype(np.float32)
+        bad = np.flatnonzero(~np.isfinite(v))
+        if bad.size:
+            raise _Bad(f"reconstructed value {b * size + int(bad[0])} is not finite (after exp and rounding to f32)")
+        out[b * size:(b + 1) * size] = v
     attributes = dict(src_attrs)
     for k in ("rel_frobenius_error", "max_abs_error", "max_abs_error_rel_to_max", "ranks", "rel_tol", "reconstruction_error"):
         if k in at:
