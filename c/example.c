@@ -4,9 +4,11 @@
  *     cc -std=c99 -Wall -I c c/example.c -L target/release -lscatterbake_table \
  *        -Wl,-rpath,$PWD/target/release -o sbt-example
  * Run:
- *     ./sbt-example tables/rainbow-mie.sbt [--reconstruct] [--dump out.bin] [COORD ...]
+ *     ./sbt-example tables/rainbow-mie.sbt [--reconstruct | --entry I,J,...] [--dump out.bin]
+ *                   [COORD ...]
  * With --reconstruct the table is opened with sbt_open_reconstructed (a tensor-train table is
- * reconstructed into its dense table).
+ * reconstructed into its dense table); with --entry 0,2,1 only that entry (indices of the
+ * leading axes) is kept, with sbt_open_slice.
  * With --dump the payload is written as raw float32 little-endian (used by the tests to
  * compare bit for bit with the Rust writer). With COORDs (one per axis) every channel is
  * printed at that point, with the lookup formula of the library.
@@ -19,16 +21,29 @@
 
 int main(int argc, char **argv) {
     if (argc < 2) {
-        fprintf(stderr, "usage: %s TABLE.sbt [--reconstruct] [--dump OUT.bin] [COORD ...]\n", argv[0]);
+        fprintf(stderr, "usage: %s TABLE.sbt [--reconstruct | --entry I,J,...] [--dump OUT.bin] [COORD ...]\n",
+                argv[0]);
         return 2;
     }
-    int argi = 2, reconstruct = 0;
+    int argi = 2, reconstruct = 0, sliced = 0;
+    size_t entry[16], n_entry = 0;
     if (argi < argc && strcmp(argv[argi], "--reconstruct") == 0) {
         reconstruct = 1;
         ++argi;
+    } else if (argi + 1 < argc && strcmp(argv[argi], "--entry") == 0) {
+        const char *s = argv[argi + 1];
+        sliced = 1;
+        while (*s && n_entry < sizeof entry / sizeof entry[0]) {
+            char *end;
+            entry[n_entry++] = (size_t)strtoul(s, &end, 10);
+            s = *end == ',' ? end + 1 : end;
+            if (end == s && *s) break;
+        }
+        argi += 2;
     }
     char err[512];
     sbt_table *t = reconstruct ? sbt_open_reconstructed(argv[1], 0, err, sizeof err)
+                   : sliced    ? sbt_open_slice(argv[1], entry, n_entry, err, sizeof err)
                                : sbt_open(argv[1], err, sizeof err);
     if (!t) {
         fprintf(stderr, "error: %s\n", err);

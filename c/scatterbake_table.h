@@ -36,11 +36,25 @@ sbt_table *sbt_open(const char *path, char *err, size_t err_len);
 /* Like sbt_open with another payload limit in bytes (0 = the default 4 GiB). */
 sbt_table *sbt_open_limit(const char *path, uint64_t max_payload_bytes, char *err, size_t err_len);
 /* Like sbt_open_limit, but a tensor-train table (schema fur-medulla-tt/1, e.g. the shipped
- * assets/fur-medulla/ *.sbt) is checked (ranks, dims, core offsets, sizes: docs/table-format.md
- * "Tensor-train tables") and reconstructed into the dense table it holds (its source axes and
- * channel; values bit-identical to the Rust reader's). The limit (0 = 4 GiB) also bounds the
- * reconstructed payload. Any other table opens as with sbt_open_limit. */
+ * assets/fur-medulla/ *.sbt) is checked (ranks, dims, core offsets, sizes, the memory and the
+ * multiply-adds of the reconstruction: docs/table-format.md "Tensor-train tables") and
+ * reconstructed into the dense table it holds (its source axes and channel; values
+ * bit-identical to the Rust reader's; a value that is not finite is refused). The limit
+ * (0 = 4 GiB) also bounds the reconstruction's memory (output and intermediates). Any other table opens as with sbt_open_limit. */
 sbt_table *sbt_open_reconstructed(const char *path, uint64_t max_payload_bytes, char *err, size_t err_len);
+/* Open one entry of a table: entry[0 .. n_entry) fixes the first n_entry axes at these indices
+ * (e.g. {i_radius, i_wavelength, i_elevation} of a raytrace-phase-2d table; n_entry 0 opens the
+ * whole table). The file is verified exactly as by sbt_open (every checksum over the whole
+ * payload, which streams past in fixed-size chunks) and only the entry's samples are kept, so
+ * memory is bounded by the entry, not by the table (docs/table-format.md, "Reading one entry").
+ * The table keeps every axis: a fixed axis has length 1 and holds its chosen coordinate, so
+ * sbt_sample takes one coordinate per axis as before (any value for a fixed axis). NULL on
+ * failure (a refused file, more indices than axes, an index beyond its axis naming the axis,
+ * memory exhausted), with a message in err. */
+sbt_table *sbt_open_slice(const char *path, const size_t *entry, size_t n_entry, char *err, size_t err_len);
+/* Like sbt_open_slice with another limit on the whole uncompressed payload (0 = 4 GiB). */
+sbt_table *sbt_open_slice_limit(const char *path, const size_t *entry, size_t n_entry,
+                                uint64_t max_payload_bytes, char *err, size_t err_len);
 /* Free a table (NULL is ignored). */
 void sbt_close(sbt_table *t);
 

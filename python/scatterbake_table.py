@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import hashlib
 import io
+import itertools
 import json
 import math
 import re
@@ -347,11 +348,14 @@ def _axis_coords(name: str, kind: str, pts):
     return coords
 
 
-def _check_zstd_frame(p: bytes, content_size: int) -> None:
-    """Exactly one zstd frame declaring its content size (RFC 8878; no dictionary)."""
-    if len(p) < 5 or p[:4] != _ZSTD_MAGIC:
+def _frame_rules(content_size: int):
+    """Step 6 (RFC 8878: exactly one frame declaring its content size, no dictionary) as a
+    coroutine over the payload's bytes: it yields ``(offset, n)``, the next ``n`` bytes it needs
+    and where they start, receives them, and returns the offset where the frame ends."""
+    f = yield 0, 5
+    if f[:4] != _ZSTD_MAGIC:
         raise _Bad("payload does not start with a zstd frame (magic 28 b5 2f fd)")
-    fhd = p[4]
+    fhd = f[4]
     fcs_flag, single, reserved, checksum, dict_flag = fhd >> 6, (fhd >> 5) & 1, (fhd >> 3) & 1, (fhd >> 2) & 1, fhd & 3
     if reserved:
         raise _Bad("zstd frame header has its reserved bit set")
@@ -361,30 +365,96 @@ def _check_zstd_frame(p: bytes, content_size: int) -> None:
     fcs_len = {0: 1 if single else 0, 1: 2, 2: 4, 3: 8}[fcs_flag]
     if fcs_len == 0:
         raise _Bad("zstd frame does not declare its content size")
-    if pos + fcs_len > len(p):
-        raise _Bad("the zstd frame is truncated")
-    declared = int.from_bytes(p[pos:pos + fcs_len], "little") + (256 if fcs_len == 2 else 0)
+    f = yield pos, fcs_len
+    declared = int.from_bytes(f, "little") + (256 if fcs_len == 2 else 0)
     pos += fcs_len
     if declared != content_size:
         raise _Bad(f"zstd frame declares {declared} content bytes, payload.uncompressed_bytes says {content_size}")
     while True:
-        if pos + 3 > len(p):
-            raise _Bad("the zstd frame is truncated")
-        bh = p[pos] | p[pos + 1] << 8 | p[pos + 2] << 16
+        f = yield pos, 3
+        bh = f[0] | f[1] << 8 | f[2] << 16
         pos += 3
         btype = (bh >> 1) & 3
         if btype == 3:
             raise _Bad("zstd block of reserved type")
         pos += 1 if btype == 1 else bh >> 3
-        if pos > len(p):
-            raise _Bad("the zstd frame is truncated")
         if bh & 1:
-            break
-    pos += 4 if checksum else 0
-    if pos > len(p):
-        raise _Bad("the zstd frame is truncated")
-    if pos < len(p):
-        raise _Bad(f"{len(p) - pos} bytes follow the zstd frame (the payload must be exactly one frame)")
+            return pos + (4 if checksum else 0)
+
+
+class _FrameWalker:
+    """Checks the frame structure as the compressed bytes stream past (``feed`` them in order, in
+    pieces of any size, then ``finish``), keeping a few bytes of state: the verdict and its
+    message do not depend on the pieces."""
+
+    def __init__(self, content_size: int):
+        self._rules = _frame_rules(content_size)
+        self._field = bytearray()
+        self.fed = 0
+        self.error = None
+        self.end = None
+        self._next, self._need = next(self._rules)
+
+    def feed(self, b: bytes) -> None:
+        i, n = 0, len(b)
+        while i < n and self.error is None and self.end is None:
+            if self.fed < self._next:
+                k = min(self._next - self.fed, n - i)
+                self.fed += k
+                i += k
+                continue
+            k = min(self._need - len(self._field), n - i)
+            self._field += b[i:i + k]
+            self.fed += k
+            i += k
+            if len(self._field) == self._need:
+                field, self._field = bytes(self._field), bytearray()
+                try:
+                    self._next, self._need = self._rules.send(field)
+                except StopIteration as stop:
+                    self.end = stop.value
+                except _Bad as e:
+                    self.error = str(e)
+        self.fed += n - i
+
+    def finish(self) -> None:
+        """Raise ``_Bad`` with the first broken rule once every byte has been fed."""
+        if self.error is not None:
+            raise _Bad(self.error)
+        if self.end is None and self._next == 0:
+            raise _Bad("payload does not start with a zstd frame (magic 28 b5 2f fd)")
+        if self.end is None or self.fed < self.end:
+            raise _Bad("the zstd frame is truncated")
+        if self.fed > self.end:
+            raise _Bad(f"{self.fed - self.end} bytes follow the zstd frame (the payload must be exactly one frame)")
+
+
+class _CompressedStream:
+    """The compressed payload as the decompressor pulls it from the file: every byte is hashed
+    and walked for the frame structure on its way. While ``stop_on_frame_error`` is set, a
+    broken frame rule ends the stream (the frame is refused anyway)."""
+
+    def __init__(self, f, size: int, content_size: int):
+        self._f = f
+        self.left = size
+        self.sha = hashlib.sha256()
+        self.frame = _FrameWalker(content_size)
+        self.stop_on_frame_error = True
+
+    def read(self, n: int = -1) -> bytes:
+        if self.stop_on_frame_error and self.frame.error is not None:
+            return b""
+        n = self.left if n is None or n < 0 else min(n, self.left)
+        b = self._f.read(min(n, 1 << 20)) if n else b""
+        self.left -= len(b)
+        self.sha.update(b)
+        self.frame.feed(b)
+        return b
+
+    def drain(self) -> None:
+        self.stop_on_frame_error = False
+        while self.read(_CHUNK):
+            pass
 
 
 def _read_exact(f, n: int) -> bytes:
@@ -399,7 +469,7 @@ def _read_exact(f, n: int) -> bytes:
     return b"".join(parts)
 
 
-def _read_table(f, name: str, file_len, max_payload_bytes: int) -> Table:
+def _read_table(f, name: str, file_len, max_payload_bytes: int, entry=None) -> Table:
     magic = f.read(8)
     if len(magic) < 8 or magic != MAGIC:
         raise TableError(f"{name}: not a scatterbake table (bad magic bytes {magic.hex()})")
@@ -427,7 +497,50 @@ def _read_table(f, name: str, file_len, max_payload_bytes: int) -> Table:
         header, axes, channels, shape, cbytes, ubytes = _parse_header(header_bytes, major, minor, max_payload_bytes)
     except _Bad as e:
         raise TableError(f"{name}: header is not valid: {e}") from None
-    start = PREAMBLE + hlen
+    if entry is None:
+        first, count = 0, ubytes // 4
+    else:
+        try:
+            first, count = _entry_values(axes, len(channels), entry)
+        except _Bad as e:
+            raise TableError(f"{name}: cannot open the entry: {e}") from None
+    raw = _read_payload(f, name, file_len, header["payload"], PREAMBLE + hlen, cbytes, ubytes, 4 * first, 4 * count)
+    try:
+        axes = [Axis(an, unit, _axis_coords(an, kind, pts)) for (an, unit, kind, pts) in axes]
+    except _Bad as e:
+        raise TableError(f"{name}: header is not valid: {e}") from None
+    if entry is not None:
+        axes = [Axis(a.name, a.unit, a.coords[i:i + 1].copy()) for a, i in zip(axes, entry)] + axes[len(entry):]
+        shape = tuple(len(a.coords) for a in axes) + (len(channels),)
+    data = np.frombuffer(raw, dtype="<f4").reshape(shape)
+    data.flags.writeable = False
+    return Table(header=header, axes=axes, channels=channels, data=data, format_version=(major, minor))
+
+
+def _entry_values(axes, n_channels: int, entry) -> tuple:
+    """The values ``(first, count)`` of the row-major payload that ``entry`` (indices of the
+    leading axes) selects; errors name the axis, as the Rust reader's."""
+    lens = [len(a[3]) if a[2] == "values" else a[3][2] for a in axes]
+    if len(entry) > len(axes):
+        names = ", ".join(a[0] for a in axes)
+        raise _Bad(f"{len(entry)} indices {list(entry)}, more than the table's axes ({names})")
+    first = 0
+    for a, n, i in zip(axes, lens, entry):
+        if isinstance(i, bool) or not isinstance(i, int) or not 0 <= i < n:
+            raise _Bad(f"index {i} of axis `{a[0]}` is out of range (the axis has {n} samples, indices 0 to {n - 1})")
+        first = first * n + i
+    count = n_channels
+    for n in lens[len(entry):]:
+        count *= n
+    return first * count, count
+
+
+def _read_payload(f, name: str, file_len, payload: dict, start: int, cbytes: int, ubytes: int, lo: int, hi_len: int) -> bytearray:
+    """Steps 5-7 in one pass over the file: the compressed bytes stream through their SHA-256
+    and the frame check into the decompressor, the decompressed bytes through their SHA-256, and
+    only the bytes [lo, lo + hi_len) stay in memory. The compressed bytes the decompressor
+    leaves are still read and hashed, so a file breaking several rules is refused by the first
+    in the document's order."""
     end = start + cbytes
     if end >= _U64:
         raise TableError(f"{name}: header is not valid: payload.compressed_bytes {cbytes} overflows the file size")
@@ -436,50 +549,58 @@ def _read_table(f, name: str, file_len, max_payload_bytes: int) -> Table:
             raise TableError(f"{name}: file truncated: payload needs {cbytes} bytes, {file_len - start} present")
         if file_len > end:
             raise TableError(f"{name}: {file_len - end} unexpected bytes after the payload")
-    compressed = _read_exact(f, cbytes)
-    if len(compressed) < cbytes:
-        raise TableError(f"{name}: file truncated: payload needs {cbytes} bytes, {len(compressed)} present")
+    stream = _CompressedStream(f, cbytes, ubytes)
+    kept, sha_u, failure = _decompress(stream, ubytes, lo, lo + hi_len)
+    stream.drain()
+    if stream.left:
+        raise TableError(f"{name}: file truncated: payload needs {cbytes} bytes, {cbytes - stream.left} present")
     if file_len is None:
         extra = len(f.read(1 << 20))
         if extra:
             raise TableError(f"{name}: {extra} unexpected bytes after the payload")
-    payload = header["payload"]
-    if hashlib.sha256(compressed).hexdigest() != payload["sha256_compressed"]:
+    if stream.sha.hexdigest() != payload["sha256_compressed"]:
         raise TableError(f"{name}: payload compressed checksum mismatch (file is corrupt)")
     try:
-        _check_zstd_frame(compressed, ubytes)
+        stream.frame.finish()
     except _Bad as e:
         raise TableError(f"{name}: payload cannot be decompressed: {e}") from None
-    raw = bytearray()
+    if failure is not None:
+        raise TableError(f"{name}: payload cannot be decompressed: {failure}")
+    if sha_u != payload["sha256_uncompressed"]:
+        raise TableError(f"{name}: payload uncompressed checksum mismatch (file is corrupt)")
+    return kept
+
+
+def _decompress(stream, ubytes: int, lo: int, hi: int):
+    """Decompress the frame in chunks of at most 64 KiB, checking its size, hashing every byte
+    and keeping the bytes [lo, hi). Returns (kept bytes, SHA-256 hex, the step-7 failure or
+    None)."""
+    kept = bytearray()
     h = hashlib.sha256()
+    got = 0
     try:
-        with zstandard.ZstdDecompressor().stream_reader(io.BytesIO(compressed), read_across_frames=False) as r:
+        with zstandard.ZstdDecompressor().stream_reader(stream, read_size=_CHUNK, read_across_frames=False) as r:
             while True:
-                want = min(ubytes - len(raw), _CHUNK) or 1
-                b = r.read(want)
-                if len(raw) == ubytes:
+                b = r.read(min(ubytes - got, _CHUNK) or 1)
+                if got == ubytes:
                     if b:
-                        raise TableError(f"{name}: payload cannot be decompressed: payload decompresses to more than the {ubytes} bytes the header says")
+                        return kept, None, f"payload decompresses to more than the {ubytes} bytes the header says"
                     break
                 if not b:
-                    raise TableError(f"{name}: payload cannot be decompressed: payload decompresses to {len(raw)} bytes, header says {ubytes}")
+                    return kept, None, f"payload decompresses to {got} bytes, header says {ubytes}"
                 h.update(b)
-                raw += b
+                a, c = max(got, lo), min(got + len(b), hi)
+                if a < c:
+                    kept += b[a - got:c - got]
+                got += len(b)
     except zstandard.ZstdError as e:
-        raise TableError(f"{name}: payload cannot be decompressed: {e}") from None
-    if h.hexdigest() != payload["sha256_uncompressed"]:
-        raise TableError(f"{name}: payload uncompressed checksum mismatch (file is corrupt)")
-    try:
-        axes = [Axis(an, unit, _axis_coords(an, kind, pts)) for (an, unit, kind, pts) in axes]
-    except _Bad as e:
-        raise TableError(f"{name}: header is not valid: {e}") from None
-    data = np.frombuffer(bytes(raw), dtype="<f4").reshape(shape)
-    return Table(header=header, axes=axes, channels=channels, data=data, format_version=(major, minor))
+        return kept, None, str(e)
+    return kept, h.hexdigest(), None
 
 
-def read_table_bytes(buf: bytes, name: str = "<bytes>", max_payload_bytes: int = DEFAULT_MAX_PAYLOAD_BYTES) -> Table:
-    """Parse and fully verify a table held in memory."""
-    return _read_table(io.BytesIO(buf), name, len(buf), max_payload_bytes)
+def read_table_bytes(buf: bytes, name: str = "<bytes>", max_payload_bytes: int = DEFAULT_MAX_PAYLOAD_BYTES, entry=None) -> Table:
+    """Parse and fully verify a table held in memory (``entry`` as in ``open_table``)."""
+    return _read_table(io.BytesIO(buf), name, len(buf), max_payload_bytes, None if entry is None else list(entry))
 
 
 #: Schema of tensor-train tables (docs/table-format.md, "Tensor-train tables").
@@ -503,21 +624,53 @@ def _tt_uint_list(at: dict, key: str) -> list:
     return out
 
 
-def _tt_contract(cores, dims, ranks, first=None) -> np.ndarray:
+def _tt_contract(cores, dims, ranks, prefix=()) -> np.ndarray:
     """Left-to-right contraction in the order docs/table-format.md specifies (f64, multiply
-    then add, a = 0 .. r-1 in order), optionally for one index ``first`` of the first mode."""
+    then add, a = 0 .. r-1 in order), for the indices ``prefix`` of the first modes (the block
+    of the dense table they fix)."""
     m = np.ones((1, 1), dtype=np.float64)
     for k, core in enumerate(cores):
         r0, n, r1 = ranks[k], dims[k], ranks[k + 1]
         c = core.reshape(r0, n, r1)
-        if k == 0 and first is not None:
-            c = c[:, first:first + 1, :]
+        if k < len(prefix):
+            c = c[:, prefix[k]:prefix[k] + 1, :]
             n = 1
         nxt = np.zeros((m.shape[0], n, r1), dtype=np.float64)
         for a in range(r0):
             nxt += m[:, a][:, None, None] * c[a][None, :, :]
         m = nxt.reshape(-1, r1)
     return m[:, 0]
+
+
+#: Largest number of multiply-adds a reconstruction may take (docs/table-format.md, decision TF-2).
+TT_MAX_MULTIPLY_ADDS = 1 << 34
+_TT_BLOCK_BYTES = 8 << 20
+
+
+def _tt_cost(dims, ranks) -> tuple:
+    """``(fixed, bytes, multiply_adds)`` of the reconstruction, as the Rust reader's
+    ``reconstruction_cost``: blocks fix the first ``fixed`` modes (the fewest whose blocks keep
+    two consecutive f64 intermediates within 8 MiB, else all but the last); ``bytes`` counts the
+    f32 values, the f64 cores and a block's two largest consecutive intermediates. Both saturate
+    at 2**64 - 1 like the Rust reader's."""
+    d = len(dims)
+    top = _U64 - 1
+
+    def block(fixed):
+        blocks = math.prod(dims[:fixed])
+        work = sum(ranks[k] * ranks[k + 1] for k in range(fixed))
+        peak = max([1] + [ranks[k] + ranks[k + 1] for k in range(fixed)])
+        rows = 1
+        for k in range(fixed, d):
+            work += rows * ranks[k] * dims[k] * ranks[k + 1]
+            peak = max(peak, rows * ranks[k] + rows * dims[k] * ranks[k + 1])
+            rows *= dims[k]
+        return 8 * peak, blocks * work
+
+    fixed = next((f for f in range(d) if block(f)[0] <= _TT_BLOCK_BYTES), d - 1)
+    peak, work = block(fixed)
+    cores = sum(ranks[k] * dims[k] * ranks[k + 1] for k in range(d))
+    return fixed, min(4 * math.prod(dims) + 8 * cores + peak, top), min(work, top)
 
 
 def reconstruct_tensor_train(t: Table, name: str = "<table>", max_payload_bytes: int = DEFAULT_MAX_PAYLOAD_BYTES) -> Table:
@@ -529,6 +682,8 @@ def reconstruct_tensor_train(t: Table, name: str = "<table>", max_payload_bytes:
         return _reconstruct(t, max_payload_bytes)
     except _Bad as e:
         raise TableError(f"{name}: tensor-train table is not valid: {e}") from None
+    except MemoryError:
+        raise TableError(f"{name}: out of memory reconstructing the tensor train") from None
 
 
 def _reconstruct(t: Table, max_payload_bytes: int) -> Table:
@@ -564,6 +719,11 @@ def _reconstruct(t: Table, max_payload_bytes: int) -> Table:
             raise _Bad(f"inconsistent ranks: ranks[{k}] is 0")
         if ranks[k + 1] > ranks[k] * dims[k] or ranks[k] > dims[k] * ranks[k + 1]:
             raise _Bad(f"inconsistent ranks/dims: core {k} is {ranks[k]} x {dims[k]} x {ranks[k + 1]}, a rank exceeds its unfolding")
+    fixed, need, work = _tt_cost(dims, ranks)
+    if need > max_payload_bytes:
+        raise _Bad(f"the reconstruction needs {need} bytes (f32 values, f64 cores and intermediates), more than the reader's limit of {max_payload_bytes} bytes")
+    if work > TT_MAX_MULTIPLY_ADDS:
+        raise _Bad(f"the reconstruction takes {work} multiply-adds, more than the limit of {TT_MAX_MULTIPLY_ADDS} (dims {dims}, ranks {ranks})")
     values = t.data.reshape(-1)
     nv = values.shape[0]
     if offsets[0] != 0 or offsets[d] != nv:
@@ -623,12 +783,17 @@ def _reconstruct(t: Table, max_payload_bytes: int) -> Table:
     if not isinstance(src_attrs, dict):
         raise _Bad("attribute `source_attributes` is not an object")
     out = np.empty(total, dtype=np.float32)
-    block = total // dims[0]
-    for i in range(dims[0]):
-        v = _tt_contract(cores, dims, ranks, first=i)
-        if log_floor is not None:
-            v = np.exp(v)
-        out[i * block:(i + 1) * block] = v.astype(np.float32)
+    size = math.prod(dims[fixed:])
+    for b, prefix in enumerate(itertools.product(*(range(n) for n in dims[:fixed]))):
+        v = _tt_contract(cores, dims, ranks, prefix)
+        with np.errstate(over="ignore"):
+            if log_floor is not None:
+                v = np.exp(v)
+            v = v.astype(np.float32)
+        bad = np.flatnonzero(~np.isfinite(v))
+        if bad.size:
+            raise _Bad(f"reconstructed value {b * size + int(bad[0])} is not finite (after exp and rounding to f32)")
+        out[b * size:(b + 1) * size] = v
     attributes = dict(src_attrs)
     for k in ("rel_frobenius_error", "max_abs_error", "max_abs_error_rel_to_max", "ranks", "rel_tol", "reconstruction_error"):
         if k in at:
@@ -645,17 +810,27 @@ def _reconstruct(t: Table, max_payload_bytes: int) -> Table:
     return Table(header=header, axes=axes, channels=[channel], data=out.reshape(tuple(dims) + (1,)), format_version=t.format_version)
 
 
-def open_table(path, max_payload_bytes: int = DEFAULT_MAX_PAYLOAD_BYTES, reconstruct: bool = True) -> Table:
+def open_table(path, max_payload_bytes: int = DEFAULT_MAX_PAYLOAD_BYTES, reconstruct: bool = True, entry=None) -> Table:
     """Open and fully verify a ``.sbt`` file, streaming it (memory bounded by the data present
     and by ``max_payload_bytes``). A tensor-train table (``fur-medulla-tt/1``) is checked and
-    reconstructed into the dense table it holds unless ``reconstruct=False``."""
-    t = _open_raw(path, max_payload_bytes)
+    reconstructed into the dense table it holds unless ``reconstruct=False``.
+
+    ``entry`` (a sequence of indices of the leading axes, e.g. ``(i_radius, i_wavelength,
+    i_elevation)``) keeps only that entry: the file is verified as a whole (every checksum, the
+    limit on the whole payload) while it streams past, and memory is bounded by the entry
+    (docs/table-format.md, "Reading one entry"). ``t.axes`` keeps every axis, a fixed one with
+    its chosen coordinate alone, and ``t.data`` has length 1 on it; ``t.header`` is the file's
+    header. A tensor-train table is reconstructed whole only: with ``entry`` it is refused unless
+    ``reconstruct=False``."""
+    t = _open_raw(path, max_payload_bytes, entry)
     if reconstruct and t.header["schema"]["name"] == TT_SCHEMA:
+        if entry is not None:
+            raise TableError(f"{path}: cannot open the entry: a tensor-train table is reconstructed whole (open it without an entry, or with reconstruct=False)")
         return reconstruct_tensor_train(t, str(path), max_payload_bytes)
     return t
 
 
-def _open_raw(path, max_payload_bytes: int) -> Table:
+def _open_raw(path, max_payload_bytes: int, entry=None) -> Table:
     import os
     import stat
 
@@ -663,7 +838,7 @@ def _open_raw(path, max_payload_bytes: int) -> Table:
         with open(path, "rb") as f:
             st = os.fstat(f.fileno())
             file_len = st.st_size if stat.S_ISREG(st.st_mode) else None
-            return _read_table(f, str(path), file_len, max_payload_bytes)
+            return _read_table(f, str(path), file_len, max_payload_bytes, None if entry is None else list(entry))
     except OSError as e:
         raise TableError(f"{path}: {e.strerror or e}") from None
     except MemoryError:

@@ -1,10 +1,11 @@
 """Test driver for scatterbake_table.py, run by tests/python_reader.rs:
 
-    python3 python/test_reader.py TABLE.sbt DUMP.bin [COORD ...]
+    python3 python/test_reader.py TABLE.sbt DUMP.bin [--entry I,J,...] [COORD ...]
 
 Prints one JSON object (format version, axes with coordinates, channels, shape, the sample at
 COORDs; floats as IEEE-754 f64 bit patterns) and writes the payload as raw float32 little-endian to DUMP.bin, so the Rust side can
-compare bit for bit. Exit code 3 with the message on stderr when the table is rejected.
+compare bit for bit. With ``--entry`` only that entry is opened (``open_table(entry=...)``).
+Exit code 3 with the message on stderr when the table is rejected.
 """
 
 import json
@@ -14,6 +15,7 @@ import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 try:
+    import numpy as np  # noqa: E402
     import scatterbake_table as sbt  # noqa: E402
 except ImportError as e:
     print(f"missing Python module {e.name!r}: python3 -m pip install numpy zstandard", file=sys.stderr)
@@ -26,13 +28,19 @@ def bits(x) -> int:
 
 def main() -> int:
     path, dump = sys.argv[1], sys.argv[2]
-    coords = [float(x) for x in sys.argv[3:]]
+    rest = sys.argv[3:]
+    entry = None
+    if rest[:1] == ["--entry"]:
+        entry = [int(i) for i in rest[1].split(",") if i]
+        rest = rest[2:]
+    coords = [float(x) for x in rest]
     try:
-        t = sbt.open_table(path)
+        t = sbt.open_table(path, entry=entry)
     except sbt.TableError as e:
         print(str(e), file=sys.stderr)
         return 3
-    t.data.astype("<f4").tofile(dump)
+    # No copy when the samples are float32 little-endian already.
+    np.asarray(t.data, dtype="<f4").tofile(dump)
     out = {
         "format_version": list(t.format_version),
         # f64 values as their IEEE bit patterns (u64) so JSON cannot round them.

@@ -7,41 +7,8 @@
 mod common;
 
 use scatterbake::table::Table;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
-
-/// Build the cdylib crate `scatterbake-capi` and return the directory holding
-/// libscatterbake_table.{so,dylib}. Uses the cargo that runs this test, the same target
-/// directory and the `test` profile. capi depends on the format crate `scatterbake-table` alone,
-/// so only that crate's few dependencies are built for it (a no-op when up to date); building
-/// the library and its test targets as well is not needed.
-fn lib_dir() -> PathBuf {
-    let exe = std::env::current_exe().unwrap();
-    // target/<profile dir>/deps/<test exe> -> target/<profile dir>
-    let profile_dir = exe.parent().unwrap().parent().unwrap().to_path_buf();
-    let target_dir = profile_dir.parent().unwrap();
-    let out = Command::new(env!("CARGO"))
-        .args([
-            "build",
-            "-p",
-            "scatterbake-capi",
-            "--profile",
-            "test",
-            "--lib",
-            "--quiet",
-        ])
-        .arg("--manifest-path")
-        .arg(Path::new(env!("CARGO_MANIFEST_DIR")).join("Cargo.toml"))
-        .env("CARGO_TARGET_DIR", target_dir)
-        .output()
-        .expect("cargo runs");
-    assert!(
-        out.status.success(),
-        "building the cdylib failed: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    profile_dir
-}
 
 fn parse_hex_float(s: &str) -> f64 {
     // C99 %a output, e.g. 0x1.8p+1, -0x0p+0.
@@ -57,39 +24,6 @@ fn parse_hex_float(s: &str) -> f64 {
     }
     let v = v * 2f64.powi(exp.parse().unwrap());
     if neg { -v } else { v }
-}
-
-/// Compile `c/example.c` against the cdylib into `dir`; returns the executable.
-fn example_exe(dir: &Path) -> PathBuf {
-    let libdir = lib_dir();
-    assert!(
-        libdir.join("libscatterbake_table.so").exists()
-            || libdir.join("libscatterbake_table.dylib").exists(),
-        "cdylib not found in {}",
-        libdir.display()
-    );
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let exe = dir.join("sbt-example");
-    let cc = Command::new("cc")
-        .args(["-std=c99", "-Wall", "-Wextra", "-Werror", "-I"])
-        .arg(root.join("c"))
-        .arg(root.join("c/example.c"))
-        .arg("-L")
-        .arg(&libdir)
-        .arg("-lscatterbake_table")
-        .arg(format!("-Wl,-rpath,{}", libdir.display()))
-        .arg("-o")
-        .arg(&exe)
-        .output()
-        .unwrap_or_else(|e| {
-            panic!("the C reader tests need a C compiler `cc` on PATH (running it failed: {e})")
-        });
-    assert!(
-        cc.status.success(),
-        "cc failed: {}",
-        String::from_utf8_lossy(&cc.stderr)
-    );
-    exe
 }
 
 /// The values of the `sample` lines printed by `c/example.c` (C99 `%a`).
@@ -112,6 +46,46 @@ fn printed_samples(stdout: &str) -> Vec<f64> {
             }
         })
         .collect()
+}
+
+/// Run `c/example.c` on `table` with `mode` (`--reconstruct`, `--entry I,J`, or nothing),
+/// dumping the samples and looking up `coords`; checks that it succeeds and dumps exactly
+/// `want`'s samples, and returns the printed lookup with the coordinates parsed back from the
+/// decimal text it was given.
+fn run_checked(
+    exe: &Path,
+    table: &Path,
+    mode: &[&str],
+    coords: &[f64],
+    want: &Table,
+) -> (Vec<f64>, Vec<f64>) {
+    let dump = table.with_extension("dump.bin");
+    let out = Command::new(exe)
+        .arg(table)
+        .args(mode)
+        .arg("--dump")
+        .arg(&dump)
+        .args(coords.iter().map(|c| format!("{c:e}")))
+        .output()
+        .unwrap();
+    let what = format!("{} {mode:?}", table.display());
+    assert!(
+        out.status.success(),
+        "{what}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(
+        std::fs::read(&dump).unwrap() == common::raw_bytes(want),
+        "{what}: the samples differ from the Rust reader's"
+    );
+    let parsed = coords
+        .iter()
+        .map(|c| format!("{c:e}").parse().unwrap())
+        .collect();
+    (
+        parsed,
+        printed_samples(&String::from_utf8_lossy(&out.stdout)),
+    )
 }
 
 /// An interior lookup point: between the first two samples of every axis.
@@ -139,7 +113,7 @@ fn same_bits(want: &[f64], got: &[f64]) -> bool {
 #[test]
 fn c_reader_is_bit_exact_and_verifies() {
     let dir = tempfile::tempdir().unwrap();
-    let exe = example_exe(dir.path());
+    let exe = common::c::example_exe(dir.path());
     for p in common::tables(dir.path()) {
         let t = Table::open(&p).unwrap();
         let coords = interior_point(&t);
@@ -211,7 +185,7 @@ fn c_reader_is_bit_exact_and_verifies() {
 #[test]
 fn c_reader_reads_newer_minor_and_refuses_newer_major() {
     let dir = tempfile::tempdir().unwrap();
-    let exe = example_exe(dir.path());
+    let exe = common::c::example_exe(dir.path());
     let paths = common::synthetic_tables(dir.path());
     for p in &paths {
         let t = Table::open(p).unwrap();
@@ -263,7 +237,7 @@ fn c_reader_reads_newer_minor_and_refuses_newer_major() {
 #[test]
 fn c_reader_crafted_corpus() {
     let dir = tempfile::tempdir().unwrap();
-    let exe = example_exe(dir.path());
+    let exe = common::c::example_exe(dir.path());
     let mut wrong = Vec::new();
     for case in common::crafted::cases() {
         let p = dir.path().join(format!("{}.sbt", case.name));
@@ -294,7 +268,7 @@ fn c_reader_crafted_corpus() {
 fn c_reader_reconstructs_tensor_trains() {
     use scatterbake::table::ReadLimits;
     let dir = tempfile::tempdir().unwrap();
-    let exe = example_exe(dir.path());
+    let exe = common::c::example_exe(dir.path());
     let mut wrong = Vec::new();
     for (case, fragment) in common::crafted::tensor_train_cases() {
         let p = dir.path().join(format!("{}.sbt", case.name));
@@ -326,31 +300,48 @@ fn c_reader_reconstructs_tensor_trains() {
     for file in scatterbake::fur::assets::ASSET_FILES {
         let p = root.join("assets/fur-medulla").join(file);
         let t = Table::open_reconstructed(&p, &ReadLimits::default()).unwrap();
-        let coords = interior_point(&t);
-        let dump = dir.path().join("dump.bin");
-        let out = Command::new(&exe)
-            .arg(&p)
-            .arg("--reconstruct")
-            .arg("--dump")
-            .arg(&dump)
-            .args(coords.iter().map(|c| format!("{c:e}")))
-            .output()
-            .unwrap();
-        assert!(
-            out.status.success(),
-            "{file}: {}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-        assert!(
-            std::fs::read(&dump).unwrap() == common::raw_bytes(&t),
-            "{file}: reconstructed values differ from the Rust reader's"
-        );
-        let parsed: Vec<f64> = coords
-            .iter()
-            .map(|c| format!("{c:e}").parse().unwrap())
-            .collect();
+        let copy = dir.path().join(file);
+        std::fs::copy(&p, &copy).unwrap();
+        let (parsed, got) = run_checked(&exe, &copy, &["--reconstruct"], &interior_point(&t), &t);
         let want = t.sample(&parsed).unwrap();
-        let got = printed_samples(&String::from_utf8_lossy(&out.stdout));
         assert!(same_bits(&want, &got), "{file}: sample {want:?} vs {got:?}");
     }
+}
+
+/// One entry through `sbt_open_slice` (`c/example.c --entry`): the samples are the Rust entry
+/// reader's bit for bit and the lookups at the fixed coordinates equal the whole table's; a bad
+/// index is refused naming the axis; the crafted corpus is accepted and refused as by
+/// `sbt_open`, with the same message.
+#[test]
+fn c_reader_opens_one_entry() {
+    use scatterbake::table::ReadLimits;
+    let dir = tempfile::tempdir().unwrap();
+    let exe = common::c::example_exe(dir.path());
+    let p = common::entries::entries_table(dir.path());
+    let whole = Table::open(&p).unwrap();
+    for entry in common::entries::entries() {
+        let t = Table::open_slice(&p, &entry, &ReadLimits::default()).unwrap();
+        let coords = common::entries::lookup_point(&whole, &entry);
+        let list: Vec<String> = entry.iter().map(usize::to_string).collect();
+        let (parsed, got) = run_checked(&exe, &p, &["--entry", &list.join(",")], &coords, &t);
+        let want = whole.sample(&parsed).unwrap();
+        assert!(same_bits(&want, &got), "{entry:?}: {want:?} vs {got:?}");
+    }
+    let out = Command::new(&exe)
+        .arg(&p)
+        .args(["--entry", "1,3"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(3));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("index 3 of axis `wavelength`"), "{err}");
+    let wrong = common::entries::crafted_entry_mismatches(dir.path(), |p, entry| {
+        let mut cmd = Command::new(&exe);
+        cmd.arg(p);
+        if entry {
+            cmd.args(["--entry", "0"]);
+        }
+        cmd.output().unwrap()
+    });
+    assert!(wrong.is_empty(), "{}", wrong.join("\n"));
 }

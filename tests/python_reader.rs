@@ -28,12 +28,24 @@ fn skip_or_require_python() -> bool {
 }
 
 fn run(table: &Path, dump: &Path, coords: &[f64]) -> std::process::Output {
+    run_entry(table, dump, None, coords)
+}
+
+/// `python/test_reader.py` on `table`, opening only `entry` when given.
+fn run_entry(
+    table: &Path,
+    dump: &Path,
+    entry: Option<&[usize]>,
+    coords: &[f64],
+) -> std::process::Output {
     let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("python/test_reader.py");
-    Command::new(common::python::python())
-        .arg(script)
-        .arg(table)
-        .arg(dump)
-        .args(coords.iter().map(|c| c.to_string()))
+    let mut cmd = Command::new(common::python::python());
+    cmd.arg(script).arg(table).arg(dump);
+    if let Some(entry) = entry {
+        let list: Vec<String> = entry.iter().map(usize::to_string).collect();
+        cmd.args(["--entry", &list.join(",")]);
+    }
+    cmd.args(coords.iter().map(|c| c.to_string()))
         .output()
         .expect("the tests' Python runs")
 }
@@ -302,4 +314,67 @@ fn python_reader_reconstructs_tensor_trains() {
             p.display()
         );
     }
+}
+
+/// A JSON array of unsigned integers (bit patterns printed by `python/test_reader.py`).
+fn u64s(v: &serde_json::Value) -> Vec<u64> {
+    v.as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_u64().unwrap())
+        .collect()
+}
+
+/// One entry through the pure-Python reader (`open_table(entry=...)`): the samples are the
+/// Rust entry reader's bit for bit, every axis stays (a fixed one at its chosen coordinate) and
+/// the lookups at the fixed coordinates agree with the whole table's; a bad index is refused
+/// naming the axis; the crafted corpus is accepted and refused as by the whole-table reader,
+/// with the same message.
+#[test]
+fn python_reader_opens_one_entry() {
+    use scatterbake::table::ReadLimits;
+    if skip_or_require_python() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let p = common::entries::entries_table(dir.path());
+    let whole = Table::open(&p).unwrap();
+    let dump = dir.path().join("dump.bin");
+    for entry in common::entries::entries() {
+        let t = Table::open_slice(&p, &entry, &ReadLimits::default()).unwrap();
+        let coords = common::entries::lookup_point(&whole, &entry);
+        let out = run_entry(&p, &dump, Some(&entry), &coords);
+        assert!(
+            out.status.success(),
+            "{entry:?}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        assert!(
+            std::fs::read(&dump).unwrap() == common::raw_bytes(&t),
+            "{entry:?}: samples differ"
+        );
+        let j: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        let shape: Vec<usize> = t.header.layout.shape.clone();
+        assert_eq!(j["shape"], serde_json::json!(shape), "{entry:?}");
+        for (a, ja) in t.axes().iter().zip(j["axes"].as_array().unwrap()) {
+            let want: Vec<u64> = a.coords().iter().map(|x| x.to_bits()).collect();
+            assert_eq!(u64s(&ja["coords_bits"]), want, "{entry:?}: axis {}", a.name);
+        }
+        let want = whole.sample(&coords).unwrap();
+        let got = u64s(&j["sample_bits"]).into_iter().map(f64::from_bits);
+        for (w, g) in want.iter().zip(got) {
+            assert!(
+                (w.is_nan() && g.is_nan()) || (w - g).abs() <= 1e-12 * w.abs().max(1e-30),
+                "{entry:?}: sample {w} vs {g}"
+            );
+        }
+    }
+    let out = run_entry(&p, &dump, Some(&[1, 3]), &[]);
+    assert_eq!(out.status.code(), Some(3));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("index 3 of axis `wavelength`"), "{err}");
+    let wrong = common::entries::crafted_entry_mismatches(dir.path(), |p, entry| {
+        run_entry(p, &dump, entry.then_some(&[0][..]), &[])
+    });
+    assert!(wrong.is_empty(), "{}", wrong.join("\n"));
 }

@@ -209,3 +209,146 @@ fn tensor_train_tables_reconstruct_or_are_refused() {
     }
     assert!(wrong.is_empty(), "{}", wrong.join("\n"));
 }
+
+/// Bit patterns of lookups (NaN kept as its bits).
+fn bits64(v: &[f64]) -> Vec<u64> {
+    v.iter().map(|x| x.to_bits()).collect()
+}
+
+/// One entry opened alone (`Table::open_slice`, `Table::from_bytes_slice`) holds exactly that
+/// entry's samples of the whole table, bit for bit; every axis stays, a fixed one holding its
+/// chosen coordinate (and label) alone; lookups equal the whole table's at the fixed
+/// coordinates, bit for bit.
+#[test]
+fn one_entry_reads_bit_for_bit() {
+    use scatterbake::table::ReadLimits;
+    let dir = tempfile::tempdir().unwrap();
+    let p = common::entries::entries_table(dir.path());
+    let bytes = std::fs::read(&p).unwrap();
+    let whole = Table::open(&p).unwrap();
+    let shape = whole.grid_shape();
+    let nc = whole.header.channels.len();
+    for entry in common::entries::entries() {
+        let t = Table::open_slice(&p, &entry, &ReadLimits::default()).unwrap();
+        let count = shape[entry.len()..].iter().product::<usize>() * nc;
+        let first = entry
+            .iter()
+            .zip(&shape)
+            .fold(0, |acc, (&i, &n)| acc * n + i)
+            * count;
+        let bits = |d: &[f32]| d.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+        assert_eq!(
+            bits(&t.data),
+            bits(&whole.data[first..first + count]),
+            "{entry:?}"
+        );
+        let from_bytes =
+            Table::from_bytes_slice(&bytes, &p, &entry, &ReadLimits::default()).unwrap();
+        assert_eq!(bits(&from_bytes.data), bits(&t.data), "{entry:?}");
+        assert_eq!(from_bytes.header, t.header);
+        assert_eq!(t.header.payload, whole.header.payload);
+        assert_eq!(t.header.layout.axis_order, whole.header.layout.axis_order);
+        assert_eq!(t.axes().len(), whole.axes().len());
+        let mut expect_shape = shape.clone();
+        for (k, (a, b)) in t.axes().iter().zip(whole.axes()).enumerate() {
+            assert_eq!((&a.name, &a.unit), (&b.name, &b.unit));
+            if let Some(&i) = entry.get(k) {
+                assert_eq!(a.len(), 1, "{entry:?} axis {}", a.name);
+                assert_eq!(a.coord(0).to_bits(), b.coord(i).to_bits());
+                assert_eq!(a.label(0), b.label(i));
+                expect_shape[k] = 1;
+            } else {
+                assert_eq!(a, b);
+            }
+        }
+        assert_eq!(t.grid_shape(), expect_shape);
+        let coords = common::entries::lookup_point(&whole, &entry);
+        assert_eq!(
+            bits64(&t.sample(&coords).unwrap()),
+            bits64(&whole.sample(&coords).unwrap()),
+            "{entry:?} at {coords:?}"
+        );
+    }
+}
+
+/// A bad entry is refused before the payload is read, with an error naming the axis.
+#[test]
+fn bad_entry_is_refused_naming_the_axis() {
+    use scatterbake::table::ReadLimits;
+    let dir = tempfile::tempdir().unwrap();
+    let p = common::entries::entries_table(dir.path());
+    let limits = ReadLimits::default();
+    for (entry, words) in [
+        (vec![2], vec!["index 2 of axis `radius`", "2 samples"]),
+        (
+            vec![0, 3],
+            vec!["index 3 of axis `wavelength`", "indices 0 to 2"],
+        ),
+        (vec![1, 2, 2], vec!["axis `sun_elevation`"]),
+        (vec![0, 0, 0, 7], vec!["axis `outgoing_polar`"]),
+        (
+            vec![0; 6],
+            vec![
+                "6 indices",
+                "more than the table's axes",
+                "radius, wavelength, sun_elevation, outgoing_polar, outgoing_azimuth",
+            ],
+        ),
+    ] {
+        let e = Table::open_slice(&p, &entry, &limits).unwrap_err();
+        assert!(matches!(e, TableError::Entry { .. }), "{e}");
+        let m = e.to_string();
+        assert!(m.starts_with(&p.display().to_string()), "{m}");
+        for w in words {
+            assert!(m.contains(w), "{entry:?}: {m} lacks {w}");
+        }
+    }
+}
+
+/// The entry reader accepts and refuses the crafted corpus exactly as the whole-table reader,
+/// with the same message (every rule applies to the whole file), and an accepted file's first
+/// entry is the whole table's first entry; the payload limit bounds the whole payload for an
+/// entry too.
+#[test]
+fn crafted_corpus_through_the_entry_reader() {
+    use scatterbake::table::ReadLimits;
+    let limits = ReadLimits::default();
+    let mut wrong = Vec::new();
+    for case in common::crafted::cases() {
+        let path = Path::new(case.name);
+        let whole = Table::from_bytes(&case.bytes, path);
+        let first = Table::from_bytes_slice(&case.bytes, path, &[0], &limits);
+        match (&whole, &first) {
+            (Ok(w), Ok(f)) => {
+                let n = f.data.len();
+                let bits = |d: &[f32]| d.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+                if bits(&w.data[..n]) != bits(&f.data) || w.data.len() % n != 0 {
+                    wrong.push(format!("{}: the first entry differs", case.name));
+                }
+            }
+            (Err(a), Err(b)) if a.to_string() == b.to_string() => {}
+            _ => wrong.push(format!(
+                "{}: whole {:?}, entry {:?}",
+                case.name,
+                whole.as_ref().map(|_| ()).map_err(|e| e.to_string()),
+                first.as_ref().map(|_| ()).map_err(|e| e.to_string())
+            )),
+        }
+    }
+    assert!(wrong.is_empty(), "{}", wrong.join("\n"));
+    let dir = tempfile::tempdir().unwrap();
+    let p = common::entries::entries_table(dir.path());
+    let payload = scatterbake::table::read_header_only(&p)
+        .unwrap()
+        .payload
+        .uncompressed_bytes;
+    let small = ReadLimits {
+        max_payload_bytes: payload - 4,
+    };
+    let e = Table::open_slice(&p, &[0, 0, 0], &small).unwrap_err();
+    assert!(e.to_string().contains("exceeds the reader limit"), "{e}");
+    let exact = ReadLimits {
+        max_payload_bytes: payload,
+    };
+    assert!(Table::open_slice(&p, &[0, 0, 0], &exact).is_ok());
+}

@@ -5,8 +5,10 @@
 //! computes tables.
 //!
 //! `sbt_open` fully verifies the file (magic, version, header SHA-256, payload SHA-256 of the
-//! compressed and uncompressed bytes, sizes) with the same code as `Table::open`; every other
-//! call reads the verified table. All pointers returned stay valid until `sbt_close`. Functions
+//! compressed and uncompressed bytes, sizes) with the same code as `Table::open`, and
+//! `sbt_open_slice` as `Table::open_slice`, keeping one entry; every other call reads the
+//! verified table. The samples are allocated fallibly: running out of memory is an error from
+//! the open call, not an abort of the host. All pointers returned stay valid until `sbt_close`. Functions
 //! taking an out-of-range index return 0 / NULL / NaN rather than aborting. Every entry point
 //! runs under `catch_unwind`: an internal panic never unwinds into the host; `sbt_open` then
 //! returns NULL with a message and the other calls return their error value.
@@ -76,7 +78,7 @@ pub unsafe extern "C" fn sbt_open_limit(
     err_len: usize,
 ) -> *mut SbtTable {
     // SAFETY: forwarded contract.
-    unsafe { open_boxed(path, max_payload_bytes, false, err, err_len) }
+    unsafe { open_boxed(path, max_payload_bytes, Mode::Whole, err, err_len) }
 }
 
 /// Like `sbt_open_limit`, but a tensor-train table (`fur-medulla-tt/1`, e.g. the shipped
@@ -94,24 +96,84 @@ pub unsafe extern "C" fn sbt_open_reconstructed(
     err_len: usize,
 ) -> *mut SbtTable {
     // SAFETY: forwarded contract.
-    unsafe { open_boxed(path, max_payload_bytes, true, err, err_len) }
+    unsafe { open_boxed(path, max_payload_bytes, Mode::Reconstruct, err, err_len) }
 }
 
-/// Open (and, with `reconstruct`, rebuild a tensor-train table) behind `catch_unwind`: a boxed
-/// table, or NULL with the message written to `err`.
+/// Open one entry of a table: `entry[0 .. n_entry)` fixes the first `n_entry` axes at these
+/// indices (`Table::open_slice`). Every checksum is verified over the whole payload while it
+/// streams past; only the entry's samples are kept. The table keeps every axis, a fixed one
+/// with its chosen coordinate alone (length 1). NULL on failure (bad file, more indices than
+/// axes, an index beyond its axis, memory) with a message in `err`.
+///
+/// # Safety
+/// `path` must be a NUL-terminated string; `entry` NULL (with `n_entry` 0) or `n_entry`
+/// readable `size_t`; `err` NULL or `err_len` writable bytes.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn sbt_open_slice(
+    path: *const c_char,
+    entry: *const usize,
+    n_entry: usize,
+    err: *mut c_char,
+    err_len: usize,
+) -> *mut SbtTable {
+    // SAFETY: same contract.
+    unsafe { sbt_open_slice_limit(path, entry, n_entry, 0, err, err_len) }
+}
+
+/// Like `sbt_open_slice`, refusing tables whose whole uncompressed payload exceeds
+/// `max_payload_bytes` (0 = the default limit).
+///
+/// # Safety
+/// As `sbt_open_slice`.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn sbt_open_slice_limit(
+    path: *const c_char,
+    entry: *const usize,
+    n_entry: usize,
+    max_payload_bytes: u64,
+    err: *mut c_char,
+    err_len: usize,
+) -> *mut SbtTable {
+    if entry.is_null() && n_entry > 0 {
+        write_err(err, err_len, "entry is NULL with a non-zero count");
+        return std::ptr::null_mut();
+    }
+    let entry = if n_entry == 0 {
+        &[][..]
+    } else {
+        // SAFETY: `n_entry` readable values per the contract.
+        unsafe { std::slice::from_raw_parts(entry, n_entry) }
+    };
+    // SAFETY: forwarded contract.
+    unsafe { open_boxed(path, max_payload_bytes, Mode::Entry(entry), err, err_len) }
+}
+
+/// How a table is opened.
+#[derive(Debug, Clone, Copy)]
+enum Mode<'a> {
+    /// Every sample.
+    Whole,
+    /// A tensor-train table reconstructed into its dense table.
+    Reconstruct,
+    /// The entry at these indices of the leading axes.
+    Entry(&'a [usize]),
+}
+
+/// Open as `mode` says behind `catch_unwind`: a boxed table, or NULL with the message written to
+/// `err`.
 ///
 /// # Safety
 /// As `sbt_open_limit`.
 unsafe fn open_boxed(
     path: *const c_char,
     max_payload_bytes: u64,
-    reconstruct: bool,
+    mode: Mode<'_>,
     err: *mut c_char,
     err_len: usize,
 ) -> *mut SbtTable {
     let r = catch_unwind(AssertUnwindSafe(|| {
         // SAFETY: forwarded contract.
-        unsafe { open_table(path, max_payload_bytes, reconstruct) }
+        unsafe { open_table(path, max_payload_bytes, mode) }
     }));
     match r {
         Ok(Ok(t)) => Box::into_raw(Box::new(t)),
@@ -133,7 +195,7 @@ unsafe fn open_boxed(
 unsafe fn open_table(
     path: *const c_char,
     max_payload_bytes: u64,
-    reconstruct: bool,
+    mode: Mode<'_>,
 ) -> Result<SbtTable, String> {
     if path.is_null() {
         return Err("path is NULL".into());
@@ -146,10 +208,10 @@ unsafe fn open_table(
     if max_payload_bytes != 0 {
         limits.max_payload_bytes = max_payload_bytes;
     }
-    let table = if reconstruct {
-        Table::open_reconstructed(&p, &limits)
-    } else {
-        Table::open_with_limits(&p, &limits)
+    let table = match mode {
+        Mode::Whole => Table::open_with_limits(&p, &limits),
+        Mode::Reconstruct => Table::open_reconstructed(&p, &limits),
+        Mode::Entry(entry) => Table::open_slice(&p, entry, &limits),
     }
     .map_err(|e| e.to_string())?;
     let header_json = cstring(&serde_json::to_string(&table.header).unwrap_or_default());

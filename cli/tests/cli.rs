@@ -67,6 +67,17 @@ fn build_verify_inspect_export() {
     assert!(o.status.success(), "{}", text(&o));
     let o = run(&["inspect", table.to_str().unwrap()], d.path());
     assert!(text(&o).contains("water-index/1"));
+    let o = run(
+        &["inspect", table.to_str().unwrap(), "--entry", "1"],
+        d.path(),
+    );
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(text(&o).contains("entry:") && text(&o).contains("samples per channel"));
+    let o = run(
+        &["inspect", table.to_str().unwrap(), "--entry", "99"],
+        d.path(),
+    );
+    assert_clean_failure(&o, &["w.sbt", "index 99 of axis", "out of range"]);
     let cat: serde_json::Value =
         serde_json::from_slice(&std::fs::read(d.path().join("tables/index.json")).unwrap())
             .unwrap();

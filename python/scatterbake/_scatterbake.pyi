@@ -279,13 +279,20 @@ class Table:
     def sample_channel(self, name: str, coords: Sequence[float]) -> float:
         """Interpolated value of one channel at ``coords``."""
 
-def open_table(path: _Path, *, reconstruct: bool = True) -> Table:
+def open_table(
+    path: _Path, *, reconstruct: bool = True, entry: Optional[Sequence[int]] = None
+) -> Table:
     """Open and verify a ``.sbt`` table (every checksum). A tensor-train table
     (schema ``fur-medulla-tt/1``, e.g. the shipped ``assets/fur-medulla/*.sbt``) is checked
     and reconstructed into the dense table it holds (its source schema, axes and channel; values
     bit-identical to the Rust and C readers) unless ``reconstruct=False``, which returns the
-    stored cores. OSError if it cannot be read, TableError if it is not a valid table (or not a
-    valid tensor train)."""
+    stored cores. ``entry`` (indices of the leading axes, e.g. ``(i_radius, i_wavelength,
+    i_elevation)`` of a ``raytrace-phase-2d`` table) keeps only that entry: the whole file is
+    still verified as it streams past, memory is bounded by the entry, and every axis stays, a
+    fixed one with its chosen coordinate alone (length 1), so ``sample`` takes one coordinate
+    per axis as before; a tensor-train table is refused with ``entry`` unless
+    ``reconstruct=False``. OSError if it cannot be read, TableError if it is not a valid table
+    (or not a valid tensor train) or an index is out of range (the message names the axis)."""
 
 def build(
     manifests: Union[_Path, Sequence[_Path]],

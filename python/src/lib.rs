@@ -735,22 +735,38 @@ impl Table {
 
 /// Opens and fully verifies a `.sbt` table (every checksum) with the library's reader; a
 /// tensor-train table (`fur-medulla-tt/1`) is checked and reconstructed into the dense table
-/// it holds unless `reconstruct=False` (`Table::open_reconstructed`).
+/// it holds unless `reconstruct=False` (`Table::open_reconstructed`). With `entry` (indices of
+/// the leading axes) only that entry is kept (`Table::open_slice`); a tensor-train table is
+/// reconstructed whole only, so it is refused with `entry` unless `reconstruct=False`.
 #[pyfunction]
-#[pyo3(signature = (path, *, reconstruct=true))]
-fn open_table(py: Python<'_>, path: PathBuf, reconstruct: bool) -> PyResult<Table> {
-    let r = py.detach(|| {
-        if reconstruct {
-            scatterbake::table::Table::open_reconstructed(&path, &Default::default())
-        } else {
-            scatterbake::table::Table::open(&path)
+#[pyo3(signature = (path, *, reconstruct=true, entry=None))]
+fn open_table(
+    py: Python<'_>,
+    path: PathBuf,
+    reconstruct: bool,
+    entry: Option<Vec<usize>>,
+) -> PyResult<Table> {
+    use scatterbake::table::{ReadLimits, TableError as E, tt::TT_SCHEMA};
+    let limits = ReadLimits::default();
+    let r = py.detach(|| match &entry {
+        None if reconstruct => scatterbake::table::Table::open_reconstructed(&path, &limits),
+        None => scatterbake::table::Table::open(&path),
+        Some(entry) => {
+            let t = scatterbake::table::Table::open_slice(&path, entry, &limits)?;
+            if reconstruct && t.header.schema.name == TT_SCHEMA {
+                return Err(E::Entry {
+                    path: path.clone(),
+                    message: "a tensor-train table is reconstructed whole (open it without an \
+                              entry, or with reconstruct=False)"
+                        .into(),
+                });
+            }
+            Ok(t)
         }
     });
     match r {
         Ok(inner) => Ok(Table { inner }),
-        Err(e @ scatterbake::table::TableError::Io { .. }) => {
-            Err(PyOSError::new_err(e.to_string()))
-        }
+        Err(e @ E::Io { .. }) => Err(PyOSError::new_err(e.to_string())),
         Err(e) => Err(TableError::new_err(error_chain(&e))),
     }
 }

@@ -195,3 +195,28 @@ def _rewrite(header: dict, raw: bytes) -> bytes:
     hb = json.dumps(header).encode()
     pre = b"SBTABLE\0" + struct.pack("<HHIQ", 1, 0, 0, len(hb))
     return pre + hashlib.sha256(pre + hb).digest() + hb + comp
+
+
+def test_one_entry_equals_the_pure_reader_and_the_whole_table(built, pure_reader):
+    d, _ = built
+    path = d / "tables" / "py-mie.sbt"
+    whole = sb.open_table(path)
+    for entry in ([0], [1], [1, 0], [0, 1], []):
+        t = sb.open_table(path, entry=entry)
+        p = pure_reader.open_table(path, entry=entry)
+        bits = t.data.reshape(-1).view(np.uint32)
+        assert np.array_equal(bits, p.data.reshape(-1).view(np.uint32)), entry
+        assert np.array_equal(bits, whole.data[tuple(entry)].reshape(-1).view(np.uint32)), entry
+        lens = [1] * len(entry) + [len(a.coords) for a in whole.axes[len(entry):]]
+        assert [len(a.coords) for a in t.axes] == lens == [len(a.coords) for a in p.axes]
+        assert t.data.shape == tuple(lens) + (len(whole.channels),)
+        for k, (a, b) in enumerate(zip(t.axes, p.axes)):
+            assert a.name == b.name == whole.axes[k].name
+            assert np.array_equal(a.coords, b.coords)
+        coords = [whole.axes[k].coords[i] for k, i in enumerate(entry)] + [1.7, 600.0, 137.3][len(entry):]
+        assert np.array_equal(t.sample(coords), whole.sample(coords)), entry
+    name = whole.axes[0].name
+    with pytest.raises(sb.TableError, match=f"index 2 of axis `{name}`"):
+        sb.open_table(path, entry=[2])
+    with pytest.raises(pure_reader.TableError, match=f"index 2 of axis `{name}`"):
+        pure_reader.open_table(path, entry=[2])

@@ -60,14 +60,12 @@ pub enum TableError {
     TrailingBytes { path: PathBuf, extra: u64 },
     #[error("{path}: {message}")]
     Limit { path: PathBuf, message: String },
+    #[error("{path}: cannot open the entry: {message}")]
+    Entry { path: PathBuf, message: String },
     #[error("table content is inconsistent: {0}")]
     Inconsistent(String),
     #[error("{path}: tensor-train table is not valid: {message}")]
     TensorTrain { path: PathBuf, message: String },
-}
-
-pub(crate) fn sha256_hex(bytes: &[u8]) -> String {
-    hex::encode(Sha256::digest(bytes))
 }
 
 /// zstd level of payloads up to [`MULTITHREAD_PAYLOAD_BYTES`].

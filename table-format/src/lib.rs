@@ -6,10 +6,14 @@
 //!
 //! Modules, each importing only those listed before it: [`interp`] (interpolation and grid
 //! location), `model` (the header and table types), `validate` (the axis rules both the writer
-//! and the reader apply), [`format`] (bytes, writing, errors), [`read`] (reading and
-//! verification), `sample` (lookups), [`tt`] (tensor-train tables).
+//! and the reader apply), `entry` (the samples and header of one entry), [`format`] (bytes,
+//! writing, errors), `frame` (the streaming check of a payload's zstd frame), [`read`] (reading
+//! and verification, of a whole table or one entry), `sample` (lookups), [`tt`] (tensor-train
+//! tables).
 
+mod entry;
 pub mod format;
+mod frame;
 pub mod interp;
 mod model;
 pub mod read;

@@ -6,7 +6,9 @@
 
 pub use crate::validate::MAX_AXES;
 
-use crate::format::{FORMAT_MAJOR, FORMAT_MINOR, MAGIC, PREAMBLE, TableError, sha256_hex};
+use crate::entry::{entry_header, entry_values};
+use crate::format::{FORMAT_MAJOR, FORMAT_MINOR, MAGIC, PREAMBLE, TableError};
+use crate::frame::FrameWalker;
 use crate::model::{AxisPoints, Header, Table};
 use crate::validate::{check_axis_coords, check_axis_count, check_uniform_params};
 use serde::de::{DeserializeSeed, MapAccess, SeqAccess, Visitor};
@@ -21,8 +23,6 @@ pub const MAX_HEADER_BYTES: u64 = 64 << 20;
 pub const DEFAULT_MAX_PAYLOAD_BYTES: u64 = 4 << 30;
 /// Deepest nesting of JSON arrays/objects in a header.
 pub const MAX_JSON_DEPTH: usize = 64;
-/// Magic number of a zstd frame (little-endian `0xFD2FB528`).
-const ZSTD_MAGIC: [u8; 4] = [0x28, 0xB5, 0x2F, 0xFD];
 /// Decompression chunk (bytes); a multiple of 4.
 const CHUNK: usize = 1 << 16;
 
@@ -365,112 +365,53 @@ fn validate_header(h: &Header, limits: &ReadLimits) -> Result<(), String> {
     Ok(())
 }
 
-/// Check that `payload` is exactly one zstd frame that declares its content size, equal to
-/// `content_size` (RFC 8878 frame and block headers; no dictionary).
-pub(crate) fn check_zstd_frame(payload: &[u8], content_size: u64) -> Result<(), String> {
-    let short = || "the zstd frame is truncated".to_string();
-    if payload.len() < 5 || payload[..4] != ZSTD_MAGIC {
-        return Err("payload does not start with a zstd frame (magic 28 b5 2f fd)".into());
-    }
-    let fhd = payload[4];
-    let fcs_flag = fhd >> 6;
-    let single_segment = (fhd >> 5) & 1 == 1;
-    let reserved = (fhd >> 3) & 1;
-    let checksum = (fhd >> 2) & 1 == 1;
-    let dict_flag = fhd & 3;
-    if reserved != 0 {
-        return Err("zstd frame header has its reserved bit set".into());
-    }
-    if dict_flag != 0 {
-        return Err("zstd frame names a dictionary".into());
-    }
-    let mut pos = 5usize;
-    if !single_segment {
-        pos += 1;
-    }
-    let fcs_len = match (fcs_flag, single_segment) {
-        (0, false) => 0,
-        (0, true) => 1,
-        (1, _) => 2,
-        (2, _) => 4,
-        _ => 8,
-    };
-    if fcs_len == 0 {
-        return Err("zstd frame does not declare its content size".into());
-    }
-    let fcs_bytes = payload.get(pos..pos + fcs_len).ok_or_else(short)?;
-    let mut le = [0u8; 8];
-    le[..fcs_len].copy_from_slice(fcs_bytes);
-    let mut declared = u64::from_le_bytes(le);
-    if fcs_len == 2 {
-        declared += 256;
-    }
-    pos += fcs_len;
-    if declared != content_size {
-        return Err(format!(
-            "zstd frame declares {declared} content bytes, payload.uncompressed_bytes says \
-             {content_size}"
-        ));
-    }
-    loop {
-        let bh = payload.get(pos..pos + 3).ok_or_else(short)?;
-        let bh = u32::from(bh[0]) | u32::from(bh[1]) << 8 | u32::from(bh[2]) << 16;
-        pos += 3;
-        let last = bh & 1 == 1;
-        let size = (bh >> 3) as usize;
-        let stored = match (bh >> 1) & 3 {
-            0 | 2 => size,
-            1 => 1,
-            _ => return Err("zstd block of reserved type".into()),
-        };
-        pos = pos.checked_add(stored).ok_or_else(short)?;
-        if pos > payload.len() {
-            return Err(short());
+/// What a read keeps of the payload.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Keep {
+    /// Nothing is decompressed: the compressed payload's size, SHA-256 and frame only.
+    Sealed,
+    /// Every value is decompressed, hashed and counted; none is kept.
+    Nothing,
+    /// As `Nothing`, keeping the values `[first, first + count)` of the row-major payload.
+    Values { first: u64, count: u64 },
+}
+
+/// The compressed payload as the decoder pulls it from the file: every byte is hashed and walked
+/// for the frame structure on its way. While `stop_on_frame_error` is set, a broken frame rule
+/// ends the read at once, so a frame that is refused anyway is not decompressed further.
+struct CompressedStream<R> {
+    inner: std::io::Take<R>,
+    sha: Sha256,
+    frame: FrameWalker,
+    read: u64,
+    stop_on_frame_error: bool,
+}
+
+impl<R: Read> Read for CompressedStream<R> {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        let stop = || std::io::Error::other("the zstd frame breaks a rule of the format");
+        if self.stop_on_frame_error && self.frame.failed() {
+            return Err(stop());
         }
-        if last {
-            break;
+        let n = self.inner.read(buf)?;
+        self.sha.update(&buf[..n]);
+        self.frame.feed(&buf[..n]);
+        self.read += n as u64;
+        if self.stop_on_frame_error && self.frame.failed() {
+            return Err(stop());
         }
-    }
-    if checksum {
-        pos += 4;
-    }
-    match pos.cmp(&payload.len()) {
-        std::cmp::Ordering::Greater => Err(short()),
-        std::cmp::Ordering::Less => Err(format!(
-            "{} bytes follow the zstd frame (the payload must be exactly one frame)",
-            payload.len() - pos
-        )),
-        std::cmp::Ordering::Equal => Ok(()),
+        Ok(n)
     }
 }
 
-/// Read, verify and (when `keep` is true) return the samples of a table from a stream.
-/// `file_len` (when known) lets size errors be reported before anything is read.
-fn read_table(
-    r: &mut impl Read,
-    file_len: Option<u64>,
-    path: &Path,
-    limits: &ReadLimits,
-    keep: bool,
-) -> Result<(Header, Vec<f32>, ValueStats), TableError> {
-    let HeaderPart { header, header_len } = read_header_part(r, file_len, path, limits)?;
-    let compressed = read_compressed_payload(r, file_len, path, &header, header_len)?;
-    let (data, stats) = decompress_payload(&compressed, path, &header, keep)?;
-    for a in &header.axes {
-        check_axis_coords(a).map_err(|m| bad(path, m))?;
-    }
-    Ok((header, data, stats))
-}
-
-/// The compressed payload after the header, checked for its declared size (nothing missing,
-/// nothing after it) and its SHA-256.
-fn read_compressed_payload(
-    r: &mut impl Read,
+/// The payload's place in the file: its end fits 64 bits and, when the file size is known, the
+/// file ends exactly there.
+fn check_payload_extent(
     file_len: Option<u64>,
     path: &Path,
     header: &Header,
     header_len: u64,
-) -> Result<Vec<u8>, TableError> {
+) -> Result<(), TableError> {
     let p = &header.payload;
     let start = PREAMBLE as u64 + header_len;
     let end = start.checked_add(p.compressed_bytes).ok_or_else(|| {
@@ -482,16 +423,9 @@ fn read_compressed_payload(
             ),
         )
     })?;
-    let truncated = |present: u64| TableError::Truncated {
-        path: path.into(),
-        what: format!(
-            "payload needs {} bytes, {present} present",
-            p.compressed_bytes
-        ),
-    };
     if let Some(len) = file_len {
         if len < end {
-            return Err(truncated(len - start));
+            return Err(payload_truncated(path, header, len - start));
         }
         if len > end {
             return Err(TableError::TrailingBytes {
@@ -500,9 +434,60 @@ fn read_compressed_payload(
             });
         }
     }
-    let compressed = read_exact_vec(r, p.compressed_bytes).map_err(io_err(path))?;
-    if (compressed.len() as u64) < p.compressed_bytes {
-        return Err(truncated(compressed.len() as u64));
+    Ok(())
+}
+
+fn payload_truncated(path: &Path, header: &Header, present: u64) -> TableError {
+    TableError::Truncated {
+        path: path.into(),
+        what: format!(
+            "payload needs {} bytes, {present} present",
+            header.payload.compressed_bytes
+        ),
+    }
+}
+
+/// Read and verify the payload in one pass over the file (steps 5–7 of
+/// `docs/table-format.md`): the compressed bytes stream through their SHA-256 and the frame
+/// check into the decoder, the decompressed bytes through their SHA-256, and only the values
+/// `keep` asks for stay in memory. The compressed bytes the decoder leaves (after a decoding
+/// error or a refused frame) are still read and hashed, so a file breaking several rules is
+/// refused by the first in the document's order: size, compressed checksum, frame, decompressed
+/// size, decompressed checksum.
+fn read_payload(
+    r: &mut impl Read,
+    file_len: Option<u64>,
+    path: &Path,
+    header: &Header,
+    header_len: u64,
+    keep: Keep,
+) -> Result<(Vec<f32>, ValueStats), TableError> {
+    let p = &header.payload;
+    check_payload_extent(file_len, path, header, header_len)?;
+    let mut stream = CompressedStream {
+        inner: r.by_ref().take(p.compressed_bytes),
+        sha: Sha256::new(),
+        frame: FrameWalker::new(p.uncompressed_bytes),
+        read: 0,
+        stop_on_frame_error: true,
+    };
+    let decoded = match keep {
+        Keep::Sealed => Ok(Decoded::default()),
+        _ => decompress(&mut stream, header, keep),
+    };
+    if let Err(DecodeError::Memory(message)) = &decoded {
+        return Err(TableError::Limit {
+            path: path.into(),
+            message: message.clone(),
+        });
+    }
+    stream.stop_on_frame_error = false;
+    std::io::copy(&mut stream, &mut std::io::sink()).map_err(io_err(path))?;
+    let CompressedStream {
+        sha, frame, read, ..
+    } = stream;
+    if read < p.compressed_bytes {
+        return Err(payload_truncated(path, header, read));
     }
     if file_len.is_none() {
         let extra =
@@ -514,83 +499,166 @@ fn read_compressed_payload(
             });
         }
     }
-    if sha256_hex(&compressed) != p.sha256_compressed {
+    if hex::encode(sha.finalize()) != p.sha256_compressed {
         return Err(TableError::PayloadChecksum {
             path: path.into(),
             which: "compressed",
         });
     }
-    Ok(compressed)
-}
-
-/// Decompress the single zstd frame of a payload in [`CHUNK`]-sized pieces, checking its
-/// decompressed size and SHA-256 against the header and counting non-finite and negative values
-/// per channel; the samples are returned when `keep` is true (otherwise an empty vector).
-fn decompress_payload(
-    compressed: &[u8],
-    path: &Path,
-    header: &Header,
-    keep: bool,
-) -> Result<(Vec<f32>, ValueStats), TableError> {
-    let p = &header.payload;
     let decompress_err = |message: String| TableError::Decompress {
         path: path.into(),
         message,
     };
-    check_zstd_frame(compressed, p.uncompressed_bytes).map_err(decompress_err)?;
+    frame.finish().map_err(decompress_err)?;
+    let decoded = decoded.map_err(|e| decompress_err(e.into_message()))?;
+    if keep != Keep::Sealed && decoded.sha256_uncompressed != p.sha256_uncompressed {
+        return Err(TableError::PayloadChecksum {
+            path: path.into(),
+            which: "uncompressed",
+        });
+    }
+    Ok((decoded.data, decoded.stats))
+}
+
+/// What decompressing gave: the kept values, the statistics of all values, and the SHA-256
+/// (hex) of every decompressed byte.
+#[derive(Debug, Default)]
+struct Decoded {
+    data: Vec<f32>,
+    stats: ValueStats,
+    sha256_uncompressed: String,
+}
+
+/// Why decompressing stopped.
+#[derive(Debug)]
+enum DecodeError {
+    /// The frame does not decode to the declared bytes (step 7).
+    Frame(String),
+    /// The kept values could not be allocated.
+    Memory(String),
+}
+
+impl DecodeError {
+    fn into_message(self) -> String {
+        match self {
+            DecodeError::Frame(m) | DecodeError::Memory(m) => m,
+        }
+    }
+}
+
+/// Decompress the single zstd frame of a payload in [`CHUNK`]-sized pieces, checking its
+/// decompressed size against the header, hashing every byte, counting non-finite and negative
+/// values per channel and keeping the values `keep` asks for (grown as they arrive, never
+/// allocated from a declared size; an allocation failure is an error, not an abort).
+fn decompress(compressed: impl Read, header: &Header, keep: Keep) -> Result<Decoded, DecodeError> {
+    let size = header.payload.uncompressed_bytes;
+    let frame_err = DecodeError::Frame;
     let nc = header.channels.len();
-    let mut stats = ValueStats {
-        nan: vec![0; nc],
-        infinite: vec![0; nc],
-        negative: vec![0; nc],
+    let mut out = Decoded {
+        stats: ValueStats {
+            nan: vec![0; nc],
+            infinite: vec![0; nc],
+            negative: vec![0; nc],
+        },
+        ..Decoded::default()
     };
-    let mut data = Vec::new();
-    let mut dec = zstd::stream::read::Decoder::with_buffer(compressed)
-        .map_err(|e| decompress_err(e.to_string()))?
-        .single_frame();
+    // The kept bytes [lo, hi) of the payload.
+    let (lo, hi) = match keep {
+        Keep::Values { first, count } => (4 * first, 4 * (first + count)),
+        _ => (0, 0),
+    };
+    let mut dec = zstd::stream::read::Decoder::with_buffer(std::io::BufReader::with_capacity(
+        CHUNK, compressed,
+    ))
+    .map_err(|e| frame_err(e.to_string()))?
+    .single_frame();
     let mut hasher = Sha256::new();
     let mut buf = vec![0u8; CHUNK];
     let mut got = 0u64;
     let mut flat = 0usize;
     loop {
         // One byte past the declared size proves the frame holds no more.
-        let want = ((p.uncompressed_bytes - got).min(CHUNK as u64) as usize).max(1);
-        let n =
-            read_up_to(&mut dec, &mut buf[..want]).map_err(|e| decompress_err(e.to_string()))?;
-        if got == p.uncompressed_bytes {
+        let want = ((size - got).min(CHUNK as u64) as usize).max(1);
+        let n = read_up_to(&mut dec, &mut buf[..want]).map_err(|e| frame_err(e.to_string()))?;
+        if got == size {
             if n > 0 {
-                return Err(decompress_err(format!(
-                    "payload decompresses to more than the {} bytes the header says",
-                    p.uncompressed_bytes
+                return Err(frame_err(format!(
+                    "payload decompresses to more than the {size} bytes the header says"
                 )));
             }
             break;
         }
         if n < want {
-            return Err(decompress_err(format!(
-                "payload decompresses to {} bytes, header says {}",
-                got + n as u64,
-                p.uncompressed_bytes
+            return Err(frame_err(format!(
+                "payload decompresses to {} bytes, header says {size}",
+                got + n as u64
             )));
         }
-        hasher.update(&buf[..n]);
-        got += n as u64;
-        for c in buf[..n].chunks_exact(4) {
+        let bytes = &buf[..n];
+        hasher.update(bytes);
+        for c in bytes.chunks_exact(4) {
             let v = f32::from_le_bytes([c[0], c[1], c[2], c[3]]);
-            stats.count(flat % nc, v);
+            out.stats.count(flat % nc, v);
             flat += 1;
-            if keep {
-                data.push(v);
-            }
         }
+        let (a, b) = (got.max(lo), (got + n as u64).min(hi));
+        if a < b {
+            keep_values(
+                &mut out.data,
+                &bytes[(a - got) as usize..(b - got) as usize],
+            )?;
+        }
+        got += n as u64;
     }
-    if hex::encode(hasher.finalize()) != p.sha256_uncompressed {
-        return Err(TableError::PayloadChecksum {
-            path: path.into(),
-            which: "uncompressed",
-        });
+    out.sha256_uncompressed = hex::encode(hasher.finalize());
+    Ok(out)
+}
+
+/// Append the f32 LE values of `bytes` to `data`, refusing (rather than aborting on) a failed
+/// allocation.
+fn keep_values(data: &mut Vec<f32>, bytes: &[u8]) -> Result<(), DecodeError> {
+    data.try_reserve(bytes.len() / 4).map_err(|_| {
+        DecodeError::Memory(format!(
+            "cannot allocate memory for {} samples",
+            data.len() + bytes.len() / 4
+        ))
+    })?;
+    data.extend(
+        bytes
+            .chunks_exact(4)
+            .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]])),
+    );
+    Ok(())
+}
+
+/// Read and verify a table from a stream (every rule of `docs/table-format.md`), keeping the
+/// samples of `entry` (`Some(&[])`: every sample; `None`: none, only verifying and counting).
+/// `file_len` (when known) lets size errors be reported before anything is read. Returns the
+/// file's header.
+fn read_table(
+    r: &mut impl Read,
+    file_len: Option<u64>,
+    path: &Path,
+    limits: &ReadLimits,
+    entry: Option<&[usize]>,
+) -> Result<(Header, Vec<f32>, ValueStats), TableError> {
+    let HeaderPart { header, header_len } = read_header_part(r, file_len, path, limits)?;
+    let keep = match entry {
+        None => Keep::Nothing,
+        Some(entry) => {
+            let (first, count) =
+                entry_values(&header, entry).map_err(|message| TableError::Entry {
+                    path: path.into(),
+                    message,
+                })?;
+            Keep::Values { first, count }
+        }
+    };
+    let (data, stats) = read_payload(r, file_len, path, &header, header_len, keep)?;
+    for a in &header.axes {
+        check_axis_coords(a).map_err(|m| bad(path, m))?;
     }
-    Ok((data, stats))
+    Ok((header, data, stats))
 }
 
 fn open_file(path: &Path) -> Result<(std::fs::File, Option<u64>), TableError> {
@@ -611,11 +679,32 @@ impl Table {
         path: impl AsRef<Path>,
         limits: &ReadLimits,
     ) -> Result<Self, TableError> {
+        Self::open_slice(path, &[], limits)
+    }
+
+    /// Open one entry of a table: `entry` fixes the first `entry.len()` axes at these indices
+    /// (e.g. `[i_radius, i_wavelength, i_elevation]` of a `raytrace-phase-2d` table). The file is
+    /// verified as by [`Table::open_with_limits`] (every checksum over the whole payload, the
+    /// limit on the whole payload) while the payload streams past; only the entry's samples are
+    /// kept, so memory is bounded by the entry, not the table. The returned table keeps every
+    /// axis, a fixed one with its chosen coordinate alone (length 1), so names, units and
+    /// [`Table::sample`] work unchanged; `header.payload` describes the file's whole payload.
+    /// An empty `entry` opens the whole table. More indices than axes, or an index beyond its
+    /// axis, is a [`TableError::Entry`] naming the axis. See `docs/table-format.md`, "Reading one
+    /// entry".
+    pub fn open_slice(
+        path: impl AsRef<Path>,
+        entry: &[usize],
+        limits: &ReadLimits,
+    ) -> Result<Self, TableError> {
         let path = path.as_ref();
         let (f, len) = open_file(path)?;
         let mut r = std::io::BufReader::new(f);
-        let (header, data, _) = read_table(&mut r, len, path, limits, true)?;
-        Ok(Table { header, data })
+        let (header, data, _) = read_table(&mut r, len, path, limits, Some(entry))?;
+        Ok(Table {
+            header: entry_header(&header, entry),
+            data,
+        })
     }
 
     /// Parse and fully verify table bytes; `path` is only used in error messages.
@@ -629,9 +718,23 @@ impl Table {
         path: &Path,
         limits: &ReadLimits,
     ) -> Result<Self, TableError> {
+        Self::from_bytes_slice(bytes, path, &[], limits)
+    }
+
+    /// [`Table::open_slice`] of table bytes in memory (`path` only names them in errors).
+    pub fn from_bytes_slice(
+        bytes: &[u8],
+        path: &Path,
+        entry: &[usize],
+        limits: &ReadLimits,
+    ) -> Result<Self, TableError> {
         let mut r = bytes;
-        let (header, data, _) = read_table(&mut r, Some(bytes.len() as u64), path, limits, true)?;
-        Ok(Table { header, data })
+        let len = Some(bytes.len() as u64);
+        let (header, data, _) = read_table(&mut r, len, path, limits, Some(entry))?;
+        Ok(Table {
+            header: entry_header(&header, entry),
+            data,
+        })
     }
 }
 
@@ -640,7 +743,7 @@ impl Table {
 pub fn verify_file(path: &Path, limits: &ReadLimits) -> Result<Verified, TableError> {
     let (f, len) = open_file(path)?;
     let mut r = std::io::BufReader::new(f);
-    let (header, _, values) = read_table(&mut r, len, path, limits, false)?;
+    let (header, _, values) = read_table(&mut r, len, path, limits, None)?;
     Ok(Verified { header, values })
 }
 
@@ -665,13 +768,7 @@ pub fn verify_sealed_bytes(bytes: &[u8], path: &Path) -> Result<Header, TableErr
 
 fn sealed(r: &mut impl Read, len: Option<u64>, path: &Path) -> Result<Header, TableError> {
     let HeaderPart { header, header_len } = read_header_part(r, len, path, &ReadLimits::default())?;
-    let compressed = read_compressed_payload(r, len, path, &header, header_len)?;
-    check_zstd_frame(&compressed, header.payload.uncompressed_bytes).map_err(|message| {
-        TableError::Decompress {
-            path: path.into(),
-            message,
-        }
-    })?;
+    read_payload(r, len, path, &header, header_len, Keep::Sealed)?;
     for a in &header.axes {
         check_axis_coords(a).map_err(|m| bad(path, m))?;
     }

@@ -12,7 +12,9 @@
 //!
 //! Every rule is checked before anything is allocated from a declared size: the rank
 //! conditions r_k ≤ r_{k−1}·n_k and r_k ≤ n_{k+1}·r_{k+1} bound every intermediate of the
-//! contraction by the dense size, and the dense size is bounded by the reader's payload limit.
+//! contraction by the dense size, the dense size is bounded by the reader's payload limit, and
+//! so is the reconstruction's peak memory (output, cores and one block's intermediates), while
+//! its multiply-adds are capped by [`TT_MAX_MULTIPLY_ADDS`] (decision TF-2).
 
 use crate::format::TableError;
 use crate::model::{Axis, Channel, Header, Provenance, Schema, Table, TableContent};
@@ -55,27 +57,66 @@ impl TensorTrain {
         let mut m = vec![1.0];
         let mut rows = 1usize;
         for (k, core) in self.cores.iter().enumerate() {
-            let (r0, n, r1) = (self.ranks[k], self.dims[k], self.ranks[k + 1]);
-            let mut next = vec![0.0; rows * n * r1];
-            for row in 0..rows {
-                for a in 0..r0 {
-                    let v = m[row * r0 + a];
-                    if v == 0.0 {
-                        continue;
-                    }
-                    for i in 0..n {
-                        let src = &core[(a * n + i) * r1..(a * n + i + 1) * r1];
-                        let dst = &mut next[(row * n + i) * r1..(row * n + i + 1) * r1];
-                        for (d, s) in dst.iter_mut().zip(src) {
-                            *d += v * s;
-                        }
-                    }
-                }
-            }
-            m = next;
+            let n = self.dims[k];
+            m = contract_step(&m, rows, core, self.ranks[k], n, self.ranks[k + 1], 0..n);
             rows *= n;
         }
         m
+    }
+
+    /// The reconstruction in row-major order, evaluated in blocks of fixed indices of the first
+    /// `fixed` modes (the same operations in the same order as [`Self::reconstruct`], so the
+    /// same bits), each value mapped by `value` and appended to `out`; the output is reserved
+    /// fallibly (an allocation failure is an error, not an abort) and a non-finite value is an
+    /// error naming its flat index.
+    fn reconstruct_into(
+        &self,
+        fixed: usize,
+        out: &mut Vec<f32>,
+        value: impl Fn(f64) -> f32,
+    ) -> Result<(), String> {
+        let total: usize = self.dims.iter().product();
+        out.try_reserve_exact(total).map_err(|_| {
+            format!(
+                "cannot allocate {} bytes for the reconstructed values",
+                4 * total as u64
+            )
+        })?;
+        let blocks: usize = self.dims[..fixed].iter().product();
+        let mut idx = vec![0usize; fixed];
+        for _ in 0..blocks {
+            let mut m = vec![1.0];
+            for (k, &i) in idx.iter().enumerate() {
+                let (r0, n, r1) = (self.ranks[k], self.dims[k], self.ranks[k + 1]);
+                m = contract_step(&m, 1, &self.cores[k], r0, n, r1, i..i + 1);
+            }
+            let mut rows = 1usize;
+            for k in fixed..self.dims.len() {
+                let n = self.dims[k];
+                let (r0, r1) = (self.ranks[k], self.ranks[k + 1]);
+                m = contract_step(&m, rows, &self.cores[k], r0, n, r1, 0..n);
+                rows *= n;
+            }
+            for x in m {
+                let v = value(x);
+                if !v.is_finite() {
+                    return Err(format!(
+                        "reconstructed value {} is not finite (after exp and rounding to f32)",
+                        out.len()
+                    ));
+                }
+                out.push(v);
+            }
+            // Next block: the fixed indices in row-major order.
+            for k in (0..fixed).rev() {
+                idx[k] += 1;
+                if idx[k] < self.dims[k] {
+                    break;
+                }
+                idx[k] = 0;
+            }
+        }
+        Ok(())
     }
 
     /// One entry.
@@ -128,6 +169,109 @@ impl TensorTrain {
     }
 }
 
+/// One step of the left-to-right contraction, for the indices `sel` of mode k:
+/// `next[(row, i), :] = Σ_{a in order} m[row, a] · core[a, i, :]`, accumulated in f64 from 0 by
+/// separate multiply and add (terms with `m[row, a] = 0` add nothing and are skipped).
+fn contract_step(
+    m: &[f64],
+    rows: usize,
+    core: &[f64],
+    r0: usize,
+    n: usize,
+    r1: usize,
+    sel: std::ops::Range<usize>,
+) -> Vec<f64> {
+    let width = sel.len();
+    let mut next = vec![0.0; rows * width * r1];
+    for row in 0..rows {
+        for a in 0..r0 {
+            let v = m[row * r0 + a];
+            if v == 0.0 {
+                continue;
+            }
+            for (j, i) in sel.clone().enumerate() {
+                let src = &core[(a * n + i) * r1..(a * n + i + 1) * r1];
+                let dst = &mut next[(row * width + j) * r1..(row * width + j + 1) * r1];
+                for (d, s) in dst.iter_mut().zip(src) {
+                    *d += v * s;
+                }
+            }
+        }
+    }
+    next
+}
+
+/// Largest number of multiply-adds a reconstruction may take: 2^34 ≈ 1.7·10^10, about a minute
+/// of one core, 11 times the largest shipped table's (decision TF-2).
+pub const TT_MAX_MULTIPLY_ADDS: u64 = 1 << 34;
+/// Bytes of f64 intermediates one block of the reconstruction aims at: the leading modes are
+/// fixed, block by block, until a block's two largest consecutive intermediates fit.
+const BLOCK_BYTES: u64 = 8 << 20;
+
+/// How a reconstruction is evaluated and what it costs (`docs/table-format.md`, "Tensor-train
+/// tables", rules 5a and 5b).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ReconstructionCost {
+    /// Leading modes whose indices are fixed per block (0: one block, the whole train).
+    pub fixed: usize,
+    /// Peak bytes: the f32 values, the f64 cores, and the two largest consecutive f64
+    /// intermediates M_k, M_{k+1} of a block (saturating at `u64::MAX`).
+    pub bytes: u64,
+    /// Multiply-adds of the whole reconstruction, every block (saturating).
+    pub multiply_adds: u64,
+}
+
+/// The cost of reconstructing a train of these dims and ranks (which passed rules 1–5) in the
+/// blocks [`TensorTrain::reconstruct_into`] uses: the fewest fixed leading modes whose blocks
+/// keep their intermediates within [`BLOCK_BYTES`] (all but the last mode when none do).
+pub fn reconstruction_cost(dims: &[usize], ranks: &[usize]) -> ReconstructionCost {
+    let d = dims.len();
+    let u = |x: usize| x as u64;
+    let values = dims.iter().fold(1u64, |acc, &n| acc.saturating_mul(u(n)));
+    let cores = (0..d).fold(0u64, |acc, k| {
+        acc.saturating_add(
+            u(ranks[k])
+                .saturating_mul(u(dims[k]))
+                .saturating_mul(u(ranks[k + 1])),
+        )
+    });
+    let block = |fixed: usize| {
+        let blocks = dims[..fixed]
+            .iter()
+            .fold(1u64, |acc, &n| acc.saturating_mul(u(n)));
+        // The fixed modes: M is one row; each step costs r_k·r_{k+1}.
+        let mut work = (0..fixed).fold(0u64, |acc, k| {
+            acc.saturating_add(u(ranks[k]).saturating_mul(u(ranks[k + 1])))
+        });
+        let mut peak = (0..fixed).fold(1u64, |acc, k| acc.max(u(ranks[k]) + u(ranks[k + 1])));
+        let mut rows = 1u64;
+        for k in fixed..d {
+            let next_rows = rows.saturating_mul(u(dims[k]));
+            let step = rows
+                .saturating_mul(u(ranks[k]))
+                .saturating_mul(u(dims[k]))
+                .saturating_mul(u(ranks[k + 1]));
+            work = work.saturating_add(step);
+            let live = rows
+                .saturating_mul(u(ranks[k]))
+                .saturating_add(next_rows.saturating_mul(u(ranks[k + 1])));
+            peak = peak.max(live);
+            rows = next_rows;
+        }
+        (peak.saturating_mul(8), blocks.saturating_mul(work))
+    };
+    let fixed = (0..d).find(|&f| block(f).0 <= BLOCK_BYTES).unwrap_or(d - 1);
+    let (peak, multiply_adds) = block(fixed);
+    ReconstructionCost {
+        fixed,
+        bytes: values
+            .saturating_mul(4)
+            .saturating_add(cores.saturating_mul(8))
+            .saturating_add(peak),
+        multiply_adds,
+    }
+}
+
 /// A validated tensor-train table: the train and the description of the dense table it holds.
 #[derive(Debug, Clone)]
 pub struct DecodedTensorTrain {
@@ -145,6 +289,8 @@ pub struct DecodedTensorTrain {
     pub attributes: serde_json::Map<String, serde_json::Value>,
     /// `Some(floor)`: the train holds ln(max(value, floor)); values are exp of it.
     pub log_floor: Option<f64>,
+    /// The table's file (names it in errors of the reconstruction).
+    pub path: std::path::PathBuf,
 }
 
 impl DecodedTensorTrain {
@@ -156,24 +302,21 @@ impl DecodedTensorTrain {
         }
     }
 
-    /// The whole dense channel, row-major over the axes (reconstructed one index of the first
-    /// mode at a time, so the f64 intermediates stay small; bit-identical to a whole
-    /// [`TensorTrain::reconstruct`]).
-    pub fn dense(&self) -> Vec<f32> {
-        let total: usize = self.tt.dims.iter().product();
-        let mut out = Vec::with_capacity(total);
-        for i in 0..self.tt.dims[0] {
-            let mut sel = vec![None; self.tt.dims.len()];
-            sel[0] = Some(vec![i]);
-            out.extend(
-                self.tt
-                    .select(&sel)
-                    .reconstruct()
-                    .into_iter()
-                    .map(|v| self.value(v)),
-            );
-        }
-        out
+    /// The whole dense channel, row-major over the axes, reconstructed block by block
+    /// ([`reconstruction_cost`]: the f64 intermediates stay small; bit-identical to a whole
+    /// [`TensorTrain::reconstruct`]). A value that is not finite after the `exp` of the
+    /// logarithmic form and the rounding to f32 is an error, as is an allocation failure.
+    pub fn dense(&self) -> Result<Vec<f32>, TableError> {
+        self.evaluate(&self.tt)
+    }
+
+    /// The values of `tt` (this train or a selection of it), as [`Self::dense`].
+    fn evaluate(&self, tt: &TensorTrain) -> Result<Vec<f32>, TableError> {
+        let cost = reconstruction_cost(&tt.dims, &tt.ranks);
+        let mut out = Vec::new();
+        tt.reconstruct_into(cost.fixed, &mut out, |x| self.value(x))
+            .map_err(|m| tt_err(&self.path, m))?;
+        Ok(out)
     }
 
     /// The dense table restricted to the given indices of each axis (`None`: the whole axis),
@@ -208,19 +351,14 @@ impl DecodedTensorTrain {
         let data: Vec<f32> = if self.tt.dims.is_empty() {
             Vec::new()
         } else {
-            self.tt
-                .select(idx)
-                .reconstruct()
-                .into_iter()
-                .map(|v| self.value(v))
-                .collect()
+            self.evaluate(&self.tt.select(idx))?
         };
         self.table(axes, data)
     }
 
     /// The whole dense table in memory.
     pub fn dense_table(&self) -> Result<Table, TableError> {
-        self.table(self.axes.clone(), self.dense())
+        self.table(self.axes.clone(), self.dense()?)
     }
 
     fn table(&self, axes: Vec<Axis>, data: Vec<f32>) -> Result<Table, TableError> {
@@ -318,6 +456,7 @@ pub fn decode_tensor_train(
         channel,
         attributes,
         log_floor,
+        path: path.into(),
     })
 }
 
@@ -413,6 +552,7 @@ fn train_shape(
             )
         })?;
     check_ranks(&dims, &ranks, path)?;
+    check_cost(&dims, &ranks, path, limits)?;
     Ok(TrainShape {
         dims,
         ranks,
@@ -440,6 +580,39 @@ fn check_ranks(dims: &[usize], ranks: &[usize], path: &Path) -> Result<(), Table
                 ),
             ));
         }
+    }
+    Ok(())
+}
+
+/// The reconstruction's peak memory (the f32 values, the f64 cores and a block's f64
+/// intermediates) within the reader's limit, and its multiply-adds within
+/// [`TT_MAX_MULTIPLY_ADDS`]: checked before anything is allocated.
+fn check_cost(
+    dims: &[usize],
+    ranks: &[usize],
+    path: &Path,
+    limits: &ReadLimits,
+) -> Result<(), TableError> {
+    let cost = reconstruction_cost(dims, ranks);
+    if cost.bytes > limits.max_payload_bytes {
+        return Err(tt_err(
+            path,
+            format!(
+                "the reconstruction needs {} bytes (f32 values, f64 cores and intermediates), \
+                 more than the reader's limit of {} bytes",
+                cost.bytes, limits.max_payload_bytes
+            ),
+        ));
+    }
+    if cost.multiply_adds > TT_MAX_MULTIPLY_ADDS {
+        return Err(tt_err(
+            path,
+            format!(
+                "the reconstruction takes {} multiply-adds, more than the limit of \
+                 {TT_MAX_MULTIPLY_ADDS} (dims {dims:?}, ranks {ranks:?})",
+                cost.multiply_adds
+            ),
+        ));
     }
     Ok(())
 }
@@ -626,5 +799,66 @@ impl Table {
         let mut dense = decode_tensor_train(&self, path, limits)?.dense_table()?;
         dense.header.provenance = provenance;
         Ok(dense)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A train of mixed-sign values with every rank above 1 inside.
+    fn train() -> TensorTrain {
+        let (dims, ranks) = (vec![3, 4, 2, 5], vec![1, 3, 5, 4, 1]);
+        let mut seed = 0x2545_f491_4f6c_dd1du64;
+        let cores = (0..dims.len())
+            .map(|k| {
+                (0..ranks[k] * dims[k] * ranks[k + 1])
+                    .map(|_| {
+                        seed ^= seed << 13;
+                        seed ^= seed >> 7;
+                        seed ^= seed << 17;
+                        (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+                    })
+                    .collect()
+            })
+            .collect();
+        TensorTrain { dims, ranks, cores }
+    }
+
+    /// Every blocking (0 to d − 1 fixed leading modes) gives the whole reconstruction's bits.
+    #[test]
+    fn blocks_reproduce_the_whole_reconstruction() {
+        let tt = train();
+        let whole: Vec<u32> = tt
+            .reconstruct()
+            .iter()
+            .map(|&x| (x as f32).to_bits())
+            .collect();
+        for fixed in 0..tt.dims.len() {
+            let mut out = Vec::new();
+            tt.reconstruct_into(fixed, &mut out, |x| x as f32).unwrap();
+            let bits: Vec<u32> = out.iter().map(|v| v.to_bits()).collect();
+            assert_eq!(bits, whole, "{fixed} fixed modes");
+        }
+    }
+
+    /// The cost counts what the blocks hold and do: the small train fits one block, whose
+    /// multiply-adds are those of the whole contraction; the 1 × 32768 × 32768 rank-1 train is
+    /// cut into rows and needs its 4 GiB of output plus cores and a block.
+    #[test]
+    fn cost_counts_output_cores_intermediates_and_work() {
+        let tt = train();
+        let c = reconstruction_cost(&tt.dims, &tt.ranks);
+        assert_eq!(c.fixed, 0);
+        // Steps: 1·1·3·3, 3·3·4·5, 12·5·2·4, 24·4·5·1 multiply-adds.
+        assert_eq!(c.multiply_adds, 9 + 180 + 480 + 480);
+        let cores: usize = tt.cores.iter().map(Vec::len).sum();
+        // Largest two consecutive intermediates: M_3 (24 × 4) and M_4 (120 × 1).
+        assert_eq!(c.bytes, 4 * 120 + 8 * cores as u64 + 8 * (96 + 120));
+        let big = reconstruction_cost(&[1, 32768, 32768], &[1, 1, 1, 1]);
+        assert_eq!(big.fixed, 2);
+        assert!(big.bytes > 4 << 30 && big.bytes < (4 << 30) + (1 << 20));
+        // 32768 blocks, each two 1 × 1 prefix steps and a row of 32768.
+        assert_eq!(big.multiply_adds, 32768 * (2 + 32768));
     }
 }

@@ -590,6 +590,7 @@ pub fn tensor_train_cases() -> Vec<(Case, &'static str)> {
     let (base, _) = tensor_train_table();
     let mut edits = tt_rank_edits();
     edits.extend(tt_layout_edits());
+    edits.extend(tt_cost_edits());
     edits
         .into_iter()
         .map(|(name, valid, fragment, edit)| {
@@ -715,4 +716,73 @@ fn tt_layout_edits() -> Vec<TtEdit> {
             },
         ),
     ]
+}
+
+/// Edits that make the reconstruction itself too costly or not finite: a 1 × 32768 × 32768
+/// rank-1 train (a 4 GiB dense table, within the payload limit, whose output and f64
+/// intermediates are not), a train of modest dense size whose ranks make it cost more
+/// multiply-adds than the cap, and a logarithmic train whose exp overflows.
+fn tt_cost_edits() -> Vec<TtEdit> {
+    vec![
+        (
+            "tt_reconstruction_beyond_memory",
+            false,
+            "the reconstruction needs",
+            |t| {
+                zero_train(t, &[1, 32768, 32768], &[1, 1, 1, 1]);
+            },
+        ),
+        (
+            "tt_reconstruction_beyond_work",
+            false,
+            "multiply-adds, more than the limit",
+            |t| {
+                zero_train(t, &[128, 128, 128, 128], &[1, 64, 128, 64, 1]);
+            },
+        ),
+        (
+            "tt_reconstruction_not_finite",
+            false,
+            "is not finite",
+            |t| {
+                set_attr(t, "log_floor", json!(1e-30));
+                let end = t.header.attributes["core_offsets"][1].as_u64().unwrap() as usize;
+                for v in &mut t.data[..end] {
+                    *v *= 1000.0;
+                }
+            },
+        ),
+    ]
+}
+
+/// Replace the valid table by a train of these dims and ranks whose cores are zeros (a valid
+/// train of the zero tensor) and whose source axes are uniform of the dims' lengths.
+fn zero_train(t: &mut Table, dims: &[usize], ranks: &[usize]) {
+    let mut offsets = vec![0usize];
+    for k in 0..dims.len() {
+        offsets.push(offsets[k] + ranks[k] * dims[k] * ranks[k + 1]);
+    }
+    let n = offsets[dims.len()];
+    let axes: Vec<Value> = dims
+        .iter()
+        .enumerate()
+        .map(|(k, &count)| {
+            json!({"name": format!("x{k}"), "unit": "1",
+                   "points": {"uniform": {"start": 0.0, "step": 1.0, "count": count}}})
+        })
+        .collect();
+    let mut attributes = t.header.attributes.clone();
+    attributes.insert("dims".into(), json!(dims));
+    attributes.insert("ranks".into(), json!(ranks));
+    attributes.insert("core_offsets".into(), json!(offsets));
+    attributes.insert("source_axes".into(), json!(axes));
+    let content = TableContent {
+        schema: t.header.schema.clone(),
+        description: t.header.description.clone(),
+        axes: vec![Axis::uniform("value", "1", 0.0, 1.0, n)],
+        channels: t.header.channels.clone(),
+        attributes,
+        data: vec![0.0; n],
+    };
+    *t = Table::from_content(content, Provenance::default()).unwrap();
 }

@@ -4,7 +4,9 @@
 
 #![allow(dead_code)]
 
+pub mod c;
 pub mod crafted;
+pub mod entries;
 pub mod python;
 
 use scatterbake::fixtures::{henyey_greenstein_table, peak_table};

@@ -1,8 +1,9 @@
-//! `scatterbake inspect`: a table's header, axes, channels, provenance and sizes.
+//! `scatterbake inspect`: a table's header, axes, channels, provenance and sizes; with
+//! `--entry`, one entry of it (its fixed coordinates and the range of its samples).
 
 use crate::display::text as esc;
 use anyhow::Result;
-use scatterbake::table::{AxisPoints, Table};
+use scatterbake::table::{AxisPoints, ReadLimits, Table, verify_file};
 use std::path::PathBuf;
 
 /// Arguments of `scatterbake inspect`.
@@ -13,17 +14,69 @@ pub struct InspectArgs {
     /// Print the raw JSON header.
     #[arg(long)]
     pub json: bool,
+    /// Also show one entry: indices of the leading axes, e.g. `0,2,1` (radius, wavelength and
+    /// sun elevation of a ray-traced table). Only that entry is kept in memory while the whole
+    /// file is verified (`docs/table-format.md`, "Reading one entry").
+    #[arg(long, value_delimiter = ',')]
+    pub entry: Option<Vec<usize>>,
 }
 
-/// Print a table's header (summary or raw JSON).
+/// Print a table's header (summary or raw JSON), and with `--entry` that entry's summary. The
+/// whole file is verified without keeping its samples.
 pub fn run_inspect(a: &InspectArgs) -> Result<()> {
-    let t = Table::open(&a.file)?;
+    let limits = ReadLimits::default();
+    let t = match &a.entry {
+        Some(entry) => Table::open_slice(&a.file, entry, &limits)?,
+        None => Table {
+            header: verify_file(&a.file, &limits)?.header,
+            data: Vec::new(),
+        },
+    };
     if a.json {
         println!("{}", serde_json::to_string_pretty(&t.header)?);
     } else {
         print_summary(&a.file, &t)?;
     }
+    if let Some(entry) = &a.entry {
+        print_entry(entry, &t);
+    }
     Ok(())
+}
+
+/// The fixed coordinates of an entry and, per channel, its samples' range and count of
+/// non-finite values.
+fn print_entry(entry: &[usize], t: &Table) {
+    println!("entry:");
+    for a in &t.header.axes[..entry.len()] {
+        let label = a
+            .label(0)
+            .map(|l| format!(" ({})", esc(l)))
+            .unwrap_or_default();
+        println!(
+            "  {:<20} {} {}{label}",
+            esc(&a.name),
+            a.coord(0),
+            esc(&a.unit)
+        );
+    }
+    let nc = t.header.channels.len();
+    println!("  {} samples per channel", t.data.len() / nc);
+    for (c, ch) in t.header.channels.iter().enumerate() {
+        let values = t.data.iter().skip(c).step_by(nc);
+        let (mut lo, mut hi, mut bad) = (f32::INFINITY, f32::NEG_INFINITY, 0usize);
+        for &v in values {
+            if v.is_finite() {
+                lo = lo.min(v);
+                hi = hi.max(v);
+            } else {
+                bad += 1;
+            }
+        }
+        println!(
+            "  {:<20} min {lo:e} max {hi:e}, {bad} not finite",
+            esc(&ch.name)
+        );
+    }
 }
 
 fn print_summary(file: &std::path::Path, t: &Table) -> Result<()> {
