@@ -151,6 +151,7 @@ fn draw_previews_into(table_path: &Path, out_dir: &Path) -> Result<Vec<PathBuf>,
         "hair-dual" => hair_dual(&view)?,
         "hair-azimuthal" => hair_azimuthal(&view)?,
         "water-index" => water_index(&view)?,
+        "cloth-brdf" => super::cloth::incidence_plane(&view)?,
         _ => {
             let p = generic_preview(&table, &name)?;
             written.push(p);
