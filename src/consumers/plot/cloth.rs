@@ -99,7 +99,7 @@ fn panel(v: &View, axes: [usize; 4], rgb: [usize; 3], phi_i: usize) -> Panel {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::stages::{Stage, run_in_memory, table_from_lines};
+    use crate::stages::{Stage, table_from_lines};
     use crate::table::{Provenance, Table};
 
     /// Satin lit along the warp: the incidence-plane curve at θ_i peaks on the mirror side at
