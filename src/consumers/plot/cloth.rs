@@ -9,7 +9,7 @@
 //! nodes are drawn, no interpolation: the grid's coarseness shows as it is.
 
 use super::figure::{Dash, Figure, Legend, LinePanel, Panel, Series};
-use super::previews::View;
+use super::view::View;
 use crate::consumers::ConsumerError;
 use plotters::style::RGBColor;
 

@@ -6,3 +6,4 @@ pub mod previews;
 pub mod raytrace;
 pub mod style;
 pub mod tables;
+pub mod view;
