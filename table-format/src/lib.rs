@@ -31,5 +31,6 @@ pub use model::{
 pub use read::{
     DEFAULT_MAX_PAYLOAD_BYTES, MAX_AXES, MAX_HEADER_BYTES, MAX_JSON_DEPTH, ReadLimits, ValueStats,
     Verified, read_header_only, verify_file, verify_sealed, verify_sealed_bytes,
+    verify_sealed_stream,
 };
 pub use sample::SampleError;

@@ -766,6 +766,16 @@ pub fn verify_sealed_bytes(bytes: &[u8], path: &Path) -> Result<Header, TableErr
     sealed(&mut r, Some(bytes.len() as u64), path)
 }
 
+/// [`verify_sealed`] of a table read from `r`, a stream of `len` bytes (`path` only names it in
+/// errors): the payload streams through its checks, so memory does not grow with the table.
+pub fn verify_sealed_stream(
+    r: &mut impl Read,
+    len: u64,
+    path: &Path,
+) -> Result<Header, TableError> {
+    sealed(r, Some(len), path)
+}
+
 fn sealed(r: &mut impl Read, len: Option<u64>, path: &Path) -> Result<Header, TableError> {
     let HeaderPart { header, header_len } = read_header_part(r, len, path, &ReadLimits::default())?;
     read_payload(r, len, path, &header, header_len, Keep::Sealed)?;
