@@ -1,6 +1,9 @@
 //! `scatterbake build --plan [--json]`: computes and writes nothing, and its estimates hold
 //! against the build that follows (axes exactly, size on disk within 25 %).
 
+mod common;
+use common::text;
+
 use std::path::Path;
 use std::process::{Command, Output};
 
@@ -12,14 +15,6 @@ fn scatterbake(dir: &Path, args: &[&str]) -> Output {
         .env_remove("JOB_COMPLETION_INDEX")
         .output()
         .unwrap()
-}
-
-fn text(o: &Output) -> String {
-    format!(
-        "{}{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    )
 }
 
 /// Small tables of six stages: the shapes `--plan` must get right and sizes it must estimate.

@@ -3,6 +3,9 @@
 //! secret) or copied from another output directory. Each is named in a warning, its task recomputed, and the table is
 //! byte-identical to a clean build.
 
+mod common;
+use common::text;
+
 use scatterbake::pipeline::{read_checkpoint, write_checkpoint};
 use scatterbake::stages::Chunk;
 use scatterbake::workdir::{CheckpointKey, checkpoint_key};
@@ -21,24 +24,9 @@ fn run(args: &[&str], cwd: &Path) -> Output {
         .expect("run scatterbake")
 }
 
-fn text(o: &Output) -> String {
-    format!(
-        "{}{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    )
-}
-
 /// A water-index manifest of 6 tasks (one per temperature).
 fn manifest(dir: &Path) -> PathBuf {
-    let p = dir.join("w.toml");
-    std::fs::write(
-        &p,
-        "[[table]]\nname = \"w\"\nstage = \"water-index\"\n[table.params]\n\
-         wavelength_nm = [300.0, 1000.0, 0.5]\ntemperature_c = [0.0, 15.0, 30.0, 45.0, 60.0, 75.0]\n",
-    )
-    .unwrap();
-    p
+    common::water_index_manifest(dir, 0.5)
 }
 
 /// Build `manifest` into `out` (relative to `dir`), asserting success; returns the output.

@@ -1,6 +1,9 @@
 //! End-to-end tests of the `scatterbake` binary: errors, verify, exports, interrupted builds,
 //! concurrent builds.
 
+mod common;
+use common::text;
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
@@ -19,14 +22,6 @@ fn run(args: &[&str], cwd: &Path) -> Output {
         .current_dir(cwd)
         .output()
         .expect("run scatterbake")
-}
-
-fn text(o: &Output) -> String {
-    format!(
-        "{}{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    )
 }
 
 fn assert_clean_failure(o: &Output, must_contain: &[&str]) {

@@ -8,6 +8,9 @@
 //! all), one per stage and parameter layout: a default manifest entry of a stage or layout this
 //! file does not know fails the test, so a new kind of table cannot go untested.
 
+mod common;
+use common::text;
+
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -21,14 +24,6 @@ fn scatterbake(args: &[&str], cwd: &Path) -> Output {
         .env_remove("JOB_COMPLETION_INDEX")
         .output()
         .expect("run scatterbake")
-}
-
-fn text(o: &Output) -> String {
-    format!(
-        "{}{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    )
 }
 
 fn succeed(args: &[&str], cwd: &Path) -> String {

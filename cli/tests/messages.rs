@@ -3,6 +3,9 @@
 //! values used as given or refused, and file names printed with their control characters
 //! escaped.
 
+mod common;
+use common::text;
+
 use std::path::Path;
 use std::process::{Command, Output};
 
@@ -15,14 +18,6 @@ fn scatterbake(args: &[&str], cwd: &Path) -> Output {
         .env_remove("JOB_COMPLETION_INDEX")
         .output()
         .expect("run scatterbake")
-}
-
-fn text(o: &Output) -> String {
-    format!(
-        "{}{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    )
 }
 
 fn fails_with(args: &[&str], cwd: &Path, must_contain: &[&str]) -> String {

@@ -3,6 +3,9 @@
 //! midpoint rule in x; written by `tests/data/mie_distribution_reference.py`), the stated error
 //! estimate, and clean failures.
 
+mod common;
+use common::text;
+
 use std::process::{Command, Output};
 
 const REFERENCE: &str = include_str!("../../tests/data/mie_distribution_reference.json");
@@ -12,14 +15,6 @@ fn run(args: &[&str]) -> Output {
         .args(args)
         .output()
         .expect("run scatterbake")
-}
-
-fn text(o: &Output) -> String {
-    format!(
-        "{}{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    )
 }
 
 fn numbers(v: &serde_json::Value) -> Vec<f64> {

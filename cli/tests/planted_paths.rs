@@ -4,6 +4,9 @@
 //! instead of stalling the suite.
 #![cfg(unix)]
 
+mod common;
+use common::text;
+
 use std::os::unix::fs::symlink;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
@@ -11,14 +14,7 @@ use std::time::{Duration, Instant};
 
 /// A water-index manifest of 6 tasks (one per temperature), table `w`.
 fn manifest(dir: &Path) -> PathBuf {
-    let p = dir.join("w.toml");
-    std::fs::write(
-        &p,
-        "[[table]]\nname = \"w\"\nstage = \"water-index\"\n[table.params]\n\
-         wavelength_nm = [300.0, 1000.0, 5.0]\ntemperature_c = [0.0, 15.0, 30.0, 45.0, 60.0, 75.0]\n",
-    )
-    .unwrap();
-    p
+    common::water_index_manifest(dir, 5.0)
 }
 
 /// `scatterbake build` of `m` into `dir/out` with `extra` arguments, killed (and the test
@@ -45,14 +41,6 @@ fn build(dir: &Path, m: &Path, extra: &[&str]) -> Output {
         std::thread::sleep(Duration::from_millis(50));
     }
     child.wait_with_output().unwrap()
-}
-
-fn text(o: &Output) -> String {
-    format!(
-        "{}{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    )
 }
 
 fn mkfifo(p: &Path) {

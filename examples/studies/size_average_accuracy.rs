@@ -13,7 +13,9 @@
 use num_complex::Complex64;
 use scatterbake::mie::distributions::SizeDistribution;
 use scatterbake::mie::filters::FilterSettings;
-use scatterbake::mie::size_average::{AverageLimits, BinnedCurve, average, average_at_angles};
+use scatterbake::mie::size_average::{
+    AverageLimits, BinnedCurve, SizeAverage, SizeAverageError, average, average_at_angles,
+};
 use std::time::Instant;
 
 fn column(v: &serde_json::Value, key: &str) -> Vec<f64> {
@@ -76,23 +78,8 @@ fn main() -> anyhow::Result<()> {
             };
             let t0 = Instant::now();
             let points = column(case, "points_deg");
-            let row = match average_at_angles(&d, wavelength_nm, m, &points, &limits) {
-                Ok(a) => {
-                    let (rms, max) = errors(
-                        &a.i_perp,
-                        &a.i_par,
-                        &column(case, "points_i_perp"),
-                        &column(case, "points_i_par"),
-                    );
-                    format!(
-                        "{:.2e} | {rms:.2e} | {max:.2e} | {} | {:.2}",
-                        a.error_estimate,
-                        a.radius_nodes,
-                        t0.elapsed().as_secs_f64()
-                    )
-                }
-                Err(e) => format!("{e} | | | | {:.2}", t0.elapsed().as_secs_f64()),
-            };
+            let at_points = average_at_angles(&d, wavelength_nm, m, &points, &limits);
+            let row = table_row(at_points, case, "points", t0);
             println!("| {name} | points | {tolerance:.0e} | {row} |");
             let settings = FilterSettings {
                 output_intervals: 180,
@@ -104,25 +91,36 @@ fn main() -> anyhow::Result<()> {
             let sun = settings.sun_operator();
             let t0 = Instant::now();
             let binned = BinnedCurve::new(wavelength_nm, m, &settings, &sun);
-            let row = match average(&d, &binned, &limits) {
-                Ok(a) => {
-                    let (rms, max) = errors(
-                        &a.i_perp,
-                        &a.i_par,
-                        &column(case, "bins_i_perp"),
-                        &column(case, "bins_i_par"),
-                    );
-                    format!(
-                        "{:.2e} | {rms:.2e} | {max:.2e} | {} | {:.2}",
-                        a.error_estimate,
-                        a.radius_nodes,
-                        t0.elapsed().as_secs_f64()
-                    )
-                }
-                Err(e) => format!("{e} | | | | {:.2}", t0.elapsed().as_secs_f64()),
-            };
+            let row = table_row(average(&d, &binned, &limits), case, "bins", t0);
             println!("| {name} | 1° bins | {tolerance:.0e} | {row} |");
         }
     }
     Ok(())
+}
+
+/// The printed columns of one average against the reference columns `<kind>_i_perp`,
+/// `<kind>_i_par` of `case`: estimate, true RMS and max error, spheres, wall seconds since `t0`.
+fn table_row(
+    average: Result<SizeAverage, SizeAverageError>,
+    case: &serde_json::Value,
+    kind: &str,
+    t0: Instant,
+) -> String {
+    match average {
+        Ok(a) => {
+            let (rms, max) = errors(
+                &a.i_perp,
+                &a.i_par,
+                &column(case, &format!("{kind}_i_perp")),
+                &column(case, &format!("{kind}_i_par")),
+            );
+            format!(
+                "{:.2e} | {rms:.2e} | {max:.2e} | {} | {:.2}",
+                a.error_estimate,
+                a.radius_nodes,
+                t0.elapsed().as_secs_f64()
+            )
+        }
+        Err(e) => format!("{e} | | | | {:.2}", t0.elapsed().as_secs_f64()),
+    }
 }
