@@ -162,6 +162,15 @@ def _refuse_constant(name):
     raise _Bad(f"JSON: {name} is not a JSON number")
 
 
+def _finite_float(text: str) -> float:
+    # JSON numbers must be finite (rule 3): 1e999 overflows to inf and is refused here, while
+    # parsing, like the Rust reader ("number out of range"), not later by the field's check.
+    v = float(text)
+    if not math.isfinite(v):
+        raise _Bad("JSON: number out of range")
+    return v
+
+
 def _check_strings(v) -> None:
     # JSON escapes can encode lone surrogates, which are not Unicode scalar values.
     stack = [v]
@@ -220,7 +229,12 @@ def _parse_header(header_bytes: bytes, major: int, minor: int, max_payload_bytes
         raise _Bad(f"JSON: header is not UTF-8 ({e.reason} at byte {e.start})") from None
     _json_depth_ok(text)
     try:
-        header = json.loads(text, object_pairs_hook=_no_duplicates, parse_constant=_refuse_constant)
+        header = json.loads(
+            text,
+            object_pairs_hook=_no_duplicates,
+            parse_constant=_refuse_constant,
+            parse_float=_finite_float,
+        )
     except json.JSONDecodeError as e:
         raise _Bad(f"JSON: {e}") from None
     except (RecursionError, ValueError) as e:

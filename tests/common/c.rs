@@ -1,5 +1,6 @@
-//! The readers of other languages' executables: the C example (`c/example.c`) compiled against
-//! the C library (`capi/`), and the table format crate's example `open_entry`, each built with
+//! The executables the tests run: the C example (`c/example.c`) compiled against
+//! the C library (`capi/`), the table format crate's example `open_entry` and the command line
+//! (`cli/`), each built with
 //! the cargo that runs the tests, into the same target directory and profile.
 
 use std::path::{Path, PathBuf};
@@ -76,4 +77,10 @@ pub fn example_exe(dir: &Path) -> PathBuf {
 pub fn open_entry_exe() -> PathBuf {
     let dir = cargo_build(&["-p", "scatterbake-table", "--example", "open_entry"]);
     dir.join("examples").join("open_entry")
+}
+
+/// Build the command line (`cli/`, binary `scatterbake`) and return the executable.
+pub fn cli_exe() -> PathBuf {
+    let dir = cargo_build(&["-p", "scatterbake-cli", "--bin", "scatterbake"]);
+    dir.join("scatterbake")
 }

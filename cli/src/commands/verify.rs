@@ -1,5 +1,6 @@
-//! `scatterbake verify`: checksums, sizes and structure of table files, and the sample values of
-//! phase-function tables.
+//! `scatterbake verify`: checksums, sizes and structure of table files, the sample values of
+//! phase-function tables, and the rules of tensor-train tables (checked by reconstructing them,
+//! which costs the dense table's size for the time of the check).
 
 use crate::display;
 use anyhow::Result;
@@ -44,7 +45,8 @@ pub fn run_verify(a: &VerifyArgs) -> Result<i32> {
 
 /// Verify one file and print its line; false when it fails.
 fn verify_one(f: &std::path::Path, limits: &scatterbake::table::ReadLimits, strict: bool) -> bool {
-    match scatterbake::table::verify_file(f, limits) {
+    match scatterbake::table::verify_file(f, limits).and_then(|v| tensor_train_rules(f, v, limits))
+    {
         Ok(v) => {
             let problems = value_problems(&v);
             let n: usize = v.header.layout.shape.iter().product();
@@ -76,6 +78,19 @@ fn verify_one(f: &std::path::Path, limits: &scatterbake::table::ReadLimits, stri
             false
         }
     }
+}
+
+/// A tensor-train table also passes the rules of its layout and reconstructs to finite values
+/// (`docs/table-format.md`, "Tensor-train tables"); any other table is returned as verified.
+fn tensor_train_rules(
+    f: &std::path::Path,
+    v: scatterbake::table::Verified,
+    limits: &scatterbake::table::ReadLimits,
+) -> Result<scatterbake::table::Verified, scatterbake::table::TableError> {
+    if v.header.schema.name == scatterbake::table::tt::TT_SCHEMA {
+        scatterbake::table::Table::open_reconstructed(f, limits)?;
+    }
+    Ok(v)
 }
 
 /// Samples a phase-function table (one with a `phase` channel) must not hold: NaN or infinite
