@@ -256,12 +256,15 @@ def _parse_header(header_bytes: bytes, major: int, minor: int, max_payload_bytes
     _str(header, "description", "header")
     axes_j = _field(header, "axes", "header")
     chans_j = _field(header, "channels", "header")
-    if not isinstance(axes_j, list) or not isinstance(chans_j, list):
-        raise _Bad("axes and channels must be arrays")
+    for name, v in (("axes", axes_j), ("channels", chans_j)):
+        if not isinstance(v, list):
+            raise _Bad(f"{name}: expected an array")
     _obj(_field(header, "attributes", "header"), "attributes")
     prov = _obj(_field(header, "provenance", "header"), "provenance")
     for k in ("tool", "tool_version", "parameters_digest", "created_utc"):
         _str(prov, k, "provenance")
+    # `parameters` holds any JSON value (null included) but must be present, as in Rust.
+    _field(prov, "parameters", "provenance")
     for k in ("git_commit", "manifest", "entry", "stage"):
         _str(prov, k, "provenance", optional=True)
     layout = _obj(_field(header, "layout", "header"), "layout")
@@ -783,7 +786,16 @@ def _reconstruct(t: Table, max_payload_bytes: int) -> Table:
                 raise _Bad(f"source axis: axis `{an}`: uniform start {start} is not finite")
             if not (math.isfinite(step) and step > 0.0):
                 raise _Bad(f"source axis: axis `{an}`: uniform step {step} is not finite and > 0")
-    axes = [Axis(an, unit, _axis_coords(an, kind, pts)) for (an, unit, kind, pts) in axes]
+    coords = []
+    for (an, unit, kind, pts) in axes:
+        try:
+            c = _axis_coords(an, kind, pts)
+            if kind == "values":
+                _check_coords(an, c)
+        except _Bad as e:
+            raise _Bad(f"source axis: {e}") from None
+        coords.append(Axis(an, unit, c))
+    axes = coords
     ch = _obj(at.get("source_channel"), "attribute `source_channel`")
     channel = Channel(_str(ch, "name", "source_channel"), _str(ch, "unit", "source_channel"), _str(ch, "meaning", "source_channel"))
     src_schema = at.get("source_schema")

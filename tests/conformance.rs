@@ -497,3 +497,188 @@ fn every_file_through_every_reader_and_command() {
         found.join("\n")
     );
 }
+
+/// The values every field of a header is replaced by in the mutants.
+fn replacement_values() -> Vec<Option<serde_json::Value>> {
+    use serde_json::json;
+    vec![
+        None,
+        Some(json!(null)),
+        Some(json!(0)),
+        Some(json!(-1)),
+        Some(json!(1.5)),
+        Some(json!(9007199254740993u64)),
+        Some(json!(1e300)),
+        Some(json!("x")),
+        Some(json!([])),
+        Some(json!([1, 2, 3])),
+        Some(json!({})),
+    ]
+}
+
+/// Every JSON pointer of `v` (objects' fields, arrays' first three elements).
+fn pointers(v: &serde_json::Value, at: String, out: &mut Vec<String>) {
+    match v {
+        serde_json::Value::Object(m) => m.iter().for_each(|(k, x)| {
+            let p = format!("{at}/{}", k.replace('~', "~0").replace('/', "~1"));
+            out.push(p.clone());
+            pointers(x, p, out);
+        }),
+        serde_json::Value::Array(a) => a.iter().take(3).enumerate().for_each(|(i, x)| {
+            let p = format!("{at}/{i}");
+            out.push(p.clone());
+            pointers(x, p, out);
+        }),
+        _ => {}
+    }
+}
+
+/// `header` with the field at `pointer` replaced by `value` (removed when `None`).
+fn edited(
+    header: &serde_json::Value,
+    pointer: &str,
+    value: &Option<serde_json::Value>,
+) -> serde_json::Value {
+    let mut h = header.clone();
+    let (parent, key) = pointer.rsplit_once('/').unwrap();
+    let key = key.replace("~1", "/").replace("~0", "~");
+    match (h.pointer_mut(parent).unwrap(), value) {
+        (serde_json::Value::Object(m), None) => {
+            m.remove(&key);
+        }
+        (serde_json::Value::Object(m), Some(v)) => {
+            m.insert(key, v.clone());
+        }
+        (serde_json::Value::Array(a), None) => {
+            a.remove(key.parse::<usize>().unwrap());
+        }
+        (serde_json::Value::Array(a), Some(v)) => a[key.parse::<usize>().unwrap()] = v.clone(),
+        _ => unreachable!("pointers() lists fields of objects and arrays"),
+    }
+    h
+}
+
+/// Header mutants of a plain table, a tensor-train table and a 2-D phase-function table:
+/// every field replaced by each of `replacement_values` or removed, the header re-sealed
+/// (payload and its checksums unchanged), so each mutant is refused by a rule past the
+/// checksums or read.
+fn header_mutants(dir: &Path) -> Vec<Subject> {
+    let plain = common::crafted::cases().swap_remove(0).bytes;
+    let tensor_train = common::crafted::tensor_train_table().0.to_bytes().unwrap();
+    let fixtures = dir.join("mutant-bases");
+    std::fs::create_dir_all(&fixtures).unwrap();
+    let latlong = common::synthetic_tables(&fixtures)
+        .into_iter()
+        .find(|p| p.ends_with("latlong.sbt"))
+        .map(|p| std::fs::read(p).unwrap())
+        .unwrap();
+    let mut out = Vec::new();
+    for (base_name, bytes, is_tt) in [
+        ("plain", plain, false),
+        ("tt", tensor_train, true),
+        ("latlong", latlong, false),
+    ] {
+        let h_len = u64::from_le_bytes(bytes[16..24].try_into().unwrap()) as usize;
+        let header: serde_json::Value = serde_json::from_slice(&bytes[56..56 + h_len]).unwrap();
+        let payload = &bytes[56 + h_len..];
+        let mut paths = Vec::new();
+        pointers(&header, String::new(), &mut paths);
+        for (i, p) in paths.iter().enumerate() {
+            for (j, v) in replacement_values().iter().enumerate() {
+                let h = serde_json::to_vec(&edited(&header, p, v)).unwrap();
+                let name = format!("mutant_{base_name}_{i}_{j}");
+                let path = dir.join(format!("{name}.sbt"));
+                std::fs::write(&path, common::crafted::assemble(1, 0, 0, &h, payload)).unwrap();
+                out.push(Subject {
+                    file_verdict: rust_verdict(&path, false),
+                    verdict: rust_verdict(&path, is_tt),
+                    name: format!("{name} ({p} = {v:?})"),
+                    path,
+                    tensor_train: is_tt,
+                });
+            }
+        }
+    }
+    out
+}
+
+/// The pure-Python reader on many files in one process: one JSON line per file, the SHA-256
+/// of the samples (float32 little-endian) or the message of its `TableError`; any other
+/// exception is reported as such.
+const PYTHON_BATCH: &str = r#"
+import hashlib, json, sys, traceback
+sys.path.insert(0, sys.argv[1])
+import numpy as np, scatterbake_table as sbt
+for path in sys.stdin.read().splitlines():
+    try:
+        t = sbt.open_table(path)
+        d = np.ascontiguousarray(np.asarray(t.data, dtype="<f4")).tobytes()
+        print(json.dumps({"ok": hashlib.sha256(d).hexdigest()}))
+    except sbt.TableError as e:
+        print(json.dumps({"err": str(e)}))
+    except BaseException as e:
+        print(json.dumps({"crash": traceback.format_exc()}))
+"#;
+
+/// Header mutants through the Rust and the pure-Python reader: the same verdict, the same
+/// samples (by SHA-256) when read, a refusal for the same step of the spec when refused.
+#[test]
+fn header_mutants_rust_and_python_agree() {
+    use sha2::{Digest, Sha256};
+    let dir = tempfile::tempdir().unwrap();
+    let mutants = header_mutants(dir.path());
+    let list: String = mutants
+        .iter()
+        .map(|s| format!("{}\n", s.path.display()))
+        .collect();
+    let mut child = Command::new(common::python::python())
+        .args(["-c", PYTHON_BATCH])
+        .arg(Path::new(env!("CARGO_MANIFEST_DIR")).join("python"))
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .spawn()
+        .unwrap();
+    std::io::Write::write_all(&mut child.stdin.take().unwrap(), list.as_bytes()).unwrap();
+    let out = child.wait_with_output().unwrap();
+    assert!(out.status.success(), "the Python batch failed");
+    let lines: Vec<serde_json::Value> = String::from_utf8(out.stdout)
+        .unwrap()
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    assert_eq!(lines.len(), mutants.len());
+    let mut broken = Vec::new();
+    let mut read = 0;
+    for (s, py) in mutants.iter().zip(&lines) {
+        let agree = match (&s.verdict, py.get("ok"), py.get("err")) {
+            (Ok(values), Some(sha), _) => {
+                read += 1;
+                let bytes: Vec<u8> = values.iter().flat_map(|v| v.to_le_bytes()).collect();
+                *sha == hex::encode(Sha256::digest(&bytes))
+            }
+            (Err(message), _, Some(said)) => {
+                let said = without_path(said.as_str().unwrap(), &s.path);
+                rule_of(&said).is_some() && rule_of(&said) == rule_of(message)
+            }
+            _ => false,
+        };
+        if !agree {
+            broken.push(format!(
+                "{}: Rust {:?}, Python {py}",
+                s.name,
+                s.verdict.as_ref().map(|v| v.len())
+            ));
+        }
+    }
+    eprintln!(
+        "header mutants: {} files, {read} read by both, {} disagree",
+        mutants.len(),
+        broken.len()
+    );
+    assert!(
+        broken.is_empty(),
+        "{} disagreements:\n{}",
+        broken.len(),
+        broken.join("\n")
+    );
+}

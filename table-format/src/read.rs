@@ -209,9 +209,12 @@ const HEADER_FIELDS: [&str; 8] = [
 /// this reader implements) are checked on a first pass, then the typed header is decoded.
 fn parse_header_json(bytes: &[u8], major: u16, minor: u16) -> Result<Header, String> {
     let mut de = serde_json::Deserializer::from_slice(bytes);
-    let top = StrictJson { depth: 0 }
-        .deserialize(&mut de)
-        .map_err(|e| format!("JSON: {e}"))?;
+    let top = StrictJson {
+        depth: 0,
+        at: At::Top,
+    }
+    .deserialize(&mut de)
+    .map_err(|e| format!("JSON: {e}"))?;
     de.end().map_err(|e| format!("JSON: {e}"))?;
     let Some(keys) = top else {
         return Err("the header is not a JSON object".into());
@@ -228,10 +231,59 @@ fn parse_header_json(bytes: &[u8], major: u16, minor: u16) -> Result<Header, Str
     serde_json::from_slice(bytes).map_err(|e| e.to_string())
 }
 
-/// A serde visitor over any JSON value that refuses duplicate object keys and nesting deeper
-/// than [`MAX_JSON_DEPTH`]. Returns the keys of the value when it is an object.
+/// A serde visitor over any JSON value that refuses duplicate object keys, nesting deeper
+/// than [`MAX_JSON_DEPTH`] and an array where the format has an object. Returns the keys of the
+/// value when it is an object.
 struct StrictJson {
     depth: usize,
+    at: At,
+}
+
+/// Where a value sits in the header, as far as the objects of the format go: the typed decoder
+/// would also build a struct from an array (`"uniform": [0, 1, 3]`), which the format does not
+/// allow (and the other readers refuse).
+#[derive(Clone, Copy, PartialEq)]
+enum At {
+    Top,
+    Object(&'static str),
+    AxisList,
+    ChannelList,
+    Axis,
+    Points,
+    Other,
+}
+
+impl At {
+    fn field(self, key: &str) -> At {
+        match (self, key) {
+            (At::Top, "schema") => At::Object("schema"),
+            (At::Top, "layout") => At::Object("layout"),
+            (At::Top, "payload") => At::Object("payload"),
+            (At::Top, "provenance") => At::Object("provenance"),
+            (At::Top, "axes") => At::AxisList,
+            (At::Top, "channels") => At::ChannelList,
+            (At::Axis, "points") => At::Points,
+            (At::Points, "uniform") => At::Object("axes[].points.uniform"),
+            _ => At::Other,
+        }
+    }
+    fn element(self) -> At {
+        match self {
+            At::AxisList => At::Axis,
+            At::ChannelList => At::Object("channels[]"),
+            _ => At::Other,
+        }
+    }
+    /// The name of the object this position must hold, if it must hold one.
+    fn object_name(self) -> Option<&'static str> {
+        match self {
+            At::Top => Some("the header"),
+            At::Object(name) => Some(name),
+            At::Axis => Some("axes[]"),
+            At::Points => Some("axes[].points"),
+            _ => None,
+        }
+    }
 }
 
 impl<'de> DeserializeSeed<'de> for StrictJson {
@@ -271,7 +323,13 @@ impl<'de> Visitor<'de> for StrictJson {
                 "nesting deeper than {MAX_JSON_DEPTH} levels"
             )));
         }
-        while seq.next_element_seed(StrictJson { depth })?.is_some() {}
+        if let Some(name) = self.at.object_name() {
+            return Err(serde::de::Error::custom(format!(
+                "{name} must be an object, not an array"
+            )));
+        }
+        let at = self.at.element();
+        while seq.next_element_seed(StrictJson { depth, at })?.is_some() {}
         Ok(None)
     }
     fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<Self::Value, A::Error> {
@@ -287,7 +345,8 @@ impl<'de> Visitor<'de> for StrictJson {
             if !keys.insert(k.clone()) {
                 return Err(serde::de::Error::custom(format!("duplicate key `{k}`")));
             }
-            map.next_value_seed(StrictJson { depth })?;
+            let at = self.at.field(&k);
+            map.next_value_seed(StrictJson { depth, at })?;
             order.push(k);
         }
         Ok(Some(order))

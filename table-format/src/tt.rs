@@ -673,12 +673,26 @@ fn source_axes(
     dims: &[usize],
     path: &Path,
 ) -> Result<Vec<Axis>, TableError> {
-    let axes: Vec<Axis> = serde_json::from_value(
-        at.get("source_axes")
-            .cloned()
-            .ok_or_else(|| tt_err(path, "missing attribute `source_axes`"))?,
-    )
-    .map_err(|e| tt_err(path, format!("attribute `source_axes`: {e}")))?;
+    let json = at
+        .get("source_axes")
+        .ok_or_else(|| tt_err(path, "missing attribute `source_axes`"))?;
+    // The typed decoder would also build an axis from an array; the format has objects.
+    let objects = |v: Option<&serde_json::Value>| v.is_none_or(serde_json::Value::is_object);
+    if let Some(list) = json.as_array()
+        && !list.iter().all(|a| {
+            a.is_object()
+                && objects(a.get("points"))
+                && objects(a.get("points").and_then(|p| p.get("uniform")))
+        })
+    {
+        return Err(tt_err(
+            path,
+            "attribute `source_axes`: an axis, its points and a uniform axis's points are \
+             objects, not arrays",
+        ));
+    }
+    let axes: Vec<Axis> = serde_json::from_value(json.clone())
+        .map_err(|e| tt_err(path, format!("attribute `source_axes`: {e}")))?;
     if axes.len() != dims.len() || axes.iter().zip(dims).any(|(a, &n)| a.len() != n) {
         return Err(tt_err(
             path,

@@ -170,6 +170,7 @@ pub fn cases() -> Vec<Case> {
     preamble_cases(&raw, &mut add);
     payload_frame_cases(&raw, &mut add);
     json_cases(&raw, &mut add);
+    field_shape_cases(&raw, &mut add);
     v
 }
 
@@ -448,6 +449,24 @@ fn payload_frame_cases(raw: &[u8], add: &mut Add) {
 }
 
 /// JSON.
+/// Fields of the right name in the wrong shape.
+fn field_shape_cases(raw: &[u8], add: &mut Add) {
+    // A typed decoder would build the uniform axis from `[start, step, count]`.
+    let mut h = base_header();
+    h["axes"][1]["points"]["uniform"] = json!([0.0, 90.0, 3]);
+    add("uniform_as_array", file_with(h, raw, |_| {}), false);
+    let mut h = base_header();
+    h["provenance"]
+        .as_object_mut()
+        .unwrap()
+        .remove("parameters");
+    add(
+        "provenance_parameters_missing",
+        file_with(h, raw, |_| {}),
+        false,
+    );
+}
+
 fn json_cases(raw: &[u8], add: &mut Add) {
     let (text, c) = header_text(raw);
     let dup = text.replacen('{', "{\"description\":\"first\",", 1);
