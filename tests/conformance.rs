@@ -454,12 +454,54 @@ fn reader_breaks(c_exe: &Path, python: &Path, s: &Subject, dir: &Path) -> Vec<St
     found
 }
 
+/// Where the suite leaves its files and the Rust reader's verdicts for the Python package's
+/// tests (`python/tests/test_conformance.py`), which run after `cargo test` (as in `.ci/run`)
+/// and read the package's verdicts against these: `target/tmp/conformance-corpus/<set>/`.
+fn export_for_python(set: &str, subjects: &[Subject]) {
+    use sha2::{Digest, Sha256};
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join("conformance-corpus")
+        .join(set);
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let mut verdicts = Vec::new();
+    for (k, s) in subjects.iter().enumerate() {
+        let file = format!("{k:05}.sbt");
+        let path = dir.join(&file);
+        std::fs::copy(&s.path, &path).unwrap();
+        // The package reports a refusal as the error and its causes, like the command line.
+        let verdict = if s.tensor_train {
+            Table::open_reconstructed(&path, &ReadLimits::default())
+        } else {
+            Table::open(&path)
+        };
+        let v = match verdict {
+            Ok(t) => {
+                let bytes: Vec<u8> = t.data.iter().flat_map(|v| v.to_le_bytes()).collect();
+                serde_json::json!({"file": file, "name": s.name, "sha256": hex::encode(Sha256::digest(&bytes))})
+            }
+            Err(e) => {
+                let message = scatterbake::error::error_chain(&e);
+                serde_json::json!({"file": file, "name": s.name,
+                                   "error": message.replace(&path.display().to_string(), "FILE")})
+            }
+        };
+        verdicts.push(v);
+    }
+    std::fs::write(
+        dir.join("verdicts.json"),
+        serde_json::to_vec_pretty(&verdicts).unwrap(),
+    )
+    .unwrap();
+}
+
 /// The suite. Prints the count of files per verdict and of runs; fails with every broken run.
 #[test]
 fn every_file_through_every_reader_and_command() {
     let dir = tempfile::tempdir().unwrap();
     let subjects = subjects(dir.path());
     let refused = subjects.iter().filter(|s| s.verdict.is_err()).count();
+    export_for_python("crafted", &subjects);
     let c_exe = common::c::example_exe(dir.path());
     let python = common::python::python();
     let exe = common::c::cli_exe();
@@ -558,25 +600,21 @@ fn edited(
     h
 }
 
-/// Header mutants of a plain table, a tensor-train table and a 2-D phase-function table:
+/// Header mutants of a plain table, a tensor-train table and a phase-function table:
 /// every field replaced by each of `replacement_values` or removed, the header re-sealed
 /// (payload and its checksums unchanged), so each mutant is refused by a rule past the
 /// checksums or read.
 fn header_mutants(dir: &Path) -> Vec<Subject> {
     let plain = common::crafted::cases().swap_remove(0).bytes;
     let tensor_train = common::crafted::tensor_train_table().0.to_bytes().unwrap();
-    let fixtures = dir.join("mutant-bases");
-    std::fs::create_dir_all(&fixtures).unwrap();
-    let latlong = common::synthetic_tables(&fixtures)
-        .into_iter()
-        .find(|p| p.ends_with("latlong.sbt"))
-        .map(|p| std::fs::read(p).unwrap())
+    let phase = henyey_greenstein_table(&[450.0, 650.0], &[10.0, 20.0], |_, _| 0.6, 19, 0.5)
+        .to_bytes()
         .unwrap();
     let mut out = Vec::new();
     for (base_name, bytes, is_tt) in [
         ("plain", plain, false),
         ("tt", tensor_train, true),
-        ("latlong", latlong, false),
+        ("phase", phase, false),
     ] {
         let h_len = u64::from_le_bytes(bytes[16..24].try_into().unwrap()) as usize;
         let header: serde_json::Value = serde_json::from_slice(&bytes[56..56 + h_len]).unwrap();
@@ -627,6 +665,7 @@ fn header_mutants_rust_and_python_agree() {
     use sha2::{Digest, Sha256};
     let dir = tempfile::tempdir().unwrap();
     let mutants = header_mutants(dir.path());
+    export_for_python("mutants", &mutants);
     let list: String = mutants
         .iter()
         .map(|s| format!("{}\n", s.path.display()))
