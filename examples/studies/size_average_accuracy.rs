@@ -74,6 +74,7 @@ fn main() -> anyhow::Result<()> {
         for &tolerance in &tolerances {
             let limits = AverageLimits {
                 tolerance,
+                max_tolerance: None,
                 max_nodes: 200_000,
             };
             let t0 = Instant::now();

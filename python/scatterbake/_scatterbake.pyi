@@ -207,6 +207,9 @@ class DistributionResult:
     error_estimate: Optional[float]
     """Estimated RMS relative error of i_perp and i_par over the angles (relative to phase) of
     the adaptive rule; None for a fixed ``radius_points`` rule."""
+    max_error_estimate: Optional[float]
+    """Estimated largest relative error over the angles and both channels (the same per-angle
+    estimate); None for a fixed ``radius_points`` rule."""
     radius_nodes: int
     """Spheres evaluated."""
 
@@ -220,6 +223,7 @@ def mie_distribution(
     tolerance: float = 1e-3,
     max_radius_nodes: int = 100000,
     radius_points: Optional[int] = None,
+    max_tolerance: Optional[float] = None,
 ) -> DistributionResult:
     """Size-distribution-averaged phase function of spheres of index ``m`` at the vacuum
     wavelength ``wavelength_nm``.
@@ -231,7 +235,9 @@ def mie_distribution(
     The single-sphere phase functions are mixed with weights n(r) dr · C_sca(r) (the ``mie``
     stage's rule) by an adaptive radius rule (uniform in r on panels, steps halved) until the
     estimated RMS error of ``i_perp`` and ``i_par`` over the angles, relative to ``phase``, is at
-    most ``tolerance``; ``error_estimate`` and ``radius_nodes`` report it. A tolerance that needs
+    most ``tolerance`` (and, with ``max_tolerance``, its estimated largest value over the angles
+    at most ``max_tolerance``); ``error_estimate``, ``max_error_estimate`` and ``radius_nodes``
+    report it. A tolerance that needs
     more than ``max_radius_nodes`` spheres raises ValueError (never an unconverged result).
     ``radius_points=N`` instead uses a fixed N-point Gauss–Legendre rule in ln r, with no error
     estimate (``error_estimate`` is None). Medium as :func:`mie` (wavelength and index divided by

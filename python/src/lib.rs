@@ -446,6 +446,9 @@ pub struct DistributionResult {
     /// Estimated RMS relative error of `i_perp`, `i_par` (relative to `phase`) of the adaptive
     /// rule; `None` for a fixed `radius_points` rule.
     error_estimate: Option<f64>,
+    /// Estimated largest relative error over the angles and channels (same estimate);
+    /// `None` for a fixed `radius_points` rule.
+    max_error_estimate: Option<f64>,
     /// Spheres evaluated.
     radius_nodes: usize,
 }
@@ -454,7 +457,8 @@ pub struct DistributionResult {
 #[pyfunction]
 #[pyo3(signature = (distribution, wavelength_nm, m, *, n_medium=1.0, angles_deg=None,
     tolerance=scatterbake::mie::size_average::DEFAULT_TOLERANCE,
-    max_radius_nodes=scatterbake::mie::size_average::DEFAULT_MAX_NODES, radius_points=None))]
+    max_radius_nodes=scatterbake::mie::size_average::DEFAULT_MAX_NODES, radius_points=None,
+    max_tolerance=None))]
 #[allow(clippy::too_many_arguments)]
 fn mie_distribution(
     py: Python<'_>,
@@ -466,6 +470,7 @@ fn mie_distribution(
     tolerance: f64,
     max_radius_nodes: usize,
     radius_points: Option<usize>,
+    max_tolerance: Option<f64>,
 ) -> PyResult<DistributionResult> {
     let json: String = py
         .import("json")?
@@ -498,6 +503,7 @@ fn mie_distribution(
     let Some(points) = radius_points else {
         let limits = AverageLimits {
             tolerance,
+            max_tolerance,
             max_nodes: max_radius_nodes,
         };
         let a = py
@@ -530,6 +536,7 @@ fn mie_distribution(
             radii_um: f1(py, a.radii_um),
             weights: f1(py, a.weights),
             error_estimate: Some(a.error_estimate),
+            max_error_estimate: Some(a.max_error_estimate),
             radius_nodes: a.radius_nodes,
         });
     };
@@ -554,6 +561,7 @@ fn mie_distribution(
         radii_um: f1(py, e.radii_um),
         weights: f1(py, e.weights),
         error_estimate: None,
+        max_error_estimate: None,
         radius_nodes,
     })
 }

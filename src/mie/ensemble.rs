@@ -73,6 +73,7 @@ pub fn compute_entry(
             let integrand = BinnedCurve::new(wavelength_nm, m, settings, sun);
             let limits = AverageLimits {
                 tolerance: settings.radius_tolerance,
+                max_tolerance: None,
                 max_nodes: MAX_ENTRY_NODES,
             };
             let a = average(distribution, &integrand, &limits)?;

@@ -73,6 +73,9 @@ pub struct AverageLimits {
     /// Largest accepted error estimate: RMS over the returned angles and both channels of the
     /// error relative to the phase function.
     pub tolerance: f64,
+    /// Largest accepted estimate of the maximum of that error over the angles and channels, if
+    /// bounded (`None`: the maximum is estimated and reported, not bounded).
+    pub max_tolerance: Option<f64>,
     /// Largest number of radius nodes (each one sphere).
     pub max_nodes: usize,
 }
@@ -81,6 +84,7 @@ impl Default for AverageLimits {
     fn default() -> Self {
         AverageLimits {
             tolerance: DEFAULT_TOLERANCE,
+            max_tolerance: None,
             max_nodes: DEFAULT_MAX_NODES,
         }
     }
@@ -92,6 +96,14 @@ impl AverageLimits {
         if !(self.tolerance >= 1e-6 && self.tolerance <= 0.5) {
             return Err(SizeAverageError::Limits(format!(
                 "tolerance must be in [1e-6, 0.5], got {}",
+                self.tolerance
+            )));
+        }
+        if let Some(m) = self.max_tolerance
+            && !(m >= self.tolerance && m <= 1.0)
+        {
+            return Err(SizeAverageError::Limits(format!(
+                "the maximum tolerance must be in [tolerance, 1] = [{}, 1], got {m}",
                 self.tolerance
             )));
         }
@@ -120,11 +132,13 @@ pub enum SizeAverageError {
     #[error("the distribution scatters nothing (its integral of n(r) C_sca(r) dr is {0})")]
     NoScattering(f64),
     #[error(
-        "the radius average did not reach the tolerance {tolerance:.1e}: estimated RMS relative error {estimate:.2e} after {nodes} radius nodes, and the next refinement would exceed the limit of {max_nodes}; raise the node limit or the tolerance"
+        "the radius average did not reach the tolerance {tolerance:.1e}{}: estimated RMS relative error {estimate:.2e}, maximum {max_estimate:.2e} after {nodes} radius nodes, and the next refinement would exceed the limit of {max_nodes}; raise the node limit or the tolerance", max_tolerance.map_or(String::new(), |m| format!(" (maximum {m:.1e})"))
     )]
     NotConverged {
         tolerance: f64,
+        max_tolerance: Option<f64>,
         estimate: f64,
+        max_estimate: f64,
         nodes: usize,
         max_nodes: usize,
     },
@@ -164,6 +178,10 @@ pub struct SizeAverage {
     pub phase_normalisation: f64,
     /// Error estimate (module doc); 0 for a monodisperse entry.
     pub error_estimate: f64,
+    /// Estimate of the largest error over the angles and channels, relative to the phase
+    /// function (the same per-angle estimate whose RMS is `error_estimate`); 0 for a
+    /// monodisperse entry.
+    pub max_error_estimate: f64,
     /// Radius nodes (spheres) evaluated.
     pub radius_nodes: usize,
     /// The final rule: radii (µm), increasing.
@@ -186,6 +204,9 @@ struct Panel {
     previous: Option<Vec<f64>>,
     /// `L(Δ_curve)` and `Δ_{C_sca}` of the last halving.
     finished_delta: Option<(Vec<f64>, f64)>,
+    /// Its contribution to the entry's per-angle error estimate (extrapolated, relative to the
+    /// phase function; empty before the first halving).
+    error_by_angle: Vec<f64>,
     /// Error estimate of the last and of the previous halving (module doc).
     error: f64,
     previous_error: f64,
@@ -309,6 +330,7 @@ impl Panel {
             value: Vec::new(),
             previous: None,
             finished_delta: None,
+            error_by_angle: Vec::new(),
             error: f64::INFINITY,
             previous_error: f64::INFINITY,
             level: 0,
@@ -442,18 +464,27 @@ fn totals<I: RadiusIntegrand>(panels: &[Panel], integrand: &I) -> Result<Totals,
     Ok(Totals { total, out, phase })
 }
 
+/// The entry's error estimate: RMS and maximum over the angles and channels (with a positive
+/// phase function), and where the maximum is.
+struct Estimate {
+    rms: f64,
+    max: f64,
+    at: usize,
+}
+
 /// Updates every panel's error from its last halving against the current totals; returns the
 /// entry's estimate (module doc): per panel the error vector of the last halving, scaled by
-/// [`Panel::extrapolation`], summed in absolute value over panels, RMS over angles and channels.
-fn estimate(panels: &mut [Panel], t: &Totals, c_sca: f64) -> f64 {
+/// [`Panel::extrapolation`], summed in absolute value over panels; its RMS over angles and
+/// channels, and its maximum.
+fn estimate(panels: &mut [Panel], t: &Totals, c_sca: f64) -> Estimate {
     let k = t.phase.len();
     let mut combined = vec![0.0; 2 * k];
-    let mut e = vec![0.0; 2 * k];
     for p in panels.iter_mut() {
         let Some((fd, dc)) = &p.finished_delta else {
             continue;
         };
         let (mut sq, mut count) = (0.0, 0usize);
+        let mut e = vec![0.0; 2 * k];
         for (j, ej) in e.iter_mut().enumerate() {
             let ph = t.phase[j % k];
             *ej = if ph > 0.0 {
@@ -466,17 +497,50 @@ fn estimate(panels: &mut [Panel], t: &Totals, c_sca: f64) -> f64 {
         }
         p.error = (sq / count.max(1) as f64).sqrt();
         let factor = p.extrapolation();
-        combined
-            .iter_mut()
-            .zip(&e)
-            .for_each(|(c, v)| *c += factor * v);
+        e.iter_mut().for_each(|v| *v *= factor);
+        combined.iter_mut().zip(&e).for_each(|(c, v)| *c += v);
+        p.error_by_angle = e;
     }
-    let n = combined
-        .iter()
-        .enumerate()
-        .filter(|(j, _)| t.phase[j % k] > 0.0)
-        .count();
-    (combined.iter().map(|e| e * e).sum::<f64>() / n.max(1) as f64).sqrt()
+    let kept = |j: &usize| t.phase[j % k] > 0.0;
+    let n = (0..2 * k).filter(kept).count();
+    let (at, max) = (0..2 * k)
+        .filter(kept)
+        .map(|j| (j, combined[j]))
+        .fold((0, 0.0), |m, c| if c.1 > m.1 { c } else { m });
+    Estimate {
+        rms: (combined.iter().map(|e| e * e).sum::<f64>() / n.max(1) as f64).sqrt(),
+        max,
+        at,
+    }
+}
+
+/// The panel to refine next: while the RMS is over the tolerance, the panel of the largest
+/// RMS error; while only the maximum is over its bound, the panel contributing most where the
+/// maximum is; once both are met, the unsettled panel of the largest error (`None`: done).
+fn next_panel(
+    panels: &[Panel],
+    e: &Estimate,
+    limits: &AverageLimits,
+    x_per_um: f64,
+) -> Option<usize> {
+    let tol = limits.tolerance;
+    let by_error = |a: &(usize, &Panel), b: &(usize, &Panel)| a.1.error.total_cmp(&b.1.error);
+    let pick = if e.rms > tol {
+        panels.iter().enumerate().max_by(by_error)
+    } else if limits.max_tolerance.is_some_and(|m| e.max > m) {
+        let at = |p: &Panel| p.error_by_angle.get(e.at).copied().unwrap_or(0.0);
+        panels
+            .iter()
+            .enumerate()
+            .max_by(|a, b| at(a.1).total_cmp(&at(b.1)))
+    } else {
+        panels
+            .iter()
+            .enumerate()
+            .filter(|(_, p)| !p.settled(tol, x_per_um))
+            .max_by(by_error)
+    };
+    pick.map(|(i, _)| i)
 }
 
 /// Averages `integrand` over `distribution` to `limits` (module doc). A monodisperse
@@ -507,25 +571,12 @@ pub fn average<I: RadiusIntegrand>(
         let t = totals(&panels, integrand)?;
         let c_sca = t.total[integrand.curve_len() + C_SCA];
         let error = estimate(&mut panels, &t, c_sca);
-        let tol = limits.tolerance;
-        let pick = if error > tol {
-            panels
-                .iter()
-                .enumerate()
-                .max_by(|a, b| a.1.error.total_cmp(&b.1.error))
-        } else {
-            panels
-                .iter()
-                .enumerate()
-                .filter(|(_, p)| !p.settled(tol, integrand.wavenumber_per_um()))
-                .max_by(|a, b| a.1.error.total_cmp(&b.1.error))
-        };
-        let Some((i, _)) = pick else {
+        let Some(i) = next_panel(&panels, &error, limits, integrand.wavenumber_per_um()) else {
             return Ok(finish_average(
                 distribution,
                 &panels,
                 &t,
-                error,
+                &error,
                 nodes,
                 integrand,
             ));
@@ -533,8 +584,10 @@ pub fn average<I: RadiusIntegrand>(
         let more = panels[i].intervals;
         if nodes + more > limits.max_nodes {
             return Err(SizeAverageError::NotConverged {
-                tolerance: tol,
-                estimate: error,
+                tolerance: limits.tolerance,
+                max_tolerance: limits.max_tolerance,
+                estimate: error.rms,
+                max_estimate: error.max,
                 nodes,
                 max_nodes: limits.max_nodes,
             });
@@ -550,7 +603,7 @@ fn finish_average<I: RadiusIntegrand>(
     distribution: &SizeDistribution,
     panels: &[Panel],
     t: &Totals,
-    error_estimate: f64,
+    error: &Estimate,
     radius_nodes: usize,
     integrand: &I,
 ) -> SizeAverage {
@@ -567,7 +620,7 @@ fn finish_average<I: RadiusIntegrand>(
         &t.out,
         &t.total[integrand.curve_len()..],
         integrand.wavenumber_per_um(),
-        error_estimate,
+        (error.rms, error.max),
         radius_nodes,
         rule,
     )
@@ -579,7 +632,7 @@ fn scalars(
     out: &[f64],
     cs: &[f64],
     wavenumber_per_um: f64,
-    error_estimate: f64,
+    (error_estimate, max_error_estimate): (f64, f64),
     radius_nodes: usize,
     rule: Vec<(f64, f64)>,
 ) -> SizeAverage {
@@ -593,6 +646,7 @@ fn scalars(
         g: cs[5] / cs[3],
         phase_normalisation: wavenumber_per_um * wavenumber_per_um * cs[3] / cs[0],
         error_estimate,
+        max_error_estimate,
         radius_nodes,
         radii_um: rule.iter().map(|p| p.0).collect(),
         weights: rule.iter().map(|p| p.1).collect(),
@@ -620,7 +674,7 @@ fn monodisperse<I: RadiusIntegrand>(
         &out,
         cs,
         integrand.wavenumber_per_um(),
-        0.0,
+        (0.0, 0.0),
         1,
         vec![(radius_um, 1.0)],
     ))
@@ -865,6 +919,7 @@ mod tests {
         };
         let limits = AverageLimits {
             tolerance: 1e-4,
+            max_tolerance: None,
             max_nodes: 300,
         };
         let e = average_at_angles(
@@ -886,9 +941,19 @@ mod tests {
         for bad in [0.0, f64::NAN, 0.7] {
             let l = AverageLimits {
                 tolerance: bad,
+                max_tolerance: None,
                 max_nodes: 1000,
             };
             assert!(average_at_angles(&d, 550.0, Complex64::new(1.333, 0.0), &[30.0], &l).is_err());
+        }
+        for bad_max in [1e-5, f64::NAN, 2.0] {
+            let l = AverageLimits {
+                tolerance: 1e-3,
+                max_tolerance: Some(bad_max),
+                max_nodes: 1000,
+            };
+            let e = average_at_angles(&d, 550.0, Complex64::new(1.333, 0.0), &[30.0], &l);
+            assert!(e.unwrap_err().to_string().contains("maximum tolerance"));
         }
         let l = AverageLimits::default();
         assert!(average_at_angles(&d, 550.0, Complex64::new(1.333, 0.0), &[181.0], &l).is_err());

@@ -30,7 +30,8 @@
 //! With `--distribution`, the same columns are the size-distribution average (weights
 //! `n(r) dr · C_sca(r)`, the `mie` stage's) at point angles, by the adaptive radius rule of
 //! `mie::size_average` to `--tolerance` (the estimated RMS relative error of `i_perp`, `i_par`
-//! over the angles, relative to `phase`), which the header states with the spheres used; a
+//! over the angles, relative to `phase`; `--max-tolerance` also bounds its estimated largest
+//! value over the angles), which the header states with the spheres used; a
 //! tolerance not met within `--max-radius-nodes` spheres is an error. The parameters are those
 //! of the manifest's `distributions` entries: `lognormal:median_radius_um,geometric_sigma`,
 //! `gamma:effective_radius_um,effective_variance`,
@@ -342,6 +343,10 @@ pub struct MieCommandArgs {
     /// Largest estimated RMS relative error of a --distribution average (relative to phase).
     #[arg(long, default_value_t = DEFAULT_TOLERANCE, requires = "distribution")]
     pub tolerance: f64,
+    /// Largest estimated maximum relative error of a --distribution average over the angles
+    /// (relative to phase; default: estimated and printed, not bounded).
+    #[arg(long, requires = "distribution")]
+    pub max_tolerance: Option<f64>,
     /// Largest number of spheres of a --distribution average.
     #[arg(long, default_value_t = DEFAULT_MAX_NODES, requires = "distribution")]
     pub max_radius_nodes: usize,
@@ -409,6 +414,7 @@ pub fn solve_distribution(args: &MieCommandArgs) -> anyhow::Result<Option<CurveR
     let angles_deg = query_angles(a)?;
     let limits = AverageLimits {
         tolerance: args.tolerance,
+        max_tolerance: args.max_tolerance,
         max_nodes: args.max_radius_nodes,
     };
     let r = average_at_angles(d, wavelength_nm / a.n_medium, m, &angles_deg, &limits)
@@ -424,8 +430,13 @@ pub fn solve_distribution(args: &MieCommandArgs) -> anyhow::Result<Option<CurveR
                 a.n_medium
             ),
             format!(
-                "error_estimate = {:.3e} (RMS relative error of i_perp, i_par over the angles, relative to phase; tolerance {:.1e})  radius_nodes = {}",
-                r.error_estimate, args.tolerance, r.radius_nodes
+                "error_estimate = {:.3e} (RMS relative error of i_perp, i_par over the angles, relative to phase; tolerance {:.1e})  max_error_estimate = {:.3e} (largest over the angles{})  radius_nodes = {}",
+                r.error_estimate,
+                args.tolerance,
+                r.max_error_estimate,
+                args.max_tolerance
+                    .map_or(String::new(), |m| format!("; tolerance {m:.1e}")),
+                r.radius_nodes
             ),
             format!(
                 "Q_ext = {:.10}  Q_sca = {:.10}  g = {:.10} (<C>/<pi r^2>, g weighted by C_sca)",
