@@ -56,7 +56,7 @@ impl Job for AdaptiveJob {
     }
 
     fn run_task(&self, index: usize) -> Result<Chunk, JobError> {
-        let job = &self.inner;
+        let job = &self.inner.layout;
         let sigma = job.sigma[index / job.g.len()];
         let g = job.g[index % job.g.len()];
         let n = job.entries.len();
@@ -80,7 +80,7 @@ impl Job for AdaptiveJob {
             .iter()
             .map(|r| r.as_ref().map(|r| r.0.clone()))
             .collect();
-        let mut out = job.chunk(&packed);
+        let mut out = self.inner.chunk(&packed);
         for i in 0..n {
             let src = job.mirror_source(i).unwrap_or(i);
             let extra = rows[src].as_ref().expect("source row computed").1;
@@ -90,11 +90,12 @@ impl Job for AdaptiveJob {
     }
 
     fn assemble(&self, chunks: Vec<Chunk>) -> Result<TableContent, JobError> {
-        let n = self.inner.entries.len();
+        let layout = &self.inner.layout;
+        let n = layout.entries.len();
         let mut extras: Vec<Vec<f64>> = vec![Vec::new(); EXTRA];
         let mut inner_chunks = Vec::with_capacity(chunks.len());
-        let (values, scalars) = self.inner.pair_chunk_len();
-        let tasks = self.inner.sigma.len() * self.inner.g.len();
+        let (values, scalars) = layout.pair_len();
+        let tasks = layout.sigma.len() * layout.g.len();
         check_chunks(&chunks, tasks, values, scalars + n * EXTRA)?;
         for mut ch in chunks {
             let tail = ch.scalars.split_off(scalars);

@@ -9,6 +9,7 @@
 use super::job::MedullaJob;
 use crate::fur::disc::{DiscSettings, DiscSolver};
 use crate::fur::medulla::Profile;
+use crate::fur::medulla_table::remove_sampling_attributes;
 use crate::stages::{Chunk, Job, JobError, TaskSpec, check_chunks};
 use crate::table::TableContent;
 use serde_json::json;
@@ -28,7 +29,7 @@ pub(super) struct DiscJob {
 impl DiscJob {
     pub(super) fn new(inner: MedullaJob) -> Self {
         let settings = DiscSettings {
-            bins: inner.p.bins,
+            bins: inner.layout.bins,
             ..DiscSettings::default()
         };
         DiscJob { inner, settings }
@@ -42,8 +43,9 @@ impl Job for DiscJob {
     }
     fn estimated_cpu_seconds(&self) -> f64 {
         // One plane-wave solve per (σ, g), dearer with σ (more iterations).
-        let solves: f64 = self.inner.sigma.iter().map(|s| 1.0 + s).sum();
-        crate::stages::cost::MEDULLA_DISC_SOLVE_CPU_S * solves * self.inner.g.len() as f64
+        let l = &self.inner.layout;
+        let solves: f64 = l.sigma.iter().map(|s| 1.0 + s).sum();
+        crate::stages::cost::MEDULLA_DISC_SOLVE_CPU_S * solves * l.g.len() as f64
     }
     fn estimated_stored_fraction(&self) -> f64 {
         crate::stages::cost::STORED_FRACTION_MEDULLA_AZIMUTHAL
@@ -54,6 +56,7 @@ impl Job for DiscJob {
 
     fn tasks(&self) -> Vec<TaskSpec> {
         self.inner
+            .layout
             .sigma
             .iter()
             .map(|&sigma| TaskSpec {
@@ -65,9 +68,9 @@ impl Job for DiscJob {
 
     /// All g of one σ: the (σ, g) chunks of the Monte Carlo layout, g in grid order.
     fn run_task(&self, index: usize) -> Result<Chunk, JobError> {
-        let job = &self.inner;
+        let job = &self.inner.layout;
         let sigma = job.sigma[index];
-        let bins = job.p.bins;
+        let bins = job.bins;
         let n = job.entries.len();
         let sources: Vec<usize> = (0..n).filter(|&i| job.mirror_source(i).is_none()).collect();
         let hs: Vec<f64> = sources.iter().map(|&i| job.entries[i]).collect();
@@ -89,14 +92,15 @@ impl Job for DiscJob {
                 };
                 rows[i] = Some(job.pack_row(sigma, &prof, Vec::new));
             }
-            pairs.push(job.chunk(&rows));
+            pairs.push(self.inner.chunk(&rows));
         }
         Ok(MedullaJob::join_pairs(pairs))
     }
 
     fn assemble(&self, chunks: Vec<Chunk>) -> Result<TableContent, JobError> {
         let job = &self.inner;
-        let (ns, ng, (values, scalars)) = (job.sigma.len(), job.g.len(), job.pair_chunk_len());
+        let l = &job.layout;
+        let (ns, ng, (values, scalars)) = (l.sigma.len(), l.g.len(), l.pair_len());
         check_chunks(&chunks, ns, ng * values, ng * scalars)?;
         // Task order is σ-major with g inside, the (σ, g) order of the Monte Carlo job.
         let mut per_pair = Vec::with_capacity(ns * ng);
@@ -106,7 +110,7 @@ impl Job for DiscJob {
         let mut content = job.assemble(per_pair)?;
         let s = &self.settings;
         let a = &mut content.attributes;
-        MedullaJob::remove_sampling_attributes(a);
+        remove_sampling_attributes(a);
         a.insert("method".into(), "characteristics".into());
         a.insert("method_description".into(), format!(
             "deterministic: by reciprocity and rotational symmetry every h' and exit bin of one (sigma, g) is a line integral of the emission of one plane-wave problem. Single scattering in closed form (Gauss-Legendre along the entry chord); orders >= 2 from the plane-wave transport solved by the method of characteristics on polar cells (boundary ring width min({}, 1/({} sigma)), interior width <= min({}, {}/sigma), growth {}, sector arc {} x width), {} source per cell and direction, {} directions (mirror-symmetric half solved), parallel tracks at {} x the smallest cell dimension, GMRES({}) to relative residual {:e}; the final line integrals use the exact exit direction (Nystrom) and the emission linear in each cell; path lengths from the derivative with respect to an absorption coefficient (second solve, flat-source operator); bin midpoint rule for the exit direction",

@@ -6,6 +6,7 @@
 
 use super::job::MedullaJob;
 use crate::fur::medulla::Profile;
+use crate::fur::medulla_table::remove_sampling_attributes;
 use crate::fur::slab::{SlabSettings, limit_shape, solve_slab};
 use crate::stages::{Chunk, Job, JobError, TaskSpec, check_chunks};
 use crate::table::TableContent;
@@ -24,7 +25,7 @@ pub(super) struct SlabJob {
 impl SlabJob {
     pub(super) fn new(inner: MedullaJob) -> Self {
         let settings = SlabSettings {
-            bins: inner.p.bins,
+            bins: inner.layout.bins,
             ..SlabSettings::default()
         };
         SlabJob { inner, settings }
@@ -38,7 +39,8 @@ impl Job for SlabJob {
     }
     fn estimated_cpu_seconds(&self) -> f64 {
         // One adding–doubling solve per g for every σ and θ'_i.
-        let cells = self.inner.g.len() * self.inner.sigma.len() * self.inner.entries.len();
+        let l = &self.inner.layout;
+        let cells = l.g.len() * l.sigma.len() * l.entries.len();
         crate::stages::cost::MEDULLA_SLAB_SOLVE_CPU_S * cells as f64
     }
     fn estimated_stored_fraction(&self) -> f64 {
@@ -50,6 +52,7 @@ impl Job for SlabJob {
 
     fn tasks(&self) -> Vec<TaskSpec> {
         self.inner
+            .layout
             .g
             .iter()
             .map(|&g| TaskSpec {
@@ -61,9 +64,9 @@ impl Job for SlabJob {
 
     /// All σ of one g: the (σ, g) chunks of the Monte Carlo layout, σ ascending in grid order.
     fn run_task(&self, index: usize) -> Result<Chunk, JobError> {
-        let job = &self.inner;
+        let job = &self.inner.layout;
         let g = job.g[index];
-        let bins = job.p.bins;
+        let bins = job.bins;
         let n = job.entries.len();
         let sources: Vec<usize> = (0..n).filter(|&i| job.mirror_source(i).is_none()).collect();
         let theta: Vec<f64> = sources
@@ -87,14 +90,15 @@ impl Job for SlabJob {
                 };
                 rows[i] = Some(job.pack_row(sigma, &prof, || limit_shape(g, theta[b], bins)));
             }
-            pairs.push(job.chunk(&rows));
+            pairs.push(self.inner.chunk(&rows));
         }
         Ok(MedullaJob::join_pairs(pairs))
     }
 
     fn assemble(&self, chunks: Vec<Chunk>) -> Result<TableContent, JobError> {
         let job = &self.inner;
-        let (ns, ng, (values, scalars)) = (job.sigma.len(), job.g.len(), job.pair_chunk_len());
+        let l = &job.layout;
+        let (ns, ng, (values, scalars)) = (l.sigma.len(), l.g.len(), l.pair_len());
         check_chunks(&chunks, ng, ns * values, ns * scalars)?;
         // Reorder into the (σ, g) task order of the Monte Carlo job, freeing each task's chunk
         // once split.
@@ -111,7 +115,7 @@ impl Job for SlabJob {
         drop(pieces);
         let mut content = job.assemble(per_pair)?;
         let a = &mut content.attributes;
-        MedullaJob::remove_sampling_attributes(a);
+        remove_sampling_attributes(a);
         a.insert("model".into(), "2-D volumetric transport, Tseng 2015 §5 / App. A: purely scattering medium, planar Henyey–Greenstein phase function rho(theta) = (1-g^2)/(2 pi (1+g^2-2g cos theta)), no absorption, index-matched boundary (no Fresnel, no refraction), unit incident energy".into());
         a.insert("method".into(), "adding-doubling".into());
         a.insert("method_description".into(), format!(
