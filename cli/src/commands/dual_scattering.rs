@@ -317,8 +317,7 @@ mod tests {
             bad.lambertian_kd = lambertian;
             bad.axis_ratio = axis;
             let err = dual_table(&dual_params_from_args(&bad, None).unwrap())
-                .err()
-                .expect("refused")
+                .expect_err("refused")
                 .to_string();
             assert!(err.contains(key), "{err}");
         }
