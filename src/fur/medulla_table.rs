@@ -14,8 +14,9 @@
 //!
 //! Per-entry scalars (ballistic and scattered fractions, the standard error of the latter,
 //! lobe energies) are stored in the attributes as flat row-major arrays over (σ, g, entry).
+//! What each method writes about itself in the header: [`super::medulla_headers`].
 
-use super::medulla::{Estimator, Geometry, McSettings, Profile, normalise_lobes, simulate};
+use super::medulla::{Geometry, McSettings, Profile, normalise_lobes, simulate};
 use crate::table::{Axis, Channel, Schema, TableContent};
 use serde_json::{Map, Value};
 
@@ -295,85 +296,5 @@ impl MedullaLayout {
                 }
             }
         }
-    }
-}
-
-/// The fixed-photon Monte Carlo settings of a table: photons per entry, seed and estimator.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct MonteCarloRun {
-    pub photons: Option<u64>,
-    pub seed: u64,
-    pub estimator: Estimator,
-}
-
-/// Attributes of every medulla table as the fixed-photon Monte Carlo writes them (the other
-/// methods replace the sampling ones, [`remove_sampling_attributes`]): model, conventions,
-/// estimator, the per-entry scalars `scal` (ballistic, scattered, its standard error, …) and
-/// the energy identity over the whole table, in absolute terms and in standard errors.
-pub fn monte_carlo_attributes(
-    run: &MonteCarloRun,
-    scal: &[Vec<f64>],
-    dw_deg: f64,
-) -> Result<Map<String, Value>, serde_json::Error> {
-    // Energy-identity check over the whole table, in standard errors.
-    let mut max_dev_se: f64 = 0.0;
-    let mut max_dev_abs: f64 = 0.0;
-    for ((ballistic, scattered), se) in scal[0].iter().zip(&scal[1]).zip(&scal[2]) {
-        let dev = (scattered - (1.0 - ballistic)).abs();
-        max_dev_abs = max_dev_abs.max(dev);
-        if *se > 0.0 {
-            max_dev_se = max_dev_se.max(dev / se);
-        }
-    }
-    let mut a = Map::new();
-    a.insert("model".into(), "2-D volumetric Monte Carlo, Tseng 2015 §5 / App. A: purely scattering medium, planar Henyey–Greenstein phase function rho(theta) = (1-g^2)/(2 pi (1+g^2-2g cos theta)), no absorption, index-matched boundary (no Fresnel, no refraction), unit incident energy".into());
-    a.insert("sigma_convention".into(), "sigma is the scattering coefficient per unit MEDULLA radius (dimensionless optical coefficient; azimuthal disc radius 1, slab thickness 2). Renderer mapping (docs/fur.md): sigma = sigma_ms[per fiber radius] * kappa = sigma_ms[per fiber diameter] * kappa / 2; the thesis's sigma_ms/kappa lookup is NOT used".into());
-    a.insert("length_unit".into(), "medulla radius".into());
-    a.insert("estimator".into(), serde_json::to_value(run.estimator)?);
-    a.insert("estimator_description".into(), match run.estimator {
-        Estimator::Expected => "expected value: forced first collision (weight 1 - exp(-sigma chord)), next-event estimate to every bin at every collision (phase density at bin centre x bin width x exp(-sigma s)), analog continuation",
-        Estimator::Histogram => "analog histogram of exit directions",
-    }.into());
-    a.insert("photons_per_entry".into(), run.photons.into());
-    a.insert("method".into(), "monte-carlo".into());
-    a.insert("seed".into(), run.seed.into());
-    a.insert("rng".into(), "SplitMix64, one stream per entry derived from (seed, family, sigma, g, entry) bit patterns: independent of threads and sharding".into());
-    a.insert("grid_endpoints".into(), "axis values are exactly the listed sample points; {start, stop, count} ranges include both endpoints unless centred = true".into());
-    a.insert("bin_width_deg".into(), dw_deg.into());
-    a.insert("bin_rule".into(), "bins are half-open cells [lower, upper) of equal width 360/bins deg; the axis coordinate is the cell centre; values are averages over the cell (midpoint rule for the expected-value estimator)".into());
-    a.insert("energy_convention".into(), "channel `energy` is scattered exiting energy per bin per unit incident energy (NOT a density: divide by the bin width in rad for per-radian density); it sums over bins to the scattered fraction 1 - ballistic".into());
-    a.insert("path_length_convention".into(), "channel `path_length` is the energy-weighted mean in-medulla path length (medulla radii) of the light exiting in the bin; 0 where the bin is empty. Medulla absorption at render time: multiply energy by exp(-sigma_a * path_length) (first-order; exact only for a narrow length distribution)".into());
-    a.insert("std_error_convention".into(), "channel `std_error` is the Monte Carlo standard error of `energy` in the bin (from per-photon second moments)".into());
-    a.insert("symmetry".into(), "rows with a negative entry (h or theta_i) whose positive mirror is on the grid are stored as the exact mirror of that row (bins reversed, within each lobe for the longitudinal family)".into());
-    a.insert(
-        "scalars_layout".into(),
-        "per-entry arrays below are flat row-major over (sigma, g, entry)".into(),
-    );
-    a.insert("ballistic_fraction".into(), scal[0].clone().into());
-    a.insert("scattered_fraction".into(), scal[1].clone().into());
-    a.insert(
-        "scattered_fraction_std_error".into(),
-        scal[2].clone().into(),
-    );
-    a.insert("energy_identity_max_deviation".into(), max_dev_abs.into());
-    a.insert(
-        "energy_identity_max_deviation_std_errors".into(),
-        max_dev_se.into(),
-    );
-    Ok(a)
-}
-
-/// Remove the header attributes that describe Monte Carlo sampling (for the deterministic
-/// methods, which lay out their tables through the same code).
-pub fn remove_sampling_attributes(a: &mut Map<String, Value>) {
-    for key in [
-        "estimator",
-        "estimator_description",
-        "photons_per_entry",
-        "seed",
-        "rng",
-        "energy_identity_max_deviation_std_errors",
-    ] {
-        a.remove(key);
     }
 }

@@ -222,69 +222,71 @@ fn artist_attributes(
     Ok(())
 }
 
+/// Units and meanings of the 16 channels of a `hair-dual` table, in order.
+const DUAL_CHANNEL_DOCS: [(&str, &str); DUAL_TABLE_CHANNELS] = [
+    (
+        "1",
+        "ā_f: fraction of the light arriving at inclination θ scattered into |φ| ≥ π/2 (forward), clamped to ≤ clamp",
+    ),
+    (
+        "1",
+        "ā_b: fraction scattered into |φ| < π/2 (backward), clamped to ≤ clamp",
+    ),
+    (
+        "rad",
+        "ᾱ_f: energy-weighted mean longitudinal shift of the forward lobes (θ_h convention)",
+    ),
+    (
+        "rad",
+        "ᾱ_b: energy-weighted mean longitudinal shift of the backward lobes",
+    ),
+    (
+        "rad^2",
+        "β̄_f²: energy-weighted mean longitudinal variance β_p² of the forward lobes",
+    ),
+    (
+        "rad^2",
+        "β̄_b²: energy-weighted mean longitudinal variance of the backward lobes",
+    ),
+    (
+        "1",
+        "Ā_b = ā_b ā_f²/(1−ā_f²) + ā_b³ ā_f²/(1−ā_f²)³ (ZYWK08 eq. 14)",
+    ),
+    ("rad", "Δ̄_b (ZYWK08 eq. 16 / thesis 4.28)"),
+    (
+        "rad^2",
+        "σ̄_b²: square of ZYWK08 eq. 17 with sqrt(2β̄_f² + 3β̄_b²) and d_b",
+    ),
+    (
+        "1/rad",
+        "N^G_R = (2/π)∫_{π/2}^{π} N_R dφ (artist: × C_R I_R / K)",
+    ),
+    (
+        "1/rad",
+        "N^G_TT = (2/π)∫_{π/2}^{π} N_TT dφ (artist: × C_TT I_TT / K)",
+    ),
+    (
+        "1/rad",
+        "N^G_TRT = (2/π)∫_{π/2}^{π} N_TRT dφ (artist: × C_TRT I_TRT / K)",
+    ),
+    ("1", "energy of lobe R, ∫∫ f_R cos²θ_o dθ_o dφ (unclamped)"),
+    ("1", "energy of lobe TT"),
+    ("1", "energy of lobe TRT"),
+    (
+        "1",
+        "energy of the residual p ≥ 3 lobe (physical; 0 for the artist model)",
+    ),
+];
+
 /// The 16 channels of a `hair-dual` table: the twelve Dual Scattering averages, then the
 /// energy of each lobe.
 pub fn dual_channels() -> Vec<Channel> {
-    let meanings = [
-        (
-            "1",
-            "ā_f: fraction of the light arriving at inclination θ scattered into |φ| ≥ π/2 (forward), clamped to ≤ clamp",
-        ),
-        (
-            "1",
-            "ā_b: fraction scattered into |φ| < π/2 (backward), clamped to ≤ clamp",
-        ),
-        (
-            "rad",
-            "ᾱ_f: energy-weighted mean longitudinal shift of the forward lobes (θ_h convention)",
-        ),
-        (
-            "rad",
-            "ᾱ_b: energy-weighted mean longitudinal shift of the backward lobes",
-        ),
-        (
-            "rad^2",
-            "β̄_f²: energy-weighted mean longitudinal variance β_p² of the forward lobes",
-        ),
-        (
-            "rad^2",
-            "β̄_b²: energy-weighted mean longitudinal variance of the backward lobes",
-        ),
-        (
-            "1",
-            "Ā_b = ā_b ā_f²/(1−ā_f²) + ā_b³ ā_f²/(1−ā_f²)³ (ZYWK08 eq. 14)",
-        ),
-        ("rad", "Δ̄_b (ZYWK08 eq. 16 / thesis 4.28)"),
-        (
-            "rad^2",
-            "σ̄_b²: square of ZYWK08 eq. 17 with sqrt(2β̄_f² + 3β̄_b²) and d_b",
-        ),
-        (
-            "1/rad",
-            "N^G_R = (2/π)∫_{π/2}^{π} N_R dφ (artist: × C_R I_R / K)",
-        ),
-        (
-            "1/rad",
-            "N^G_TT = (2/π)∫_{π/2}^{π} N_TT dφ (artist: × C_TT I_TT / K)",
-        ),
-        (
-            "1/rad",
-            "N^G_TRT = (2/π)∫_{π/2}^{π} N_TRT dφ (artist: × C_TRT I_TRT / K)",
-        ),
-        ("1", "energy of lobe R, ∫∫ f_R cos²θ_o dθ_o dφ (unclamped)"),
-        ("1", "energy of lobe TT"),
-        ("1", "energy of lobe TRT"),
-        (
-            "1",
-            "energy of the residual p ≥ 3 lobe (physical; 0 for the artist model)",
-        ),
-    ];
     let names = DUAL_CHANNELS
         .iter()
         .copied()
         .chain(["E_R", "E_TT", "E_TRT", "E_residual"]);
     names
-        .zip(meanings)
+        .zip(DUAL_CHANNEL_DOCS)
         .map(|(name, (unit, meaning))| Channel::new(name, unit, meaning))
         .collect()
 }

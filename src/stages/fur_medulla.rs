@@ -237,8 +237,8 @@ mod tests {
     use super::*;
     use crate::table::TableContent;
 
+    use crate::fur::medulla_headers::CHARACTERISTICS_SOLVER_ERROR as SOLVER_ERROR_CHARACTERISTICS;
     use crate::stages::Stage;
-    use disc_job::SOLVER_ERROR as SOLVER_ERROR_CHARACTERISTICS;
     use std::f64::consts::PI;
 
     fn plan_str(family: Family, s: &str) -> Result<Box<dyn Job>, PlanError> {

@@ -8,6 +8,7 @@
 
 use super::job::MedullaJob;
 use crate::fur::medulla_fast::{AdaptiveSettings, simulate_adaptive};
+use crate::fur::medulla_headers::adaptive_attributes;
 use crate::stages::{Chunk, Job, JobError, TaskSpec, check_chunks};
 use crate::table::TableContent;
 use rayon::prelude::*;
@@ -107,24 +108,7 @@ impl Job for AdaptiveJob {
             inner_chunks.push(ch);
         }
         let mut content = self.inner.assemble(inner_chunks)?;
-        let s = self.settings();
-        let a = &mut content.attributes;
-        a.remove("estimator");
-        a.remove("photons_per_entry");
-        a.insert("method".into(), "adaptive".into());
-        a.insert("estimator_description".into(), format!(
-            "single scattering in closed form (Gauss-Legendre along the entry chord, bin midpoint rule); orders >= 2 by next-event Monte Carlo (forced first and second collisions, score to every bin at every later collision, importance-sampled directions, survival biasing, Russian roulette), Latin-hypercube first collision and deflection within batches of {} photons; an entry stops once every bin above {} of its maximum has relative standard error <= {} or at {} photons",
-            s.batch_photons, s.threshold, s.target_rel_error, s.max_photons
-        ).into());
-        a.insert("target_rel_error".into(), s.target_rel_error.into());
-        a.insert("max_photons_per_entry".into(), s.max_photons.into());
-        a.insert("std_error_convention".into(), "channel `std_error` is the standard error of `energy` in the bin from the spread of batch means (at least 16 batches). Errors of neighbouring bins are positively correlated (one photon scores every bin): for a group G of bins use Var(sum_G energy) = sum_{k,l in G} std_error_k std_error_l exp(-|k-l|/ell) with ell = `std_error_correlation_length_bins` of the entry; measured to hold within 15 % for groups up to 36 deg and to be conservative (overestimating up to 2x) for wider groups (docs/fur.md)".into());
-        a.insert(
-            "std_error_correlation_length_bins".into(),
-            extras[0].clone().into(),
-        );
-        a.insert("photons_used".into(), extras[1].clone().into());
-        a.insert("worst_rel_std_error".into(), extras[2].clone().into());
+        adaptive_attributes(&self.settings(), &extras, &mut content.attributes);
         Ok(content)
     }
 }

@@ -9,17 +9,10 @@
 use super::job::MedullaJob;
 use crate::fur::disc::{DiscSettings, DiscSolver};
 use crate::fur::medulla::Profile;
-use crate::fur::medulla_table::remove_sampling_attributes;
+use crate::fur::medulla_headers::characteristics_attributes;
 use crate::stages::{Chunk, Job, JobError, TaskSpec, check_chunks};
 use crate::table::TableContent;
 use serde_json::json;
-
-/// Measured error of the default [`DiscSettings`] against the adaptive next-event Monte Carlo
-/// run to 0.3 % at 24 held-out (σ, g, h') (docs/fur.md): the largest relative deviation on
-/// bins above 1e-3 of the profile maximum, Monte Carlo noise included.
-pub(super) const SOLVER_ERROR: f64 = 0.0083;
-/// The same, the median over bins of the worst point.
-const SOLVER_ERROR_MEDIAN: f64 = 0.0024;
 
 pub(super) struct DiscJob {
     inner: MedullaJob,
@@ -108,18 +101,7 @@ impl Job for DiscJob {
             per_pair.extend(job.split_pairs(ch));
         }
         let mut content = job.assemble(per_pair)?;
-        let s = &self.settings;
-        let a = &mut content.attributes;
-        remove_sampling_attributes(a);
-        a.insert("method".into(), "characteristics".into());
-        a.insert("method_description".into(), format!(
-            "deterministic: by reciprocity and rotational symmetry every h' and exit bin of one (sigma, g) is a line integral of the emission of one plane-wave problem. Single scattering in closed form (Gauss-Legendre along the entry chord); orders >= 2 from the plane-wave transport solved by the method of characteristics on polar cells (boundary ring width min({}, 1/({} sigma)), interior width <= min({}, {}/sigma), growth {}, sector arc {} x width), {} source per cell and direction, {} directions (mirror-symmetric half solved), parallel tracks at {} x the smallest cell dimension, GMRES({}) to relative residual {:e}; the final line integrals use the exact exit direction (Nystrom) and the emission linear in each cell; path lengths from the derivative with respect to an absorption coefficient (second solve, flat-source operator); bin midpoint rule for the exit direction",
-            s.max_cell, s.boundary_rings_per_mean_free_path, s.max_cell, s.interior_cell_mean_free_paths, s.ring_growth, s.arc_ratio, if s.linear_source { "linear" } else { "flat" }, s.directions, s.track_spacing, s.restart, s.tolerance
-        ).into());
-        a.insert("solver_error".into(), SOLVER_ERROR.into());
-        a.insert("solver_error_median".into(), SOLVER_ERROR_MEDIAN.into());
-        a.insert("solver_error_convention".into(), "relative deviation of `energy` from the adaptive next-event Monte Carlo run to 0.3 % relative standard error, on bins above 1e-3 of the profile maximum, at 24 held-out (sigma, g, h') over sigma in [0.13, 20], g in [0.05, 0.8] (docs/fur.md): `solver_error` is the largest deviation over all points and bins, `solver_error_median` the largest per-point median (both include the Monte Carlo's own noise)".into());
-        a.insert("std_error_convention".into(), "channel `std_error` is 0: the characteristics solution has no sampling noise (its discretisation error is `solver_error`)".into());
+        characteristics_attributes(&self.settings, &mut content.attributes);
         Ok(content)
     }
 }

@@ -3,7 +3,8 @@
 //! mirrored and laid out by [`crate::fur::medulla_table`]; the stage module plans.
 
 use crate::fur::medulla::{Estimator, McSettings};
-use crate::fur::medulla_table::{MedullaLayout, MonteCarloRun, PackedRow, monte_carlo_attributes};
+use crate::fur::medulla_headers::{MonteCarloRun, monte_carlo_attributes};
+use crate::fur::medulla_table::{MedullaLayout, PackedRow};
 use crate::stages::{Chunk, Job, JobError, TaskSpec, check_chunks, concat_values, stage_params};
 use crate::table::TableContent;
 use rayon::prelude::*;

@@ -6,16 +6,11 @@
 
 use super::job::MedullaJob;
 use crate::fur::medulla::Profile;
-use crate::fur::medulla_table::remove_sampling_attributes;
+use crate::fur::medulla_headers::adding_doubling_attributes;
 use crate::fur::slab::{SlabSettings, limit_shape, solve_slab};
 use crate::stages::{Chunk, Job, JobError, TaskSpec, check_chunks};
 use crate::table::TableContent;
 use serde_json::json;
-
-/// Measured discretisation error of the default [`SlabSettings`] (docs/fur.md): the largest
-/// relative deviation from a solve with twice the direction cells, on bins above 1e-3 of the
-/// profile maximum.
-const SOLVER_ERROR: f64 = 1e-3;
 
 pub(super) struct SlabJob {
     inner: MedullaJob,
@@ -114,20 +109,7 @@ impl Job for SlabJob {
         }
         drop(pieces);
         let mut content = job.assemble(per_pair)?;
-        let a = &mut content.attributes;
-        remove_sampling_attributes(a);
-        a.insert("model".into(), "2-D volumetric transport, Tseng 2015 §5 / App. A: purely scattering medium, planar Henyey–Greenstein phase function rho(theta) = (1-g^2)/(2 pi (1+g^2-2g cos theta)), no absorption, index-matched boundary (no Fresnel, no refraction), unit incident energy".into());
-        a.insert("method".into(), "adding-doubling".into());
-        a.insert("method_description".into(), format!(
-            "deterministic adding-doubling (van de Hulst 1980; diamond initialisation, Wiscombe 1976) on the circle of directions: {} direction cells per face (one per exit bin, bins next to grazing cut into {:?} cells), phase function integrated exactly over each cell, exact incident direction and beam attenuation, thin layer of optical thickness {:e}, one adding step per sigma of a uniform grid; path lengths from the exact derivative with respect to an absorption coefficient",
-            self.settings.bins / 2,
-            self.settings.edge_refinement,
-            self.settings.thin_layer
-        ).into());
-        a.insert("solver_error".into(), SOLVER_ERROR.into());
-        a.insert("solver_error_convention".into(), "largest relative deviation of `energy` from a solve with twice the direction cells (and twice the grazing refinement), on bins above 1e-3 of the profile maximum, measured over sigma in [0, 20], g in [0, 0.8], |theta_i| <= 86 deg (docs/fur.md); the energy identity holds to 1e-8".into());
-        a.insert("std_error_convention".into(), "channel `std_error` is 0: the adding-doubling solution has no sampling noise (its discretisation error is `solver_error`)".into());
-        a.insert("bin_rule".into(), "bins are half-open cells [lower, upper) of equal width 360/bins deg; the axis coordinate is the cell centre; values are integrals over the cell".into());
+        adding_doubling_attributes(&self.settings, &mut content.attributes);
         Ok(content)
     }
 }
