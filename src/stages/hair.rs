@@ -51,6 +51,23 @@ mod tests {
         assert!(dbl < 1e-5, "{dbl}");
     }
 
+    /// The whole table at once (`ThetaRowTable::compute`, what `scatterbake dual-scattering`
+    /// runs) is the table the stage's tasks build: values, axes, channels and header.
+    #[test]
+    fn computed_at_once_equals_the_stage_table() {
+        use crate::hair::tables::ThetaRowTable;
+        for lines in [
+            "sigma_a_rgb = [0.2, 0.3, 0.5]\ntheta_count = 7",
+            "sigma_a = [0.0, 0.4]\nroughness_deg = [5.0, 9.0]\ntheta_count = 5\naxis_ratio = 0.9\nhigher_order_kd = 0.01",
+            "model = \"artist\"\ntheta_count = 6",
+        ] {
+            let staged = build(&HairDualStage, lines);
+            let p: HairDualParams = toml::from_str(lines).unwrap();
+            let at_once = dual_table(&p).unwrap().compute().unwrap();
+            assert_eq!(staged, at_once, "{lines}");
+        }
+    }
+
     #[test]
     fn dual_rejects_bad_parameters() {
         crate::stages::assert_planning(
