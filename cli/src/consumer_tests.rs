@@ -13,11 +13,11 @@ use std::path::{Path, PathBuf};
 /// A `hair-dual/1` table of the stage parameters `toml_src`, written to `dir/name` (tests of the
 /// hair commands).
 pub(crate) fn write_hair_dual_table(dir: &Path, toml_src: &str, name: &str) -> PathBuf {
-    use scatterbake::stages::hair::{HairDualJob, HairDualParams};
+    use scatterbake::hair::tables::ThetaRowTable;
+    use scatterbake::stages::hair::{HairDualParams, dual_table};
     use scatterbake::table::{Provenance, Table};
     let params: HairDualParams = toml::from_str(toml_src).unwrap();
-    let job = HairDualJob::new(params).unwrap();
-    let content = scatterbake::stages::run_in_memory(&job).unwrap();
+    let content = dual_table(&params).unwrap().compute().unwrap();
     let mut table = Table::from_content(content, Provenance::default()).unwrap();
     let path = dir.join(name);
     write_table_atomic(&mut table, &path).unwrap();

@@ -9,18 +9,27 @@
 //!   Monte Carlo of the higher orders until a target error, batch-based error bars.
 //! - [`slab`]: deterministic C^M by adding–doubling on the circle of directions (all θ'_i and
 //!   all σ of one g at once, no noise).
+//! - [`medulla_table`]: the medulla tables' layout (row packing, mirrored rows, axes, channels)
+//!   and header, shared by every method; [`medulla_headers`]: what each method writes about
+//!   itself (settings, estimator, measured solver errors).
 //! - [`farfield`]: far-field profiles of the practical shading model for the Table 4.2 samples.
+//! - [`farfield_table`]: the far-field table (values per sample, layout, header) and the
+//!   medulla tables it looks its profiles up in.
+//! - [`tt`]: tensor-train (TT-SVD) compression and reconstruction of a table channel.
 //!
 //! Their stages (`fur-medulla-azimuthal`, `fur-medulla-longitudinal`, `fur-farfield`) are
-//! [`crate::stages::fur_medulla`] and [`crate::stages::fur_farfield`].
-//! - [`tt`]: tensor-train (TT-SVD) compression and reconstruction of a table channel.
+//! [`crate::stages::fur_medulla`] and [`crate::stages::fur_farfield`]: parameters, their checks
+//! and the task grid.
 
 pub mod assets;
 pub mod chief_ray;
 pub mod disc;
 pub mod farfield;
+pub mod farfield_table;
 pub mod medulla;
 pub mod medulla_fast;
+pub mod medulla_headers;
+pub mod medulla_table;
 pub mod slab;
 pub mod tt;
 

@@ -1,25 +1,21 @@
 //! Stage `fur-farfield` (schema `fur-farfield/1`): far-field profiles of the practical fur
-//! shading model ([`crate::fur::farfield`]) for the fitted samples of Tseng 2015 Table 4.2.
-//!
-//! Axes (row-major, channel innermost): `sample` (index into the attribute `samples`) ×
-//! `theta_i` (deg) × `theta_r` (deg, cell centres over [−90, 90]) × `phi` (deg, cell centres over
-//! [−180, 180)). Channels: `energy` (total) and its components `r`, `tt`, `trt`,
-//! `medulla_paths`, `scattered`, each the cell-averaged exiting energy per unit θ_r per unit φ
-//! (rad⁻²) per unit intercepted incident power. One task per sample.
+//! shading model for the fitted samples of Tseng 2015 Table 4.2, one task per sample. The
+//! table (values, layout, header) is [`crate::fur::farfield_table`]; this module checks the
+//! parameters and opens the medulla tables the profiles are looked up in (the shipped assets or
+//! files named in the manifest).
 
-use crate::fur::farfield::{
-    COMPONENTS, FarFieldSettings, FurSample, MedullaShapes, MedullaSource, SigmaScaling, TABLE_4_2,
-    far_field_with, isotropic_fraction, medulla_sigma,
+use crate::fur::farfield::{FarFieldSettings, SigmaScaling, TABLE_4_2};
+#[cfg(test)]
+use crate::fur::farfield_table::CHANNELS;
+use crate::fur::farfield_table::{
+    FarFieldTable, MedullaProfiles, MedullaTables, dense_medulla_table, lookup_points,
 };
 use crate::stages::{
-    Chunk, Job, JobError, PlanError, StageSpec, TaskSpec, check_chunks, checks, concat_values,
-    stage_params,
+    Chunk, Job, JobError, PlanError, StageSpec, TaskSpec, check_chunks, checks, stage_params,
 };
-use crate::table::Table;
-use crate::table::{Axis, Channel, Schema, TableContent};
+use crate::table::{Table, TableContent};
 use serde::{Deserialize, Serialize};
 use serde_json::json;
-use std::sync::Arc;
 
 stage_params! {
     /// Parameters of `[table.params]`.
@@ -85,64 +81,90 @@ impl StageSpec for FurFarFieldStage {
     const SUMMARY: &'static str = "far-field fur profiles S(θ_r, φ; θ_i) of the practical coaxial-cylinder model for Tseng 2015 Table 4.2";
     type Params = FarFieldParams;
     fn plan_params(&self, p: FarFieldParams) -> Result<Box<dyn Job>, PlanError> {
-        let mut samples = Vec::new();
-        for n in &p.samples {
-            let s = TABLE_4_2
-                .iter()
-                .find(|s| s.name == n)
-                .ok_or_else(|| PlanError::invalid("samples", format!("unknown sample `{n}`")))?;
-            samples.push(*s);
-        }
-        if samples.is_empty() {
-            return Err(PlanError::invalid("samples", "empty"));
-        }
-        if p.theta_i_deg.is_empty()
-            || p.theta_i_deg
-                .iter()
-                .any(|t| !(t.abs() < 89.0) || !t.is_finite())
-        {
-            return Err(PlanError::invalid(
-                "theta_i_deg",
-                "need a non-empty list with |θ_i| < 89",
-            ));
-        }
-        if p.theta_i_deg.windows(2).any(|w| w[1] <= w[0]) {
-            return Err(PlanError::invalid("theta_i_deg", "must be increasing"));
-        }
-        checks::within("theta_r_cells", p.theta_r_cells, 6, 1800, "")?;
-        if !(8..=3600).contains(&p.phi_cells) || !p.phi_cells.is_multiple_of(2) {
-            return Err(PlanError::invalid("phi_cells", "must be even, 8..=3600"));
-        }
-        checks::within("h_samples", p.h_samples, 16, 100_000, "")?;
-        checks::within("medulla_rows", p.medulla_rows, 2, 1000, "")?;
-        if !(8..=36_000).contains(&p.medulla_bins) || !p.medulla_bins.is_multiple_of(4) {
-            return Err(PlanError::invalid(
-                "medulla_bins",
-                "must be a multiple of 4 in 8..=36000",
-            ));
-        }
-        if p.photons == 0 || p.photons > 100_000_000 {
-            return Err(PlanError::invalid("photons", "must be in 1..=1e8"));
-        }
-        let tables = match (&p.medulla_tables, p.medulla_source) {
+        let samples = check_params(&p)?;
+        let settings = FarFieldSettings {
+            theta_r_cells: p.theta_r_cells,
+            phi_cells: p.phi_cells,
+            h_samples: p.h_samples,
+            medulla_rows: p.medulla_rows,
+            medulla_bins: p.medulla_bins,
+            photons: p.photons,
+            seed: p.seed,
+            sigma_scaling: p.medulla_sigma_scaling,
+        };
+        let mut table = FarFieldTable {
+            samples,
+            theta_i_deg: p.theta_i_deg.clone(),
+            settings,
+            medulla: MedullaProfiles::MonteCarlo,
+        };
+        table.medulla = match (&p.medulla_tables, p.medulla_source) {
             (Some(_), Some(_)) => {
                 return Err(PlanError::invalid(
                     "medulla_source",
                     "give either medulla_source or medulla_tables, not both",
                 ));
             }
-            (None, Some(MedullaSourceKind::MonteCarlo)) => None,
-            (Some(paths), None) => Some(open_medulla_tables(
-                MedullaInputs::Files(paths),
-                &p,
-                &samples,
-            )?),
+            (None, Some(MedullaSourceKind::MonteCarlo)) => MedullaProfiles::MonteCarlo,
+            (Some(paths), None) => MedullaProfiles::Files {
+                azimuthal: paths.azimuthal.clone(),
+                longitudinal: paths.longitudinal.clone(),
+                tables: open_medulla_tables(MedullaInputs::Files(paths), &table)?,
+            },
             (None, None | Some(MedullaSourceKind::Assets)) => {
-                Some(open_medulla_tables(MedullaInputs::Assets, &p, &samples)?)
+                MedullaProfiles::Assets(open_medulla_tables(MedullaInputs::Assets, &table)?)
             }
         };
-        Ok(Box::new(FarFieldJob { p, samples, tables }))
+        // Every lookup must be inside the tables' grids: check them at plan time.
+        table
+            .check_lookups()
+            .map_err(|(context, e)| PlanError::invalid_because("medulla_tables", &context, &e))?;
+        Ok(Box::new(FarFieldJob { p, table }))
     }
+}
+
+/// The samples of `p`, every other key checked.
+fn check_params(p: &FarFieldParams) -> Result<Vec<crate::fur::farfield::FurSample>, PlanError> {
+    let mut samples = Vec::new();
+    for n in &p.samples {
+        let s = TABLE_4_2
+            .iter()
+            .find(|s| s.name == n)
+            .ok_or_else(|| PlanError::invalid("samples", format!("unknown sample `{n}`")))?;
+        samples.push(*s);
+    }
+    if samples.is_empty() {
+        return Err(PlanError::invalid("samples", "empty"));
+    }
+    if p.theta_i_deg.is_empty()
+        || p.theta_i_deg
+            .iter()
+            .any(|t| !(t.abs() < 89.0) || !t.is_finite())
+    {
+        return Err(PlanError::invalid(
+            "theta_i_deg",
+            "need a non-empty list with |θ_i| < 89",
+        ));
+    }
+    if p.theta_i_deg.windows(2).any(|w| w[1] <= w[0]) {
+        return Err(PlanError::invalid("theta_i_deg", "must be increasing"));
+    }
+    checks::within("theta_r_cells", p.theta_r_cells, 6, 1800, "")?;
+    if !(8..=3600).contains(&p.phi_cells) || !p.phi_cells.is_multiple_of(2) {
+        return Err(PlanError::invalid("phi_cells", "must be even, 8..=3600"));
+    }
+    checks::within("h_samples", p.h_samples, 16, 100_000, "")?;
+    checks::within("medulla_rows", p.medulla_rows, 2, 1000, "")?;
+    if !(8..=36_000).contains(&p.medulla_bins) || !p.medulla_bins.is_multiple_of(4) {
+        return Err(PlanError::invalid(
+            "medulla_bins",
+            "must be a multiple of 4 in 8..=36000",
+        ));
+    }
+    if p.photons == 0 || p.photons > 100_000_000 {
+        return Err(PlanError::invalid("photons", "must be in 1..=1e8"));
+    }
+    Ok(samples)
 }
 
 /// Where a plan's medulla tables come from.
@@ -154,34 +176,8 @@ enum MedullaInputs<'a> {
     Files(&'a MedullaTablePaths),
 }
 
-/// The medulla tables a far field reads: (azimuthal, longitudinal) dense tables, restricted
-/// to the σ and g grid points the plan's lookups touch when the source is a tensor train
-/// (reconstructed at those points only, bit-identical to the full reconstruction there), and
-/// the payload SHA-256 of each source file (the content key's input).
-pub struct MedullaTables {
-    pub azimuthal: Table,
-    pub longitudinal: Table,
-    pub payload_sha256: [String; 2],
-}
-
-/// Indices of the grid points of `coords` that bracket every value of `xs` (multilinear
-/// lookup touches exactly these); values outside the axis are left to the range check.
-fn bracket_indices(coords: &[f64], xs: &[f64]) -> Vec<usize> {
-    let mut set = std::collections::BTreeSet::new();
-    let n = coords.len();
-    for &x in xs {
-        let k = coords.partition_point(|&c| c <= x).saturating_sub(1);
-        let k = k.min(n.saturating_sub(2));
-        set.insert(k);
-        if k + 1 < n {
-            set.insert(k + 1);
-        }
-    }
-    set.into_iter().collect()
-}
-
-/// One medulla table of `schema` from `bytes` or a file, reconstructed at the σ values
-/// `sigmas` and g values `gs` if it is a tensor train.
+/// Medulla table `which` (0 azimuthal, 1 longitudinal) of `input`, as a dense table of
+/// `schema` at the σ values `sigmas` and g values `gs` (see [`dense_medulla_table`]).
 fn load_medulla_table(
     input: MedullaInputs<'_>,
     which: usize,
@@ -190,7 +186,6 @@ fn load_medulla_table(
     gs: &[f64],
 ) -> Result<(Table, String), PlanError> {
     use crate::fur::assets::{ASSET_FILES, AZIMUTHAL_BYTES, LONGITUDINAL_BYTES};
-    use crate::table::tt::{TT_SCHEMA, decode_tensor_train};
     let bad = |m: String| PlanError::invalid("medulla_tables", m);
     let (t, name) = match input {
         MedullaInputs::Assets => {
@@ -206,157 +201,47 @@ fn load_medulla_table(
             (Table::open(&path).map_err(|e| bad(e.to_string()))?, path)
         }
     };
-    let sha = t.header.payload.sha256_uncompressed.clone();
-    if t.header.schema.name != TT_SCHEMA {
-        if t.header.schema.name != schema {
-            return Err(bad(format!(
-                "{name}: schema {} (expected {schema})",
-                t.header.schema.name
-            )));
-        }
-        return Ok((t, sha));
-    }
-    let path = std::path::Path::new(&name);
-    let d = decode_tensor_train(&t, path, &Default::default()).map_err(|e| bad(e.to_string()))?;
-    if d.schema.name != schema || d.axes.len() < 2 {
-        return Err(bad(format!(
-            "{name}: holds a {} table (expected {schema})",
-            d.schema.name
-        )));
-    }
-    let mut sel = vec![None; d.axes.len()];
-    sel[0] = Some(bracket_indices(&d.axes[0].coords(), sigmas));
-    sel[1] = Some(bracket_indices(&d.axes[1].coords(), gs));
-    let sub = d.sub_table(&sel).map_err(|e| bad(e.to_string()))?;
-    Ok((sub, sha))
+    dense_medulla_table(t, &name, schema, sigmas, gs).map_err(bad)
 }
 
-/// Open the medulla tables a far-field plan uses, check their schemas, and check that every
-/// lookup the plan will make (each sample's σ and g, each θ_i) lies inside their grids.
+/// The medulla tables of `input` at the lookups `table` makes (their schemas checked).
 fn open_medulla_tables(
     input: MedullaInputs<'_>,
-    p: &FarFieldParams,
-    samples: &[FurSample],
-) -> Result<Arc<MedullaTables>, PlanError> {
-    // The lookups: azimuthal at (σ, g) of each sample, longitudinal at (σ/cos θ_t, g) for
-    // each θ_i (the same expressions as the lookups themselves, below and in run_task).
-    let mut az_sigma = Vec::new();
-    let mut lo_sigma = Vec::new();
-    let mut gs = Vec::new();
-    for s in samples {
-        let sigma = medulla_sigma(s, p.medulla_sigma_scaling);
-        az_sigma.push(sigma);
-        gs.push(s.g);
-        for &ti in &p.theta_i_deg {
-            let sin_ti = ti.to_radians().sin();
-            let cos_tm = (1.0 - (sin_ti / s.eta_m).powi(2)).sqrt();
-            lo_sigma.push(sigma / cos_tm);
-        }
-    }
+    table: &FarFieldTable,
+) -> Result<MedullaTables, PlanError> {
+    let (az_sigma, lo_sigma, gs) =
+        lookup_points(&table.samples, &table.theta_i_deg, &table.settings);
     let (az, az_sha) = load_medulla_table(input, 0, "fur-medulla-azimuthal", &az_sigma, &gs)?;
     let (lo, lo_sha) = load_medulla_table(input, 1, "fur-medulla-longitudinal", &lo_sigma, &gs)?;
-    let tables = Arc::new(MedullaTables {
+    Ok(MedullaTables {
         azimuthal: az,
         longitudinal: lo,
         payload_sha256: [az_sha, lo_sha],
-    });
-    // Every lookup must be inside the tables' grids: check them at plan time.
-    let set = FarFieldJob {
-        p: p.clone(),
-        samples: samples.to_vec(),
-        tables: Some(tables.clone()),
-    }
-    .settings();
-    for s in samples {
-        let source = MedullaSource::Tables {
-            azimuthal: &tables.azimuthal,
-            longitudinal: &tables.longitudinal,
-        };
-        let sigma = medulla_sigma(s, p.medulla_sigma_scaling);
-        MedullaShapes::from_table(&tables.azimuthal, sigma, s.g, &set).map_err(|e| {
-            PlanError::invalid_because("medulla_tables", &format!("sample {}", s.name), &e)
-        })?;
-        for &ti in &p.theta_i_deg {
-            let sin_ti = ti.to_radians().sin();
-            let cos_tm = (1.0 - (sin_ti / s.eta_m).powi(2)).sqrt();
-            crate::fur::farfield::longitudinal_lobe_pdf(
-                source,
-                sigma / cos_tm,
-                s.g,
-                (sin_ti / s.eta_m).asin(),
-                &set,
-            )
-            .map_err(|e| {
-                PlanError::invalid_because(
-                    "medulla_tables",
-                    &format!("sample {} at theta_i {ti}", s.name),
-                    &e,
-                )
-            })?;
-        }
-    }
-    Ok(tables)
+    })
 }
 
 struct FarFieldJob {
     p: FarFieldParams,
-    samples: Vec<FurSample>,
-    /// The medulla tables (shipped assets or `medulla_tables`); `None`: Monte Carlo.
-    tables: Option<Arc<MedullaTables>>,
+    table: FarFieldTable,
 }
-
-impl FarFieldJob {
-    fn settings(&self) -> FarFieldSettings {
-        FarFieldSettings {
-            theta_r_cells: self.p.theta_r_cells,
-            phi_cells: self.p.phi_cells,
-            h_samples: self.p.h_samples,
-            medulla_rows: self.p.medulla_rows,
-            medulla_bins: self.p.medulla_bins,
-            photons: self.p.photons,
-            seed: self.p.seed,
-            sigma_scaling: self.p.medulla_sigma_scaling,
-        }
-    }
-    /// Axes: sample × θ_i × θ_r × φ.
-    fn table_axes(&self) -> Vec<Axis> {
-        let (nt, np) = (self.p.theta_r_cells, self.p.phi_cells);
-        let dt = 180.0 / nt as f64;
-        let dp = 360.0 / np as f64;
-        vec![
-            Axis::values(
-                "sample",
-                "index",
-                (0..self.samples.len()).map(|i| i as f64).collect(),
-            ),
-            Axis::values("theta_i", "deg", self.p.theta_i_deg.clone()),
-            Axis::uniform("theta_r", "deg", -90.0 + 0.5 * dt, dt, nt),
-            Axis::uniform("phi", "deg", -180.0 + 0.5 * dp, dp, np),
-        ]
-    }
-    fn chunk_len(&self) -> usize {
-        self.p.theta_i_deg.len() * self.p.theta_r_cells * self.p.phi_cells * CHANNELS
-    }
-}
-
-const CHANNELS: usize = 1 + COMPONENTS.len();
 
 impl Job for FarFieldJob {
     /// Known at plan time: samples × θ_i × θ_r cells × φ cells × channels.
     fn shape(&self) -> crate::stages::PlannedShape {
-        crate::stages::PlannedShape::new(self.table_axes(), CHANNELS)
+        crate::stages::PlannedShape::new(self.table.axes(), crate::fur::farfield_table::CHANNELS)
     }
     /// Per sample and θ_i, `h_samples` paths through the fibre binned into θ_r × φ cells
     /// (`cost::FARFIELD_PATH_CELL_CPU_S`); the Monte Carlo medulla (no tables) adds
     /// `photons` histories per medulla row.
     fn estimated_cpu_seconds(&self) -> f64 {
         use crate::stages::cost::{FARFIELD_PATH_CELL_CPU_S, MEDULLA_PHOTON_CPU_S};
-        let per = (self.samples.len() * self.p.theta_i_deg.len()) as f64;
+        let samples = self.table.samples.len() as f64;
+        let per = samples * self.p.theta_i_deg.len() as f64;
         let cells = (self.p.theta_r_cells * self.p.phi_cells) as f64;
         let mut t = per * FARFIELD_PATH_CELL_CPU_S * self.p.h_samples as f64 * cells.sqrt();
-        if self.tables.is_none() {
+        if self.table.medulla.tables().is_none() {
             let photons = (self.p.photons * self.p.medulla_rows as u64) as f64;
-            t += self.samples.len() as f64 * MEDULLA_PHOTON_CPU_S * photons;
+            t += samples * MEDULLA_PHOTON_CPU_S * photons;
         }
         t
     }
@@ -365,14 +250,15 @@ impl Job for FarFieldJob {
     }
     fn parameters(&self) -> serde_json::Value {
         let mut v = serde_json::to_value(&self.p).expect("params serialise");
-        if let Some(t) = &self.tables {
+        if let Some(t) = self.table.medulla.tables() {
             // The content of the looked-up tables is part of the result.
             v["medulla_table_sha256"] = json!(t.payload_sha256);
         }
         v
     }
     fn tasks(&self) -> Vec<TaskSpec> {
-        self.samples
+        self.table
+            .samples
             .iter()
             .map(|s| TaskSpec {
                 label: s.name.to_string(),
@@ -381,141 +267,17 @@ impl Job for FarFieldJob {
             .collect()
     }
     fn run_task(&self, index: usize) -> Result<Chunk, JobError> {
-        let s = &self.samples[index];
-        let set = self.settings();
-        let sigma = medulla_sigma(s, self.p.medulla_sigma_scaling);
-        let (shapes, source) = match &self.tables {
-            None => (
-                MedullaShapes::compute(sigma, s.g, &set),
-                MedullaSource::Simulate,
-            ),
-            Some(t) => (
-                MedullaShapes::from_table(&t.azimuthal, sigma, s.g, &set)?,
-                MedullaSource::Tables {
-                    azimuthal: &t.azimuthal,
-                    longitudinal: &t.longitudinal,
-                },
-            ),
-        };
-        let mut out = Vec::with_capacity(self.chunk_len());
-        for &ti in &self.p.theta_i_deg {
-            let ff = far_field_with(s, ti.to_radians(), &shapes, &set, source)?;
-            for i in 0..set.theta_r_cells {
-                for j in 0..set.phi_cells {
-                    let k = i * set.phi_cells + j;
-                    out.push(ff.total(i, j) as f32);
-                    for c in &ff.components {
-                        out.push(c[k] as f32);
-                    }
-                }
-            }
-        }
-        Ok(Chunk::values(out))
+        Ok(Chunk::values(self.table.sample_values(index)?))
     }
     fn assemble(&self, chunks: Vec<Chunk>) -> Result<TableContent, JobError> {
-        check_chunks(&chunks, self.samples.len(), self.chunk_len(), 0)?;
-        let energies = self.energies(&chunks);
-        let attributes = self.attributes(energies);
-        let mut channels = vec![Channel::new(
-            "energy",
-            "1/rad^2",
-            "total exiting energy density per unit theta_r per unit phi",
-        )];
-        for c in COMPONENTS {
-            channels.push(Channel::new(c, "1/rad^2", "component of energy"));
-        }
-        Ok(TableContent {
-            schema: Schema::new("fur-farfield", 1),
-            description: "far-field fur scattering profiles of Tseng 2015 Table 4.2 samples (practical coaxial-cylinder model)".into(),
-            axes: self.table_axes(),
-            channels,
-            attributes,
-            data: concat_values(chunks),
-        })
-    }
-}
-
-impl FarFieldJob {
-    /// Energy per (sample, θ_i) and channel, Σ value × cell area, from the stored (f32) values,
-    /// flat row-major over (sample, θ_i, channel).
-    fn energies(&self, chunks: &[Chunk]) -> Vec<f64> {
-        let (nt, np) = (self.p.theta_r_cells, self.p.phi_cells);
-        let area = (180.0 / nt as f64).to_radians() * (360.0 / np as f64).to_radians();
-        let mut energies = Vec::new();
-        for ch in chunks {
-            for ti in 0..self.p.theta_i_deg.len() {
-                let block = &ch.values[ti * nt * np * CHANNELS..(ti + 1) * nt * np * CHANNELS];
-                energies.extend((0..CHANNELS).map(|c| {
-                    block
-                        .iter()
-                        .skip(c)
-                        .step_by(CHANNELS)
-                        .map(|&v| v as f64)
-                        .sum::<f64>()
-                        * area
-                }));
-            }
-        }
-        energies
-    }
-
-    /// The header attributes: model, conventions, medulla source, samples and `energies`.
-    fn attributes(&self, energies: Vec<f64>) -> serde_json::Map<String, serde_json::Value> {
-        let mut a = serde_json::Map::new();
-        a.insert("model".into(), "practical shading model of Tseng 2015 ch. 5 / App. A (coaxial cylinder): unscattered Gaussian lobes of R, TT, TRT, TrT, TttT, TtrtT, TrRrT, TttRttT (chief-ray exit azimuths, Stokes-pile cuticle Fresnel, medulla-interface Fresnel, cortex absorption, medulla extinction) plus medulla-scattered lobes of the TttT, TtrtT and TttRttT chords shaped by 2-D medulla Monte Carlo profiles (C^N, C^M; on the fly or from medulla tables, see medulla_profiles), averaged over the fibre width (h uniform on (-1, 1)). Decisions: docs/decisions.md, fur far field (FUR-1f, FUR-11 … FUR-19)".into());
-        a.insert("value_convention".into(), "every channel is the exiting energy per unit theta_r per unit phi (1/rad^2) per unit incident power intercepted by the fibre, AVERAGED over the cell (lobes integrated analytically over the cell, medulla bins split linearly between phi cells): sum over cells of value * dtheta_r * dphi = energy carried. Longitudinal lobes are normalised with int M dtheta_r = 1 (no cos weight). The thesis BCSDF S of Eq. 5.1 is sum_p M_p N_p / cos^2 theta_i with N_p the per-h azimuthal energy density; this table holds the h-average of sum_p M_p N_p, i.e. cos^2 theta_i * S averaged over h".into());
-        a.insert("angle_convention".into(), "theta from the fibre's normal plane, root at +90 deg (thesis convention, theta flipped w.r.t. Marschner 2003; the specular cone is theta_r = -theta_i); phi = phi_r - phi_i, 0 = back towards the light, +/-180 = forward; theta_r cells over [-90, 90], phi cells over [-180, 180), axis coordinates are cell centres".into());
-        a.insert("units_convention".into(), format!("Table 4.2 sigma_ca is per fibre DIAMETER; internally fibre radius 1: cortex coefficient sigma_ca/2 per radius. Medulla table coefficient per unit medulla radius: medulla_sigma_scaling = {:?} (ThesisOverKappa, the default: sigma_ms/kappa as printed in Eq. 5.10, the lookup Table 4.2 was fitted with; KappaHalf: sigma_ms*kappa/2, sigma_ms per diameter, optical depth preserved; Kappa: sigma_ms*kappa). Both coefficients divided by cos theta_t (longitudinal refraction into cortex / medulla) for the azimuthal projection", self.p.medulla_sigma_scaling).into());
-        a.insert("components".into(), "energy = r + tt + trt + medulla_paths + scattered; r, tt, trt: classic unscattered lobes (tt and trt only where the chief ray misses the medulla, |h| >= kappa*eta_c'); medulla_paths: unscattered TrT, TttT, TtrtT, TrRrT, TttRttT; scattered: medulla-scattered light (App. A mix with the isotropic fraction lambda)".into());
-        let source = match (&self.p.medulla_tables, &self.tables) {
-            (None, Some(_)) => format!(
-                "multilinear lookup (sigma, g, h' or theta'_i, exit angle) in the shipped tensor-train compressed thesis-grid tables assets/fur-medulla/{} and {} (payload SHA-256 {} and {}) at {} bins",
-                crate::fur::assets::ASSET_FILES[0],
-                crate::fur::assets::ASSET_FILES[1],
-                self.tables
-                    .as_ref()
-                    .map_or("", |t| t.payload_sha256[0].as_str()),
-                self.tables
-                    .as_ref()
-                    .map_or("", |t| t.payload_sha256[1].as_str()),
-                self.p.medulla_bins
-            ),
-            (None, None) => format!(
-                "expected-value Monte Carlo on the fly, {} photons, {} bins, seed {}",
-                self.p.photons, self.p.medulla_bins, self.p.seed
-            ),
-            (Some(t), _) => format!(
-                "multilinear lookup (sigma, g, h' or theta'_i, exit angle) in the tables {} and {} at {} bins",
-                t.azimuthal, t.longitudinal, self.p.medulla_bins
-            ),
-        };
-        a.insert("medulla_profiles".into(), format!("azimuthal C^N rows h' = j/{} (j = 0..{}), mirrored for h' < 0, linear in |h'|, normalised to unit sum (energy from the analytic 1 - exp(-sigma chord)); longitudinal C^M per theta_i at theta'_i = asin(sin theta_i / eta_m); source: {source}", self.p.medulla_rows - 1, self.p.medulla_rows - 1).into());
-        a.insert("omitted".into(), "paths beyond the eight listed (e.g. TRRT) are omitted as in the thesis; for a lossless fibre without medulla they carry 1/2 int F^2 (1 - F) dh of the energy (tested)".into());
-        let samples: Vec<serde_json::Value> = self
-            .samples
-            .iter()
-            .map(|s| {
-                json!({
-                    "name": s.name, "kappa": s.kappa, "eta_c": s.eta_c, "eta_m": s.eta_m,
-                    "alpha_deg": s.alpha_deg, "beta_deg": s.beta_deg,
-                    "sigma_ca_per_diameter": s.sigma_ca, "sigma_ms_per_diameter": s.sigma_ms,
-                    "g": s.g, "layers": s.layers,
-                    "medulla_sigma_per_medulla_radius": medulla_sigma(s, self.p.medulla_sigma_scaling),
-                    "isotropic_fraction_lambda": isotropic_fraction(s),
-                })
-            })
-            .collect();
-        a.insert("samples".into(), samples.into());
-        a.insert(
-            "samples_source".into(),
-            "Tseng 2015, Table 4.2 (fitted parameters)".into(),
-        );
-        a.insert(
-            "energy_layout".into(),
-            "flat row-major over (sample, theta_i, channel) of sum value * cell area".into(),
-        );
-        a.insert("energy".into(), energies.into());
-        a
+        check_chunks(
+            &chunks,
+            self.table.samples.len(),
+            self.table.sample_len(),
+            0,
+        )?;
+        let per_sample: Vec<&[f32]> = chunks.iter().map(|c| c.values.as_slice()).collect();
+        Ok(self.table.content(&per_sample))
     }
 }
 

@@ -1,10 +1,12 @@
-//! Stages `fur-medulla-azimuthal` (C^N) and `fur-medulla-longitudinal` (C^M).
+//! Stages `fur-medulla-azimuthal` (C^N) and `fur-medulla-longitudinal` (C^M): parameters,
+//! their checks, and the job of the chosen method.
 //!
-//! Methods (manifest key `method`): `monte-carlo` (both families, [`crate::fur::medulla`]),
-//! `adaptive` (azimuthal; `fur_medulla_adaptive.rs`), `characteristics` (azimuthal, the default
-//! there; deterministic, `fur_medulla_disc.rs`) and `adding-doubling` (longitudinal, the default
-//! there; deterministic, `fur_medulla_slab.rs`). All methods share
-//! the row packing, mirroring and assembly below, so the layouts are identical.
+//! Methods (manifest key `method`): `monte-carlo` (both families, [`crate::fur::medulla`]; its
+//! job in `fur_medulla_job.rs`), `adaptive` (azimuthal; `fur_medulla_adaptive.rs`),
+//! `characteristics` (azimuthal, the default there; deterministic, `fur_medulla_disc.rs`) and
+//! `adding-doubling` (longitudinal, the default there; deterministic, `fur_medulla_slab.rs`).
+//! All methods pack, mirror and lay out their rows with [`crate::fur::medulla_table`], so the
+//! layouts are identical (axes, channels and per-entry scalars are listed there).
 //!
 //! Monte Carlo: one task per (σ, g) pair: it computes every entry row (h' or θ'_i) of that pair, in
 //! parallel over rows (each row has its own random stream derived from the seed and the entry
@@ -12,17 +14,8 @@
 //! mirror-symmetric, rows with a negative entry are the exact mirror of the positive row
 //! (C^N(φ'; −h') = C^N(−φ'; h'), C^M(θ'_r; −θ'_i) = C^M(−θ'_r; θ'_i)); the symmetry itself is
 //! tested on independent runs in [`crate::fur::medulla`].
-//!
-//! Table layouts (row-major, channel innermost):
-//! - azimuthal `fur-medulla-azimuthal/1`: axes `sigma` × `g` × `h` × `phi` (bins),
-//!   channels `energy`, `path_length`, `std_error`;
-//! - longitudinal `fur-medulla-longitudinal/1`: axes `sigma` × `g` × `theta_i` × `lobe` (0 back,
-//!   1 forward) × `theta_r` (bins/2), channels `pdf`, `cdf`, `energy`, `path_length`,
-//!   `std_error`.
-//!
-//! Per-entry scalars (ballistic and scattered fractions, their standard errors, lobe energies)
-//! are stored in the attributes as flat row-major arrays over (sigma, g, entry).
 
+use crate::fur::medulla_table::MedullaLayout;
 use crate::stages::{Job, ParamDoc, PlanError, StageParams, StageSpec};
 
 #[path = "fur_medulla_job.rs"]
@@ -168,28 +161,22 @@ fn plan(family: Family, mut p: MedullaParams) -> Result<Box<dyn Job>, PlanError>
             "must be a multiple of 4 in 8..=36000",
         ));
     }
-    if matches!(method, Method::AddingDoubling | Method::Characteristics) {
-        if p.photons.is_some() {
+    let layout = MedullaLayout {
+        family,
+        bins: p.bins,
+        sigma,
+        g,
+        entries,
+    };
+    let deterministic = matches!(method, Method::AddingDoubling | Method::Characteristics);
+    match p.photons {
+        Some(_) if deterministic => {
             return Err(PlanError::invalid(
                 "photons",
                 "only for the Monte Carlo methods (monte-carlo, adaptive)",
             ));
         }
-        let job = MedullaJob {
-            family,
-            p,
-            sigma,
-            g,
-            entries,
-        };
-        return Ok(if method == Method::AddingDoubling {
-            Box::new(slab_job::SlabJob::new(job))
-        } else {
-            Box::new(disc_job::DiscJob::new(job))
-        });
-    }
-    match p.photons {
-        None => {
+        None if !deterministic => {
             return Err(PlanError::invalid(
                 "photons",
                 "required by the Monte Carlo methods (monte-carlo, adaptive)",
@@ -198,19 +185,15 @@ fn plan(family: Family, mut p: MedullaParams) -> Result<Box<dyn Job>, PlanError>
         Some(n) if n == 0 || n > 1_000_000_000 => {
             return Err(PlanError::invalid("photons", "must be in 1..=1e9"));
         }
-        Some(_) => {}
+        _ => {}
     }
-    let job = MedullaJob {
-        family,
-        p,
-        sigma,
-        g,
-        entries,
-    };
-    if method == Method::Adaptive {
-        return Ok(Box::new(adaptive_job::AdaptiveJob::new(job)));
-    }
-    Ok(Box::new(job))
+    let job = MedullaJob { p, layout };
+    Ok(match method {
+        Method::AddingDoubling => Box::new(slab_job::SlabJob::new(job)),
+        Method::Characteristics => Box::new(disc_job::DiscJob::new(job)),
+        Method::Adaptive => Box::new(adaptive_job::AdaptiveJob::new(job)),
+        Method::MonteCarlo => Box::new(job),
+    })
 }
 
 /// The documentation of `MedullaParams` without the other family's entry key (and, for the
@@ -254,8 +237,8 @@ mod tests {
     use super::*;
     use crate::table::TableContent;
 
+    use crate::fur::medulla_headers::CHARACTERISTICS_SOLVER_ERROR as SOLVER_ERROR_CHARACTERISTICS;
     use crate::stages::Stage;
-    use disc_job::SOLVER_ERROR as SOLVER_ERROR_CHARACTERISTICS;
     use std::f64::consts::PI;
 
     fn plan_str(family: Family, s: &str) -> Result<Box<dyn Job>, PlanError> {

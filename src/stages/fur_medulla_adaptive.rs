@@ -8,6 +8,7 @@
 
 use super::job::MedullaJob;
 use crate::fur::medulla_fast::{AdaptiveSettings, simulate_adaptive};
+use crate::fur::medulla_headers::adaptive_attributes;
 use crate::stages::{Chunk, Job, JobError, TaskSpec, check_chunks};
 use crate::table::TableContent;
 use rayon::prelude::*;
@@ -56,7 +57,7 @@ impl Job for AdaptiveJob {
     }
 
     fn run_task(&self, index: usize) -> Result<Chunk, JobError> {
-        let job = &self.inner;
+        let job = &self.inner.layout;
         let sigma = job.sigma[index / job.g.len()];
         let g = job.g[index % job.g.len()];
         let n = job.entries.len();
@@ -80,7 +81,7 @@ impl Job for AdaptiveJob {
             .iter()
             .map(|r| r.as_ref().map(|r| r.0.clone()))
             .collect();
-        let mut out = job.chunk(&packed);
+        let mut out = self.inner.chunk(&packed);
         for i in 0..n {
             let src = job.mirror_source(i).unwrap_or(i);
             let extra = rows[src].as_ref().expect("source row computed").1;
@@ -90,11 +91,12 @@ impl Job for AdaptiveJob {
     }
 
     fn assemble(&self, chunks: Vec<Chunk>) -> Result<TableContent, JobError> {
-        let n = self.inner.entries.len();
+        let layout = &self.inner.layout;
+        let n = layout.entries.len();
         let mut extras: Vec<Vec<f64>> = vec![Vec::new(); EXTRA];
         let mut inner_chunks = Vec::with_capacity(chunks.len());
-        let (values, scalars) = self.inner.pair_chunk_len();
-        let tasks = self.inner.sigma.len() * self.inner.g.len();
+        let (values, scalars) = layout.pair_len();
+        let tasks = layout.sigma.len() * layout.g.len();
         check_chunks(&chunks, tasks, values, scalars + n * EXTRA)?;
         for mut ch in chunks {
             let tail = ch.scalars.split_off(scalars);
@@ -106,24 +108,7 @@ impl Job for AdaptiveJob {
             inner_chunks.push(ch);
         }
         let mut content = self.inner.assemble(inner_chunks)?;
-        let s = self.settings();
-        let a = &mut content.attributes;
-        a.remove("estimator");
-        a.remove("photons_per_entry");
-        a.insert("method".into(), "adaptive".into());
-        a.insert("estimator_description".into(), format!(
-            "single scattering in closed form (Gauss-Legendre along the entry chord, bin midpoint rule); orders >= 2 by next-event Monte Carlo (forced first and second collisions, score to every bin at every later collision, importance-sampled directions, survival biasing, Russian roulette), Latin-hypercube first collision and deflection within batches of {} photons; an entry stops once every bin above {} of its maximum has relative standard error <= {} or at {} photons",
-            s.batch_photons, s.threshold, s.target_rel_error, s.max_photons
-        ).into());
-        a.insert("target_rel_error".into(), s.target_rel_error.into());
-        a.insert("max_photons_per_entry".into(), s.max_photons.into());
-        a.insert("std_error_convention".into(), "channel `std_error` is the standard error of `energy` in the bin from the spread of batch means (at least 16 batches). Errors of neighbouring bins are positively correlated (one photon scores every bin): for a group G of bins use Var(sum_G energy) = sum_{k,l in G} std_error_k std_error_l exp(-|k-l|/ell) with ell = `std_error_correlation_length_bins` of the entry; measured to hold within 15 % for groups up to 36 deg and to be conservative (overestimating up to 2x) for wider groups (docs/fur.md)".into());
-        a.insert(
-            "std_error_correlation_length_bins".into(),
-            extras[0].clone().into(),
-        );
-        a.insert("photons_used".into(), extras[1].clone().into());
-        a.insert("worst_rel_std_error".into(), extras[2].clone().into());
+        adaptive_attributes(&self.settings(), &extras, &mut content.attributes);
         Ok(content)
     }
 }

@@ -9,16 +9,10 @@
 use super::job::MedullaJob;
 use crate::fur::disc::{DiscSettings, DiscSolver};
 use crate::fur::medulla::Profile;
+use crate::fur::medulla_headers::characteristics_attributes;
 use crate::stages::{Chunk, Job, JobError, TaskSpec, check_chunks};
 use crate::table::TableContent;
 use serde_json::json;
-
-/// Measured error of the default [`DiscSettings`] against the adaptive next-event Monte Carlo
-/// run to 0.3 % at 24 held-out (σ, g, h') (docs/fur.md): the largest relative deviation on
-/// bins above 1e-3 of the profile maximum, Monte Carlo noise included.
-pub(super) const SOLVER_ERROR: f64 = 0.0083;
-/// The same, the median over bins of the worst point.
-const SOLVER_ERROR_MEDIAN: f64 = 0.0024;
 
 pub(super) struct DiscJob {
     inner: MedullaJob,
@@ -28,7 +22,7 @@ pub(super) struct DiscJob {
 impl DiscJob {
     pub(super) fn new(inner: MedullaJob) -> Self {
         let settings = DiscSettings {
-            bins: inner.p.bins,
+            bins: inner.layout.bins,
             ..DiscSettings::default()
         };
         DiscJob { inner, settings }
@@ -42,8 +36,9 @@ impl Job for DiscJob {
     }
     fn estimated_cpu_seconds(&self) -> f64 {
         // One plane-wave solve per (σ, g), dearer with σ (more iterations).
-        let solves: f64 = self.inner.sigma.iter().map(|s| 1.0 + s).sum();
-        crate::stages::cost::MEDULLA_DISC_SOLVE_CPU_S * solves * self.inner.g.len() as f64
+        let l = &self.inner.layout;
+        let solves: f64 = l.sigma.iter().map(|s| 1.0 + s).sum();
+        crate::stages::cost::MEDULLA_DISC_SOLVE_CPU_S * solves * l.g.len() as f64
     }
     fn estimated_stored_fraction(&self) -> f64 {
         crate::stages::cost::STORED_FRACTION_MEDULLA_AZIMUTHAL
@@ -54,6 +49,7 @@ impl Job for DiscJob {
 
     fn tasks(&self) -> Vec<TaskSpec> {
         self.inner
+            .layout
             .sigma
             .iter()
             .map(|&sigma| TaskSpec {
@@ -65,9 +61,9 @@ impl Job for DiscJob {
 
     /// All g of one σ: the (σ, g) chunks of the Monte Carlo layout, g in grid order.
     fn run_task(&self, index: usize) -> Result<Chunk, JobError> {
-        let job = &self.inner;
+        let job = &self.inner.layout;
         let sigma = job.sigma[index];
-        let bins = job.p.bins;
+        let bins = job.bins;
         let n = job.entries.len();
         let sources: Vec<usize> = (0..n).filter(|&i| job.mirror_source(i).is_none()).collect();
         let hs: Vec<f64> = sources.iter().map(|&i| job.entries[i]).collect();
@@ -89,14 +85,15 @@ impl Job for DiscJob {
                 };
                 rows[i] = Some(job.pack_row(sigma, &prof, Vec::new));
             }
-            pairs.push(job.chunk(&rows));
+            pairs.push(self.inner.chunk(&rows));
         }
         Ok(MedullaJob::join_pairs(pairs))
     }
 
     fn assemble(&self, chunks: Vec<Chunk>) -> Result<TableContent, JobError> {
         let job = &self.inner;
-        let (ns, ng, (values, scalars)) = (job.sigma.len(), job.g.len(), job.pair_chunk_len());
+        let l = &job.layout;
+        let (ns, ng, (values, scalars)) = (l.sigma.len(), l.g.len(), l.pair_len());
         check_chunks(&chunks, ns, ng * values, ng * scalars)?;
         // Task order is σ-major with g inside, the (σ, g) order of the Monte Carlo job.
         let mut per_pair = Vec::with_capacity(ns * ng);
@@ -104,18 +101,7 @@ impl Job for DiscJob {
             per_pair.extend(job.split_pairs(ch));
         }
         let mut content = job.assemble(per_pair)?;
-        let s = &self.settings;
-        let a = &mut content.attributes;
-        MedullaJob::remove_sampling_attributes(a);
-        a.insert("method".into(), "characteristics".into());
-        a.insert("method_description".into(), format!(
-            "deterministic: by reciprocity and rotational symmetry every h' and exit bin of one (sigma, g) is a line integral of the emission of one plane-wave problem. Single scattering in closed form (Gauss-Legendre along the entry chord); orders >= 2 from the plane-wave transport solved by the method of characteristics on polar cells (boundary ring width min({}, 1/({} sigma)), interior width <= min({}, {}/sigma), growth {}, sector arc {} x width), {} source per cell and direction, {} directions (mirror-symmetric half solved), parallel tracks at {} x the smallest cell dimension, GMRES({}) to relative residual {:e}; the final line integrals use the exact exit direction (Nystrom) and the emission linear in each cell; path lengths from the derivative with respect to an absorption coefficient (second solve, flat-source operator); bin midpoint rule for the exit direction",
-            s.max_cell, s.boundary_rings_per_mean_free_path, s.max_cell, s.interior_cell_mean_free_paths, s.ring_growth, s.arc_ratio, if s.linear_source { "linear" } else { "flat" }, s.directions, s.track_spacing, s.restart, s.tolerance
-        ).into());
-        a.insert("solver_error".into(), SOLVER_ERROR.into());
-        a.insert("solver_error_median".into(), SOLVER_ERROR_MEDIAN.into());
-        a.insert("solver_error_convention".into(), "relative deviation of `energy` from the adaptive next-event Monte Carlo run to 0.3 % relative standard error, on bins above 1e-3 of the profile maximum, at 24 held-out (sigma, g, h') over sigma in [0.13, 20], g in [0.05, 0.8] (docs/fur.md): `solver_error` is the largest deviation over all points and bins, `solver_error_median` the largest per-point median (both include the Monte Carlo's own noise)".into());
-        a.insert("std_error_convention".into(), "channel `std_error` is 0: the characteristics solution has no sampling noise (its discretisation error is `solver_error`)".into());
+        characteristics_attributes(&self.settings, &mut content.attributes);
         Ok(content)
     }
 }

@@ -6,15 +6,11 @@
 
 use super::job::MedullaJob;
 use crate::fur::medulla::Profile;
+use crate::fur::medulla_headers::adding_doubling_attributes;
 use crate::fur::slab::{SlabSettings, limit_shape, solve_slab};
 use crate::stages::{Chunk, Job, JobError, TaskSpec, check_chunks};
 use crate::table::TableContent;
 use serde_json::json;
-
-/// Measured discretisation error of the default [`SlabSettings`] (docs/fur.md): the largest
-/// relative deviation from a solve with twice the direction cells, on bins above 1e-3 of the
-/// profile maximum.
-const SOLVER_ERROR: f64 = 1e-3;
 
 pub(super) struct SlabJob {
     inner: MedullaJob,
@@ -24,7 +20,7 @@ pub(super) struct SlabJob {
 impl SlabJob {
     pub(super) fn new(inner: MedullaJob) -> Self {
         let settings = SlabSettings {
-            bins: inner.p.bins,
+            bins: inner.layout.bins,
             ..SlabSettings::default()
         };
         SlabJob { inner, settings }
@@ -38,7 +34,8 @@ impl Job for SlabJob {
     }
     fn estimated_cpu_seconds(&self) -> f64 {
         // One adding–doubling solve per g for every σ and θ'_i.
-        let cells = self.inner.g.len() * self.inner.sigma.len() * self.inner.entries.len();
+        let l = &self.inner.layout;
+        let cells = l.g.len() * l.sigma.len() * l.entries.len();
         crate::stages::cost::MEDULLA_SLAB_SOLVE_CPU_S * cells as f64
     }
     fn estimated_stored_fraction(&self) -> f64 {
@@ -50,6 +47,7 @@ impl Job for SlabJob {
 
     fn tasks(&self) -> Vec<TaskSpec> {
         self.inner
+            .layout
             .g
             .iter()
             .map(|&g| TaskSpec {
@@ -61,9 +59,9 @@ impl Job for SlabJob {
 
     /// All σ of one g: the (σ, g) chunks of the Monte Carlo layout, σ ascending in grid order.
     fn run_task(&self, index: usize) -> Result<Chunk, JobError> {
-        let job = &self.inner;
+        let job = &self.inner.layout;
         let g = job.g[index];
-        let bins = job.p.bins;
+        let bins = job.bins;
         let n = job.entries.len();
         let sources: Vec<usize> = (0..n).filter(|&i| job.mirror_source(i).is_none()).collect();
         let theta: Vec<f64> = sources
@@ -87,14 +85,15 @@ impl Job for SlabJob {
                 };
                 rows[i] = Some(job.pack_row(sigma, &prof, || limit_shape(g, theta[b], bins)));
             }
-            pairs.push(job.chunk(&rows));
+            pairs.push(self.inner.chunk(&rows));
         }
         Ok(MedullaJob::join_pairs(pairs))
     }
 
     fn assemble(&self, chunks: Vec<Chunk>) -> Result<TableContent, JobError> {
         let job = &self.inner;
-        let (ns, ng, (values, scalars)) = (job.sigma.len(), job.g.len(), job.pair_chunk_len());
+        let l = &job.layout;
+        let (ns, ng, (values, scalars)) = (l.sigma.len(), l.g.len(), l.pair_len());
         check_chunks(&chunks, ng, ns * values, ns * scalars)?;
         // Reorder into the (σ, g) task order of the Monte Carlo job, freeing each task's chunk
         // once split.
@@ -110,20 +109,7 @@ impl Job for SlabJob {
         }
         drop(pieces);
         let mut content = job.assemble(per_pair)?;
-        let a = &mut content.attributes;
-        MedullaJob::remove_sampling_attributes(a);
-        a.insert("model".into(), "2-D volumetric transport, Tseng 2015 §5 / App. A: purely scattering medium, planar Henyey–Greenstein phase function rho(theta) = (1-g^2)/(2 pi (1+g^2-2g cos theta)), no absorption, index-matched boundary (no Fresnel, no refraction), unit incident energy".into());
-        a.insert("method".into(), "adding-doubling".into());
-        a.insert("method_description".into(), format!(
-            "deterministic adding-doubling (van de Hulst 1980; diamond initialisation, Wiscombe 1976) on the circle of directions: {} direction cells per face (one per exit bin, bins next to grazing cut into {:?} cells), phase function integrated exactly over each cell, exact incident direction and beam attenuation, thin layer of optical thickness {:e}, one adding step per sigma of a uniform grid; path lengths from the exact derivative with respect to an absorption coefficient",
-            self.settings.bins / 2,
-            self.settings.edge_refinement,
-            self.settings.thin_layer
-        ).into());
-        a.insert("solver_error".into(), SOLVER_ERROR.into());
-        a.insert("solver_error_convention".into(), "largest relative deviation of `energy` from a solve with twice the direction cells (and twice the grazing refinement), on bins above 1e-3 of the profile maximum, measured over sigma in [0, 20], g in [0, 0.8], |theta_i| <= 86 deg (docs/fur.md); the energy identity holds to 1e-8".into());
-        a.insert("std_error_convention".into(), "channel `std_error` is 0: the adding-doubling solution has no sampling noise (its discretisation error is `solver_error`)".into());
-        a.insert("bin_rule".into(), "bins are half-open cells [lower, upper) of equal width 360/bins deg; the axis coordinate is the cell centre; values are integrals over the cell".into());
+        adding_doubling_attributes(&self.settings, &mut content.attributes);
         Ok(content)
     }
 }

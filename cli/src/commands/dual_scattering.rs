@@ -6,8 +6,9 @@ use scatterbake::consumers::export::hair_lut::*;
 use scatterbake::hair::{
     artist::{ArtistNormalisation, ArtistParams},
     fiber::FresnelModel,
+    tables::ThetaRowTable,
 };
-use scatterbake::stages::hair::{HairDualJob, HairDualParams, HairModel};
+use scatterbake::stages::hair::{HairDualParams, HairModel, dual_table};
 use scatterbake::table::Table;
 use std::path::PathBuf;
 
@@ -194,8 +195,8 @@ pub fn run_dual_scattering(args: &DualScatteringArgs) -> anyhow::Result<()> {
             None => None,
         };
         let params = dual_params_from_args(args, artist)?;
-        let job = HairDualJob::new(params).map_err(|e| anyhow::anyhow!("{e}"))?;
-        scatterbake::stages::run_in_memory(&job)?
+        let table = dual_table(&params).map_err(|e| anyhow::anyhow!("{e}"))?;
+        table.compute()?
     };
     let text = match args.format {
         FormatArg::Json => serde_json::to_string_pretty(&dual_json(&t)?)?,
@@ -283,8 +284,8 @@ mod tests {
             format: FormatArg::Json,
             out: None,
         };
-        let job = HairDualJob::new(dual_params_from_args(&args, None).unwrap()).unwrap();
-        let t = scatterbake::stages::run_in_memory(&job).unwrap();
+        let table = dual_table(&dual_params_from_args(&args, None).unwrap()).unwrap();
+        let t = table.compute().unwrap();
         let j = dual_json(&t).unwrap();
         assert_eq!(j["theta_deg"].as_array().unwrap().len(), 9);
         assert_eq!(j["a_f"][4].as_array().unwrap().len(), 3);
@@ -299,8 +300,8 @@ mod tests {
         let mut with = args.clone();
         with.higher_order_kd = Some(0.01);
         with.axis_ratio = Some(0.9);
-        let job = HairDualJob::new(dual_params_from_args(&with, None).unwrap()).unwrap();
-        let t2 = scatterbake::stages::run_in_memory(&job).unwrap();
+        let table = dual_table(&dual_params_from_args(&with, None).unwrap()).unwrap();
+        let t2 = table.compute().unwrap();
         let j2 = dual_json(&t2).unwrap();
         // θ = 0 (index 4): ā_b rises by π² k_d in every channel (below the clamp).
         let pi2 = std::f64::consts::PI.powi(2);
@@ -315,9 +316,8 @@ mod tests {
             let mut bad = args.clone();
             bad.lambertian_kd = lambertian;
             bad.axis_ratio = axis;
-            let err = HairDualJob::new(dual_params_from_args(&bad, None).unwrap())
-                .err()
-                .expect("refused")
+            let err = dual_table(&dual_params_from_args(&bad, None).unwrap())
+                .expect_err("refused")
                 .to_string();
             assert!(err.contains(key), "{err}");
         }
