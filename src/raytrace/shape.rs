@@ -10,8 +10,9 @@
 //! poles (decision RT-13: analytic implicit surface, never facets).
 //!
 //! Intersection: spheres analytically; cosine-series drops by bracketing the implicit function
-//! `g(p) = |p| − r(θ(p))` along the chord through the bounding sphere (uniform samples, then the
-//! Illinois variant of regula falsi). A ray that starts on the surface and points inwards always
+//! `g(p) = |p| − r(θ(p))` along the chord through the bounding sphere (uniform samples), then
+//! Newton's method on the bracket with the analytic slope of `g` along the ray, safeguarded by
+//! bisection. A ray that starts on the surface and points inwards always
 //! has a bracket (g < 0 inside, g > 0 at the bounding-sphere exit), so every entering ray exits
 //! (no leaks at grazing incidence or at the poles); a grazing chord shorter than the sampling
 //! step degenerates to an exit at the start point.
@@ -219,6 +220,21 @@ impl CosineSeries {
         self.r_and_rs(theta.cos()).0
     }
 
+    /// `g` at `p` and its derivative along the unit direction `d` (µm per µm): with
+    /// `c = −p_z/|p|`, `dg/dt = p·d/|p| − (dr/dc)(dc/dt)` and `dr/dc = −r′/sin θ`.
+    #[inline]
+    fn g_and_slope(&self, p: [f64; 3], d: [f64; 3]) -> (f64, f64) {
+        let len = norm(p);
+        if len == 0.0 {
+            return (-self.radius_um, 1.0);
+        }
+        let c = -p[2] / len;
+        let (r, rs) = self.r_and_rs(c);
+        let radial = dot(p, d) / len;
+        let dc_dt = (-d[2] + p[2] * radial / len) / len;
+        (len - r, radial + rs * dc_dt)
+    }
+
     #[inline]
     fn g(&self, p: [f64; 3]) -> f64 {
         let len = norm(p);
@@ -363,7 +379,7 @@ impl DropShape {
 
     /// [`Self::intersect`] for a cosine-series surface: bracketed between the inscribed and
     /// bounding spheres when the chord allows, otherwise marched in 32 steps across the bounding
-    /// sphere; the root is refined by the Illinois method.
+    /// sphere; the root is refined by Newton's method safeguarded by the bracket.
     fn series_intersect(
         &self,
         s: &CosineSeries,
@@ -386,6 +402,7 @@ impl DropShape {
         }
         let sq = disc.sqrt();
         let g_at = |t: f64| s.g(add(o, scale(d, t)));
+        let g_slope_at = |t: f64| s.g_and_slope(add(o, scale(d, t)), d);
         let hit_at = |t: f64| {
             let p = add(o, scale(d, t));
             Hit {
@@ -408,7 +425,7 @@ impl DropShape {
             if tb > ta && ta >= 0.0 {
                 let (ga, gb) = (g_at(ta), g_at(tb));
                 if (ga <= 0.0) != (gb <= 0.0) {
-                    return Some(hit_at(illinois(g_at, ta, ga, tb, gb)));
+                    return Some(hit_at(newton_bracketed(g_slope_at, ta, ga, tb, gb)));
                 }
             }
         }
@@ -433,7 +450,7 @@ impl DropShape {
             let gb = g_at(tb);
             let crossing = if inside { gb >= 0.0 } else { gb <= 0.0 };
             if crossing {
-                return Some(hit_at(illinois(g_at, ta, ga, tb, gb)));
+                return Some(hit_at(newton_bracketed(g_slope_at, ta, ga, tb, gb)));
             }
             ta = tb;
             ga = gb;
@@ -450,44 +467,53 @@ impl DropShape {
     }
 }
 
-/// Illinois regula falsi on a bracket with g(a)·g(b) ≤ 0.
-fn illinois(g: impl Fn(f64) -> f64, mut a: f64, mut ga: f64, mut b: f64, mut gb: f64) -> f64 {
+/// The root of `g` in a bracket `[a, b]` with g(a)·g(b) ≤ 0, by Newton's method safeguarded
+/// by the bracket: `gd(t)` gives `g` and its derivative; a step leaving the bracket (or not
+/// finite) is replaced by bisection, and every evaluation shrinks the bracket. Stops when a
+/// step is below 1e-13 of the position (relative), the accuracy of the regula falsi it
+/// replaces, in typically 3–5 evaluations where the regula falsi needed about twice as many.
+fn newton_bracketed(
+    gd: impl Fn(f64) -> (f64, f64),
+    mut a: f64,
+    mut ga: f64,
+    mut b: f64,
+    gb: f64,
+) -> f64 {
     if gb == 0.0 {
         return b;
     }
-    let mut side = 0i32;
-    for _ in 0..100 {
-        let c = if (gb - ga).abs() > 0.0 {
-            (a * gb - b * ga) / (gb - ga)
-        } else {
-            0.5 * (a + b)
-        };
-        let c = if c.is_finite() && c > a.min(b) && c < a.max(b) {
-            c
-        } else {
-            0.5 * (a + b)
-        };
-        let gc = g(c);
-        if gc == 0.0 || (b - a).abs() < 1e-13 * (1.0 + a.abs().max(b.abs())) {
-            return c;
-        }
-        if (gc > 0.0) == (gb > 0.0) {
-            b = c;
-            gb = gc;
-            if side == -1 {
-                ga *= 0.5;
-            }
-            side = -1;
-        } else {
-            a = c;
-            ga = gc;
-            if side == 1 {
-                gb *= 0.5;
-            }
-            side = 1;
-        }
+    if ga == 0.0 {
+        return a;
     }
-    0.5 * (a + b)
+    let tol = |t: f64| 1e-13 * (1.0 + t.abs());
+    // The secant point of the bracket as the first iterate.
+    let mut t = (a * gb - b * ga) / (gb - ga);
+    if !(t.is_finite() && t > a.min(b) && t < a.max(b)) {
+        t = 0.5 * (a + b);
+    }
+    for _ in 0..100 {
+        let (g, slope) = gd(t);
+        if g == 0.0 {
+            return t;
+        }
+        if (g > 0.0) == (ga > 0.0) {
+            a = t;
+            ga = g;
+        } else {
+            b = t;
+        }
+        let newton = t - g / slope;
+        let next = if newton.is_finite() && newton > a.min(b) && newton < a.max(b) {
+            newton
+        } else {
+            0.5 * (a + b)
+        };
+        if (next - t).abs() <= tol(t) || (b - a).abs() <= tol(t) {
+            return next;
+        }
+        t = next;
+    }
+    t
 }
 
 pub(crate) use crate::math::vec3::{add, cross, dot, norm, normalize, scale, sub};
@@ -581,6 +607,49 @@ mod tests {
             ];
             let gn = normalize(grad);
             assert!(dot(gn, n) > 1.0 - 1e-7, "θ={th}: {n:?} vs {gn:?}");
+        }
+    }
+
+    /// The slope of `g` along a ray is its derivative (central differences), and the bracketed
+    /// Newton iteration lands on the surface to 1e-9 µm where a bisection of the same bracket
+    /// does.
+    #[test]
+    fn slope_along_the_ray_and_newton_roots() {
+        let s = CosineSeries::beard_chuang(2.5);
+        for k in 0..40 {
+            let p = [
+                300.0 * (k as f64).sin(),
+                250.0 * (0.7 * k as f64).cos(),
+                900.0 - 45.0 * k as f64,
+            ];
+            let d = normalize([0.3 - 0.02 * k as f64, -0.5, 0.8]);
+            let (_, slope) = s.g_and_slope(p, d);
+            let h = 1e-3;
+            let fd = (s.g(add(p, scale(d, h))) - s.g(sub(p, scale(d, h)))) / (2.0 * h);
+            assert!((slope - fd).abs() < 1e-6, "{slope} vs {fd}");
+        }
+        let o = [0.0, 0.0, 0.0];
+        for k in 0..50 {
+            let th = PI * (k as f64 + 0.5) / 50.0;
+            let d = [th.sin(), 0.0, -th.cos()];
+            let g_at = |t: f64| s.g(add(o, scale(d, t)));
+            let (mut a, mut b) = (0.0, s.r_max_um * 1.01);
+            for _ in 0..200 {
+                let m = 0.5 * (a + b);
+                if g_at(m) > 0.0 { b = m } else { a = m }
+            }
+            let t = newton_bracketed(
+                |t| s.g_and_slope(add(o, scale(d, t)), d),
+                0.0,
+                g_at(0.0),
+                s.r_max_um * 1.01,
+                g_at(s.r_max_um * 1.01),
+            );
+            assert!(
+                (t - 0.5 * (a + b)).abs() < 1e-9,
+                "θ = {th}: {t} vs {}",
+                0.5 * (a + b)
+            );
         }
     }
 
