@@ -31,14 +31,37 @@ fn main() {
     let data: Vec<f32> = rows.concat();
     let build = t0.elapsed().as_secs_f64();
     let dom = (grid.phi_i_deg[0], grid.phi_i_deg[grid.phi_i_deg.len() - 1]);
-    if std::env::var("PROBE").is_ok() { probe(&model, [85.57, 11.85, 21.03, -179.8]); return; }
-    if std::env::var("WORST").is_ok() { worst(&model, &grid, &data); }
-    let (l2, max) = interpolation_error(&model, dom, points, |q| lookup_f(&grid, &data, q), |_, _| 1.0);
+    if std::env::var("PROBE").is_ok() {
+        probe(&model, [85.57, 11.85, 21.03, -179.8]);
+        return;
+    }
+    if std::env::var("WORST").is_ok() {
+        worst(&model, &grid, &data);
+    }
+    let (l2, max) = interpolation_error(
+        &model,
+        dom,
+        points,
+        |q| lookup_f(&grid, &data, q),
+        |_, _| 1.0,
+    );
     println!(
         "{} light {} fine {} coarse {} phi {} grazing {}/{}: axes {}x{}x{}x{}, {:.1} MB f32, build {:.1} s, L2 {:.4}, max/peak {:.4}",
-        a[1], spec.light_step_deg, spec.half_fine, spec.half_coarse_deg, spec.phi_i_step_deg, spec.grazing_deg, spec.grazing_step_deg,
-        grid.theta_i_deg.len(), grid.phi_i_deg.len(), grid.half_x_deg.len(), grid.half_y_deg.len(),
-        data.len() as f64 * 4e-6, build, l2, max
+        a[1],
+        spec.light_step_deg,
+        spec.half_fine,
+        spec.half_coarse_deg,
+        spec.phi_i_step_deg,
+        spec.grazing_deg,
+        spec.grazing_step_deg,
+        grid.theta_i_deg.len(),
+        grid.phi_i_deg.len(),
+        grid.half_x_deg.len(),
+        grid.half_y_deg.len(),
+        data.len() as f64 * 4e-6,
+        build,
+        l2,
+        max
     );
 }
 
@@ -48,14 +71,22 @@ fn worst(model: &ClothModel, grid: &HalfGrid, data: &[f32]) {
     let mut v = Vec::new();
     for k in 0..20000 {
         let u = halton4(k);
-        let mut q = [2.5 + 85.0 * u[0], grid.phi_i_deg[0] + u[1] * (grid.phi_i_deg[grid.phi_i_deg.len() - 1] - grid.phi_i_deg[0]), 2.5 + 85.0 * u[2], -180.0 + 360.0 * u[3]];
+        let mut q = [
+            2.5 + 85.0 * u[0],
+            grid.phi_i_deg[0]
+                + u[1] * (grid.phi_i_deg[grid.phi_i_deg.len() - 1] - grid.phi_i_deg[0]),
+            2.5 + 85.0 * u[2],
+            -180.0 + 360.0 * u[3],
+        ];
         let r = q.map(f64::to_radians);
         let e = luminance(model.eval_angles(r[0], r[1], r[2], r[3]).total());
         let t = luminance(lookup_f(grid, data, q));
         v.push(((t - e).abs(), q, e, t));
     }
     v.sort_by(|a, b| b.0.total_cmp(&a.0));
-    let (n, d) = v.iter().fold((0.0, 0.0), |a, x| (a.0 + x.0 * x.0, a.1 + x.2 * x.2));
+    let (n, d) = v
+        .iter()
+        .fold((0.0, 0.0), |a, x| (a.0 + x.0 * x.0, a.1 + x.2 * x.2));
     println!("worst-loop L2 {:.4}", (n / d as f64).sqrt());
     for x in &v[..8] {
         println!("{:?}", x);
@@ -76,6 +107,10 @@ pub fn probe(model: &ClothModel, q: [f64; 4]) {
         let wi = direction(t.to_radians(), r[1]);
         let wr = reflect(wi, h);
         let f = luminance(model.eval(wi, wr).total());
-        println!("theta_i {t:5.1} theta_r {:6.2} f {f:.4} K {:.4}", wr[2].acos().to_degrees(), f * wi[2]);
+        println!(
+            "theta_i {t:5.1} theta_r {:6.2} f {f:.4} K {:.4}",
+            wr[2].acos().to_degrees(),
+            f * wi[2]
+        );
     }
 }

@@ -98,7 +98,10 @@ mod tests {
                 sum += half_jacobian(x, y) * d.to_radians() * d.to_radians();
             }
         }
-        assert!((sum / (2.0 * std::f64::consts::PI) - 1.0).abs() < 2e-3, "{sum}");
+        assert!(
+            (sum / (2.0 * std::f64::consts::PI) - 1.0).abs() < 2e-3,
+            "{sum}"
+        );
     }
 
     #[test]

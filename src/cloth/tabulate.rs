@@ -20,9 +20,10 @@
 //! returns 0 below the horizon.
 //!
 //! Per (θ_i, φ_i) the half-vector plane is split into cells `[β_x,a, β_x,a+1] × [β_y,b,
-//! β_y,b+1]` with weight `w = ¼ Σ_corners g · Δβ_x Δβ_y`, `g = Y(f) cos θ_r · 4(ω_i·h) · J(β)`
-//! (0 where ω_r is below the horizon; `J` = [`half_jacobian`], `4(ω_i·h)` the Jacobian of
-//! reflection): `Σ w` is the directional albedo of luminance Y (per channel for the albedo). The
+//! β_y,b+1]` with weight `w = ∫_cell Y(f) cos θ_r · 4(ω_i·h) · J(β) dβ_x dβ_y` (0 where ω_r is
+//! below the horizon; `J` = [`half_jacobian`], `4(ω_i·h)` the Jacobian of reflection), computed
+//! by [`cell_integrals`]: `Σ w` is the directional albedo of luminance Y (per channel for the
+//! albedo). The
 //! sampling tables are the marginal CDF over `β_x` intervals (value at node `a` = weight of the
 //! intervals before it) and, per `β_x` interval `a`, the conditional CDF over `β_y` intervals
 //! (stored at `β_x` node `a`; the last node repeats the previous one). A sample picks a cell by
@@ -223,33 +224,68 @@ pub struct Row {
     pub scale: Vec<f64>,
 }
 
-/// At every half-vector node (β_x-major) of the light direction `wi`: the patch integrand `K`
-/// (RGB) and the albedo integrand `g = f cos θ_r · 4(ω_i·h) · J(β)` (RGB, 0 where the
-/// reflected view is below the horizon).
-pub fn light_nodes(
-    model: &ClothModel,
-    grid: &HalfGrid,
-    wi: [f64; 3],
-) -> (Vec<[f64; 3]>, Vec<[f64; 3]>) {
+/// The patch integrand `K` (RGB) at every half-vector node (β_x-major) of the light
+/// direction `wi` (views below the horizon moved up to it, [`onto_horizon`]).
+pub fn light_nodes(model: &ClothModel, grid: &HalfGrid, wi: [f64; 3]) -> Vec<[f64; 3]> {
     let light = model.prepare(wi);
-    let (mut k, mut g) = (Vec::new(), Vec::new());
+    let mut k = Vec::with_capacity(grid.views());
     for &bx in &grid.half_x_deg {
         for &by in &grid.half_y_deg {
-            let h = half_direction(bx, by);
-            let wr = reflect(wi, h);
+            let wr = reflect(wi, half_direction(bx, by));
             let v = model
                 .patch_prepared(&light, &model.prepare(onto_horizon(wr)))
                 .total();
-            let w = if wi[2] > 0.0 && wr[2] > 0.0 {
-                wr[2] * 4.0 * dot(wi, h) * half_jacobian(bx, by) / wi[2]
-            } else {
-                0.0
-            };
             k.push(v);
-            g.push(v.map(|x| x * w));
         }
     }
-    (k, g)
+    k
+}
+
+/// Sub-cells per cell and axis of the cell integrals.
+const SUB: usize = 4;
+
+/// `∫ f cos θ_r dω_r` (RGB) over every half-vector cell (β_x-major, `(n_x − 1) × (n_y − 1)`)
+/// for the light `wi`, from the nodes' `K`: the midpoint rule on `SUB × SUB` sub-cells of
+/// `K` interpolated bilinearly from the cell's corners, divided by `cos θ_i`, times
+/// `cos θ_r · 4(ω_i·h) · J(β)` evaluated exactly at each sub-cell (0 where ω_r is below the
+/// horizon), so that cells cut by the horizon and the Jacobians are integrated accurately.
+pub fn cell_integrals(grid: &HalfGrid, wi: [f64; 3], k: &[[f64; 3]]) -> Vec<[f64; 3]> {
+    let (xs, ys) = (&grid.half_x_deg, &grid.half_y_deg);
+    let n_y = ys.len();
+    let mut out = Vec::with_capacity((xs.len() - 1) * (n_y - 1));
+    for a in 0..xs.len() - 1 {
+        for b in 0..n_y - 1 {
+            let corners = [
+                k[a * n_y + b],
+                k[a * n_y + b + 1],
+                k[(a + 1) * n_y + b],
+                k[(a + 1) * n_y + b + 1],
+            ];
+            let (dx, dy) = (xs[a + 1] - xs[a], ys[b + 1] - ys[b]);
+            let area = (dx / SUB as f64).to_radians() * (dy / SUB as f64).to_radians();
+            let mut sum = [0.0; 3];
+            for i in 0..SUB {
+                let u = (i as f64 + 0.5) / SUB as f64;
+                for j in 0..SUB {
+                    let v = (j as f64 + 0.5) / SUB as f64;
+                    let (bx, by) = (xs[a] + u * dx, ys[b] + v * dy);
+                    let h = half_direction(bx, by);
+                    let wr = reflect(wi, h);
+                    if wi[2] <= 0.0 || wr[2] <= 0.0 {
+                        continue;
+                    }
+                    let geom = wr[2] * 4.0 * dot(wi, h) * half_jacobian(bx, by) * area / wi[2];
+                    let w = [(1.0 - u) * (1.0 - v), (1.0 - u) * v, u * (1.0 - v), u * v];
+                    for (c, s) in sum.iter_mut().enumerate() {
+                        let kc: f64 = (0..4).map(|q| w[q] * corners[q][c]).sum();
+                        *s += kc * geom;
+                    }
+                }
+            }
+            out.push(sum);
+        }
+    }
+    out
 }
 
 /// Lowest `cos θ_r` (θ_r = 87.5°) of the view directions the tables evaluate: a view below it
@@ -282,14 +318,16 @@ pub fn tabulate_row(model: &ClothModel, grid: &HalfGrid, ti: usize, energy: Ener
     };
     let n_y = grid.half_y_deg.len();
     for phi_i in &grid.phi_i_deg {
-        let (k, g) = light_nodes(model, grid, direction(theta_i, phi_i.to_radians()));
-        let albedo = albedo_of(grid, &g);
+        let wi = direction(theta_i, phi_i.to_radians());
+        let k = light_nodes(model, grid, wi);
+        let cells = cell_integrals(grid, wi, &k);
+        let albedo = [0, 1, 2].map(|c| cells.iter().map(|x| x[c]).sum());
         let peak = albedo.iter().cloned().fold(0.0, f64::max);
         let scale = match energy {
             EnergyMode::Clamp if peak > 1.0 => 1.0 / peak,
             _ => 1.0,
         };
-        let (marginal, conditional) = cdfs(grid, &g);
+        let (marginal, conditional) = cdfs(grid, &cells);
         for (j, v) in k.iter().enumerate() {
             row.values.extend(v.map(|x| (x * scale) as f32));
             row.values.push(marginal[j / n_y] as f32);
@@ -301,34 +339,12 @@ pub fn tabulate_row(model: &ClothModel, grid: &HalfGrid, ti: usize, energy: Ener
     row
 }
 
-/// Per-cell weights `¼ Σ_corners g · Δβ_x Δβ_y` (radians) of a quantity `g` on the half-vector
-/// nodes (β_x-major), `(n_x − 1) × (n_y − 1)` cells.
-fn cell_weights(grid: &HalfGrid, g: impl Fn(usize) -> f64) -> Vec<f64> {
-    let (xs, ys) = (&grid.half_x_deg, &grid.half_y_deg);
-    let n_y = ys.len();
-    let mut w = Vec::with_capacity((xs.len() - 1) * (n_y - 1));
-    for a in 0..xs.len() - 1 {
-        let dx = (xs[a + 1] - xs[a]).to_radians();
-        for b in 0..n_y - 1 {
-            let dy = (ys[b + 1] - ys[b]).to_radians();
-            let (i, j) = (a * n_y + b, (a + 1) * n_y + b);
-            w.push(0.25 * (g(i) + g(i + 1) + g(j) + g(j + 1)) * dx * dy);
-        }
-    }
-    w
-}
-
-/// Directional albedo (RGB) of one incident direction from its albedo integrand `g`.
-pub fn albedo_of(grid: &HalfGrid, g: &[[f64; 3]]) -> [f64; 3] {
-    [0, 1, 2].map(|c| cell_weights(grid, |k| g[k][c]).iter().sum())
-}
-
 /// The marginal CDF over β_x intervals (one value per β_x node) and the conditional CDFs over
-/// β_y intervals (one per half-vector node) of the luminance of the albedo integrand `g`. An
-/// interval row of zero weight gets a uniform CDF.
-pub fn cdfs(grid: &HalfGrid, g: &[[f64; 3]]) -> (Vec<f64>, Vec<f64>) {
+/// β_y intervals (one per half-vector node) of the luminance of the cell integrals `cells`
+/// ([`cell_integrals`]). An interval row of zero weight gets a uniform CDF.
+pub fn cdfs(grid: &HalfGrid, cells: &[[f64; 3]]) -> (Vec<f64>, Vec<f64>) {
     let (n_x, n_y) = (grid.half_x_deg.len(), grid.half_y_deg.len());
-    let w = cell_weights(grid, |k| luminance(g[k]));
+    let w: Vec<f64> = cells.iter().map(|c| luminance(*c)).collect();
     let rows: Vec<f64> = w.chunks(n_y - 1).map(|r| r.iter().sum()).collect();
     let total: f64 = rows.iter().sum();
     let mut marginal = vec![0.0];
@@ -454,7 +470,6 @@ pub fn halton4(k: usize) -> [f64; 4] {
         r
     })
 }
-
 
 /// Interpolation error of a table against the model evaluated directly, at `count`
 /// low-discrepancy points (θ_i, φ_i, θ_r, φ_r) uniform in angle over θ_i, θ_r in
@@ -641,7 +656,10 @@ mod tests {
         let table = lookup_f(&grid, &data, [ti, pi, tr, pr]);
         let model_f = model.eval(wi, wr).total();
         for c in 0..3 {
-            assert!((table[c] - model_f[c]).abs() <= 1e-5 * model_f[c], "{table:?} {model_f:?}");
+            assert!(
+                (table[c] - model_f[c]).abs() <= 1e-5 * model_f[c],
+                "{table:?} {model_f:?}"
+            );
         }
     }
 

@@ -3,8 +3,8 @@
 //! and the energy verdict. Physics and grids: [`crate::cloth`]; layout: `docs/cloth.md`.
 
 use crate::cloth::tabulate::{
-    CHANNELS, CHECK_THETA_DEG, EnergyMode, GridSpec, HalfGrid, albedo_summary,
-    interpolation_error, lookup_f, tabulate_row,
+    CHANNELS, CHECK_THETA_DEG, EnergyMode, GridSpec, HalfGrid, albedo_summary, interpolation_error,
+    lookup_f, tabulate_row,
 };
 use crate::cloth::{ClothModel, ModelOptions, PRESET_NAMES, preset};
 use crate::stages::{

@@ -82,7 +82,11 @@ fn panel(v: &View, axes: [usize; 4], phi_i: usize) -> Result<Panel, ConsumerErro
         let mut points = Vec::new();
         for k in -n..=n {
             let x = k as f64 * VIEW_STEP_DEG;
-            let phi_r = if x > 0.0 { phi_i_deg + 180.0 } else { phi_i_deg };
+            let phi_r = if x > 0.0 {
+                phi_i_deg + 180.0
+            } else {
+                phi_i_deg
+            };
             let y = brdf_luminance(v, [theta_i_deg, phi_i_deg, x.abs(), phi_r])?;
             points.push((x, y));
         }
@@ -143,7 +147,11 @@ mod tests {
                 .fold((0.0, f64::MIN), |a, p| if p.1 > a.1 { p } else { a });
             assert!(y_peak > 0.0);
             if theta_i > 60.0 {
-                assert!((x_peak - theta_i).abs() <= 0.5, "{}: peak at {x_peak}", s.label);
+                assert!(
+                    (x_peak - theta_i).abs() <= 0.5,
+                    "{}: peak at {x_peak}",
+                    s.label
+                );
             }
             assert!(s.points.windows(2).all(|w| w[0].0 < w[1].0));
         }
