@@ -1,6 +1,9 @@
-//! Interpolation error of the cloth table layout against the model, per fabric, for a grid
-//! given on the command line: `cargo run --release --example cloth_layout_error -- FABRIC
-//! LIGHT_STEP HALF_FINE HALF_COARSE [POINTS]`.
+//! Interpolation error, size and build time of a cloth table grid, for choosing the stage's
+//! defaults (docs/cloth.md §4, decision CLOTH-19): the table of one fabric is built in memory
+//! and its lookup compared with the model evaluated directly, as the stage's header does.
+//!
+//! `cargo run --release --example cloth_layout_error -- FABRIC [LIGHT_STEP HALF_FINE
+//! HALF_COARSE POINTS PHI_STEP GRAZING GRAZING_STEP]` (defaults: the stage's).
 
 use rayon::prelude::*;
 use scatterbake::cloth::tabulate::{
@@ -8,109 +11,44 @@ use scatterbake::cloth::tabulate::{
 };
 use scatterbake::cloth::{ClothModel, ModelOptions, preset};
 
-fn main() {
-    let a: Vec<String> = std::env::args().collect();
-    let num = |i: usize, d: f64| a.get(i).map_or(d, |s| s.parse().unwrap());
-    let model = ClothModel::new(preset(&a[1]).unwrap(), ModelOptions::default());
-    let spec = GridSpec {
-        light_step_deg: num(2, 5.0),
-        half_fine: num(3, 0.35),
-        half_coarse_deg: num(4, 5.0),
-        phi_i_step_deg: num(6, 5.0),
-        grazing_deg: num(7, 10.0),
-        grazing_step_deg: num(8, 1.25),
-        ..GridSpec::default()
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let args: Vec<String> = std::env::args().collect();
+    let Some(fabric) = args.get(1) else {
+        return Err("usage: cloth_layout_error FABRIC [LIGHT_STEP HALF_FINE HALF_COARSE POINTS PHI_STEP GRAZING GRAZING_STEP]".into());
     };
-    let points = num(5, 20000.0) as usize;
-    let grid = HalfGrid::new(model.fabric(), spec).unwrap();
-    let t0 = std::time::Instant::now();
+    let num = |i: usize, d: f64| -> Result<f64, std::num::ParseFloatError> {
+        args.get(i).map_or(Ok(d), |s| s.parse())
+    };
+    let model = ClothModel::new(preset(fabric)?, ModelOptions::default());
+    let d = GridSpec::default();
+    let spec = GridSpec {
+        light_step_deg: num(2, d.light_step_deg)?,
+        half_fine: num(3, d.half_fine)?,
+        half_coarse_deg: num(4, d.half_coarse_deg)?,
+        phi_i_step_deg: num(6, d.phi_i_step_deg)?,
+        grazing_deg: num(7, d.grazing_deg)?,
+        grazing_step_deg: num(8, d.grazing_step_deg)?,
+        ..d
+    };
+    let points = num(5, 20000.0)? as usize;
+    let grid = HalfGrid::new(model.fabric(), spec)?;
+    let start = std::time::Instant::now();
     let rows: Vec<Vec<f32>> = (0..grid.theta_i_deg.len())
         .into_par_iter()
         .map(|ti| tabulate_row(&model, &grid, ti, EnergyMode::AsPrinted).values)
         .collect();
     let data: Vec<f32> = rows.concat();
-    let build = t0.elapsed().as_secs_f64();
-    let dom = (grid.phi_i_deg[0], grid.phi_i_deg[grid.phi_i_deg.len() - 1]);
-    if std::env::var("PROBE").is_ok() {
-        probe(&model, [85.57, 11.85, 21.03, -179.8]);
-        return;
-    }
-    if std::env::var("WORST").is_ok() {
-        worst(&model, &grid, &data);
-    }
-    let (l2, max) = interpolation_error(
-        &model,
-        dom,
-        points,
-        |q| lookup_f(&grid, &data, q),
-        |_, _| 1.0,
-    );
+    let build_s = start.elapsed().as_secs_f64();
+    let domain = (grid.phi_i_deg[0], grid.phi_i_deg[grid.phi_i_deg.len() - 1]);
+    let lookup = |q| lookup_f(&grid, &data, q);
+    let (l2, max) = interpolation_error(&model, domain, points, lookup, |_, _| 1.0);
     println!(
-        "{} light {} fine {} coarse {} phi {} grazing {}/{}: axes {}x{}x{}x{}, {:.1} MB f32, build {:.1} s, L2 {:.4}, max/peak {:.4}",
-        a[1],
-        spec.light_step_deg,
-        spec.half_fine,
-        spec.half_coarse_deg,
-        spec.phi_i_step_deg,
-        spec.grazing_deg,
-        spec.grazing_step_deg,
+        "{fabric} {spec:?}: axes {}x{}x{}x{}, {:.1} MB f32, build {build_s:.1} s, L2 {l2:.4}, max/peak {max:.4}",
         grid.theta_i_deg.len(),
         grid.phi_i_deg.len(),
         grid.half_x_deg.len(),
         grid.half_y_deg.len(),
         data.len() as f64 * 4e-6,
-        build,
-        l2,
-        max
     );
-}
-
-#[allow(dead_code)]
-fn worst(model: &ClothModel, grid: &HalfGrid, data: &[f32]) {
-    use scatterbake::cloth::tabulate::{halton4, luminance};
-    let mut v = Vec::new();
-    for k in 0..20000 {
-        let u = halton4(k);
-        let mut q = [
-            2.5 + 85.0 * u[0],
-            grid.phi_i_deg[0]
-                + u[1] * (grid.phi_i_deg[grid.phi_i_deg.len() - 1] - grid.phi_i_deg[0]),
-            2.5 + 85.0 * u[2],
-            -180.0 + 360.0 * u[3],
-        ];
-        let r = q.map(f64::to_radians);
-        let e = luminance(model.eval_angles(r[0], r[1], r[2], r[3]).total());
-        let t = luminance(lookup_f(grid, data, q));
-        v.push(((t - e).abs(), q, e, t));
-    }
-    v.sort_by(|a, b| b.0.total_cmp(&a.0));
-    let (n, d) = v
-        .iter()
-        .fold((0.0, 0.0), |a, x| (a.0 + x.0 * x.0, a.1 + x.2 * x.2));
-    println!("worst-loop L2 {:.4}", (n / d as f64).sqrt());
-    for x in &v[..8] {
-        println!("{:?}", x);
-    }
-}
-
-/// K(θ_i) at the fixed half vector of one pair (probe).
-#[allow(dead_code)]
-pub fn probe(model: &ClothModel, q: [f64; 4]) {
-    use scatterbake::cloth::direction;
-    use scatterbake::cloth::half::{half_of, reflect};
-    use scatterbake::cloth::tabulate::luminance;
-    let r = q.map(f64::to_radians);
-    let (wi, wr) = (direction(r[0], r[1]), direction(r[2], r[3]));
-    let h = half_of(wi, wr).unwrap();
-    for k in 0..=20 {
-        let t = 77.5 + 0.5 * k as f64;
-        let wi = direction(t.to_radians(), r[1]);
-        let wr = reflect(wi, h);
-        let f = luminance(model.eval(wi, wr).total());
-        println!(
-            "theta_i {t:5.1} theta_r {:6.2} f {f:.4} K {:.4}",
-            wr[2].acos().to_degrees(),
-            f * wi[2]
-        );
-    }
+    Ok(())
 }
