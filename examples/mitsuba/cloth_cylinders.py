@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Render cloth-covered cylinders with Mitsuba 3 from scatterbake cloth tables (``cloth-brdf/1``).
+"""Render cloth-covered cylinders with Mitsuba 3 from scatterbake cloth tables (``cloth-brdf/2``).
 
     python3 -m venv venv && venv/bin/pip install ./python mitsuba
     scatterbake build manifests/cloth.toml --out out

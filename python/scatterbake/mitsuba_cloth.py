@@ -1,8 +1,10 @@
 """Mitsuba 3 BSDF for scatterbake's cloth tables (``cloth-brdf/1``, docs/cloth.md).
 
-The table holds the microcylinder cloth BRDF of Sadeghi et al. (2013) of one fabric preset on a
-4-D grid (θ_i, φ_i, θ_r, φ_r) with its sampling CDFs. This module registers the Mitsuba 3 BSDF
-``scatterbake_cloth`` that evaluates and importance-samples such a table::
+The table holds the microcylinder cloth BRDF of Sadeghi et al. (2013) of one fabric preset as
+K = f·cos θ_i on a 4-D grid (θ_i, φ_i, β_x, β_y): the light direction and the projected half
+angles of the half vector h = (ω_i + ω_r)/|ω_i + ω_r|, β_x = atan2(h_x, h_z),
+β_y = atan2(h_y, h_z), with its sampling CDFs over half-vector cells. This module registers the
+Mitsuba 3 BSDF ``scatterbake_cloth`` that evaluates and importance-samples such a table::
 
     import mitsuba as mi
     mi.set_variant("llvm_ad_rgb")
@@ -27,28 +29,22 @@ Conventions:
   ``eval`` returns f(light, view)·cos θ_o (Mitsuba's convention: the cosine of ``wo``).
 - Lookup: the header's symmetry (``attributes.symmetry``: ``mirror_x``, ``mirror_y``,
   ``swap_xy``) reduces (φ_i, φ_r) into the stored φ_i domain exactly as the header's
-  ``reduce`` says (the same mirrors applied to both azimuths), then multilinear interpolation
-  of ``r, g, b`` in (θ_i, φ_i, θ_r, φ_r), as the table documents; φ_r is periodic (the last
-  node repeats the first).
-- Axis ends: after the reduction φ_i lies inside its axis and φ_r covers the full circle, so
-  only θ has ends. θ_i and θ_r are stored at cell centres (k + ½)h of cells that tile [0°, 90°]
-  (the sampling CDFs are over those same cells): inside the outer half cells, θ < h/2 and
-  θ > 90° − h/2, the value is that of the end node, constant across the half cell (the cell's
-  value; nothing is extrapolated). At and below the horizon (cos θ ≤ 0 for either direction)
-  the BSDF is 0: the cloth is one-sided. A table whose axes, units, channels or symmetry do not
-  match this layout is refused when the plugin is created (``ValueError``).
+  ``reduce`` says (the same mirrors applied to both azimuths); h of the reduced directions gives
+  (β_x, β_y); K by multilinear interpolation in (θ_i, φ_i, β_x, β_y), clamped at the axis ends;
+  f = K / cos θ_i. At and below the horizon (cos θ ≤ 0 for either direction) the BSDF is 0: the
+  cloth is one-sided. A table whose schema, axes, units or channels do not match this layout is
+  refused when the plugin is created (``ValueError``).
 - Sampling: a proposal for ``wo`` given ``si.wi``, taking ``si.wi`` as the table's ω_i: the
-  table's CDFs at the (θ_i, φ_i) node nearest to the reduced direction of ``si.wi`` pick a θ_r
-  cell (``cdf_theta_r``) and a φ_r interval of it (``cdf_phi_r``), and ω_r is uniform in solid
-  angle inside that cell, mapped back by the inverse of the reduction: the density per solid
-  angle is the cell's probability over its solid angle, h (cos θ_k − cos θ_k+1), bounded
-  everywhere (the header's recipe, uniform in (θ, φ) with density w_cell/(W h² sin θ), samples
-  the same cells but its density diverges at the normal). ``DEFENSIVE_FRACTION`` of the samples are
-  cosine-weighted on the hemisphere, so every direction with a value has a density. In
-  importance mode this follows the table's own conditional f(ω_i, ·) cos θ_r; in radiance mode
-  it is the reciprocal configuration, a proposal only (the model is not reciprocal, f(i→r) and
-  f(r→i) differ by up to ~90 %). ``pdf`` is the density of exactly this proposal and
-  ``sample`` returns weight = eval/pdf.
+  table's CDFs at the (θ_i, φ_i) node nearest to the reduced direction of ``si.wi`` pick a β_x
+  interval (``cdf_half_x``) and a β_y interval (``cdf_half_y``); (β_x, β_y) is uniform inside,
+  ``wo`` is ``si.wi`` reflected about h and mapped back by the inverse of the reduction (lost,
+  with density 0, when it falls below the horizon). Its density per solid angle is
+  w_cell / (W Δβ_x Δβ_y J(β) 4(ω_i·h)), J = sec²β_x sec²β_y / (1 + tan²β_x + tan²β_y)^{3/2}.
+  ``DEFENSIVE_FRACTION`` of the samples are cosine-weighted on the hemisphere, so every direction
+  with a value has a density. In importance mode this follows the table's own conditional
+  f(ω_i, ·) cos θ_r; in radiance mode it is the reciprocal configuration, a proposal only (the
+  model is not reciprocal). ``pdf`` is the density of exactly this proposal and ``sample``
+  returns weight = eval/pdf.
 """
 
 from __future__ import annotations
@@ -68,9 +64,9 @@ except ImportError:  # standalone file
 PLUGIN_NAME = "scatterbake_cloth"
 #: Schema of the tables read, and its versions.
 SCHEMA = "cloth-brdf"
-SCHEMA_VERSIONS = (1,)
-AXES = ("theta_i", "phi_i", "theta_r", "phi_r")
-CHANNELS = ("r", "g", "b", "cdf_theta_r", "cdf_phi_r")
+SCHEMA_VERSIONS = (2,)
+AXES = ("theta_i", "phi_i", "half_x", "half_y")
+CHANNELS = ("k_r", "k_g", "k_b", "cdf_half_x", "cdf_half_y")
 #: Share of the samples drawn cosine-weighted on the hemisphere.
 DEFENSIVE_FRACTION = 0.05
 
@@ -98,9 +94,10 @@ def _wrap_deg(p):
 class ClothTable:
     """The numbers the plugin needs, read and checked with numpy (variant independent).
 
-    ``rgb`` (NT × NPI × NT × NPR × 3, 1/sr), ``marginal`` (NT × NPI × NT), ``conditional``
-    (NT × NPI × NT × NPR); ``step_deg`` h, ``phi_i_lo`` the first φ_i node; ``symmetry`` the
-    header's flags; ``albedo`` (NT × NPI × 3) the header's directional albedo."""
+    ``k`` (NT × NPI × NX × NY × 3, K = f cos θ_i, 1/sr), ``marginal`` (NT × NPI × NX),
+    ``conditional`` (NT × NPI × NX × NY); the axes ``theta_i``, ``phi_i``, ``half_x``,
+    ``half_y`` (degrees); ``phi_step`` and ``phi_i_lo``; ``symmetry`` the header's flags;
+    ``albedo`` (NT × NPI × 3) the header's directional albedo."""
 
     def __init__(self, table):
         header = table.header
@@ -120,37 +117,38 @@ class ClothTable:
         self.fabric = attrs.get("fabric", "?")
         coords = [np.asarray(a.coords, dtype=float) for a in table.axes]
         self._check_grid(coords, tuple(float(x) for x in sym["phi_i_domain_deg"]))
-        self.rgb = np.stack([np.asarray(table.channel(c), dtype=np.float64) for c in "rgb"], -1)
-        cdf_t = np.asarray(table.channel("cdf_theta_r"), dtype=np.float64)
-        self.marginal = cdf_t[..., 0]
-        self.conditional = np.asarray(table.channel("cdf_phi_r"), dtype=np.float64)
-        if not np.all(np.isfinite(self.rgb)) or np.any(self.rgb < 0):
-            raise ValueError("the BRDF channels have negative or non-finite values")
-        for name, c in (("cdf_theta_r", self.marginal), ("cdf_phi_r", self.conditional)):
+        self.k = np.stack([np.asarray(table.channel(c), dtype=np.float64)
+                           for c in ("k_r", "k_g", "k_b")], -1)
+        cdf_x = np.asarray(table.channel("cdf_half_x"), dtype=np.float64)
+        self.marginal = cdf_x[..., 0]
+        self.conditional = np.asarray(table.channel("cdf_half_y"), dtype=np.float64)
+        if not np.all(np.isfinite(self.k)) or np.any(self.k < 0):
+            raise ValueError("the K channels have negative or non-finite values")
+        for name, c in (("cdf_half_x", self.marginal), ("cdf_half_y", self.conditional)):
             if np.any(np.diff(c, axis=-1) < 0) or np.any(np.abs(c[..., -1] - 1.0) > 1e-5):
                 raise ValueError(f"{name} is not a CDF (non-decreasing, ending at 1)")
-        if np.any(np.abs(cdf_t - cdf_t[..., :1]) > 0):
-            raise ValueError("cdf_theta_r differs along phi_r (one value per theta_r cell)")
+        if np.any(np.abs(cdf_x - cdf_x[..., :1]) > 0):
+            raise ValueError("cdf_half_x differs along half_y (one value per half_x node)")
         self.albedo = np.asarray(attrs["albedo_rgb_as_printed"], dtype=float)
 
     def _check_grid(self, coords, domain):
-        ti, pi, tr, pr = coords
-        h = float(ti[1] - ti[0]) if len(ti) > 1 else 90.0
-        n = len(ti)
-        if not np.allclose(ti, (np.arange(n) + 0.5) * h, atol=1e-9) or abs(n * h - 90.0) > 1e-9:
-            raise ValueError("theta_i must be at the cell centres (k + 1/2) h of [0, 90] deg")
-        if not np.array_equal(ti, tr):
-            raise ValueError("theta_r must equal theta_i")
+        ti, pi, hx, hy = coords
+        if np.any(ti <= 0.0) or np.any(ti >= 90.0) or np.any(np.diff(ti) <= 0):
+            raise ValueError("theta_i must increase inside (0, 90) deg")
         lo, hi = phi_i_domain_deg(*self.symmetry)
         if domain != (lo, hi):
             raise ValueError(f"phi_i domain {domain} does not match the symmetry ({lo}, {hi})")
-        if not np.allclose(pi, lo + np.arange(len(pi)) * h, atol=1e-9) or abs(pi[-1] - hi) > 1e-9:
-            raise ValueError(f"phi_i must be the nodes {lo}, {lo} + h, ..., {hi} deg")
-        if not np.allclose(pr, -180.0 + np.arange(len(pr)) * h, atol=1e-9) or abs(pr[-1] - 180.0) > 1e-9:
-            raise ValueError("phi_r must be the nodes -180, -180 + h, ..., 180 deg")
-        self.step_deg = h
+        step = float(pi[1] - pi[0]) if len(pi) > 1 else 0.0
+        if (len(pi) < 2 or not np.allclose(pi, lo + np.arange(len(pi)) * step, atol=1e-9)
+                or abs(pi[-1] - hi) > 1e-9):
+            raise ValueError(f"phi_i must be uniform nodes from {lo} to {hi} deg")
+        for name, h in (("half_x", hx), ("half_y", hy)):
+            if len(h) < 2 or np.any(np.abs(h) >= 90.0) or np.any(np.diff(h) <= 0):
+                raise ValueError(f"{name} must increase inside (-90, 90) deg")
+        self.theta_i, self.phi_i, self.half_x, self.half_y = ti, pi, hx, hy
+        self.phi_step = step
         self.phi_i_lo = lo
-        self.shape = (n, len(pi), n, len(pr))
+        self.shape = (len(ti), len(pi), len(hx), len(hy))
 
 
 def reduce_deg(symmetry, phi_i, phi_r, select=np.where):
@@ -191,6 +189,33 @@ def _cell(x, n):
     return j, x - mi.Float(j)
 
 
+def _locate(buf, n, x, active):
+    """(j, t) on an increasing axis stored in ``buf`` (n values): x between nodes j and j + 1 at
+    fraction t, clamped to the end nodes."""
+    idx = dr.binary_search(0, n - 1, lambda k: _gather(buf, k, active) <= x)
+    j = dr.minimum(dr.maximum(idx, 1) - 1, n - 2)
+    lo, hi = _gather(buf, j, active), _gather(buf, j + 1, active)
+    return j, dr.clip((x - lo) / (hi - lo), 0.0, 1.0)
+
+
+def _direction(theta_deg, phi_deg):
+    st, ct = dr.sincos(theta_deg * (dr.pi / 180.0))
+    sp, cp = dr.sincos(phi_deg * (dr.pi / 180.0))
+    return mi.Vector3f(st * cp, st * sp, ct)
+
+
+def _half_angles(h):
+    """(β_x, β_y) in degrees of a half vector."""
+    return dr.atan2(h.x, h.z) * (180.0 / dr.pi), dr.atan2(h.y, h.z) * (180.0 / dr.pi)
+
+
+def _jacobian(bx, by):
+    """Solid angle of h per dβ_x dβ_y (sr/rad²)."""
+    a, b = dr.tan(bx * (dr.pi / 180.0)), dr.tan(by * (dr.pi / 180.0))
+    q = 1.0 + a * a + b * b
+    return (1.0 + a * a) * (1.0 + b * b) / (q * dr.sqrt(q))
+
+
 def _make_class():
     class ScatterbakeCloth(mi.BSDF):
         """The ``scatterbake_cloth`` BSDF (see the module documentation)."""
@@ -203,14 +228,13 @@ def _make_class():
             self.warp_rad = math.radians(
                 float(props["warp_angle_deg"]) if "warp_angle_deg" in props else 0.0)
             d = self.data
-            self.h = d.step_deg
-            self.nt, self.npi, _, self.npr = d.shape
-            self.rgb = _buffer(d.rgb)
+            self.nt, self.npi, self.nx, self.ny = d.shape
+            self.k = _buffer(d.k)
             self.marginal = _buffer(d.marginal)
             self.conditional = _buffer(d.conditional)
-            # 1 − cos θ = 2 sin²(θ/2) at the θ cell edges k h, exact in float32 near the normal.
-            edges = np.radians(np.arange(self.nt + 1) * self.h)
-            self.versin = _buffer(2.0 * np.sin(0.5 * edges) ** 2)
+            self.theta_axis = _buffer(d.theta_i)
+            self.hx_axis = _buffer(d.half_x)
+            self.hy_axis = _buffer(d.half_y)
             flags = (mi.BSDFFlags.GlossyReflection | mi.BSDFFlags.FrontSide
                      | mi.BSDFFlags.Anisotropic | mi.BSDFFlags.NonSymmetric)
             self.m_components = [flags]
@@ -227,27 +251,35 @@ def _make_class():
         def _reduce(self, phi_i, phi_r):
             return reduce_deg(self.data.symmetry, phi_i, phi_r, dr.select)
 
-        def _node(self, theta_i, phi_i_red):
+        def _node(self, theta_i, phi_i_red, active):
             """Flat (θ_i, φ_i) node index nearest to the (reduced) incident direction."""
-            k = dr.minimum(mi.UInt32(dr.floor(theta_i / self.h)), self.nt - 1)
-            p = (phi_i_red - self.data.phi_i_lo) / self.h
+            j, t = _locate(self.theta_axis, self.nt, theta_i, active)
+            k = dr.select(t > 0.5, j + 1, j)
+            p = (phi_i_red - self.data.phi_i_lo) / self.data.phi_step
             m = dr.minimum(mi.UInt32(dr.clip(dr.round(p), 0.0, self.npi - 1.0)), self.npi - 1)
             return k * self.npi + m
+
+        def _reduced(self, a, b):
+            """The reduced (light-frame) vectors of directions a (the table's ω_i) and b, their
+            θ_a (degrees) and reduced φ_a, and the map φ' = s φ + c."""
+            ta, pa = self._angles(a)
+            tb, pb = self._angles(b)
+            pa, pb, s, c = self._reduce(pa, pb)
+            return _direction(ta, pa), _direction(tb, pb), ta, pa, s, c
 
         # Evaluation ------------------------------------------------------------------------
 
         def _lookup(self, light, view, active):
-            """f(light → view) (1/sr, RGB) by multilinear interpolation; 0 off the front side."""
-            ti, pi = self._angles(light)
-            tr, pr = self._angles(view)
-            pi, pr, _, _ = self._reduce(pi, pr)
-            half = 0.5 * self.h
-            axes = [_cell((ti - half) / self.h, self.nt),
-                    _cell((pi - self.data.phi_i_lo) / self.h, self.npi),
-                    _cell((tr - half) / self.h, self.nt),
-                    _cell((pr + 180.0) / self.h, self.npr)]
-            sizes = (self.nt, self.npi, self.nt, self.npr)
+            """f(light → view) (1/sr, RGB) by multilinear interpolation of K; 0 off the front
+            side."""
+            wi, wr, ti, pi, _, _ = self._reduced(light, view)
             front = active & (light.z > 0.0) & (view.z > 0.0)
+            bx, by = _half_angles(dr.normalize(wi + wr))
+            axes = [_locate(self.theta_axis, self.nt, ti, front),
+                    _cell((pi - self.data.phi_i_lo) / self.data.phi_step, self.npi),
+                    _locate(self.hx_axis, self.nx, bx, front),
+                    _locate(self.hy_axis, self.ny, by, front)]
+            sizes = (self.nt, self.npi, self.nx, self.ny)
             out = [mi.Float(0.0), mi.Float(0.0), mi.Float(0.0)]
             for corner in range(16):
                 flat, weight = mi.UInt32(0), mi.Float(1.0)
@@ -257,8 +289,9 @@ def _make_class():
                     flat = flat * sizes[a] + j + up
                     weight *= t if up else 1.0 - t
                 for c in range(3):
-                    out[c] += weight * _gather(self.rgb, flat * 3 + c, front)
-            return [dr.select(front, v, 0.0) for v in out], front
+                    out[c] += weight * _gather(self.k, flat * 3 + c, front)
+            cos_i = dr.maximum(light.z, 1e-30)
+            return [dr.select(front, v / cos_i, 0.0) for v in out], front
 
         def _light_view(self, ctx, wi, wo):
             if ctx.mode == mi.TransportMode.Radiance:
@@ -273,23 +306,24 @@ def _make_class():
 
         def _table_pdf(self, wi, wo, active):
             """Density per solid angle of the table's CDF proposal for wo given wi."""
-            ti, pi = self._angles(wi)
-            tr, pr = self._angles(wo)
-            pi, pr, _, _ = self._reduce(pi, pr)
-            base = self._node(ti, pi)
-            k = dr.minimum(mi.UInt32(dr.floor(tr / self.h)), self.nt - 1)
-            col = base * self.nt
-            m_hi = _gather(self.marginal, col + k, active)
-            m_lo = dr.select(k > 0, _gather(self.marginal, col + k - 1, active & (k > 0)), 0.0)
-            l = dr.minimum(mi.UInt32(dr.floor(dr.clip((pr + 180.0) / self.h, 0.0, self.npr))),
-                           self.npr - 2)
-            row = (col + k) * self.npr
-            c_lo = _gather(self.conditional, row + l, active)
-            c_hi = _gather(self.conditional, row + l + 1, active)
-            solid = (_gather(self.versin, k + 1, active) - _gather(self.versin, k, active)) * (
-                math.radians(self.h))
-            p = (m_hi - m_lo) * (c_hi - c_lo) / solid
-            return dr.select(active, p, 0.0)
+            a, b, ti, pi, _, _ = self._reduced(wi, wo)
+            h = dr.normalize(a + b)
+            bx, by = _half_angles(h)
+            nx, ny = self.nx, self.ny
+            x0, x1 = float(self.data.half_x[0]), float(self.data.half_x[-1])
+            y0, y1 = float(self.data.half_y[0]), float(self.data.half_y[-1])
+            ok = active & (h.z > 0.0) & (bx >= x0) & (bx <= x1) & (by >= y0) & (by <= y1)
+            i, _ = _locate(self.hx_axis, nx, bx, ok)
+            j, _ = _locate(self.hy_axis, ny, by, ok)
+            col = self._node(ti, pi, ok) * nx
+            m = _gather(self.marginal, col + i + 1, ok) - _gather(self.marginal, col + i, ok)
+            row = (col + i) * ny
+            c = _gather(self.conditional, row + j + 1, ok) - _gather(self.conditional, row + j, ok)
+            area = ((_gather(self.hx_axis, i + 1, ok) - _gather(self.hx_axis, i, ok))
+                    * (_gather(self.hy_axis, j + 1, ok) - _gather(self.hy_axis, j, ok))
+                    * (dr.pi / 180.0) ** 2)
+            dens = m * c / (area * _jacobian(bx, by) * 4.0 * dr.maximum(dr.dot(a, h), 1e-30))
+            return dr.select(ok, dens, 0.0)
 
         def _pdf(self, wi, wo, active):
             ok = active & (wi.z > 0.0) & (wo.z > 0.0)
@@ -307,27 +341,32 @@ def _make_class():
 
         def _sample_table(self, wi, u, active):
             """wo from the table's CDFs at the node nearest to wi (local frame)."""
-            ti, pi = self._angles(wi)
-            pi, _, s, c = self._reduce(pi, pi)
-            col = self._node(ti, pi) * self.nt
-            nt, npr = self.nt, self.npr
-            k = dr.binary_search(0, nt - 1, lambda x: _gather(self.marginal, col + x, active) <= u.x)
-            m_hi = _gather(self.marginal, col + k, active)
-            m_lo = dr.select(k > 0, _gather(self.marginal, col + k - 1, active & (k > 0)), 0.0)
+            a, _, ti, pi, s, c = self._reduced(wi, wi)
+            nx, ny = self.nx, self.ny
+            col = self._node(ti, pi, active) * nx
+            i = dr.binary_search(0, nx - 1, lambda x: _gather(self.marginal, col + x, active) <= u.x)
+            i = dr.minimum(dr.maximum(i, 1) - 1, nx - 2)
+            m_lo = _gather(self.marginal, col + i, active)
+            m_hi = _gather(self.marginal, col + i + 1, active)
             ux = dr.clip((u.x - m_lo) / dr.maximum(m_hi - m_lo, 1e-30), 0.0, 1.0)
-            row = (col + k) * npr
-            l1 = dr.binary_search(1, npr - 1,
-                                  lambda x: _gather(self.conditional, row + x, active) <= u.y)
-            l = l1 - 1
-            c_lo = _gather(self.conditional, row + l, active)
-            c_hi = _gather(self.conditional, row + l + 1, active)
+            row = (col + i) * ny
+            j = dr.binary_search(0, ny - 1,
+                                 lambda x: _gather(self.conditional, row + x, active) <= u.y)
+            j = dr.minimum(dr.maximum(j, 1) - 1, ny - 2)
+            c_lo = _gather(self.conditional, row + j, active)
+            c_hi = _gather(self.conditional, row + j + 1, active)
             uy = dr.clip((u.y - c_lo) / dr.maximum(c_hi - c_lo, 1e-30), 0.0, 1.0)
-            # Uniform in solid angle inside the cell: 1 − cos θ uniform between the cell's edges.
-            v0 = _gather(self.versin, k, active)
-            v = v0 + ux * (_gather(self.versin, k + 1, active) - v0)
-            ct, st = 1.0 - v, dr.safe_sqrt(v * (2.0 - v))
-            phi_red = -180.0 + (mi.Float(l) + uy) * self.h
+            x0 = _gather(self.hx_axis, i, active)
+            y0 = _gather(self.hy_axis, j, active)
+            bx = x0 + ux * (_gather(self.hx_axis, i + 1, active) - x0)
+            by = y0 + uy * (_gather(self.hy_axis, j + 1, active) - y0)
+            h = dr.normalize(mi.Vector3f(dr.tan(bx * (dr.pi / 180.0)),
+                                         dr.tan(by * (dr.pi / 180.0)), 1.0))
+            wr = 2.0 * dr.dot(a, h) * h - a
+            theta = dr.atan2(dr.sqrt(dr.fma(wr.x, wr.x, wr.y * wr.y)), wr.z)
+            phi_red = dr.atan2(wr.y, wr.x) * (180.0 / dr.pi)
             phi = s * (phi_red - c) * (dr.pi / 180.0) + self.warp_rad
+            st, ct = dr.sincos(theta)
             sp, cp = dr.sincos(phi)
             return mi.Vector3f(st * cp, st * sp, ct)
 
@@ -352,7 +391,7 @@ def _make_class():
 
         def to_string(self):
             d = self.data
-            return (f"ScatterbakeCloth[fabric={d.fabric}, step={d.step_deg} deg, "
+            return (f"ScatterbakeCloth[fabric={d.fabric}, "
                     f"grid={d.shape}, warp_angle={math.degrees(self.warp_rad)} deg]")
 
     return ScatterbakeCloth

@@ -208,6 +208,18 @@ impl ClothModel {
         if wi.cos_surface <= 0.0 || wr.cos_surface <= 0.0 {
             return ClothValue::default();
         }
+        let k = self.patch_prepared(wi, wr);
+        let scale = 1.0 / wi.cos_surface;
+        ClothValue {
+            surface: k.surface * scale,
+            volume: k.volume.map(|v| v * scale),
+        }
+    }
+
+    /// The patch integrand `K = f·(n·ω_i)` of eq. 5.20 for prepared directions, without the
+    /// horizon test: below the horizon it is the same formula continued (the tables store it
+    /// there so that interpolation next to the horizon does not blend with zeros).
+    pub fn patch_prepared(&self, wi: &PreparedDirection, wr: &PreparedDirection) -> ClothValue {
         let (mut surface, mut volume, mut den) = (0.0, [0.0; 3], 0.0);
         for j in 0..2 {
             let family = &self.fabric.families[j];
@@ -238,7 +250,7 @@ impl ClothModel {
         if den <= 0.0 {
             return ClothValue::default();
         }
-        let scale = 1.0 / (den * wi.cos_surface);
+        let scale = 1.0 / den;
         ClothValue {
             surface: surface * scale,
             volume: volume.map(|v| v * scale),

@@ -7,7 +7,8 @@
 //! - [`fabric`]: thread families, the six measured fabrics (Tables 5.2, E.1) and their
 //!   symmetries;
 //! - [`brdf`]: shadowing/masking, reweighting and the fabric BRDF (eqs. 5.12–5.20);
-//! - [`tabulate`]: the BRDF on angle grids, directional albedo and sampling CDFs for tables;
+//! - [`half`]: the half-vector coordinates of the tables (projected half angles β_x, β_y);
+//! - [`tabulate`]: the BRDF on the tables' grid, directional albedo and sampling CDFs;
 //! - [`query`]: one checked evaluation at a direction pair in degrees and its record (the
 //!   command line's JSON, the Python package's `cloth_brdf`).
 //!
@@ -22,6 +23,7 @@
 pub mod brdf;
 pub mod curve;
 pub mod fabric;
+pub mod half;
 pub mod query;
 pub mod tabulate;
 pub mod thread;

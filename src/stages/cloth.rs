@@ -3,7 +3,8 @@
 //! and the energy verdict. Physics and grids: [`crate::cloth`]; layout: `docs/cloth.md`.
 
 use crate::cloth::tabulate::{
-    AngleGrid, CHANNELS, EnergyMode, albedo_summary, interpolation_error, lookup_rgb, tabulate_row,
+    CHANNELS, CHECK_THETA_DEG, EnergyMode, GridSpec, HalfGrid, albedo_summary, interpolation_error,
+    lookup_f, tabulate_row,
 };
 use crate::cloth::{ClothModel, ModelOptions, PRESET_NAMES, preset};
 use crate::stages::{
@@ -20,9 +21,27 @@ stage_params! {
         /// Fabric preset.
         pub fabric: String = required, "string",
             "linen_plain, silk_crepe_de_chine, polyester_satin_front, polyester_satin_back, silk_shot or velvet";
-        /// Angle step of the grid, degrees.
-        pub step_deg: f64 = default(5.0), "float, deg",
-            "grid step of θ_i, φ_i, θ_r, φ_r; must divide 90";
+        /// θ_i cell size below the grazing band, degrees.
+        pub light_step_deg: f64 = default(10.0), "float, deg",
+            "θ_i cell size below 90° − grazing_deg (cell centres); must divide it";
+        /// Width of the grazing band of θ_i, degrees.
+        pub grazing_deg: f64 = default(10.0), "float, deg",
+            "θ_i above 90° − grazing_deg is split into cells of grazing_step_deg (0: none)";
+        /// θ_i cell size in the grazing band, degrees.
+        pub grazing_step_deg: f64 = default(1.25), "float, deg",
+            "θ_i cell size in the grazing band; must divide grazing_deg";
+        /// Step of the φ_i nodes, degrees.
+        pub phi_i_step_deg: f64 = default(5.0), "float, deg",
+            "step of the φ_i nodes over the fabric's fundamental domain; must divide 45";
+        /// Half-angle spacing over the lobes, as a fraction of γ_s.
+        pub half_fine: f64 = default(0.5), "float",
+            "spacing of the half-angle axes over a family's lobes, as a fraction of its γ_s";
+        /// Largest half-angle spacing, degrees.
+        pub half_coarse_deg: f64 = default(7.5), "float, deg",
+            "largest spacing of the half-angle axes, away from the lobes";
+        /// End of the half-angle axes, degrees.
+        pub half_max_deg: f64 = default(88.0), "float, deg",
+            "the half-angle axes span [-half_max_deg, half_max_deg]";
         /// Tangent quadrature step, degrees.
         pub ramp_step_deg: f64 = default(1.0), "float, deg",
             "largest step in tangent elevation on the ramps of the tangent curves";
@@ -30,20 +49,37 @@ stage_params! {
         pub energy: String = default("as-printed".to_string()), "string",
             "as-printed (the thesis's model; albedo > 1 near grazing) or clamp (rows scaled to albedo ≤ 1)";
         /// Points of the interpolation-error estimate.
-        pub check_points: usize = default(2000), "integer",
+        pub check_points: usize = default(20000), "integer",
             "off-grid points where the table is compared with the model evaluated directly";
     }
 }
 
 impl StageSpec for ClothStage {
     const NAME: &'static str = "cloth";
-    const VERSION: u32 = 1;
+    const VERSION: u32 = 2;
     const SUMMARY: &'static str = "microcylinder cloth BRDF (Sadeghi et al. 2013) of a fabric preset, with sampling CDFs and albedo";
     type Params = ClothParams;
     fn plan_params(&self, p: ClothParams) -> Result<Box<dyn Job>, PlanError> {
         let fabric = preset(&p.fabric).map_err(|e| PlanError::invalid("fabric", e.to_string()))?;
-        let grid = AngleGrid::new(fabric.symmetry(), p.step_deg)
-            .map_err(|e| PlanError::invalid("step_deg", e.to_string()))?;
+        let spec = GridSpec {
+            light_step_deg: p.light_step_deg,
+            grazing_deg: p.grazing_deg,
+            grazing_step_deg: p.grazing_step_deg,
+            phi_i_step_deg: p.phi_i_step_deg,
+            half_fine: p.half_fine,
+            half_coarse_deg: p.half_coarse_deg,
+            half_max_deg: p.half_max_deg,
+        };
+        let grid = HalfGrid::new(&fabric, spec).map_err(|e| {
+            let key = match e {
+                crate::cloth::tabulate::GridError::ThetaI(..) => "light_step_deg",
+                crate::cloth::tabulate::GridError::PhiI(_) => "phi_i_step_deg",
+                crate::cloth::tabulate::GridError::HalfFine(_) => "half_fine",
+                crate::cloth::tabulate::GridError::HalfCoarse(_) => "half_coarse_deg",
+                crate::cloth::tabulate::GridError::HalfMax(_) => "half_max_deg",
+            };
+            PlanError::invalid(key, e.to_string())
+        })?;
         if !(p.ramp_step_deg > 0.0 && p.ramp_step_deg <= 10.0) {
             return Err(PlanError::invalid("ramp_step_deg", "must be in (0, 10]"));
         }
@@ -69,7 +105,7 @@ impl StageSpec for ClothStage {
 pub struct ClothJob {
     p: ClothParams,
     model: ClothModel,
-    grid: AngleGrid,
+    grid: HalfGrid,
     energy: EnergyMode,
 }
 
@@ -82,22 +118,15 @@ impl ClothJob {
 }
 
 impl ClothJob {
-    /// Axes: θ_i × φ_i × θ_r × φ_r (degrees).
+    /// Axes: θ_i × φ_i × β_x × β_y (degrees).
     fn table_axes(&self) -> Vec<Axis> {
         let g = &self.grid;
-        let theta =
-            |name: &str| Axis::uniform(name, "deg", g.theta_deg[0], g.step_deg, g.theta_deg.len());
+        let s = self.p.phi_i_step_deg;
         vec![
-            theta("theta_i"),
-            Axis::uniform(
-                "phi_i",
-                "deg",
-                g.phi_i_deg[0],
-                g.step_deg,
-                g.phi_i_deg.len(),
-            ),
-            theta("theta_r"),
-            Axis::uniform("phi_r", "deg", -180.0, g.step_deg, g.phi_r_deg.len()),
+            Axis::values("theta_i", "deg", g.theta_i_deg.clone()),
+            Axis::uniform("phi_i", "deg", g.phi_i_deg[0], s, g.phi_i_deg.len()),
+            Axis::values("half_x", "deg", g.half_x_deg.clone()),
+            Axis::values("half_y", "deg", g.half_y_deg.clone()),
         ]
     }
 }
@@ -108,7 +137,7 @@ impl Job for ClothJob {
     }
     fn tasks(&self) -> Vec<TaskSpec> {
         self.grid
-            .theta_deg
+            .theta_i_deg
             .iter()
             .map(|t| TaskSpec {
                 label: format!("{} θ_i={t}°", self.p.fabric),
@@ -128,11 +157,12 @@ impl Job for ClothJob {
     fn shape(&self) -> crate::stages::PlannedShape {
         crate::stages::PlannedShape::new(self.table_axes(), channels().len())
     }
-    /// Every BRDF value of the grid (`cost::CLOTH_VALUE_CPU_S`, the thread integrals over
-    /// the fabric's threads and tangent curves included).
+    /// Every node of the grid: its view prepared and the BRDF evaluated, plus the cell
+    /// integrals, measured at 3.6 × `cost::CLOTH_VALUE_CPU_S` per node (25.4 s user for the
+    /// 3.2·10⁶ nodes of `manifests/cloth.toml`).
     fn estimated_cpu_seconds(&self) -> f64 {
-        crate::stages::cost::CLOTH_VALUE_CPU_S
-            * (self.grid.theta_deg.len() * self.grid.row_len()) as f64
+        let nodes = self.grid.theta_i_deg.len() * self.grid.row_len() / CHANNELS.len();
+        3.6 * crate::stages::cost::CLOTH_VALUE_CPU_S * nodes as f64
     }
     fn estimated_stored_fraction(&self) -> f64 {
         crate::stages::cost::STORED_FRACTION_CLOTH
@@ -140,12 +170,12 @@ impl Job for ClothJob {
     /// The directional albedo (RGB) and sampling scale of every (θ_i, φ_i).
     fn estimated_attribute_bytes(&self) -> u64 {
         use crate::stages::cost::{ATTRIBUTE_BYTES, ATTRIBUTE_BYTES_PER_SCALAR};
-        let n = (self.grid.theta_deg.len() * self.grid.phi_i_deg.len()) as u64;
+        let n = (self.grid.theta_i_deg.len() * self.grid.phi_i_deg.len()) as u64;
         ATTRIBUTE_BYTES + ATTRIBUTE_BYTES_PER_SCALAR * 4 * n
     }
     fn assemble(&self, chunks: Vec<Chunk>) -> Result<TableContent, JobError> {
         let n = self.grid.row_len();
-        check_chunks(&chunks, self.grid.theta_deg.len(), n, self.scalars_len())?;
+        check_chunks(&chunks, self.grid.theta_i_deg.len(), n, self.scalars_len())?;
         let mut data = Vec::with_capacity(n * chunks.len());
         let (mut albedo, mut scale) = (Vec::new(), Vec::new());
         for c in &chunks {
@@ -160,7 +190,7 @@ impl Job for ClothJob {
         }
         let attributes = self.attributes(&data, &albedo, &scale)?;
         Ok(TableContent {
-            schema: Schema::new("cloth-brdf", 1),
+            schema: Schema::new("cloth-brdf", 2),
             description: format!(
                 "cloth BRDF f(omega_i -> omega_r) of {} (Sadeghi et al. 2013), 1/sr, with sampling CDFs",
                 self.p.fabric
@@ -175,11 +205,11 @@ impl Job for ClothJob {
 
 fn channels() -> Vec<Channel> {
     let meaning = [
-        "BRDF, red (linear Rec. 709), 1/sr",
-        "BRDF, green, 1/sr",
-        "BRDF, blue, 1/sr",
-        "marginal CDF over theta_r cells of the luminance-weighted cosine BRDF (value at the cell's upper edge)",
-        "conditional CDF over phi_r given the theta_r cell (value at this phi_r node)",
+        "K = f(omega_i -> omega_r) cos theta_i, red (linear Rec. 709), 1/sr; f = K / cos theta_i",
+        "K = f cos theta_i, green, 1/sr",
+        "K = f cos theta_i, blue, 1/sr",
+        "marginal CDF over half_x intervals of the luminance of f cos theta_r domega_r (value at this half_x node: weight of the intervals before it)",
+        "conditional CDF over half_y intervals, given the half_x interval that starts at this half_x node (value at this half_y node); the last half_x node repeats the previous one",
     ];
     CHANNELS
         .iter()
@@ -202,15 +232,18 @@ impl ClothJob {
         let summary = albedo_summary(g, albedo);
         let clamp = self.energy == EnergyMode::Clamp;
         let scale_at = |t: f64, p: f64| {
-            let pos = [locate(&g.theta_deg, t), locate(&g.phi_i_deg, p)];
+            let pos = [locate(&g.theta_i_deg, t), locate(&g.phi_i_deg, p)];
             let n_p = g.phi_i_deg.len();
-            multilinear(&pos, &[g.theta_deg.len(), n_p], |k| scale[k / n_p][k % n_p])
+            multilinear(&pos, &[g.theta_i_deg.len(), n_p], |k| {
+                scale[k / n_p][k % n_p]
+            })
         };
+        let domain = (g.phi_i_deg[0], g.phi_i_deg[g.phi_i_deg.len() - 1]);
         let (l2, max) = interpolation_error(
             &self.model,
-            g,
+            domain,
             self.p.check_points,
-            |q| lookup_rgb(g, data, q),
+            |q| lookup_f(g, data, q),
             scale_at,
         );
         let sym = self.model.fabric().symmetry();
@@ -221,23 +254,33 @@ impl ClothJob {
             "frame": "cloth normal +z, warp (family 1) +x, weft +y; theta from the normal, phi from +x toward +y; omega_i toward the light (the model is not reciprocal: do not swap)",
             "symmetry": {
                 "mirror_x": sym.mirror_x, "mirror_y": sym.mirror_y, "swap_xy": sym.swap_xy,
-                "phi_i_domain_deg": [g.phi_i_deg[0], g.phi_i_deg[g.phi_i_deg.len() - 1]],
+                "phi_i_domain_deg": [domain.0, domain.1],
                 "reduce": "apply the same mirrors to phi_i and phi_r until phi_i lies in the domain: y->-y (phi -> -phi), x->-x (phi -> 180-phi), x<->y (phi -> 90-phi)",
             },
-            "grid": "theta_i, theta_r at cell centres (k+1/2)*step; phi_i nodes over the domain; phi_r nodes -180..180 with the last repeating the first",
+            "grid": "theta_i at the centres of cells tiling [0, 90] deg (light_step_deg, then grazing_step_deg over the last grazing_deg), phi_i nodes over the domain; half_x, half_y: projected half angles of h = (omega_i + omega_r)/|omega_i + omega_r|, half_x = atan2(h_x, h_z), half_y = atan2(h_y, h_z), non-uniform nodes (fine over the thread families' specular lines half_x = -alpha (warp), half_y = -alpha (weft))",
+            "half_axes": {
+                "half_fine_over_gamma_s": self.p.half_fine,
+                "half_coarse_deg": self.p.half_coarse_deg,
+                "half_max_deg": self.p.half_max_deg,
+            },
+            "lookup": "reduce (phi_i, phi_r) by the mirrors; 0 unless both directions are above the horizon; h from the reduced directions; K by multilinear interpolation in (theta_i, phi_i, half_x, half_y), clamped at the axis ends; f = K / cos theta_i",
             "interpolation": "multilinear",
             "interpolation_error_l2_relative": l2,
             "interpolation_error_max_over_peak": max,
             "interpolation_check_points": self.p.check_points,
+            "interpolation_check": format!(
+                "luminance of f from the lookup against the model evaluated directly at {} Halton points uniform in angle: theta_i, theta_r in [{}, {}] deg, phi_i over the domain, phi_r in [-180, 180] deg; l2 = sqrt(sum d^2 / sum f^2), max = max |d| / max f",
+                self.p.check_points, CHECK_THETA_DEG.0, CHECK_THETA_DEG.1
+            ),
             "energy": if clamp { "clamp" } else { "as-printed" },
             "energy_conserving": clamp || summary.max <= 1.0,
             "albedo_max_as_printed": summary.max,
             "albedo_above_one_from_theta_i_deg": summary.above_one_from_theta_i_deg,
             "albedo_average_rgb_as_printed": summary.average,
             "albedo_rgb_as_printed": albedo,
-            "albedo_layout": "[theta_i][phi_i][rgb] at the table's theta_i and phi_i nodes, directional albedo of the model as printed",
+            "albedo_layout": "[theta_i][phi_i][rgb] at the table's theta_i and phi_i nodes, directional albedo of the model as printed (trapezoid sum over the half-vector cells)",
             "energy_scale": scale,
-            "sampling": "pick a theta_r cell by cdf_theta_r, a phi_r interval by cdf_phi_r, place omega_r uniformly in (theta_r, phi_r) inside; pdf = w_cell / (W dtheta dphi sin theta_r)",
+            "sampling": "at the (theta_i, phi_i) node nearest the light: pick a half_x interval by cdf_half_x, a half_y interval by cdf_half_y, place (half_x, half_y) uniformly inside, omega_r = 2 (omega_i.h) h - omega_i (lost below the horizon); pdf = w_cell / (W dhalf_x dhalf_y J 4 (omega_i.h)), J = sec^2 half_x sec^2 half_y / (1 + tan^2 half_x + tan^2 half_y)^1.5",
             "tangent_nodes": [self.model.nodes()[0].len(), self.model.nodes()[1].len()],
         });
         match value {
@@ -260,18 +303,21 @@ mod tests {
     #[test]
     fn bad_parameters_are_refused() {
         assert!(plan("fabric = \"denim\"").is_err());
-        assert!(plan("fabric = \"velvet\"\nstep_deg = 7.0").is_err());
+        assert!(plan("fabric = \"velvet\"\nlight_step_deg = 7.0").is_err());
+        assert!(plan("fabric = \"velvet\"\nhalf_max_deg = 90.0").is_err());
         assert!(plan("fabric = \"velvet\"\nenergy = \"fudge\"").is_err());
     }
 
     #[test]
     fn coarse_table_of_linen() {
-        let job = plan("fabric = \"linen_plain\"\nstep_deg = 15.0\ncheck_points = 50").unwrap();
+        let job = plan(
+            "fabric = \"linen_plain\"\nlight_step_deg = 15.0\ngrazing_deg = 0.0\nphi_i_step_deg = 15.0\nhalf_fine = 1.0\nhalf_coarse_deg = 15.0\ncheck_points = 50",
+        )
+        .unwrap();
         let t = run_in_memory(job.as_ref()).unwrap();
-        assert_eq!(
-            t.axes.iter().map(|a| a.len()).collect::<Vec<_>>(),
-            [6, 4, 6, 25]
-        );
+        let lens: Vec<usize> = t.axes.iter().map(|a| a.len()).collect();
+        assert_eq!(lens[..2], [6, 4]);
+        assert_eq!(lens[2], lens[3]);
         assert!(t.data.iter().all(|v| v.is_finite() && *v >= 0.0));
         assert_eq!(t.attributes["energy_conserving"], true);
         assert!(
