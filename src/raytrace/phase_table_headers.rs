@@ -153,17 +153,7 @@ impl PhaseTable {
                 }),
             );
         }
-        at.insert(
-            "mirror_symmetrisation".into(),
-            if s.mirror_half {
-                "by construction: only the outgoing_azimuth range 0°–180° was computed and each value copied to 360° − φ (mirror_half); the drop (a surface of revolution about the vertical axis) and the sun (in the vertical plane φ = 0) are symmetric under y → −y, so the exact table has this symmetry; the ray noise is that of the half traced, not averaged with its mirror image (docs/decisions.md RT-34)"
-            } else if s.mirror_symmetrise {
-                "applied: the values at outgoing_azimuth φ and 360° − φ were replaced by their mean (every channel but dolp, which was recomputed from the mean i_perp and i_par); the drop (a surface of revolution about the vertical axis) and the sun (in the vertical plane φ = 0) are symmetric under y → −y, so the exact table has this symmetry and the averaging removes ray noise only (docs/decisions.md RT-24)"
-            } else {
-                "not applied: values at φ and 360° − φ differ by ray noise"
-            }
-            .into(),
-        );
+        at.insert("mirror_symmetrisation".into(), self.mirror_text().into());
         at.insert("frame".into(), "drop axis vertical (z up); sun at elevation e in the +x half-space, incident direction d = (−cos e, 0, −sin e); outgoing_polar = angle from d; outgoing_azimuth about d from e1 = (−sin e, 0, cos e) (vertical plane, upwards) towards e2 = +y".into());
         at.insert("shape".into(), s.shape_name.clone().into());
         at.insert("radius_um".into(), s.radii_um[0].into());
@@ -193,6 +183,18 @@ impl PhaseTable {
             channels: self.channels(),
             attributes: at,
             data,
+        }
+    }
+
+    /// The header's `mirror_symmetrisation` of a 2-D table (decisions RT-24, RT-34).
+    fn mirror_text(&self) -> &'static str {
+        let s = &self.spec;
+        if s.mirror_half {
+            "by construction: only the outgoing_azimuth range 0°–180° was computed and each value copied to 360° − φ (mirror_half); the drop (a surface of revolution about the vertical axis) and the sun (in the vertical plane φ = 0) are symmetric under y → −y, so the exact table has this symmetry; the ray noise is that of the half traced, not averaged with its mirror image (docs/decisions.md RT-34)"
+        } else if s.mirror_symmetrise {
+            "applied: the values at outgoing_azimuth φ and 360° − φ were replaced by their mean (every channel but dolp, which was recomputed from the mean i_perp and i_par); the drop (a surface of revolution about the vertical axis) and the sun (in the vertical plane φ = 0) are symmetric under y → −y, so the exact table has this symmetry and the averaging removes ray noise only (docs/decisions.md RT-24)"
+        } else {
+            "not applied: values at φ and 360° − φ differ by ray noise"
         }
     }
 

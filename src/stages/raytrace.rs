@@ -275,32 +275,7 @@ impl RaytraceJob {
                 ));
             }
         };
-        let model_default = if shape.is_some() {
-            DiffractionModel::AiryLocal
-        } else {
-            DiffractionModel::AiryUniform
-        };
-        let spec = PhaseTableSpec {
-            shape_name: p.shape.clone(),
-            shape,
-            profile_fit_residual,
-            radii_um: p.radii_um.clone(),
-            wavelengths_nm: p.wavelengths_nm.clone(),
-            sun_elevation_deg: p.sun_elevation_deg.clone(),
-            max_order,
-            angle_step_deg: p.angle_step_deg,
-            polar_step_deg: p.polar_step_deg,
-            azimuth_step_deg: p.azimuth_step_deg,
-            rays: p.rays,
-            ray_grid: p.ray_grid,
-            diffraction_filter: p.diffraction_filter,
-            model: p.diffraction_model.unwrap_or(model_default),
-            diagnostic_channels: p.diagnostic_channels,
-            sphere_higher_orders: p.sphere_higher_orders,
-            mirror_symmetrise: p.mirror_symmetrise,
-            mirror_half: p.mirror_half,
-            compression: p.compression,
-        };
+        let spec = table_spec(&p, max_order, shape, profile_fit_residual);
         Ok(RaytraceJob {
             p,
             model,
@@ -340,6 +315,41 @@ impl RaytraceJob {
             .table
             .trace_entry(lambda, self.index(lambda)?, elevation_deg);
         Ok((t.values, t.cross_section_um2))
+    }
+}
+
+/// The table of a checked plan: the parameters with the shape's defaults resolved.
+fn table_spec(
+    p: &RaytraceParams,
+    max_order: usize,
+    shape: Option<DropShape>,
+    profile_fit_residual: Option<f64>,
+) -> PhaseTableSpec {
+    let model_default = if shape.is_some() {
+        DiffractionModel::AiryLocal
+    } else {
+        DiffractionModel::AiryUniform
+    };
+    PhaseTableSpec {
+        shape_name: p.shape.clone(),
+        shape,
+        profile_fit_residual,
+        radii_um: p.radii_um.clone(),
+        wavelengths_nm: p.wavelengths_nm.clone(),
+        sun_elevation_deg: p.sun_elevation_deg.clone(),
+        max_order,
+        angle_step_deg: p.angle_step_deg,
+        polar_step_deg: p.polar_step_deg,
+        azimuth_step_deg: p.azimuth_step_deg,
+        rays: p.rays,
+        ray_grid: p.ray_grid,
+        diffraction_filter: p.diffraction_filter,
+        model: p.diffraction_model.unwrap_or(model_default),
+        diagnostic_channels: p.diagnostic_channels,
+        sphere_higher_orders: p.sphere_higher_orders,
+        mirror_symmetrise: p.mirror_symmetrise,
+        mirror_half: p.mirror_half,
+        compression: p.compression,
     }
 }
 
