@@ -10,15 +10,22 @@
 //! - [`compact`]: compact 2-D entries, seen through the sun's disc and resampled adaptively;
 //! - [`table2d`]: one entry of a 2-D table from a trace (filters, lobe, added sphere orders,
 //!   mirror symmetry);
+//! - [`phase_table`]: the tables `raytrace-phase/2` and `raytrace-phase-2d/2` (entries, axes,
+//!   channels, renormalisation), their header texts ([`phase_table_headers`]) and the compact
+//!   form of 2-D tables ([`compact_table`]);
 //! - [`mixture`]: drop-size mixtures of Lorenz–Mie and traced spheres.
 //!
 //! The `raytrace` and `mixture` stages (schemas `raytrace-phase/2`, `raytrace-phase-2d/2`,
-//! `mixture-phase/1`) are [`crate::stages::raytrace`] and [`crate::stages::mixture`].
+//! `mixture-phase/1`) are [`crate::stages::raytrace`] and [`crate::stages::mixture`]: they check
+//! the parameters, lay out the tasks and call these modules.
 
 pub mod caustic;
 pub mod compact;
+pub mod compact_table;
 pub mod domain;
 pub mod mixture;
+pub mod phase_table;
+pub mod phase_table_headers;
 pub mod post;
 pub mod shape;
 pub mod sphere1d;

@@ -4,47 +4,32 @@
 //! `radii_um`, `wavelengths_nm`, `water_index_model` (default `iapws1997`), `temperature_c`.
 //!
 //! - `shape = "sphere"`: schema `raytrace-phase/2`, axes radius (µm) × wavelength (nm) ×
-//!   scattering_angle (deg, uniform over [0, 180]), as `mie-phase` and `debye-phase`; computed by
-//!   the exact 1-D geometric-optics-plus-phase path ([`crate::raytrace::sphere1d`]), which the
-//!   general 2-D tracer is validated against (tests/raytrace_validation.rs).
+//!   scattering_angle (deg), one task per (radius, wavelength), computed by the exact 1-D
+//!   geometric-optics-plus-phase path ([`crate::raytrace::sphere1d`]), which the general 2-D
+//!   tracer is validated against (tests/raytrace_validation.rs).
 //! - `shape = "beard-chuang"` or `"profile"`: schema `raytrace-phase-2d/2`, axes radius (µm, one
-//!   value) × wavelength (nm) × sun_elevation (deg) × outgoing_polar (deg from the incident
-//!   direction, 0 = forward) × outgoing_azimuth (deg, 0..360, from the vertical plane containing
-//!   the incident direction, towards +y; see [`crate::raytrace::tracer`] for the frame); computed
-//!   by the 2-D patch tracer.
+//!   value) × wavelength (nm) × sun_elevation (deg) × outgoing_polar (deg) × outgoing_azimuth
+//!   (deg), one task per (wavelength, sun elevation), computed by the 2-D patch tracer.
+//!
+//! The table (entries, axes, channels, renormalisation, header texts, compact form) is
+//! [`crate::raytrace::phase_table`]; this module reads and checks the parameters, lays out the
+//! tasks and their chunks (`raytrace_job.rs`) and checks each entry's integral.
 //!
 //! Version 1 of both schemas had the axes wavelength × radius (1-D) and wavelength × sun_elevation
 //! (2-D, radius only in the `radius_mm` attribute) and was written from the keys `radius_mm` and
 //! `wavelength_nm`; those keys are now refused with a message giving the new ones.
-//!
-//! Channels (both schemas): phase, i_perp, i_par, dolp, phase_p0..phase_pN (per order,
-//! filtered), phase_unfiltered, i_perp_unfiltered, i_par_unfiltered; all in 1/sr normalised
-//! against the full scattering cross-section σ = σ_GO (traced orders) + A (forward Fraunhofer
-//! lobe of the projected area A): i_perp = (dσ/dΩ)_⊥/σ, i_par = (dσ/dΩ)_∥/σ and
-//! phase = (i_perp + i_par)/2, so that ∫_{4π} phase dΩ = 1 up to the flux of triangles discarded
-//! at the silhouette (reported in the attributes). For a sphere this is the `mie` normalisation
-//! i_perp = |S1|²/(π x² Q_sca).
+
+#[path = "raytrace_job.rs"]
+mod job;
 
 use crate::optics::water::{SADEGHI_WAVELENGTHS_NM, WaterIndexModel};
-use crate::raytrace::compact::{self, CompactEntry, Components, Compression};
+use crate::raytrace::compact::Compression;
 use crate::raytrace::domain;
-use crate::raytrace::post::{filter_sigma_deg, integral_1d};
+use crate::raytrace::phase_table::{PhaseTable, PhaseTableSpec, steps};
 use crate::raytrace::shape::{CosineSeries, DropShape};
-use crate::raytrace::sphere1d::{
-    DiffractionModel, SPHERE_MAX_ORDER, SphereTableOptions, sphere_table_channels,
-};
-use crate::raytrace::table2d::{
-    Table2dOptions, Trace2d, WavelengthCache, WavelengthFields, divide_intensities,
-    entry_integral_2d, trace_table_2d,
-};
-use crate::raytrace::tracer::{DirectionGrid, RayGridLayout};
-use crate::stages::cost::{RAYTRACE_2D_COST, SPHERE_CPU_S_PER_RADIUS_OVER_WAVELENGTH};
-use crate::stages::phase_contract;
-use crate::stages::{
-    Chunk, Job, JobError, PlanError, StageSpec, TaskSpec, check_chunk, check_chunks, checks,
-    concat_values, stage_params,
-};
-use crate::table::{Axis, Channel, Schema, TableContent};
+use crate::raytrace::sphere1d::{DiffractionModel, SPHERE_MAX_ORDER};
+use crate::raytrace::tracer::RayGridLayout;
+use crate::stages::{Job, JobError, PlanError, StageSpec, checks, stage_params};
 
 /// The stage.
 pub struct RaytraceStage;
@@ -145,19 +130,6 @@ fn renamed_key_error(e: PlanError) -> PlanError {
     e
 }
 
-fn divides(total: f64, step: f64) -> Option<usize> {
-    if step.is_nan() || step <= 0.0 {
-        return None;
-    }
-    let n = total / step;
-    // At most 1e7 steps: a tiny step would overflow the grid's sample count.
-    if (n - n.round()).abs() < 1e-6 && (2.0..=1e7).contains(&n.round()) {
-        Some(n.round() as usize)
-    } else {
-        None
-    }
-}
-
 impl StageSpec for RaytraceStage {
     const NAME: &'static str = "raytrace";
     /// 2: 2-D tables renormalised to ∫ p dΩ = 1 on their grid. 3: Table 3.2 of Sadeghi (2012)
@@ -195,17 +167,12 @@ impl StageSpec for RaytraceStage {
 /// A planned ray-tracing job.
 pub struct RaytraceJob {
     p: RaytraceParams,
-    /// The highest order traced (`max_order`, or its default for the shape).
-    max_order: usize,
     model: WaterIndexModel,
     /// A fixed real index replacing the water model (single queries; see
     /// [`RaytraceJob::with_refractive_index`]).
     fixed_index: Option<f64>,
-    two_d: bool,
-    shape: Option<DropShape>,
-    profile_fit_residual: Option<f64>,
-    /// What a 2-D entry computes once per wavelength for all its sun elevations.
-    per_wavelength: WavelengthCache,
+    /// The table the tasks compute.
+    table: PhaseTable,
 }
 
 /// The checks of a 2-D (non-spherical) plan: one radius, direction grid steps that divide the
@@ -217,13 +184,13 @@ fn check_two_d_grid(p: &RaytraceParams) -> Result<(), PlanError> {
             "2-D shapes take exactly one radius per table",
         ));
     }
-    if divides(180.0, p.polar_step_deg).is_none() {
+    if steps(180.0, p.polar_step_deg).is_none() {
         return Err(PlanError::invalid(
             "polar_step_deg",
             "must be > 0 and divide 180 into 2 to 1e7 steps",
         ));
     }
-    if divides(360.0, p.azimuth_step_deg).is_none() {
+    if steps(360.0, p.azimuth_step_deg).is_none() {
         return Err(PlanError::invalid(
             "azimuth_step_deg",
             "must be > 0 and divide 360 into 2 to 1e7 steps",
@@ -241,26 +208,6 @@ fn check_two_d_grid(p: &RaytraceParams) -> Result<(), PlanError> {
             .map_err(|why| PlanError::invalid("sun_elevation_deg", why))?;
     }
     Ok(())
-}
-
-/// Divide the intensity channels of 2-D entry `e` by its bin-sum over 4π (decision RT-21) and
-/// return the bin-sum; an entry that cannot be normalised or integrates implausibly is refused.
-fn renormalise_entry(
-    e: usize,
-    entry: &mut [f32],
-    grid: DirectionGrid,
-    nch: usize,
-) -> Result<f64, JobError> {
-    let s = entry_integral_2d(entry, grid, nch);
-    if !(s > 0.0 && s.is_finite()) {
-        return Err(JobError::NotNormalisable {
-            entry: e,
-            integral: s,
-        });
-    }
-    crate::stages::check_phase_integral(e, s)?;
-    divide_intensities(entry, grid.n_azimuth * nch, nch, s);
-    Ok(s)
 }
 
 /// Compression is for 2-D shapes with the contract's four channels.
@@ -304,28 +251,23 @@ impl RaytraceJob {
         if !(1..=8).contains(&max_order) {
             return Err(PlanError::invalid("max_order", "must be within 1–8"));
         }
-        if two_d_shape && p.diffraction_model == Some(DiffractionModel::AiryUniform) {
-            return Err(PlanError::invalid(
-                "diffraction_model",
-                "airy-uniform is available for spheres only; use airy-local or gaussian",
-            ));
-        }
-        if !two_d_shape && p.diffraction_model == Some(DiffractionModel::AiryLocal) {
-            return Err(PlanError::invalid(
-                "diffraction_model",
-                "airy-local is for 2-D shapes (it transfers the sphere's airy-uniform correction); spheres use airy-uniform",
-            ));
-        }
-        if p.mirror_half && !p.mirror_symmetrise {
-            return Err(PlanError::invalid(
-                "mirror_half",
-                "mirror_half = true makes the table exactly mirror-symmetric, which contradicts mirror_symmetrise = false (keep the ray-noise asymmetry); set mirror_symmetrise = true or mirror_half = false",
-            ));
-        }
+        check_models(&p, two_d_shape)?;
         check_compression(&p, two_d_shape)?;
-        let two_d = match p.shape.as_str() {
-            "sphere" => false,
-            "beard-chuang" | "profile" => true,
+        let (shape, profile_fit_residual) = match p.shape.as_str() {
+            "sphere" => {
+                if steps(180.0, p.angle_step_deg).is_none() {
+                    return Err(PlanError::invalid(
+                        "angle_step_deg",
+                        "must be > 0 and divide 180 into 2 to 1e7 steps",
+                    ));
+                }
+                (None, None)
+            }
+            "beard-chuang" | "profile" => {
+                check_two_d_grid(&p)?;
+                let (shape, residual) = drop_shape(&p)?;
+                (Some(shape), residual)
+            }
             other => {
                 return Err(PlanError::invalid(
                     "shape",
@@ -333,50 +275,13 @@ impl RaytraceJob {
                 ));
             }
         };
-        let mut job = RaytraceJob {
+        let spec = table_spec(&p, max_order, shape, profile_fit_residual);
+        Ok(RaytraceJob {
             p,
-            max_order,
             model,
             fixed_index: None,
-            two_d,
-            shape: None,
-            profile_fit_residual: None,
-            per_wavelength: WavelengthCache::default(),
-        };
-        if !two_d {
-            if divides(180.0, job.p.angle_step_deg).is_none() {
-                return Err(PlanError::invalid(
-                    "angle_step_deg",
-                    "must be > 0 and divide 180 into 2 to 1e7 steps",
-                ));
-            }
-            return Ok(job);
-        }
-        check_two_d_grid(&job.p)?;
-        let p = &job.p;
-        let r_um = p.radii_um[0];
-        let shape = if p.shape == "beard-chuang" {
-            DropShape::beard_chuang(r_um * 1e-3)
-        } else {
-            let (Some(th), Some(r)) = (&p.profile_theta_deg, &p.profile_r) else {
-                return Err(PlanError::invalid(
-                    "profile_theta_deg",
-                    "shape = profile needs profile_theta_deg and profile_r",
-                ));
-            };
-            let (s, res) = CosineSeries::fit_table(r_um, th, r)
-                .map_err(|e| PlanError::invalid("profile_r", e))?;
-            if res > 1e-3 {
-                return Err(PlanError::invalid(
-                    "profile_r",
-                    format!("cosine-series fit residual {res:.2e} > 1e-3: profile too rough"),
-                ));
-            }
-            job.profile_fit_residual = Some(res);
-            DropShape::Series(s)
-        };
-        job.shape = Some(shape);
-        Ok(job)
+            table: PhaseTable::new(spec),
+        })
     }
 
     /// Use the fixed real relative index `n` at every wavelength instead of the water model
@@ -390,7 +295,7 @@ impl RaytraceJob {
             ));
         }
         self.fixed_index = Some(n);
-        self.per_wavelength = WavelengthCache::default();
+        self.table.clear_wavelength_cache();
         Ok(self)
     }
 
@@ -402,714 +307,98 @@ impl RaytraceJob {
         }
     }
 
-    fn diffraction_model(&self) -> DiffractionModel {
-        self.p.diffraction_model.unwrap_or(if self.two_d {
-            DiffractionModel::AiryLocal
-        } else {
-            DiffractionModel::AiryUniform
-        })
-    }
-
-    fn n_angles(&self) -> usize {
-        divides(180.0, self.p.angle_step_deg).unwrap() + 1
-    }
-
-    fn direction_grid(&self) -> DirectionGrid {
-        DirectionGrid {
-            n_polar: divides(180.0, self.p.polar_step_deg).unwrap() + 1,
-            n_azimuth: divides(360.0, self.p.azimuth_step_deg).unwrap(),
-        }
-    }
-
-    /// Tasks in table order: (radius µm, wavelength nm) for spheres; (wavelength nm, sun
-    /// elevation deg) of the one radius for 2-D shapes.
-    fn task_pairs(&self) -> Vec<(f64, f64)> {
-        let (first, second) = if self.two_d {
-            (&self.p.wavelengths_nm, &self.p.sun_elevation_deg)
-        } else {
-            (&self.p.radii_um, &self.p.wavelengths_nm)
-        };
-        first
-            .iter()
-            .flat_map(|&f| second.iter().map(move |&s| (f, s)))
-            .collect()
-    }
-
-    fn channels(&self) -> Vec<Channel> {
-        crate::raytrace::channel_names(self.max_order, self.p.diagnostic_channels)
-            .into_iter()
-            .map(|n| {
-                let (unit, meaning) = match n.as_str() {
-                    "phase" => ("1/sr", "unpolarised phase function (i_perp + i_par)/2, diffraction-filtered, with forward lobe".to_string()),
-                    "i_perp" => ("1/sr", "perpendicular component (dσ/dΩ)_perp/σ, for a sphere |S1|^2/(pi x^2 Q_sca); phase = (i_perp + i_par)/2".to_string()),
-                    "i_par" => ("1/sr", "parallel component (dσ/dΩ)_par/σ, for a sphere |S2|^2/(pi x^2 Q_sca); phase = (i_perp + i_par)/2".to_string()),
-                    "dolp" => ("1", "(i_perp − i_par)/(i_perp + i_par)".to_string()),
-                    "phase_unfiltered" => ("1/sr", "phase without the Gaussian diffraction filter (forward lobe included)".to_string()),
-                    "i_perp_unfiltered" => ("1/sr", "i_perp without the Gaussian filter".to_string()),
-                    "i_par_unfiltered" => ("1/sr", "i_par without the Gaussian filter".to_string()),
-                    other => ("1/sr", format!("unpolarised contribution of order p = {} alone (filtered, no lobe)", &other[7..])),
-                };
-                Channel::new(&n, unit, &meaning)
-            })
-            .collect()
-    }
-
-    /// The table's axes: radius × wavelength × scattering angle (spheres), or radius ×
-    /// wavelength × sun elevation × outgoing polar × outgoing azimuth (2-D shapes).
-    fn table_axes(&self) -> Vec<Axis> {
-        let mut axes = vec![
-            Axis::values("radius", "um", self.p.radii_um.clone()),
-            Axis::values("wavelength", "nm", self.p.wavelengths_nm.clone()),
-        ];
-        if self.two_d {
-            let grid = self.direction_grid();
-            axes.extend([
-                Axis::values("sun_elevation", "deg", self.p.sun_elevation_deg.clone()),
-                Axis::uniform(
-                    "outgoing_polar",
-                    "deg",
-                    0.0,
-                    self.p.polar_step_deg,
-                    grid.n_polar,
-                ),
-                Axis::uniform(
-                    "outgoing_azimuth",
-                    "deg",
-                    0.0,
-                    self.p.azimuth_step_deg,
-                    grid.n_azimuth,
-                ),
-            ]);
-        } else {
-            axes.push(Axis::uniform(
-                "scattering_angle",
-                "deg",
-                0.0,
-                self.p.angle_step_deg,
-                self.n_angles(),
-            ));
-        }
-        axes
-    }
-
-    /// Values per entry (task): angles, or polar × azimuth directions, times channels.
-    fn entry_len(&self) -> usize {
-        let channels = self.channels().len();
-        if self.two_d {
-            let grid = self.direction_grid();
-            grid.n_polar * grid.n_azimuth * channels
-        } else {
-            self.n_angles() * channels
-        }
-    }
-
-    /// How the 2-D entries of this job are traced.
-    fn table2d_options(&self) -> Table2dOptions {
-        Table2dOptions {
-            rays: self.p.rays,
-            ray_grid: self.p.ray_grid,
-            max_order: self.max_order,
-            grid: self.direction_grid(),
-            diffraction_filter: self.p.diffraction_filter,
-            model: self.diffraction_model(),
-            sphere_higher_orders: self.p.sphere_higher_orders,
-            diagnostic_channels: self.p.diagnostic_channels,
-            mirror_symmetrise: self.p.mirror_symmetrise,
-            mirror_half: self.p.mirror_half,
-        }
-    }
-
-    /// Scalars per 2-D task: the airy-local transfer weight of each azimuth column (primary,
-    /// secondary), 2 × n_azimuth, or none for the other models and for spheres.
-    fn domain_values(&self) -> usize {
-        if self.two_d && self.table2d_options().airy_local() {
-            2 * self.direction_grid().n_azimuth
-        } else {
-            0
-        }
-    }
-
     /// 2-D shapes: the values `[polar][azimuth][channel]` of one (wavelength, sun elevation) as
     /// a task returns them (divided by σ, before the renormalisation of `assemble`) and the
     /// scattering cross-section σ = σ_GO + A (µm²) they were divided by.
     pub fn trace_2d(&self, lambda: f64, elevation_deg: f64) -> Result<(Vec<f32>, f64), JobError> {
-        let t = self.trace_entry(lambda, elevation_deg)?;
+        let t = self
+            .table
+            .trace_entry(lambda, self.index(lambda)?, elevation_deg);
         Ok((t.values, t.cross_section_um2))
     }
+}
 
-    /// One (wavelength, sun elevation) entry of a 2-D table ([`trace_table_2d`]), with the
-    /// wavelength's fields shared by its sun elevations.
-    fn trace_entry(&self, lambda: f64, elevation_deg: f64) -> Result<Trace2d, JobError> {
-        let shape = self.shape.as_ref().expect("2-D job has a shape");
-        let n = self.index(lambda)?;
-        let opts = self.table2d_options();
-        // Before the trace: their few allocations do not stack on the accumulators' peak.
-        let fields = self
-            .per_wavelength
-            .get(lambda, self.p.sun_elevation_deg.len(), || {
-                WavelengthFields::new(shape.radius_um(), lambda, n, &opts)
-            });
-        Ok(trace_table_2d(
-            shape,
-            lambda,
-            n,
-            elevation_deg,
-            &opts,
-            &fields,
-        ))
-    }
-
-    /// A sphere's 1-D entry: values `[angle][channel]`.
-    fn sphere_entry(&self, radius_um: f64, lambda: f64) -> Result<Vec<f32>, JobError> {
-        let na = self.n_angles();
-        let ch = sphere_table_channels(
-            radius_um,
-            lambda,
-            self.index(lambda)?,
-            &SphereTableOptions {
-                max_order: self.max_order,
-                step_deg: self.p.angle_step_deg,
-                angles: na,
-                diffraction_filter: self.p.diffraction_filter,
-                model: self.diffraction_model(),
-            },
-        );
-        let nch = self.channels().len();
-        let mut out = vec![0f32; na * nch];
-        for j in 0..na {
-            for c in 0..nch {
-                out[j * nch + c] = ch[c][j] as f32;
-            }
-        }
-        Ok(out)
+/// The table of a checked plan: the parameters with the shape's defaults resolved.
+fn table_spec(
+    p: &RaytraceParams,
+    max_order: usize,
+    shape: Option<DropShape>,
+    profile_fit_residual: Option<f64>,
+) -> PhaseTableSpec {
+    let model_default = if shape.is_some() {
+        DiffractionModel::AiryLocal
+    } else {
+        DiffractionModel::AiryUniform
+    };
+    PhaseTableSpec {
+        shape_name: p.shape.clone(),
+        shape,
+        profile_fit_residual,
+        radii_um: p.radii_um.clone(),
+        wavelengths_nm: p.wavelengths_nm.clone(),
+        sun_elevation_deg: p.sun_elevation_deg.clone(),
+        max_order,
+        angle_step_deg: p.angle_step_deg,
+        polar_step_deg: p.polar_step_deg,
+        azimuth_step_deg: p.azimuth_step_deg,
+        rays: p.rays,
+        ray_grid: p.ray_grid,
+        diffraction_filter: p.diffraction_filter,
+        model: p.diffraction_model.unwrap_or(model_default),
+        diagnostic_channels: p.diagnostic_channels,
+        sphere_higher_orders: p.sphere_higher_orders,
+        mirror_symmetrise: p.mirror_symmetrise,
+        mirror_half: p.mirror_half,
+        compression: p.compression,
     }
 }
 
-impl Job for RaytraceJob {
-    /// Known at plan time: tasks × (angles, or polar × azimuth directions) × channels.
-    /// Compact tables: the dense grid as the upper bound of the knots chosen while the tasks
-    /// run.
-    fn shape(&self) -> crate::stages::PlannedShape {
-        let channels = self.channels().len();
-        if self.compact_spec().is_some() {
-            return crate::stages::PlannedShape::adaptive(self.table_axes(), channels);
-        }
-        crate::stages::PlannedShape::new(self.table_axes(), channels)
-    }
-    /// Spheres: per task ∝ radius/λ (the internal grid's step is ≤ λ/(10a)). 2-D shapes
-    /// (`RAYTRACE_2D_COST`): a set-up, then per task a part growing with the drop's size
-    /// parameter, one per ray traced and one per direction computed.
-    fn estimated_cpu_seconds(&self) -> f64 {
-        let pairs = self.task_pairs();
-        if !self.two_d {
-            let size: f64 = pairs.iter().map(|&(a_um, l_nm)| a_um / l_nm).sum();
-            return SPHERE_CPU_S_PER_RADIUS_OVER_WAVELENGTH * size;
-        }
-        let grid = self.direction_grid();
-        let computed_azimuths = if self.p.mirror_half {
-            grid.n_azimuth / 2 + 1
-        } else {
-            grid.n_azimuth
-        };
-        let rays = (self.p.rays * self.p.rays) as f64;
-        let directions = (grid.n_polar * computed_azimuths) as f64;
-        let [table, per_size, per_ray, per_direction] = RAYTRACE_2D_COST;
-        let radius_mm = self.p.radii_um[0] / 1000.0;
-        let per_task: f64 = (pairs.iter())
-            .map(|&(l_nm, _)| {
-                per_size * radius_mm * 550.0 / l_nm + per_ray * rays + per_direction * directions
-            })
-            .sum();
-        table + per_task
-    }
-    /// Compact tables: of the dense grid's payload (the plan's upper bound).
-    fn estimated_stored_fraction(&self) -> f64 {
-        use crate::stages::cost::*;
-        if let Some(spec) = self.compact_spec() {
-            if matches!(self.shape, Some(DropShape::Sphere { .. })) {
-                return STORED_FRACTION_RAYTRACE_2D_COMPACT_SPHERE;
-            }
-            return match spec.norm {
-                compact::ErrorNorm::Max => STORED_FRACTION_RAYTRACE_2D_COMPACT_MAX,
-                compact::ErrorNorm::Rms => STORED_FRACTION_RAYTRACE_2D_COMPACT_RMS,
-            };
-        }
-        match (self.two_d, self.p.diagnostic_channels) {
-            (false, _) => STORED_FRACTION_RAYTRACE_SPHERE,
-            (true, true) => STORED_FRACTION_RAYTRACE_2D_DIAGNOSTIC,
-            (true, false) => STORED_FRACTION_RAYTRACE_2D,
-        }
-    }
-    /// Per task: integrals, and for 2-D shapes the transfer weights of every azimuth column.
-    fn estimated_attribute_bytes(&self) -> u64 {
-        use crate::stages::cost::{ATTRIBUTE_BYTES, ATTRIBUTE_BYTES_PER_SCALAR};
-        let tasks = self.task_pairs().len() as u64;
-        ATTRIBUTE_BYTES + ATTRIBUTE_BYTES_PER_SCALAR * tasks * (1 + self.domain_values() as u64)
-    }
-    fn parameters(&self) -> serde_json::Value {
-        serde_json::to_value(&self.p).expect("params serialise")
-    }
-
-    fn tasks(&self) -> Vec<TaskSpec> {
-        self.task_pairs()
-            .into_iter()
-            .map(|(l, s)| {
-                if self.two_d {
-                    TaskSpec {
-                        label: format!("λ={l} nm sun={s}°"),
-                        params: serde_json::json!({"wavelength_nm": l, "sun_elevation_deg": s}),
-                    }
-                } else {
-                    TaskSpec {
-                        label: format!("a={l} µm λ={s} nm"),
-                        params: serde_json::json!({"radius_um": l, "wavelength_nm": s}),
-                    }
-                }
-            })
-            .collect()
-    }
-
-    /// Spheres: the entry's values. 2-D shapes: the entry's values and, with airy-local, the
-    /// transfer weights of its azimuth columns (`[primary, secondary]` per column), which
-    /// `assemble` records in the header.
-    fn run_task(&self, index: usize) -> Result<Chunk, JobError> {
-        let (f, s) = self.task_pairs()[index];
-        if !self.two_d {
-            return Ok(Chunk::values(self.sphere_entry(f, s)?));
-        }
-        let t = self.trace_entry(f, s)?;
-        let weights = t.domain_weights.unwrap_or_default().into_iter().flatten();
-        if let Some(spec) = self.compact_spec() {
-            let (integral, entry) = self.compact_task(index, t.values, spec)?;
-            let mut scalars = vec![integral];
-            scalars.extend(entry.scalars());
-            scalars.extend(weights);
-            return Ok(Chunk::new(entry.values, scalars));
-        }
-        Ok(Chunk::new(t.values, weights.collect()))
-    }
-
-    fn assemble(&self, chunks: Vec<Chunk>) -> Result<TableContent, JobError> {
-        if let Some(spec) = self.compact_spec() {
-            return self.assemble_compact(chunks, spec);
-        }
-        let scalars = self.domain_values();
-        let tasks = self.task_pairs().len();
-        check_chunks(&chunks, tasks, self.entry_len(), scalars)?;
-        let domain = (scalars > 0).then(|| {
-            let weights: Vec<&[f64]> = chunks.iter().map(|c| c.scalars.as_slice()).collect();
-            self.domain_attribute(&weights)
-        });
-        let mut t = self.assemble_values(chunks)?;
-        if let Some(d) = domain {
-            t.attributes.insert("airy_local_domain".into(), d);
-        }
-        Ok(t)
-    }
-}
-
-impl RaytraceJob {
-    /// The table from the tasks' chunks in task order (their scalars unused): what
-    /// `mixture-2d` assembles per radius.
-    pub fn assemble_values(&self, chunks: Vec<Chunk>) -> Result<TableContent, JobError> {
-        let entry_len = self.entry_len();
-        for (index, c) in chunks.iter().enumerate() {
-            check_chunk(index, c, entry_len, c.scalars.len())?;
-        }
-        let channels = self.channels();
-        let at = self.common_attributes();
-        let data = concat_values(chunks);
-        if self.two_d {
-            self.assemble_2d(data, channels, at)
-        } else {
-            self.assemble_1d(data, channels, at)
-        }
-    }
-}
-
-impl RaytraceJob {
-    /// Attributes of 1-D and 2-D tables: the phase contract, index, orders, normalisation,
-    /// focal-line rule, diffraction model and Fresnel conventions.
-    fn common_attributes(&self) -> serde_json::Map<String, serde_json::Value> {
-        let mut at = serde_json::Map::new();
-        at.extend(phase_contract::attributes(
-            "integral over 4pi sr equals 1",
-            &self.model,
-            0.0,
+/// The diffraction model named suits the shape, and `mirror_half` goes with
+/// `mirror_symmetrise`.
+fn check_models(p: &RaytraceParams, two_d_shape: bool) -> Result<(), PlanError> {
+    if two_d_shape && p.diffraction_model == Some(DiffractionModel::AiryUniform) {
+        return Err(PlanError::invalid(
+            "diffraction_model",
+            "airy-uniform is available for spheres only; use airy-local or gaussian",
         ));
-        if let Some(n) = self.fixed_index {
-            at.insert("water_index_model".into(), "none".into());
-            at.remove("temperature_c");
-            at.insert("refractive_index_real".into(), n.into());
-        }
-        at.insert("max_order".into(), self.max_order.into());
-        at.insert("cross_section_normalization".into(), "p = (dσ/dΩ)/σ with σ = σ_GO (flux of the traced orders) + A (Fraunhofer forward lobe of the projected area A, added to i_perp and i_par as the exact bin average of a²J1(x sinθ)²/sin²θ)".into());
-        at.insert("focal_line_rule".into(), "longer-path branch π/2 behind (docs/decisions.md RT-1): phase exp(i(k l − (π/2) f)), f = [dl/db > 0], b = u² + v²".into());
-        let model = self.diffraction_model();
-        let filter_text = match model {
-            DiffractionModel::AiryUniform => "airy-uniform: uniform caustic (Airy) approximation of each order's rainbow (two-branch CUA on the bright side, Airy continuation on the dark side); GO elsewhere".to_string(),
-            DiffractionModel::AiryLocal => "airy-local: the equal-volume sphere's uniform-caustic correction (1-D Airy-uniform minus GO channels, bin averages) added to each azimuth column, moved onto the column's own primary/secondary caustic (fold fit of the p = 2 / p = 3 GO intensity, smoothed over ±5° of azimuth) and scaled to its caustic strength (bright side 0.1–1.5°); primary correction above the Alexander-band midpoint, secondary below; GO elsewhere. Domain per column and bow: caustic inside the search range, strength 0.5–2 times the sphere's, no value below −5 % of the column's largest before clipping; columns with a column outside the domain within ±5° take the Gaussian filter instead, blended over ±5° of azimuth (docs/decisions.md RT-28, RT-33)".to_string(),
-            DiffractionModel::Gaussian => format!("gaussian: thesis Table 3.3 Gaussian in polar angle (σ linear in radius, Airy a^(-2/3) outside 0.1–1 mm; σ = {:.4}° at the first radius) for θ above the Alexander-band midpoint, 2σ below, blended in only within a Gaussian window of half-width 2σ_local around each caustic (peaks of the p = 2 and p = 3 intensities)", filter_sigma_deg(self.p.radii_um[0] * 1e-3)),
-        };
-        at.insert(
-            "diffraction_filter".into(),
-            format!("{filter_text}; applied = {}", self.p.diffraction_filter).into(),
-        );
-        at.insert("fresnel".into(), "complex Fresnel amplitudes, Born–Wolf signs, power-consistent transmission (src/optics/fresnel.rs)".into());
-        at.insert("cross_order_phase".into(), "orders summed coherently without per-order constant (axial focal line) phases, as in the thesis: the fine cross-order ripple of the unfiltered channels is not Mie-exact".into());
-        at
     }
-
-    /// The header record of where airy-local used the sphere's transfer (decision RT-33), per
-    /// (wavelength, sun elevation) entry and bow, from the weights of each task's chunk
-    /// (`[primary, secondary]` per azimuth column), classified at f32 precision.
-    fn domain_attribute(&self, weights: &[&[f64]]) -> serde_json::Value {
-        let step = self.p.azimuth_step_deg;
-        let bow = |w: &[f64], b: usize| {
-            let col: Vec<f32> = w.chunks_exact(2).map(|p| p[b] as f32).collect();
-            let transfer = col.iter().filter(|&&x| x >= 1.0).count();
-            let gaussian = col.iter().filter(|&&x| x <= 0.0).count();
-            // Azimuth ranges (deg, inclusive) of the columns that did not take the transfer
-            // alone (blended or Gaussian).
-            let mut ranges: Vec<[f64; 2]> = Vec::new();
-            let mut start = None;
-            for (k, &x) in col.iter().chain([&1.0f32]).enumerate() {
-                match (x < 1.0, start) {
-                    (true, None) => start = Some(k),
-                    (false, Some(k0)) => {
-                        ranges.push([k0 as f64 * step, (k - 1) as f64 * step]);
-                        start = None;
-                    }
-                    _ => {}
-                }
-            }
-            serde_json::json!({
-                "transfer_columns": transfer,
-                "blended_columns": col.len() - transfer - gaussian,
-                "gaussian_columns": gaussian,
-                "not_transfer_azimuth_ranges_deg": ranges,
-            })
-        };
-        let entries: Vec<serde_json::Value> = self
-            .task_pairs()
-            .iter()
-            .zip(weights)
-            .map(|(&(l, e), w)| {
-                serde_json::json!({
-                    "wavelength_nm": l,
-                    "sun_elevation_deg": e,
-                    "primary": bow(w, 0),
-                    "secondary": bow(w, 1),
-                })
-            })
-            .collect();
-        serde_json::json!({
-            "what": "where the airy-local caustic model used the equal-volume sphere's transfer (the model validated against Lorenz–Mie on spheres) and where the Gaussian filter, per (wavelength, sun elevation) entry and bow (primary: rows above the Alexander-band midpoint, secondary: below): counts of azimuth columns with transfer weight 1 (transfer), 0 (Gaussian filter) or between (blended over ±5° of azimuth), and the azimuth ranges (deg, inclusive) of the columns with weight below 1 (docs/decisions.md RT-33)",
-            "entries": entries,
-        })
+    if !two_d_shape && p.diffraction_model == Some(DiffractionModel::AiryLocal) {
+        return Err(PlanError::invalid(
+            "diffraction_model",
+            "airy-local is for 2-D shapes (it transfers the sphere's airy-uniform correction); spheres use airy-uniform",
+        ));
     }
-
-    /// The 1-D table of spheres: radius × wavelength × scattering angle.
-    fn assemble_1d(
-        &self,
-        data: Vec<f32>,
-        channels: Vec<Channel>,
-        mut at: serde_json::Map<String, serde_json::Value>,
-    ) -> Result<TableContent, JobError> {
-        let nch = channels.len();
-        let na = self.n_angles();
-        let step = self.p.angle_step_deg.to_radians();
-        let mut ints = vec![];
-        for e in 0..self.task_pairs().len() {
-            let base = e * na * nch;
-            let s = integral_1d((0..na).map(|j| data[base + j * nch] as f64), step);
-            crate::stages::check_phase_integral(e, s)?;
-            ints.push(s);
-        }
-        at.insert(
-            "integral_check".into(),
-            serde_json::json!({"what": "bin-sum of phase over 4π per entry", "values": ints}),
-        );
-        at.insert("angular_resampling".into(), format!("point samples of the GO+phase field on an internal grid of step ≤ λ/(10a); filtered channels are Gaussian averages of it; the forward lobe is the exact average over each {}° bin", self.p.angle_step_deg).into());
-        at.insert("method".into(), "exact 1-D geometric optics plus phase for spheres (two-branch phasor sum of Airy theory), validated against the 2-D patch tracer and Lorenz–Mie (docs/raytrace.md)".into());
-        at.insert("validated_domain".into(), "spheres of radius 0.1–1 mm in 380–700 nm (x ≳ 1000): supernumerary positions within 0.02° (primary) and 0.05° (secondary) of Lorenz–Mie; not valid within ~1° of 0° (forward lobe only approximate) and near 180° (glory, axial caustic clamped at a quarter bin)".into());
-        let axes = self.table_axes();
-        Ok(TableContent {
-            schema: Schema::new("raytrace-phase", 2),
-            description: "ray-traced (geometric optics + phase) phase function of water spheres"
-                .into(),
-            axes,
-            channels,
-            attributes: at,
-            data,
-        })
+    if p.mirror_half && !p.mirror_symmetrise {
+        return Err(PlanError::invalid(
+            "mirror_half",
+            "mirror_half = true makes the table exactly mirror-symmetric, which contradicts mirror_symmetrise = false (keep the ray-noise asymmetry); set mirror_symmetrise = true or mirror_half = false",
+        ));
     }
-
-    /// Divide every intensity channel (all but `dolp`) of each entry of a 2-D table by its
-    /// bin-sum over 4π, so ∫ p dΩ = 1 exactly on the table grid (decision RT-21); returns the
-    /// bin-sums before renormalisation. The bin-sum deviates from 1 by the flux of discarded
-    /// silhouette triangles (−0.1…−0.5 %) and, for strongly flattened drops, by point-sampled
-    /// cusp caustics (+3.9 % at 3 mm, sun 0°).
-    fn renormalise_2d(&self, data: &mut [f32], nch: usize) -> Result<Vec<f64>, JobError> {
-        let grid = self.direction_grid();
-        let len = grid.n_polar * grid.n_azimuth * nch;
-        (data.chunks_mut(len).enumerate())
-            .map(|(e, entry)| renormalise_entry(e, entry, grid, nch))
-            .collect()
-    }
-
-    /// The 2-D table of one drop: radius × wavelength × sun elevation × outgoing polar ×
-    /// outgoing azimuth, renormalised ([`Self::renormalise_2d`]).
-    fn assemble_2d(
-        &self,
-        mut data: Vec<f32>,
-        channels: Vec<Channel>,
-        at: serde_json::Map<String, serde_json::Value>,
-    ) -> Result<TableContent, JobError> {
-        let ints = self.renormalise_2d(&mut data, channels.len())?;
-        self.content_2d(data, channels, at, &ints, self.table_axes())
-    }
-
-    /// The 2-D table's content from its renormalised values, on `axes`, with the attributes of
-    /// every 2-D table (`ints`: the entries' bin-sums before renormalisation).
-    fn content_2d(
-        &self,
-        data: Vec<f32>,
-        channels: Vec<Channel>,
-        mut at: serde_json::Map<String, serde_json::Value>,
-        ints: &[f64],
-        axes: Vec<Axis>,
-    ) -> Result<TableContent, JobError> {
-        at.insert("integral_check".into(), serde_json::json!({"what": "bin-sum of phase over 4π per entry before renormalisation (below 1 by the flux of triangles discarded at the silhouette, above 1 where cusp caustics are point-sampled); every channel but dolp was divided by it, so the stored table integrates to 1 on its grid", "values": ints}));
-        at.insert("angular_resampling".into(), "point samples of the coherent patch sum at the grid directions; filtered channels are Gaussian averages along the polar angle per azimuth column; the forward lobe is the exact average over each polar bin".into());
-        if self.p.sphere_higher_orders && self.max_order < SPHERE_MAX_ORDER {
-            at.insert(
-                "sphere_higher_orders".into(),
-                serde_json::json!({
-                    "orders": [self.max_order + 1, SPHERE_MAX_ORDER],
-                    "what": "phase, i_perp, i_par and their unfiltered channels include these orders of the equal-volume sphere (1-D path: Airy rainbows, grazing waves), bin averages along the polar angle, the same at every azimuth; the per-order channels hold the traced orders only"
-                }),
-            );
-        }
-        at.insert(
-            phase_contract::INTERPOLABLE_AXES.into(),
-            serde_json::json!(["wavelength", "outgoing_polar", "outgoing_azimuth"]),
-        );
-        at.insert(
-            "mirror_symmetrisation".into(),
-            if self.p.mirror_half {
-                "by construction: only the outgoing_azimuth range 0°–180° was computed and each value copied to 360° − φ (mirror_half); the drop (a surface of revolution about the vertical axis) and the sun (in the vertical plane φ = 0) are symmetric under y → −y, so the exact table has this symmetry; the ray noise is that of the half traced, not averaged with its mirror image (docs/decisions.md RT-34)"
-            } else if self.p.mirror_symmetrise {
-                "applied: the values at outgoing_azimuth φ and 360° − φ were replaced by their mean (every channel but dolp, which was recomputed from the mean i_perp and i_par); the drop (a surface of revolution about the vertical axis) and the sun (in the vertical plane φ = 0) are symmetric under y → −y, so the exact table has this symmetry and the averaging removes ray noise only (docs/decisions.md RT-24)"
-            } else {
-                "not applied: values at φ and 360° − φ differ by ray noise"
-            }
-            .into(),
-        );
-        at.insert("frame".into(), "drop axis vertical (z up); sun at elevation e in the +x half-space, incident direction d = (−cos e, 0, −sin e); outgoing_polar = angle from d; outgoing_azimuth about d from e1 = (−sin e, 0, cos e) (vertical plane, upwards) towards e2 = +y".into());
-        at.insert("shape".into(), self.p.shape.clone().into());
-        at.insert("radius_um".into(), self.p.radii_um[0].into());
-        at.insert("rays_per_side".into(), self.p.rays.into());
-        at.insert(
-            "ray_grid".into(),
-            match self.p.ray_grid {
-                RayGridLayout::Square => "square: rays_per_side² rays evenly spaced over the silhouette's bounding box",
-                RayGridLayout::Silhouette => "silhouette: rays_per_side² rays, the index square mapped onto the silhouette (Shirley–Chiu concentric map, ρ = R(ψ) sin(π s / 2)), refined towards the edge; docs/decisions.md RT-31",
-            }
-            .into(),
-        );
-        at.insert("beard_chuang".into(), "r(θ) = a[1 + Σ c_n cos nθ], θ from the downward pole, thesis Table 3.1 linear in a; sphere for a ≤ 0.4 mm; clamped to the 3 mm row above 3 mm".into());
-        if let Some(res) = self.profile_fit_residual {
-            at.insert("profile_fit_rms_relative".into(), res.into());
-        }
-        at.insert("forward_lobe".into(), "Fraunhofer lobe of the equal-projected-area disc (azimuthally symmetric approximation for non-circular silhouettes)".into());
-        at.insert("method".into(), "patch-based wave-optics ray tracer (Sadeghi 2012, ch. 3) with 3-D complex field vectors, spherical-triangle patches, coherent sums; see docs/raytrace.md".into());
-        at.insert("validated_domain".into(), "validated on spheres (0.4 mm, 650 nm) against the exact 1-D path and Lorenz–Mie; Beard–Chuang results checked for volume, axis ratios, symmetry and energy; accuracy depends on rays_per_side (docs/raytrace.md)".into());
-        Ok(TableContent {
-            schema: Schema::new("raytrace-phase-2d", 2),
-            description: format!(
-                "ray-traced phase function of a {} drop, a = {} µm, over outgoing directions",
-                self.p.shape, self.p.radii_um[0]
-            ),
-            axes,
-            channels,
-            attributes: at,
-            data,
-        })
-    }
+    Ok(())
 }
 
-/// Compact 2-D tables (`compression`, decision RT-39).
-impl RaytraceJob {
-    /// The compact form's parameters, for 2-D tables that ask for it.
-    fn compact_spec(&self) -> Option<compact::SunDiscResampled> {
-        match self.p.compression {
-            Compression::SunDiscResampled(c) if self.two_d => Some(c),
-            _ => None,
-        }
+/// The drop of a 2-D plan (Beard–Chuang, or the cosine series fitted to `profile_r`, with its
+/// fit residual).
+fn drop_shape(p: &RaytraceParams) -> Result<(DropShape, Option<f64>), PlanError> {
+    let r_um = p.radii_um[0];
+    if p.shape == "beard-chuang" {
+        return Ok((DropShape::beard_chuang(r_um * 1e-3), None));
     }
-
-    /// Task `index`'s entry renormalised, seen through the sun's disc and compacted; its
-    /// bin-sum before renormalisation. Refused when the measured error exceeds the tolerance.
-    fn compact_task(
-        &self,
-        index: usize,
-        mut values: Vec<f32>,
-        spec: compact::SunDiscResampled,
-    ) -> Result<(f64, CompactEntry), JobError> {
-        let grid = self.direction_grid();
-        let nch = self.channels().len();
-        let integral = renormalise_entry(index, &mut values, grid, nch)?;
-        let filtered = |c: usize| {
-            let v: Vec<f64> = values
-                .iter()
-                .skip(c)
-                .step_by(nch)
-                .map(|&x| x as f64)
-                .collect();
-            compact::disc_filter(&v, grid, spec.sigma_deg())
-        };
-        let (i_perp, i_par) = (filtered(1), filtered(2));
-        drop(values);
-        let c = Components {
-            grid,
-            i_perp: &i_perp,
-            i_par: &i_par,
-        };
-        let entry = compact::compact_entry(&c, &spec);
-        let measured = compact::entry_error(&entry.errors, spec.norm);
-        if !(measured <= spec.tolerance) {
-            return Err(JobError::CompressionTolerance {
-                entry: index,
-                measured,
-                tolerance: spec.tolerance,
-            });
-        }
-        Ok((integral, entry))
+    let (Some(th), Some(r)) = (&p.profile_theta_deg, &p.profile_r) else {
+        return Err(PlanError::invalid(
+            "profile_theta_deg",
+            "shape = profile needs profile_theta_deg and profile_r",
+        ));
+    };
+    let (s, res) =
+        CosineSeries::fit_table(r_um, th, r).map_err(|e| PlanError::invalid("profile_r", e))?;
+    if res > 1e-3 {
+        return Err(PlanError::invalid(
+            "profile_r",
+            format!("cosine-series fit residual {res:.2e} > 1e-3: profile too rough"),
+        ));
     }
-
-    /// The compact table from the tasks' chunks: entries on the union of their knots.
-    fn assemble_compact(
-        &self,
-        chunks: Vec<Chunk>,
-        spec: compact::SunDiscResampled,
-    ) -> Result<TableContent, JobError> {
-        let tasks = self.task_pairs().len();
-        if chunks.len() != tasks {
-            return Err(JobError::ChunkCount {
-                expected: tasks,
-                got: chunks.len(),
-            });
-        }
-        let (grid, domain) = (self.direction_grid(), self.domain_values());
-        let (mut ints, mut entries, mut weights) = (vec![], vec![], vec![]);
-        for (index, c) in chunks.into_iter().enumerate() {
-            let bad = |got: usize| JobError::ChunkLength {
-                index,
-                part: crate::stages::ChunkPart::Scalars,
-                got,
-                expected: 1 + 2 + 2 * compact::ERROR_WINDOWS.len() + domain,
-            };
-            let n = c.scalars.len();
-            let (Some(&integral), Some(rest)) = (c.scalars.first(), c.scalars.get(1..)) else {
-                return Err(bad(n));
-            };
-            let Some((entry, rest)) = CompactEntry::from_parts(rest, c.values, grid) else {
-                return Err(bad(n));
-            };
-            if rest.len() != domain {
-                return Err(bad(n));
-            }
-            ints.push(integral);
-            weights.push(rest.to_vec());
-            entries.push(entry);
-        }
-        let (polar, azimuth, data) = compact::merge_entries(&entries);
-        let mut at = self.common_attributes();
-        if domain > 0 {
-            let w: Vec<&[f64]> = weights.iter().map(Vec::as_slice).collect();
-            at.insert("airy_local_domain".into(), self.domain_attribute(&w));
-        }
-        let mut axes = self.table_axes();
-        let step = |axis: &Axis| match axis.points {
-            crate::table::AxisPoints::Uniform { step, .. } => step,
-            crate::table::AxisPoints::Values(_) => unreachable!("the dense grid is uniform"),
-        };
-        let (dp, da) = (step(&axes[3]), step(&axes[4]));
-        axes[3] = Axis::values(
-            "outgoing_polar",
-            "deg",
-            polar.iter().map(|&j| j as f64 * dp).collect(),
-        );
-        let az = azimuth.iter().map(|&k| k as f64 * da).collect();
-        axes[4] = Axis::values("outgoing_azimuth", "deg", az);
-        let mut t = self.content_2d(data, self.channels(), at, &ints, axes)?;
-        t.attributes.insert("integral_check".into(), serde_json::json!({"what": "bin-sum of phase over 4π per entry of the dense table before renormalisation; every channel but dolp of the dense entry was divided by it, then seen through the sun's disc and resampled (compression)", "values": ints}));
-        t.attributes.insert("angular_resampling".into(), "compact: the dense entries (point samples of the coherent patch sum on the uniform grid of the compression's dense_grid, renormalised) seen through the sun's disc, then sampled at the outgoing_polar and outgoing_azimuth knots (compression); bilinear interpolation between knots is the table's value".into());
-        t.attributes.insert(
-            "compression".into(),
-            self.compression_attribute(spec, &entries, &polar, &azimuth),
-        );
-        // The disc consumers find already applied (docs/consumers.md): they convolve only the
-        // difference to the disc they show.
-        t.attributes
-            .insert("sun_diameter_deg".into(), spec.sun_diameter_deg.into());
-        Ok(t)
-    }
-
-    /// The header's `compression` record: the operator applied, the error's definition and
-    /// the errors measured per entry and window.
-    fn compression_attribute(
-        &self,
-        spec: compact::SunDiscResampled,
-        entries: &[CompactEntry],
-        polar: &[usize],
-        azimuth: &[usize],
-    ) -> serde_json::Value {
-        let grid = self.direction_grid();
-        let windows: serde_json::Map<String, serde_json::Value> = (compact::ERROR_WINDOWS.iter())
-            .map(|&(name, lo, hi)| (name.to_string(), serde_json::json!([lo, hi])))
-            .collect();
-        let per_entry: Vec<serde_json::Value> = (self.task_pairs().iter().zip(entries))
-            .map(|(&(l, e), entry)| {
-                let errors: serde_json::Map<String, serde_json::Value> = (compact::ERROR_WINDOWS.iter())
-                    .zip(&entry.errors)
-                    .map(|(w, x)| (w.0.to_string(), serde_json::json!({"rms_relative": x.rms_relative, "max_relative": x.max_relative})))
-                    .collect();
-                serde_json::json!({
-                    "wavelength_nm": l,
-                    "sun_elevation_deg": e,
-                    "polar_knots": entry.polar_rows.len(),
-                    "azimuth_knots": entry.azimuth_positions.len(),
-                    "errors": errors,
-                })
-            })
-            .collect();
-        let max = (entries.iter())
-            .map(|e| compact::entry_error(&e.errors, compact::ErrorNorm::Max))
-            .fold(0.0, f64::max);
-        let rms = (entries.iter())
-            .map(|e| compact::entry_error(&e.errors, compact::ErrorNorm::Rms))
-            .fold(0.0, f64::max);
-        serde_json::json!({
-            "kind": compact::SUN_DISC_RESAMPLED,
-            "tolerance": spec.tolerance,
-            "norm": spec.norm,
-            "max_relative_error": max,
-            "max_window_rms_relative": rms,
-            "sun_diameter_deg": spec.sun_diameter_deg,
-            "sun_disc": format!("applied: every entry is the dense entry convolved with the sun's disc, a uniform disc of diameter {d}° taken as the Gaussian of its second moment, σ = {s}° of arc per axis, separably: along outgoing_polar with σ, reflected across the poles onto the opposite azimuth; along outgoing_azimuth with σ/sin(outgoing_polar), wrapped around the circle (the row's mean at the poles). A renderer must not convolve this table with the sun's disc again", d = spec.sun_diameter_deg, s = spec.sigma_deg()),
-            "error_definition": "the table's bilinear interpolation between knots (what Table::sample returns) against the dense entry seen through the same disc, at every direction of the dense grid: max_relative is the largest |compact − dense| of phase, i_perp and i_par divided by the dense phase at that direction; rms_relative is the root mean square of that relative error, weighted by solid angle (sin θ), over a window of outgoing_polar (= scattering angle); norm says which the tolerance bounds (max: max_relative over all directions; rms: rms_relative in every window). The entry errors are measured at build time on the stored f32 values; entries of a table share the union of their knots, each evaluated there from its own bilinear interpolant, which adds one f32 rounding (< 1e-7 relative). dolp follows from i_perp and i_par (error up to about 2 × tolerance, absolute)",
-            "windows_deg": windows,
-            "dense_grid": {
-                "outgoing_polar_step_deg": self.p.polar_step_deg,
-                "outgoing_azimuth_step_deg": self.p.azimuth_step_deg,
-                "directions": grid.n_polar * grid.n_azimuth,
-            },
-            "knots": {"outgoing_polar": polar.len(), "outgoing_azimuth": azimuth.len()},
-            "entries": per_entry,
-        })
-    }
+    Ok((DropShape::Series(s), Some(res)))
 }
 
 #[cfg(test)]
@@ -1117,6 +406,8 @@ mod tests {
     use super::*;
     use crate::raytrace::post::bin_edges;
     use crate::raytrace::table2d::{DOLP_CHANNEL, n_channels_2d};
+    use crate::stages::Chunk;
+    use crate::table::{Schema, TableContent};
     use rayon::prelude::*;
 
     fn plan(toml_lines: &str) -> Result<Box<dyn Job>, PlanError> {
@@ -1234,6 +525,35 @@ mod tests {
         assert_eq!(t.axes[0].coords(), vec![300.0, 400.0]);
         assert_eq!(t.attributes["water_index_model"], "iapws1997");
         assert_eq!(t.data.len(), t.expected_len());
+    }
+
+    /// A fixed index replaces the water model: the table is the water table of that index
+    /// (Table 3.2 gives 1.331 at 650 nm) and its header says so.
+    #[test]
+    fn a_fixed_index_is_recorded_instead_of_the_water_model() {
+        let p = |model: &str| -> RaytraceParams {
+            toml::from_str(&format!(
+                "shape = \"sphere\"\nradii_um = [400.0]\nwavelengths_nm = [650.0]\nwater_index_model = \"{model}\"\nangle_step_deg = 0.5"
+            ))
+            .unwrap()
+        };
+        let water = RaytraceJob::new(p("sadeghi-table-3.2")).unwrap();
+        let fixed = (RaytraceJob::new(p("iapws1997")).unwrap())
+            .with_refractive_index(1.331)
+            .unwrap();
+        let (w, f) = (
+            crate::stages::run_in_memory(&water).unwrap(),
+            crate::stages::run_in_memory(&fixed).unwrap(),
+        );
+        assert_eq!(w.data, f.data);
+        assert_eq!(f.attributes["water_index_model"], "none");
+        assert_eq!(f.attributes["refractive_index_real"], 1.331);
+        assert!(!f.attributes.contains_key("temperature_c"));
+        assert_eq!(w.attributes["water_index_model"], "sadeghi-table-3.2");
+        let err = RaytraceJob::new(p("iapws1997"))
+            .unwrap()
+            .with_refractive_index(2.5);
+        assert!(err.is_err());
     }
 
     #[test]
@@ -1655,7 +975,9 @@ mod tests {
 #[cfg(test)]
 mod compact_tests {
     use super::*;
-    use crate::table::{Provenance, Table};
+    use crate::raytrace::compact;
+    use crate::raytrace::tracer::DirectionGrid;
+    use crate::table::{Provenance, Table, TableContent};
 
     /// A sphere (Beard–Chuang at 0.4 mm) at two sun elevations, small enough for a unit test.
     const BASE: &str = "shape = \"beard-chuang\"\nradii_um = [400.0]\nwavelengths_nm = [650.0]\nsun_elevation_deg = [10.0, 30.0]\nrays = 300\npolar_step_deg = 0.05\nazimuth_step_deg = 5.0\ndiagnostic_channels = false\n";

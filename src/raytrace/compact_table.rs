@@ -1,0 +1,98 @@
+//! Compact 2-D phase tables (decision RT-39): each dense entry renormalised, seen through the
+//! sun's disc and resampled onto its own adaptive knots ([`super::compact`]); the table holds
+//! the entries on the union of their knots, with the header's record of the operator and the
+//! errors measured ([`super::phase_table_headers`]).
+
+use super::compact::{self, CompactEntry, Components, SunDiscResampled};
+use super::phase_table::PhaseTable;
+use crate::table::{Axis, AxisPoints, TableContent};
+use serde_json::{Map, Value, json};
+
+/// One compact entry with its dense entry's bin-sum and the airy-local transfer weights of its
+/// azimuth columns (empty for the other models).
+pub struct CompactPart {
+    pub integral: f64,
+    pub entry: CompactEntry,
+    pub domain_weights: Vec<f64>,
+}
+
+impl PhaseTable {
+    /// A dense 2-D entry's `values` divided by its bin-sum `integral` (checked by the caller),
+    /// seen through the sun's disc of `spec` and compacted; the caller compares its measured
+    /// error ([`compact::entry_error`]) with the tolerance.
+    pub fn compact_entry(
+        &self,
+        mut values: Vec<f32>,
+        integral: f64,
+        spec: &SunDiscResampled,
+    ) -> CompactEntry {
+        let grid = self.direction_grid();
+        let nch = self.n_channels();
+        self.renormalise_entry(&mut values, integral);
+        let filtered = |c: usize| {
+            let v: Vec<f64> = values
+                .iter()
+                .skip(c)
+                .step_by(nch)
+                .map(|&x| x as f64)
+                .collect();
+            compact::disc_filter(&v, grid, spec.sigma_deg())
+        };
+        let (i_perp, i_par) = (filtered(1), filtered(2));
+        drop(values);
+        let c = Components {
+            grid,
+            i_perp: &i_perp,
+            i_par: &i_par,
+        };
+        compact::compact_entry(&c, spec)
+    }
+
+    /// The compact table from its entries in table order, on top of the phase-table
+    /// contract's `attributes`: the entries on the union of their knots.
+    pub fn compact_content(
+        &self,
+        parts: Vec<CompactPart>,
+        spec: SunDiscResampled,
+        attributes: Map<String, Value>,
+    ) -> TableContent {
+        let mut at = attributes;
+        self.insert_common_attributes(&mut at);
+        let (mut ints, mut entries, mut weights) = (vec![], vec![], vec![]);
+        for p in parts {
+            ints.push(p.integral);
+            entries.push(p.entry);
+            weights.push(p.domain_weights);
+        }
+        let (polar, azimuth, data) = compact::merge_entries(&entries);
+        if self.domain_values() > 0 {
+            let w: Vec<&[f64]> = weights.iter().map(Vec::as_slice).collect();
+            at.insert("airy_local_domain".into(), self.domain_attribute(&w));
+        }
+        let mut axes = self.axes();
+        let step = |axis: &Axis| match axis.points {
+            AxisPoints::Uniform { step, .. } => step,
+            AxisPoints::Values(_) => unreachable!("the dense grid is uniform"),
+        };
+        let (dp, da) = (step(&axes[3]), step(&axes[4]));
+        axes[3] = Axis::values(
+            "outgoing_polar",
+            "deg",
+            polar.iter().map(|&j| j as f64 * dp).collect(),
+        );
+        let az = azimuth.iter().map(|&k| k as f64 * da).collect();
+        axes[4] = Axis::values("outgoing_azimuth", "deg", az);
+        let mut t = self.content_2d(data, &ints, at, axes);
+        t.attributes.insert("integral_check".into(), json!({"what": "bin-sum of phase over 4π per entry of the dense table before renormalisation; every channel but dolp of the dense entry was divided by it, then seen through the sun's disc and resampled (compression)", "values": ints}));
+        t.attributes.insert("angular_resampling".into(), "compact: the dense entries (point samples of the coherent patch sum on the uniform grid of the compression's dense_grid, renormalised) seen through the sun's disc, then sampled at the outgoing_polar and outgoing_azimuth knots (compression); bilinear interpolation between knots is the table's value".into());
+        t.attributes.insert(
+            "compression".into(),
+            self.compression_attribute(spec, &entries, &polar, &azimuth),
+        );
+        // The disc consumers find already applied (docs/consumers.md): they convolve only the
+        // difference to the disc they show.
+        t.attributes
+            .insert("sun_diameter_deg".into(), spec.sun_diameter_deg.into());
+        t
+    }
+}
