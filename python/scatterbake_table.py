@@ -841,7 +841,7 @@ def open_table(path, max_payload_bytes: int = DEFAULT_MAX_PAYLOAD_BYTES, reconst
     and by ``max_payload_bytes``). A tensor-train table (``fur-medulla-tt/1``) is checked and
     reconstructed into the dense table it holds unless ``reconstruct=False``.
 
-    ``entry`` (a sequence of indices of the leading axes, e.g. ``(i_radius, i_wavelength,
+    ``entry`` (a sequence of indices of the first axes, e.g. ``(i_radius, i_wavelength,
     i_elevation)``) keeps only that entry: the file is verified as a whole (every checksum, the
     limit on the whole payload) while it streams past, and memory is bounded by the entry
     (docs/table-format.md, "Reading one entry"). ``t.axes`` keeps every axis, a fixed one with

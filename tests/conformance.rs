@@ -110,7 +110,7 @@ struct Subject {
     verdict: Verdict,
 }
 
-/// The Rust reader's message without the leading path (every reader starts with it).
+/// The Rust reader's message without the path it starts with (every reader names the file first).
 fn without_path(message: &str, path: &Path) -> String {
     message.replace(&path.display().to_string(), "FILE")
 }

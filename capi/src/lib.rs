@@ -155,7 +155,7 @@ enum Mode<'a> {
     Whole,
     /// A tensor-train table reconstructed into its dense table.
     Reconstruct,
-    /// The entry at these indices of the leading axes.
+    /// The entry at these indices of the first axes.
     Entry(&'a [usize]),
 }
 

@@ -292,7 +292,7 @@ def open_table(
     (schema ``fur-medulla-tt/1``, e.g. the shipped ``assets/fur-medulla/*.sbt``) is checked
     and reconstructed into the dense table it holds (its source schema, axes and channel; values
     bit-identical to the Rust and C readers) unless ``reconstruct=False``, which returns the
-    stored cores. ``entry`` (indices of the leading axes, e.g. ``(i_radius, i_wavelength,
+    stored cores. ``entry`` (indices of the first axes, e.g. ``(i_radius, i_wavelength,
     i_elevation)`` of a ``raytrace-phase-2d`` table) keeps only that entry: the whole file is
     still verified as it streams past, memory is bounded by the entry, and every axis stays, a
     fixed one with its chosen coordinate alone (length 1), so ``sample`` takes one coordinate

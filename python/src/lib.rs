@@ -744,7 +744,7 @@ impl Table {
 /// Opens and fully verifies a `.sbt` table (every checksum) with the library's reader; a
 /// tensor-train table (`fur-medulla-tt/1`) is checked and reconstructed into the dense table
 /// it holds unless `reconstruct=False` (`Table::open_reconstructed`). With `entry` (indices of
-/// the leading axes) only that entry is kept (`Table::open_slice`); a tensor-train table is
+/// the first axes) only that entry is kept (`Table::open_slice`); a tensor-train table is
 /// reconstructed whole only, so it is refused with `entry` unless `reconstruct=False`.
 #[pyfunction]
 #[pyo3(signature = (path, *, reconstruct=true, entry=None))]

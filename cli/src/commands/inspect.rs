@@ -14,7 +14,7 @@ pub struct InspectArgs {
     /// Print the raw JSON header.
     #[arg(long)]
     pub json: bool,
-    /// Also show one entry: indices of the leading axes, e.g. `0,2,1` (radius, wavelength and
+    /// Also show one entry: indices of the first axes, e.g. `0,2,1` (radius, wavelength and
     /// sun elevation of a ray-traced table). Only that entry is kept in memory while the whole
     /// file is verified (`docs/table-format.md`, "Reading one entry").
     #[arg(long, value_delimiter = ',')]
