@@ -207,7 +207,7 @@ impl HalfGrid {
         let (bx, by) = half_angles_deg(half_of(wi, wr)?);
         let find = |axis: &[f64], x: f64| {
             (x >= axis[0] && x <= axis[axis.len() - 1])
-                .then(|| (axis.partition_point(|&v| v <= x).max(1) - 1).min(axis.len() - 2))
+                .then(|| crate::table::interp::locate(axis, x).0)
         };
         Some((find(&self.half_x_deg, bx)?, find(&self.half_y_deg, by)?))
     }
