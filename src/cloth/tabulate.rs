@@ -244,14 +244,79 @@ pub fn light_nodes(model: &ClothModel, grid: &HalfGrid, wi: [f64; 3]) -> Vec<[f6
 /// Sub-cells per cell and axis of the cell integrals.
 const SUB: usize = 4;
 
+/// A cell's centre is evaluated for the sampling weights when its weight times the relative
+/// spread of `K` over its corners (a bound on the bilinear rule's error in the cell, up to a
+/// factor of order one) exceeds this fraction of the light's total weight.
+const CENTRE_ERROR: f64 = 3e-5;
+
+/// `K` (RGB) at the centre of every half-vector cell (β_x-major) of the light `wi` whose
+/// bilinear weight `cells` ([`cell_integrals`] without centres) could be wrong by more than
+/// [`CENTRE_ERROR`] of the total, judged from the spread of the luminance of its corner values
+/// `k` ([`light_nodes`]); `None` elsewhere.
+pub fn cell_centres(
+    model: &ClothModel,
+    grid: &HalfGrid,
+    wi: [f64; 3],
+    k: &[[f64; 3]],
+    cells: &[[f64; 3]],
+) -> Vec<Option<[f64; 3]>> {
+    let (xs, ys) = (&grid.half_x_deg, &grid.half_y_deg);
+    let n_y = ys.len();
+    let total: f64 = cells.iter().map(|c| luminance(*c)).sum();
+    let light = model.prepare(wi);
+    let mut out = Vec::with_capacity(cells.len());
+    for a in 0..xs.len() - 1 {
+        for b in 0..n_y - 1 {
+            let corners = [
+                a * n_y + b,
+                a * n_y + b + 1,
+                (a + 1) * n_y + b,
+                (a + 1) * n_y + b + 1,
+            ]
+            .map(|j| luminance(k[j]));
+            let lo = corners.iter().cloned().fold(f64::INFINITY, f64::min);
+            let hi = corners.iter().cloned().fold(0.0, f64::max);
+            let mean = 0.25 * corners.iter().sum::<f64>();
+            let weight = luminance(cells[a * (n_y - 1) + b]);
+            if mean <= 0.0 || weight * (hi - lo) / mean <= CENTRE_ERROR * total {
+                out.push(None);
+                continue;
+            }
+            let h = half_direction(0.5 * (xs[a] + xs[a + 1]), 0.5 * (ys[b] + ys[b + 1]));
+            let wr = onto_horizon(reflect(wi, h));
+            out.push(Some(
+                model.patch_prepared(&light, &model.prepare(wr)).total(),
+            ));
+        }
+    }
+    out
+}
+
 /// `∫ f cos θ_r dω_r` (RGB) over every half-vector cell (β_x-major, `(n_x − 1) × (n_y − 1)`)
 /// for the light `wi`, from the nodes' `K`: the midpoint rule on `SUB × SUB` sub-cells of
 /// `K` interpolated bilinearly from the cell's corners, divided by `cos θ_i`, times
 /// `cos θ_r · 4(ω_i·h) · J(β)` evaluated exactly at each sub-cell (0 where ω_r is below the
 /// horizon), so that cells cut by the horizon and the Jacobians are integrated accurately.
-pub fn cell_integrals(grid: &HalfGrid, wi: [f64; 3], k: &[[f64; 3]]) -> Vec<[f64; 3]> {
+///
+/// With `centres` ([`cell_centres`]), a cell whose centre value `K_c` is known adds
+/// `(K_c − K̃_c) · s · 16u(1−u)v(1−v)` to the bilinear `K̃`, with `s` such that the bump carries
+/// 2/3 of the cell's weight: for constant geometry the cell's integral is then the product
+/// rule `(K₀₀ + K₀₁ + K₁₀ + K₁₁)/12 + 2K_c/3`, exact for cubics (Simpson's order), where the
+/// bilinear rule is exact only for bilinear `K`.
+pub fn cell_integrals(
+    grid: &HalfGrid,
+    wi: [f64; 3],
+    k: &[[f64; 3]],
+    centres: Option<&[Option<[f64; 3]>]>,
+) -> Vec<[f64; 3]> {
     let (xs, ys) = (&grid.half_x_deg, &grid.half_y_deg);
     let n_y = ys.len();
+    let bump = |t: f64| t * (1.0 - t);
+    let mean_bump: f64 = (0..SUB)
+        .map(|i| bump((i as f64 + 0.5) / SUB as f64))
+        .sum::<f64>()
+        / SUB as f64;
+    let bump_scale = (2.0 / 3.0) / (mean_bump * mean_bump);
     let mut out = Vec::with_capacity((xs.len() - 1) * (n_y - 1));
     for a in 0..xs.len() - 1 {
         for b in 0..n_y - 1 {
@@ -261,6 +326,9 @@ pub fn cell_integrals(grid: &HalfGrid, wi: [f64; 3], k: &[[f64; 3]]) -> Vec<[f64
                 k[(a + 1) * n_y + b],
                 k[(a + 1) * n_y + b + 1],
             ];
+            let excess = centres.and_then(|c| c[a * (n_y - 1) + b]).map(|kc| {
+                [0, 1, 2].map(|c| kc[c] - 0.25 * corners.iter().map(|q| q[c]).sum::<f64>())
+            });
             let (dx, dy) = (xs[a + 1] - xs[a], ys[b + 1] - ys[b]);
             let area = (dx / SUB as f64).to_radians() * (dy / SUB as f64).to_radians();
             let mut sum = [0.0; 3];
@@ -276,8 +344,10 @@ pub fn cell_integrals(grid: &HalfGrid, wi: [f64; 3], k: &[[f64; 3]]) -> Vec<[f64
                     }
                     let geom = wr[2] * 4.0 * dot(wi, h) * half_jacobian(bx, by) * area / wi[2];
                     let w = [(1.0 - u) * (1.0 - v), (1.0 - u) * v, u * (1.0 - v), u * v];
+                    let phi = bump_scale * bump(u) * bump(v);
                     for (c, s) in sum.iter_mut().enumerate() {
-                        let kc: f64 = (0..4).map(|q| w[q] * corners[q][c]).sum();
+                        let kc: f64 = (0..4).map(|q| w[q] * corners[q][c]).sum::<f64>()
+                            + excess.map_or(0.0, |e| e[c] * phi);
                         *s += kc * geom;
                     }
                 }
@@ -320,14 +390,16 @@ pub fn tabulate_row(model: &ClothModel, grid: &HalfGrid, ti: usize, energy: Ener
     for phi_i in &grid.phi_i_deg {
         let wi = direction(theta_i, phi_i.to_radians());
         let k = light_nodes(model, grid, wi);
-        let cells = cell_integrals(grid, wi, &k);
+        let cells = cell_integrals(grid, wi, &k, None);
         let albedo = [0, 1, 2].map(|c| cells.iter().map(|x| x[c]).sum());
+        let centres = cell_centres(model, grid, wi, &k, &cells);
+        let weights = cell_integrals(grid, wi, &k, Some(&centres));
         let peak = albedo.iter().cloned().fold(0.0, f64::max);
         let scale = match energy {
             EnergyMode::Clamp if peak > 1.0 => 1.0 / peak,
             _ => 1.0,
         };
-        let (marginal, conditional) = cdfs(grid, &cells);
+        let (marginal, conditional) = cdfs(grid, &weights);
         for (j, v) in k.iter().enumerate() {
             row.values.extend(v.map(|x| (x * scale) as f32));
             row.values.push(marginal[j / n_y] as f32);

@@ -56,7 +56,7 @@ stage_params! {
 
 impl StageSpec for ClothStage {
     const NAME: &'static str = "cloth";
-    const VERSION: u32 = 2;
+    const VERSION: u32 = 3;
     const SUMMARY: &'static str = "microcylinder cloth BRDF (Sadeghi et al. 2013) of a fabric preset, with sampling CDFs and albedo";
     type Params = ClothParams;
     fn plan_params(&self, p: ClothParams) -> Result<Box<dyn Job>, PlanError> {
