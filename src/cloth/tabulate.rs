@@ -302,7 +302,8 @@ pub fn cell_centres(
 /// `(K_c − K̃_c) · s · 16u(1−u)v(1−v)` to the bilinear `K̃`, with `s` such that the bump carries
 /// 2/3 of the cell's weight: for constant geometry the cell's integral is then the product
 /// rule `(K₀₀ + K₀₁ + K₁₀ + K₁₁)/12 + 2K_c/3`, exact for cubics (Simpson's order), where the
-/// bilinear rule is exact only for bilinear `K`.
+/// bilinear rule is exact only for bilinear `K`. The sum is clamped at 0 per sub-cell, so every
+/// weight is ≥ 0.
 pub fn cell_integrals(
     grid: &HalfGrid,
     wi: [f64; 3],
@@ -346,8 +347,10 @@ pub fn cell_integrals(
                     let w = [(1.0 - u) * (1.0 - v), (1.0 - u) * v, u * (1.0 - v), u * v];
                     let phi = bump_scale * bump(u) * bump(v);
                     for (c, s) in sum.iter_mut().enumerate() {
-                        let kc: f64 = (0..4).map(|q| w[q] * corners[q][c]).sum::<f64>()
-                            + excess.map_or(0.0, |e| e[c] * phi);
+                        let bilinear: f64 = (0..4).map(|q| w[q] * corners[q][c]).sum();
+                        // K ≥ 0: a dark centre between bright corners must not make the
+                        // bump negative (a negative weight would break the CDFs).
+                        let kc = (bilinear + excess.map_or(0.0, |e| e[c] * phi)).max(0.0);
                         *s += kc * geom;
                     }
                 }
@@ -684,6 +687,71 @@ mod tests {
         };
         let grid = HalfGrid::new(model.fabric(), spec).unwrap();
         (model, grid)
+    }
+
+    /// A lobe narrower than the cells: with centre values the cell weights match a fine
+    /// midpoint rule of the same `K` far better than the bilinear rule does; a dark centre
+    /// between bright corners gives weights ≥ 0.
+    #[test]
+    fn centre_values_sharpen_the_cell_weights() {
+        let (_, grid) = coarse("polyester_satin_front");
+        let wi = direction(30f64.to_radians(), 10f64.to_radians());
+        let (xs, ys) = (&grid.half_x_deg, &grid.half_y_deg);
+        let lobe = |bx: f64, by: f64| {
+            let v = (-0.5 * (((bx + 12.0) / 2.5).powi(2) + ((by - 3.0) / 4.0).powi(2))).exp();
+            [v, 0.5 * v, 0.25 * v]
+        };
+        let nodes: Vec<[f64; 3]> = xs
+            .iter()
+            .flat_map(|&bx| ys.iter().map(move |&by| lobe(bx, by)))
+            .collect();
+        let centre =
+            |a: usize, b: usize| lobe(0.5 * (xs[a] + xs[a + 1]), 0.5 * (ys[b] + ys[b + 1]));
+        let centres: Vec<Option<[f64; 3]>> = (0..xs.len() - 1)
+            .flat_map(|a| (0..ys.len() - 1).map(move |b| Some(centre(a, b))))
+            .collect();
+        let bilinear = cell_integrals(&grid, wi, &nodes, None);
+        let sharp = cell_integrals(&grid, wi, &nodes, Some(&centres));
+        // Reference: 40 × 40 midpoints per cell of the lobe itself.
+        let n = 40;
+        let mut reference = Vec::new();
+        for a in 0..xs.len() - 1 {
+            for b in 0..ys.len() - 1 {
+                let (dx, dy) = (xs[a + 1] - xs[a], ys[b + 1] - ys[b]);
+                let mut sum = 0.0;
+                for i in 0..n {
+                    for j in 0..n {
+                        let bx = xs[a] + (i as f64 + 0.5) / n as f64 * dx;
+                        let by = ys[b] + (j as f64 + 0.5) / n as f64 * dy;
+                        let h = half_direction(bx, by);
+                        let wr = reflect(wi, h);
+                        if wr[2] > 0.0 {
+                            sum +=
+                                lobe(bx, by)[0] * wr[2] * 4.0 * dot(wi, h) * half_jacobian(bx, by)
+                                    / wi[2];
+                        }
+                    }
+                }
+                let area = (dx / n as f64).to_radians() * (dy / n as f64).to_radians();
+                reference.push(sum * area);
+            }
+        }
+        let total: f64 = reference.iter().sum();
+        let err = |w: &[[f64; 3]]| {
+            w.iter()
+                .zip(&reference)
+                .map(|(c, r)| (c[0] - r).abs())
+                .sum::<f64>()
+                / total
+        };
+        let (e_bilinear, e_sharp) = (err(&bilinear), err(&sharp));
+        assert!(e_bilinear > 0.02, "{e_bilinear}");
+        assert!(e_sharp < 0.2 * e_bilinear, "{e_sharp} vs {e_bilinear}");
+        // Bright corners, dark centres.
+        let dark = vec![Some([0.0; 3]); centres.len()];
+        let ones = vec![[1.0; 3]; nodes.len()];
+        let weights = cell_integrals(&grid, wi, &ones, Some(&dark));
+        assert!(weights.iter().all(|w| w.iter().all(|&v| v >= 0.0)));
     }
 
     #[test]
