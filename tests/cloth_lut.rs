@@ -161,7 +161,7 @@ impl Lut {
         self.json["symmetry"][key].as_bool().unwrap()
     }
 
-    /// `clothNodeIndex(row, x)` of the documentation.
+    /// `clothNodeIndex(row, range, x)` of the documentation (the range from `X.json`).
     fn node_index(&self, row: usize, x: f64) -> f64 {
         let range = &self.json["warp_texture"]["range_deg"][row];
         let (lo, hi) = (range[0].as_f64().unwrap(), range[1].as_f64().unwrap());
@@ -361,7 +361,7 @@ fn exported_lut_looked_up_as_documented_matches_the_table_and_the_model() {
             table_model.0,
             table_model.1
         );
-        // R9G9B9E5 rounds each channel by at most 2⁻¹⁰ of the texel's largest channel; the
+        // R9G9B9E5 rounds each channel by at most 2⁻⁹ of the texel's largest channel; the
         // lookup is otherwise the table's interpolant (measured: L2 3.0–3.6·10⁻⁴).
         assert!(
             vs_table.0 < 1e-3 && vs_table.1 < 3e-3,

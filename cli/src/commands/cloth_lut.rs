@@ -70,7 +70,7 @@ pub fn run_cloth_lut(args: &ClothLutArgs) -> anyhow::Result<()> {
         write.elapsed().as_secs_f64(),
     );
     if let Some(e) = errors {
-        let pair = |p: (f64, f64)| format!("L2 {:.4}, max/peak {:.4}", p.0, p.1);
+        let pair = |p: (f64, f64)| format!("L2 {:.3e}, max/peak {:.3e}", p.0, p.1);
         eprintln!(
             "errors at {} check points ({check_s:.2} s): LUT vs table {} (8-bit weights {}); \
              LUT vs model {} (8-bit weights {}); table vs model {}",
@@ -83,4 +83,54 @@ pub fn run_cloth_lut(args: &ClothLutArgs) -> anyhow::Result<()> {
         );
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// End to end through the `.sbt` format: the runner reads a written cloth table and writes
+    /// the four files; a bad output is refused before the table is read.
+    #[test]
+    fn runner_writes_the_four_files_and_refuses_bad_outputs() {
+        use scatterbake::stages::cloth::{ClothParams, ClothStage};
+        use scatterbake::stages::{StageSpec, run_in_memory};
+        use scatterbake::table::{Provenance, write_table_atomic};
+        let dir = tempfile::tempdir().unwrap();
+        let params: ClothParams = toml::from_str(
+            "fabric = \"linen_plain\"\nlight_step_deg = 15.0\ngrazing_deg = 0.0\nphi_i_step_deg = 15.0\nhalf_fine = 1.0\nhalf_coarse_deg = 15.0\ncheck_points = 50",
+        )
+        .unwrap();
+        let job = ClothStage.plan_params(params).unwrap();
+        let content = run_in_memory(job.as_ref()).unwrap();
+        let mut table = Table::from_content(content, Provenance::default()).unwrap();
+        let path = dir.path().join("linen.sbt");
+        write_table_atomic(&mut table, &path).unwrap();
+        let args = |out: PathBuf| ClothLutArgs {
+            table: path.clone(),
+            out,
+            precision: PrecisionArg::Half,
+            check_points: 100,
+        };
+        run_cloth_lut(&args(dir.path().join("linen.dds"))).unwrap();
+        for name in [
+            "linen.dds",
+            "linen-warp.dds",
+            "linen-albedo.dds",
+            "linen.json",
+        ] {
+            assert!(dir.path().join(name).is_file(), "{name}");
+        }
+        let json: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(dir.path().join("linen.json")).unwrap()).unwrap();
+        assert_eq!(json["errors"]["check_points"], 100);
+        let err = run_cloth_lut(&args(dir.path().join("linen.png")))
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("must end in .dds"), "{err}");
+        let mut missing = args(dir.path().join("out.dds"));
+        missing.table = dir.path().join("missing.sbt");
+        let err = format!("{:#}", run_cloth_lut(&missing).unwrap_err());
+        assert!(err.contains("missing.sbt"), "{err}");
+    }
 }

@@ -99,7 +99,7 @@ impl LutPrecision {
                 (w.to_le_bytes().to_vec(), rgb9e5_decode(w).map(|v| v as f32))
             }
             LutPrecision::Half => {
-                let h = rgb.map(|v| half::f16::from_f64(v));
+                let h = rgb.map(half::f16::from_f64);
                 let mut b: Vec<u8> = h.iter().flat_map(|x| x.to_le_bytes()).collect();
                 b.extend_from_slice(&half::f16::ONE.to_le_bytes());
                 (b, h.map(f32::from))
@@ -539,7 +539,7 @@ pub fn lut_errors(
     let domain = (g.phi_i_deg[0], g.phi_i_deg[g.phi_i_deg.len() - 1]);
     let bits = Some(GPU_WEIGHT_BITS);
     let against_model =
-        |f: &dyn Fn([f64; 4]) -> [f64; 3]| interpolation_error(&model, domain, points, f, &scale);
+        |f: &dyn Fn([f64; 4]) -> [f64; 3]| interpolation_error(&model, domain, points, f, scale);
     let table: Vec<f64> = (0..points)
         .map(|k| luminance(view.brdf_deg(check_point(k, domain))))
         .collect();
