@@ -440,8 +440,25 @@ fn bad_inputs_give_clear_errors() {
         .unwrap_err()
         .to_string();
     assert!(e.contains("directory does not exist"), "{e}");
-    let mut table = cloth_table("linen_plain");
-    table.header.axes[2].name = "beta_x".into();
-    let e = ClothTableView::new(&table).err().unwrap().to_string();
+    let table = cloth_table("linen_plain");
+    let mut renamed = table.clone();
+    renamed.header.axes[2].name = "beta_x".into();
+    let e = ClothTableView::new(&renamed).err().unwrap().to_string();
     assert!(e.contains("not the cloth-brdf/2 layout"), "{e}");
+    let mut reversed = table.clone();
+    let mut nodes = reversed.header.axes[3].coords();
+    nodes.reverse();
+    reversed.header.axes[3] = scatterbake::table::Axis::values("half_y", "deg", nodes);
+    let e = ClothTableView::new(&reversed).err().unwrap().to_string();
+    assert!(
+        e.contains("axis half_y must have two or more increasing nodes"),
+        "{e}"
+    );
+    let mut negative = table;
+    negative.data[0] = -1.0;
+    let view = ClothTableView::new(&negative).unwrap();
+    let e = build_lut(&view, LutPrecision::Rgb9e5)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("negative or not finite"), "{e}");
 }

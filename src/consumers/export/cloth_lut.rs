@@ -156,6 +156,18 @@ fn attribute<T: serde::de::DeserializeOwned>(t: &Table, key: &str) -> Result<T, 
         .ok_or_else(|| layout(format!("header attribute `{key}` missing or malformed")))
 }
 
+/// An axis of at least two increasing nodes strictly inside `open` (degrees).
+fn check_axis(name: &str, nodes: &[f64], open: (f64, f64)) -> Result<(), ClothLutError> {
+    let inside = nodes.iter().all(|x| *x > open.0 && *x < open.1);
+    if nodes.len() < 2 || !inside || nodes.windows(2).any(|w| w[1] <= w[0]) {
+        return Err(layout(format!(
+            "axis {name} must have two or more increasing nodes inside ({}, {})°",
+            open.0, open.1
+        )));
+    }
+    Ok(())
+}
+
 impl<'a> ClothTableView<'a> {
     /// Check `t` and read what the LUT needs.
     pub fn new(t: &'a Table) -> Result<Self, ClothLutError> {
@@ -180,10 +192,12 @@ impl<'a> ClothTableView<'a> {
             half_x_deg: c(2),
             half_y_deg: c(3),
         };
-        let expected = grid.theta_i_deg.len() * grid.row_len();
-        if t.data.len() != expected || grid.half_x_deg.len() < 2 || grid.half_y_deg.len() < 2 {
-            return Err(layout("data length or axis sizes"));
+        if t.data.len() != grid.theta_i_deg.len() * grid.row_len() {
+            return Err(layout("data length"));
         }
+        check_axis("theta_i", &grid.theta_i_deg, (0.0, 90.0))?;
+        check_axis("half_x", &grid.half_x_deg, (-90.0, 90.0))?;
+        check_axis("half_y", &grid.half_y_deg, (-90.0, 90.0))?;
         let sym: serde_json::Value = attribute(t, "symmetry")?;
         let flag = |k: &str| {
             sym[k]
@@ -330,6 +344,9 @@ fn brdf_texels(
         for b in 0..size[1] {
             for a in 0..size[0] {
                 let v = view.k_node(z / n_phi, z % n_phi, a, b);
+                if v.iter().any(|k| !k.is_finite() || *k < 0.0) {
+                    return Err(layout(format!("K = {v:?} (negative or not finite)")));
+                }
                 max = v.iter().cloned().fold(max, f64::max);
                 let (raw, back) = precision.encode(v);
                 bytes.extend_from_slice(&raw);
