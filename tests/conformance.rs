@@ -6,21 +6,21 @@
 //! - the Rust reader (`Table::open`, or `Table::open_reconstructed` for tensor-train cases),
 //!   in-process, is the reference verdict;
 //! - the C library (`c/example.c`), the pure-Python reader (`python/test_reader.py`) and the
-//!   command line (`verify`, `inspect`, `inspect --json`, `inspect --entry 0`, `export` in
-//!   every format, `plot`, `plot-raytrace`, `render rainbow`, `hair-lut`, `validate`). The
-//!   command line reads a tensor-train table as the table file it is, except `verify`, which
-//!   also checks its layout by reconstructing it.
+//!   command line (`verify`, `inspect`, `inspect --json`, `inspect --entry 0`, `export` in every
+//!   format, `plot`, `plot-raytrace`, `render rainbow`, `hair-lut`, `cloth-lut`, `validate`). The
+//!   command line reads a tensor-train table as the table file it is, except `verify`, which also
+//!   checks its layout by reconstructing it.
 //!
-//! What must hold, for every file and every run: no panic (exit 101 or a "panicked" message),
-//! no abort or crash (death by a signal), no hang (the timeout); a file the Rust reader refuses
-//! is refused by every other reader and every command, with an error naming the file; the C
-//! library gives the Rust reader's message, and the Python reader names the same rule (its
-//! message equals the Rust one once the file name is taken off); a file the Rust reader
-//! accepts is read by C and Python to the same bits (no silent wrong result), and `verify`
-//! accepts it. Commands that need a particular kind of table (a phase function for `mitsuba`,
-//! a Dual Scattering table for `hair-lut`) may refuse an accepted file, but only with an
-//! error. The Python package reads through the Rust reader; `python/tests/test_tables.py`
-//! checks that it turns every refusal into `TableError`.
+//! What must hold, for every file and every run: no panic (exit 101 or a "panicked" message), no
+//! abort or crash (death by a signal), no hang (the timeout); a file the Rust reader refuses is
+//! refused by every other reader and every command, with an error naming the file; the C library
+//! gives the Rust reader's message, and the Python reader names the same rule (its message equals
+//! the Rust one once the file name is taken off); a file the Rust reader accepts is read by C and
+//! Python to the same bits (no silent wrong result), and `verify` accepts it. Commands that need a
+//! particular kind of table (a phase function for `mitsuba`, a Dual Scattering table for
+//! `hair-lut`, a cloth table for `cloth-lut`) may refuse an accepted file, but only with an
+//! error. The Python package reads through the Rust reader; `python/tests/test_tables.py` checks
+//! that it turns every refusal into `TableError`.
 //!
 //! The C executable, the command line and the Python environment are built or provisioned on
 //! first use (`tests/common/c.rs`, `tests/common/python.rs`); a missing C compiler or
@@ -232,6 +232,7 @@ const COMMANDS: &[&[&str]] = &[
         "render", "rainbow", "--width", "48", "--steps", "4", "--table", "{f}", "--out", "{o}.png",
     ],
     &["hair-lut", "--table", "{f}", "--out", "{o}-lut.exr"],
+    &["cloth-lut", "--table", "{f}", "--out", "{o}-cloth.dds"],
     &["validate", "--reference", "{r}", "{f}"],
 ];
 

@@ -58,6 +58,9 @@ enum Command {
     MedullaAssets(medulla_assets::MedullaAssetsArgs),
     /// Hair Dual Scattering table → engine EXR LUT (layout and shader lookup in docs/hair.md).
     HairLut(hair_lut::HairLutArgs),
+    /// Cloth BRDF table → engine textures (DDS 3-D texture, warp, albedo; layout and shader
+    /// lookup in docs/cloth.md).
+    ClothLut(cloth_lut::ClothLutArgs),
     /// Dual Scattering averages for one hair parameter set, as JSON or CSV.
     #[command(visible_alias = "hair-json")]
     DualScattering(dual_scattering::DualScatteringArgs),
@@ -115,6 +118,7 @@ fn run(cmd: Command) -> Result<i32> {
         Command::Medulla(a) => medulla::run_medulla(&a).map(|_| 0),
         Command::MedullaAssets(a) => medulla_assets::run_medulla_assets(&a).map(|_| 0),
         Command::HairLut(a) => hair_lut::run_hair_lut(&a).map(|_| 0),
+        Command::ClothLut(a) => cloth_lut::run_cloth_lut(&a).map(|_| 0),
         Command::DualScattering(a) => dual_scattering::run_dual_scattering(&a).map(|_| 0),
         Command::Cloth(a) => cloth::run_cloth(&a).map(|_| 0),
         Command::Validate(a) => validate::run_validate(&a).map(|_| 0),

@@ -546,12 +546,51 @@ pub fn halton4(k: usize) -> [f64; 4] {
     })
 }
 
+/// Check point `k` (θ_i, φ_i, θ_r, φ_r in degrees) of [`interpolation_error`]: Halton point `k`
+/// mapped uniformly in angle onto θ_i, θ_r in [`CHECK_THETA_DEG`], φ_i over
+/// `phi_i_domain_deg` and φ_r over [−180°, 180°].
+pub fn check_point(k: usize, phi_i_domain_deg: (f64, f64)) -> [f64; 4] {
+    let (t0, t1) = CHECK_THETA_DEG;
+    let (p0, p1) = phi_i_domain_deg;
+    let u = halton4(k);
+    [
+        t0 + u[0] * (t1 - t0),
+        p0 + u[1] * (p1 - p0),
+        t0 + u[2] * (t1 - t0),
+        -180.0 + 360.0 * u[3],
+    ]
+}
+
+/// `(relative L2, max |Δ| / max reference)` of the luminance of `approx(q)` (RGB) against
+/// `reference(q)` (a luminance) over the first `count` [`check_point`]s.
+pub fn luminance_error(
+    phi_i_domain_deg: (f64, f64),
+    count: usize,
+    reference: impl Fn([f64; 4]) -> f64,
+    approx: impl Fn([f64; 4]) -> [f64; 3],
+) -> (f64, f64) {
+    let (mut num, mut den, mut max_d, mut max_f) = (0.0, 0.0, 0.0f64, 0.0f64);
+    for k in 0..count {
+        let q = check_point(k, phi_i_domain_deg);
+        let exact = reference(q);
+        let d = luminance(approx(q)) - exact;
+        num += d * d;
+        den += exact * exact;
+        max_d = max_d.max(d.abs());
+        max_f = max_f.max(exact);
+    }
+    (
+        (num / den.max(f64::MIN_POSITIVE)).sqrt(),
+        max_d / max_f.max(f64::MIN_POSITIVE),
+    )
+}
+
 /// Interpolation error of a table against the model evaluated directly, at `count`
 /// low-discrepancy points (θ_i, φ_i, θ_r, φ_r) uniform in angle over θ_i, θ_r in
-/// [`CHECK_THETA_DEG`], φ_i over `phi_i_domain_deg` and φ_r over [−180°, 180°]:
-/// `(relative L2, max |Δ| / max f)` of the luminance of f. `lookup(θ_i, φ_i, θ_r, φ_r)`
-/// (degrees) is the table's f; `scale(θ_i, φ_i)` is the energy factor the table applied (1 for
-/// the model as printed).
+/// [`CHECK_THETA_DEG`], φ_i over `phi_i_domain_deg` and φ_r over [−180°, 180°]
+/// ([`check_point`]): `(relative L2, max |Δ| / max f)` of the luminance of f.
+/// `lookup(θ_i, φ_i, θ_r, φ_r)` (degrees) is the table's f; `scale(θ_i, φ_i)` is the energy
+/// factor the table applied (1 for the model as printed).
 pub fn interpolation_error(
     model: &ClothModel,
     phi_i_domain_deg: (f64, f64),
@@ -559,27 +598,11 @@ pub fn interpolation_error(
     lookup: impl Fn([f64; 4]) -> [f64; 3],
     scale: impl Fn(f64, f64) -> f64,
 ) -> (f64, f64) {
-    let (t0, t1) = CHECK_THETA_DEG;
-    let (p0, p1) = phi_i_domain_deg;
-    let (mut num, mut den, mut max_d, mut max_f) = (0.0, 0.0, 0.0f64, 0.0f64);
-    for k in 0..count {
-        let u = halton4(k);
-        let q = [
-            t0 + u[0] * (t1 - t0),
-            p0 + u[1] * (p1 - p0),
-            t0 + u[2] * (t1 - t0),
-            -180.0 + 360.0 * u[3],
-        ];
-        let q_rad = q.map(f64::to_radians);
-        let direct = model.eval_angles(q_rad[0], q_rad[1], q_rad[2], q_rad[3]);
-        let exact = luminance(direct.total()) * scale(q[0], q[1]);
-        let approx = luminance(lookup(q));
-        num += (approx - exact).powi(2);
-        den += exact * exact;
-        max_d = max_d.max((approx - exact).abs());
-        max_f = max_f.max(exact);
-    }
-    ((num / den.max(f64::MIN_POSITIVE)).sqrt(), max_d / max_f)
+    let reference = |q: [f64; 4]| {
+        let r = q.map(f64::to_radians);
+        luminance(model.eval_angles(r[0], r[1], r[2], r[3]).total()) * scale(q[0], q[1])
+    };
+    luminance_error(phi_i_domain_deg, count, reference, lookup)
 }
 
 /// Edges (degrees) of the cells whose centres are `centres`, the first at 0°.

@@ -6,6 +6,7 @@ pub mod airy;
 pub mod build;
 pub mod catalog;
 pub mod cloth;
+pub mod cloth_lut;
 pub mod dual_scattering;
 pub mod export;
 pub mod hair_lut;

@@ -17,6 +17,7 @@
 //!   table's `roughness` axis take its edge values.
 //! - Values come from multilinear interpolation of the table ([`DualTableView::sample`]).
 
+use super::dds::{DdsImage, DxgiFormat, dds_decode, dds_encode};
 use crate::hair::dual::DUAL_CHANNELS;
 use crate::stages::hair::DUAL_TABLE_CHANNELS;
 use crate::table::TableContent;
@@ -269,80 +270,30 @@ fn quantities() -> [usize; 4] {
     ]
 }
 
-const DDS_MAGIC: &[u8; 4] = b"DDS ";
-const DXGI_FORMAT_R32G32B32A32_FLOAT: u32 = 2;
-
 /// The texture as a DDS file: DX10 extended header, `DXGI_FORMAT_R32G32B32A32_FLOAT`, one mip,
 /// resource dimension `TEXTURE3D` (depth > 1) or `TEXTURE2D`, little-endian texels in
-/// [`Texture`] order.
+/// [`Texture`] order ([`super::dds`]).
 pub fn dds_bytes(t: &Texture) -> Vec<u8> {
-    let [w, h, d] = t.size.map(|v| v as u32);
-    let volume = t.size[2] > 1;
-    let mut out = Vec::with_capacity(148 + 16 * t.texels.len());
-    let mut put = |v: u32| out.extend_from_slice(&v.to_le_bytes());
-    // DDS_HEADER
-    put(u32::from_le_bytes(*DDS_MAGIC));
-    put(124);
-    // CAPS | HEIGHT | WIDTH | PITCH | PIXELFORMAT (| DEPTH)
-    put(0x1 | 0x2 | 0x4 | 0x8 | 0x1000 | if volume { 0x80_0000 } else { 0 });
-    put(h);
-    put(w);
-    put(w * 16);
-    put(if volume { d } else { 0 });
-    put(1);
-    for _ in 0..11 {
-        put(0);
-    }
-    // DDS_PIXELFORMAT: FOURCC "DX10"
-    put(32);
-    put(0x4);
-    put(u32::from_le_bytes(*b"DX10"));
-    for _ in 0..5 {
-        put(0);
-    }
-    put(0x1000 | if volume { 0x8 } else { 0 });
-    put(if volume { 0x20_0000 } else { 0 });
-    put(0);
-    put(0);
-    put(0);
-    // DDS_HEADER_DXT10
-    put(DXGI_FORMAT_R32G32B32A32_FLOAT);
-    put(if volume { 4 } else { 3 });
-    put(0);
-    put(1);
-    put(0);
-    for texel in &t.texels {
-        for c in texel {
-            out.extend_from_slice(&c.to_le_bytes());
-        }
-    }
-    out
+    let data = t
+        .texels
+        .iter()
+        .flat_map(|texel| texel.iter().flat_map(|c| c.to_le_bytes()))
+        .collect();
+    dds_encode(&DdsImage {
+        size: t.size,
+        format: DxgiFormat::R32G32B32A32Float,
+        data,
+    })
 }
 
 /// Read back a DDS written by [`dds_bytes`].
 pub fn parse_dds(b: &[u8]) -> Result<Texture, EngineLutError> {
-    let word = |i: usize| -> Result<u32, EngineLutError> {
-        b.get(4 * i..4 * i + 4)
-            .map(|s| u32::from_le_bytes([s[0], s[1], s[2], s[3]]))
-            .ok_or(EngineLutError::BadDds("truncated header"))
-    };
-    if b.get(..4) != Some(DDS_MAGIC.as_slice()) || word(1)? != 124 {
-        return Err(EngineLutError::BadDds("no DDS magic/header"));
-    }
-    if word(21)? != u32::from_le_bytes(*b"DX10") || word(32)? != DXGI_FORMAT_R32G32B32A32_FLOAT {
+    let img = dds_decode(b).map_err(|e| EngineLutError::BadDds(e.0))?;
+    if img.format != DxgiFormat::R32G32B32A32Float {
         return Err(EngineLutError::BadDds("not DX10 R32G32B32A32_FLOAT"));
     }
-    let volume = word(33)? == 4;
-    let size = [
-        word(4)? as usize,
-        word(3)? as usize,
-        if volume { word(6)? as usize } else { 1 },
-    ];
-    let n: usize = size.iter().product();
-    let data = b
-        .get(148..148 + 16 * n)
-        .ok_or(EngineLutError::BadDds("truncated texels"))?;
-    let texels = data
+    let texels = img
+        .data
         .chunks_exact(16)
         .map(|t| {
             std::array::from_fn(|c| {
@@ -350,7 +301,10 @@ pub fn parse_dds(b: &[u8]) -> Result<Texture, EngineLutError> {
             })
         })
         .collect();
-    Ok(Texture { size, texels })
+    Ok(Texture {
+        size: img.size,
+        texels,
+    })
 }
 
 /// Write [`dds_bytes`] to `path`.

@@ -7,6 +7,8 @@
 //! sRGB gamut) and never from the tables themselves, which `verify` checks. Signed quantities
 //! (the longitudinal shifts of the hair tables) are written as computed.
 
+pub mod cloth_lut;
+pub mod dds;
 pub mod generic;
 pub mod hair_engine_lut;
 pub mod hair_lut;
