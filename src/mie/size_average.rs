@@ -26,11 +26,16 @@
 //! phase function, where `f = max(1, ρ/(1 − ρ))` extrapolates the panel's observed ratio `ρ` of
 //! two successive differences (a geometric tail; `ρ ≤ 0.9`). `Δ` measures the error of the
 //! coarser rule, so for fast convergence it over-estimates that of the returned finer one; for
-//! slow, noise-like convergence (resonances sampled at random) `f` inflates it. It is trusted only once it has been seen to shrink on a rule fine
+//! slow, noise-like convergence (resonances sampled at random) `f` inflates it. Panels whose
+//! step is at least [`UNRESOLVED_STEPS`] absorption-limited resonance widths (every panel for
+//! clear water, [`RadiusIntegrand::resonance_width`]) hit the narrow resonances at random, so
+//! their errors are independent: they enter the RMS in quadrature, `Σ_resolved f|e| +
+//! (Σ_unresolved (f e)²)^{1/2}` per angle (decision MIE-19); the estimate of the maximum keeps the
+//! plain sum. It is trusted only once it has been seen to shrink on a rule fine
 //! enough not to alias the ripple: a panel is *settled* after at least two halvings, with its
 //! last estimate no larger than the one before and a step of at most [`TRUSTED_STEP_X`] in `x`.
 //!
-//! **Stopping.** Refine the panel with the largest estimate until the total is ≤ the tolerance
+//! **Stopping.** Refine the panel with the largest share `f |e|` of the estimate until the total is ≤ the tolerance
 //! and every panel is settled (or negligible). A tolerance that cannot be met within the node
 //! limit is [`SizeAverageError::NotConverged`], never a silent result.
 
