@@ -10,6 +10,11 @@
 //!   resonances of clear water, which make a clear-water reference itself uncertain at ~2e-3).
 //!   The estimate must meet the tolerance and bound the true error (within the reference's own
 //!   error, from its two steps).
+//! - `clear_water_estimate_bounds_the_true_error` (default): fog and cloud of clear water
+//!   (`k = 0`) at 1e-2 and 1e-3 against `tests/data/mie_distribution_clear_water.json`
+//!   (`examples/studies/clear_water_reference.rs`: midpoint rules in x of 2·10⁶ spheres over the
+//!   support, own error ≈ 1.6e-5 RMS from their two halves), where the estimate combines the
+//!   panels that sample the resonances at random in quadrature.
 //! - `rain_matches_reference_at_1e-3` (ignored, ≈ 1–2 min): the rain case at 1e-3, points and
 //!   1° bins.
 //! - `fog_entry_with_sun_disc_matches_dense_gauss_legendre` (default): a stage entry with the
@@ -26,6 +31,7 @@ use scatterbake::mie::size_average::{
 use scatterbake::optics::water::WaterIndexModel;
 
 const REFERENCE: &str = include_str!("data/mie_distribution_reference.json");
+const CLEAR_WATER: &str = include_str!("data/mie_distribution_clear_water.json");
 
 struct Case {
     distribution: SizeDistribution,
@@ -170,6 +176,51 @@ fn maximum_error_is_bounded_when_asked() {
             a.max_error_estimate
         );
         assert!(a.radius_nodes > free.radius_nodes);
+    }
+}
+
+/// Clear water: the narrow resonances are hit at random by the rule; the estimate (panels
+/// combined in quadrature where their step leaves the resonances unresolved) still bounds the
+/// true RMS and largest error, to the reference's own error.
+#[test]
+fn clear_water_estimate_bounds_the_true_error() {
+    let all: serde_json::Value = serde_json::from_str(CLEAR_WATER).unwrap();
+    for name in ["fog", "cloud"] {
+        let json = all["cases"][name].clone();
+        assert_eq!(json["m"][1].as_f64(), Some(0.0));
+        let c = Case {
+            distribution: serde_json::from_value(json["distribution"].clone()).unwrap(),
+            wavelength_nm: json["wavelength_nm"].as_f64().unwrap(),
+            m: Complex64::new(json["m"][0].as_f64().unwrap(), 0.0),
+            json,
+        };
+        let own = c.json["half_difference"]["rms"].as_f64().unwrap();
+        let own_max = c.json["half_difference"]["max"].as_f64().unwrap();
+        for tolerance in [1e-2, 1e-3] {
+            assert!(
+                own < 0.05 * tolerance,
+                "{name}: reference not converged ({own:.1e})"
+            );
+            let limits = AverageLimits {
+                tolerance,
+                max_tolerance: None,
+                max_nodes: 100_000,
+            };
+            let angles = column(&c, "points_deg");
+            let a =
+                average_at_angles(&c.distribution, c.wavelength_nm, c.m, &angles, &limits).unwrap();
+            let (rms, max) = errors(&c, &a, "points");
+            println!(
+                "clear-water {name} tol {tolerance:.0e}: estimate {:.2e}, true rms {rms:.2e}; max estimate {:.2e}, true max {max:.2e}; {} spheres (reference's own: {own:.1e})",
+                a.error_estimate, a.max_error_estimate, a.radius_nodes
+            );
+            assert!(a.error_estimate <= tolerance, "{}", a.error_estimate);
+            assert!(rms <= a.error_estimate + own, "{name}: true rms {rms:.2e}");
+            assert!(
+                max <= a.max_error_estimate + own_max,
+                "{name}: true max {max:.2e}"
+            );
+        }
     }
 }
 

@@ -40,6 +40,9 @@ pub struct EntryResult {
     /// Estimated RMS relative error of the curve (adaptive rule, decision MIE-18; 0 for a
     /// single sphere and for the Gauss–Legendre rule, which has no estimate).
     pub error_rms: f64,
+    /// Estimated largest relative error over the bins and both channels (same estimate as
+    /// `error_rms`, before its RMS; 0 where `error_rms` is 0).
+    pub error_max: f64,
 }
 
 /// Computes one table entry (pure): every radius of the distribution's quadrature on its own
@@ -86,6 +89,7 @@ pub fn compute_entry(
                 g: a.g,
                 radius_nodes: a.radius_nodes,
                 error_rms: a.error_estimate,
+                error_max: a.max_error_estimate,
             })
         }
         _ => Ok(gauss_legendre_entry(
@@ -161,6 +165,7 @@ fn gauss_legendre_entry(
         g: sums[4] / sums[2],
         radius_nodes: radii.len(),
         error_rms: 0.0,
+        error_max: 0.0,
     })
 }
 

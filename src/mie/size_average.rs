@@ -26,11 +26,16 @@
 //! phase function, where `f = max(1, ρ/(1 − ρ))` extrapolates the panel's observed ratio `ρ` of
 //! two successive differences (a geometric tail; `ρ ≤ 0.9`). `Δ` measures the error of the
 //! coarser rule, so for fast convergence it over-estimates that of the returned finer one; for
-//! slow, noise-like convergence (resonances sampled at random) `f` inflates it. It is trusted only once it has been seen to shrink on a rule fine
+//! slow, noise-like convergence (resonances sampled at random) `f` inflates it. Panels whose
+//! step is at least [`UNRESOLVED_STEPS`] absorption-limited resonance widths (every panel for
+//! clear water, [`RadiusIntegrand::resonance_width`]) hit the narrow resonances at random, so
+//! their errors are independent: they enter the RMS in quadrature, `Σ_resolved f|e| +
+//! (Σ_unresolved (f e)²)^{1/2}` per angle (decision MIE-19); the estimate of the maximum keeps the
+//! plain sum. It is trusted only once it has been seen to shrink on a rule fine
 //! enough not to alias the ripple: a panel is *settled* after at least two halvings, with its
 //! last estimate no larger than the one before and a step of at most [`TRUSTED_STEP_X`] in `x`.
 //!
-//! **Stopping.** Refine the panel with the largest estimate until the total is ≤ the tolerance
+//! **Stopping.** Refine the panel with the largest share `f |e|` of the estimate until the total is ≤ the tolerance
 //! and every panel is settled (or negligible). A tolerance that cannot be met within the node
 //! limit is [`SizeAverageError::NotConverged`], never a silent result.
 
@@ -60,6 +65,9 @@ pub const MAX_RATIO: f64 = 0.9;
 /// Largest step in `x` at which a panel's estimate is trusted: a coarser rule can alias the
 /// ripple in `x` (period ~1–10) so that two levels agree by coincidence.
 pub const TRUSTED_STEP_X: f64 = 1.0;
+/// How many times the widest absorption-limited resonance width a panel's step in `x` must be
+/// for its errors to count as random hits of unresolved resonances ([`Panel::unresolved`]).
+pub const UNRESOLVED_STEPS: f64 = 10.0;
 /// Gregory end weights of the first (and, mirrored, last) three nodes.
 const END_WEIGHTS: [f64; 3] = [3.0 / 8.0, 7.0 / 6.0, 23.0 / 24.0];
 /// Scalars appended to every node's curve: the number 1, then the cross-sections `π r²`,
@@ -156,6 +164,13 @@ pub trait RadiusIntegrand: Sync {
     fn finish(&self, curve: &[f64]) -> Vec<f64>;
     /// `2π/λ` in µm⁻¹ (`x` per µm of radius).
     fn wavenumber_per_um(&self) -> f64;
+    /// The width in `x`, relative to `x`, below which the absorption of the drops keeps no
+    /// resonance (`Δx/x ≥ 2k/n` for `m = n + ik`: an internal mode's quality factor is at most
+    /// `n/(2k)`); `None` when unknown. The estimate combines the panels that sample these
+    /// resonances at random in quadrature (module doc).
+    fn resonance_width(&self) -> Option<f64> {
+        None
+    }
 }
 
 /// A finished average.
@@ -243,6 +258,15 @@ impl Panel {
         }
         let rho = (self.error / self.previous_error).min(MAX_RATIO);
         (rho / (1.0 - rho)).max(1.0)
+    }
+
+    /// Whether the panel's step is at least [`UNRESOLVED_STEPS`] times the widest
+    /// absorption-limited resonance in it, `resonance_width · x_b` at its largest size
+    /// parameter `x_b` (in `r`: `resonance_width · b`; `resonance_width` =
+    /// [`RadiusIntegrand::resonance_width`], `None`: never). Such a rule hits the resonances at
+    /// random (module doc).
+    fn unresolved(&self, resonance_width: Option<f64>) -> bool {
+        resonance_width.is_some_and(|w| self.step() >= UNRESOLVED_STEPS * w * self.b)
     }
 
     /// Whether the panel's estimate can be trusted (module doc): two halvings, the last
@@ -474,12 +498,16 @@ struct Estimate {
 
 /// Updates every panel's error from its last halving against the current totals; returns the
 /// entry's estimate (module doc): per panel the error vector of the last halving, scaled by
-/// [`Panel::extrapolation`], summed in absolute value over panels; its RMS over angles and
-/// channels, and its maximum.
-fn estimate(panels: &mut [Panel], t: &Totals, c_sca: f64) -> Estimate {
+/// [`Panel::extrapolation`]. The maximum over angles and channels is that of their sum in
+/// absolute value over panels; the RMS is that of the same sum, except that the panels whose
+/// step leaves the resonances unresolved (`unresolved`, [`Panel::unresolved`]) enter it in
+/// quadrature (independent random errors, see the module doc).
+fn estimate(panels: &mut [Panel], t: &Totals, c_sca: f64, unresolved: &[bool]) -> Estimate {
     let k = t.phase.len();
     let mut combined = vec![0.0; 2 * k];
-    for p in panels.iter_mut() {
+    let mut resolved_sum = vec![0.0; 2 * k];
+    let mut unresolved_sq = vec![0.0; 2 * k];
+    for (p, &noise) in panels.iter_mut().zip(unresolved) {
         let Some((fd, dc)) = &p.finished_delta else {
             continue;
         };
@@ -499,6 +527,14 @@ fn estimate(panels: &mut [Panel], t: &Totals, c_sca: f64) -> Estimate {
         let factor = p.extrapolation();
         e.iter_mut().for_each(|v| *v *= factor);
         combined.iter_mut().zip(&e).for_each(|(c, v)| *c += v);
+        if noise {
+            unresolved_sq
+                .iter_mut()
+                .zip(&e)
+                .for_each(|(c, v)| *c += v * v);
+        } else {
+            resolved_sum.iter_mut().zip(&e).for_each(|(c, v)| *c += v);
+        }
         p.error_by_angle = e;
     }
     let kept = |j: &usize| t.phase[j % k] > 0.0;
@@ -507,8 +543,9 @@ fn estimate(panels: &mut [Panel], t: &Totals, c_sca: f64) -> Estimate {
         .filter(kept)
         .map(|j| (j, combined[j]))
         .fold((0, 0.0), |m, c| if c.1 > m.1 { c } else { m });
+    let square = |j: usize| (resolved_sum[j] + unresolved_sq[j].sqrt()).powi(2);
     Estimate {
-        rms: (combined.iter().map(|e| e * e).sum::<f64>() / n.max(1) as f64).sqrt(),
+        rms: ((0..2 * k).map(square).sum::<f64>() / n.max(1) as f64).sqrt(),
         max,
         at,
     }
@@ -524,7 +561,9 @@ fn next_panel(
     x_per_um: f64,
 ) -> Option<usize> {
     let tol = limits.tolerance;
-    let by_error = |a: &(usize, &Panel), b: &(usize, &Panel)| a.1.error.total_cmp(&b.1.error);
+    // a panel's share of the estimate is its last difference times its extrapolation
+    let share = |p: &Panel| p.error * p.extrapolation();
+    let by_error = |a: &(usize, &Panel), b: &(usize, &Panel)| share(a.1).total_cmp(&share(b.1));
     let pick = if e.rms > tol {
         panels.iter().enumerate().max_by(by_error)
     } else if limits.max_tolerance.is_some_and(|m| e.max > m) {
@@ -570,7 +609,11 @@ pub fn average<I: RadiusIntegrand>(
     loop {
         let t = totals(&panels, integrand)?;
         let c_sca = t.total[integrand.curve_len() + C_SCA];
-        let error = estimate(&mut panels, &t, c_sca);
+        let unresolved: Vec<bool> = panels
+            .iter()
+            .map(|p| p.unresolved(integrand.resonance_width()))
+            .collect();
+        let error = estimate(&mut panels, &t, c_sca, &unresolved);
         let Some(i) = next_panel(&panels, &error, limits, integrand.wavenumber_per_um()) else {
             return Ok(finish_average(
                 distribution,
@@ -758,6 +801,9 @@ impl RadiusIntegrand for PointAngles {
     fn wavenumber_per_um(&self) -> f64 {
         size_parameter(1.0, self.wavelength_nm)
     }
+    fn resonance_width(&self) -> Option<f64> {
+        Some(absorption_width(self.m))
+    }
 }
 
 /// A table entry of the `mie` stage: every node's exact cell averages on its fine grid,
@@ -829,6 +875,15 @@ impl RadiusIntegrand for BinnedCurve<'_> {
     fn wavenumber_per_um(&self) -> f64 {
         size_parameter(1.0, self.wavelength_nm)
     }
+    fn resonance_width(&self) -> Option<f64> {
+        Some(absorption_width(self.m))
+    }
+}
+
+/// `2k/n` for `m = n + ik`: the smallest relative width `Δx/x` of a resonance of drops of that
+/// index ([`RadiusIntegrand::resonance_width`]).
+fn absorption_width(m: Complex64) -> f64 {
+    2.0 * m.im.max(0.0) / m.re
 }
 
 /// The average of `distribution` at point angles `angles_deg` (degrees in `[0, 180]`) for drops

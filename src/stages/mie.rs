@@ -55,14 +55,15 @@ fn is_vacuum(n_medium: &f64) -> bool {
 }
 
 /// The scalars of each task's chunk ([`phase_chunk`]), stored in the header as
-/// `[entry][wavelength]` arrays (the last two only for adaptively averaged distributions).
-const SCALARS: [&str; 6] = [
+/// `[entry][wavelength]` arrays (the last three only for adaptively averaged distributions).
+const SCALARS: [&str; 7] = [
     "q_ext",
     "q_sca",
     "q_back",
     "g",
     "radius_nodes",
     "radius_error_rms",
+    "radius_error_max",
 ];
 
 /// Default of `radius_points`.
@@ -104,7 +105,8 @@ impl StageSpec for MieStage {
     /// (MIE-16), attributes `radius_nodes`, `radius_error_rms`, labelled `distribution` axis.
     /// 6: distributions averaged by the adaptive radius rule to an estimated output error
     /// `radius_tolerance` (MIE-18, default 1e-3).
-    const VERSION: u32 = 6;
+    /// 7: attribute `radius_error_max` (the estimate of the largest error over the bins).
+    const VERSION: u32 = 7;
     const SUMMARY: &'static str = "Lorenz–Mie phase functions of water drops (radii or size distributions), sun-disc smoothed, bin-integrated";
     type Params = MieParams;
     fn plan_params(&self, p: MieParams) -> Result<Box<dyn Job>, PlanError> {
@@ -242,6 +244,7 @@ impl Job for MieJob {
                 r.g,
                 r.radius_nodes as f64,
                 r.error_rms,
+                r.error_max,
             ],
         ))
     }
@@ -270,7 +273,7 @@ impl Job for MieJob {
         let sampled =
             matches!(self.entries, Entries::Distributions(_)) && self.p.radius_tolerance > 0.0;
         a.insert("size_distribution_weighting".into(), s(if sampled {
-            "normalised phase functions mixed with weights n(r) dr * C_sca(r); radius rule uniform in r on panels between quantiles of n(r) r^2 (trapezoid with Gregory end corrections, steps halved), each node exact cell averages; error estimate = difference of the last two nested rules after sun disc and bins, RMS over bins and i_perp, i_par relative to phase, <= radius_tolerance; radius_nodes and radius_error_rms per [entry][wavelength]"
+            "normalised phase functions mixed with weights n(r) dr * C_sca(r); radius rule uniform in r on panels between quantiles of n(r) r^2 (trapezoid with Gregory end corrections, steps halved), each node exact cell averages; error estimate = difference of the last two nested rules after sun disc and bins, RMS over bins and i_perp, i_par relative to phase, <= radius_tolerance; the same estimate's largest value over bins and channels radius_error_max (estimated, not bounded); radius_nodes, radius_error_rms and radius_error_max per [entry][wavelength]"
         } else {
             "normalised phase functions mixed with weights n(r) dr * C_sca(r); Gauss-Legendre in ln r"
         }));
@@ -424,8 +427,11 @@ mod tests {
         for e in 0..2 {
             let nodes = t.attributes["radius_nodes"][e][0].as_f64().unwrap();
             let err = t.attributes["radius_error_rms"][e][0].as_f64().unwrap();
+            let max = t.attributes["radius_error_max"][e][0].as_f64().unwrap();
             assert!(nodes >= 20.0, "{nodes}");
             assert!(err > 0.0 && err <= 0.05, "{err}");
+            // the largest error over the bins is at least their RMS
+            assert!(max >= err && max.is_finite(), "{max} {err}");
         }
         assert_eq!(t.attributes["radius_tolerance"].as_f64(), Some(0.05));
     }
