@@ -1595,8 +1595,9 @@ mod tests {
     /// patches of every order carry the rays' flux (to 1e-3), the per-order cross-sections and
     /// the projected area equal the `silhouette` grid's (to 2e-3), and the azimuth-averaged
     /// primary and secondary bows (1° bins over 115–150°, per order) agree with the `silhouette`
-    /// grid's at 4× the rays within 5 % and no worse than the `silhouette` grid of the same ray
-    /// count; a wrong Jacobian or patch area breaks the first two.
+    /// grid's at 4× the rays within 12 % (the bows' point-sampled GO caustics: measured 8.8 %
+    /// for p = 3, the `silhouette` grid of the same ray count 8.9 %) and no worse than that
+    /// grid; a wrong Jacobian or patch area breaks the first two.
     #[test]
     fn warped_grid_conserves_flux_and_matches_the_silhouette_grid() {
         let shape = DropShape::beard_chuang(1.0);
@@ -1657,7 +1658,7 @@ mod tests {
         for o in [2, 3] {
             let (w, c) = (l2(&warped, o), l2(&coarse, o));
             assert!(
-                w < 0.05 && w < 1.5 * c + 0.01,
+                w < 0.12 && w < 1.25 * c + 0.01,
                 "order {o}: L2 {w} (warped) and {c} (silhouette, same rays) against the finer grid"
             );
         }
