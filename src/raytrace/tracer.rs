@@ -86,9 +86,9 @@ pub enum RayGridLayout {
     /// bows (decision RT-40): ring `s` lands at `ρ = R(ψ) b(s)`, where `s(b)` gives half of the
     /// rings the `silhouette` layout's `(2/π) asin b` and half Gaussian bands about the
     /// equal-volume sphere's primary and secondary rainbow rays
-    /// ([`super::ray_density::RadialProfile::bows`]). The rays there are several times denser
-    /// than on the `silhouette` grid of the same ray count and the centre's about half as dense;
-    /// weights and patch areas as for `silhouette`.
+    /// ([`super::ray_density::RadialProfile::bows`]). The rings at the primary's rainbow ray are
+    /// 2.4× denser than on the `silhouette` grid of the same ray count and the centre's about
+    /// half as dense; weights and patch areas as for `silhouette`.
     SilhouetteBows,
 }
 
