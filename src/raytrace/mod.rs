@@ -3,7 +3,8 @@
 //! `docs/decisions.md` (RT-1 … RT-22) for the decisions on points the thesis leaves open.
 //!
 //! - [`shape`]: spheres, Beard–Chuang cosine-series drops, tabulated axisymmetric profiles;
-//! - [`tracer`]: the general 2-D patch tracer (any shape, any sun elevation);
+//! - [`tracer`]: the general 2-D patch tracer (any shape, any sun elevation), with the radial
+//!   ray densities of its silhouette grids in [`ray_density`];
 //! - [`sphere1d`]: the fast exact 1-D geometric-optics-plus-phase path for spheres;
 //! - [`post`]: the Gaussian diffraction filter and the forward Fraunhofer lobe;
 //! - [`caustic`]: the caustic windows of 2-D table columns and their filters;
@@ -27,6 +28,7 @@ pub mod mixture;
 pub mod phase_table;
 pub mod phase_table_headers;
 pub mod post;
+pub mod ray_density;
 pub mod shape;
 pub mod sphere1d;
 pub mod table2d;

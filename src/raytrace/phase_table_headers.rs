@@ -163,6 +163,7 @@ impl PhaseTable {
             match s.ray_grid {
                 RayGridLayout::Square => "square: rays_per_side² rays evenly spaced over the silhouette's bounding box",
                 RayGridLayout::Silhouette => "silhouette: rays_per_side² rays, the index square mapped onto the silhouette (Shirley–Chiu concentric map, ρ = R(ψ) sin(π s / 2)), refined towards the edge; docs/decisions.md RT-31",
+                RayGridLayout::SilhouetteBows => "silhouette-bows: rays_per_side² rays on the silhouette grid with its rings warped, ρ = R(ψ) b(s), half of the rings as the silhouette grid's asin profile and half in Gaussian bands about the equal-volume sphere's primary and secondary rainbow rays; docs/decisions.md RT-40",
             }
             .into(),
         );

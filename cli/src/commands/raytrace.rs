@@ -37,8 +37,9 @@ pub struct RaytraceArgs {
     #[arg(long, default_value_t = 600)]
     pub rays: usize,
     /// Layout of the ray grid (non-spherical drops): `silhouette` maps the grid onto the drop's
-    /// silhouette, refined towards its edge; `square` spreads it over the bounding box (thesis).
-    #[arg(long, default_value = "silhouette", value_parser = ["silhouette", "square"])]
+    /// silhouette, refined towards its edge; `silhouette-bows` also warps its rings towards the
+    /// impact parameters that feed the bows; `square` spreads it over the bounding box (thesis).
+    #[arg(long, default_value = "silhouette", value_parser = ["silhouette", "silhouette-bows", "square"])]
     pub ray_grid: String,
     /// Scattering angles START:STOP:STEP in degrees (STEP must divide 180).
     #[arg(long, default_value = "0:180:0.1", value_parser = AngleRange::parse)]
@@ -93,10 +94,10 @@ pub fn raytrace_columns(args: &RaytraceArgs) -> anyhow::Result<RaytraceColumns> 
             .map_err(|why| anyhow::anyhow!("--sun-elevation-deg {why}"))?;
         let opts = Table2dOptions {
             rays: args.rays,
-            ray_grid: if args.ray_grid == "square" {
-                RayGridLayout::Square
-            } else {
-                RayGridLayout::Silhouette
+            ray_grid: match args.ray_grid.as_str() {
+                "square" => RayGridLayout::Square,
+                "silhouette-bows" => RayGridLayout::SilhouetteBows,
+                _ => RayGridLayout::Silhouette,
             },
             max_order: 3,
             grid: DirectionGrid {
