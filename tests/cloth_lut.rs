@@ -454,6 +454,19 @@ fn bad_inputs_give_clear_errors() {
         e.contains("axis half_y must have two or more increasing nodes"),
         "{e}"
     );
+    // Two half_x nodes 1e-6° apart: the warp row would need ~10⁸ bins.
+    let mut crowded = table.clone();
+    let mut nodes = crowded.header.axes[2].coords();
+    nodes[1] = nodes[0] + 1e-6;
+    crowded.header.axes[2] = scatterbake::table::Axis::values("half_x", "deg", nodes);
+    let view = ClothTableView::new(&crowded).unwrap();
+    let e = build_lut(&view, LutPrecision::Rgb9e5)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("axis `half_x` has nodes") && e.contains("16384"),
+        "{e}"
+    );
     let mut negative = table;
     negative.data[0] = -1.0;
     let view = ClothTableView::new(&negative).unwrap();

@@ -51,6 +51,15 @@ pub enum ClothLutError {
     Layout(String),
     #[error("the 3-D texture would be {0:?} texels; each side must be at most 2048")]
     TooLarge([usize; 3]),
+    #[error(
+        "axis `{axis}` has nodes {spacing_deg:e}° apart: its warp row would need {bins} bins, \
+         more than the {MAX_WARP_BINS} a 2-D texture row may hold"
+    )]
+    WarpTooFine {
+        axis: &'static str,
+        spacing_deg: f64,
+        bins: f64,
+    },
     #[error("K reaches {max} 1/sr, beyond the {format} range ({limit}); use precision float")]
     Overflow {
         max: f64,
@@ -302,13 +311,29 @@ fn warp_bins(width: f64, min_spacing: f64) -> usize {
         .next_power_of_two()
 }
 
+/// Largest warp row: the width limit of a 2-D texture in Direct3D 11 and most GL drivers.
+const MAX_WARP_BINS: usize = 16384;
+
 /// The warp texture: per row (θ_i, β_x, β_y), `m` uniform bins over the axis's end nodes; bin
 /// `k` holds `(i, x_i, x_{i+1}, x_{i+2})` with `i` the last node at or before the bin's start
 /// (`x_{i+2} = x_{i+1} + 1` past the end).
-fn warp_rows(grid: &HalfGrid) -> (usize, [[f64; 2]; WARP_ROWS], Vec<[f32; 4]>) {
+type WarpRows = (usize, [[f64; 2]; WARP_ROWS], Vec<[f32; 4]>);
+
+fn warp_rows(grid: &HalfGrid) -> Result<WarpRows, ClothLutError> {
     let axes = [&grid.theta_i_deg, &grid.half_x_deg, &grid.half_y_deg];
     let range = axes.map(|a| [a[0], a[a.len() - 1]]);
     let min_spacing = |a: &[f64]| a.windows(2).map(|w| w[1] - w[0]).fold(f64::MAX, f64::min);
+    for (r, axis) in ["theta_i", "half_x", "half_y"].into_iter().enumerate() {
+        let spacing_deg = min_spacing(axes[r]);
+        let bins = (range[r][1] - range[r][0]) / spacing_deg;
+        if bins.is_nan() || bins > MAX_WARP_BINS as f64 {
+            return Err(ClothLutError::WarpTooFine {
+                axis,
+                spacing_deg,
+                bins,
+            });
+        }
+    }
     let m = (0..WARP_ROWS)
         .map(|r| warp_bins(range[r][1] - range[r][0], min_spacing(axes[r])))
         .max()
@@ -327,7 +352,7 @@ fn warp_rows(grid: &HalfGrid) -> (usize, [[f64; 2]; WARP_ROWS], Vec<[f32; 4]>) {
             warp.push([i as f64, axis[i], axis[i + 1], after].map(|v| v as f32));
         }
     }
-    (m, range, warp)
+    Ok((m, range, warp))
 }
 
 /// The BRDF texels of `view` in `precision`: file bytes and the decoded values.
@@ -376,7 +401,7 @@ pub fn build_lut(
         return Err(ClothLutError::TooLarge(size));
     }
     let (bytes, k) = brdf_texels(view, size, precision)?;
-    let (warp_bins, warp_range_deg, warp) = warp_rows(g);
+    let (warp_bins, warp_range_deg, warp) = warp_rows(g)?;
     let albedo: Vec<[f32; 4]> = (view.albedo_rgb.iter().flatten())
         .map(|e| [e[0], e[1], e[2], luminance(*e)].map(|v| v as f32))
         .collect();
