@@ -16,8 +16,7 @@
 //!   support, own error ≈ 1.6e-5 RMS from their two halves), where the estimate combines the
 //!   panels that sample the resonances at random in quadrature.
 //! - `rain_matches_reference_at_1e-3` (ignored, ≈ 1–2 min): the rain case at 1e-3, points and
-//!   1° bins. It fails: the maximum estimate of the bins is 1.3× under the true maximum
-//!   (docs/mie.md, "The largest error"); the assertion is kept so that a fix shows.
+//!   1° bins.
 //! - `fog_entry_with_sun_disc_matches_dense_gauss_legendre` (default): a stage entry with the
 //!   sun disc (0.25° bins, 0.5° disc) against the Gauss–Legendre rule in ln r with 1024 nodes
 //!   and exact cell averages per node (independent code; 512 vs 1024 nodes checked).
@@ -231,7 +230,7 @@ fn bin_averages_match_references() {
 }
 
 #[test]
-#[ignore = "rain at 1e-3 (points and 1-degree bins) takes 1-2 min on the shared 2-core machine; cargo test --release --test mie_distribution -- --ignored --nocapture; fails: the maximum estimate of the 1-degree bins (4.88e-3) is under the true maximum (6.32e-3), docs/mie.md"]
+#[ignore = "rain at 1e-3 (points and 1-degree bins) takes 1-2 min on the shared 2-core machine; cargo test --release --test mie_distribution -- --ignored --nocapture"]
 fn rain_matches_reference_at_1e_3() {
     check("rain", "points", 1e-3, &points("rain", 1e-3, None));
     check("rain", "bins", 1e-3, &bins("rain", 1e-3));

@@ -31,7 +31,8 @@
 //! clear water, [`RadiusIntegrand::resonance_width`]) hit the narrow resonances at random, so
 //! their errors are independent: they enter the RMS in quadrature, `Σ_resolved f|e| +
 //! (Σ_unresolved (f e)²)^{1/2}` per angle (decision MIE-19); the estimate of the maximum keeps the
-//! plain sum. It is trusted only once it has been seen to shrink on a rule fine
+//! plain sum, with each panel's `|e|` at an angle replaced by `max(|e|, max(ρ, 1/2) |e_prev|)`,
+//! `e_prev` its previous halving's difference there (decision MIE-20). It is trusted only once it has been seen to shrink on a rule fine
 //! enough not to alias the ripple: a panel is *settled* after at least two halvings, with its
 //! last estimate no larger than the one before and a step of at most [`TRUSTED_STEP_X`] in `x`.
 //!
@@ -62,6 +63,9 @@ pub const FIRST_INTERVALS: usize = 6;
 pub const NEGLIGIBLE: f64 = 0.01;
 /// Largest observed ratio of two successive estimates used by [`Panel::extrapolation`].
 pub const MAX_RATIO: f64 = 0.9;
+
+/// Smallest ratio of successive halvings credited at a single angle by the maximum estimate.
+pub const MIN_ANGLE_RATIO: f64 = 0.5;
 /// Largest step in `x` at which a panel's estimate is trusted: a coarser rule can alias the
 /// ripple in `x` (period ~1–10) so that two levels agree by coincidence.
 pub const TRUSTED_STEP_X: f64 = 1.0;
@@ -222,6 +226,10 @@ struct Panel {
     /// Its contribution to the entry's per-angle error estimate (extrapolated, relative to the
     /// phase function; empty before the first halving).
     error_by_angle: Vec<f64>,
+    /// The last halving's per-angle difference before extrapolation (relative to the phase
+    /// function), and the previous halving's (kept when the panel is refined).
+    raw_by_angle: Vec<f64>,
+    previous_raw_by_angle: Vec<f64>,
     /// Error estimate of the last and of the previous halving (module doc).
     error: f64,
     previous_error: f64,
@@ -253,11 +261,17 @@ impl Panel {
     /// narrow resonances of clear water sampled at random) is inflated, fast convergence is not
     /// credited beyond the plain difference.
     fn extrapolation(&self) -> f64 {
-        if !self.previous_error.is_finite() || !(self.previous_error > 0.0) {
-            return 1.0;
-        }
-        let rho = (self.error / self.previous_error).min(MAX_RATIO);
+        let rho = self.ratio();
         (rho / (1.0 - rho)).max(1.0)
+    }
+
+    /// The observed ratio `ρ = error/previous_error` of the last two halvings, clamped to
+    /// [`MAX_RATIO`]; 0 before two halvings.
+    fn ratio(&self) -> f64 {
+        if !self.previous_error.is_finite() || !(self.previous_error > 0.0) {
+            return 0.0;
+        }
+        (self.error / self.previous_error).min(MAX_RATIO)
     }
 
     /// Whether the panel's step is at least [`UNRESOLVED_STEPS`] times the widest
@@ -355,6 +369,8 @@ impl Panel {
             previous: None,
             finished_delta: None,
             error_by_angle: Vec::new(),
+            raw_by_angle: Vec::new(),
+            previous_raw_by_angle: Vec::new(),
             error: f64::INFINITY,
             previous_error: f64::INFINITY,
             level: 0,
@@ -525,8 +541,17 @@ fn estimate(panels: &mut [Panel], t: &Totals, c_sca: f64, unresolved: &[bool]) -
         }
         p.error = (sq / count.max(1) as f64).sqrt();
         let factor = p.extrapolation();
+        // The maximum: at each angle the larger of the last difference and the previous one
+        // times the panel's observed ratio, at least 1/2 (no angle is credited with more than
+        // halving its error per halving), so that an angle where the last halving happened to
+        // change little keeps the error its previous halving supports (MIE-20).
+        let rho = p.ratio().max(MIN_ANGLE_RATIO);
+        combined.iter_mut().enumerate().for_each(|(j, c)| {
+            let previous = p.previous_raw_by_angle.get(j).map_or(0.0, |v| rho * v);
+            *c += factor * e[j].max(previous);
+        });
+        p.raw_by_angle.clone_from(&e);
         e.iter_mut().for_each(|v| *v *= factor);
-        combined.iter_mut().zip(&e).for_each(|(c, v)| *c += v);
         if noise {
             unresolved_sq
                 .iter_mut()
@@ -636,6 +661,7 @@ pub fn average<I: RadiusIntegrand>(
             });
         }
         let prior = panels[i].error;
+        panels[i].previous_raw_by_angle = std::mem::take(&mut panels[i].raw_by_angle);
         panels[i].refine(distribution, integrand)?;
         panels[i].previous_error = prior;
         nodes += more;

@@ -106,7 +106,8 @@ impl StageSpec for MieStage {
     /// 6: distributions averaged by the adaptive radius rule to an estimated output error
     /// `radius_tolerance` (MIE-18, default 1e-3).
     /// 7: attribute `radius_error_max` (the estimate of the largest error over the bins).
-    const VERSION: u32 = 7;
+    /// 8: `radius_error_max` also from the previous halving (MIE-20).
+    const VERSION: u32 = 8;
     const SUMMARY: &'static str = "Lorenz–Mie phase functions of water drops (radii or size distributions), sun-disc smoothed, bin-integrated";
     type Params = MieParams;
     fn plan_params(&self, p: MieParams) -> Result<Box<dyn Job>, PlanError> {
