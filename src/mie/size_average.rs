@@ -32,8 +32,8 @@
 //! their errors are independent: they enter the RMS in quadrature, `Σ_resolved f|e| +
 //! (Σ_unresolved (f e)²)^{1/2}` per angle (decision MIE-19); the estimate of the maximum keeps the
 //! plain sum, with each panel's `|e|` at an angle replaced by `max(|e|, max(ρ, 1/2) |e_prev|)`,
-//! `e_prev` its previous halving's difference there (decision MIE-20). It is trusted only once it has been seen to shrink on a rule fine
-//! enough not to alias the ripple: a panel is *settled* after at least two halvings, with its
+//! `e_prev` its previous halving's difference there (decision MIE-20). It is trusted only once
+//! it has been seen to shrink on a rule fine enough not to alias the ripple: a panel is *settled* after at least two halvings, with its
 //! last estimate no larger than the one before and a step of at most [`TRUSTED_STEP_X`] in `x`.
 //!
 //! **Stopping.** Refine the panel with the largest share `f |e|` of the estimate until the total is ≤ the tolerance
@@ -223,8 +223,8 @@ struct Panel {
     previous: Option<Vec<f64>>,
     /// `L(Δ_curve)` and `Δ_{C_sca}` of the last halving.
     finished_delta: Option<(Vec<f64>, f64)>,
-    /// Its contribution to the entry's per-angle error estimate (extrapolated, relative to the
-    /// phase function; empty before the first halving).
+    /// Its contribution to the entry's per-angle estimate of the maximum (extrapolated,
+    /// relative to the phase function, MIE-20; empty before the first halving).
     error_by_angle: Vec<f64>,
     /// The last halving's per-angle difference before extrapolation (relative to the phase
     /// function), and the previous halving's (kept when the panel is refined).
@@ -546,10 +546,16 @@ fn estimate(panels: &mut [Panel], t: &Totals, c_sca: f64, unresolved: &[bool]) -
         // halving its error per halving), so that an angle where the last halving happened to
         // change little keeps the error its previous halving supports (MIE-20).
         let rho = p.ratio().max(MIN_ANGLE_RATIO);
-        combined.iter_mut().enumerate().for_each(|(j, c)| {
-            let previous = p.previous_raw_by_angle.get(j).map_or(0.0, |v| rho * v);
-            *c += factor * e[j].max(previous);
-        });
+        let contribution: Vec<f64> = (0..2 * k)
+            .map(|j| {
+                let previous = p.previous_raw_by_angle.get(j).map_or(0.0, |v| rho * v);
+                factor * e[j].max(previous)
+            })
+            .collect();
+        combined
+            .iter_mut()
+            .zip(&contribution)
+            .for_each(|(c, v)| *c += v);
         p.raw_by_angle.clone_from(&e);
         e.iter_mut().for_each(|v| *v *= factor);
         if noise {
@@ -560,7 +566,7 @@ fn estimate(panels: &mut [Panel], t: &Totals, c_sca: f64, unresolved: &[bool]) -
         } else {
             resolved_sum.iter_mut().zip(&e).for_each(|(c, v)| *c += v);
         }
-        p.error_by_angle = e;
+        p.error_by_angle = contribution;
     }
     let kept = |j: &usize| t.phase[j % k] > 0.0;
     let n = (0..2 * k).filter(kept).count();
