@@ -13,6 +13,7 @@
 //! the quadrature weight of a ray is the map's Jacobian, and every triangle carries the flux of
 //! its own emitting-plane area, so the warp changes where rays are, not what a patch carries.
 
+use crate::math::roots::newton_bracketed;
 use std::f64::consts::{FRAC_1_SQRT_2, PI};
 
 /// A Gaussian band of rings: its share of the rings, its centre and width in `b`.
@@ -103,8 +104,8 @@ impl RadialProfile {
     }
 
     /// The impact parameter `b(s)` of ring `s` ∈ [0, 1] and the slope `b′(s)`: `s(b)` inverted
-    /// by Newton's method safeguarded by bisection (`s` is strictly increasing), to the last
-    /// bits.
+    /// by Newton's method safeguarded by bisection ([`newton_bracketed`]; `s` is strictly
+    /// increasing), to the last bits.
     pub fn impact_parameter(&self, s: f64) -> (f64, f64) {
         if s <= 0.0 {
             return (0.0, 1.0 / self.ring_density(0.0));
@@ -112,30 +113,12 @@ impl RadialProfile {
         if s >= 1.0 {
             return (1.0, 0.0);
         }
-        let (mut lo, mut hi) = (0.0f64, 1.0f64);
-        let mut b = (0.5 * PI * s).sin();
-        for _ in 0..200 {
-            let f = self.ring_of(b) - s;
-            if f == 0.0 {
-                break;
-            }
-            if f < 0.0 {
-                lo = b;
-            } else {
-                hi = b;
-            }
-            let next = b - f / self.ring_density(b);
-            let next = if next > lo && next < hi {
-                next
-            } else {
-                0.5 * (lo + hi)
-            };
-            if (next - b).abs() <= 1e-16 || hi - lo <= 1e-16 {
-                b = next;
-                break;
-            }
-            b = next;
-        }
+        let b = newton_bracketed(
+            |b| (self.ring_of(b) - s, self.ring_density(b)),
+            (0.0, self.ring_of(0.0) - s),
+            (1.0, self.ring_of(1.0) - s),
+            |_| 1e-16,
+        );
         (b, 1.0 / self.ring_density(b))
     }
 }

@@ -467,55 +467,14 @@ impl DropShape {
     }
 }
 
-/// The root of `g` in a bracket `[a, b]` with g(a)·g(b) ≤ 0, by Newton's method safeguarded
-/// by the bracket: `gd(t)` gives `g` and its derivative; a step leaving the bracket (or not
-/// finite) is replaced by bisection, and every evaluation shrinks the bracket. Stops when a
-/// step is below 1e-13 of the position (relative), the accuracy of the regula falsi it
-/// replaces, in typically 3–5 evaluations where the regula falsi needed about twice as many.
-fn newton_bracketed(
-    gd: impl Fn(f64) -> (f64, f64),
-    mut a: f64,
-    mut ga: f64,
-    mut b: f64,
-    gb: f64,
-) -> f64 {
-    if gb == 0.0 {
-        return b;
-    }
-    if ga == 0.0 {
-        return a;
-    }
-    let tol = |t: f64| 1e-13 * (1.0 + t.abs());
-    // The secant point of the bracket as the first iterate.
-    let mut t = (a * gb - b * ga) / (gb - ga);
-    if !(t.is_finite() && t > a.min(b) && t < a.max(b)) {
-        t = 0.5 * (a + b);
-    }
-    for _ in 0..100 {
-        let (g, slope) = gd(t);
-        if g == 0.0 {
-            return t;
-        }
-        if (g > 0.0) == (ga > 0.0) {
-            a = t;
-            ga = g;
-        } else {
-            b = t;
-        }
-        let newton = t - g / slope;
-        let next = if newton.is_finite() && newton > a.min(b) && newton < a.max(b) {
-            newton
-        } else {
-            0.5 * (a + b)
-        };
-        if (next - t).abs() <= tol(t) || (b - a).abs() <= tol(t) {
-            return next;
-        }
-        t = next;
-    }
-    t
+/// [`newton_bracketed`] to a step below 1e-13 of the position (relative), the accuracy of the
+/// regula falsi it replaces, in typically 3–5 evaluations where the regula falsi needed about
+/// twice as many.
+fn newton_bracketed(gd: impl Fn(f64) -> (f64, f64), a: f64, ga: f64, b: f64, gb: f64) -> f64 {
+    roots::newton_bracketed(gd, (a, ga), (b, gb), |t| 1e-13 * (1.0 + t.abs()))
 }
 
+use crate::math::roots;
 pub(crate) use crate::math::vec3::{add, cross, dot, norm, normalize, scale, sub};
 
 /// First intersection of the ray `o + t d` with the sphere of radius `r` (µm) about the origin
