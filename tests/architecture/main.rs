@@ -261,6 +261,72 @@ fn assert_none(what: &str, problems: &[String]) {
     );
 }
 
+/// The top level of the repository (ARCHITECTURE.md, "Workspace" and "Where things live"):
+/// anything else there is a stray file, such as a shell redirection gone wrong.
+const TOP_LEVEL: &[&str] = &[
+    "ARCHITECTURE.md",
+    "Cargo.lock",
+    "Cargo.toml",
+    "LICENSE",
+    "README.md",
+    "assets",
+    "benches",
+    "build.rs",
+    "c",
+    "capi",
+    "cli",
+    "clippy.toml",
+    "deploy",
+    "docs",
+    "examples",
+    "fuzz",
+    "manifests",
+    "python",
+    "src",
+    "table-format",
+    "tests",
+    // Build outputs (ignored by git): cargo's target directory and the default tables.
+    "target",
+    "tables",
+];
+
+fn stray_top_level_entries(root: &Path) -> Vec<String> {
+    let mut stray: Vec<String> = std::fs::read_dir(root)
+        .expect("the repository root is readable")
+        .map(|e| {
+            e.expect("a directory entry")
+                .file_name()
+                .to_string_lossy()
+                .into_owned()
+        })
+        .filter(|name| !name.starts_with('.') && !TOP_LEVEL.contains(&name.as_str()))
+        .collect();
+    stray.sort();
+    stray
+}
+
+#[test]
+fn the_repository_root_holds_only_the_workspace_layout() {
+    let stray = stray_top_level_entries(repo());
+    assert_none(
+        "entries at the repository root that are not part of the layout (move or delete them, \
+         or add them to TOP_LEVEL and ARCHITECTURE.md)",
+        &stray,
+    );
+}
+
+#[test]
+fn a_stray_file_at_the_root_is_found() {
+    let dir = tempfile::tempdir().expect("a temporary directory");
+    for name in ["Cargo.toml", "src", ".git", "3.029e-1"] {
+        std::fs::write(dir.path().join(name), "").expect("write a file");
+    }
+    assert_eq!(
+        stray_top_level_entries(dir.path()),
+        vec!["3.029e-1".to_string()]
+    );
+}
+
 #[test]
 fn every_source_file_is_in_the_module_tree() {
     let lib = library();
