@@ -237,16 +237,28 @@ pub fn disc_filter(values: &[f64], grid: DirectionGrid, sigma_deg: f64) -> Vec<f
         } else {
             f64::INFINITY
         };
-        let src = &polar[j * na..][..na];
-        let ker = circular_kernel(sigma, na);
-        for (k, o) in row.iter_mut().enumerate() {
-            *o = ker
-                .iter()
-                .map(|&(d, w)| w * src[(k as isize + d).rem_euclid(na as isize) as usize])
-                .sum();
-        }
+        convolve_circular(&polar[j * na..][..na], &circular_kernel(sigma, na), row);
     });
     out
+}
+
+/// `out[k] = Σ w · src[(k + d) mod n]` over the kernel's `(d, w)` in its order (the same sum,
+/// term by term, as indexing the circle per tap), through a copy of `src` padded by the
+/// kernel's reach on both sides so that every tap is one contiguous, vectorisable pass.
+fn convolve_circular(src: &[f64], kernel: &[(isize, f64)], out: &mut [f64]) {
+    let n = src.len() as isize;
+    let lo = kernel.iter().map(|p| p.0).min().unwrap_or(0);
+    let hi = kernel.iter().map(|p| p.0).max().unwrap_or(0);
+    let padded: Vec<f64> = (lo..n + hi)
+        .map(|i| src[i.rem_euclid(n) as usize])
+        .collect();
+    out.fill(0.0);
+    for &(d, w) in kernel {
+        let from = (d - lo) as usize;
+        for (o, s) in out.iter_mut().zip(&padded[from..from + src.len()]) {
+            *o += w * s;
+        }
+    }
 }
 
 /// Knots `0 = k_0 < … < k_m = n − 1` of `n` samples, each the furthest from its predecessor
@@ -665,6 +677,25 @@ mod tests {
         // At the poles the row is flat (the disc covers every azimuth); at 90° barely damped.
         assert!(out[..36].iter().all(|v| (v - 1.0).abs() < 1e-9));
         assert!((out[90 * 36] - 1.5).abs() < 0.01, "{}", out[90 * 36]);
+    }
+
+    /// The padded convolution is the per-tap modular sum, bit for bit, for a narrow kernel,
+    /// one wrapped around the circle and the uniform one.
+    #[test]
+    fn padded_circular_convolution_is_the_modular_sum() {
+        let n = 37;
+        let src: Vec<f64> = (0..n).map(|i| ((i * 7919) % 101) as f64 / 7.0).collect();
+        for sigma in [0.7, 3.0, 12.0, f64::INFINITY] {
+            let kernel = circular_kernel(sigma, n);
+            let mut out = vec![f64::NAN; n];
+            convolve_circular(&src, &kernel, &mut out);
+            for (k, o) in out.iter().enumerate() {
+                let direct: f64 = (kernel.iter())
+                    .map(|&(d, w)| w * src[(k as isize + d).rem_euclid(n as isize) as usize])
+                    .fold(0.0, |a, b| a + b);
+                assert_eq!(o.to_bits(), direct.to_bits(), "sigma {sigma}, k {k}");
+            }
+        }
     }
 
     /// Greedy knots of a piecewise-linear series are exactly its corners.
