@@ -223,9 +223,14 @@ pub fn disc_filter(values: &[f64], grid: DirectionGrid, sigma_deg: f64) -> Vec<f
             } else {
                 (jj, 0)
             };
+            // src[(k + shift) mod na] as two contiguous runs (one when shift = 0).
             let src = &values[row as usize * na..][..na];
-            for (k, o) in out.iter_mut().enumerate() {
-                *o += w * src[(k + shift) % na];
+            let (head, tail) = out.split_at_mut(na - shift);
+            for (o, s) in head.iter_mut().zip(&src[shift..]) {
+                *o += w * s;
+            }
+            for (o, s) in tail.iter_mut().zip(&src[..shift]) {
+                *o += w * s;
             }
         }
     });
@@ -694,6 +699,66 @@ mod tests {
                     .map(|&(d, w)| w * src[(k as isize + d).rem_euclid(n as isize) as usize])
                     .fold(0.0, |a, b| a + b);
                 assert_eq!(o.to_bits(), direct.to_bits(), "sigma {sigma}, k {k}");
+            }
+        }
+    }
+
+    /// The filter as first written (a modulo per term in both passes), kept as the reference
+    /// the contiguous passes must reproduce bit for bit.
+    fn disc_filter_by_modulo(values: &[f64], grid: DirectionGrid, sigma_deg: f64) -> Vec<f64> {
+        let (np, na) = (grid.n_polar, grid.n_azimuth);
+        let (dth, dph) = (
+            grid.polar_step().to_degrees(),
+            grid.azimuth_step().to_degrees(),
+        );
+        let (s, half, last) = (
+            sigma_deg / dth,
+            if na % 2 == 0 { na / 2 } else { 0 },
+            np as isize - 1,
+        );
+        let r = (4.0 * s).ceil() as isize;
+        let mut polar = vec![0.0; np * na];
+        for j in 0..np {
+            for (i, w) in gaussian_weights(s).iter().enumerate() {
+                let jj = j as isize + i as isize - r;
+                let (row, shift) = match jj {
+                    jj if jj < 0 => ((-jj).min(last), half),
+                    jj if jj > last => ((2 * last - jj).max(0), half),
+                    jj => (jj, 0),
+                };
+                for k in 0..na {
+                    polar[j * na + k] += w * values[row as usize * na + (k + shift) % na];
+                }
+            }
+        }
+        (0..np * na)
+            .map(|i| {
+                let (j, k) = (i / na, i % na);
+                let sin = (dth * j as f64).to_radians().sin();
+                let sigma = if sin > 1e-12 {
+                    sigma_deg / (sin * dph)
+                } else {
+                    f64::INFINITY
+                };
+                (circular_kernel(sigma, na).iter())
+                    .map(|&(d, w)| {
+                        w * polar[j * na + (k as isize + d).rem_euclid(na as isize) as usize]
+                    })
+                    .fold(0.0, |a, b| a + b)
+            })
+            .collect()
+    }
+
+    #[test]
+    fn contiguous_disc_filter_is_the_modulo_filter_bit_for_bit() {
+        for (np, na) in [(61, 36), (61, 35)] {
+            let g = grid(np, na);
+            let v: Vec<f64> = (0..np * na)
+                .map(|i| ((i * 7919) % 1013) as f64 / 17.0)
+                .collect();
+            let (fast, slow) = (disc_filter(&v, g, 9.0), disc_filter_by_modulo(&v, g, 9.0));
+            for (i, (a, b)) in fast.iter().zip(&slow).enumerate() {
+                assert_eq!(a.to_bits(), b.to_bits(), "{np} x {na}, sample {i}");
             }
         }
     }
