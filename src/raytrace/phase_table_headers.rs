@@ -240,7 +240,7 @@ impl PhaseTable {
         let rms = (entries.iter())
             .map(|e| compact::entry_error(&e.errors, compact::ErrorNorm::Rms))
             .fold(0.0, f64::max);
-        json!({
+        let mut v = json!({
             "kind": compact::SUN_DISC_RESAMPLED,
             "tolerance": spec.tolerance,
             "norm": spec.norm,
@@ -257,6 +257,11 @@ impl PhaseTable {
             },
             "knots": {"outgoing_polar": polar.len(), "outgoing_azimuth": azimuth.len()},
             "entries": per_entry,
-        })
+        });
+        if spec.values == compact::StoredValues::Top16 {
+            v["values"] = json!(spec.values);
+            v["values_definition"] = "i_perp and i_par are stored as 16-bit codes (table format 2.0, layout.dtype f32-top16le: the f32 rounded to 8 exponent and 8 mantissa bits, relative rounding at most 2^-9), phase and dolp derived from them by the reader (mean, normalized-difference); the entry errors are measured with these decoded values. Where an entry's knots are fewer than the table's, its interpolant is rounded once more at the other knots and its stated errors include the bound of that rounding, 2^-9 × (2 + max_relative)".into();
+        }
+        v
     }
 }
