@@ -515,15 +515,18 @@ pub fn compact_entry(c: &Components, spec: &SunDiscResampled) -> CompactEntry {
     // Max: (1 + a)(1 + p) − 1 ≤ tol with a = p: p = √(1 + tol) − 1. Rms: the triangle
     // inequality, tol/2 each (the windows' values are then measured, not implied). Less a
     // margin for the rounding of the stored values: 1 % of the tolerance for f32; for 16-bit
-    // codes the bound TOP16_PHASE_MARGIN first (max: (1 + fit)(1 + margin) − 1 ≤ tol), or its
-    // half for the root mean square (a rounding error is uniform, so its rms is far below the
-    // bound; the windows are measured).
+    // codes first the bound TOP16_PHASE_MARGIN (max: (1 + fit)(1 + margin) − 1 ≤ tol), or for
+    // the root mean square the rms of a rounding error spread evenly up to that bound
+    // (margin/√3), added in quadrature: the rounding of a knot's value is uncorrelated with the
+    // interpolation error (the windows are measured, and tightened if over).
     let tol = match (spec.values, spec.norm) {
         (StoredValues::F32, _) => spec.tolerance,
         (StoredValues::Top16, ErrorNorm::Max) => {
             (spec.tolerance - TOP16_PHASE_MARGIN) / (1.0 + TOP16_PHASE_MARGIN)
         }
-        (StoredValues::Top16, ErrorNorm::Rms) => spec.tolerance - 0.5 * TOP16_PHASE_MARGIN,
+        (StoredValues::Top16, ErrorNorm::Rms) => {
+            (spec.tolerance.powi(2) - TOP16_PHASE_MARGIN.powi(2) / 3.0).sqrt()
+        }
     };
     let mut per_dimension = match spec.norm {
         ErrorNorm::Max => ((1.0 + tol).sqrt() - 1.0) * 0.99,

@@ -1152,6 +1152,14 @@ mod compact_tests {
             plan(&rms).estimated_stored_fraction(),
             STORED_FRACTION_RAYTRACE_2D_COMPACT_RMS
         );
+        let top16 = |lines: &str| lines.replace(" }", ", values = \"top16\" }");
+        for (lines, fraction) in [
+            (top16(&rms), STORED_FRACTION_RAYTRACE_2D_COMPACT_TOP16),
+            (top16(&drop), STORED_FRACTION_RAYTRACE_2D_COMPACT_MAX_TOP16),
+            (top16(&compact_lines(0.01)), STORED_FRACTION_RAYTRACE_2D_COMPACT_SPHERE_TOP16),
+        ] {
+            assert_eq!(plan(&lines).estimated_stored_fraction(), fraction, "{lines}");
+        }
         assert!(!plan(BASE).shape().adaptive);
     }
 
