@@ -290,7 +290,11 @@ fn c_reader_top16_corpus() {
             out.status.code() == Some(3) && stderr.contains(case.name) && stderr.contains(fragment)
         };
         if !ok {
-            wrong.push(format!("{}: exit {:?}: {stderr}", case.name, out.status.code()));
+            wrong.push(format!(
+                "{}: exit {:?}: {stderr}",
+                case.name,
+                out.status.code()
+            ));
         }
     }
     assert!(wrong.is_empty(), "{}", wrong.join("\n"));

@@ -847,7 +847,8 @@ mod tests {
         );
         // f32 is the default and is left out of the serialised form (the content key).
         assert!(serde_json::to_value(c).unwrap().get("values").is_none());
-        let top16 = serde_json::json!({"kind": "sun-disc-resampled", "tolerance": 0.02, "values": "top16"});
+        let top16 =
+            serde_json::json!({"kind": "sun-disc-resampled", "tolerance": 0.02, "values": "top16"});
         let c = Compression::from_value(top16).unwrap();
         assert_eq!(serde_json::to_value(c).unwrap()["values"], "top16");
         for bad in [

@@ -1061,7 +1061,7 @@ mod compact_tests {
         };
         let mut worst = 0.0f64;
         for (e, elevation) in [10.0, 30.0].into_iter().enumerate() {
-            let (p, q) = filtered_dense(&dense, e);
+            let (p, q) = filtered_dense(dense, e);
             for _ in 0..4000 {
                 // Within the dense grid's azimuth range, which stops one step short of 360°.
                 let (theta, phi) = (180.0 * uniform(), da * (na - 1) as f64 * uniform());
@@ -1094,7 +1094,8 @@ mod compact_tests {
     #[test]
     fn top16_compact_tables_read_back_within_their_stated_error() {
         let top16 = |norm: &str| {
-            compact_lines(0.01).replace(" }", &format!(", norm = \"{norm}\", values = \"top16\" }}"))
+            compact_lines(0.01)
+                .replace(" }", &format!(", norm = \"{norm}\", values = \"top16\" }}"))
         };
         let dense = crate::stages::table_from_lines(&RaytraceStage, BASE);
         let content = crate::stages::table_from_lines(&RaytraceStage, &top16("max"));
@@ -1115,7 +1116,12 @@ mod compact_tests {
         assert!(bytes.len() < f32_table.to_bytes().unwrap().len());
         let table = Table::from_bytes(&bytes, std::path::Path::new("top16.sbt")).unwrap();
         assert_eq!(table.data, written.data);
-        let derived: Vec<_> = table.header.channels.iter().map(|c| c.derived.is_some()).collect();
+        let derived: Vec<_> = table
+            .header
+            .channels
+            .iter()
+            .map(|c| c.derived.is_some())
+            .collect();
         assert_eq!(derived, [true, false, false, true]);
         let worst = sampled_worst_error(&dense, &table);
         assert!(
@@ -1124,7 +1130,10 @@ mod compact_tests {
         );
         let rms = crate::stages::table_from_lines(&RaytraceStage, &top16("rms"));
         let window_rms = rms.attributes["compression"]["max_window_rms_relative"].as_f64();
-        assert!(window_rms.is_some_and(|r| r > 0.0 && r <= 0.01), "{window_rms:?}");
+        assert!(
+            window_rms.is_some_and(|r| r > 0.0 && r <= 0.01),
+            "{window_rms:?}"
+        );
     }
 
     /// A compact plan bounds its table by the dense grid and estimates
@@ -1156,9 +1165,16 @@ mod compact_tests {
         for (lines, fraction) in [
             (top16(&rms), STORED_FRACTION_RAYTRACE_2D_COMPACT_TOP16),
             (top16(&drop), STORED_FRACTION_RAYTRACE_2D_COMPACT_MAX_TOP16),
-            (top16(&compact_lines(0.01)), STORED_FRACTION_RAYTRACE_2D_COMPACT_SPHERE_TOP16),
+            (
+                top16(&compact_lines(0.01)),
+                STORED_FRACTION_RAYTRACE_2D_COMPACT_SPHERE_TOP16,
+            ),
         ] {
-            assert_eq!(plan(&lines).estimated_stored_fraction(), fraction, "{lines}");
+            assert_eq!(
+                plan(&lines).estimated_stored_fraction(),
+                fraction,
+                "{lines}"
+            );
         }
         assert!(!plan(BASE).shape().adaptive);
     }

@@ -63,8 +63,12 @@ impl Job for RaytraceJob {
             return match (sphere, spec.values, spec.norm) {
                 (true, StoredValues::F32, _) => STORED_FRACTION_RAYTRACE_2D_COMPACT_SPHERE,
                 (true, StoredValues::Top16, _) => STORED_FRACTION_RAYTRACE_2D_COMPACT_SPHERE_TOP16,
-                (false, StoredValues::F32, ErrorNorm::Max) => STORED_FRACTION_RAYTRACE_2D_COMPACT_MAX,
-                (false, StoredValues::F32, ErrorNorm::Rms) => STORED_FRACTION_RAYTRACE_2D_COMPACT_RMS,
+                (false, StoredValues::F32, ErrorNorm::Max) => {
+                    STORED_FRACTION_RAYTRACE_2D_COMPACT_MAX
+                }
+                (false, StoredValues::F32, ErrorNorm::Rms) => {
+                    STORED_FRACTION_RAYTRACE_2D_COMPACT_RMS
+                }
                 (false, StoredValues::Top16, ErrorNorm::Max) => {
                     STORED_FRACTION_RAYTRACE_2D_COMPACT_MAX_TOP16
                 }

@@ -110,7 +110,6 @@ impl Storage {
     pub fn is_plain(&self) -> bool {
         self.item_bytes == 4 && self.n_stored == self.sources.len()
     }
-
 }
 
 /// The storage a header declares, for a file of format major `major`: in 1.x only `f32le` with
@@ -219,7 +218,7 @@ fn check_predictor(h: &Header, p: PreviousRow, n_stored: usize) -> Result<(), St
             "layout.predictor.stride {stride} exceeds layout.predictor.block {block}"
         ));
     }
-    if block % stride != 0 {
+    if !block.is_multiple_of(stride) {
         return Err(format!(
             "layout.predictor.block {block} is not a multiple of layout.predictor.stride {stride}"
         ));
@@ -393,7 +392,10 @@ impl<'a> PayloadDecoder<'a> {
             return f32::from_le_bytes([b[0], b[1], b[2], b[3]]);
         }
         let stored = u16::from_le_bytes([b[0], b[1]]);
-        let code = self.rows.as_mut().map_or(stored, |r| r.step(i, stored, true));
+        let code = self
+            .rows
+            .as_mut()
+            .map_or(stored, |r| r.step(i, stored, true));
         if code >= FIRST_NON_FINITE_CODE && self.bad_code.is_none() {
             self.bad_code = Some(format!(
                 "stored value {i} decodes to code {code:#06x}, which is not a finite value \

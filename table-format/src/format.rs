@@ -397,14 +397,16 @@ impl Table {
             return compress_payload(&self.data);
         }
         let n = self.header.channels.len();
-        if self.data.len() % n != 0 {
+        if !self.data.len().is_multiple_of(n) {
             return Err(TableError::Inconsistent(format!(
                 "data has {} values, not a multiple of the {n} channels",
                 self.data.len()
             )));
         }
         let raw = match storage.item_bytes {
-            2 => crate::codec::encode_top16(&self.data, storage).map_err(TableError::Inconsistent)?,
+            2 => {
+                crate::codec::encode_top16(&self.data, storage).map_err(TableError::Inconsistent)?
+            }
             _ => {
                 let stored = self.data.chunks_exact(n).flat_map(|point| {
                     point

@@ -29,8 +29,8 @@ pub use format::{
     read_regular, write_table_atomic, write_table_atomic_sealed,
 };
 pub use model::{
-    Axis, AxisPoints, Channel, Derived, Header, Layout, PayloadInfo, Predictor, PreviousRow, Provenance,
-    Schema, Table, TableContent, ValueEncoding,
+    Axis, AxisPoints, Channel, Derived, Header, Layout, PayloadInfo, Predictor, PreviousRow,
+    Provenance, Schema, Table, TableContent, ValueEncoding,
 };
 pub use read::{
     DEFAULT_MAX_PAYLOAD_BYTES, MAX_AXES, MAX_HEADER_BYTES, MAX_JSON_DEPTH, ReadLimits, ValueStats,

@@ -425,9 +425,12 @@ fn validate_header(h: &Header, major: u16, limits: &ReadLimits) -> Result<Storag
     }
     if !storage.is_plain() {
         // The values a read returns: 4 bytes for every channel, derived ones included.
-        let decoded = h.axes.iter().try_fold(4 * h.channels.len() as u64, |acc, a| {
-            acc.checked_mul(a.len() as u64)
-        });
+        let decoded = h
+            .axes
+            .iter()
+            .try_fold(4 * h.channels.len() as u64, |acc, a| {
+                acc.checked_mul(a.len() as u64)
+            });
         match decoded {
             Some(d) if d <= limits.max_payload_bytes => {}
             _ => {

@@ -263,7 +263,14 @@ fn polarised_table(encoding: scatterbake_table::ValueEncoding, scale: f32) -> (T
             Channel::derived("phase", "1/sr", "mean", "mean", "i_perp", "i_par"),
             Channel::new("i_perp", "1/sr", "perpendicular"),
             Channel::new("i_par", "1/sr", "parallel"),
-            Channel::derived("dolp", "1", "nd", "normalized-difference", "i_perp", "i_par"),
+            Channel::derived(
+                "dolp",
+                "1",
+                "nd",
+                "normalized-difference",
+                "i_perp",
+                "i_par",
+            ),
         ],
         attributes: Default::default(),
         data: input.clone(),
@@ -364,6 +371,9 @@ fn versions_and_writer_refusals() {
             encoding: top16_rows(),
         };
         let e = Table::from_content(content, Provenance::default()).unwrap_err();
-        assert!(e.to_string().contains("cannot be stored as f32-top16le"), "{e}");
+        assert!(
+            e.to_string().contains("cannot be stored as f32-top16le"),
+            "{e}"
+        );
     }
 }

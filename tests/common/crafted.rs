@@ -922,51 +922,92 @@ fn top16_layout_edits() -> Vec<Top16Edit> {
                 .map(|v| (v.to_bits() >> 15) as u16)
                 .collect();
         }),
-        ("top16_in_format_1", false, "unsupported layout", |v, _, _| {
-            *v = (1, 0)
-        }),
+        (
+            "top16_in_format_1",
+            false,
+            "unsupported layout",
+            |v, _, _| *v = (1, 0),
+        ),
         ("top16_stride_zero", false, "stride is 0", |_, h, _| {
             predictor(h, 0, 24)
         }),
         ("top16_stride_over_block", false, "exceeds", |_, h, _| {
             predictor(h, 48, 24)
         }),
-        ("top16_block_not_multiple", false, "not a multiple", |_, h, _| {
-            predictor(h, 16, 24)
+        (
+            "top16_block_not_multiple",
+            false,
+            "not a multiple",
+            |_, h, _| predictor(h, 16, 24),
+        ),
+        (
+            "top16_block_not_axes",
+            false,
+            "not the values of the last axes",
+            |_, h, _| predictor(h, 4, 12),
+        ),
+        (
+            "top16_predictor_kind",
+            false,
+            "is not `previous-row`",
+            |_, h, _| h["layout"]["predictor"]["kind"] = json!("next-row"),
+        ),
+        (
+            "top16_predictor_array",
+            false,
+            "must be an object",
+            |_, h, _| h["layout"]["predictor"] = json!([8, 24]),
+        ),
+        (
+            "top16_predictor_on_f32",
+            false,
+            "needs layout.dtype",
+            |_, h, c| {
+                h["layout"]["dtype"] = json!("f32le");
+                *c = c.iter().flat_map(|&x| [x, 0]).collect();
+            },
+        ),
+        (
+            "top16_shape_counts_derived",
+            false,
+            "layout shape",
+            |_, h, _| h["layout"]["shape"][3] = json!(4),
+        ),
+        (
+            "top16_infinite_code",
+            false,
+            "not a finite value",
+            |_, _, c| c[3] = 0xFF00,
+        ),
+        ("top16_nan_code", false, "not a finite value", |_, _, c| {
+            c[0] = 0xFFFF
         }),
-        ("top16_block_not_axes", false, "not the values of the last axes", |_, h, _| predictor(h, 4, 12)),
-        ("top16_predictor_kind", false, "is not `previous-row`", |_, h, _| {
-            h["layout"]["predictor"]["kind"] = json!("next-row")
-        }),
-        ("top16_predictor_array", false, "must be an object", |_, h, _| {
-            h["layout"]["predictor"] = json!([8, 24])
-        }),
-        ("top16_predictor_on_f32", false, "needs layout.dtype", |_, h, c| {
-            h["layout"]["dtype"] = json!("f32le");
-            *c = c.iter().flat_map(|&x| [x, 0]).collect();
-        }),
-        ("top16_shape_counts_derived", false, "layout shape", |_, h, _| {
-            h["layout"]["shape"][3] = json!(4)
-        }),
-        ("top16_infinite_code", false, "not a finite value", |_, _, c| {
-            c[3] = 0xFF00
-        }),
-        ("top16_nan_code", false, "not a finite value", |_, _, c| c[0] = 0xFFFF),
-        ("top16_infinite_through_predictor", false, "not a finite value", |_, _, c| {
-            // Stored value 8 (first of the second row) is its code minus that of value 0.
-            c[8] = 0xFF00u16.wrapping_sub(c[0])
-        }),
-        ("top16_declared_values_over_limit", false, "decoded values", |_, h, _| {
-            // 2^28 points: a 1 GiB payload (within the 4 GiB limit) of 6 GiB decoded values.
-            h["axes"][0]["points"] = json!({"uniform": {"start": 0.0, "step": 1.0, "count": 1u64 << 25}});
-            h["layout"]["shape"][0] = json!(1u64 << 25);
-            h["payload"]["uncompressed_bytes"] = json!((1u64 << 25) * 24 * 2);
-            for k in 0..2 {
-                let mut extra = h["channels"][0].clone();
-                extra["name"] = json!(format!("mean_{k}"));
-                h["channels"].as_array_mut().unwrap().push(extra);
-            }
-        }),
+        (
+            "top16_infinite_through_predictor",
+            false,
+            "not a finite value",
+            |_, _, c| {
+                // Stored value 8 (first of the second row) is its code minus that of value 0.
+                c[8] = 0xFF00u16.wrapping_sub(c[0])
+            },
+        ),
+        (
+            "top16_declared_values_over_limit",
+            false,
+            "decoded values",
+            |_, h, _| {
+                // 2^28 points: a 1 GiB payload (within the 4 GiB limit) of 6 GiB decoded values.
+                h["axes"][0]["points"] =
+                    json!({"uniform": {"start": 0.0, "step": 1.0, "count": 1u64 << 25}});
+                h["layout"]["shape"][0] = json!(1u64 << 25);
+                h["payload"]["uncompressed_bytes"] = json!((1u64 << 25) * 24 * 2);
+                for k in 0..2 {
+                    let mut extra = h["channels"][0].clone();
+                    extra["name"] = json!(format!("mean_{k}"));
+                    h["channels"].as_array_mut().unwrap().push(extra);
+                }
+            },
+        ),
     ]
 }
 
@@ -985,23 +1026,41 @@ fn top16_channel_edits() -> Vec<Top16Edit> {
                 })
                 .collect();
         }),
-        ("top16_derived_of_derived", false, "which is not a stored channel", |_, h, _| {
-            h["channels"][3]["derived"]["of"] = json!(["phase", "i_par"])
-        }),
-        ("top16_derived_of_missing", false, "which is not a stored channel", |_, h, _| {
-            h["channels"][3]["derived"]["of"] = json!(["i_perp", "i_orth"])
-        }),
-        ("top16_derived_of_one", false, "must name two channels", |_, h, _| {
-            h["channels"][3]["derived"]["of"] = json!(["i_perp"])
-        }),
-        ("top16_derived_op", false, "is not `mean` or `normalized-difference`", |_, h, _| {
-            h["channels"][0]["derived"]["op"] = json!("ratio")
-        }),
-        ("top16_derived_array", false, "must be an object", |_, h, _| {
-            h["channels"][0]["derived"] = json!(["mean", "i_perp", "i_par"])
-        }),
-        ("top16_duplicate_names", false, "must be unique", |_, h, _| {
-            h["channels"][3]["name"] = json!("i_perp")
-        }),
+        (
+            "top16_derived_of_derived",
+            false,
+            "which is not a stored channel",
+            |_, h, _| h["channels"][3]["derived"]["of"] = json!(["phase", "i_par"]),
+        ),
+        (
+            "top16_derived_of_missing",
+            false,
+            "which is not a stored channel",
+            |_, h, _| h["channels"][3]["derived"]["of"] = json!(["i_perp", "i_orth"]),
+        ),
+        (
+            "top16_derived_of_one",
+            false,
+            "must name two channels",
+            |_, h, _| h["channels"][3]["derived"]["of"] = json!(["i_perp"]),
+        ),
+        (
+            "top16_derived_op",
+            false,
+            "is not `mean` or `normalized-difference`",
+            |_, h, _| h["channels"][0]["derived"]["op"] = json!("ratio"),
+        ),
+        (
+            "top16_derived_array",
+            false,
+            "must be an object",
+            |_, h, _| h["channels"][0]["derived"] = json!(["mean", "i_perp", "i_par"]),
+        ),
+        (
+            "top16_duplicate_names",
+            false,
+            "must be unique",
+            |_, h, _| h["channels"][3]["name"] = json!("i_perp"),
+        ),
     ]
 }
