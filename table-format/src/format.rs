@@ -344,14 +344,9 @@ impl Table {
         Ok(Table { header, data })
     }
 
-    /// The format version of the file this table is written as: 1.0, or 2.0 when its values
-    /// are 16-bit codes or it has derived channels.
+    /// The format version of the file this table is written as ([`Header::format_version`]).
     pub fn format_version(&self) -> (u16, u16) {
-        let h = &self.header;
-        let v2 = h.layout.dtype != DTYPE_F32
-            || h.layout.predictor.is_some()
-            || h.channels.iter().any(|c| c.derived.is_some());
-        if v2 { (2, 0) } else { (1, 0) }
+        self.header.format_version()
     }
 
     /// Serialise to the exact file bytes (fills in the payload section of the header).
@@ -419,6 +414,17 @@ impl Table {
             }
         };
         compress_bytes(&raw)
+    }
+}
+
+impl Header {
+    /// The format version a table with this header is written as: 1.0, or 2.0 when its values
+    /// are 16-bit codes or it has derived channels.
+    pub fn format_version(&self) -> (u16, u16) {
+        let v2 = self.layout.dtype != DTYPE_F32
+            || self.layout.predictor.is_some()
+            || self.channels.iter().any(|c| c.derived.is_some());
+        if v2 { (2, 0) } else { (1, 0) }
     }
 }
 
