@@ -9,6 +9,9 @@
  * header and of the compressed and uncompressed payload, sizes) with the same code as the Rust
  * reader, so a table that opens here is bit-identical to what the Rust writer wrote.
  *
+ * Formats 1.x and 2.x are read; a 2.0 table whose values are stored as 16-bit codes or that has
+ * derived channels is returned decoded (every channel, derived ones included, as float32).
+ *
  * Data layout: row-major float32, axes in header order, channel index innermost:
  *     value(i_0, ..., i_{n-1}, c) = data[((i_0 * len_1 + i_1) * ... + i_{n-1}) * n_channels + c]
  * Lookup: sbt_sample() interpolates multilinearly in the stored axis coordinates, clamping

@@ -112,7 +112,7 @@ pub struct FreshTable {
 }
 
 impl FreshTable {
-    /// The table `header` just written at `path` (in the format this build writes).
+    /// The table `header` just written at `path` (in the format version it was written as).
     pub fn new(path: &Path, header: &crate::table::Header, w: crate::table::WrittenTable) -> Self {
         let file = path
             .file_name()
@@ -122,7 +122,7 @@ impl FreshTable {
             entry: CatalogEntry::new(
                 file,
                 header,
-                (FORMAT_MAJOR, FORMAT_MINOR),
+                header.format_version(),
                 w.size_bytes,
                 w.file_sha256,
             ),
@@ -133,7 +133,7 @@ impl FreshTable {
 
 /// The format line of the catalogs this build writes.
 fn catalog_format() -> String {
-    format!("scatterbake-catalog/1 (tables in format {FORMAT_MAJOR}.{FORMAT_MINOR})")
+    format!("scatterbake-catalog/1 (tables in formats 1.0 and {FORMAT_MAJOR}.{FORMAT_MINOR})")
 }
 
 /// Beside `index.json`: the stamp (size, modification time, device, inode) and whole-file
@@ -473,6 +473,7 @@ mod tests {
         let read = full_read(dir.path());
         assert_eq!(listed, read);
         assert_eq!(read.tables.len(), 1);
+        assert_eq!(read.tables[0].format_version, "1.0");
         assert_eq!(
             read.tables[0].sha256,
             hex::encode(Sha256::digest(std::fs::read(&path).unwrap()))

@@ -87,6 +87,7 @@ pub fn henyey_greenstein_table(
         }
     }
     let content = TableContent {
+        encoding: Default::default(),
         schema: Schema::new("synthetic-hg-phase", 1),
         description: "Henyey-Greenstein phase functions (synthetic)".into(),
         axes: vec![
@@ -137,6 +138,7 @@ pub fn peak_table(
         }
     }
     let content = TableContent {
+        encoding: Default::default(),
         schema: Schema::new("synthetic-peak-phase", 1),
         description: "Gaussian peak in scattering angle (synthetic)".into(),
         axes: vec![
@@ -179,6 +181,7 @@ pub fn lat_long_from_1d(
         }
     }
     let content = TableContent {
+        encoding: Default::default(),
         schema: Schema::new("raytrace-phase-2d", 1),
         description: "1-D phase function replicated over outgoing azimuth (synthetic)".into(),
         axes: vec![

@@ -138,7 +138,7 @@ fn python_reader_is_bit_exact_and_verifies() {
 
 /// The format's promise in Python: a 1.1 file with unknown header fields (top level and nested,
 /// checksums recomputed) reads bit for bit like the 1.0 original with the same lookups and
-/// reports version 1.1; a 2.0 file with valid checksums is refused with an error naming the
+/// reports version 1.1; a 3.0 file with valid checksums is refused with an error naming the
 /// version.
 #[test]
 fn python_reader_reads_newer_minor_and_refuses_newer_major() {
@@ -203,12 +203,12 @@ fn python_reader_reads_newer_minor_and_refuses_newer_major() {
             }
         }
     }
-    let v2 = dir.path().join("v2.sbt");
-    common::newer_major_copy(&paths[0], &v2);
-    let out = run(&v2, &dir.path().join("x.bin"), &[]);
+    let v3 = dir.path().join("v3.sbt");
+    common::newer_major_copy(&paths[0], &v3);
+    let out = run(&v3, &dir.path().join("x.bin"), &[]);
     assert_eq!(out.status.code(), Some(3));
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(err.contains("2.0") && err.contains("newer"), "{err}");
+    assert!(err.contains("3.0") && err.contains("newer"), "{err}");
 }
 
 /// The crafted corpus through the Python reader: each valid file reads (exit 0), each invalid

@@ -83,19 +83,19 @@ fn unknown_top_level_field_in_a_known_minor_is_refused() {
 }
 
 /// A newer major is refused on its version alone, before its header is interpreted (the crafted
-/// 2.0 header has valid checksums but no `layout`), with an error naming the version.
+/// 3.0 header has valid checksums but no `layout`), with an error naming the version.
 #[test]
 fn newer_major_with_valid_checksums_is_refused_naming_the_version() {
     let dir = tempfile::tempdir().unwrap();
     let p = common::synthetic_tables(dir.path()).remove(0);
-    let newer = dir.path().join("v2.sbt");
+    let newer = dir.path().join("v3.sbt");
     common::newer_major_copy(&p, &newer);
     let e = Table::open(&newer).unwrap_err();
     assert!(
         matches!(
             e,
             TableError::NewerMajor {
-                major: 2,
+                major: 3,
                 minor: 0,
                 ..
             }
@@ -103,10 +103,10 @@ fn newer_major_with_valid_checksums_is_refused_naming_the_version() {
         "{e}"
     );
     let msg = e.to_string();
-    assert!(msg.contains("2.0") && msg.contains("newer"), "{msg}");
+    assert!(msg.contains("3.0") && msg.contains("newer"), "{msg}");
     assert!(matches!(
         scatterbake::table::read_header_only(&newer).unwrap_err(),
-        TableError::NewerMajor { major: 2, .. }
+        TableError::NewerMajor { major: 3, .. }
     ));
 }
 
@@ -351,4 +351,44 @@ fn crafted_corpus_through_the_entry_reader() {
         max_payload_bytes: payload,
     };
     assert!(Table::open_slice(&p, &[0, 0, 0], &exact).is_ok());
+}
+
+/// Format 2.0 (16-bit values, derived channels): each crafted file is accepted or refused as
+/// marked by every read (whole table, one entry, verification), a refusal naming the file and
+/// the rule; an accepted one reads the values of the writer's table, its entries the same
+/// values as the whole table.
+#[test]
+fn top16_corpus_rust_reader() {
+    use scatterbake::table::{ReadLimits, verify_file};
+    let dir = tempfile::tempdir().unwrap();
+    let want = common::crafted::top16_table().data;
+    let mut wrong = Vec::new();
+    for (case, fragment) in common::crafted::top16_cases() {
+        let p = dir.path().join(format!("{}.sbt", case.name));
+        std::fs::write(&p, &case.bytes).unwrap();
+        let limits = ReadLimits::default();
+        let reads = [
+            Table::open(&p).map(|t| t.data),
+            Table::open_slice(&p, &[1], &limits).map(|t| t.data),
+            verify_file(&p, &limits).map(|_| Vec::new()),
+        ];
+        for (k, r) in reads.into_iter().enumerate() {
+            match (r, case.valid) {
+                (Ok(data), true) => {
+                    let expect: &[f32] = [&want[..], &want[want.len() / 2..], &[]][k];
+                    if data != expect {
+                        wrong.push(format!("{} (read {k}): values differ", case.name));
+                    }
+                }
+                (Err(e), false) => {
+                    let msg = e.to_string();
+                    if !(msg.contains(case.name) && msg.contains(fragment)) {
+                        wrong.push(format!("{} (read {k}): {msg}", case.name));
+                    }
+                }
+                (r, _) => wrong.push(format!("{} (read {k}): {:?}", case.name, r.map(|_| ()))),
+            }
+        }
+    }
+    assert!(wrong.is_empty(), "{}", wrong.join("\n"));
 }

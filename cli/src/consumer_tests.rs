@@ -286,6 +286,7 @@ fn previews_of_non_phase_tables() {
     // 1-D table (like the water index table) → line plot.
     let wl: Vec<f64> = (0..33).map(|i| 380.0 + 10.0 * i as f64).collect();
     let content = TableContent {
+        encoding: Default::default(),
         schema: Schema::new("test-1d", 1),
         description: "refractive index".into(),
         axes: vec![Axis::values("wavelength", "nm", wl.clone())],
@@ -315,6 +316,7 @@ fn previews_of_non_phase_tables() {
         }
     }
     let content = TableContent {
+        encoding: Default::default(),
         schema: Schema::new("test-2d", 1),
         description: "2-D".into(),
         axes: vec![

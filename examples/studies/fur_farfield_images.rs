@@ -81,6 +81,7 @@ fn main() -> anyhow::Result<()> {
             if e[2] > 0.0 { tt170 / e[2] } else { 0.0 }
         );
         let content = TableContent {
+            encoding: Default::default(),
             schema: Schema::new("fur-farfield-image", 1),
             description: format!("{name}, theta_i = {ti} deg"),
             axes: vec![

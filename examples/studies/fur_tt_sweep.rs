@@ -8,6 +8,7 @@ fn main() -> anyhow::Result<()> {
     let t = Table::open(&args[1])?;
     let h = t.header;
     let content = TableContent {
+        encoding: Default::default(),
         schema: h.schema,
         description: h.description,
         axes: h.axes,

@@ -182,6 +182,7 @@ fn base_table(spec: &Spec) -> Option<Table> {
         channels: (0..channels).map(|c| Channel::new(&format!("c{c}"), "1", "fuzz")).collect(),
         attributes,
         data,
+        encoding: Default::default(),
     };
     Table::from_content(content, Provenance::default()).ok()
 }

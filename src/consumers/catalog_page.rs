@@ -615,6 +615,7 @@ mod tests {
     /// A one-axis table named by `description`.
     fn line_table(description: &str, n: usize) -> Table {
         let content = TableContent {
+            encoding: Default::default(),
             schema: crate::table::Schema::new("line", 1),
             description: description.into(),
             axes: vec![Axis::uniform("x", "1", 0.0, 1.0, n)],

@@ -190,6 +190,7 @@ pub fn compress_asset(source: &Table, spec: &AssetSpec) -> Result<Table, FurErro
     }
     // The source as built, and the values compressed (normalised when the spec says so).
     let raw = TableContent {
+        encoding: Default::default(),
         schema: h.schema.clone(),
         description: h.description.clone(),
         axes: h.axes.clone(),
@@ -421,6 +422,7 @@ mod tests {
             }
         }
         let content = TableContent {
+            encoding: Default::default(),
             schema: Schema::new(spec.family, 1),
             description: "synthetic source".into(),
             axes: vec![

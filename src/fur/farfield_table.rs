@@ -249,6 +249,7 @@ impl FarFieldTable {
             channels.push(Channel::new(c, "1/rad^2", "component of energy"));
         }
         TableContent {
+            encoding: Default::default(),
             schema: Schema::new("fur-farfield", 1),
             description: "far-field fur scattering profiles of Tseng 2015 Table 4.2 samples (practical coaxial-cylinder model)".into(),
             axes: self.axes(),

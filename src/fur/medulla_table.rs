@@ -258,6 +258,7 @@ impl MedullaLayout {
                     "sum over phi of energy = 1 - exp(-2 sigma sqrt(1 - h^2))".into(),
                 );
                 TableContent {
+                    encoding: Default::default(),
                     schema: Schema::new("fur-medulla-azimuthal", 1),
                     description: "fur medulla azimuthal scattering profile C^N(phi'; h', sigma, g) (scattered energy per exit-direction bin)".into(),
                     axes,
@@ -281,6 +282,7 @@ impl MedullaLayout {
                 a.insert("back_lobe_energy".into(), scal[3].clone().into());
                 a.insert("forward_lobe_energy".into(), scal[4].clone().into());
                 TableContent {
+                    encoding: Default::default(),
                     schema: Schema::new("fur-medulla-longitudinal", 1),
                     description: "fur medulla longitudinal scattering lobes C^M(theta'_r; theta'_i, sigma, g) of a slab of thickness 2".into(),
                     axes,

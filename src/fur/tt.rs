@@ -263,6 +263,7 @@ fn compress(
     let n = data.len();
     Ok((
         TableContent {
+            encoding: Default::default(),
             schema: Schema::new("fur-medulla-tt", 1),
             description: format!(
                 "tensor-train compressed channel `{channel}` of {}",
@@ -318,6 +319,7 @@ pub fn reconstruct_table(tt_table: &TableContent) -> Result<TableContent, FurErr
     .map_err(|e| FurError::TensorTrain(e.to_string()))?;
     let h = dense.header;
     Ok(TableContent {
+        encoding: Default::default(),
         schema: h.schema,
         description: h.description,
         axes: h.axes,
@@ -450,6 +452,7 @@ mod tests {
             }
         }
         let t = TableContent {
+            encoding: Default::default(),
             schema: Schema::new("fur-medulla-azimuthal", 1),
             description: "test".into(),
             axes,
@@ -494,6 +497,7 @@ mod tests {
             }
         }
         let t = TableContent {
+            encoding: Default::default(),
             schema: Schema::new("x", 3),
             description: "test".into(),
             axes,

@@ -158,6 +158,7 @@ impl ThetaRowTable for AzimuthalTable {
         );
         self.absorption.describe(&mut attributes);
         Ok(TableContent {
+            encoding: Default::default(),
             schema: Schema::new("hair-azimuthal", 1),
             description: "azimuthal scattering functions of a rough dielectric hair fibre".into(),
             axes: self.axes(),

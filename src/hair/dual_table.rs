@@ -135,6 +135,7 @@ impl ThetaRowTable for DualTable {
         }
         self.absorption.describe(&mut attributes);
         Ok(TableContent {
+            encoding: Default::default(),
             schema: Schema::new("hair-dual", 1),
             description: "Dual Scattering averages of a hair fibre per light inclination".into(),
             axes: self.axes(),

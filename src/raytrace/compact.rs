@@ -15,9 +15,13 @@
 //!   checked), each the greedy furthest knot whose linear interpolation keeps i_perp and i_par
 //!   within `tolerance/2 − …` of the filtered values, relative to the filtered phase at each
 //!   direction; the bilinear interpolant on both then stays within the tolerance (the bound is
-//!   re-measured on every dense direction, with the stored f32 values).
+//!   re-measured on every dense direction, with the values as stored).
+//! - Values (`values`): the four channels as f32, or (`top16`) i_perp and i_par as 16-bit codes
+//!   (table format 2.0, `f32-top16le`: relative rounding ≤ 2^−9) with phase and dolp derived
+//!   from them by every reader; the knots then keep a margin for the rounding (decision RT-41).
 
 use crate::raytrace::tracer::DirectionGrid;
+use crate::table::codec::{DerivedOp, TOP16_MAX_RELATIVE_ERROR, top16_round};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
@@ -47,7 +51,27 @@ pub struct SunDiscResampled {
     /// What the tolerance bounds.
     #[serde(default)]
     pub norm: ErrorNorm,
+    /// How the table stores its values.
+    #[serde(default)]
+    pub values: StoredValues,
 }
+
+/// How a compact table stores its values.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum StoredValues {
+    /// phase, i_perp, i_par and dolp as f32 (table format 1.0).
+    #[default]
+    F32,
+    /// i_perp and i_par as 16-bit codes, one polar row predicting the next; phase and dolp
+    /// derived from them by every reader (table format 2.0, `f32-top16le`).
+    Top16,
+}
+
+/// The largest error the 16-bit rounding of i_perp and i_par adds, relative to the phase:
+/// 2^−9 of a value at most 2 × phase (phase = (i_perp + i_par)/2). A `top16` table's tolerance
+/// must exceed it.
+pub const TOP16_PHASE_MARGIN: f64 = 2.0 * TOP16_MAX_RELATIVE_ERROR;
 
 /// What the tolerance of a compact table bounds.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -77,7 +101,7 @@ impl Compression {
     /// The value from its manifest form: `"none"` or `{ kind = "sun-disc-resampled", tolerance
     /// = …, sun_diameter_deg = … }`.
     pub fn from_value(v: serde_json::Value) -> Result<Self, String> {
-        const FORMS: &str = "\"none\" or { kind = \"sun-disc-resampled\", tolerance = 0.01 } (optional sun_diameter_deg, default 0.5)";
+        const FORMS: &str = "\"none\" or { kind = \"sun-disc-resampled\", tolerance = 0.01 } (optional sun_diameter_deg, default 0.5; norm = \"max\" | \"rms\"; values = \"f32\" | \"top16\")";
         match v {
             serde_json::Value::String(s) if s == "none" => Ok(Compression::None),
             serde_json::Value::Object(mut m) => {
@@ -105,6 +129,13 @@ impl SunDiscResampled {
                 self.tolerance
             ));
         }
+        if self.values == StoredValues::Top16 && !(self.tolerance > TOP16_PHASE_MARGIN) {
+            return Err(format!(
+                "tolerance {} must exceed {TOP16_PHASE_MARGIN} with values = \"top16\" (the 16-bit \
+                 rounding alone may reach it)",
+                self.tolerance
+            ));
+        }
         if !(self.sun_diameter_deg > 0.0 && self.sun_diameter_deg <= 10.0) {
             return Err(format!(
                 "sun_diameter_deg {} must lie within (0, 10]",
@@ -124,13 +155,19 @@ impl Serialize for Compression {
     fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
         match self {
             Compression::None => s.serialize_str("none"),
-            Compression::SunDiscResampled(c) => serde_json::json!({
-                "kind": SUN_DISC_RESAMPLED,
-                "tolerance": c.tolerance,
-                "sun_diameter_deg": c.sun_diameter_deg,
-                "norm": c.norm,
-            })
-            .serialize(s),
+            Compression::SunDiscResampled(c) => {
+                let mut v = serde_json::json!({
+                    "kind": SUN_DISC_RESAMPLED,
+                    "tolerance": c.tolerance,
+                    "sun_diameter_deg": c.sun_diameter_deg,
+                    "norm": c.norm,
+                });
+                // Absent when f32, so the content keys of f32 tables stay as they were.
+                if c.values != StoredValues::F32 {
+                    v["values"] = serde_json::json!(c.values);
+                }
+                v.serialize(s)
+            }
         }
     }
 }
@@ -401,16 +438,21 @@ pub struct CompactEntry {
     pub errors: Vec<WindowError>,
 }
 
-/// The stored channels at one knot from the filtered components.
-fn knot_values(p: f64, q: f64) -> [f32; 4] {
-    let (p32, q32) = (p as f32, q as f32);
-    let sum = p32 as f64 + q32 as f64;
-    let dolp = if sum > 0.0 {
-        (p32 as f64 - q32 as f64) / sum
-    } else {
-        0.0
-    };
-    [(0.5 * sum) as f32, p32, q32, dolp as f32]
+/// The channels at one knot from the filtered components, as the table stores them: i_perp
+/// and i_par rounded to f32 (or to their 16-bit codes: NaN for a value no code holds, which the
+/// measured error then refuses), phase and dolp derived from them as every reader derives them.
+fn knot_values(p: f64, q: f64, values: StoredValues) -> [f32; 4] {
+    let (mut p32, mut q32) = (p as f32, q as f32);
+    if values == StoredValues::Top16 {
+        p32 = top16_round(p32).unwrap_or(f32::NAN);
+        q32 = top16_round(q32).unwrap_or(f32::NAN);
+    }
+    [
+        DerivedOp::Mean.apply(p32, q32),
+        p32,
+        q32,
+        DerivedOp::NormalizedDifference.apply(p32, q32),
+    ]
 }
 
 /// `(segment, t)` of every dense sample `0..n` between consecutive `knots`.
@@ -487,9 +529,22 @@ fn measure(c: &Components, polar: &[usize], azimuth: &[usize], values: &[f32]) -
 /// the tolerance per dimension (so their product stays within it), the stored values and the
 /// measured errors.
 pub fn compact_entry(c: &Components, spec: &SunDiscResampled) -> CompactEntry {
-    let tol = spec.tolerance;
     // Max: (1 + a)(1 + p) − 1 ≤ tol with a = p: p = √(1 + tol) − 1. Rms: the triangle
-    // inequality, tol/2 each (the windows' values are then measured, not implied). Less a margin for the f32 rounding of the stored values.
+    // inequality, tol/2 each (the windows' values are then measured, not implied). Less a
+    // margin for the rounding of the stored values: 1 % of the tolerance for f32; for 16-bit
+    // codes first the bound TOP16_PHASE_MARGIN (max: (1 + fit)(1 + margin) − 1 ≤ tol), or for
+    // the root mean square the rms of a rounding error spread evenly up to that bound
+    // (margin/√3), added in quadrature: the rounding of a knot's value is uncorrelated with the
+    // interpolation error (the windows are measured, and tightened if over).
+    let tol = match (spec.values, spec.norm) {
+        (StoredValues::F32, _) => spec.tolerance,
+        (StoredValues::Top16, ErrorNorm::Max) => {
+            (spec.tolerance - TOP16_PHASE_MARGIN) / (1.0 + TOP16_PHASE_MARGIN)
+        }
+        (StoredValues::Top16, ErrorNorm::Rms) => {
+            (spec.tolerance.powi(2) - TOP16_PHASE_MARGIN.powi(2) / 3.0).sqrt()
+        }
+    };
     let mut per_dimension = match spec.norm {
         ErrorNorm::Max => ((1.0 + tol).sqrt() - 1.0) * 0.99,
         ErrorNorm::Rms => 0.5 * tol * 0.99,
@@ -498,9 +553,10 @@ pub fn compact_entry(c: &Components, spec: &SunDiscResampled) -> CompactEntry {
     // knots until it holds (a few halvings at most; the max norm holds at once).
     let mut tries = 0;
     loop {
-        let entry = entry_on_knots(c, choose_knots(c, per_dimension, spec.norm));
+        let knots = choose_knots(c, per_dimension, spec.norm);
+        let entry = entry_on_knots(c, knots, spec.values);
         tries += 1;
-        if entry_error(&entry.errors, spec.norm) <= tol || tries == RMS_TRIES {
+        if entry_error(&entry.errors, spec.norm) <= spec.tolerance || tries == RMS_TRIES {
             return entry;
         }
         per_dimension *= 0.5;
@@ -511,13 +567,17 @@ pub fn compact_entry(c: &Components, spec: &SunDiscResampled) -> CompactEntry {
 const RMS_TRIES: usize = 4;
 
 /// The entry's values on the knots `(polar, azimuth)` and its errors.
-fn entry_on_knots(c: &Components, (polar, azimuth): (Vec<usize>, Vec<usize>)) -> CompactEntry {
+fn entry_on_knots(
+    c: &Components,
+    (polar, azimuth): (Vec<usize>, Vec<usize>),
+    stored: StoredValues,
+) -> CompactEntry {
     let na = c.grid.n_azimuth;
     let mut values = Vec::with_capacity(polar.len() * azimuth.len() * 4);
     for &j in &polar {
         for &k in &azimuth {
             let i = j * na + k;
-            values.extend(knot_values(c.i_perp[i], c.i_par[i]));
+            values.extend(knot_values(c.i_perp[i], c.i_par[i], stored));
         }
     }
     let errors = measure(c, &polar, &azimuth, &values);
@@ -813,6 +873,7 @@ mod tests {
                 tolerance: 0.01,
                 sun_diameter_deg: 0.5,
                 norm: ErrorNorm::Max,
+                values: StoredValues::F32,
             };
             let e = compact_entry(&c, &spec);
             assert!(
@@ -877,9 +938,18 @@ mod tests {
                 tolerance: 0.02,
                 sun_diameter_deg: 0.5,
                 norm: ErrorNorm::Max,
+                values: StoredValues::F32,
             })
         );
+        // f32 is the default and is left out of the serialised form (the content key).
+        assert!(serde_json::to_value(c).unwrap().get("values").is_none());
+        let top16 =
+            serde_json::json!({"kind": "sun-disc-resampled", "tolerance": 0.02, "values": "top16"});
+        let c = Compression::from_value(top16).unwrap();
+        assert_eq!(serde_json::to_value(c).unwrap()["values"], "top16");
         for bad in [
+            serde_json::json!({"kind": "sun-disc-resampled", "tolerance": 0.003, "values": "top16"}),
+            serde_json::json!({"kind": "sun-disc-resampled", "tolerance": 0.02, "values": "f16"}),
             serde_json::json!("zip"),
             serde_json::json!({"kind": "zip", "tolerance": 0.02}),
             serde_json::json!({"tolerance": 0.02}),

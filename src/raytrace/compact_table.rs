@@ -3,9 +3,10 @@
 //! the entries on the union of their knots, with the header's record of the operator and the
 //! errors measured ([`super::phase_table_headers`]).
 
-use super::compact::{self, CompactEntry, Components, SunDiscResampled};
+use super::compact::{self, CompactEntry, Components, StoredValues, SunDiscResampled};
 use super::phase_table::PhaseTable;
-use crate::table::{Axis, AxisPoints, TableContent};
+use crate::table::codec::{MEAN, NORMALIZED_DIFFERENCE, TOP16_MAX_RELATIVE_ERROR};
+use crate::table::{Axis, AxisPoints, Derived, PreviousRow, TableContent, ValueEncoding};
 use serde_json::{Map, Value, json};
 
 /// One compact entry with its dense entry's bin-sum and the airy-local transfer weights of its
@@ -65,6 +66,9 @@ impl PhaseTable {
             weights.push(p.domain_weights);
         }
         let (polar, azimuth, data) = compact::merge_entries(&entries);
+        if spec.values == StoredValues::Top16 {
+            widen_for_merged_rounding(&mut entries, &polar, &azimuth);
+        }
         if self.domain_values() > 0 {
             let w: Vec<&[f64]> = weights.iter().map(Vec::as_slice).collect();
             at.insert("airy_local_domain".into(), self.domain_attribute(&w));
@@ -93,6 +97,49 @@ impl PhaseTable {
         // difference to the disc they show.
         t.attributes
             .insert("sun_diameter_deg".into(), spec.sun_diameter_deg.into());
+        if spec.values == StoredValues::Top16 {
+            store_top16(&mut t, polar.len(), azimuth.len());
+        }
         t
+    }
+}
+
+/// i_perp and i_par stored as 16-bit codes, one polar row of knots predicting the next within
+/// an entry; phase and dolp derived from them (`docs/table-format.md`, "16-bit values").
+fn store_top16(t: &mut TableContent, n_polar: usize, n_azimuth: usize) {
+    let row = 2 * n_azimuth as u64;
+    t.encoding = ValueEncoding::Top16 {
+        predictor: Some(PreviousRow {
+            stride: row,
+            block: row * n_polar as u64,
+        }),
+    };
+    for c in &mut t.channels {
+        let op = match c.name.as_str() {
+            "phase" => MEAN,
+            "dolp" => NORMALIZED_DIFFERENCE,
+            _ => continue,
+        };
+        c.derived = Some(Derived {
+            op: op.into(),
+            of: vec!["i_perp".into(), "i_par".into()],
+        });
+    }
+}
+
+/// The errors of entries whose knots are fewer than the table's (`polar`, `azimuth`): at the
+/// other knots their interpolant is rounded to 16-bit codes once more, which moves a lookup by
+/// at most 2^−9 of the interpolated i_perp or i_par, i.e. of (2 + e) × phase for an entry of
+/// error e; the stated errors grow by that bound (measured on the entry's own knots, where the
+/// codes are those measured).
+fn widen_for_merged_rounding(entries: &mut [CompactEntry], polar: &[usize], azimuth: &[usize]) {
+    for e in entries {
+        if e.polar_rows == polar && e.azimuth_positions == azimuth {
+            continue;
+        }
+        for w in &mut e.errors {
+            w.rms_relative += TOP16_MAX_RELATIVE_ERROR * (2.0 + w.max_relative);
+            w.max_relative += TOP16_MAX_RELATIVE_ERROR * (2.0 + w.max_relative);
+        }
     }
 }

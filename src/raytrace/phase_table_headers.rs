@@ -122,6 +122,7 @@ impl PhaseTable {
         at.insert("method".into(), "exact 1-D geometric optics plus phase for spheres (two-branch phasor sum of Airy theory), validated against the 2-D patch tracer and Lorenz–Mie (docs/raytrace.md)".into());
         at.insert("validated_domain".into(), "spheres of radius 0.1–1 mm in 380–700 nm (x ≳ 1000): supernumerary positions within 0.02° (primary) and 0.05° (secondary) of Lorenz–Mie; not valid within ~1° of 0° (forward lobe only approximate) and near 180° (glory, axial caustic clamped at a quarter bin)".into());
         TableContent {
+            encoding: Default::default(),
             schema: Schema::new("raytrace-phase", 2),
             description: "ray-traced (geometric optics + phase) phase function of water spheres"
                 .into(),
@@ -175,6 +176,7 @@ impl PhaseTable {
         at.insert("method".into(), "patch-based wave-optics ray tracer (Sadeghi 2012, ch. 3) with 3-D complex field vectors, spherical-triangle patches, coherent sums; see docs/raytrace.md".into());
         at.insert("validated_domain".into(), "validated on spheres (0.4 mm, 650 nm) against the exact 1-D path and Lorenz–Mie; Beard–Chuang results checked for volume, axis ratios, symmetry and energy; accuracy depends on rays_per_side (docs/raytrace.md)".into());
         TableContent {
+            encoding: Default::default(),
             schema: Schema::new("raytrace-phase-2d", 2),
             description: format!(
                 "ray-traced phase function of a {} drop, a = {} µm, over outgoing directions",
@@ -238,7 +240,7 @@ impl PhaseTable {
         let rms = (entries.iter())
             .map(|e| compact::entry_error(&e.errors, compact::ErrorNorm::Rms))
             .fold(0.0, f64::max);
-        json!({
+        let mut v = json!({
             "kind": compact::SUN_DISC_RESAMPLED,
             "tolerance": spec.tolerance,
             "norm": spec.norm,
@@ -255,6 +257,11 @@ impl PhaseTable {
             },
             "knots": {"outgoing_polar": polar.len(), "outgoing_azimuth": azimuth.len()},
             "entries": per_entry,
-        })
+        });
+        if spec.values == compact::StoredValues::Top16 {
+            v["values"] = json!(spec.values);
+            v["values_definition"] = "i_perp and i_par are stored as 16-bit codes (table format 2.0, layout.dtype f32-top16le: the f32 rounded to 8 exponent and 8 mantissa bits, relative rounding at most 2^-9), phase and dolp derived from them by the reader (mean, normalized-difference); the entry errors are measured with these decoded values. Where an entry's knots are fewer than the table's, its interpolant is rounded once more at the other knots and its stated errors include the bound of that rounding, 2^-9 × (2 + max_relative)".into();
+        }
+        v
     }
 }

@@ -190,6 +190,7 @@ impl Job for ClothJob {
         }
         let attributes = self.attributes(&data, &albedo, &scale)?;
         Ok(TableContent {
+            encoding: Default::default(),
             schema: Schema::new("cloth-brdf", 2),
             description: format!(
                 "cloth BRDF f(omega_i -> omega_r) of {} (Sadeghi et al. 2013), 1/sr, with sampling CDFs",

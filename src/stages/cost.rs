@@ -98,5 +98,22 @@ pub const STORED_FRACTION_RAYTRACE_2D_COMPACT_RMS: f64 = 0.073;
 /// Compact 2-D tables of spheres (Beard–Chuang drops ≤ 0.4 mm): `norm = "max"` 0.0009–0.0020
 /// (0.4 mm, 650 nm, sun 0°; 0.3 mm, 450 nm, sun 20°), `rms` 0.0001 (0.4 mm); the larger.
 pub const STORED_FRACTION_RAYTRACE_2D_COMPACT_SPHERE: f64 = 0.002;
+/// Compact 2-D tables of drops with `values = "top16"` (i_perp and i_par as 16-bit codes,
+/// phase and dolp derived), `norm = "rms"`, tolerance 0.01, thesis grid, 3000² rays: 0.0043–0.0076
+/// on the four held-out drops of the rainbow database (0.75 mm 480 nm sun 40°, 1.25 mm 520 nm
+/// sun 0°, 2 mm 420 nm sun 20°, 3 mm 700 nm sun 60°: 1.79, 3.17, 2.72, 1.90 MB of payload), whose
+/// f32 tables stored 0.053–0.086; the value whose estimates add up to the four files' 9.94 MB
+/// (each entry's estimate then within −24 % to +33 % of its file).
+pub const STORED_FRACTION_RAYTRACE_2D_COMPACT_TOP16: f64 = 0.0057;
+/// As [`STORED_FRACTION_RAYTRACE_2D_COMPACT_TOP16`] for spheres (drops ≤ 0.4 mm): the f32
+/// fraction [`STORED_FRACTION_RAYTRACE_2D_COMPACT_SPHERE`] times the top16/f32 payload ratio of
+/// the held-out 0.25 mm, 380 nm, sun 50° entry (4295 against 43648 bytes, `rms`: 0.098), rounded
+/// up; that entry's payload is 0.00001 of its dense grid, its 48 KB header the rest of the file.
+pub const STORED_FRACTION_RAYTRACE_2D_COMPACT_SPHERE_TOP16: f64 = 0.0002;
+/// `top16` with `norm = "max"` (not measured): the f32 `max` fraction scaled by the top16/f32
+/// ratio measured with `rms`.
+pub const STORED_FRACTION_RAYTRACE_2D_COMPACT_MAX_TOP16: f64 =
+    STORED_FRACTION_RAYTRACE_2D_COMPACT_MAX * STORED_FRACTION_RAYTRACE_2D_COMPACT_TOP16
+        / STORED_FRACTION_RAYTRACE_2D_COMPACT_RMS;
 /// `water-index`: 0.756.
 pub const STORED_FRACTION_WATER_INDEX: f64 = 0.76;

@@ -169,6 +169,7 @@ impl Job for DebyeJob {
             ));
         }
         Ok(TableContent {
+            encoding: Default::default(),
             schema: Schema::new("debye-phase", 1),
             description: "Lorenz-Mie phase functions of water drops split into Debye-series orders"
                 .into(),

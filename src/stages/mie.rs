@@ -307,6 +307,7 @@ impl Job for MieJob {
         );
         a.insert("scalar_layout".into(), s("q_ext, q_sca, q_back, q_back_per_sr, g: [entry][wavelength] (f64); ensemble averages <C>/<pi r^2>, g weighted by C_sca"));
         Ok(TableContent {
+            encoding: Default::default(),
             schema: Schema::new("mie-phase", 1),
             description: "Lorenz-Mie phase functions of water drops per wavelength".into(),
             axes: self.filter.axes(self.entry_axis()),

@@ -294,6 +294,7 @@ impl Job for MixtureJob {
         );
         a.insert("mixture_weighting".into(), "normalised phase functions mixed with weights n(r) dr · C_sca(r) (Gauss–Legendre in ln r, or explicit weights); C_sca = π r² Q_sca (Lorenz–Mie, r < handover) or σ_GO + π r² (traced sphere, 1-D exact path with Airy-uniform caustics, r ≥ handover); mixed on the mie stage's intermediate grid, then sun disc and bin averages; traced_fraction[entry][wavelength] = traced share of the mixture's scattering cross-section".into());
         Ok(TableContent {
+            encoding: Default::default(),
             schema: Schema::new("mixture-phase", 1),
             description:
                 "phase functions of drop-size mixtures (Lorenz–Mie small drops, traced large drops)"

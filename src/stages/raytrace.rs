@@ -1031,6 +1031,25 @@ mod compact_tests {
             c["knots"]
         );
         let table = Table::from_content(compact, Provenance::default()).unwrap();
+        let worst = sampled_worst_error(&dense, &table);
+        assert!(
+            worst > 0.0 && worst <= stated * (1.0 + 1e-6) + 1e-7,
+            "{worst} vs {stated}"
+        );
+        let rms = crate::stages::table_from_lines(
+            &RaytraceStage,
+            &compact_lines(0.01).replace(" }", ", norm = \"rms\" }"),
+        );
+        let c = &rms.attributes["compression"];
+        assert_eq!(c["norm"], "rms");
+        let window_rms = c["max_window_rms_relative"].as_f64().unwrap();
+        assert!(window_rms > 0.0 && window_rms <= 0.01, "{window_rms}");
+    }
+
+    /// The largest error of `table`'s lookups (phase, i_perp, i_par) relative to the phase of
+    /// the `dense` table seen through the sun's disc, at random directions of both entries (the
+    /// reference interpolated bilinearly on the dense grid).
+    fn sampled_worst_error(dense: &TableContent, table: &Table) -> f64 {
         let (np, na) = (dense.axes[3].len(), dense.axes[4].len());
         let (dp, da) = (0.05, 5.0);
         let mut rng = 0x2545f4914f6cdd1du64;
@@ -1042,7 +1061,7 @@ mod compact_tests {
         };
         let mut worst = 0.0f64;
         for (e, elevation) in [10.0, 30.0].into_iter().enumerate() {
-            let (p, q) = filtered_dense(&dense, e);
+            let (p, q) = filtered_dense(dense, e);
             for _ in 0..4000 {
                 // Within the dense grid's azimuth range, which stops one step short of 360°.
                 let (theta, phi) = (180.0 * uniform(), da * (na - 1) as f64 * uniform());
@@ -1064,18 +1083,57 @@ mod compact_tests {
                 }
             }
         }
+        worst
+    }
+
+    /// `values = "top16"`: the table is written as format 2.0 with i_perp and i_par as 16-bit
+    /// codes and phase and dolp derived, smaller than the f32 table; read back from its bytes,
+    /// its lookups stay within the stated maximum error (measured with the decoded values, the
+    /// two entries' knots merged), which stays within the tolerance; the `rms` norm meets its
+    /// tolerance in every window. Its stated errors are not those of the f32 table.
+    #[test]
+    fn top16_compact_tables_read_back_within_their_stated_error() {
+        let top16 = |norm: &str| {
+            compact_lines(0.01)
+                .replace(" }", &format!(", norm = \"{norm}\", values = \"top16\" }}"))
+        };
+        let dense = crate::stages::table_from_lines(&RaytraceStage, BASE);
+        let content = crate::stages::table_from_lines(&RaytraceStage, &top16("max"));
+        let c = content.attributes["compression"].clone();
+        assert_eq!(c["values"], "top16");
+        let stated = c["max_relative_error"].as_f64().unwrap();
+        assert!(stated > 0.0 && stated <= 0.01, "{stated}");
+        let mut f32_table = Table::from_content(
+            crate::stages::table_from_lines(&RaytraceStage, &compact_lines(0.01)),
+            Provenance::default(),
+        )
+        .unwrap();
+        let f32_stated = &f32_table.header.attributes["compression"]["max_relative_error"];
+        assert_ne!(c["max_relative_error"], *f32_stated);
+        let mut written = Table::from_content(content, Provenance::default()).unwrap();
+        let bytes = written.to_bytes().unwrap();
+        assert_eq!(&bytes[8..12], &[2, 0, 0, 0]);
+        assert!(bytes.len() < f32_table.to_bytes().unwrap().len());
+        let table = Table::from_bytes(&bytes, std::path::Path::new("top16.sbt")).unwrap();
+        assert_eq!(table.data, written.data);
+        let derived: Vec<_> = table
+            .header
+            .channels
+            .iter()
+            .map(|c| c.derived.is_some())
+            .collect();
+        assert_eq!(derived, [true, false, false, true]);
+        let worst = sampled_worst_error(&dense, &table);
         assert!(
             worst > 0.0 && worst <= stated * (1.0 + 1e-6) + 1e-7,
             "{worst} vs {stated}"
         );
-        let rms = crate::stages::table_from_lines(
-            &RaytraceStage,
-            &compact_lines(0.01).replace(" }", ", norm = \"rms\" }"),
+        let rms = crate::stages::table_from_lines(&RaytraceStage, &top16("rms"));
+        let window_rms = rms.attributes["compression"]["max_window_rms_relative"].as_f64();
+        assert!(
+            window_rms.is_some_and(|r| r > 0.0 && r <= 0.01),
+            "{window_rms:?}"
         );
-        let c = &rms.attributes["compression"];
-        assert_eq!(c["norm"], "rms");
-        let window_rms = c["max_window_rms_relative"].as_f64().unwrap();
-        assert!(window_rms > 0.0 && window_rms <= 0.01, "{window_rms}");
     }
 
     /// A compact plan bounds its table by the dense grid and estimates
@@ -1103,6 +1161,21 @@ mod compact_tests {
             plan(&rms).estimated_stored_fraction(),
             STORED_FRACTION_RAYTRACE_2D_COMPACT_RMS
         );
+        let top16 = |lines: &str| lines.replace(" }", ", values = \"top16\" }");
+        for (lines, fraction) in [
+            (top16(&rms), STORED_FRACTION_RAYTRACE_2D_COMPACT_TOP16),
+            (top16(&drop), STORED_FRACTION_RAYTRACE_2D_COMPACT_MAX_TOP16),
+            (
+                top16(&compact_lines(0.01)),
+                STORED_FRACTION_RAYTRACE_2D_COMPACT_SPHERE_TOP16,
+            ),
+        ] {
+            assert_eq!(
+                plan(&lines).estimated_stored_fraction(),
+                fraction,
+                "{lines}"
+            );
+        }
         assert!(!plan(BASE).shape().adaptive);
     }
 

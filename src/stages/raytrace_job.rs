@@ -58,12 +58,23 @@ impl Job for RaytraceJob {
     fn estimated_stored_fraction(&self) -> f64 {
         use crate::stages::cost::*;
         if let Some(spec) = self.table.compact_spec() {
-            if matches!(self.table.spec.shape, Some(DropShape::Sphere { .. })) {
-                return STORED_FRACTION_RAYTRACE_2D_COMPACT_SPHERE;
-            }
-            return match spec.norm {
-                compact::ErrorNorm::Max => STORED_FRACTION_RAYTRACE_2D_COMPACT_MAX,
-                compact::ErrorNorm::Rms => STORED_FRACTION_RAYTRACE_2D_COMPACT_RMS,
+            use compact::{ErrorNorm, StoredValues};
+            let sphere = matches!(self.table.spec.shape, Some(DropShape::Sphere { .. }));
+            return match (sphere, spec.values, spec.norm) {
+                (true, StoredValues::F32, _) => STORED_FRACTION_RAYTRACE_2D_COMPACT_SPHERE,
+                (true, StoredValues::Top16, _) => STORED_FRACTION_RAYTRACE_2D_COMPACT_SPHERE_TOP16,
+                (false, StoredValues::F32, ErrorNorm::Max) => {
+                    STORED_FRACTION_RAYTRACE_2D_COMPACT_MAX
+                }
+                (false, StoredValues::F32, ErrorNorm::Rms) => {
+                    STORED_FRACTION_RAYTRACE_2D_COMPACT_RMS
+                }
+                (false, StoredValues::Top16, ErrorNorm::Max) => {
+                    STORED_FRACTION_RAYTRACE_2D_COMPACT_MAX_TOP16
+                }
+                (false, StoredValues::Top16, ErrorNorm::Rms) => {
+                    STORED_FRACTION_RAYTRACE_2D_COMPACT_TOP16
+                }
             };
         }
         match (self.table.two_d(), self.p.diagnostic_channels) {

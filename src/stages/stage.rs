@@ -831,6 +831,7 @@ mod tests {
         fn assemble(&self, _: Vec<Chunk>) -> Result<TableContent, JobError> {
             let n: usize = self.assembled.iter().map(Axis::len).product();
             Ok(TableContent {
+                encoding: Default::default(),
                 schema: crate::table::Schema::new("test", 1),
                 description: String::new(),
                 axes: self.assembled.clone(),

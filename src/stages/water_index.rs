@@ -166,6 +166,7 @@ impl Job for WaterIndexJob {
         );
         attributes.insert("outside_medium_index".into(), 1.0.into());
         Ok(TableContent {
+            encoding: Default::default(),
             schema: Schema::new("water-index", 1),
             description: "real refractive index of liquid water relative to vacuum".into(),
             axes: self.table_axes(),

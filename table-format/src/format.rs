@@ -13,7 +13,10 @@
 //! ```
 //! The file ends exactly after the payload.
 
-use crate::model::{Header, Layout, PayloadInfo, Provenance, Table, TableContent};
+use crate::codec::{DTYPE_F32, DTYPE_TOP16, PREVIOUS_ROW, Storage, storage_of};
+use crate::model::{
+    Header, Layout, PayloadInfo, Predictor, Provenance, Table, TableContent, ValueEncoding,
+};
 use crate::validate::{check_axis_coords, check_axis_count};
 use sha2::{Digest, Sha256};
 use std::io::Write;
@@ -21,8 +24,10 @@ use std::path::{Path, PathBuf};
 
 /// File magic.
 pub const MAGIC: [u8; 8] = *b"SBTABLE\0";
-/// Format major version written by this build. Readers refuse a newer major.
-pub const FORMAT_MAJOR: u16 = 1;
+/// Newest format major version this build reads and writes (it reads 1.x and 2.x; it writes
+/// 1.0, or 2.0 for a table whose values are 16-bit codes or that has derived channels).
+/// Readers refuse a newer major.
+pub const FORMAT_MAJOR: u16 = 2;
 /// Format minor version written by this build. Readers accept any minor of a known major and
 /// ignore the header fields a newer minor adds.
 pub const FORMAT_MINOR: u16 = 0;
@@ -41,7 +46,7 @@ pub enum TableError {
     #[error("{path}: file truncated: {what}")]
     Truncated { path: PathBuf, what: String },
     #[error(
-        "{path}: table format version {major}.{minor} is newer than this reader (supports {FORMAT_MAJOR}.x); upgrade scatterbake"
+        "{path}: table format version {major}.{minor} is newer than this reader (supports 1.x and {FORMAT_MAJOR}.x); upgrade scatterbake"
     )]
     NewerMajor {
         path: PathBuf,
@@ -66,6 +71,8 @@ pub enum TableError {
     Inconsistent(String),
     #[error("{path}: tensor-train table is not valid: {message}")]
     TensorTrain { path: PathBuf, message: String },
+    #[error("{path}: payload value is not valid: {message}")]
+    BadValue { path: PathBuf, message: String },
 }
 
 /// zstd level of payloads up to [`MULTITHREAD_PAYLOAD_BYTES`].
@@ -202,12 +209,37 @@ struct CompressedPayload {
 fn compress_payload(data: &[f32]) -> Result<CompressedPayload, TableError> {
     let err = |e: std::io::Error| TableError::Inconsistent(e.to_string());
     let raw_len = std::mem::size_of_val(data);
-    let large = raw_len > MULTITHREAD_PAYLOAD_BYTES;
-    let level = if large {
+    let level = if raw_len > MULTITHREAD_PAYLOAD_BYTES {
         large_payload_level(data).map_err(err)?
     } else {
         ZSTD_LEVEL
     };
+    compress_chunks(raw_len, level, |f| for_each_le_chunk(data, f))
+}
+
+/// [`compress_payload`] of payload bytes already encoded (16-bit codes, or the stored channels
+/// of a table with derived ones): level 9, or level 1 on worker threads above
+/// [`MULTITHREAD_PAYLOAD_BYTES`].
+fn compress_bytes(raw: &[u8]) -> Result<CompressedPayload, TableError> {
+    let level = if raw.len() > MULTITHREAD_PAYLOAD_BYTES {
+        ZSTD_LEVEL_LARGE
+    } else {
+        ZSTD_LEVEL
+    };
+    compress_chunks(raw.len(), level, |f| {
+        raw.chunks(4 * PAYLOAD_CHUNK_VALUES).try_for_each(f)
+    })
+}
+
+/// One zstd frame of the `raw_len` bytes `each` hands out in order (it may be called twice:
+/// for the hash and for the compression), at `level`, with the checksums.
+fn compress_chunks(
+    raw_len: usize,
+    level: i32,
+    each: impl Fn(&mut dyn FnMut(&[u8]) -> std::io::Result<()>) -> std::io::Result<()> + Sync,
+) -> Result<CompressedPayload, TableError> {
+    let err = |e: std::io::Error| TableError::Inconsistent(e.to_string());
+    let large = raw_len > MULTITHREAD_PAYLOAD_BYTES;
     let compress = || -> Result<HashingVec, TableError> {
         let sink = HashingVec {
             bytes: Vec::new(),
@@ -221,19 +253,19 @@ fn compress_payload(data: &[f32]) -> Result<CompressedPayload, TableError> {
         if large {
             enc.multithread(ZSTD_WORKERS).map_err(err)?;
         }
-        for_each_le_chunk(data, |bytes| enc.write_all(bytes)).map_err(err)?;
+        each(&mut |bytes| enc.write_all(bytes)).map_err(err)?;
         enc.finish().map_err(err)
     };
     let hash = || {
         let mut sha = Sha256::new();
-        let Ok(()) = for_each_le_chunk::<std::convert::Infallible>(data, |bytes| {
+        each(&mut |bytes| {
             sha.update(bytes);
             Ok(())
-        });
-        hex::encode(sha.finalize())
+        })
+        .map(|()| hex::encode(sha.finalize()))
     };
     let (sha256_uncompressed, compressed) = join(hash, compress, raw_len);
-    let compressed = compressed?;
+    let (sha256_uncompressed, compressed) = (sha256_uncompressed.map_err(err)?, compressed?);
     Ok(CompressedPayload {
         bytes: compressed.bytes,
         sha256_compressed: hex::encode(compressed.sha.finalize()),
@@ -261,10 +293,26 @@ impl Table {
                 content.expected_len()
             )));
         }
+        let n_stored = content
+            .channels
+            .iter()
+            .filter(|c| c.derived.is_none())
+            .count();
         let mut shape: Vec<usize> = content.axes.iter().map(|a| a.len()).collect();
-        shape.push(content.channels.len());
+        shape.push(n_stored);
         let mut axis_order: Vec<String> = content.axes.iter().map(|a| a.name.clone()).collect();
         axis_order.push("channel".into());
+        let (dtype, predictor) = match content.encoding {
+            ValueEncoding::F32 => (DTYPE_F32, None),
+            ValueEncoding::Top16 { predictor } => (
+                DTYPE_TOP16,
+                predictor.map(|p| Predictor {
+                    kind: PREVIOUS_ROW.into(),
+                    stride: p.stride,
+                    block: p.block,
+                }),
+            ),
+        };
         let header = Header {
             schema: content.schema,
             description: content.description,
@@ -273,8 +321,9 @@ impl Table {
             layout: Layout {
                 order: "row-major".into(),
                 axis_order,
-                dtype: "f32le".into(),
+                dtype: dtype.into(),
                 shape,
+                predictor,
             },
             attributes: content.attributes,
             provenance,
@@ -286,10 +335,18 @@ impl Table {
                 sha256_uncompressed: String::new(),
             },
         };
-        Ok(Table {
-            header,
-            data: content.data,
-        })
+        let mut data = content.data;
+        let storage = storage_of(&header, FORMAT_MAJOR).map_err(TableError::Inconsistent)?;
+        if !storage.is_plain() {
+            // The values as every reader will return them.
+            crate::codec::decoded_values(&mut data, &storage).map_err(TableError::Inconsistent)?;
+        }
+        Ok(Table { header, data })
+    }
+
+    /// The format version of the file this table is written as ([`Header::format_version`]).
+    pub fn format_version(&self) -> (u16, u16) {
+        self.header.format_version()
     }
 
     /// Serialise to the exact file bytes (fills in the payload section of the header).
@@ -302,7 +359,9 @@ impl Table {
     /// The file's bytes in two parts, preamble and header, then the compressed payload (fills
     /// in the payload section of the header); [`Table::to_bytes`] is their concatenation.
     pub fn to_parts(&mut self) -> Result<(Vec<u8>, Vec<u8>), TableError> {
-        let payload = compress_payload(&self.data)?;
+        let (major, minor) = self.format_version();
+        let storage = storage_of(&self.header, major).map_err(TableError::Inconsistent)?;
+        let payload = self.compressed_payload(&storage)?;
         self.header.payload = PayloadInfo {
             compression: "zstd".into(),
             compressed_bytes: payload.bytes.len() as u64,
@@ -315,8 +374,8 @@ impl Table {
             .map_err(|e| TableError::Inconsistent(e.to_string()))?;
         let mut out = Vec::with_capacity(PREAMBLE + header_json.len());
         out.extend_from_slice(&MAGIC);
-        out.extend_from_slice(&FORMAT_MAJOR.to_le_bytes());
-        out.extend_from_slice(&FORMAT_MINOR.to_le_bytes());
+        out.extend_from_slice(&major.to_le_bytes());
+        out.extend_from_slice(&minor.to_le_bytes());
         out.extend_from_slice(&0u32.to_le_bytes());
         out.extend_from_slice(&(header_json.len() as u64).to_le_bytes());
         let mut h = Sha256::new();
@@ -325,6 +384,47 @@ impl Table {
         out.extend_from_slice(&h.finalize());
         out.extend_from_slice(&header_json);
         Ok((out, compressed))
+    }
+
+    /// The payload of the table's values stored as `storage` says.
+    fn compressed_payload(&self, storage: &Storage) -> Result<CompressedPayload, TableError> {
+        if storage.is_plain() {
+            return compress_payload(&self.data);
+        }
+        let n = self.header.channels.len();
+        if !self.data.len().is_multiple_of(n) {
+            return Err(TableError::Inconsistent(format!(
+                "data has {} values, not a multiple of the {n} channels",
+                self.data.len()
+            )));
+        }
+        let raw = match storage.item_bytes {
+            2 => {
+                crate::codec::encode_top16(&self.data, storage).map_err(TableError::Inconsistent)?
+            }
+            _ => {
+                let stored = self.data.chunks_exact(n).flat_map(|point| {
+                    point
+                        .iter()
+                        .zip(&self.header.channels)
+                        .filter(|(_, c)| c.derived.is_none())
+                        .map(|(v, _)| *v)
+                });
+                stored.flat_map(f32::to_le_bytes).collect()
+            }
+        };
+        compress_bytes(&raw)
+    }
+}
+
+impl Header {
+    /// The format version a table with this header is written as: 1.0, or 2.0 when its values
+    /// are 16-bit codes or it has derived channels.
+    pub fn format_version(&self) -> (u16, u16) {
+        let v2 = self.layout.dtype != DTYPE_F32
+            || self.layout.predictor.is_some()
+            || self.channels.iter().any(|c| c.derived.is_some());
+        if v2 { (2, 0) } else { (1, 0) }
     }
 }
 

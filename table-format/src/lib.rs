@@ -1,16 +1,19 @@
-//! The scatterbake table file format (`.sbt`), version 1.0. Specification: `docs/table-format.md`.
+//! The scatterbake table file format (`.sbt`), versions 1.0 and 2.0. Specification:
+//! `docs/table-format.md`.
 //!
 //! A table is an N-D grid of f32 samples (row-major, axes in header order, channel index
 //! innermost), described by a JSON header and stored as a zstd-compressed payload with SHA-256
 //! checksums of the header and of the payload (compressed and uncompressed).
 //!
 //! Modules, each importing only those listed before it: [`interp`] (interpolation and grid
-//! location), `model` (the header and table types), `validate` (the axis rules both the writer
+//! location), `model` (the header and table types), [`codec`] (how a payload stores its
+//! values: f32, 16-bit codes, derived channels), `validate` (the axis rules both the writer
 //! and the reader apply), `entry` (the samples and header of one entry), [`format`] (bytes,
 //! writing, errors), `frame` (the streaming check of a payload's zstd frame), [`read`] (reading
 //! and verification, of a whole table or one entry), `sample` (lookups), [`tt`] (tensor-train
 //! tables).
 
+pub mod codec;
 mod entry;
 pub mod format;
 mod frame;
@@ -26,7 +29,8 @@ pub use format::{
     read_regular, write_table_atomic, write_table_atomic_sealed,
 };
 pub use model::{
-    Axis, AxisPoints, Channel, Header, Layout, PayloadInfo, Provenance, Schema, Table, TableContent,
+    Axis, AxisPoints, Channel, Derived, Header, Layout, PayloadInfo, Predictor, PreviousRow,
+    Provenance, Schema, Table, TableContent, ValueEncoding,
 };
 pub use read::{
     DEFAULT_MAX_PAYLOAD_BYTES, MAX_AXES, MAX_HEADER_BYTES, MAX_JSON_DEPTH, ReadLimits, ValueStats,

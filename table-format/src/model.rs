@@ -116,6 +116,18 @@ pub struct Channel {
     pub unit: String,
     /// What the channel means, with its convention.
     pub meaning: String,
+    /// Format 2.0: the channel is not stored but computed from two stored channels
+    /// (`docs/table-format.md`, "Derived channels"). Absent from the header when `None`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub derived: Option<Derived>,
+}
+
+/// How a derived channel is computed: `op` (`mean` or `normalized-difference`) of the stored
+/// channels named in `of` (two names).
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Derived {
+    pub op: String,
+    pub of: Vec<String>,
 }
 
 impl Channel {
@@ -124,6 +136,19 @@ impl Channel {
             name: name.into(),
             unit: unit.into(),
             meaning: meaning.into(),
+            derived: None,
+        }
+    }
+
+    /// A channel computed by `op` (`mean`, `normalized-difference`) from the stored channels
+    /// `a` and `b` (format 2.0).
+    pub fn derived(name: &str, unit: &str, meaning: &str, op: &str, a: &str, b: &str) -> Self {
+        Channel {
+            derived: Some(Derived {
+                op: op.into(),
+                of: vec![a.into(), b.into()],
+            }),
+            ..Channel::new(name, unit, meaning)
         }
     }
 }
@@ -163,8 +188,33 @@ pub struct TableContent {
     pub channels: Vec<Channel>,
     /// Stage-specific self-description: conventions, normalisation, models used, accuracy.
     pub attributes: serde_json::Map<String, serde_json::Value>,
-    /// Row-major samples, axes in order, channel innermost; length = Π|axis| · |channels|.
+    /// Row-major samples, axes in order, channel innermost; length = Π|axis| · |channels|
+    /// (derived channels included: the writer recomputes them from the stored ones).
     pub data: Vec<f32>,
+    /// How the payload stores the values (format 1.0 for [`ValueEncoding::F32`] without
+    /// derived channels, else 2.0).
+    pub encoding: ValueEncoding,
+}
+
+/// How a payload stores the values of the stored channels (`docs/table-format.md`, "16-bit
+/// values").
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum ValueEncoding {
+    /// 32-bit floats, `layout.dtype = "f32le"`.
+    #[default]
+    F32,
+    /// 16-bit codes of non-negative finite values (8 exponent and 8 mantissa bits,
+    /// `layout.dtype = "f32-top16le"`), optionally each code stored as its difference to the
+    /// code `stride` values earlier.
+    Top16 { predictor: Option<PreviousRow> },
+}
+
+/// The `previous-row` predictor: within each block of `block` stored values, a value from the
+/// `stride`-th on is stored as its code minus the code `stride` values earlier (mod 2^16).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct PreviousRow {
+    pub stride: u64,
+    pub block: u64,
 }
 
 impl TableContent {
@@ -203,10 +253,21 @@ pub struct Layout {
     pub order: String,
     /// Axis names outermost first, then `channel`.
     pub axis_order: Vec<String>,
-    /// Always `f32le`.
+    /// `f32le`, or in format 2.0 `f32-top16le`.
     pub dtype: String,
-    /// Shape: axis lengths, then the number of channels.
+    /// Shape: axis lengths, then the number of stored channels (those not derived).
     pub shape: Vec<usize>,
+    /// Format 2.0: the predictor of a `f32-top16le` payload. Absent from the header when `None`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub predictor: Option<Predictor>,
+}
+
+/// `layout.predictor`: `kind` (`previous-row`), `stride` and `block` in values.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Predictor {
+    pub kind: String,
+    pub stride: u64,
+    pub block: u64,
 }
 
 /// Payload description and checksums.
@@ -218,6 +279,6 @@ pub struct PayloadInfo {
     pub uncompressed_bytes: u64,
     /// SHA-256 (hex) of the compressed payload bytes as stored in the file.
     pub sha256_compressed: String,
-    /// SHA-256 (hex) of the uncompressed payload (the f32le array).
+    /// SHA-256 (hex) of the uncompressed payload (the f32le array, or the stored 16-bit codes).
     pub sha256_uncompressed: String,
 }

@@ -6,8 +6,9 @@
 
 pub use crate::validate::MAX_AXES;
 
+use crate::codec::{PayloadDecoder, Storage, storage_of};
 use crate::entry::{entry_header, entry_values};
-use crate::format::{FORMAT_MAJOR, FORMAT_MINOR, MAGIC, PREAMBLE, TableError};
+use crate::format::{FORMAT_MAJOR, MAGIC, PREAMBLE, TableError};
 use crate::frame::FrameWalker;
 use crate::model::{AxisPoints, Header, Table};
 use crate::validate::{check_axis_coords, check_axis_count, check_uniform_params};
@@ -110,6 +111,7 @@ fn read_exact_vec(f: &mut impl Read, n: u64) -> std::io::Result<Vec<u8>> {
 struct HeaderPart {
     header: Header,
     header_len: u64,
+    storage: Storage,
 }
 
 fn read_header_part(
@@ -186,14 +188,15 @@ fn read_header_part(
         return Err(TableError::HeaderChecksum { path: path.into() });
     }
     let header = parse_header_json(&header_bytes, major, minor).map_err(|m| bad(path, m))?;
-    validate_header(&header, limits).map_err(|m| bad(path, m))?;
+    let storage = validate_header(&header, major, limits).map_err(|m| bad(path, m))?;
     Ok(HeaderPart {
         header,
         header_len: hlen,
+        storage,
     })
 }
 
-/// Top-level header fields of format 1.0 (the fields of [`Header`]).
+/// Top-level header fields of formats 1.0 and 2.0 (the fields of [`Header`]).
 const HEADER_FIELDS: [&str; 8] = [
     "schema",
     "description",
@@ -219,16 +222,24 @@ fn parse_header_json(bytes: &[u8], major: u16, minor: u16) -> Result<Header, Str
     let Some(keys) = top else {
         return Err("the header is not a JSON object".into());
     };
-    // Fields of a newer minor are ignored; a file of a minor this reader implements has exactly
-    // the fields of that version.
-    let newer_minor = minor > FORMAT_MINOR;
+    // Fields of a newer minor are ignored; a file of a minor this reader implements (1.0, 2.0)
+    // has exactly the fields of that version.
+    let newer_minor = minor > 0;
     if !newer_minor && let Some(k) = keys.iter().find(|k| !HEADER_FIELDS.contains(&k.as_str())) {
         return Err(format!(
             "unknown field `{k}` in a format {major}.{minor} header (only a newer minor version \
              may add fields)"
         ));
     }
-    serde_json::from_slice(bytes).map_err(|e| e.to_string())
+    let mut header: Header = serde_json::from_slice(bytes).map_err(|e| e.to_string())?;
+    if major == 1 {
+        // Not fields of 1.x: a 1.x reader ignores them like any unknown nested field.
+        header.layout.predictor = None;
+        for c in &mut header.channels {
+            c.derived = None;
+        }
+    }
+    Ok(header)
 }
 
 /// A serde visitor over any JSON value that refuses duplicate object keys, nesting deeper
@@ -248,6 +259,7 @@ enum At {
     Object(&'static str),
     AxisList,
     ChannelList,
+    Channel,
     Axis,
     Points,
     Other,
@@ -262,6 +274,8 @@ impl At {
             (At::Top, "provenance") => At::Object("provenance"),
             (At::Top, "axes") => At::AxisList,
             (At::Top, "channels") => At::ChannelList,
+            (At::Object("layout"), "predictor") => At::Object("layout.predictor"),
+            (At::Channel, "derived") => At::Object("channels[].derived"),
             (At::Axis, "points") => At::Points,
             (At::Points, "uniform") => At::Object("axes[].points.uniform"),
             _ => At::Other,
@@ -270,7 +284,7 @@ impl At {
     fn element(self) -> At {
         match self {
             At::AxisList => At::Axis,
-            At::ChannelList => At::Object("channels[]"),
+            At::ChannelList => At::Channel,
             _ => At::Other,
         }
     }
@@ -280,6 +294,7 @@ impl At {
             At::Top => Some("the header"),
             At::Object(name) => Some(name),
             At::Axis => Some("axes[]"),
+            At::Channel => Some("channels[]"),
             At::Points => Some("axes[].points"),
             _ => None,
         }
@@ -353,14 +368,10 @@ impl<'de> Visitor<'de> for StrictJson {
     }
 }
 
-/// Structural checks of the checksummed header (the same rules in every reader).
-fn validate_header(h: &Header, limits: &ReadLimits) -> Result<(), String> {
-    if h.layout.order != "row-major" || h.layout.dtype != "f32le" {
-        return Err(format!(
-            "unsupported layout {} / {}",
-            h.layout.order, h.layout.dtype
-        ));
-    }
+/// Structural checks of the checksummed header (the same rules in every reader); the payload's
+/// storage it declares.
+fn validate_header(h: &Header, major: u16, limits: &ReadLimits) -> Result<Storage, String> {
+    let storage = storage_of(h, major)?;
     if h.payload.compression != "zstd" {
         return Err(format!(
             "unsupported compression `{}`",
@@ -377,7 +388,7 @@ fn validate_header(h: &Header, limits: &ReadLimits) -> Result<(), String> {
         }
     }
     let mut shape: Vec<usize> = h.axes.iter().map(|a| a.len()).collect();
-    shape.push(h.channels.len());
+    shape.push(storage.n_stored);
     if shape != h.layout.shape {
         return Err(format!(
             "layout shape {:?} disagrees with axes/channels {:?}",
@@ -397,7 +408,7 @@ fn validate_header(h: &Header, limits: &ReadLimits) -> Result<(), String> {
     }
     let bytes = shape
         .iter()
-        .try_fold(4u64, |acc, &s| acc.checked_mul(s as u64))
+        .try_fold(storage.item_bytes, |acc, &s| acc.checked_mul(s as u64))
         .ok_or_else(|| format!("shape {shape:?} overflows a 64-bit byte count"))?;
     if bytes != h.payload.uncompressed_bytes {
         return Err(format!(
@@ -412,6 +423,26 @@ fn validate_header(h: &Header, limits: &ReadLimits) -> Result<(), String> {
             limits.max_payload_bytes
         ));
     }
+    if !storage.is_plain() {
+        // The values a read returns: 4 bytes for every channel, derived ones included.
+        let decoded = h
+            .axes
+            .iter()
+            .try_fold(4 * h.channels.len() as u64, |acc, a| {
+                acc.checked_mul(a.len() as u64)
+            });
+        match decoded {
+            Some(d) if d <= limits.max_payload_bytes => {}
+            _ => {
+                return Err(format!(
+                    "the decoded values ({} bytes: 4 per value of every channel) exceed the \
+                     reader limit of {} bytes (raise it to read this table)",
+                    decoded.map_or("more than 2^64".into(), |d| d.to_string()),
+                    limits.max_payload_bytes
+                ));
+            }
+        }
+    }
     // Explicit coordinates are in the header already; the coordinates of a uniform axis are
     // enumerated only once the payload has proved the grid exists (`check_all_coords`).
     for a in &h.axes {
@@ -421,7 +452,7 @@ fn validate_header(h: &Header, limits: &ReadLimits) -> Result<(), String> {
             check_axis_coords(a)?;
         }
     }
-    Ok(())
+    Ok(storage)
 }
 
 /// What a read keeps of the payload.
@@ -519,6 +550,7 @@ fn read_payload(
     path: &Path,
     header: &Header,
     header_len: u64,
+    storage: &Storage,
     keep: Keep,
 ) -> Result<(Vec<f32>, ValueStats), TableError> {
     let p = &header.payload;
@@ -532,7 +564,7 @@ fn read_payload(
     };
     let decoded = match keep {
         Keep::Sealed => Ok(Decoded::default()),
-        _ => decompress(&mut stream, header, keep),
+        _ => decompress(&mut stream, header, storage, keep),
     };
     if let Err(DecodeError::Memory(message)) = &decoded {
         return Err(TableError::Limit {
@@ -576,6 +608,12 @@ fn read_payload(
             which: "uncompressed",
         });
     }
+    if let Some(message) = decoded.bad_code {
+        return Err(TableError::BadValue {
+            path: path.into(),
+            message,
+        });
+    }
     Ok((decoded.data, decoded.stats))
 }
 
@@ -586,6 +624,8 @@ struct Decoded {
     data: Vec<f32>,
     stats: ValueStats,
     sha256_uncompressed: String,
+    /// The first stored code that is not a finite value (`f32-top16le`).
+    bad_code: Option<String>,
 }
 
 /// Why decompressing stopped.
@@ -606,10 +646,16 @@ impl DecodeError {
 }
 
 /// Decompress the single zstd frame of a payload in [`CHUNK`]-sized pieces, checking its
-/// decompressed size against the header, hashing every byte, counting non-finite and negative
-/// values per channel and keeping the values `keep` asks for (grown as they arrive, never
-/// allocated from a declared size; an allocation failure is an error, not an abort).
-fn decompress(compressed: impl Read, header: &Header, keep: Keep) -> Result<Decoded, DecodeError> {
+/// decompressed size against the header, hashing every byte, decoding the values (`storage`),
+/// counting non-finite and negative values per channel and keeping the values `keep` asks for
+/// (grown as they arrive, never allocated from a declared size; an allocation failure is an
+/// error, not an abort).
+fn decompress(
+    compressed: impl Read,
+    header: &Header,
+    storage: &Storage,
+    keep: Keep,
+) -> Result<Decoded, DecodeError> {
     let size = header.payload.uncompressed_bytes;
     let frame_err = DecodeError::Frame;
     let nc = header.channels.len();
@@ -635,6 +681,7 @@ fn decompress(compressed: impl Read, header: &Header, keep: Keep) -> Result<Deco
     let mut buf = vec![0u8; CHUNK];
     let mut got = 0u64;
     let mut flat = 0usize;
+    let mut decoder = (!storage.is_plain()).then(|| PayloadDecoder::new(storage));
     loop {
         // One byte past the declared size proves the frame holds no more.
         let want = ((size - got).min(CHUNK as u64) as usize).max(1);
@@ -655,22 +702,60 @@ fn decompress(compressed: impl Read, header: &Header, keep: Keep) -> Result<Deco
         }
         let bytes = &buf[..n];
         hasher.update(bytes);
+        let start = got;
+        got += n as u64;
+        if let Some(dec) = decoder.as_mut() {
+            decode_piece(dec, bytes, &mut out, &mut flat, keep)?;
+            continue;
+        }
         for c in bytes.chunks_exact(4) {
             let v = f32::from_le_bytes([c[0], c[1], c[2], c[3]]);
             out.stats.count(flat % nc, v);
             flat += 1;
         }
-        let (a, b) = (got.max(lo), (got + n as u64).min(hi));
+        let (a, b) = (start.max(lo), got.min(hi));
         if a < b {
             keep_values(
                 &mut out.data,
-                &bytes[(a - got) as usize..(b - got) as usize],
+                &bytes[(a - start) as usize..(b - start) as usize],
             )?;
         }
-        got += n as u64;
     }
     out.sha256_uncompressed = hex::encode(hasher.finalize());
+    out.bad_code = decoder.and_then(|d| d.bad_code);
     Ok(out)
+}
+
+/// Feed the decompressed `bytes` of an encoded payload to `dec`: every point decoded is counted
+/// and, when `keep` asks for it, kept; `flat` counts the decoded values so far.
+fn decode_piece(
+    dec: &mut PayloadDecoder,
+    bytes: &[u8],
+    out: &mut Decoded,
+    flat: &mut usize,
+    keep: Keep,
+) -> Result<(), DecodeError> {
+    let (lo, hi) = match keep {
+        Keep::Values { first, count } => (first, first + count),
+        _ => (0, 0),
+    };
+    dec.feed(bytes, |point| {
+        for (c, &v) in point.iter().enumerate() {
+            out.stats.count(c, v);
+        }
+        let at = *flat as u64;
+        *flat += point.len();
+        if lo <= at && at < hi {
+            out.data.try_reserve(point.len()).map_err(|_| {
+                DecodeError::Memory(format!(
+                    "cannot allocate memory for {} samples",
+                    out.data.len() + point.len()
+                ))
+            })?;
+            out.data.extend_from_slice(point);
+        }
+        Ok(())
+    })
 }
 
 /// Append the f32 LE values of `bytes` to `data`, refusing (rather than aborting on) a failed
@@ -701,7 +786,11 @@ fn read_table(
     limits: &ReadLimits,
     entry: Option<&[usize]>,
 ) -> Result<(Header, Vec<f32>, ValueStats), TableError> {
-    let HeaderPart { header, header_len } = read_header_part(r, file_len, path, limits)?;
+    let HeaderPart {
+        header,
+        header_len,
+        storage,
+    } = read_header_part(r, file_len, path, limits)?;
     let keep = match entry {
         None => Keep::Nothing,
         Some(entry) => {
@@ -713,7 +802,7 @@ fn read_table(
             Keep::Values { first, count }
         }
     };
-    let (data, stats) = read_payload(r, file_len, path, &header, header_len, keep)?;
+    let (data, stats) = read_payload(r, file_len, path, &header, header_len, &storage, keep)?;
     for a in &header.axes {
         check_axis_coords(a).map_err(|m| bad(path, m))?;
     }
@@ -836,8 +925,12 @@ pub fn verify_sealed_stream(
 }
 
 fn sealed(r: &mut impl Read, len: Option<u64>, path: &Path) -> Result<Header, TableError> {
-    let HeaderPart { header, header_len } = read_header_part(r, len, path, &ReadLimits::default())?;
-    read_payload(r, len, path, &header, header_len, Keep::Sealed)?;
+    let HeaderPart {
+        header,
+        header_len,
+        storage,
+    } = read_header_part(r, len, path, &ReadLimits::default())?;
+    read_payload(r, len, path, &header, header_len, &storage, Keep::Sealed)?;
     for a in &header.axes {
         check_axis_coords(a).map_err(|m| bad(path, m))?;
     }

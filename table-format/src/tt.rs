@@ -364,6 +364,7 @@ impl DecodedTensorTrain {
     fn table(&self, axes: Vec<Axis>, data: Vec<f32>) -> Result<Table, TableError> {
         Table::from_content(
             TableContent {
+                encoding: Default::default(),
                 schema: self.schema.clone(),
                 description: self.description.clone(),
                 axes,

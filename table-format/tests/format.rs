@@ -21,6 +21,7 @@ fn sample_table() -> Table {
     attributes.insert("normalization".into(), "test".into());
     Table::from_content(
         TableContent {
+            encoding: Default::default(),
             schema: Schema::new("test-phase", 3),
             description: "synthetic".into(),
             axes: vec![
@@ -170,11 +171,13 @@ fn with_version(mut b: Vec<u8>, major: u16, minor: u16) -> Vec<u8> {
 
 #[test]
 fn newer_major_is_refused_newer_minor_is_read() {
-    let e = Table::from_bytes(&with_version(bytes(), 2, 0), Path::new("t.sbt")).unwrap_err();
-    assert!(matches!(e, TableError::NewerMajor { major: 2, .. }), "{e}");
-    assert!(e.to_string().contains("newer"));
-    let t = Table::from_bytes(&with_version(bytes(), 1, 9), Path::new("t.sbt")).unwrap();
-    assert_eq!(t.data, sample_table().data);
+    let e = Table::from_bytes(&with_version(bytes(), 3, 0), Path::new("t.sbt")).unwrap_err();
+    assert!(matches!(e, TableError::NewerMajor { major: 3, .. }), "{e}");
+    assert!(e.to_string().contains("3.0 is newer"), "{e}");
+    for (major, minor) in [(1, 9), (2, 0), (2, 7)] {
+        let t = Table::from_bytes(&with_version(bytes(), major, minor), Path::new("t.sbt"));
+        assert_eq!(t.unwrap().data, sample_table().data, "{major}.{minor}");
+    }
 }
 
 #[test]
@@ -186,6 +189,7 @@ fn failed_write_keeps_existing_table() {
     let before = std::fs::read(&path).unwrap();
     // A table that cannot be serialised must not touch the existing file.
     let bad = TableContent {
+        encoding: Default::default(),
         schema: Schema::new("x", 1),
         description: String::new(),
         axes: vec![Axis::values("a", "1", vec![0.0, 1.0])],
@@ -218,6 +222,7 @@ fn sample_interpolates_and_clamps() {
 #[test]
 fn axis_labels_round_trip_and_are_checked() {
     let content = |labels: Vec<String>| TableContent {
+        encoding: Default::default(),
         schema: Schema::new("x", 1),
         description: String::new(),
         axes: vec![Axis::labelled("distribution", "1", vec![0.0, 1.0], labels)],
@@ -235,4 +240,140 @@ fn axis_labels_round_trip_and_are_checked() {
     let text = String::from_utf8_lossy(&plain.to_bytes().unwrap()).to_string();
     assert!(!text.contains("\"labels\""), "no labels key when unused");
     assert!(Table::from_content(content(vec!["one".into()]), Provenance::default()).is_err());
+}
+
+/// A table of `i_perp`, `i_par` (stored) and `phase`, `dolp` (derived) over
+/// wavelength (2) × polar (5) × azimuth (4), stored as `encoding`.
+fn polarised_table(encoding: scatterbake_table::ValueEncoding, scale: f32) -> (Table, Vec<f32>) {
+    let mut input = Vec::new();
+    for i in 0..40 {
+        let p = scale * (1.0 + (i as f32 * 0.731).sin().abs() * 1e3);
+        let q = scale * (0.2 + (i as f32 * 0.377).cos().abs());
+        input.extend([0.0, p, q, 0.0]);
+    }
+    let content = TableContent {
+        schema: Schema::new("test-polarised", 1),
+        description: "synthetic".into(),
+        axes: vec![
+            Axis::values("wavelength", "nm", vec![450.0, 650.0]),
+            Axis::uniform("outgoing_polar", "deg", 0.0, 45.0, 5),
+            Axis::uniform("outgoing_azimuth", "deg", 0.0, 90.0, 4),
+        ],
+        channels: vec![
+            Channel::derived("phase", "1/sr", "mean", "mean", "i_perp", "i_par"),
+            Channel::new("i_perp", "1/sr", "perpendicular"),
+            Channel::new("i_par", "1/sr", "parallel"),
+            Channel::derived(
+                "dolp",
+                "1",
+                "nd",
+                "normalized-difference",
+                "i_perp",
+                "i_par",
+            ),
+        ],
+        attributes: Default::default(),
+        data: input.clone(),
+        encoding,
+    };
+    (
+        Table::from_content(content, Provenance::default()).unwrap(),
+        input,
+    )
+}
+
+fn top16_rows() -> scatterbake_table::ValueEncoding {
+    scatterbake_table::ValueEncoding::Top16 {
+        predictor: Some(scatterbake_table::PreviousRow {
+            stride: 8,
+            block: 40,
+        }),
+    }
+}
+
+/// 16-bit values round trip: the file is format 2.0, stored values are within 2^−9 relative of
+/// the input, derived channels are exactly their definition on the stored values, and every
+/// read (whole, one entry, verification, header only) agrees with the writer's table.
+#[test]
+fn top16_round_trip() {
+    use scatterbake_table::{ReadLimits, read_header_only, verify_file};
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("t.sbt");
+    for scale in [1.0f32, 3.7e-20, 2.1e15] {
+        let (mut t, input) = polarised_table(top16_rows(), scale);
+        write_table_atomic(&mut t, &path).unwrap();
+        let b = std::fs::read(&path).unwrap();
+        assert_eq!(&b[8..12], &[2, 0, 0, 0]);
+        let r = Table::open(&path).unwrap();
+        assert_eq!(r.header, t.header);
+        assert_eq!(r.data, t.data);
+        assert_eq!(r.header.layout.shape, vec![2, 5, 4, 2]);
+        assert_eq!(r.header.layout.dtype, "f32-top16le");
+        for (got, want) in r.data.chunks(4).zip(input.chunks(4)) {
+            for c in [1, 2] {
+                let rel = (got[c] as f64 - want[c] as f64).abs() / want[c] as f64;
+                assert!(rel <= 1.0 / 512.0, "{} vs {}", got[c], want[c]);
+            }
+            let (p, q) = (got[1] as f64, got[2] as f64);
+            assert_eq!(got[0], (0.5 * (p + q)) as f32);
+            assert_eq!(got[3], ((p - q) / (p + q)) as f32);
+        }
+        let limits = ReadLimits::default();
+        let e = Table::open_slice(&path, &[1], &limits).unwrap();
+        assert_eq!(e.data, t.data[80..]);
+        let one = Table::open_slice(&path, &[1, 2, 3], &limits).unwrap();
+        assert_eq!(one.data, t.data[124..128]);
+        assert_eq!(verify_file(&path, &limits).unwrap().header, t.header);
+        assert_eq!(read_header_only(&path).unwrap(), t.header);
+        // Written again, the same bytes.
+        assert_eq!(r.clone().to_bytes().unwrap(), b);
+    }
+}
+
+/// The memory limit is the decoded values': 160 values of 4 bytes, from an 80-value payload of
+/// 2 bytes each.
+#[test]
+fn top16_limit_is_the_decoded_size() {
+    let (mut t, _) = polarised_table(top16_rows(), 1.0);
+    let b = t.to_bytes().unwrap();
+    let limits = |max_payload_bytes| scatterbake_table::ReadLimits { max_payload_bytes };
+    assert!(Table::from_bytes_with_limits(&b, Path::new("t"), &limits(640)).is_ok());
+    let e = Table::from_bytes_with_limits(&b, Path::new("t"), &limits(639)).unwrap_err();
+    assert!(e.to_string().contains("decoded values (640 bytes"), "{e}");
+}
+
+/// Tables without 16-bit values or derived channels are still written as 1.0, with no new
+/// header field; derived channels alone make a 2.0 file of f32 values; the writer refuses
+/// values a 16-bit code cannot hold.
+#[test]
+fn versions_and_writer_refusals() {
+    let mut plain = sample_table();
+    let b = plain.to_bytes().unwrap();
+    assert_eq!(&b[8..12], &[1, 0, 0, 0]);
+    let text = String::from_utf8_lossy(&b[56..]);
+    assert!(!text.contains("predictor") && !text.contains("derived"));
+    let (mut f32_derived, input) = polarised_table(Default::default(), 1.0);
+    let b = f32_derived.to_bytes().unwrap();
+    assert_eq!(&b[8..12], &[2, 0, 0, 0]);
+    let r = Table::from_bytes(&b, Path::new("t")).unwrap();
+    assert_eq!(r.data, f32_derived.data);
+    assert_eq!(r.data[1], input[1]);
+    for bad in [-1.0, f32::NAN, f32::INFINITY, f32::MAX] {
+        let (t, mut input) = polarised_table(top16_rows(), 1.0);
+        input[5] = bad;
+        let content = TableContent {
+            schema: t.header.schema.clone(),
+            description: String::new(),
+            axes: t.header.axes.clone(),
+            channels: t.header.channels.clone(),
+            attributes: Default::default(),
+            data: input,
+            encoding: top16_rows(),
+        };
+        let e = Table::from_content(content, Provenance::default()).unwrap_err();
+        assert!(
+            e.to_string().contains("cannot be stored as f32-top16le"),
+            "{e}"
+        );
+    }
 }

@@ -65,6 +65,7 @@ pub fn set_payload(header: &mut Value, raw: &[u8], compressed: &[u8]) {
 /// 0, 90, 180 deg), channels `phase` and `dolp`.
 pub fn base_header() -> Value {
     let content = TableContent {
+        encoding: Default::default(),
         schema: Schema::new("crafted", 1),
         description: "crafted test table".into(),
         axes: vec![
@@ -348,7 +349,7 @@ fn preamble_cases(raw: &[u8], add: &mut Add) {
         false,
     );
     add("major_0", assemble(0, 0, 0, text.as_bytes(), &c), false);
-    add("major_2", assemble(2, 0, 0, text.as_bytes(), &c), false);
+    add("major_3", assemble(3, 0, 0, text.as_bytes(), &c), false);
     add(
         "minor_7_valid",
         assemble(1, 7, 0, text.as_bytes(), &c),
@@ -582,6 +583,7 @@ pub fn tensor_train_table() -> (Table, Vec<f32>) {
         }
     }
     let content = TableContent {
+        encoding: Default::default(),
         schema: Schema::new("fur-medulla-azimuthal", 1),
         description: "crafted tensor-train source".into(),
         axes: vec![
@@ -796,6 +798,7 @@ fn zero_train(t: &mut Table, dims: &[usize], ranks: &[usize]) {
     attributes.insert("core_offsets".into(), json!(offsets));
     attributes.insert("source_axes".into(), json!(axes));
     let content = TableContent {
+        encoding: Default::default(),
         schema: t.header.schema.clone(),
         description: t.header.description.clone(),
         axes: vec![Axis::uniform("value", "1", 0.0, 1.0, n)],
@@ -804,4 +807,260 @@ fn zero_train(t: &mut Table, dims: &[usize], ranks: &[usize]) {
         data: vec![0.0; n],
     };
     *t = Table::from_content(content, Provenance::default()).unwrap();
+}
+
+/// The valid format 2.0 table of [`top16_cases`]: axes `wavelength` (2) × `outgoing_polar` (3)
+/// × `outgoing_azimuth` (4); channels `phase` (mean of `i_perp`, `i_par`), `i_perp`, `i_par`,
+/// `dolp` (their normalised difference); `f32-top16le` with the previous-row predictor (one
+/// polar row, 8 values; one entry, 24 values), as the compact ray-traced tables store them.
+pub fn top16_table() -> Table {
+    use scatterbake::table::{PreviousRow, ValueEncoding};
+    let n = 2 * 3 * 4;
+    let mut data = Vec::with_capacity(4 * n);
+    for i in 0..n {
+        let (p, q) = (1.0 + 0.37 * i as f32, 0.5 + 0.11 * (i % 5) as f32);
+        data.extend([0.0, p, q, 0.0]);
+    }
+    let content = TableContent {
+        schema: Schema::new("crafted", 1),
+        description: "crafted 16-bit table".into(),
+        axes: vec![
+            Axis::values("wavelength", "nm", vec![400.0, 500.0]),
+            Axis::values("outgoing_polar", "deg", vec![0.0, 90.0, 180.0]),
+            Axis::uniform("outgoing_azimuth", "deg", 0.0, 90.0, 4),
+        ],
+        channels: vec![
+            Channel::derived("phase", "1/sr", "test", "mean", "i_perp", "i_par"),
+            Channel::new("i_perp", "1/sr", "test"),
+            Channel::new("i_par", "1/sr", "test"),
+            Channel::derived(
+                "dolp",
+                "1",
+                "test",
+                "normalized-difference",
+                "i_perp",
+                "i_par",
+            ),
+        ],
+        attributes: serde_json::Map::new(),
+        data,
+        encoding: ValueEncoding::Top16 {
+            predictor: Some(PreviousRow {
+                stride: 8,
+                block: 24,
+            }),
+        },
+    };
+    Table::from_content(content, Provenance::default()).unwrap()
+}
+
+/// Header and stored codes (after the predictor) of [`top16_table`].
+fn top16_parts() -> (Value, Vec<u16>) {
+    let bytes = top16_table().to_bytes().unwrap();
+    let hlen = u64::from_le_bytes(bytes[16..24].try_into().unwrap()) as usize;
+    let header: Value = serde_json::from_slice(&bytes[56..56 + hlen]).unwrap();
+    let raw = zstd::bulk::decompress(&bytes[56 + hlen..], 1 << 20).unwrap();
+    let codes = raw
+        .chunks_exact(2)
+        .map(|c| u16::from_le_bytes([c[0], c[1]]))
+        .collect();
+    (header, codes)
+}
+
+/// One edit of the valid 16-bit table: name, whether it stays valid, the fragment of the rule a
+/// reader's error must contain, and the edit of its version, header and stored codes.
+type Top16Edit = (
+    &'static str,
+    bool,
+    &'static str,
+    fn(&mut (u16, u16), &mut Value, &mut Vec<u16>),
+);
+
+/// Format 2.0 files with 16-bit values and derived channels (`docs/table-format.md`, "16-bit
+/// values"): the valid one and one case per rule, each with every checksum recomputed; a reader
+/// of 2.0 accepts the valid ones and refuses the others with the rule's fragment.
+pub fn top16_cases() -> Vec<(Case, &'static str)> {
+    let mut edits = top16_layout_edits();
+    edits.extend(top16_channel_edits());
+    edits
+        .into_iter()
+        .map(|(name, valid, fragment, edit)| {
+            let (mut header, mut codes) = top16_parts();
+            let mut version = (2, 0);
+            edit(&mut version, &mut header, &mut codes);
+            let raw: Vec<u8> = codes.iter().flat_map(|c| c.to_le_bytes()).collect();
+            let c = zstd_frame(&raw);
+            let declared = header["payload"]["uncompressed_bytes"].clone();
+            set_payload(&mut header, &raw, &c);
+            if name == "top16_declared_values_over_limit" {
+                header["payload"]["uncompressed_bytes"] = declared;
+            }
+            let header = serde_json::to_vec(&header).unwrap();
+            let bytes = assemble(version.0, version.1, 0, &header, &c);
+            (Case { name, bytes, valid }, fragment)
+        })
+        .collect()
+}
+
+fn predictor(h: &mut Value, stride: u64, block: u64) {
+    h["layout"]["predictor"] = json!({"kind": "previous-row", "stride": stride, "block": block});
+}
+
+fn top16_layout_edits() -> Vec<Top16Edit> {
+    vec![
+        ("top16_valid", true, "", |_, _, _| {}),
+        ("top16_newer_minor", true, "", |v, h, _| {
+            *v = (2, 3);
+            h["layout"]["future_field"] = json!(1);
+        }),
+        ("top16_without_predictor", true, "", |_, h, c| {
+            h["layout"].as_object_mut().unwrap().remove("predictor");
+            *c = top16_table()
+                .data
+                .chunks(4)
+                .flat_map(|p| [p[1], p[2]])
+                .map(|v| (v.to_bits() >> 15) as u16)
+                .collect();
+        }),
+        (
+            "top16_in_format_1",
+            false,
+            "unsupported layout",
+            |v, _, _| *v = (1, 0),
+        ),
+        ("top16_stride_zero", false, "stride is 0", |_, h, _| {
+            predictor(h, 0, 24)
+        }),
+        ("top16_stride_over_block", false, "exceeds", |_, h, _| {
+            predictor(h, 48, 24)
+        }),
+        (
+            "top16_block_not_multiple",
+            false,
+            "not a multiple",
+            |_, h, _| predictor(h, 16, 24),
+        ),
+        (
+            "top16_block_not_axes",
+            false,
+            "not the values of the last axes",
+            |_, h, _| predictor(h, 4, 12),
+        ),
+        (
+            "top16_predictor_kind",
+            false,
+            "is not `previous-row`",
+            |_, h, _| h["layout"]["predictor"]["kind"] = json!("next-row"),
+        ),
+        (
+            "top16_predictor_array",
+            false,
+            "must be an object",
+            |_, h, _| h["layout"]["predictor"] = json!([8, 24]),
+        ),
+        (
+            "top16_predictor_on_f32",
+            false,
+            "needs layout.dtype",
+            |_, h, c| {
+                h["layout"]["dtype"] = json!("f32le");
+                *c = c.iter().flat_map(|&x| [x, 0]).collect();
+            },
+        ),
+        (
+            "top16_shape_counts_derived",
+            false,
+            "layout shape",
+            |_, h, _| h["layout"]["shape"][3] = json!(4),
+        ),
+        (
+            "top16_infinite_code",
+            false,
+            "not a finite value",
+            |_, _, c| c[3] = 0xFF00,
+        ),
+        ("top16_nan_code", false, "not a finite value", |_, _, c| {
+            c[0] = 0xFFFF
+        }),
+        (
+            "top16_infinite_through_predictor",
+            false,
+            "not a finite value",
+            |_, _, c| {
+                // Stored value 8 (first of the second row) is its code minus that of value 0.
+                c[8] = 0xFF00u16.wrapping_sub(c[0])
+            },
+        ),
+        (
+            "top16_declared_values_over_limit",
+            false,
+            "decoded values",
+            |_, h, _| {
+                // 2^28 points: a 1 GiB payload (within the 4 GiB limit) of 6 GiB decoded values.
+                h["axes"][0]["points"] =
+                    json!({"uniform": {"start": 0.0, "step": 1.0, "count": 1u64 << 25}});
+                h["layout"]["shape"][0] = json!(1u64 << 25);
+                h["payload"]["uncompressed_bytes"] = json!((1u64 << 25) * 24 * 2);
+                for k in 0..2 {
+                    let mut extra = h["channels"][0].clone();
+                    extra["name"] = json!(format!("mean_{k}"));
+                    h["channels"].as_array_mut().unwrap().push(extra);
+                }
+            },
+        ),
+    ]
+}
+
+fn top16_channel_edits() -> Vec<Top16Edit> {
+    vec![
+        ("top16_derived_on_f32", true, "", |_, h, c| {
+            h["layout"]["dtype"] = json!("f32le");
+            h["layout"].as_object_mut().unwrap().remove("predictor");
+            *c = top16_table()
+                .data
+                .chunks(4)
+                .flat_map(|p| [p[1], p[2]])
+                .flat_map(|v| {
+                    let b = v.to_bits();
+                    [b as u16, (b >> 16) as u16]
+                })
+                .collect();
+        }),
+        (
+            "top16_derived_of_derived",
+            false,
+            "which is not a stored channel",
+            |_, h, _| h["channels"][3]["derived"]["of"] = json!(["phase", "i_par"]),
+        ),
+        (
+            "top16_derived_of_missing",
+            false,
+            "which is not a stored channel",
+            |_, h, _| h["channels"][3]["derived"]["of"] = json!(["i_perp", "i_orth"]),
+        ),
+        (
+            "top16_derived_of_one",
+            false,
+            "must name two channels",
+            |_, h, _| h["channels"][3]["derived"]["of"] = json!(["i_perp"]),
+        ),
+        (
+            "top16_derived_op",
+            false,
+            "is not `mean` or `normalized-difference`",
+            |_, h, _| h["channels"][0]["derived"]["op"] = json!("ratio"),
+        ),
+        (
+            "top16_derived_array",
+            false,
+            "must be an object",
+            |_, h, _| h["channels"][0]["derived"] = json!(["mean", "i_perp", "i_par"]),
+        ),
+        (
+            "top16_duplicate_names",
+            false,
+            "must be unique",
+            |_, h, _| h["channels"][3]["name"] = json!("i_perp"),
+        ),
+    ]
 }

@@ -53,6 +53,7 @@ fn content(
     ];
     let n: usize = axes.iter().map(Axis::len).product::<usize>() * 4;
     TableContent {
+        encoding: Default::default(),
         schema: Schema::new("raytrace-phase-2d", 2),
         description: "entries of a ray-traced layout".into(),
         axes,

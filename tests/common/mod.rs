@@ -89,6 +89,7 @@ pub fn synthetic_tables(dir: &Path) -> Vec<PathBuf> {
         }
     }
     let content = TableContent {
+        encoding: Default::default(),
         schema: Schema::new("synthetic-2d-phase", 1),
         description: "2-D phase function layout".into(),
         axes: vec![
@@ -122,6 +123,7 @@ pub fn synthetic_tables(dir: &Path) -> Vec<PathBuf> {
         1.0 / 3.0,
     ];
     let content = TableContent {
+        encoding: Default::default(),
         schema: Schema::new("special-values", 1),
         description: "special f32 values".into(),
         axes: vec![Axis::values(
@@ -223,11 +225,11 @@ pub fn newer_minor_copy(src: &Path, dst: &Path) {
     std::fs::write(dst, rewrite_table(&b, 1, 1, add_unknown_fields)).unwrap();
 }
 
-/// Copy of `src` as format 2.0 with valid checksums and a header a 1.x reader could not parse
-/// (no `layout`, a renamed field): readers must refuse it on the version alone.
+/// Copy of `src` as format 3.0 with valid checksums and a header no reader of 1.x and 2.x
+/// could parse (no `layout`, a renamed field): readers must refuse it on the version alone.
 pub fn newer_major_copy(src: &Path, dst: &Path) {
     let b = std::fs::read(src).unwrap();
-    let out = rewrite_table(&b, 2, 0, |h| {
+    let out = rewrite_table(&b, 3, 0, |h| {
         let o = h.as_object_mut().unwrap();
         let layout = o.remove("layout").unwrap();
         o.insert("storage".into(), layout);

@@ -49,7 +49,9 @@ fn verify_one(f: &std::path::Path, limits: &scatterbake::table::ReadLimits, stri
     {
         Ok(v) => {
             let problems = value_problems(&v);
-            let n: usize = v.header.layout.shape.iter().product();
+            // Decoded values: every channel, derived ones included (format 2.0).
+            let h = &v.header;
+            let n: usize = h.axes.iter().map(|a| a.len()).product::<usize>() * h.channels.len();
             if problems.is_empty() {
                 println!(
                     "ok   {} ({}, {n} values)",

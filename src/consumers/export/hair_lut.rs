@@ -345,6 +345,7 @@ fn write_shader_lookup(s: &mut String, theta: &[f64], language: ShaderLanguage) 
 
 pub fn content_of(table: Table) -> TableContent {
     TableContent {
+        encoding: Default::default(),
         schema: table.header.schema,
         description: table.header.description,
         axes: table.header.axes,

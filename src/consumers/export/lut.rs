@@ -97,6 +97,7 @@ pub fn lut_table(
     attributes.insert("entry".into(), entry.into());
     attributes.insert("lookup".into(), "L = lut(theta) * E_sun * sigma_s * path integral; theta = acos(dot(sun_dir, view_dir)), 180 deg at the antisolar point; texel k at theta = k * 180/(N-1) deg, linear interpolation".into());
     let content = TableContent {
+        encoding: Default::default(),
         schema: Schema::new("rgb-lut", 1),
         description: "linear sRGB of single scattering of a D65 sun vs scattering angle (1/sr per unit sun irradiance)".into(),
         axes: vec![Axis::uniform(

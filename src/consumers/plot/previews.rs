@@ -1148,6 +1148,7 @@ mod tests {
             }
         }
         let content = TableContent {
+            encoding: Default::default(),
             schema: Schema::new("fur-medulla-azimuthal", 1),
             description: "test".into(),
             axes: vec![

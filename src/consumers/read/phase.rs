@@ -410,6 +410,7 @@ mod tests {
             ]
         };
         let content = TableContent {
+            encoding: Default::default(),
             schema: Schema::new("raytrace-phase", version),
             description: "test".into(),
             axes,

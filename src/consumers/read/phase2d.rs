@@ -444,6 +444,7 @@ mod tests {
             }
         }
         let content = TableContent {
+            encoding: Default::default(),
             schema: Schema::new(SCHEMA_2D, 1),
             description: "test".into(),
             axes: vec![
@@ -509,6 +510,7 @@ mod tests {
     fn table_2d(version: u32, axes: Vec<crate::table::Axis>, data: Vec<f32>) -> Table {
         use crate::table::{Channel, Provenance, Schema, TableContent};
         let content = TableContent {
+            encoding: Default::default(),
             schema: Schema::new(SCHEMA_2D, version),
             description: "test".into(),
             axes,
