@@ -1,4 +1,4 @@
-"""Reader for scatterbake tables (``.sbt``), format 1.x. Needs numpy and zstandard.
+"""Reader for scatterbake tables (``.sbt``), formats 1.x and 2.0. Needs numpy and zstandard.
 
     import sys; sys.path.insert(0, "python")
     import scatterbake_table as sbt
@@ -13,10 +13,12 @@
 Byte layout (see docs/table-format.md): magic ``SBTABLE\\0`` (8 bytes), format major and minor
 (u16 LE each), flags (u32 LE), header length H (u64 LE), SHA-256 of bytes [0, 24) + header,
 the UTF-8 JSON header, then one zstd frame of ``header.payload.compressed_bytes`` bytes holding
-the row-major float32 little-endian samples. The reader refuses newer major versions (naming
-the version), reads any minor version of format 1 and ignores header fields it does not know
-(newer minors only add fields), checks the header checksum, the SHA-256 of the compressed and
-of the uncompressed payload, the sizes, and that nothing follows the payload.
+the row-major float32 little-endian samples (format 2.0 may store 16-bit codes instead, with a
+previous-row predictor, and derive channels from two stored ones: ``t.data`` is always the
+decoded float32 values of every channel). The reader refuses newer major versions (naming
+the version), reads any minor version of formats 1 and 2 and ignores header fields it does not
+know (newer minors only add fields), checks the header checksum, the SHA-256 of the compressed
+and of the uncompressed payload, the sizes, and that nothing follows the payload.
 """
 
 from __future__ import annotations
@@ -34,8 +36,14 @@ import numpy as np
 import zstandard
 
 MAGIC = b"SBTABLE\0"
-FORMAT_MAJOR = 1
+FORMAT_MAJOR = 2
 FORMAT_MINOR = 0
+#: Minor version implemented of each major version read.
+_MINOR_OF = {1: 0, 2: 0}
+#: Value encoding of format 2 (docs/table-format.md, "Format 2: 16-bit values").
+TOP16 = "f32-top16le"
+_DERIVED_OPS = ("mean", "normalized-difference")
+_DECODE_ROWS = 1 << 16
 PREAMBLE = 56
 #: Largest header accepted (64 MiB).
 MAX_HEADER_BYTES = 64 << 20
@@ -245,7 +253,7 @@ def _parse_header(header_bytes: bytes, major: int, minor: int, max_payload_bytes
         raise _Bad("JSON: a string holds a lone surrogate") from None
     if not isinstance(header, dict):
         raise _Bad("the header is not a JSON object")
-    if minor <= FORMAT_MINOR:
+    if minor <= _MINOR_OF[major]:
         for k in header:
             if k not in _HEADER_FIELDS:
                 raise _Bad(f"unknown field `{k}` in a format {major}.{minor} header (only a newer minor version may add fields)")
@@ -303,11 +311,13 @@ def _parse_header(header_bytes: bytes, major: int, minor: int, max_payload_bytes
             count = _uint(_field(u, "count", "uniform"), "uniform.count")
             axes.append((name, unit, "uniform", (start, step, count)))
     channels = []
+    derived_j = []
     for i, c in enumerate(chans_j):
         c = _obj(c, f"channels[{i}]")
         channels.append(Channel(_str(c, "name", f"channels[{i}]"), _str(c, "unit", f"channels[{i}]"), _str(c, "meaning", f"channels[{i}]")))
+        derived_j.append(c.get("derived"))
     # Structural rules, in the order of the Rust reader.
-    if order != "row-major" or dtype != "f32le":
+    if order != "row-major" or dtype not in (("f32le", TOP16) if major >= 2 else ("f32le",)):
         raise _Bad(f"unsupported layout {order} / {dtype}")
     if compression != "zstd":
         raise _Bad(f"unsupported compression `{compression}`")
@@ -321,12 +331,13 @@ def _parse_header(header_bytes: bytes, major: int, minor: int, max_payload_bytes
     for a, n in zip(axes, lens):
         if n == 0:
             raise _Bad(f"axis `{a[0]}` is empty")
-    shape = lens + [len(channels)]
+    enc = _storage(major, dtype, layout, channels, derived_j)
+    shape = lens + [len(channels) if enc is None else len(enc.stored)]
     if shape != lshape:
         raise _Bad(f"layout shape {lshape} disagrees with axes/channels {shape}")
     if axis_order != [a[0] for a in axes] + ["channel"]:
         raise _Bad(f"layout axis_order {axis_order} disagrees with the axis names followed by `channel`")
-    nbytes = 4
+    nbytes = 4 if enc is None else enc.item_bytes
     for n in shape:
         nbytes *= n
         if nbytes >= _U64:
@@ -335,6 +346,8 @@ def _parse_header(header_bytes: bytes, major: int, minor: int, max_payload_bytes
         raise _Bad(f"shape {shape} implies {nbytes} bytes, payload.uncompressed_bytes says {ubytes}")
     if nbytes > max_payload_bytes:
         raise _Bad(f"payload of {nbytes} bytes exceeds the reader limit of {max_payload_bytes} bytes (raise it to read this table)")
+    if enc is not None:
+        enc.check(lens, len(channels), max_payload_bytes)
     for (name, unit, kind, pts) in axes:
         if kind == "values":
             _check_coords(name, np.asarray(pts, dtype=np.float64))
@@ -345,7 +358,186 @@ def _parse_header(header_bytes: bytes, major: int, minor: int, max_payload_bytes
             if not (math.isfinite(step) and step > 0.0):
                 raise _Bad(f"axis `{name}`: uniform step {step} is not finite and > 0")
     # Uniform coordinates are enumerated only once the payload has proved the grid exists.
-    return header, axes, channels, tuple(shape), cbytes, ubytes
+    return header, axes, channels, tuple(shape), cbytes, ubytes, enc
+
+
+@dataclass
+class _Storage:
+    """How a format-2 payload stores its values (docs/table-format.md, "16-bit values" and
+    "Derived channels"): ``item_bytes`` 4 (f32) or 2 (16-bit codes: the upper 16 bits of each
+    value's f32 after the sign bit), an optional previous-row predictor (``stride``, ``block``:
+    codes stored as differences to the code ``stride`` values earlier within each block), and
+    channels derived from two stored ones."""
+
+    item_bytes: int
+    stored: list  # indices (header order) of the stored channels
+    derived: list  # (index, op, index of a, index of b)
+    stride: int = 0  # 0: no predictor
+    block: int = 0
+    block_axes: int = 0  # k: a block is the last k axes times the stored channels
+
+    def check(self, lens, n_channels: int, max_payload_bytes: int) -> None:
+        s, b, ns = self.stride, self.block, len(self.stored)
+        if self.stride or self.block:
+            if s == 0:
+                raise _Bad("layout.predictor.stride is 0; it must be at least 1")
+            if s > b:
+                raise _Bad(f"layout.predictor.stride {s} exceeds layout.predictor.block {b}")
+            if b % s:
+                raise _Bad(f"layout.predictor.block {b} is not a multiple of layout.predictor.stride {s}")
+            prod = ns
+            for k, n in enumerate(reversed(lens), start=1):
+                prod *= n
+                if prod >= _U64:
+                    break
+                if prod == b:
+                    self.block_axes = k
+                    break
+            if self.block_axes == 0:
+                raise _Bad(f"layout.predictor.block {b} is not the values of the last axes of the table")
+        decoded = 4 * n_channels
+        for n in lens:
+            decoded *= n
+        if decoded > max_payload_bytes:
+            raise _Bad(f"decoded values of {decoded} bytes exceed the reader limit of {max_payload_bytes} bytes (raise it to read this table)")
+
+    def decode(self, stored, n_channels: int) -> np.ndarray:
+        """Every channel from the stored values: f32 bytes, or the 16-bit codes with the
+        predictor already undone (``_CodeCheck.codes``)."""
+        ns = len(self.stored)
+        if self.item_bytes == 4:
+            values = np.frombuffer(stored, dtype="<f4").reshape(-1, ns)
+        else:
+            values = stored.reshape(-1, ns)
+        out = np.empty((values.shape[0], n_channels), dtype=np.float32)
+        # In chunks, so that the temporaries stay small beside the decoded values.
+        for lo in range(0, values.shape[0], _DECODE_ROWS):
+            hi = min(lo + _DECODE_ROWS, values.shape[0])
+            chunk = out[lo:hi]
+            if self.item_bytes == 4:
+                chunk[:, self.stored] = values[lo:hi]
+            else:
+                chunk[:, self.stored] = (values[lo:hi].astype(np.uint32) << np.uint32(15)).view(np.float32)
+            for i, op, ia, ib in self.derived:
+                a = chunk[:, ia].astype(np.float64)
+                b = chunk[:, ib].astype(np.float64)
+                if op == "mean":
+                    chunk[:, i] = 0.5 * (a + b)
+                else:
+                    total = a + b
+                    with np.errstate(divide="ignore", invalid="ignore"):
+                        chunk[:, i] = np.where(total == 0.0, 0.0, (a - b) / total)
+        return out.reshape(-1)
+
+
+class _CodeCheck:
+    """Undoes the predictor over the whole payload as it streams past (every entry, also those
+    not kept) and remembers the first stored value whose code is not finite, as the Rust reader
+    does: a file is accepted or refused as a whole. Memory: one row of codes and a chunk."""
+
+    def __init__(self, storage: _Storage, lo: int, hi: int):
+        self.lo, self.hi = lo, hi  # the stored values whose codes are kept
+        self.parts = []
+        self.stride = storage.stride or 1
+        self.rows_per_block = (storage.block // storage.stride) if storage.stride else 1
+        self.predicted = bool(storage.stride)
+        self.ring = np.zeros(self.stride, dtype=np.uint16)
+        self.pending = b""
+        self.index = 0  # stored values consumed
+        self.bad = None
+
+    def feed(self, b: bytes) -> None:
+        b = self.pending + b
+        usable = len(b) - len(b) % 2
+        self.pending = b[usable:]
+        values = np.frombuffer(b[:usable], dtype="<u2")
+        while values.size and self.bad is None:
+            col = self.index % self.stride
+            if col or values.size < self.stride:
+                # Up to the end of the current row, against the ring's columns.
+                n = min(values.size, self.stride - col)
+                self._piece(values[:n], col)
+            else:
+                # Whole rows at once: a running sum that restarts at block starts.
+                n = (values.size // self.stride) * self.stride
+                self._rows(values[:n].reshape(-1, self.stride))
+            values = values[n:]
+
+    def _piece(self, stored, col: int) -> None:
+        row = self.index // self.stride
+        codes = stored + self.ring[col:col + stored.size] if self.predicted and row % self.rows_per_block else stored.copy()
+        self.ring[col:col + stored.size] = codes
+        self._check(codes)
+
+    def _rows(self, stored) -> None:
+        k = stored.shape[0]
+        rows = self.index // self.stride + np.arange(k)
+        restart = (rows % self.rows_per_block == 0) | (not self.predicted)
+        first = stored[0] if restart[0] else stored[0] + self.ring
+        arr = np.concatenate([first[None, :], stored[1:]])
+        sums = np.cumsum(arr, axis=0, dtype=np.uint16)
+        last = np.maximum.accumulate(np.where(restart, np.arange(k), 0))
+        base = np.where((last > 0)[:, None], sums[np.maximum(last - 1, 0)], np.uint16(0))
+        codes = (sums - base).astype(np.uint16)
+        self.ring = codes[-1].copy()
+        self._check(codes.reshape(-1))
+
+    def _check(self, codes) -> None:
+        over = np.flatnonzero(codes >= 0xFF00)
+        if over.size and self.bad is None:
+            self.bad = (self.index + int(over[0]), int(codes[over[0]]))
+        a, c = max(self.lo, self.index), min(self.hi, self.index + codes.size)
+        if a < c:
+            self.parts.append(codes[a - self.index:c - self.index].copy())
+        self.index += codes.size
+
+    def codes(self) -> np.ndarray:
+        return np.concatenate(self.parts) if self.parts else np.zeros(0, dtype=np.uint16)
+
+
+def _storage(major: int, dtype: str, layout: dict, channels, derived_j):
+    """The storage of a format-2 header (None: f32 with every channel stored, the only storage
+    of format 1, whose readers ignore `predictor` and `derived`)."""
+    pred = layout.get("predictor") if major >= 2 else None
+    if major < 2 or (dtype != TOP16 and pred is None and all(d is None for d in derived_j)):
+        return None
+    if pred is not None and dtype != TOP16:
+        raise _Bad(f"layout.predictor needs layout.dtype `{TOP16}` (this layout is `{dtype}`)")
+    names = [c.name for c in channels]
+    if any(d is not None for d in derived_j) and len(set(names)) != len(names):
+        raise _Bad("channel names must be unique in a table with derived channels")
+    stored = [i for i, d in enumerate(derived_j) if d is None]
+    derived = []
+    for i, d in enumerate(derived_j):
+        if d is None:
+            continue
+        what = f"channel `{names[i]}`: derived"
+        if not isinstance(d, dict):
+            raise _Bad(f"{what} must be an object")
+        op = _str(d, "op", what)
+        if op not in _DERIVED_OPS:
+            raise _Bad(f"{what}.op `{op}` is not `mean` or `normalized-difference`")
+        of = _field(d, "of", what)
+        if not isinstance(of, list) or not all(isinstance(x, str) for x in of):
+            raise _Bad(f"{what}.of: expected an array of channel names")
+        if len(of) != 2:
+            raise _Bad(f"{what}.of must name two channels ({len(of)} given)")
+        idx = []
+        for x in of:
+            if x not in names or derived_j[names.index(x)] is not None:
+                raise _Bad(f"{what}.of names `{x}`, which is not a stored channel of the table")
+            idx.append(names.index(x))
+        derived.append((i, op, idx[0], idx[1]))
+    st = _Storage(item_bytes=2 if dtype == TOP16 else 4, stored=stored, derived=derived)
+    if pred is not None:
+        if not isinstance(pred, dict):
+            raise _Bad("layout.predictor must be an object")
+        kind = _str(pred, "kind", "layout.predictor")
+        if kind != "previous-row":
+            raise _Bad(f"layout.predictor.kind `{kind}` is not `previous-row`")
+        st.stride = _uint(_field(pred, "stride", "layout.predictor"), "layout.predictor.stride")
+        st.block = _uint(_field(pred, "block", "layout.predictor"), "layout.predictor.block")
+    return st
 
 
 def _check_coords(name: str, coords) -> None:
@@ -496,7 +688,7 @@ def _read_table(f, name: str, file_len, max_payload_bytes: int, entry=None) -> T
     pre = magic + rest
     major, minor, flags, hlen = struct.unpack_from("<HHIQ", pre, 8)
     if major > FORMAT_MAJOR:
-        raise TableError(f"{name}: table format version {major}.{minor} is newer than this reader (supports {FORMAT_MAJOR}.x)")
+        raise TableError(f"{name}: table format version {major}.{minor} is newer than this reader (supports 1.x and {FORMAT_MAJOR}.x)")
     if major == 0:
         raise TableError(f"{name}: header is not valid: format major version 0 does not exist")
     if flags != 0:
@@ -511,17 +703,27 @@ def _read_table(f, name: str, file_len, max_payload_bytes: int, entry=None) -> T
     if hashlib.sha256(pre[:24] + header_bytes).digest() != pre[24:56]:
         raise TableError(f"{name}: header checksum mismatch (file is corrupt)")
     try:
-        header, axes, channels, shape, cbytes, ubytes = _parse_header(header_bytes, major, minor, max_payload_bytes)
+        header, axes, channels, shape, cbytes, ubytes, enc = _parse_header(header_bytes, major, minor, max_payload_bytes)
     except _Bad as e:
         raise TableError(f"{name}: header is not valid: {e}") from None
+    size = 4 if enc is None else enc.item_bytes
     if entry is None:
-        first, count = 0, ubytes // 4
+        first, count = 0, ubytes // size
     else:
         try:
-            first, count = _entry_values(axes, len(channels), entry)
+            first, count = _entry_values(axes, shape[-1], entry)
+            if enc is not None and enc.block_axes and len(entry) > len(axes) - enc.block_axes:
+                raise _Bad(f"the 16-bit values decode in blocks of the last {enc.block_axes} axes: fix at most the first {len(axes) - enc.block_axes}")
         except _Bad as e:
             raise TableError(f"{name}: cannot open the entry: {e}") from None
-    raw = _read_payload(f, name, file_len, header["payload"], PREAMBLE + hlen, cbytes, ubytes, 4 * first, 4 * count)
+    # 16-bit codes are decoded as they stream past (the predictor needs every earlier row of
+    # the block), keeping those of the entry; no stored bytes are kept then.
+    check = _CodeCheck(enc, first, first + count) if enc is not None and enc.item_bytes == 2 else None
+    keep = size * count if check is None else 0
+    raw = _read_payload(f, name, file_len, header["payload"], PREAMBLE + hlen, cbytes, ubytes, size * first, keep, None if check is None else check.feed)
+    if check is not None and check.bad is not None:
+        i, code = check.bad
+        raise TableError(f"{name}: payload is not valid: stored value {i} decodes to code {code:#06x}, which is not a finite value (all exponent bits set)")
     try:
         axes = [Axis(an, unit, _axis_coords(an, kind, pts)) for (an, unit, kind, pts) in axes]
     except _Bad as e:
@@ -529,7 +731,13 @@ def _read_table(f, name: str, file_len, max_payload_bytes: int, entry=None) -> T
     if entry is not None:
         axes = [Axis(a.name, a.unit, a.coords[i:i + 1].copy()) for a, i in zip(axes, entry)] + axes[len(entry):]
         shape = tuple(len(a.coords) for a in axes) + (len(channels),)
-    data = np.frombuffer(raw, dtype="<f4").reshape(shape)
+    if enc is None:
+        data = np.frombuffer(raw, dtype="<f4").reshape(shape)
+    else:
+        try:
+            data = enc.decode(raw if check is None else check.codes(), len(channels)).reshape(shape[:-1] + (len(channels),))
+        except _Bad as e:
+            raise TableError(f"{name}: payload is not valid: {e}") from None
     data.flags.writeable = False
     return Table(header=header, axes=axes, channels=channels, data=data, format_version=(major, minor))
 
@@ -552,7 +760,7 @@ def _entry_values(axes, n_channels: int, entry) -> tuple:
     return first * count, count
 
 
-def _read_payload(f, name: str, file_len, payload: dict, start: int, cbytes: int, ubytes: int, lo: int, hi_len: int) -> bytearray:
+def _read_payload(f, name: str, file_len, payload: dict, start: int, cbytes: int, ubytes: int, lo: int, hi_len: int, sink=None) -> bytearray:
     """Steps 5-7 in one pass over the file: the compressed bytes stream through their SHA-256
     and the frame check into the decompressor, the decompressed bytes through their SHA-256, and
     only the bytes [lo, lo + hi_len) stay in memory. The compressed bytes the decompressor
@@ -567,7 +775,7 @@ def _read_payload(f, name: str, file_len, payload: dict, start: int, cbytes: int
         if file_len > end:
             raise TableError(f"{name}: {file_len - end} unexpected bytes after the payload")
     stream = _CompressedStream(f, cbytes, ubytes)
-    kept, sha_u, failure = _decompress(stream, ubytes, lo, lo + hi_len)
+    kept, sha_u, failure = _decompress(stream, ubytes, lo, lo + hi_len, sink)
     stream.drain()
     if stream.left:
         raise TableError(f"{name}: file truncated: payload needs {cbytes} bytes, {cbytes - stream.left} present")
@@ -588,7 +796,7 @@ def _read_payload(f, name: str, file_len, payload: dict, start: int, cbytes: int
     return kept
 
 
-def _decompress(stream, ubytes: int, lo: int, hi: int):
+def _decompress(stream, ubytes: int, lo: int, hi: int, sink=None):
     """Decompress the frame in chunks of at most 64 KiB, checking its size, hashing every byte
     and keeping the bytes [lo, hi). Returns (kept bytes, SHA-256 hex, the step-7 failure or
     None)."""
@@ -606,6 +814,8 @@ def _decompress(stream, ubytes: int, lo: int, hi: int):
                 if not b:
                     return kept, None, f"payload decompresses to {got} bytes, header says {ubytes}"
                 h.update(b)
+                if sink is not None:
+                    sink(b)
                 a, c = max(got, lo), min(got + len(b), hi)
                 if a < c:
                     kept += b[a - got:c - got]
