@@ -462,11 +462,8 @@ fn run_batch_generic<const FMA: bool, const W: usize>(
         }
         for (a, o) in acc.iter().zip(out.iter_mut()) {
             for (j, at) in (b * LANES..).take(block.len()).enumerate() {
-                let [p_re, p_im, q_re, q_im, r_re, r_im, t_re, t_im] = a.map(|q| q[j]);
-                let p = Complex64::new(p_re, p_im);
-                let q = Complex64::new(q_re, q_im);
-                let r = Complex64::new(r_re, r_im);
-                let t = Complex64::new(t_re, t_im);
+                let sum = |q: usize| Complex64::new(a[q][j], a[q + 1][j]);
+                let (p, q, r, t) = (sum(0), sum(2), sum(4), sum(6));
                 o.s1[at] = p + q;
                 o.s1_mirror[at] = p - q;
                 o.s2[at] = r + t;
