@@ -639,10 +639,8 @@ mod tests {
         #[cfg(target_arch = "x86_64")]
         {
             let fma = std::arch::is_x86_feature_detected!("fma");
-            let paths: [(
-                bool,
-                unsafe fn(&[&AngularSeries], &[f64], &mut [MirroredAmplitudes]),
-            ); 2] = [
+            type Path = unsafe fn(&[&AngularSeries], &[f64], &mut [MirroredAmplitudes]);
+            let paths: [(bool, Path); 2] = [
                 (
                     std::arch::is_x86_feature_detected!("avx2"),
                     run_batch_avx2_fma,
