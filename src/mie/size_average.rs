@@ -1094,6 +1094,29 @@ mod tests {
         assert!(average_at_angles(&d, 550.0, Complex64::new(1.333, 0.0), &[181.0], &l).is_err());
     }
 
+    /// A batch of drops gives each drop's own node, in order, with a drop outside the
+    /// validated domain as its error in its place.
+    #[test]
+    fn batched_nodes_are_the_single_nodes() {
+        let angles: Vec<f64> = (0..=60).map(|j| j as f64 * 3.0).collect();
+        let p = PointAngles::new(550.0, Complex64::new(1.333, 0.0), &angles);
+        let radii = [3.0, 20.0, 1e4, 7.5, 0.01];
+        let batch = p.nodes(&radii);
+        assert_eq!(batch.len(), radii.len());
+        for (&r, b) in radii.iter().zip(&batch) {
+            match (p.node(r), b) {
+                (Ok(one), Ok(b)) => {
+                    for (u, w) in one.iter().zip(b) {
+                        assert!((u - w).abs() <= 1e-12 * u.abs(), "r = {r}: {u} {w}");
+                    }
+                }
+                (Err(e), Err(f)) => assert_eq!(&e, f),
+                (one, b) => panic!("r = {r}: {one:?} against {b:?}"),
+            }
+        }
+        assert!(batch[2].is_err() && batch[3].is_ok());
+    }
+
     /// A monodisperse entry is its sphere; mirrored angles share the series correctly.
     #[test]
     fn monodisperse_is_the_sphere() {
