@@ -6,6 +6,12 @@
 //! ```text
 //! cargo bench --bench mie
 //! ```
+//!
+//! Group `mie-batch-901-cosines`: the angular sums alone (coefficients solved beforehand) of 16
+//! spheres x = 300, 303, …, 345 at 901 cosines (0..90° step 0.1°, mirrors included), one
+//! sphere at a time (`amplitudes_mirrored`) against the batched kernel
+//! (`amplitudes_mirrored_batch`) with all 16 in one batch and with batches of one. Ratio:
+//! `per-sphere` time over `batch-16`.
 
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 use num_complex::Complex64;
@@ -54,5 +60,46 @@ fn bench(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, bench);
+fn bench_batch(c: &mut Criterion) {
+    let m = Complex64::new(1.333, 0.0);
+    let mu: Vec<f64> = (0..=900)
+        .map(|k| (0.1 * k as f64).to_radians().cos())
+        .collect();
+    let spheres: Vec<scatterbake::mie::Sphere> = (0..16)
+        .map(|i| scatterbake::mie::Sphere::new(300.0 + 3.0 * i as f64, m).unwrap())
+        .collect();
+    let refs: Vec<&scatterbake::mie::Sphere> = spheres.iter().collect();
+    let mut group = c.benchmark_group("mie-batch-901-cosines");
+    group.sample_size(10);
+    group.measurement_time(std::time::Duration::from_secs(3));
+    group.warm_up_time(std::time::Duration::from_millis(500));
+    group.bench_function("per-sphere", |b| {
+        b.iter(|| {
+            for s in &spheres {
+                black_box(s.amplitudes_mirrored(black_box(&mu), false));
+            }
+        })
+    });
+    group.bench_function("batch-16", |b| {
+        b.iter(|| {
+            black_box(scatterbake::mie::Sphere::amplitudes_mirrored_batch(
+                &refs,
+                black_box(&mu),
+            ))
+        })
+    });
+    group.bench_function("batch-1", |b| {
+        b.iter(|| {
+            for s in &refs {
+                black_box(scatterbake::mie::Sphere::amplitudes_mirrored_batch(
+                    std::slice::from_ref(s),
+                    black_box(&mu),
+                ));
+            }
+        })
+    });
+    group.finish();
+}
+
+criterion_group!(benches, bench, bench_batch);
 criterion_main!(benches);

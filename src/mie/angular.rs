@@ -352,6 +352,201 @@ fn run_tile<const FMA: bool>(terms: &[[f64; 6]], nf: f64, st: &mut BlockState) {
     }
 }
 
+/// Orders per tile of the batched kernel ([`amplitudes_mirrored_batch`]): the tile's `π_n`,
+/// `τ_n` at one block of [`LANES`] cosines (2 × 64 × 16 values, 16 KB) stay in L1 while every
+/// sphere of the batch runs over them. Even, so that every tile starts at an odd order.
+const BATCH_TILE: usize = 64;
+
+/// `π_n`, `τ_n` of one tile of orders at one block of [`LANES`] cosines.
+struct OrderTable {
+    pi: Vec<[f64; LANES]>,
+    tau: Vec<[f64; LANES]>,
+    /// The block's cosines and the recurrence state `π_n`, `π_{n−1}` after the tile (kept in
+    /// memory like the tables, which lets the compiler vectorise the recurrence over lanes).
+    state: Vec<[[f64; LANES]; 3]>,
+}
+
+/// The eight partial sums (layout of [`step`]) of one sphere at the cosines of one block.
+type BlockSums = [[f64; LANES]; 8];
+
+/// [`amplitudes_mirrored`] of several spheres at the same cosines, on the calling thread: the
+/// angular functions `π_n(μ)`, `τ_n(μ)` are computed once per order and cosine for the whole
+/// batch (a tile of orders at a time) and every sphere's parity-split sums run over the stored
+/// values with its sums held in registers, so a sphere costs the 8 fused multiply-adds per
+/// `(n, μ)` and the recurrence is shared. The spheres may have different numbers of terms. The
+/// arithmetic of each sum is that of [`amplitudes_mirrored`] in the same order (same values).
+pub fn amplitudes_mirrored_batch(series: &[&AngularSeries], mu: &[f64]) -> Vec<MirroredAmplitudes> {
+    let z = Complex64::new(0.0, 0.0);
+    let mut out: Vec<MirroredAmplitudes> = series
+        .iter()
+        .map(|_| MirroredAmplitudes {
+            s1: vec![z; mu.len()],
+            s2: vec![z; mu.len()],
+            s1_mirror: vec![z; mu.len()],
+            s2_mirror: vec![z; mu.len()],
+        })
+        .collect();
+    run_batch(series, mu, &mut out);
+    out
+}
+
+/// The batched kernel with the widest vectors the CPU has: on x86-64 AVX-512 (8 cosines per
+/// register) or AVX2 (4), both with FMA; the per-sphere sums live in registers either way, and
+/// the fused multiply-adds are those of [`run`] (same values).
+fn run_batch(series: &[&AngularSeries], mu: &[f64], out: &mut [MirroredAmplitudes]) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        let fma = std::arch::is_x86_feature_detected!("fma");
+        if fma && std::arch::is_x86_feature_detected!("avx512f") {
+            // SAFETY: the CPU supports AVX-512F and FMA (checked just above).
+            unsafe { run_batch_avx512_fma(series, mu, out) };
+            return;
+        }
+        if fma && std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU supports AVX2 and FMA (checked just above).
+            unsafe { run_batch_avx2_fma(series, mu, out) };
+            return;
+        }
+    }
+    run_batch_generic::<false, 4>(series, mu, out);
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+fn run_batch_avx2_fma(series: &[&AngularSeries], mu: &[f64], out: &mut [MirroredAmplitudes]) {
+    run_batch_generic::<true, 4>(series, mu, out);
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx2,fma")]
+fn run_batch_avx512_fma(series: &[&AngularSeries], mu: &[f64], out: &mut [MirroredAmplitudes]) {
+    run_batch_generic::<true, 8>(series, mu, out);
+}
+
+/// The batched kernel with vectors of `W` cosines (a divisor of [`LANES`]).
+#[inline(always)]
+fn run_batch_generic<const FMA: bool, const W: usize>(
+    series: &[&AngularSeries],
+    mu: &[f64],
+    out: &mut [MirroredAmplitudes],
+) {
+    // The recurrence constants (2n+1)/n, (n+1)/n are the same in every series: the longest
+    // one supplies them for every order of the batch.
+    let Some(longest) = series.iter().max_by_key(|s| s.len()) else {
+        return;
+    };
+    let mut table = OrderTable {
+        pi: vec![[0.0; LANES]; BATCH_TILE],
+        tau: vec![[0.0; LANES]; BATCH_TILE],
+        state: vec![[[0.0; LANES]; 3]],
+    };
+    let zero: BlockSums = [[0.0; LANES]; 8];
+    let mut acc = vec![zero; series.len()];
+    for (b, block) in mu.chunks(LANES).enumerate() {
+        let mut m = [0.0; LANES];
+        m[..block.len()].copy_from_slice(block);
+        table.state[0] = [m, [1.0; LANES], [0.0; LANES]];
+        acc.iter_mut().for_each(|a| *a = zero);
+        for (t, tile) in longest.terms.chunks(BATCH_TILE).enumerate() {
+            let n0 = t * BATCH_TILE;
+            tabulate::<FMA, W>(tile, (n0 + 1) as f64, &mut table);
+            for (s, a) in series.iter().zip(acc.iter_mut()) {
+                let terms = s.terms.get(n0..).unwrap_or_default();
+                let terms = &terms[..terms.len().min(BATCH_TILE)];
+                if !terms.is_empty() {
+                    for v in (0..LANES).step_by(W) {
+                        sum_tile::<FMA, W>(terms, &table, v, a);
+                    }
+                }
+            }
+        }
+        for (a, o) in acc.iter().zip(out.iter_mut()) {
+            for (j, at) in (b * LANES..).take(block.len()).enumerate() {
+                let sum = |q: usize| Complex64::new(a[q][j], a[q + 1][j]);
+                let (p, q, r, t) = (sum(0), sum(2), sum(4), sum(6));
+                o.s1[at] = p + q;
+                o.s1_mirror[at] = p - q;
+                o.s2[at] = r + t;
+                o.s2_mirror[at] = r - t;
+            }
+        }
+    }
+}
+
+/// `π_n`, `τ_n` for the orders `nf, nf + 1, …` of `terms` at the table's cosines, continuing its
+/// recurrence state `(π_n, π_{n−1})` (the same arithmetic as [`step`]).
+#[inline(always)]
+fn tabulate<const FMA: bool, const W: usize>(terms: &[[f64; 6]], nf: f64, table: &mut OrderTable) {
+    let [mu, pi, pi_prev] = &mut table.state[0];
+    let mut nf = nf;
+    for ((t, tp), tt) in terms.iter().zip(&mut table.pi).zip(&mut table.tau) {
+        let (r1, r2) = (t[4], t[5]);
+        let n1 = nf + 1.0;
+        // vector by vector, each a value the compiler keeps in one register
+        for v in (0..LANES).step_by(W) {
+            let at = |a: &[f64; LANES]| -> [f64; W] { std::array::from_fn(|l| a[v + l]) };
+            let (p, pp, m) = (at(pi), at(pi_prev), at(mu));
+            let s: [f64; W] = std::array::from_fn(|l| m[l] * p[l]);
+            let tau: [f64; W] = std::array::from_fn(|l| madd::<FMA>(nf, s[l], -n1 * pp[l]));
+            let next: [f64; W] = std::array::from_fn(|l| madd::<FMA>(r1, s[l], -r2 * pp[l]));
+            tp[v..v + W].copy_from_slice(&p);
+            tt[v..v + W].copy_from_slice(&tau);
+            pi_prev[v..v + W].copy_from_slice(&p);
+            pi[v..v + W].copy_from_slice(&next);
+        }
+        nf += 1.0;
+    }
+}
+
+/// Adds one tile of a sphere's series (its `terms` from an odd order on, at most
+/// [`BATCH_TILE`]) at the `W` cosines from lane `v` of the block to its partial sums `acc`
+/// (`acc[q]` the `q`-th sum of the layout of [`step`]), held in registers meanwhile.
+#[inline(always)]
+fn sum_tile<const FMA: bool, const W: usize>(
+    terms: &[[f64; 6]],
+    table: &OrderTable,
+    v: usize,
+    acc: &mut BlockSums,
+) {
+    assert!(v + W <= LANES, "vector within the block");
+    let lanes = |row: &[f64; LANES]| -> [f64; W] { std::array::from_fn(|l| row[v + l]) };
+    let mut r: [[f64; W]; 8] = std::array::from_fn(|q| lanes(&acc[q]));
+    let mut pairs = terms.chunks_exact(2);
+    let mut tabled = table.pi.chunks_exact(2).zip(table.tau.chunks_exact(2));
+    for (pair, (pi, tau)) in (&mut pairs).zip(&mut tabled) {
+        add_order::<FMA, true, W>(&pair[0], &lanes(&pi[0]), &lanes(&tau[0]), &mut r);
+        add_order::<FMA, false, W>(&pair[1], &lanes(&pi[1]), &lanes(&tau[1]), &mut r);
+    }
+    if let ([last], Some((pi, tau))) = (pairs.remainder(), tabled.next()) {
+        add_order::<FMA, true, W>(last, &lanes(&pi[0]), &lanes(&tau[0]), &mut r);
+    }
+    for (q, sums) in r.iter().enumerate() {
+        acc[q][v..v + W].copy_from_slice(sums);
+    }
+}
+
+/// One order's eight fused multiply-adds into the parity-split sums (layout of [`step`]).
+#[inline(always)]
+fn add_order<const FMA: bool, const ODD: bool, const W: usize>(
+    t: &[f64; 6],
+    pi: &[f64; W],
+    tau: &[f64; W],
+    r: &mut [[f64; W]; 8],
+) {
+    let [car, cai, cbr, cbi, _, _] = *t;
+    let (ia, ib, ja, jb) = if ODD { (0, 2, 6, 4) } else { (2, 0, 4, 6) };
+    for l in 0..W {
+        r[ia][l] = madd::<FMA>(car, pi[l], r[ia][l]);
+        r[ia + 1][l] = madd::<FMA>(cai, pi[l], r[ia + 1][l]);
+        r[ib][l] = madd::<FMA>(cbr, tau[l], r[ib][l]);
+        r[ib + 1][l] = madd::<FMA>(cbi, tau[l], r[ib + 1][l]);
+        r[ja][l] = madd::<FMA>(car, tau[l], r[ja][l]);
+        r[ja + 1][l] = madd::<FMA>(cai, tau[l], r[ja + 1][l]);
+        r[jb][l] = madd::<FMA>(cbr, pi[l], r[jb][l]);
+        r[jb + 1][l] = madd::<FMA>(cbi, pi[l], r[jb + 1][l]);
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -417,6 +612,65 @@ mod tests {
                 assert!((out.s2[j] - d2).norm() < 1e-12 * scale);
                 assert!((out.s1_mirror[j] - e1).norm() < 1e-12 * scale);
                 assert!((out.s2_mirror[j] - e2).norm() < 1e-12 * scale);
+            }
+        }
+    }
+
+    /// The batched kernel gives the per-sphere sums: spheres of different lengths (odd and even,
+    /// across tiles of orders), a cosine count that is not a multiple of the block, mirrors.
+    #[test]
+    fn batch_matches_per_sphere_kernel() {
+        let m = Complex64::new(1.333, 0.0);
+        let spheres: Vec<AngularSeries> = [3.1, 57.3, 200.5, 731.0, 64.0]
+            .iter()
+            .map(|&x| AngularSeries::new(&MieCoefficients::new(x, m).unwrap()))
+            .collect();
+        assert!(
+            spheres.iter().any(|s| s.len() % 2 == 1) && spheres.iter().any(|s| s.len() % 2 == 0)
+        );
+        let mu: Vec<f64> = (0..37)
+            .map(|k| (k as f64 * 2.5f64).to_radians().cos())
+            .collect();
+        let refs: Vec<&AngularSeries> = spheres.iter().collect();
+        let empty = amplitudes_mirrored_batch(&[], &mu);
+        assert!(empty.is_empty());
+        let mut batches = vec![amplitudes_mirrored_batch(&refs, &mu)];
+        // every x86-64 path the CPU has, beside the one chosen
+        #[cfg(target_arch = "x86_64")]
+        {
+            let fma = std::arch::is_x86_feature_detected!("fma");
+            type Path = unsafe fn(&[&AngularSeries], &[f64], &mut [MirroredAmplitudes]);
+            let paths: [(bool, Path); 2] = [
+                (
+                    std::arch::is_x86_feature_detected!("avx2"),
+                    run_batch_avx2_fma,
+                ),
+                (
+                    std::arch::is_x86_feature_detected!("avx512f"),
+                    run_batch_avx512_fma,
+                ),
+            ];
+            for (_, path) in paths.into_iter().filter(|p| fma && p.0) {
+                let mut out = amplitudes_mirrored_batch(&refs, &mu);
+                out.iter_mut()
+                    .for_each(|o| o.s1.fill(Complex64::new(0.0, 0.0)));
+                // SAFETY: the CPU has the path's features (filtered above).
+                unsafe { path(&refs, &mu, &mut out) };
+                batches.push(out);
+            }
+        }
+        for (s, b) in batches.iter().flat_map(|batch| spheres.iter().zip(batch)) {
+            let one = amplitudes_mirrored(s, &mu, false);
+            let pairs = [
+                (&one.s1, &b.s1),
+                (&one.s2, &b.s2),
+                (&one.s1_mirror, &b.s1_mirror),
+                (&one.s2_mirror, &b.s2_mirror),
+            ];
+            for (x, y) in pairs {
+                for (u, w) in x.iter().zip(y.iter()) {
+                    assert!((u - w).norm() <= 1e-12 * u.norm(), "{u} {w}");
+                }
             }
         }
     }

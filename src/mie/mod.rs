@@ -38,6 +38,7 @@ pub mod size_average;
 
 pub use angular::{
     AngularSeries, MirroredAmplitudes, amplitudes, amplitudes_at_angles, amplitudes_mirrored,
+    amplitudes_mirrored_batch,
 };
 pub use coefficients::{Efficiencies, MieCoefficients};
 pub use domain::{
@@ -133,6 +134,13 @@ impl Sphere {
     /// `S_1`, `S_2` at cosines `mu` and `−mu` (see [`amplitudes_mirrored`]).
     pub fn amplitudes_mirrored(&self, mu: &[f64], parallel: bool) -> MirroredAmplitudes {
         amplitudes_mirrored(&self.series, mu, parallel)
+    }
+
+    /// `S_1`, `S_2` at cosines `mu` and `−mu` of several spheres, sharing the angular functions
+    /// (see [`amplitudes_mirrored_batch`]); one entry per sphere, in order.
+    pub fn amplitudes_mirrored_batch(spheres: &[&Sphere], mu: &[f64]) -> Vec<MirroredAmplitudes> {
+        let series: Vec<&AngularSeries> = spheres.iter().map(|s| &s.series).collect();
+        amplitudes_mirrored_batch(&series, mu)
     }
 
     /// Raw intensities at `θ_j = j·180°/intervals`, `j = 0..=intervals`, using the

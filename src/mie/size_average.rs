@@ -44,7 +44,7 @@ use super::distributions::{RadiusSampler, SizeDistribution};
 use super::filters::{
     FINE_CELL_POINTS, FilterSettings, PolarisedPhase, SunDiscOperator, gaussian_blur, resample_bins,
 };
-use super::{MieError, Sphere, size_parameter};
+use super::{MieError, MirroredAmplitudes, Sphere, size_parameter};
 use num_complex::Complex64;
 use rayon::prelude::*;
 use std::f64::consts::PI;
@@ -163,6 +163,11 @@ pub trait RadiusIntegrand: Sync {
     /// The node at `radius_um`: `curve_len()` curve values `C_sca p` followed by the
     /// [`CROSS_SECTIONS`] cross-sections (µm²).
     fn node(&self, radius_um: f64) -> Result<Vec<f64>, MieError>;
+    /// [`Self::node`] at each of `radii_um`, in order (an integrand may share work between the
+    /// drops of one batch).
+    fn nodes(&self, radii_um: &[f64]) -> Vec<Result<Vec<f64>, MieError>> {
+        radii_um.iter().map(|&r| self.node(r)).collect()
+    }
     /// The returned curve (both channels, `i_perp` first, equal halves) from an integrated
     /// curve; linear.
     fn finish(&self, curve: &[f64]) -> Vec<f64>;
@@ -297,8 +302,18 @@ impl Panel {
 /// Node values kept apart from a sum, with their indices.
 type KeptNodes = Vec<(usize, Vec<f64>)>;
 
+/// Largest number of drops whose angular sums [`RadiusIntegrand::nodes`] is given at once.
+pub const MAX_BATCH: usize = 16;
+
+/// Drops per batch for `count` new nodes: at most [`MAX_BATCH`], and small enough that every
+/// thread of the pool gets about four batches (rayon balances them).
+fn batch_size(count: usize) -> usize {
+    (count / (4 * rayon::current_num_threads())).clamp(1, MAX_BATCH)
+}
+
 /// `n(r) v(r)` at the nodes `indices` of a rule of `intervals` intervals on `[a, b]`, summed,
-/// with the values at `keep` indices returned separately (in parallel over nodes).
+/// with the values at `keep` indices returned separately (in parallel over batches of adjacent
+/// nodes, [`RadiusIntegrand::nodes`]).
 fn evaluate_nodes<I: RadiusIntegrand>(
     distribution: &SizeDistribution,
     integrand: &I,
@@ -309,19 +324,21 @@ fn evaluate_nodes<I: RadiusIntegrand>(
     let len = integrand.curve_len() + CROSS_SECTIONS;
     let h = (b - a) / intervals as f64;
     let zero = || (vec![0.0; len], Vec::new());
+    let radius = |i: usize| if i == intervals { b } else { a + h * i as f64 };
     indices
-        .par_iter()
-        .map(|&i| {
-            let r = if i == intervals { b } else { a + h * i as f64 };
-            let mut v = integrand
-                .node(r)
-                .map_err(|source| SizeAverageError::Sphere {
+        .par_chunks(batch_size(indices.len()))
+        .flat_map_iter(|batch| {
+            let radii: Vec<f64> = batch.iter().map(|&i| radius(i)).collect();
+            let values = integrand.nodes(&radii);
+            batch.iter().zip(radii).zip(values).map(|((&i, r), v)| {
+                let mut v = v.map_err(|source| SizeAverageError::Sphere {
                     radius_um: r,
                     source,
                 })?;
-            let n = distribution.density(r);
-            v.iter_mut().for_each(|x| *x *= n);
-            Ok((i, v))
+                let n = distribution.density(r);
+                v.iter_mut().for_each(|x| *x *= n);
+                Ok((i, v))
+            })
         })
         .try_fold(zero, |mut acc, item: Result<_, SizeAverageError>| {
             let (i, v) = item?;
@@ -804,14 +821,10 @@ impl PointAngles {
     }
 }
 
-impl RadiusIntegrand for PointAngles {
-    fn curve_len(&self) -> usize {
-        2 * self.map.len()
-    }
-    fn node(&self, radius_um: f64) -> Result<Vec<f64>, MieError> {
-        let x = size_parameter(radius_um, self.wavelength_nm);
-        let sphere = Sphere::new(x, self.m)?;
-        let amp = sphere.amplitudes_mirrored(&self.mu, false);
+impl PointAngles {
+    /// The node vector of a solved sphere from its amplitudes at `self.mu` and their mirrors.
+    fn node_values(&self, sphere: &Sphere, radius_um: f64, amp: &MirroredAmplitudes) -> Vec<f64> {
+        let x = sphere.size_parameter();
         let scale = radius_um * radius_um / (x * x);
         let k = self.map.len();
         let mut v = vec![0.0; 2 * k + CROSS_SECTIONS];
@@ -824,8 +837,43 @@ impl RadiusIntegrand for PointAngles {
             v[j] = scale * s1.norm_sqr();
             v[k + j] = scale * s2.norm_sqr();
         }
-        v[2 * k..].copy_from_slice(&cross_sections(&sphere, radius_um));
-        Ok(v)
+        v[2 * k..].copy_from_slice(&cross_sections(sphere, radius_um));
+        v
+    }
+}
+
+impl RadiusIntegrand for PointAngles {
+    fn curve_len(&self) -> usize {
+        2 * self.map.len()
+    }
+    fn node(&self, radius_um: f64) -> Result<Vec<f64>, MieError> {
+        let sphere = Sphere::new(size_parameter(radius_um, self.wavelength_nm), self.m)?;
+        let amp = sphere.amplitudes_mirrored(&self.mu, false);
+        Ok(self.node_values(&sphere, radius_um, &amp))
+    }
+    /// The batch's spheres share the angular functions ([`Sphere::amplitudes_mirrored_batch`]).
+    fn nodes(&self, radii_um: &[f64]) -> Vec<Result<Vec<f64>, MieError>> {
+        let solved: Vec<Result<Sphere, MieError>> = radii_um
+            .iter()
+            .map(|&r| Sphere::new(size_parameter(r, self.wavelength_nm), self.m))
+            .collect();
+        let (spheres, radii): (Vec<&Sphere>, Vec<f64>) = solved
+            .iter()
+            .zip(radii_um)
+            .filter_map(|(s, &r)| s.as_ref().ok().map(|s| (s, r)))
+            .unzip();
+        let amps = Sphere::amplitudes_mirrored_batch(&spheres, &self.mu);
+        let mut values: Vec<Vec<f64>> = spheres
+            .iter()
+            .zip(radii)
+            .zip(&amps)
+            .map(|((s, r), amp)| self.node_values(s, r, amp))
+            .collect();
+        values.reverse();
+        solved
+            .into_iter()
+            .map(|s| s.map(|_| values.pop().expect("one value per solved sphere")))
+            .collect()
     }
     fn finish(&self, curve: &[f64]) -> Vec<f64> {
         curve.to_vec()
@@ -1044,6 +1092,29 @@ mod tests {
         }
         let l = AverageLimits::default();
         assert!(average_at_angles(&d, 550.0, Complex64::new(1.333, 0.0), &[181.0], &l).is_err());
+    }
+
+    /// A batch of drops gives each drop's own node, in order, with a drop outside the
+    /// validated domain as its error in its place.
+    #[test]
+    fn batched_nodes_are_the_single_nodes() {
+        let angles: Vec<f64> = (0..=60).map(|j| j as f64 * 3.0).collect();
+        let p = PointAngles::new(550.0, Complex64::new(1.333, 0.0), &angles);
+        let radii = [3.0, 20.0, 1e4, 7.5, 0.01];
+        let batch = p.nodes(&radii);
+        assert_eq!(batch.len(), radii.len());
+        for (&r, b) in radii.iter().zip(&batch) {
+            match (p.node(r), b) {
+                (Ok(one), Ok(b)) => {
+                    for (u, w) in one.iter().zip(b) {
+                        assert!((u - w).abs() <= 1e-12 * u.abs(), "r = {r}: {u} {w}");
+                    }
+                }
+                (Err(e), Err(f)) => assert_eq!(&e, f),
+                (one, b) => panic!("r = {r}: {one:?} against {b:?}"),
+            }
+        }
+        assert!(batch[2].is_err() && batch[3].is_ok());
     }
 
     /// A monodisperse entry is its sphere; mirrored angles share the series correctly.
