@@ -272,7 +272,8 @@ class Table:
     def channels(self) -> list[Channel]: ...
     @property
     def data(self) -> npt.NDArray[np.float32]:
-        """All samples, shape (axis lengths..., channels)."""
+        """All samples, shape (axis lengths..., channels): a read-only view of the table's own
+        samples (no copy; the view keeps the table alive)."""
     def axis(self, name: str) -> Axis:
         """The axis called ``name`` (KeyError if none)."""
     def channel_index(self, name: str) -> int:

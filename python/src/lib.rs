@@ -661,12 +661,21 @@ impl Table {
         PyList::new(py, v)
     }
 
-    /// All samples, float32, shape (axis lengths..., channels).
+    /// All samples, float32, shape (axis lengths..., channels): a read-only view of the
+    /// table's own samples (no copy, so a table costs its size once however often `data` is
+    /// read; the view keeps the table alive).
     #[getter]
-    fn data<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
-        let mut shape = self.inner.grid_shape();
-        shape.push(self.inner.header.channels.len());
-        self.inner.data.clone().into_pyarray(py).reshape(shape)
+    fn data<'py>(this: Bound<'py, Self>) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
+        let table = &this.get().inner;
+        let mut shape = table.grid_shape();
+        shape.push(table.header.channels.len());
+        let view = numpy::ndarray::ArrayViewD::from_shape(shape, &table.data)
+            .map_err(|e| PyValueError::new_err(e.to_string()))?;
+        // SAFETY: the class is frozen, so the samples are never written or reallocated while
+        // the table, the array's base object, is alive.
+        let array = unsafe { PyArrayDyn::borrow_from_array(&view, this.clone().into_any()) };
+        array.readwrite().make_nonwriteable();
+        Ok(array)
     }
 
     /// The axis called `name` (KeyError if none).

@@ -258,3 +258,20 @@ def test_16_bit_compact_table_reads_like_the_pure_reader(tmp_path, pure_reader):
         a = sb.open_table(path, entry=entry).data.view(np.uint32)
         b = pure_reader.open_table(path, entry=entry).data.view(np.uint32)
         assert np.array_equal(a, b) and np.array_equal(a, t.data[0:1, 0:1, e:e + 1].view(np.uint32))
+
+
+def test_data_is_a_read_only_view_of_the_table(built):
+    """`Table.data` is the table's own samples, not a copy per access: two reads share memory,
+    writing is refused, and the view outlives the table object that made it."""
+    d, _ = built
+    t = sb.open_table(d / "tables" / "py-mie.sbt")
+    a, b = t.data, t.data
+    assert np.shares_memory(a, b) and not a.flags.writeable
+    with pytest.raises(ValueError):
+        a[(0,) * a.ndim] = 1.0
+    expected = a.copy()
+    del t, b
+    import gc
+
+    gc.collect()
+    assert np.array_equal(a, expected)
