@@ -472,9 +472,7 @@ fn python_reader_reads_16_bit_tables() {
 /// zeros, `phase` and `dolp` derived, 16-bit values with one polar row predicting the next
 /// (the reader's 64 KiB chunks end inside rows).
 fn wide_top16_table() -> Table {
-    use scatterbake::table::{
-        Axis, Channel, PreviousRow, Provenance, Schema, TableContent, ValueEncoding,
-    };
+    use scatterbake::table::Axis;
     let (nw, np, na) = (3, 150, 121);
     let mut data = Vec::with_capacity(nw * np * na * 4);
     for i in 0..nw * np * na {
@@ -491,35 +489,10 @@ fn wide_top16_table() -> Table {
         };
         data.extend([0.0, p, q, 0.0]);
     }
-    let content = TableContent {
-        schema: Schema::new("wide-16-bit", 1),
-        description: "16-bit values over twelve decades".into(),
-        axes: vec![
-            Axis::values("wavelength", "nm", vec![400.0, 500.0, 600.0]),
-            Axis::uniform("outgoing_polar", "deg", 0.0, 180.0 / 149.0, np),
-            Axis::uniform("outgoing_azimuth", "deg", 0.0, 2.0, na),
-        ],
-        channels: vec![
-            Channel::derived("phase", "1/sr", "mean", "mean", "i_perp", "i_par"),
-            Channel::new("i_perp", "1/sr", "perpendicular"),
-            Channel::new("i_par", "1/sr", "parallel"),
-            Channel::derived(
-                "dolp",
-                "1",
-                "dolp",
-                "normalized-difference",
-                "i_perp",
-                "i_par",
-            ),
-        ],
-        attributes: serde_json::Map::new(),
-        data,
-        encoding: ValueEncoding::Top16 {
-            predictor: Some(PreviousRow {
-                stride: 2 * na as u64,
-                block: 2 * (np * na) as u64,
-            }),
-        },
-    };
-    Table::from_content(content, Provenance::default()).unwrap()
+    let axes = vec![
+        Axis::values("wavelength", "nm", vec![400.0, 500.0, 600.0]),
+        Axis::uniform("outgoing_polar", "deg", 0.0, 180.0 / 149.0, np),
+        Axis::uniform("outgoing_azimuth", "deg", 0.0, 2.0, na),
+    ];
+    common::crafted::top16_table_with(axes, data)
 }

@@ -814,21 +814,33 @@ fn zero_train(t: &mut Table, dims: &[usize], ranks: &[usize]) {
 /// `dolp` (their normalised difference); `f32-top16le` with the previous-row predictor (one
 /// polar row, 8 values; one entry, 24 values), as the compact ray-traced tables store them.
 pub fn top16_table() -> Table {
-    use scatterbake::table::{PreviousRow, ValueEncoding};
     let n = 2 * 3 * 4;
     let mut data = Vec::with_capacity(4 * n);
     for i in 0..n {
         let (p, q) = (1.0 + 0.37 * i as f32, 0.5 + 0.11 * (i % 5) as f32);
         data.extend([0.0, p, q, 0.0]);
     }
+    let axes = vec![
+        Axis::values("wavelength", "nm", vec![400.0, 500.0]),
+        Axis::values("outgoing_polar", "deg", vec![0.0, 90.0, 180.0]),
+        Axis::uniform("outgoing_azimuth", "deg", 0.0, 90.0, 4),
+    ];
+    top16_table_with(axes, data)
+}
+
+/// A 16-bit table as the compact ray-traced tables store it: `axes` whose last two are the
+/// polar and azimuth angles; channels `phase` (mean of `i_perp`, `i_par`), `i_perp`, `i_par`,
+/// `dolp` (their normalised difference); `data` every channel of every point (the derived ones
+/// are recomputed by the writer); the previous-row predictor over one polar row, restarting at
+/// every entry (the last two axes).
+pub fn top16_table_with(axes: Vec<Axis>, data: Vec<f32>) -> Table {
+    use scatterbake::table::{PreviousRow, ValueEncoding};
+    let row = 2 * axes[axes.len() - 1].len() as u64;
+    let block = row * axes[axes.len() - 2].len() as u64;
     let content = TableContent {
         schema: Schema::new("crafted", 1),
         description: "crafted 16-bit table".into(),
-        axes: vec![
-            Axis::values("wavelength", "nm", vec![400.0, 500.0]),
-            Axis::values("outgoing_polar", "deg", vec![0.0, 90.0, 180.0]),
-            Axis::uniform("outgoing_azimuth", "deg", 0.0, 90.0, 4),
-        ],
+        axes,
         channels: vec![
             Channel::derived("phase", "1/sr", "test", "mean", "i_perp", "i_par"),
             Channel::new("i_perp", "1/sr", "test"),
@@ -845,10 +857,7 @@ pub fn top16_table() -> Table {
         attributes: serde_json::Map::new(),
         data,
         encoding: ValueEncoding::Top16 {
-            predictor: Some(PreviousRow {
-                stride: 8,
-                block: 24,
-            }),
+            predictor: Some(PreviousRow { stride: row, block }),
         },
     };
     Table::from_content(content, Provenance::default()).unwrap()
