@@ -15,6 +15,31 @@ pub struct Case {
     pub valid: bool,
 }
 
+/// What a reader's run on a crafted case did wrong, if anything (the line to report): a valid
+/// case must exit 0 and pass `accepted` (e.g. the values it dumped are the expected ones); an
+/// invalid one must exit 3 with a message naming the file and holding every fragment of `rule`.
+pub fn misread(
+    case: &Case,
+    out: &std::process::Output,
+    accepted: impl FnOnce() -> bool,
+    rule: &[&str],
+) -> Option<String> {
+    let code = out.status.code();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    let ok = match case.valid {
+        true => code == Some(0) && accepted(),
+        false => {
+            code == Some(3) && stderr.contains(case.name) && rule.iter().all(|f| stderr.contains(f))
+        }
+    };
+    (!ok).then(|| {
+        format!(
+            "{}: valid={} exit {code:?}: {stderr}",
+            case.name, case.valid
+        )
+    })
+}
+
 fn sha_hex(b: &[u8]) -> String {
     hex::encode(Sha256::digest(b))
 }
