@@ -37,8 +37,9 @@ pub(crate) fn entry_values(header: &Header, entry: &[usize]) -> Result<(u64, u64
     Ok((first * count, count))
 }
 
-/// The header of the entry: each fixed axis holds its chosen sample alone (coordinate and label),
-/// the layout's shape follows; everything else is the file's header.
+/// The header of the entry: each fixed axis holds its chosen sample alone (coordinate and label,
+/// without the axis's symmetry), the layout's shape follows; everything else is the file's
+/// header.
 pub(crate) fn entry_header(header: &Header, entry: &[usize]) -> Header {
     let mut h = header.clone();
     for (a, &i) in h.axes.iter_mut().zip(entry) {
@@ -65,5 +66,7 @@ fn fixed_axis(a: &Axis, i: usize) -> Axis {
         unit: a.unit.clone(),
         points,
         labels: a.label(i).map(|l| vec![l.to_string()]).unwrap_or_default(),
+        // One sample is constant under any coordinate: the symmetry no longer applies.
+        symmetry: None,
     }
 }

@@ -17,17 +17,17 @@ use crate::codec::{DTYPE_F32, DTYPE_TOP16, PREVIOUS_ROW, Storage, storage_of};
 use crate::model::{
     Header, Layout, PayloadInfo, Predictor, Provenance, Table, TableContent, ValueEncoding,
 };
-use crate::validate::{check_axis_coords, check_axis_count};
+use crate::validate::{check_axis_coords, check_axis_count, check_symmetry};
 use sha2::{Digest, Sha256};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
 /// File magic.
 pub const MAGIC: [u8; 8] = *b"SBTABLE\0";
-/// Newest format major version this build reads and writes (it reads 1.x and 2.x; it writes
-/// 1.0, or 2.0 for a table whose values are 16-bit codes or that has derived channels).
-/// Readers refuse a newer major.
-pub const FORMAT_MAJOR: u16 = 2;
+/// Newest format major version this build reads and writes (it reads 1.x, 2.x and 3.x; it
+/// writes 1.0, 2.0 for a table whose values are 16-bit codes or that has derived channels, and
+/// 3.0 for a table with a symmetric axis). Readers refuse a newer major.
+pub const FORMAT_MAJOR: u16 = 3;
 /// Format minor version written by this build. Readers accept any minor of a known major and
 /// ignore the header fields a newer minor adds.
 pub const FORMAT_MINOR: u16 = 0;
@@ -46,7 +46,7 @@ pub enum TableError {
     #[error("{path}: file truncated: {what}")]
     Truncated { path: PathBuf, what: String },
     #[error(
-        "{path}: table format version {major}.{minor} is newer than this reader (supports 1.x and {FORMAT_MAJOR}.x); upgrade scatterbake"
+        "{path}: table format version {major}.{minor} is newer than this reader (supports 1.x to {FORMAT_MAJOR}.x); upgrade scatterbake"
     )]
     NewerMajor {
         path: PathBuf,
@@ -284,7 +284,9 @@ impl Table {
             ));
         }
         for a in &content.axes {
-            check_axis_coords(a).map_err(TableError::Inconsistent)?;
+            check_axis_coords(a)
+                .and_then(|()| check_symmetry(a))
+                .map_err(TableError::Inconsistent)?;
         }
         if content.data.len() != content.expected_len() {
             return Err(TableError::Inconsistent(format!(
@@ -418,13 +420,20 @@ impl Table {
 }
 
 impl Header {
-    /// The format version a table with this header is written as: 1.0, or 2.0 when its values
-    /// are 16-bit codes or it has derived channels.
+    /// The format version a table with this header is written as: 3.0 when an axis is
+    /// symmetric, else 2.0 when its values are 16-bit codes or it has derived channels, else
+    /// 1.0 (each the oldest version that holds the table).
     pub fn format_version(&self) -> (u16, u16) {
         let v2 = self.layout.dtype != DTYPE_F32
             || self.layout.predictor.is_some()
             || self.channels.iter().any(|c| c.derived.is_some());
-        if v2 { (2, 0) } else { (1, 0) }
+        if self.axes.iter().any(|a| a.symmetry.is_some()) {
+            (3, 0)
+        } else if v2 {
+            (2, 0)
+        } else {
+            (1, 0)
+        }
     }
 }
 

@@ -1,4 +1,4 @@
-//! The scatterbake table file format (`.sbt`), versions 1.0 and 2.0. Specification:
+//! The scatterbake table file format (`.sbt`), versions 1.0, 2.0 and 3.0. Specification:
 //! `docs/table-format.md`.
 //!
 //! A table is an N-D grid of f32 samples (row-major, axes in header order, channel index
@@ -29,8 +29,8 @@ pub use format::{
     read_regular, write_table_atomic, write_table_atomic_sealed,
 };
 pub use model::{
-    Axis, AxisPoints, Channel, Derived, Header, Layout, PayloadInfo, Predictor, PreviousRow,
-    Provenance, Schema, Table, TableContent, ValueEncoding,
+    Axis, AxisPoints, Channel, Derived, EVEN_PERIODIC, Header, Layout, PayloadInfo, Predictor,
+    PreviousRow, Provenance, Schema, Symmetry, Table, TableContent, ValueEncoding,
 };
 pub use read::{
     DEFAULT_MAX_PAYLOAD_BYTES, MAX_AXES, MAX_HEADER_BYTES, MAX_JSON_DEPTH, ReadLimits, ValueStats,

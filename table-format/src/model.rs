@@ -39,6 +39,7 @@ pub enum AxisPoints {
 
 /// One axis of a table.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(try_from = "AxisJson")]
 pub struct Axis {
     /// Axis name in the field's words, e.g. `wavelength`, `scattering_angle`.
     pub name: String,
@@ -51,6 +52,86 @@ pub struct Axis {
     /// from the header when empty.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub labels: Vec<String>,
+    /// Format 3.0: the tabulated function is even and periodic along this axis, which stores
+    /// only 0 … period/2; lookups fold their coordinate into it ([`Axis::fold`];
+    /// `docs/table-format.md`, "Symmetric axes"). Absent from the header when `None`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub symmetry: Option<Symmetry>,
+}
+
+/// `kind` of an even, periodic axis.
+pub const EVEN_PERIODIC: &str = "even-periodic";
+
+/// The symmetry of the function tabulated along an axis (`axes[].symmetry`, format 3.0).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[serde(tag = "kind", rename_all = "kebab-case")]
+pub enum Symmetry {
+    /// f(x + period) = f(x) and f(−x) = f(x): the axis stores coordinates from exactly 0 to
+    /// exactly period/2, e.g. the outgoing azimuth of a drop mirror symmetric about the plane
+    /// of the sun and its axis (period 360°).
+    EvenPeriodic { period: f64 },
+}
+
+impl Symmetry {
+    /// The period.
+    pub fn period(&self) -> f64 {
+        match *self {
+            Symmetry::EvenPeriodic { period } => period,
+        }
+    }
+
+    /// The coordinate in the stored half that `x` stands for: `r = fmod(|x|, P)` (exact in
+    /// binary64), then `P − r` when `r > P/2`. Every reader computes these same bits; an
+    /// infinite `x` gives NaN.
+    pub fn fold(&self, x: f64) -> f64 {
+        let period = self.period();
+        let r = x.abs() % period;
+        if r > 0.5 * period { period - r } else { r }
+    }
+}
+
+/// `axes[].symmetry` as the header holds it, before its kind is checked.
+#[derive(Deserialize)]
+struct SymmetryJson {
+    kind: String,
+    period: f64,
+}
+
+/// An axis as the header holds it: the typed [`Axis`] once the symmetry rules hold.
+#[derive(Deserialize)]
+struct AxisJson {
+    name: String,
+    unit: String,
+    points: AxisPoints,
+    #[serde(default)]
+    labels: Vec<String>,
+    #[serde(default)]
+    symmetry: Option<SymmetryJson>,
+}
+
+impl TryFrom<AxisJson> for Axis {
+    type Error = String;
+    fn try_from(a: AxisJson) -> Result<Self, String> {
+        let symmetry = match a.symmetry {
+            None => None,
+            Some(s) if s.kind == EVEN_PERIODIC => Some(Symmetry::EvenPeriodic { period: s.period }),
+            Some(s) => {
+                return Err(format!(
+                    "axis `{}`: symmetry.kind `{}` is not `{EVEN_PERIODIC}`",
+                    a.name, s.kind
+                ));
+            }
+        };
+        let axis = Axis {
+            name: a.name,
+            unit: a.unit,
+            points: a.points,
+            labels: a.labels,
+            symmetry,
+        };
+        crate::validate::check_symmetry(&axis)?;
+        Ok(axis)
+    }
 }
 
 impl Axis {
@@ -61,6 +142,7 @@ impl Axis {
             unit: unit.into(),
             points: AxisPoints::Values(values),
             labels: Vec::new(),
+            symmetry: None,
         }
     }
     /// Axis with explicit values and one label per value.
@@ -81,7 +163,20 @@ impl Axis {
             unit: unit.into(),
             points: AxisPoints::Uniform { start, step, count },
             labels: Vec::new(),
+            symmetry: None,
         }
+    }
+    /// The axis with `symmetry` (format 3.0: a table with a symmetric axis is written as 3.0).
+    pub fn with_symmetry(self, symmetry: Symmetry) -> Self {
+        Axis {
+            symmetry: Some(symmetry),
+            ..self
+        }
+    }
+    /// The coordinate a lookup uses for `x`: [`Symmetry::fold`] on a symmetric axis, `x`
+    /// itself on any other.
+    pub fn fold(&self, x: f64) -> f64 {
+        self.symmetry.map_or(x, |s| s.fold(x))
     }
     /// Number of samples.
     pub fn len(&self) -> usize {
@@ -192,7 +287,7 @@ pub struct TableContent {
     /// (derived channels included: the writer recomputes them from the stored ones).
     pub data: Vec<f32>,
     /// How the payload stores the values (format 1.0 for [`ValueEncoding::F32`] without
-    /// derived channels, else 2.0).
+    /// derived channels, else 2.0; 3.0 whenever an axis has a [`Symmetry`]).
     pub encoding: ValueEncoding,
 }
 

@@ -196,7 +196,7 @@ fn read_header_part(
     })
 }
 
-/// Top-level header fields of formats 1.0 and 2.0 (the fields of [`Header`]).
+/// Top-level header fields of formats 1.0, 2.0 and 3.0 (the fields of [`Header`]).
 const HEADER_FIELDS: [&str; 8] = [
     "schema",
     "description",
@@ -212,9 +212,12 @@ const HEADER_FIELDS: [&str; 8] = [
 /// this reader implements) are checked on a first pass, then the typed header is decoded.
 fn parse_header_json(bytes: &[u8], major: u16, minor: u16) -> Result<Header, String> {
     let mut de = serde_json::Deserializer::from_slice(bytes);
+    let symmetry_seen = std::cell::Cell::new(false);
     let top = StrictJson {
         depth: 0,
         at: At::Top,
+        major,
+        symmetry_seen: &symmetry_seen,
     }
     .deserialize(&mut de)
     .map_err(|e| format!("JSON: {e}"))?;
@@ -231,7 +234,20 @@ fn parse_header_json(bytes: &[u8], major: u16, minor: u16) -> Result<Header, Str
              may add fields)"
         ));
     }
-    let mut header: Header = serde_json::from_slice(bytes).map_err(|e| e.to_string())?;
+    let mut header: Header = if major < 3 && symmetry_seen.get() {
+        // Not a field of 1.x and 2.x: ignored there whatever it holds, like any unknown nested
+        // field, so it is removed before the axes are decoded (and their symmetry checked).
+        let mut value: serde_json::Value =
+            serde_json::from_slice(bytes).map_err(|e| e.to_string())?;
+        if let Some(axes) = value.get_mut("axes").and_then(|a| a.as_array_mut()) {
+            for a in axes.iter_mut().filter_map(|a| a.as_object_mut()) {
+                a.remove("symmetry");
+            }
+        }
+        serde_json::from_value(value).map_err(|e| e.to_string())?
+    } else {
+        serde_json::from_slice(bytes).map_err(|e| e.to_string())?
+    };
     if major == 1 {
         // Not fields of 1.x: a 1.x reader ignores them like any unknown nested field.
         header.layout.predictor = None;
@@ -243,11 +259,26 @@ fn parse_header_json(bytes: &[u8], major: u16, minor: u16) -> Result<Header, Str
 }
 
 /// A serde visitor over any JSON value that refuses duplicate object keys, nesting deeper
-/// than [`MAX_JSON_DEPTH`] and an array where the format has an object. Returns the keys of the
-/// value when it is an object.
-struct StrictJson {
+/// than [`MAX_JSON_DEPTH`] and an array where the format (of major version `major`) has an
+/// object. Returns the keys of the value when it is an object; notes whether an axis has a
+/// `symmetry` field.
+#[derive(Clone, Copy)]
+struct StrictJson<'a> {
     depth: usize,
     at: At,
+    major: u16,
+    symmetry_seen: &'a std::cell::Cell<bool>,
+}
+
+impl StrictJson<'_> {
+    /// The visitor of a value at `at`, one level deeper.
+    fn nested(self, at: At) -> Self {
+        StrictJson {
+            depth: self.depth + 1,
+            at,
+            ..self
+        }
+    }
 }
 
 /// Where a value sits in the header, as far as the objects of the format go: the typed decoder
@@ -266,8 +297,9 @@ enum At {
 }
 
 impl At {
-    fn field(self, key: &str) -> At {
+    fn field(self, key: &str, major: u16) -> At {
         match (self, key) {
+            (At::Axis, "symmetry") if major >= 3 => At::Object("axes[].symmetry"),
             (At::Top, "schema") => At::Object("schema"),
             (At::Top, "layout") => At::Object("layout"),
             (At::Top, "payload") => At::Object("payload"),
@@ -301,14 +333,14 @@ impl At {
     }
 }
 
-impl<'de> DeserializeSeed<'de> for StrictJson {
+impl<'de> DeserializeSeed<'de> for StrictJson<'_> {
     type Value = Option<Vec<String>>;
     fn deserialize<D: serde::Deserializer<'de>>(self, d: D) -> Result<Self::Value, D::Error> {
         d.deserialize_any(self)
     }
 }
 
-impl<'de> Visitor<'de> for StrictJson {
+impl<'de> Visitor<'de> for StrictJson<'_> {
     type Value = Option<Vec<String>>;
     fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
         f.write_str("a JSON value")
@@ -344,7 +376,7 @@ impl<'de> Visitor<'de> for StrictJson {
             )));
         }
         let at = self.at.element();
-        while seq.next_element_seed(StrictJson { depth, at })?.is_some() {}
+        while seq.next_element_seed(self.nested(at))?.is_some() {}
         Ok(None)
     }
     fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<Self::Value, A::Error> {
@@ -360,8 +392,11 @@ impl<'de> Visitor<'de> for StrictJson {
             if !keys.insert(k.clone()) {
                 return Err(serde::de::Error::custom(format!("duplicate key `{k}`")));
             }
-            let at = self.at.field(&k);
-            map.next_value_seed(StrictJson { depth, at })?;
+            if self.at == At::Axis && k == "symmetry" {
+                self.symmetry_seen.set(true);
+            }
+            let at = self.at.field(&k, self.major);
+            map.next_value_seed(self.nested(at))?;
             order.push(k);
         }
         Ok(Some(order))

@@ -2,7 +2,9 @@
 //!
 //! Clamping rule: a coordinate below the first sample of its axis is clamped to the first
 //! sample, one above the last to the last (no extrapolation); NaN coordinates are an error.
-//! Axes are interpolated linearly in the coordinate as stored (e.g. degrees, nm).
+//! On a symmetric axis (format 3.0) the coordinate is first folded into the stored half
+//! ([`Axis::fold`]; an infinite one is an error there). Axes are interpolated linearly in the
+//! coordinate as stored (e.g. degrees, nm).
 
 use crate::interp::{locate, locate_uniform, multilinear};
 use crate::model::{Axis, AxisPoints, Table};
@@ -14,17 +16,32 @@ pub enum SampleError {
     WrongArity { expected: usize, got: usize },
     #[error("coordinate for axis `{axis}` is NaN")]
     NaN { axis: String },
+    #[error("coordinate for axis `{axis}` is {x}: an even-periodic axis needs a finite one")]
+    NotFinite { axis: String, x: f64 },
     #[error("no channel named `{0}`")]
     NoChannel(String),
     #[error("no axis named `{0}`")]
     NoAxis(String),
 }
 
-fn locate_axis(axis: &Axis, x: f64) -> (usize, f64) {
-    match &axis.points {
+/// The cell of `x` on `axis`, after folding `x` on a symmetric axis.
+fn locate_axis(axis: &Axis, x: f64) -> Result<(usize, f64), SampleError> {
+    if x.is_nan() {
+        return Err(SampleError::NaN {
+            axis: axis.name.clone(),
+        });
+    }
+    if axis.symmetry.is_some() && x.is_infinite() {
+        return Err(SampleError::NotFinite {
+            axis: axis.name.clone(),
+            x,
+        });
+    }
+    let x = axis.fold(x);
+    Ok(match &axis.points {
         AxisPoints::Values(v) => locate(v, x),
         AxisPoints::Uniform { start, step, count } => locate_uniform(*start, *step, *count, x),
-    }
+    })
 }
 
 impl Table {
@@ -67,7 +84,7 @@ impl Table {
     }
 
     /// Multilinear interpolation of every channel at `coords` (one per axis, in axis units),
-    /// with the clamping rule of this module.
+    /// with the folding and clamping rules of this module.
     pub fn sample(&self, coords: &[f64]) -> Result<Vec<f64>, SampleError> {
         let axes = &self.header.axes;
         if coords.len() != axes.len() {
@@ -76,15 +93,11 @@ impl Table {
                 got: coords.len(),
             });
         }
-        let mut pos = Vec::with_capacity(axes.len());
-        for (a, &x) in axes.iter().zip(coords) {
-            if x.is_nan() {
-                return Err(SampleError::NaN {
-                    axis: a.name.clone(),
-                });
-            }
-            pos.push(locate_axis(a, x));
-        }
+        let pos = axes
+            .iter()
+            .zip(coords)
+            .map(|(a, &x)| locate_axis(a, x))
+            .collect::<Result<Vec<_>, _>>()?;
         let shape = self.grid_shape();
         let nc = self.header.channels.len();
         Ok((0..nc)

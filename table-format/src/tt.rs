@@ -692,7 +692,14 @@ fn source_axes(
              objects, not arrays",
         ));
     }
-    let axes: Vec<Axis> = serde_json::from_value(json.clone())
+    // `symmetry` (format 3.0) is not part of a source axis: ignored, as every reader does.
+    let mut json = json.clone();
+    if let Some(list) = json.as_array_mut() {
+        for a in list.iter_mut().filter_map(|a| a.as_object_mut()) {
+            a.remove("symmetry");
+        }
+    }
+    let axes: Vec<Axis> = serde_json::from_value(json)
         .map_err(|e| tt_err(path, format!("attribute `source_axes`: {e}")))?;
     if axes.len() != dims.len() || axes.iter().zip(dims).any(|(a, &n)| a.len() != n) {
         return Err(tt_err(

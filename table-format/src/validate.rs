@@ -69,3 +69,41 @@ pub(crate) fn check_uniform_params(a: &Axis, start: f64, step: f64) -> Result<()
     }
     Ok(())
 }
+
+/// The rules of a symmetric axis (format 3.0, `docs/table-format.md`, "Symmetric axes"): the
+/// period is > 0 (a JSON number is finite), the axis has at least 2 samples, its first
+/// coordinate is 0 and its last is period/2, both computed in f64 as every reader does.
+pub(crate) fn check_symmetry(a: &Axis) -> Result<(), String> {
+    let Some(symmetry) = a.symmetry else {
+        return Ok(());
+    };
+    let period = symmetry.period();
+    if !(period.is_finite() && period > 0.0) {
+        return Err(format!(
+            "axis `{}`: symmetry.period {period} is not finite and > 0",
+            a.name
+        ));
+    }
+    let n = a.len();
+    if n < 2 {
+        return Err(format!(
+            "axis `{}`: an even-periodic axis needs at least 2 samples (it has {n})",
+            a.name
+        ));
+    }
+    let (first, last, half) = (a.coord(0), a.coord(n - 1), 0.5 * period);
+    if first != 0.0 {
+        return Err(format!(
+            "axis `{}`: an even-periodic axis starts at 0 (its first coordinate is {first})",
+            a.name
+        ));
+    }
+    if last != half {
+        return Err(format!(
+            "axis `{}`: an even-periodic axis ends at half its period, {half} (its last \
+             coordinate is {last})",
+            a.name
+        ));
+    }
+    Ok(())
+}

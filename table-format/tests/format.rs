@@ -2,7 +2,8 @@
 
 use proptest::prelude::*;
 use scatterbake_table::{
-    Axis, Channel, Provenance, Schema, Table, TableContent, TableError, write_table_atomic,
+    Axis, Channel, Provenance, Schema, Symmetry, Table, TableContent, TableError,
+    write_table_atomic,
 };
 use sha2::{Digest, Sha256};
 use std::path::Path;
@@ -169,12 +170,15 @@ fn with_version(mut b: Vec<u8>, major: u16, minor: u16) -> Vec<u8> {
     b
 }
 
+/// A newer major (4.0) is refused naming it; every minor of 1, 2 and 3 reads, a 3.0 file
+/// without a symmetric axis as the same table.
 #[test]
 fn newer_major_is_refused_newer_minor_is_read() {
-    let e = Table::from_bytes(&with_version(bytes(), 3, 0), Path::new("t.sbt")).unwrap_err();
-    assert!(matches!(e, TableError::NewerMajor { major: 3, .. }), "{e}");
-    assert!(e.to_string().contains("3.0 is newer"), "{e}");
-    for (major, minor) in [(1, 9), (2, 0), (2, 7)] {
+    let e = Table::from_bytes(&with_version(bytes(), 4, 0), Path::new("t.sbt")).unwrap_err();
+    assert!(matches!(e, TableError::NewerMajor { major: 4, .. }), "{e}");
+    assert!(e.to_string().contains("4.0 is newer"), "{e}");
+    assert!(e.to_string().contains("supports 1.x to 3.x"), "{e}");
+    for (major, minor) in [(1, 9), (2, 0), (2, 7), (3, 0), (3, 4)] {
         let t = Table::from_bytes(&with_version(bytes(), major, minor), Path::new("t.sbt"));
         assert_eq!(t.unwrap().data, sample_table().data, "{major}.{minor}");
     }
@@ -375,5 +379,183 @@ fn versions_and_writer_refusals() {
             e.to_string().contains("cannot be stored as f32-top16le"),
             "{e}"
         );
+    }
+}
+
+/// Tables without a symmetric axis are written exactly as before format 3.0 existed: 1.0, and
+/// 2.0 with derived channels or 16-bit values. The hashes are those of the bytes the writer
+/// produced for these tables before it knew 3.0.
+#[test]
+fn tables_without_symmetry_are_written_as_before() {
+    let sha = |mut t: Table| hex::encode(Sha256::digest(t.to_bytes().unwrap()));
+    assert_eq!(
+        sha(sample_table()),
+        "3a152e211eaca95331581d93535b0c0334c13ae512aaade2a1421c3467022148"
+    );
+    assert_eq!(
+        sha(polarised_table(Default::default(), 1.0).0),
+        "9fd84c037d296f84e7a8a1ab8569d1b32877c767f12a2b5784b411b397f62a65"
+    );
+    assert_eq!(
+        sha(polarised_table(top16_rows(), 1.0).0),
+        "6c225812325da0e1104e4ea6a940018aa19fe13ce10a3cae5ca69114a43645d6"
+    );
+}
+
+/// `polarised_table`'s grid with its azimuth axis even and periodic: 0, 45, …, 180° (uniform)
+/// or 0, 10, 90, 170, 180° (explicit), period 360°.
+fn symmetric_table(encoding: scatterbake_table::ValueEncoding, explicit: bool) -> Table {
+    let (t, input) = polarised_table(encoding, 1.0);
+    let azimuth = if explicit {
+        Axis::values(
+            "outgoing_azimuth",
+            "deg",
+            vec![0.0, 10.0, 90.0, 170.0, 180.0],
+        )
+    } else {
+        Axis::uniform("outgoing_azimuth", "deg", 0.0, 45.0, 5)
+    };
+    let mut axes = t.header.axes.clone();
+    axes[2] = azimuth.with_symmetry(Symmetry::EvenPeriodic { period: 360.0 });
+    axes[1] = Axis::uniform("outgoing_polar", "deg", 0.0, 45.0, 4);
+    let content = TableContent {
+        schema: t.header.schema.clone(),
+        description: String::new(),
+        axes,
+        channels: t.header.channels.clone(),
+        attributes: Default::default(),
+        data: input,
+        encoding,
+    };
+    Table::from_content(content, Provenance::default()).unwrap()
+}
+
+/// A table with a symmetric axis is written as 3.0 (also with 16-bit values and derived
+/// channels) and reads back with its symmetry; lookups fold: the value at x equals the value at
+/// −x, 360° − x and x + 360° bit for bit, a stored coordinate returns the stored value, and
+/// the fold is r = fmod(|x|, P), P − r beyond P/2.
+#[test]
+fn symmetric_axis_is_format_3_and_lookups_fold() {
+    for (encoding, explicit) in [
+        (scatterbake_table::ValueEncoding::F32, false),
+        (scatterbake_table::ValueEncoding::F32, true),
+        (top16_rows(), false),
+    ] {
+        let mut t = symmetric_table(encoding, explicit);
+        let b = t.to_bytes().unwrap();
+        assert_eq!(&b[8..12], &[3, 0, 0, 0]);
+        let r = Table::from_bytes(&b, Path::new("t.sbt")).unwrap();
+        assert_eq!(r.header, t.header);
+        assert_eq!(r.data, t.data);
+        let az = &r.axes()[2];
+        assert_eq!(az.symmetry, Some(Symmetry::EvenPeriodic { period: 360.0 }));
+        let bits = |x: f64, y: f64| -> Vec<u64> {
+            let v = r.sample(&[470.0, 67.5, x]).unwrap();
+            assert_eq!(v, r.sample(&[470.0, 67.5, y]).unwrap());
+            v.iter().map(|v| v.to_bits()).collect()
+        };
+        for x in [0.0, 3.5, 37.25, 90.0, 100.125, 179.75, 180.0] {
+            let at = bits(x, x);
+            for y in [-x, 360.0 - x, x + 360.0, x - 720.0, 1080.0 - x] {
+                assert_eq!(bits(y, y), at, "{x} vs {y}");
+            }
+        }
+        // Where 360° − x and x + 360° round, −x still folds to x's bits (x − P·floor(x/P)
+        // would give 0.10000000000002274 for −0.1).
+        for x in [0.1, 100.3, 1e-17, 179.99999999999997] {
+            assert_eq!(bits(-x, -x), bits(x, x), "{x}");
+            assert_eq!(az.fold(-x).to_bits(), x.to_bits(), "{x}");
+        }
+        // Beyond the last stored azimuth the lookup folds back, it does not clamp at 180°.
+        let beyond = r.sample(&[450.0, 0.0, 185.0]).unwrap();
+        assert_eq!(beyond, r.sample(&[450.0, 0.0, 175.0]).unwrap());
+        assert_ne!(beyond, r.sample(&[450.0, 0.0, 180.0]).unwrap());
+        // A stored coordinate returns the stored value, from either side of the period.
+        let coords = az.coords();
+        for (k, &x) in coords.iter().enumerate() {
+            let stored = r.at(&[1, 2, k], 1);
+            for y in [x, -x, 360.0 - x, x + 360.0] {
+                assert_eq!(
+                    r.sample(&[650.0, 90.0, y]).unwrap()[1],
+                    f64::from(stored),
+                    "{y}"
+                );
+            }
+        }
+    }
+    let s = Symmetry::EvenPeriodic { period: 360.0 };
+    for (x, want) in [
+        (-37.25, 37.25),
+        (397.25, 37.25),
+        (322.75, 37.25),
+        (180.0, 180.0),
+        (360.0, 0.0),
+        (540.0, 180.0),
+        (-0.0, 0.0),
+        (1e300, (1e300f64 % 360.0).min(360.0 - 1e300f64 % 360.0)),
+    ] {
+        assert_eq!(s.fold(x).to_bits(), want.to_bits(), "{x}");
+    }
+    assert!(s.fold(f64::INFINITY).is_nan());
+    let t = symmetric_table(Default::default(), false);
+    let e = t.sample(&[400.0, 0.0, f64::INFINITY]).unwrap_err();
+    assert!(e.to_string().contains("`outgoing_azimuth`"), "{e}");
+    assert!(t.sample(&[400.0, 0.0, f64::NAN]).is_err());
+    // An infinite coordinate of an ordinary axis still clamps.
+    assert!(t.sample(&[f64::INFINITY, 0.0, 0.0]).is_ok());
+}
+
+/// One entry of a table keeps the symmetry of the axes it leaves free and drops it from a
+/// fixed one (one sample, constant); the writer refuses a symmetric axis that breaks a rule.
+#[test]
+fn symmetric_axis_in_entries_and_writer_refusals() {
+    use scatterbake_table::ReadLimits;
+    let mut t = symmetric_table(Default::default(), false);
+    let b = t.to_bytes().unwrap();
+    let e = Table::from_bytes_slice(&b, Path::new("t"), &[1, 2], &ReadLimits::default()).unwrap();
+    assert_eq!(e.axes()[2].symmetry, t.axes()[2].symmetry);
+    let e =
+        Table::from_bytes_slice(&b, Path::new("t"), &[1, 2, 3], &ReadLimits::default()).unwrap();
+    assert_eq!(e.axes()[2].symmetry, None);
+    assert_eq!(e.header.format_version(), (2, 0));
+    assert_eq!(
+        e.sample(&[0.0, 0.0, 1e9]).unwrap(),
+        t.sample(&[650.0, 90.0, 135.0]).unwrap()
+    );
+    let (base, input) = polarised_table(Default::default(), 1.0);
+    for (axis, rule) in [
+        (
+            Axis::uniform("a", "deg", 0.0, 45.0, 4),
+            "ends at half its period",
+        ),
+        (Axis::uniform("a", "deg", 1.0, 44.75, 4), "starts at 0"),
+        (Axis::values("a", "deg", vec![0.0, 90.0, 170.0, 180.0]), ""),
+    ] {
+        for (period, fragment) in [
+            (360.0, rule),
+            (-360.0, "not finite and > 0"),
+            (f64::NAN, "not finite"),
+        ] {
+            let mut axes = base.header.axes.clone();
+            axes[2] = axis
+                .clone()
+                .with_symmetry(Symmetry::EvenPeriodic { period });
+            let content = TableContent {
+                schema: base.header.schema.clone(),
+                description: String::new(),
+                axes,
+                channels: base.header.channels.clone(),
+                attributes: Default::default(),
+                data: input.clone(),
+                encoding: Default::default(),
+            };
+            match Table::from_content(content, Provenance::default()) {
+                Ok(_) => assert!(fragment.is_empty(), "{period} {axis:?} accepted"),
+                Err(e) => assert!(
+                    !fragment.is_empty() && e.to_string().contains(fragment),
+                    "{period}: {e}"
+                ),
+            }
+        }
     }
 }
