@@ -60,7 +60,8 @@ int main(int argc, char **argv) {
         const double *c = sbt_axis_coords(t, a);
         size_t n = sbt_axis_len(t, a);
         /* %a prints the exact binary value. */
-        printf("axis %s %s %zu %a %a\n", sbt_axis_name(t, a), sbt_axis_unit(t, a), n, c[0], c[n - 1]);
+        printf("axis %s %s %zu %a %a %a\n", sbt_axis_name(t, a), sbt_axis_unit(t, a), n, c[0], c[n - 1],
+               sbt_axis_period(t, a));
     }
     printf("channels %zu\n", nc);
     for (size_t c = 0; c < nc; ++c) printf("channel %s %s\n", sbt_channel_name(t, c), sbt_channel_unit(t, c));

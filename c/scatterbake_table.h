@@ -9,13 +9,20 @@
  * header and of the compressed and uncompressed payload, sizes) with the same code as the Rust
  * reader, so a table that opens here is bit-identical to what the Rust writer wrote.
  *
- * Formats 1.x and 2.x are read; a 2.0 table whose values are stored as 16-bit codes or that has
- * derived channels is returned decoded (every channel, derived ones included, as float32).
+ * Formats 1.x, 2.x and 3.x are read; a 2.0 table whose values are stored as 16-bit codes or
+ * that has derived channels is returned decoded (every channel, derived ones included, as
+ * float32). A 3.0 table may have even-periodic axes (sbt_axis_period > 0), which store only the
+ * coordinates 0 to period/2.
  *
  * Data layout: row-major float32, axes in header order, channel index innermost:
  *     value(i_0, ..., i_{n-1}, c) = data[((i_0 * len_1 + i_1) * ... + i_{n-1}) * n_channels + c]
  * Lookup: sbt_sample() interpolates multilinearly in the stored axis coordinates, clamping
- * coordinates outside an axis to its end points (no extrapolation).
+ * coordinates outside an axis to its end points (no extrapolation). On an even-periodic axis
+ * of period P the coordinate x is first folded into the stored half, in double precision:
+ *     r = fmod(fabs(x), P);  if (r > 0.5 * P) r = P - r;
+ * (fmod is exact, so every reader gets the same bits; the value at x equals the value at -x,
+ * x + P and P - x), then r is looked up as above. A renderer that interpolates the samples
+ * itself folds the same way.
  *
  * All returned pointers stay valid until sbt_close(). Out-of-range indices return 0 or NULL.
  * No call aborts the host process: an internal error is caught and reported as a failure
@@ -71,6 +78,10 @@ const char *sbt_axis_unit(const sbt_table *t, size_t axis);
 size_t sbt_axis_len(const sbt_table *t, size_t axis);
 /* sbt_axis_len(t, axis) coordinates, strictly increasing. */
 const double *sbt_axis_coords(const sbt_table *t, size_t axis);
+/* Period P of an even-periodic axis (format 3.0: f(x + P) = f(x) = f(-x), the axis stores
+ * 0 to P/2 and sbt_sample folds its coordinate, see above); 0 for any other axis or an
+ * out-of-range index. An axis that sbt_open_slice fixed has length 1 and period 0. */
+double sbt_axis_period(const sbt_table *t, size_t axis);
 
 size_t sbt_num_channels(const sbt_table *t);
 const char *sbt_channel_name(const sbt_table *t, size_t channel);
@@ -80,9 +91,10 @@ const char *sbt_channel_unit(const sbt_table *t, size_t channel);
 const float *sbt_data(const sbt_table *t);
 size_t sbt_data_len(const sbt_table *t);
 
-/* Multilinear lookup of every channel at coords[0..n_coords) (one per axis, axis units).
- * Writes sbt_num_channels(t) doubles to out (n_out must be at least that). 0 on success,
- * -1 on bad arguments (wrong arity, NaN coordinate, NULL pointers, short out). */
+/* Multilinear lookup of every channel at coords[0..n_coords) (one per axis, axis units; folded
+ * on an even-periodic axis, see above). Writes sbt_num_channels(t) doubles to out (n_out must
+ * be at least that). 0 on success, -1 on bad arguments (wrong arity, NaN coordinate, infinite
+ * coordinate of an even-periodic axis, NULL pointers, short out). */
 int sbt_sample(const sbt_table *t, const double *coords, size_t n_coords, double *out, size_t n_out);
 
 /* Convenience (header-only): index of the channel called name, or -1. */

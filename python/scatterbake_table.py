@@ -1,23 +1,25 @@
-"""Reader for scatterbake tables (``.sbt``), formats 1.x and 2.0. Needs numpy and zstandard.
+"""Reader for scatterbake tables (``.sbt``), formats 1.x, 2.x and 3.x. Needs numpy and zstandard.
 
     import sys; sys.path.insert(0, "python")
     import scatterbake_table as sbt
     t = sbt.open_table("tables/rainbow-mie.sbt")  # verifies every checksum
-    t.axes            # list of Axis(name, unit, coords: numpy float64 array)
+    t.axes            # list of Axis(name, unit, coords: numpy float64 array, symmetry)
     t.channels        # list of Channel(name, unit, meaning)
     t.data            # numpy float32 array, shape = axis lengths + (number of channels,)
     t.channel("phase")            # view without the channel dimension
     p = t.sample([400.0, 650.0, 138.0])  # radius µm, wavelength nm, angle deg (axis order) → every
                                          # channel; multilinear, clamped at the axis ends, like Rust
+                                         # (folded first on an even-periodic axis: Axis.fold)
 
 Byte layout (see docs/table-format.md): magic ``SBTABLE\\0`` (8 bytes), format major and minor
 (u16 LE each), flags (u32 LE), header length H (u64 LE), SHA-256 of bytes [0, 24) + header,
 the UTF-8 JSON header, then one zstd frame of ``header.payload.compressed_bytes`` bytes holding
 the row-major float32 little-endian samples (format 2.0 may store 16-bit codes instead, with a
 previous-row predictor, and derive channels from two stored ones: ``t.data`` is always the
-decoded float32 values of every channel). The reader refuses newer major versions (naming
-the version), reads any minor version of formats 1 and 2 and ignores header fields it does not
-know (newer minors only add fields), checks the header checksum, the SHA-256 of the compressed
+decoded float32 values of every channel; format 3.0 may declare an axis even and periodic, storing
+only half a period). The reader refuses newer major versions (naming the version), reads any
+minor version of formats 1 to 3 and ignores header fields it does not know (newer minors only
+add fields), checks the header checksum, the SHA-256 of the compressed
 and of the uncompressed payload, the sizes, and that nothing follows the payload.
 """
 
@@ -36,10 +38,12 @@ import numpy as np
 import zstandard
 
 MAGIC = b"SBTABLE\0"
-FORMAT_MAJOR = 2
+FORMAT_MAJOR = 3
 FORMAT_MINOR = 0
 #: Minor version implemented of each major version read.
-_MINOR_OF = {1: 0, 2: 0}
+_MINOR_OF = {1: 0, 2: 0, 3: 0}
+#: ``axes[].symmetry.kind`` of an even, periodic axis (format 3.0).
+EVEN_PERIODIC = "even-periodic"
 #: Value encoding of format 2 (docs/table-format.md, "Format 2: 16-bit values").
 TOP16 = "f32-top16le"
 _DERIVED_OPS = ("mean", "normalized-difference")
@@ -69,6 +73,20 @@ class Axis:
     name: str
     unit: str
     coords: np.ndarray
+    #: None, or ``{"kind": "even-periodic", "period": P}`` (format 3.0): the axis stores 0 … P/2.
+    symmetry: dict = None
+
+    def fold(self, x: float) -> float:
+        """The coordinate a lookup uses for ``x``: on an even-periodic axis of period P,
+        ``r = fmod(|x|, P)`` (exact in binary64), then ``P - r`` when ``r > P/2``, the bits of
+        every reader (NaN for an infinite ``x``); ``x`` itself on any other axis."""
+        if self.symmetry is None:
+            return x
+        period = self.symmetry["period"]
+        if not math.isfinite(x):
+            return math.nan
+        r = math.fmod(abs(float(x)), period)
+        return period - r if r > 0.5 * period else r
 
 
 @dataclass
@@ -103,13 +121,18 @@ class Table:
 
     def sample(self, coords) -> np.ndarray:
         """Multilinear interpolation of every channel at ``coords`` (one per axis, axis units),
-        clamped at the axis ends: the same lookup formula as the Rust ``Table::sample``."""
+        folded on an even-periodic axis (``Axis.fold``) and clamped at the axis ends: the same
+        lookup formula as the Rust ``Table::sample``."""
         if len(coords) != len(self.axes):
             raise ValueError(f"expected {len(self.axes)} coordinates, got {len(coords)}")
         cells = []
         for a, x in zip(self.axes, coords):
             if np.isnan(x):
                 raise ValueError(f"coordinate for axis {a.name!r} is NaN")
+            if a.symmetry is not None:
+                if not math.isfinite(x):
+                    raise ValueError(f"coordinate for axis {a.name!r} is {x}: an even-periodic axis needs a finite one")
+                x = a.fold(x)
             g = a.coords
             n = len(g)
             if n < 2 or x <= g[0]:
@@ -292,6 +315,7 @@ def _parse_header(header_bytes: bytes, major: int, minor: int, max_payload_bytes
     _str(payload, "sha256_compressed", "payload")
     _str(payload, "sha256_uncompressed", "payload")
     axes = []  # (name, unit, kind, values-or-(start, step, count))
+    symmetries = []  # per axis: None or {"kind", "period"} (format 3.0)
     for i, a in enumerate(axes_j):
         a = _obj(a, f"axes[{i}]")
         name = _str(a, "name", f"axes[{i}]")
@@ -310,6 +334,8 @@ def _parse_header(header_bytes: bytes, major: int, minor: int, max_payload_bytes
             step = _float(_field(u, "step", "uniform"), "uniform.step")
             count = _uint(_field(u, "count", "uniform"), "uniform.count")
             axes.append((name, unit, "uniform", (start, step, count)))
+        # Not a field of 1.x and 2.x: ignored there, whatever it holds.
+        symmetries.append(_symmetry(a.get("symmetry"), axes[-1], i) if major >= 3 else None)
     channels = []
     derived_j = []
     for i, c in enumerate(chans_j):
@@ -358,7 +384,46 @@ def _parse_header(header_bytes: bytes, major: int, minor: int, max_payload_bytes
             if not (math.isfinite(step) and step > 0.0):
                 raise _Bad(f"axis `{name}`: uniform step {step} is not finite and > 0")
     # Uniform coordinates are enumerated only once the payload has proved the grid exists.
-    return header, axes, channels, tuple(shape), cbytes, ubytes, enc
+    return header, axes, symmetries, channels, tuple(shape), cbytes, ubytes, enc
+
+
+def _f64_text(x: float) -> str:
+    """``x`` as the Rust reader prints an f64 in its messages where the two agree: integral
+    values without a decimal point (``180``, ``-0``), any other as Python's shortest repr."""
+    if math.isfinite(x) and x == int(x) and abs(x) < 1e16:
+        return ("-" if math.copysign(1.0, x) < 0 else "") + str(abs(int(x)))
+    return repr(x)
+
+
+def _symmetry(sym, axis, i: int):
+    """``axes[i].symmetry`` of a format-3 header, checked (docs/table-format.md, "Symmetric
+    axes", rules S1-S5, in the Rust reader's order): None or ``{"kind", "period"}``."""
+    if sym is None:
+        return None
+    what = f"axes[{i}].symmetry"
+    if not isinstance(sym, dict):
+        raise _Bad(f"{what} must be an object")
+    kind = _str(sym, "kind", what)
+    period = _float(_field(sym, "period", what), f"{what}.period")
+    name, _, kind_pts, pts = axis
+    if kind != EVEN_PERIODIC:
+        raise _Bad(f"axis `{name}`: symmetry.kind `{kind}` is not `{EVEN_PERIODIC}`")
+    if not (math.isfinite(period) and period > 0.0):
+        raise _Bad(f"axis `{name}`: symmetry.period {_f64_text(period)} is not finite and > 0")
+    n = len(pts) if kind_pts == "values" else pts[2]
+    if n < 2:
+        raise _Bad(f"axis `{name}`: an even-periodic axis needs at least 2 samples (it has {n})")
+    if kind_pts == "values":
+        first, last = pts[0], pts[-1]
+    else:
+        start, step, count = pts
+        first, last = start, start + step * float(count - 1)
+    half = 0.5 * period
+    if first != 0.0:
+        raise _Bad(f"axis `{name}`: an even-periodic axis starts at 0 (its first coordinate is {_f64_text(first)})")
+    if last != half:
+        raise _Bad(f"axis `{name}`: an even-periodic axis ends at half its period, {_f64_text(half)} (its last coordinate is {_f64_text(last)})")
+    return {"kind": kind, "period": period}
 
 
 @dataclass
@@ -688,7 +753,7 @@ def _read_table(f, name: str, file_len, max_payload_bytes: int, entry=None) -> T
     pre = magic + rest
     major, minor, flags, hlen = struct.unpack_from("<HHIQ", pre, 8)
     if major > FORMAT_MAJOR:
-        raise TableError(f"{name}: table format version {major}.{minor} is newer than this reader (supports 1.x and {FORMAT_MAJOR}.x)")
+        raise TableError(f"{name}: table format version {major}.{minor} is newer than this reader (supports 1.x to {FORMAT_MAJOR}.x)")
     if major == 0:
         raise TableError(f"{name}: header is not valid: format major version 0 does not exist")
     if flags != 0:
@@ -703,7 +768,7 @@ def _read_table(f, name: str, file_len, max_payload_bytes: int, entry=None) -> T
     if hashlib.sha256(pre[:24] + header_bytes).digest() != pre[24:56]:
         raise TableError(f"{name}: header checksum mismatch (file is corrupt)")
     try:
-        header, axes, channels, shape, cbytes, ubytes, enc = _parse_header(header_bytes, major, minor, max_payload_bytes)
+        header, axes, symmetries, channels, shape, cbytes, ubytes, enc = _parse_header(header_bytes, major, minor, max_payload_bytes)
     except _Bad as e:
         raise TableError(f"{name}: header is not valid: {e}") from None
     size = 4 if enc is None else enc.item_bytes
@@ -725,10 +790,11 @@ def _read_table(f, name: str, file_len, max_payload_bytes: int, entry=None) -> T
         i, code = check.bad
         raise TableError(f"{name}: payload is not valid: stored value {i} decodes to code {code:#06x}, which is not a finite value (all exponent bits set)")
     try:
-        axes = [Axis(an, unit, _axis_coords(an, kind, pts)) for (an, unit, kind, pts) in axes]
+        axes = [Axis(an, unit, _axis_coords(an, kind, pts), sym) for (an, unit, kind, pts), sym in zip(axes, symmetries)]
     except _Bad as e:
         raise TableError(f"{name}: header is not valid: {e}") from None
     if entry is not None:
+        # A fixed axis holds one sample, constant under any coordinate: no symmetry.
         axes = [Axis(a.name, a.unit, a.coords[i:i + 1].copy()) for a, i in zip(axes, entry)] + axes[len(entry):]
         shape = tuple(len(a.coords) for a in axes) + (len(channels),)
     if enc is None:

@@ -2,8 +2,8 @@
 
     python3 python/test_reader.py TABLE.sbt DUMP.bin [--entry I,J,...] [COORD ...]
 
-Prints one JSON object (format version, axes with coordinates, channels, shape, the sample at
-COORDs; floats as IEEE-754 f64 bit patterns) and writes the payload as raw float32 little-endian to DUMP.bin, so the Rust side can
+Prints one JSON object (format version, axes with coordinates and symmetry, channels, shape, the
+sample at COORDs and each COORD folded by its axis; floats as IEEE-754 f64 bit patterns) and writes the payload as raw float32 little-endian to DUMP.bin, so the Rust side can
 compare bit for bit. With ``--entry`` only that entry is opened (``open_table(entry=...)``).
 Exit code 3 with the message on stderr when the table is rejected.
 """
@@ -44,12 +44,13 @@ def main() -> int:
     out = {
         "format_version": list(t.format_version),
         # f64 values as their IEEE bit patterns (u64) so JSON cannot round them.
-        "axes": [{"name": a.name, "unit": a.unit, "coords_bits": [bits(c) for c in a.coords]} for a in t.axes],
+        "axes": [{"name": a.name, "unit": a.unit, "coords_bits": [bits(c) for c in a.coords], "symmetry": a.symmetry} for a in t.axes],
         "channels": [c.name for c in t.channels],
         "shape": list(t.data.shape),
         "schema": t.header["schema"],
     }
     if coords:
+        out["fold_bits"] = [bits(a.fold(x)) for a, x in zip(t.axes, coords)]
         out["sample_bits"] = [bits(v) for v in t.sample(coords)]
     print(json.dumps(out))
     return 0

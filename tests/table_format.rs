@@ -83,19 +83,19 @@ fn unknown_top_level_field_in_a_known_minor_is_refused() {
 }
 
 /// A newer major is refused on its version alone, before its header is interpreted (the crafted
-/// 3.0 header has valid checksums but no `layout`), with an error naming the version.
+/// 4.0 header has valid checksums but no `layout`), with an error naming the version.
 #[test]
 fn newer_major_with_valid_checksums_is_refused_naming_the_version() {
     let dir = tempfile::tempdir().unwrap();
     let p = common::synthetic_tables(dir.path()).remove(0);
-    let newer = dir.path().join("v3.sbt");
+    let newer = dir.path().join("v4.sbt");
     common::newer_major_copy(&p, &newer);
     let e = Table::open(&newer).unwrap_err();
     assert!(
         matches!(
             e,
             TableError::NewerMajor {
-                major: 3,
+                major: 4,
                 minor: 0,
                 ..
             }
@@ -103,10 +103,10 @@ fn newer_major_with_valid_checksums_is_refused_naming_the_version() {
         "{e}"
     );
     let msg = e.to_string();
-    assert!(msg.contains("3.0") && msg.contains("newer"), "{msg}");
+    assert!(msg.contains("4.0") && msg.contains("newer"), "{msg}");
     assert!(matches!(
         scatterbake::table::read_header_only(&newer).unwrap_err(),
-        TableError::NewerMajor { major: 3, .. }
+        TableError::NewerMajor { major: 4, .. }
     ));
 }
 
@@ -388,6 +388,62 @@ fn top16_corpus_rust_reader() {
                 }
                 (r, _) => wrong.push(format!("{} (read {k}): {:?}", case.name, r.map(|_| ()))),
             }
+        }
+    }
+    assert!(wrong.is_empty(), "{}", wrong.join("\n"));
+}
+
+/// Format 3.0 (even-periodic axes): each crafted file is accepted or refused as marked by every
+/// read (whole table, one entry, verification, header only), a refusal naming the file and the
+/// rule; an accepted one reads the writer's values, and its azimuth is symmetric exactly when
+/// the file is 3.x and declares it (in a 1.x or 2.x file `symmetry` is not a field: ignored,
+/// whatever it holds): a lookup at 270° then folds to 90°, else clamps to 180°.
+#[test]
+fn symmetry_corpus_rust_reader() {
+    use scatterbake::table::{ReadLimits, read_header_only, verify_file};
+    let dir = tempfile::tempdir().unwrap();
+    let want = common::crafted::symmetry_table().data;
+    let mut wrong = Vec::new();
+    for (case, fragment) in common::crafted::symmetry_cases() {
+        let p = dir.path().join(format!("{}.sbt", case.name));
+        std::fs::write(&p, &case.bytes).unwrap();
+        let limits = ReadLimits::default();
+        let reads = [
+            Table::open(&p).map(|t| t.data),
+            Table::open_slice(&p, &[1], &limits).map(|t| t.data),
+            verify_file(&p, &limits).map(|_| Vec::new()),
+            read_header_only(&p).map(|_| Vec::new()),
+        ];
+        for (k, r) in reads.into_iter().enumerate() {
+            match (r, case.valid) {
+                (Ok(data), true) => {
+                    let expect: &[f32] = [&want[..], &want[want.len() / 2..], &[], &[]][k];
+                    if data != expect {
+                        wrong.push(format!("{} (read {k}): values differ", case.name));
+                    }
+                }
+                (Err(e), false) => {
+                    let msg = e.to_string();
+                    if !(msg.contains(case.name) && msg.contains(fragment)) {
+                        wrong.push(format!("{} (read {k}): {msg}", case.name));
+                    }
+                }
+                (r, _) => wrong.push(format!("{} (read {k}): {:?}", case.name, r.map(|_| ()))),
+            }
+        }
+        if !case.valid {
+            continue;
+        }
+        let t = Table::open(&p).unwrap();
+        let declared = case.bytes[8] >= 3 && case.name != "sym_format_3_without_symmetry";
+        let folds = t.axes()[1].symmetry.is_some();
+        let at = |x: f64| t.sample(&[450.0, x]).unwrap();
+        let expect = if declared { at(90.0) } else { at(180.0) };
+        if folds != declared || at(270.0) != expect {
+            wrong.push(format!(
+                "{}: symmetric {folds}, declared {declared}",
+                case.name
+            ));
         }
     }
     assert!(wrong.is_empty(), "{}", wrong.join("\n"));

@@ -319,6 +319,21 @@ pub unsafe extern "C" fn sbt_axis_coords(t: *const SbtTable, a: usize) -> *const
     })
 }
 
+/// Period of axis `a` when it is even-periodic (format 3.0: it stores 0 … period/2 and
+/// `sbt_sample` folds its coordinate), 0 for any other axis or an index out of range.
+///
+/// # Safety
+/// `t` must be NULL or a live handle.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn sbt_axis_period(t: *const SbtTable, a: usize) -> f64 {
+    guard(0.0, || {
+        get(t)
+            .and_then(|t| t.table.header.axes.get(a))
+            .and_then(|a| a.symmetry)
+            .map_or(0.0, |s| s.period())
+    })
+}
+
 /// Number of channels.
 ///
 /// # Safety
@@ -370,9 +385,10 @@ pub unsafe extern "C" fn sbt_data_len(t: *const SbtTable) -> usize {
     guard(0, || get(t).map_or(0, |t| t.table.data.len()))
 }
 
-/// Multilinear lookup of every channel at `coords` (one per axis, axis units; clamped at the
-/// axis ends), written to `out` (`n_out` ≥ number of channels). Returns 0 on success, −1 on bad
-/// arguments (wrong arity, NaN, NULL, short `out`).
+/// Multilinear lookup of every channel at `coords` (one per axis, axis units; folded on an
+/// even-periodic axis, then clamped at the axis ends), written to `out` (`n_out` ≥ number of
+/// channels). Returns 0 on success, −1 on bad arguments (wrong arity, NaN, an infinite
+/// coordinate of an even-periodic axis, NULL, short `out`).
 ///
 /// # Safety
 /// `t` NULL or live; `coords` `n_coords` readable doubles; `out` `n_out` writable doubles.

@@ -374,7 +374,7 @@ fn preamble_cases(raw: &[u8], add: &mut Add) {
         false,
     );
     add("major_0", assemble(0, 0, 0, text.as_bytes(), &c), false);
-    add("major_3", assemble(3, 0, 0, text.as_bytes(), &c), false);
+    add("major_4", assemble(4, 0, 0, text.as_bytes(), &c), false);
     add(
         "minor_7_valid",
         assemble(1, 7, 0, text.as_bytes(), &c),
@@ -1095,6 +1095,195 @@ fn top16_channel_edits() -> Vec<Top16Edit> {
             false,
             "must be unique",
             |_, h, _| h["channels"][3]["name"] = json!("i_perp"),
+        ),
+    ]
+}
+
+/// The valid format 3.0 table of [`symmetry_cases`]: axes `wavelength` (400, 500 nm) ×
+/// `outgoing_azimuth` (uniform 0, 45, …, 180°, even and periodic of period 360°); channels
+/// `phase` and `dolp`, plain f32 values.
+pub fn symmetry_table() -> Table {
+    use scatterbake::table::Symmetry;
+    let content = TableContent {
+        encoding: Default::default(),
+        schema: Schema::new("crafted", 1),
+        description: "crafted table with an even-periodic axis".into(),
+        axes: vec![
+            Axis::values("wavelength", "nm", vec![400.0, 500.0]),
+            Axis::uniform("outgoing_azimuth", "deg", 0.0, 45.0, 5)
+                .with_symmetry(Symmetry::EvenPeriodic { period: 360.0 }),
+        ],
+        channels: vec![
+            Channel::new("phase", "1/sr", "test"),
+            Channel::new("dolp", "1", "test"),
+        ],
+        attributes: serde_json::Map::new(),
+        data: (0..20).map(|i| 1.0 + 0.5 * i as f32).collect(),
+    };
+    Table::from_content(content, Provenance::default()).unwrap()
+}
+
+/// One edit of the valid symmetric table: name, whether it stays valid, the fragment of the
+/// rule a reader's error must contain, and the edit of its version, header and values.
+type SymmetryEdit = (
+    &'static str,
+    bool,
+    &'static str,
+    fn(&mut (u16, u16), &mut Value, &mut Vec<f32>),
+);
+
+/// Format 3.0 files with an even-periodic axis (`docs/table-format.md`, "Symmetric axes"):
+/// the valid ones (newer minor, unknown key inside `symmetry`, an explicit axis, `symmetry` in
+/// a 2.0 file, where it is not a field and is ignored, a 3.0 file without a symmetric axis)
+/// and one case per rule, each with every checksum recomputed; every reader accepts the valid
+/// ones with the values of [`symmetry_table`] and refuses the others with the rule's fragment.
+pub fn symmetry_cases() -> Vec<(Case, &'static str)> {
+    let mut edits = symmetry_valid_edits();
+    edits.extend(symmetry_rule_edits());
+    edits
+        .into_iter()
+        .map(|(name, valid, fragment, edit)| {
+            let t = symmetry_table();
+            let bytes = t.clone().to_bytes().unwrap();
+            let hlen = u64::from_le_bytes(bytes[16..24].try_into().unwrap()) as usize;
+            let mut header: Value = serde_json::from_slice(&bytes[56..56 + hlen]).unwrap();
+            let mut values = t.data;
+            let mut version = (3, 0);
+            edit(&mut version, &mut header, &mut values);
+            let raw: Vec<u8> = values.iter().flat_map(|v| v.to_le_bytes()).collect();
+            let c = zstd_frame(&raw);
+            set_payload(&mut header, &raw, &c);
+            let header = serde_json::to_vec(&header).unwrap();
+            let bytes = assemble(version.0, version.1, 0, &header, &c);
+            (Case { name, bytes, valid }, fragment)
+        })
+        .collect()
+}
+
+/// `symmetry` of the azimuth axis (axis 1) of the symmetric table's header.
+fn azimuth_symmetry(h: &mut Value) -> &mut Value {
+    &mut h["axes"][1]["symmetry"]
+}
+
+/// The azimuth axis (axis 1) with these points, the layout and the values following.
+fn azimuth_points(h: &mut Value, values: &mut Vec<f32>, points: Value) {
+    let n = match points.get("values") {
+        Some(v) => v.as_array().unwrap().len(),
+        None => points["uniform"]["count"].as_u64().unwrap() as usize,
+    };
+    h["axes"][1]["points"] = points;
+    h["layout"]["shape"][1] = json!(n);
+    *values = (0..2 * n * 2).map(|i| 1.0 + 0.5 * i as f32).collect();
+}
+
+fn symmetry_valid_edits() -> Vec<SymmetryEdit> {
+    vec![
+        ("sym_valid", true, "", |_, _, _| {}),
+        ("sym_newer_minor", true, "", |v, h, _| {
+            *v = (3, 2);
+            azimuth_symmetry(h)["future_phase_deg"] = json!(0.0);
+            h["future_top_level"] = json!(1);
+        }),
+        ("sym_unknown_key_in_3_0", true, "", |_, h, _| {
+            azimuth_symmetry(h)["note"] = json!("mirror plane of the sun");
+        }),
+        ("sym_period_integer", true, "", |_, h, _| {
+            azimuth_symmetry(h)["period"] = json!(360);
+        }),
+        ("sym_explicit_axis", true, "", |_, h, _| {
+            h["axes"][1]["points"] = json!({"values": [0.0, 10.0, 90.0, 170.0, 180.0]});
+        }),
+        ("sym_in_format_2", true, "", |v, _, _| *v = (2, 0)),
+        ("sym_broken_in_format_1", true, "", |v, h, _| {
+            *v = (1, 0);
+            *azimuth_symmetry(h) = json!(["odd", -1]);
+        }),
+        ("sym_format_3_without_symmetry", true, "", |_, h, _| {
+            h["axes"][1].as_object_mut().unwrap().remove("symmetry");
+        }),
+    ]
+}
+
+fn symmetry_rule_edits() -> Vec<SymmetryEdit> {
+    vec![
+        ("sym_kind", false, "is not `even-periodic`", |_, h, _| {
+            azimuth_symmetry(h)["kind"] = json!("odd-periodic");
+        }),
+        (
+            "sym_kind_missing",
+            false,
+            "missing field `kind`",
+            |_, h, _| {
+                azimuth_symmetry(h).as_object_mut().unwrap().remove("kind");
+            },
+        ),
+        ("sym_kind_number", false, "", |_, h, _| {
+            azimuth_symmetry(h)["kind"] = json!(1);
+        }),
+        (
+            "sym_period_missing",
+            false,
+            "missing field `period`",
+            |_, h, _| {
+                azimuth_symmetry(h)
+                    .as_object_mut()
+                    .unwrap()
+                    .remove("period");
+            },
+        ),
+        ("sym_period_string", false, "", |_, h, _| {
+            azimuth_symmetry(h)["period"] = json!("360");
+        }),
+        (
+            "sym_period_zero",
+            false,
+            "is not finite and > 0",
+            |_, h, _| {
+                azimuth_symmetry(h)["period"] = json!(0.0);
+            },
+        ),
+        (
+            "sym_period_negative",
+            false,
+            "is not finite and > 0",
+            |_, h, _| {
+                azimuth_symmetry(h)["period"] = json!(-360.0);
+            },
+        ),
+        ("sym_array", false, "must be an object", |_, h, _| {
+            *azimuth_symmetry(h) = json!(["even-periodic", 360.0]);
+        }),
+        ("sym_one_sample", false, "at least 2 samples", |_, h, v| {
+            azimuth_points(h, v, json!({"values": [0.0]}));
+        }),
+        ("sym_first_not_zero", false, "starts at 0", |_, h, v| {
+            let points = json!({"uniform": {"start": 1.0, "step": 44.75, "count": 5}});
+            azimuth_points(h, v, points);
+        }),
+        (
+            "sym_last_not_half",
+            false,
+            "ends at half its period",
+            |_, h, v| {
+                let points = json!({"uniform": {"start": 0.0, "step": 40.0, "count": 5}});
+                azimuth_points(h, v, points);
+            },
+        ),
+        (
+            "sym_period_not_twice_last",
+            false,
+            "ends at half its period",
+            |_, h, _| {
+                azimuth_symmetry(h)["period"] = json!(300.0);
+            },
+        ),
+        (
+            "sym_explicit_last_not_half",
+            false,
+            "ends at half its period",
+            |_, h, _| {
+                h["axes"][1]["points"] = json!({"values": [0.0, 10.0, 90.0, 170.0, 179.5]});
+            },
         ),
     ]
 }

@@ -225,11 +225,11 @@ pub fn newer_minor_copy(src: &Path, dst: &Path) {
     std::fs::write(dst, rewrite_table(&b, 1, 1, add_unknown_fields)).unwrap();
 }
 
-/// Copy of `src` as format 3.0 with valid checksums and a header no reader of 1.x and 2.x
+/// Copy of `src` as format 4.0 with valid checksums and a header no reader of 1.x to 3.x
 /// could parse (no `layout`, a renamed field): readers must refuse it on the version alone.
 pub fn newer_major_copy(src: &Path, dst: &Path) {
     let b = std::fs::read(src).unwrap();
-    let out = rewrite_table(&b, 3, 0, |h| {
+    let out = rewrite_table(&b, 4, 0, |h| {
         let o = h.as_object_mut().unwrap();
         let layout = o.remove("layout").unwrap();
         o.insert("storage".into(), layout);
