@@ -12,6 +12,7 @@
 use super::FurError;
 use super::tt::{channel_index, channel_values, compress_table, compress_table_log};
 use crate::table::{Header, Provenance, Table, TableContent};
+use crate::table::codec::round_mantissa;
 use serde_json::json;
 
 /// The azimuthal asset as committed (`assets/fur-medulla/fur-medulla-azimuthal.sbt`).
@@ -159,19 +160,6 @@ fn normalise_azimuthal(t: &mut TableContent, channel: &str) -> Result<(), FurErr
         }
     }
     Ok(())
-}
-
-/// `v` rounded to nearest with `bits` (≤ 23) mantissa bits kept (ties away from zero in the
-/// magnitude); finite values stay finite.
-fn round_mantissa(v: f32, bits: u32) -> f32 {
-    if bits >= 23 || !v.is_finite() {
-        return v;
-    }
-    let drop = 23 - bits;
-    let b = v.to_bits();
-    let rounded = (b + (1 << (drop - 1))) & !((1u32 << drop) - 1);
-    let r = f32::from_bits(rounded);
-    if r.is_finite() { r } else { v }
 }
 
 /// The manifest that builds the dense source tables of the assets.

@@ -21,7 +21,7 @@
 //!   from them by every reader; the knots then keep a margin for the rounding (decision RT-41).
 
 use crate::raytrace::tracer::DirectionGrid;
-use crate::table::codec::{DerivedOp, TOP16_MAX_RELATIVE_ERROR, top16_round};
+use crate::table::codec::{DerivedOp, round_mantissa, top16_round};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
@@ -54,6 +54,11 @@ pub struct SunDiscResampled {
     /// How the table stores its values.
     #[serde(default)]
     pub values: StoredValues,
+    /// With `values = "top16"`: the mantissa bits kept of i_perp and i_par (1–8; default 8, all
+    /// a 16-bit code holds). Fewer bits round each value to a code whose low bits are zero,
+    /// which the table's compression stores in fewer bytes; readers decode it unchanged.
+    #[serde(default = "default_mantissa_bits")]
+    pub mantissa_bits: u32,
 }
 
 /// How a compact table stores its values.
@@ -67,11 +72,6 @@ pub enum StoredValues {
     /// derived from them by every reader (table format 2.0, `f32-top16le`).
     Top16,
 }
-
-/// The largest error the 16-bit rounding of i_perp and i_par adds, relative to the phase:
-/// 2^−9 of a value at most 2 × phase (phase = (i_perp + i_par)/2). A `top16` table's tolerance
-/// must exceed it.
-pub const TOP16_PHASE_MARGIN: f64 = 2.0 * TOP16_MAX_RELATIVE_ERROR;
 
 /// What the tolerance of a compact table bounds.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -87,6 +87,13 @@ pub enum ErrorNorm {
 
 fn default_sun_diameter_deg() -> f64 {
     SUN_DIAMETER_DEG
+}
+
+/// All the mantissa bits a `f32-top16le` code holds.
+pub const TOP16_MANTISSA_BITS: u32 = 8;
+
+fn default_mantissa_bits() -> u32 {
+    TOP16_MANTISSA_BITS
 }
 
 /// The `kind` naming [`Compression::SunDiscResampled`] in manifests and headers.
@@ -129,11 +136,26 @@ impl SunDiscResampled {
                 self.tolerance
             ));
         }
-        if self.values == StoredValues::Top16 && !(self.tolerance > TOP16_PHASE_MARGIN) {
+        if self.values == StoredValues::Top16 {
+            if !(1..=TOP16_MANTISSA_BITS).contains(&self.mantissa_bits) {
+                return Err(format!(
+                    "mantissa_bits {} must lie within 1..={TOP16_MANTISSA_BITS} (the bits a 16-bit \
+                     code holds)",
+                    self.mantissa_bits
+                ));
+            }
+            let margin = self.rounding_margin();
+            if !(self.tolerance > margin) {
+                return Err(format!(
+                    "tolerance {} must exceed {margin} with values = \"top16\" and {} mantissa \
+                     bits (the rounding alone may reach it)",
+                    self.tolerance, self.mantissa_bits
+                ));
+            }
+        } else if self.mantissa_bits != TOP16_MANTISSA_BITS {
             return Err(format!(
-                "tolerance {} must exceed {TOP16_PHASE_MARGIN} with values = \"top16\" (the 16-bit \
-                 rounding alone may reach it)",
-                self.tolerance
+                "mantissa_bits {} needs values = \"top16\" (f32 values keep all their bits)",
+                self.mantissa_bits
             ));
         }
         if !(self.sun_diameter_deg > 0.0 && self.sun_diameter_deg <= 10.0) {
@@ -143,6 +165,16 @@ impl SunDiscResampled {
             ));
         }
         Ok(())
+    }
+
+    /// The largest error the rounding of the stored i_perp and i_par adds, relative to the
+    /// phase: 0 for f32 (below 1e-7), 2 × 2^−(m+1) = 2^−m with m mantissa bits of a 16-bit code
+    /// (a value is at most 2 × phase).
+    pub fn rounding_margin(&self) -> f64 {
+        match self.values {
+            StoredValues::F32 => 0.0,
+            StoredValues::Top16 => 0.5f64.powi(self.mantissa_bits as i32),
+        }
     }
 
     /// Gaussian σ (deg of arc) with the second moment of the uniform disc: radius/2.
@@ -165,6 +197,10 @@ impl Serialize for Compression {
                 // Absent when f32, so the content keys of f32 tables stay as they were.
                 if c.values != StoredValues::F32 {
                     v["values"] = serde_json::json!(c.values);
+                }
+                // Absent at the default, so the content keys of 8-bit tables stay as they were.
+                if c.mantissa_bits != TOP16_MANTISSA_BITS {
+                    v["mantissa_bits"] = serde_json::json!(c.mantissa_bits);
                 }
                 v.serialize(s)
             }
@@ -192,6 +228,30 @@ pub struct Components<'a> {
     pub grid: DirectionGrid,
     pub i_perp: &'a [f64],
     pub i_par: &'a [f64],
+    /// The entry is mirror symmetric in azimuth (its value at φ is its value at 360° − φ; the
+    /// azimuth count is even, so 180° is a sample): its knots cover 0°–180° only, the samples
+    /// beyond are their mirror images ([`stored_azimuths`]).
+    pub mirror: bool,
+}
+
+/// The azimuth columns a compact entry's knots cover on a grid of `n_azimuth` columns: all, or
+/// for a mirror symmetric entry (`n_azimuth` even) the columns 0°–180°, `0..=n_azimuth / 2`.
+pub fn stored_azimuths(n_azimuth: usize, mirror: bool) -> usize {
+    if mirror { n_azimuth / 2 + 1 } else { n_azimuth }
+}
+
+impl Components<'_> {
+    /// The azimuth columns the knots cover ([`stored_azimuths`]).
+    fn stored_azimuths(&self) -> usize {
+        stored_azimuths(self.grid.n_azimuth, self.mirror)
+    }
+
+    /// The stored column that stands for dense column `k`: `k`, or its mirror image `n − k`
+    /// beyond 180° of a mirror symmetric entry.
+    fn folded(&self, k: usize) -> usize {
+        let na = self.grid.n_azimuth;
+        if self.mirror && k > na / 2 { na - k } else { k }
+    }
 }
 
 /// Weights of a normalised Gaussian of `sigma` samples at offsets `−r..=r`, r = ⌈4σ⌉.
@@ -399,24 +459,66 @@ fn windows_of(theta_deg: f64) -> u8 {
         .fold(0, |g, (i, _)| g | (1 << i))
 }
 
-/// The knots of a filtered entry: azimuth columns and polar rows, from the first to the last
-/// of the dense grid's (as in the dense table, the azimuth axis stops one step short of
-/// 360°), each dimension's budget `tol` in `norm`.
-pub fn choose_knots(c: &Components, tol: f64, norm: ErrorNorm) -> (Vec<usize>, Vec<usize>) {
+/// The azimuth knots of a filtered entry, from the first to the last column of the dense grid
+/// (as in the dense table, the azimuth axis stops one step short of 360°; at 180° for a mirror
+/// symmetric entry): every polar row checked, within `tol` in `norm` (for [`ErrorNorm::Rms`] within each window of rows).
+fn azimuth_knots(c: &Components, tol: f64, norm: ErrorNorm) -> Vec<usize> {
     let (np, na) = (c.grid.n_polar, c.grid.n_azimuth);
     let at = |j: usize, k: usize| (c.i_perp[j * na + k], c.i_par[j * na + k]);
     let dth = c.grid.polar_step().to_degrees();
-    let azimuth = greedy_knots(na, |a, b| {
+    greedy_knots(c.stored_azimuths(), |a, b| {
         let lines = (0..np)
             .into_par_iter()
             .map(|j| segment_error(a, b, |k| at(j, k)));
         fits(lines, tol, norm, |j| windows_of(dth * j as f64))
-    });
-    let polar = greedy_knots(np, |a, b| {
+    })
+}
+
+/// The polar knots of a filtered entry, first to last row, every column of `azimuth` checked.
+fn polar_knots(c: &Components, azimuth: &[usize], tol: f64, norm: ErrorNorm) -> Vec<usize> {
+    let na = c.grid.n_azimuth;
+    let at = |j: usize, k: usize| (c.i_perp[j * na + k], c.i_par[j * na + k]);
+    greedy_knots(c.grid.n_polar, |a, b| {
         let lines = (azimuth.par_iter()).map(|&k| segment_error(a, b, |j| at(j, k)));
         fits(lines, tol, norm, |_| 1)
-    });
-    (polar, azimuth)
+    })
+}
+
+/// The error of interpolating linearly in azimuth only, between the `azimuth` knots on every
+/// polar row of the dense grid, in `norm`: the largest relative error, or the largest root
+/// mean square (solid-angle weighted, every dense direction counted) over the windows.
+fn azimuth_error(c: &Components, azimuth: &[usize], norm: ErrorNorm) -> f64 {
+    let (np, na, n_stored) = (c.grid.n_polar, c.grid.n_azimuth, c.stored_azimuths());
+    let dth = c.grid.polar_step().to_degrees();
+    let zero = || [[0.0f64; 3]; ERROR_WINDOWS.len()];
+    let sums = (0..np)
+        .into_par_iter()
+        .fold(zero, |mut acc, j| {
+            let row = |k: usize| (c.i_perp[j * na + k], c.i_par[j * na + k]);
+            let theta = dth * j as f64;
+            let w = theta.to_radians().sin();
+            let e = (azimuth.windows(2)).fold([0.0f64; 2], |e, s| {
+                let [max, sq, _] = segment_error(s[0], s[1], row);
+                [e[0].max(max), e[1] + sq]
+            });
+            for (a, &(_, lo, hi)) in acc.iter_mut().zip(&ERROR_WINDOWS) {
+                if (lo..=hi).contains(&theta) {
+                    *a = [a[0].max(e[0]), a[1] + w * e[1], a[2] + w * n_stored as f64];
+                }
+            }
+            acc
+        })
+        .reduce(zero, |mut a, b| {
+            for (x, y) in a.iter_mut().zip(b) {
+                *x = [x[0].max(y[0]), x[1] + y[1], x[2] + y[2]];
+            }
+            a
+        });
+    let rms = |s: &[f64; 3]| if s[2] > 0.0 { (s[1] / s[2]).sqrt() } else { 0.0 };
+    match norm {
+        ErrorNorm::Max => sums.iter().map(|s| s[0]).fold(0.0, f64::max),
+        ErrorNorm::Rms => sums.iter().map(rms).fold(0.0, f64::max),
+    }
 }
 
 /// The error of phase, i_perp and i_par relative to the phase over one window: root mean
@@ -439,13 +541,14 @@ pub struct CompactEntry {
 }
 
 /// The channels at one knot from the filtered components, as the table stores them: i_perp
-/// and i_par rounded to f32 (or to their 16-bit codes: NaN for a value no code holds, which the
-/// measured error then refuses), phase and dolp derived from them as every reader derives them.
-fn knot_values(p: f64, q: f64, values: StoredValues) -> [f32; 4] {
+/// and i_par rounded to f32 (or, with 16-bit codes, to `mantissa_bits` and then to their codes:
+/// NaN for a value no code holds, which the measured error then refuses), phase and dolp
+/// derived from them as every reader derives them.
+fn knot_values(p: f64, q: f64, spec: &SunDiscResampled) -> [f32; 4] {
     let (mut p32, mut q32) = (p as f32, q as f32);
-    if values == StoredValues::Top16 {
-        p32 = top16_round(p32).unwrap_or(f32::NAN);
-        q32 = top16_round(q32).unwrap_or(f32::NAN);
+    if spec.values == StoredValues::Top16 {
+        let code = |v: f32| top16_round(round_mantissa(v, spec.mantissa_bits)).unwrap_or(f32::NAN);
+        (p32, q32) = (code(p32), code(q32));
     }
     [
         DerivedOp::Mean.apply(p32, q32),
@@ -455,9 +558,9 @@ fn knot_values(p: f64, q: f64, values: StoredValues) -> [f32; 4] {
     ]
 }
 
-/// `(segment, t)` of every dense sample `0..n` between consecutive `knots`.
-fn segments(knots: &[usize], n: usize) -> Vec<(usize, f64)> {
-    (0..n)
+/// `(segment, t)` of every dense sample of `samples` between consecutive `knots`.
+fn segments(knots: &[usize], samples: impl Iterator<Item = usize>) -> Vec<(usize, f64)> {
+    samples
         .map(|i| {
             let s = knots.partition_point(|&k| k <= i).clamp(1, knots.len() - 1) - 1;
             let t = (i - knots[s]) as f64 / (knots[s + 1] - knots[s]) as f64;
@@ -474,8 +577,10 @@ type Sums = [f64; 3];
 fn measure(c: &Components, polar: &[usize], azimuth: &[usize], values: &[f32]) -> Vec<WindowError> {
     let (np, na) = (c.grid.n_polar, c.grid.n_azimuth);
     let nk = azimuth.len();
-    let cols = segments(azimuth, na);
-    let rows = segments(polar, np);
+    // Every dense direction, those beyond 180° of a mirror symmetric entry looked up at their
+    // mirror image as every reader folds them.
+    let cols = segments(azimuth, (0..na).map(|k| c.folded(k)));
+    let rows = segments(polar, 0..np);
     let dth = c.grid.polar_step().to_degrees();
     let zero = || vec![[0.0; 3]; ERROR_WINDOWS.len()];
     let sums = (0..np)
@@ -525,59 +630,69 @@ fn measure(c: &Components, polar: &[usize], azimuth: &[usize], values: &[f32]) -
         .collect()
 }
 
-/// The compact form of one entry from its dense, disc-filtered components: knots with half
-/// the tolerance per dimension (so their product stays within it), the stored values and the
-/// measured errors.
+/// The compact form of one entry from its dense, disc-filtered components: azimuth knots
+/// within a first share of the tolerance, polar knots within what the azimuth knots' measured
+/// error leaves of it, the stored values and the measured errors.
+///
+/// The tolerance the knots share is the entry's less the rounding of the stored values
+/// ([`SunDiscResampled::rounding_margin`] δ, 0 for f32; each share is then taken at 99 %): for `max`,
+/// (T − δ)/(1 + δ), since (1 + fit)(1 + δ) − 1 ≤ T; for `rms`, √(T² − δ²/3), the root mean
+/// square of a rounding spread evenly up to δ added in quadrature (it is uncorrelated with the
+/// interpolation error). The azimuth knots take the first share: `max` √(1 + t) − 1, `rms` t/2.
+/// Their error is then measured on the dense grid (a), and the polar knots take the rest:
+/// `max` (1 + t)/(1 + a) − 1, `rms` √(t² − a²) (the two interpolation errors add in
+/// quadrature where they are independent). Where every azimuth column stays a knot (a = 0, the
+/// Beard–Chuang drops) the polar knots get the whole tolerance. The windows are measured with
+/// the stored values; an entry over its tolerance is retried with both shares × 0.7.
 pub fn compact_entry(c: &Components, spec: &SunDiscResampled) -> CompactEntry {
-    // Max: (1 + a)(1 + p) − 1 ≤ tol with a = p: p = √(1 + tol) − 1. Rms: the triangle
-    // inequality, tol/2 each (the windows' values are then measured, not implied). Less a
-    // margin for the rounding of the stored values: 1 % of the tolerance for f32; for 16-bit
-    // codes first the bound TOP16_PHASE_MARGIN (max: (1 + fit)(1 + margin) − 1 ≤ tol), or for
-    // the root mean square the rms of a rounding error spread evenly up to that bound
-    // (margin/√3), added in quadrature: the rounding of a knot's value is uncorrelated with the
-    // interpolation error (the windows are measured, and tightened if over).
-    let tol = match (spec.values, spec.norm) {
+    let (norm, margin) = (spec.norm, spec.rounding_margin());
+    let tol = match (spec.values, norm) {
         (StoredValues::F32, _) => spec.tolerance,
-        (StoredValues::Top16, ErrorNorm::Max) => {
-            (spec.tolerance - TOP16_PHASE_MARGIN) / (1.0 + TOP16_PHASE_MARGIN)
-        }
+        (StoredValues::Top16, ErrorNorm::Max) => (spec.tolerance - margin) / (1.0 + margin),
         (StoredValues::Top16, ErrorNorm::Rms) => {
-            (spec.tolerance.powi(2) - TOP16_PHASE_MARGIN.powi(2) / 3.0).sqrt()
+            (spec.tolerance.powi(2) - margin.powi(2) / 3.0).sqrt()
         }
     };
-    let mut per_dimension = match spec.norm {
-        ErrorNorm::Max => ((1.0 + tol).sqrt() - 1.0) * 0.99,
-        ErrorNorm::Rms => 0.5 * tol * 0.99,
-    };
-    // The root mean square of a window is measured, not implied by its segments': tighter
-    // knots until it holds (a few halvings at most; the max norm holds at once).
+    let mut scale = 0.99;
     let mut tries = 0;
     loop {
-        let knots = choose_knots(c, per_dimension, spec.norm);
-        let entry = entry_on_knots(c, knots, spec.values);
+        let first = match norm {
+            ErrorNorm::Max => (1.0 + tol).sqrt() - 1.0,
+            ErrorNorm::Rms => 0.5 * tol,
+        };
+        let azimuth = azimuth_knots(c, scale * first, norm);
+        // Measured; kept below the whole so that the polar knots have a share (the windows
+        // are measured below in any case).
+        let a = azimuth_error(c, &azimuth, norm).min(0.9 * tol);
+        let rest = match norm {
+            ErrorNorm::Max => (1.0 + tol) / (1.0 + a) - 1.0,
+            ErrorNorm::Rms => (tol * tol - a * a).sqrt(),
+        };
+        let polar = polar_knots(c, &azimuth, scale * rest, norm);
+        let entry = entry_on_knots(c, (polar, azimuth), spec);
         tries += 1;
-        if entry_error(&entry.errors, spec.norm) <= spec.tolerance || tries == RMS_TRIES {
+        if entry_error(&entry.errors, norm) <= spec.tolerance || tries == KNOT_TRIES {
             return entry;
         }
-        per_dimension *= 0.5;
+        scale *= 0.7;
     }
 }
 
 /// Knot choices [`compact_entry`] tries before it returns an entry over its tolerance.
-const RMS_TRIES: usize = 4;
+const KNOT_TRIES: usize = 5;
 
 /// The entry's values on the knots `(polar, azimuth)` and its errors.
 fn entry_on_knots(
     c: &Components,
     (polar, azimuth): (Vec<usize>, Vec<usize>),
-    stored: StoredValues,
+    spec: &SunDiscResampled,
 ) -> CompactEntry {
     let na = c.grid.n_azimuth;
     let mut values = Vec::with_capacity(polar.len() * azimuth.len() * 4);
     for &j in &polar {
         for &k in &azimuth {
             let i = j * na + k;
-            values.extend(knot_values(c.i_perp[i], c.i_par[i], stored));
+            values.extend(knot_values(c.i_perp[i], c.i_par[i], spec));
         }
     }
     let errors = measure(c, &polar, &azimuth, &values);
@@ -669,11 +784,12 @@ impl CompactEntry {
     }
 
     /// The entry from [`Self::scalars`] and its values, and the scalars after it; `None` when
-    /// they do not describe an entry on `grid`.
+    /// they do not describe an entry on `grid` (its azimuth knots up to 180° when `mirror`).
     pub fn from_parts(
         scalars: &[f64],
         values: Vec<f32>,
         grid: DirectionGrid,
+        mirror: bool,
     ) -> Option<(Self, &[f64])> {
         let count = |x: f64| (x >= 2.0 && x.fract() == 0.0 && x < 1e9).then_some(x as usize);
         let (np, na) = (count(*scalars.first()?)?, count(*scalars.get(1)?)?);
@@ -691,7 +807,8 @@ impl CompactEntry {
             ok.then_some(v)
         };
         let polar_rows = knots(&rest[..np], grid.n_polar - 1)?;
-        let azimuth_positions = knots(&rest[np..np + na], grid.n_azimuth - 1)?;
+        let last_azimuth = stored_azimuths(grid.n_azimuth, mirror) - 1;
+        let azimuth_positions = knots(&rest[np..np + na], last_azimuth)?;
         let errs = &rest[np + na..np + na + 2 * windows];
         let errors = errs
             .chunks(2)
@@ -868,12 +985,14 @@ mod tests {
                 grid: g,
                 i_perp: &p,
                 i_par: &q,
+                mirror: false,
             };
             let spec = SunDiscResampled {
                 tolerance: 0.01,
                 sun_diameter_deg: 0.5,
                 norm: ErrorNorm::Max,
                 values: StoredValues::F32,
+                mantissa_bits: TOP16_MANTISSA_BITS,
             };
             let e = compact_entry(&c, &spec);
             assert!(
@@ -902,7 +1021,7 @@ mod tests {
                 e.azimuth_positions.len()
             );
             let s = e.scalars();
-            let (back, rest) = CompactEntry::from_parts(&s, e.values.clone(), g).unwrap();
+            let (back, rest) = CompactEntry::from_parts(&s, e.values.clone(), g, false).unwrap();
             assert_eq!(back, e);
             assert!(rest.is_empty());
             entries.push(e);
@@ -939,6 +1058,7 @@ mod tests {
                 sun_diameter_deg: 0.5,
                 norm: ErrorNorm::Max,
                 values: StoredValues::F32,
+                mantissa_bits: TOP16_MANTISSA_BITS,
             })
         );
         // f32 is the default and is left out of the serialised form (the content key).
@@ -947,9 +1067,16 @@ mod tests {
             serde_json::json!({"kind": "sun-disc-resampled", "tolerance": 0.02, "values": "top16"});
         let c = Compression::from_value(top16).unwrap();
         assert_eq!(serde_json::to_value(c).unwrap()["values"], "top16");
+        assert!(serde_json::to_value(c).unwrap().get("mantissa_bits").is_none());
+        let seven = serde_json::json!({"kind": "sun-disc-resampled", "tolerance": 0.02, "values": "top16", "mantissa_bits": 7});
+        let c = Compression::from_value(seven).unwrap();
+        assert_eq!(serde_json::to_value(c).unwrap()["mantissa_bits"], 7);
         for bad in [
             serde_json::json!({"kind": "sun-disc-resampled", "tolerance": 0.003, "values": "top16"}),
             serde_json::json!({"kind": "sun-disc-resampled", "tolerance": 0.02, "values": "f16"}),
+            serde_json::json!({"kind": "sun-disc-resampled", "tolerance": 0.02, "values": "top16", "mantissa_bits": 9}),
+            serde_json::json!({"kind": "sun-disc-resampled", "tolerance": 0.02, "values": "top16", "mantissa_bits": 0}),
+            serde_json::json!({"kind": "sun-disc-resampled", "tolerance": 0.02, "mantissa_bits": 7}),
             serde_json::json!("zip"),
             serde_json::json!({"kind": "zip", "tolerance": 0.02}),
             serde_json::json!({"tolerance": 0.02}),
@@ -958,9 +1085,136 @@ mod tests {
         ] {
             let e = Compression::from_value(bad.clone()).unwrap_err();
             assert!(
-                e.contains("sun-disc-resampled") || e.contains("tolerance"),
+                e.contains("sun-disc-resampled")
+                    || e.contains("tolerance")
+                    || e.contains("mantissa_bits"),
                 "{bad}: {e}"
             );
         }
+    }
+
+    /// An entry smooth in azimuth keeps few azimuth knots with (almost) no error, so its polar
+    /// knots get (almost) the whole tolerance: the measured window error exceeds the half a
+    /// fixed split between the dimensions would allow, and stays within the tolerance.
+    #[test]
+    fn polar_knots_take_what_the_azimuth_knots_leave() {
+        let g = grid(3601, 36);
+        let (np, na) = (g.n_polar, g.n_azimuth);
+        let p: Vec<f64> = (0..np * na)
+            .map(|i| {
+                let th = 0.05 * (i / na) as f64;
+                1.0 + 0.5 * (th / 3.0).sin() + (-((th - 138.0) / 0.7).powi(2)).exp()
+            })
+            .collect();
+        let q: Vec<f64> = p.iter().map(|x| 0.4 * x).collect();
+        let c = Components {
+            grid: g,
+            i_perp: &p,
+            i_par: &q,
+            mirror: false,
+        };
+        for values in [StoredValues::F32, StoredValues::Top16] {
+            let spec = SunDiscResampled {
+                tolerance: 0.01,
+                sun_diameter_deg: 0.5,
+                norm: ErrorNorm::Rms,
+                values,
+                mantissa_bits: TOP16_MANTISSA_BITS,
+            };
+            let e = compact_entry(&c, &spec);
+            let err = entry_error(&e.errors, ErrorNorm::Rms);
+            assert_eq!(e.azimuth_positions, vec![0, na - 1], "{values:?}");
+            assert!(err <= 0.01 && err > 0.006, "{values:?}: {:?}", e.errors);
+        }
+    }
+
+    /// With fewer mantissa bits the stored codes have their low bits zero, the values are the
+    /// rounded ones, and the entry still meets its tolerance (with a larger rounding margin).
+    #[test]
+    fn fewer_mantissa_bits_store_coarser_codes_within_the_tolerance() {
+        use crate::table::codec::top16_code;
+        let g = grid(1801, 8);
+        let (np, na) = (g.n_polar, g.n_azimuth);
+        let p: Vec<f64> = (0..np * na)
+            .map(|i| 2.0 + (0.1 * (i / na) as f64 / 7.0).cos())
+            .collect();
+        let q: Vec<f64> = p.iter().map(|x| 0.7 * x).collect();
+        let c = Components {
+            grid: g,
+            i_perp: &p,
+            i_par: &q,
+            mirror: false,
+        };
+        let spec = SunDiscResampled {
+            tolerance: 0.015,
+            sun_diameter_deg: 0.5,
+            norm: ErrorNorm::Rms,
+            values: StoredValues::Top16,
+            mantissa_bits: 6,
+        };
+        assert_eq!(spec.rounding_margin(), 1.0 / 64.0);
+        assert!(spec.check().is_err(), "2^-6 exceeds the tolerance 0.015");
+        let spec = SunDiscResampled {
+            tolerance: 0.03,
+            ..spec
+        };
+        spec.check().unwrap();
+        let e = compact_entry(&c, &spec);
+        assert!(entry_error(&e.errors, ErrorNorm::Rms) <= 0.03, "{:?}", e.errors);
+        for v in e.values.chunks(4) {
+            for x in [v[1], v[2]] {
+                assert_eq!(top16_code(x).unwrap() % 4, 0, "{x}: 6 of 8 mantissa bits");
+            }
+        }
+    }
+
+    /// A mirror symmetric entry keeps knots up to 180° only; its errors are measured at every
+    /// dense direction, those beyond 180° looked up at their mirror image (recomputed here
+    /// through the lookup of merged tables); its scalars round-trip with `mirror` only.
+    #[test]
+    fn mirror_symmetric_entries_store_half_the_circle() {
+        let g = grid(1801, 72);
+        let (np, na) = (g.n_polar, g.n_azimuth);
+        let p: Vec<f64> = (0..np * na)
+            .map(|i| {
+                let (th, ph) = (0.1 * (i / na) as f64, (5.0 * (i % na) as f64).to_radians());
+                1.5 + ph.cos() + 0.3 * (2.0 * ph).cos() + (-((th - 138.0) / 0.5).powi(2)).exp()
+            })
+            .collect();
+        let q: Vec<f64> = p.iter().map(|x| 0.3 * x).collect();
+        let spec = SunDiscResampled {
+            tolerance: 0.01,
+            sun_diameter_deg: 0.5,
+            norm: ErrorNorm::Max,
+            values: StoredValues::F32,
+            mantissa_bits: TOP16_MANTISSA_BITS,
+        };
+        let half = Components {
+            grid: g,
+            i_perp: &p,
+            i_par: &q,
+            mirror: true,
+        };
+        let e = compact_entry(&half, &spec);
+        assert_eq!(e.azimuth_positions.last(), Some(&(na / 2)));
+        let err = entry_error(&e.errors, ErrorNorm::Max);
+        assert!(err > 0.0 && err <= 0.01, "{:?}", e.errors);
+        // Recomputed through the lookup of merged tables at every dense direction, folded.
+        let mut worst = 0.0f64;
+        for j in 0..np {
+            for k in 0..na {
+                let v = sample_entry(&e, j, half.folded(k));
+                let (pp, qq) = (p[j * na + k], q[j * na + k]);
+                let phase = 0.5 * (pp + qq);
+                for (got, want) in v[..3].iter().zip([phase, pp, qq]) {
+                    worst = worst.max((*got as f64 - want).abs() / phase);
+                }
+            }
+        }
+        let stated = e.errors.last().unwrap().max_relative;
+        assert!((worst - stated).abs() <= 1e-6, "{worst} {stated}");
+        let (back, _) = CompactEntry::from_parts(&e.scalars(), e.values.clone(), g, true).unwrap();
+        assert_eq!(back, e);
+        assert!(CompactEntry::from_parts(&e.scalars(), e.values.clone(), g, false).is_none());
     }
 }

@@ -6,7 +6,9 @@
 use super::compact::{self, CompactEntry, Components, StoredValues, SunDiscResampled};
 use super::phase_table::PhaseTable;
 use crate::table::codec::{MEAN, NORMALIZED_DIFFERENCE, TOP16_MAX_RELATIVE_ERROR};
-use crate::table::{Axis, AxisPoints, Derived, PreviousRow, TableContent, ValueEncoding};
+use crate::table::{
+    Axis, AxisPoints, Derived, PreviousRow, Symmetry, TableContent, ValueEncoding,
+};
 use serde_json::{Map, Value, json};
 
 /// One compact entry with its dense entry's bin-sum and the airy-local transfer weights of its
@@ -45,8 +47,22 @@ impl PhaseTable {
             grid,
             i_perp: &i_perp,
             i_par: &i_par,
+            mirror: self.compact_mirror(),
         };
         compact::compact_entry(&c, spec)
+    }
+
+    /// Whether compact entries store 0°–180° of azimuth only: the dense entries are mirror
+    /// symmetric (`mirror_half`, or `mirror_symmetrise`, the default) and 180° is a sample of
+    /// their grid (an even azimuth count). The exact table has the symmetry (the drop is a
+    /// surface of revolution about the vertical, the sun in the plane φ = 0; decision RT-24), so
+    /// the other half is its mirror image, which the table's symmetric azimuth axis tells every
+    /// reader's lookup (table format 3.0).
+    pub fn compact_mirror(&self) -> bool {
+        let s = &self.spec;
+        self.two_d()
+            && (s.mirror_half || s.mirror_symmetrise)
+            && self.direction_grid().n_azimuth % 2 == 0
     }
 
     /// The compact table from its entries in table order, on top of the phase-table
@@ -84,8 +100,15 @@ impl PhaseTable {
             "deg",
             polar.iter().map(|&j| j as f64 * dp).collect(),
         );
-        let az = azimuth.iter().map(|&k| k as f64 * da).collect();
-        axes[4] = Axis::values("outgoing_azimuth", "deg", az);
+        let mut az: Vec<f64> = azimuth.iter().map(|&k| k as f64 * da).collect();
+        axes[4] = if self.compact_mirror() {
+            // The knots end at the dense grid's 180° sample, exactly 180° (period/2).
+            *az.last_mut().expect("two knots at least") = 180.0;
+            Axis::values("outgoing_azimuth", "deg", az)
+                .with_symmetry(Symmetry::EvenPeriodic { period: 360.0 })
+        } else {
+            Axis::values("outgoing_azimuth", "deg", az)
+        };
         let mut t = self.content_2d(data, &ints, at, axes);
         t.attributes.insert("integral_check".into(), json!({"what": "bin-sum of phase over 4π per entry of the dense table before renormalisation; every channel but dolp of the dense entry was divided by it, then seen through the sun's disc and resampled (compression)", "values": ints}));
         t.attributes.insert("angular_resampling".into(), "compact: the dense entries (point samples of the coherent patch sum on the uniform grid of the compression's dense_grid, renormalised) seen through the sun's disc, then sampled at the outgoing_polar and outgoing_azimuth knots (compression); bilinear interpolation between knots is the table's value".into());

@@ -256,7 +256,7 @@ impl RaytraceJob {
             let (Some(&integral), Some(rest)) = (c.scalars.first(), c.scalars.get(1..)) else {
                 return Err(bad(n));
             };
-            let Some((entry, rest)) = CompactEntry::from_parts(rest, c.values, grid) else {
+            let Some((entry, rest)) = CompactEntry::from_parts(rest, c.values, grid, table.compact_mirror()) else {
                 return Err(bad(n));
             };
             if rest.len() != domain {

@@ -50,6 +50,23 @@ pub fn top16_round(v: f32) -> Result<f32, String> {
     top16_code(v).map(top16_value)
 }
 
+/// `v` rounded to nearest with `bits` (≤ 23) of its 23 mantissa bits kept (ties away from zero
+/// in the magnitude); finite values stay finite (a value that would round to infinity is
+/// returned unchanged). With `bits ≤ 8` and `v` finite and ≥ 0 the result is stored exactly by
+/// a `f32-top16le` code whose low `8 − bits` bits are zero: a writer can keep fewer bits, and
+/// compress better, while every reader decodes the codes unchanged. Relative error at most
+/// 2^−(bits+1) for a normal value.
+pub fn round_mantissa(v: f32, bits: u32) -> f32 {
+    if bits >= 23 || !v.is_finite() {
+        return v;
+    }
+    let drop = 23 - bits;
+    let b = v.to_bits();
+    let rounded = (b + (1 << (drop - 1))) & !((1u32 << drop) - 1);
+    let r = f32::from_bits(rounded);
+    if r.is_finite() { r } else { v }
+}
+
 /// The operation of a derived channel.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum DerivedOp {
@@ -409,6 +426,26 @@ impl<'a> PayloadDecoder<'a> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// With 8 mantissa bits `round_mantissa` is the 16-bit rounding; with fewer, the value is
+    /// a code whose low bits are zero (decoded unchanged) within 2^−(bits+1).
+    #[test]
+    fn fewer_mantissa_bits_are_codes_with_low_bits_zero() {
+        let mut x = 1.0e-30f32;
+        while x < 1.0e30 {
+            assert_eq!(round_mantissa(x, 8), top16_round(x).unwrap(), "{x}");
+            for bits in 1..8u32 {
+                let r = round_mantissa(x, bits);
+                let code = top16_code(r).unwrap();
+                assert_eq!(code % (1 << (8 - bits)), 0, "{x} {bits}");
+                assert_eq!(top16_value(code), r);
+                let rel = ((r as f64 - x as f64) / x as f64).abs();
+                assert!(rel <= 0.5f64.powi(bits as i32 + 1), "{x} {bits} {rel}");
+            }
+            x *= 1.37;
+        }
+        assert_eq!(round_mantissa(f32::MAX, 4), f32::MAX);
+    }
 
     /// Rounding is to nearest with a relative error of at most 2^−9 on normal values, −0 gives
     /// +0, and only values near f32::MAX are refused.

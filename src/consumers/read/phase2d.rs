@@ -30,7 +30,7 @@ use crate::consumers::ConsumerError;
 use crate::consumers::read::phase::EntrySelection;
 use crate::math::vec3::V3;
 use crate::math::vec3::{cross, dot};
-use crate::table::Table;
+use crate::table::{Axis, Table};
 use rayon::prelude::*;
 use std::path::Path;
 
@@ -112,6 +112,15 @@ impl Phase2dTable {
             return Err(ConsumerError::layout(
                 "outgoing_azimuth must start at 0 and stay below 360 deg",
             ));
+        }
+        if let Some(sym) = axes[n - 1].symmetry
+            && sym.period() != 360.0
+        {
+            return Err(ConsumerError::layout(format!(
+                "outgoing_azimuth is even-periodic with period {} deg; a phase function's \
+                 azimuth has period 360 deg",
+                sym.period()
+            )));
         }
         Ok(Phase2dTable {
             ax_wavelength,
@@ -209,7 +218,8 @@ impl Phase2dTable {
         let axes = self.table.axes();
         let wavelengths_nm = axes[self.ax_wavelength].coords();
         let polar_deg = axes[self.ax_polar].coords();
-        let azimuth_deg = axes[self.ax_az].coords();
+        // The full circle: a symmetric azimuth axis (0°–180° stored) unfolded onto 0°–360°.
+        let (azimuth_deg, stored_az) = unfolded_azimuths(&axes[self.ax_az]);
         let (np, na) = (polar_deg.len(), azimuth_deg.len());
         // Entry and elevation are stored samples whenever their axes are not interpolable
         // (`resolve_entry`/`resolve_elevation` refuse anything else): then the slice is read
@@ -239,8 +249,8 @@ impl Phase2dTable {
                     let mut idx: Vec<usize> = fixed.iter().map(|f| f.unwrap_or(0)).collect();
                     idx[self.ax_wavelength] = k;
                     idx[self.ax_polar] = j;
-                    return Ok((0..na)
-                        .map(|i| {
+                    return Ok((stored_az.iter())
+                        .map(|&i| {
                             idx[self.ax_az] = i;
                             self.table.at(&idx, ch)
                         })
@@ -274,6 +284,21 @@ impl Phase2dTable {
             entry,
         })
     }
+}
+
+/// The azimuths of a slice on the full circle and, for each, the index of its stored sample:
+/// the axis as stored, or for an even-periodic axis (table format 3.0: 0°–180° stored, the
+/// value at 360° − φ that at φ) the stored samples followed by the mirror images 360° − φ of
+/// those strictly between 0° and 180°, in increasing order.
+fn unfolded_azimuths(axis: &Axis) -> (Vec<f64>, Vec<usize>) {
+    let c = axis.coords();
+    let n = c.len();
+    let Some(symmetry) = axis.symmetry else {
+        return (c, (0..n).collect());
+    };
+    let period = symmetry.period();
+    let mirrored = (1..n - 1).rev().map(|i| (period - c[i], i));
+    (0..n).map(|i| (c[i], i)).chain(mirrored).unzip()
 }
 
 fn uniform_step(c: &[f64]) -> Option<f64> {
@@ -505,6 +530,64 @@ mod tests {
                 assert_eq!(s.values[j * az + i], expected, "polar {p}, azimuth {i}");
             }
         }
+    }
+
+    /// A table storing 0°–180° of azimuth on an even-periodic axis (table format 3.0) is read
+    /// as the full circle: the slice holds the mirror images 360° − φ, equal to the slice of
+    /// the same table stored whole, and so are its lookups between them; a period other than
+    /// 360° is refused.
+    #[test]
+    fn symmetric_azimuth_axes_unfold_onto_the_full_circle() {
+        use crate::table::{Axis, Symmetry};
+        let (elev, polar) = (vec![0.0, 20.0], vec![0.0, 90.0, 180.0]);
+        let value = |e: f64, p: f64, a: f64| {
+            (1.0 + 0.01 * e + p / 1000.0 + (a.to_radians().cos() + 2.0) / 10.0) as f32
+        };
+        let grid = |az: &[f64]| -> Vec<f32> {
+            let mut v = vec![];
+            for &e in &elev {
+                for &p in &polar {
+                    v.extend(az.iter().map(|&a| value(e, p, a)));
+                }
+            }
+            v
+        };
+        let half_az = vec![0.0, 45.0, 90.0, 135.0, 180.0];
+        let full_az: Vec<f64> = (0..8).map(|i| 45.0 * i as f64).collect();
+        let axes = |az: Vec<f64>, symmetric: bool| {
+            let a = Axis::values("outgoing_azimuth", "deg", az);
+            vec![
+                Axis::values("wavelength", "nm", vec![550.0]),
+                Axis::values("sun_elevation", "deg", elev.clone()),
+                Axis::values("outgoing_polar", "deg", polar.clone()),
+                if symmetric {
+                    a.with_symmetry(Symmetry::EvenPeriodic { period: 360.0 })
+                } else {
+                    a
+                },
+            ]
+        };
+        let half = Phase2dTable::new(table_2d(2, axes(half_az.clone(), true), grid(&half_az)))
+            .unwrap();
+        let full = Phase2dTable::new(table_2d(2, axes(full_az.clone(), false), grid(&full_az)))
+            .unwrap();
+        for elevation in [20.0, 0.0] {
+            let (h, f) = (
+                half.slice(elevation, &[], "phase").unwrap(),
+                full.slice(elevation, &[], "phase").unwrap(),
+            );
+            assert_eq!(h.azimuth_deg, full_az);
+            assert_eq!(h.values, f.values, "elevation {elevation}");
+            for (p, a) in [(30.0, 200.0), (90.0, 337.5), (179.0, 359.0)] {
+                assert_eq!(h.value(0, p, a), f.value(0, p, a), "{p} {a}");
+            }
+        }
+        let odd = axes(half_az.clone(), false);
+        let mut odd = odd;
+        odd[3] = Axis::values("outgoing_azimuth", "deg", vec![0.0, 45.0, 90.0])
+            .with_symmetry(Symmetry::EvenPeriodic { period: 180.0 });
+        let bad = Phase2dTable::new(table_2d(2, odd, grid(&[0.0, 45.0, 90.0])));
+        assert!(bad.err().unwrap().to_string().contains("period 180"));
     }
 
     fn table_2d(version: u32, axes: Vec<crate::table::Axis>, data: Vec<f32>) -> Table {
