@@ -484,8 +484,7 @@ fn python_reader_reads_symmetric_axes() {
     let dump = dir.path().join("dump.bin");
     let mut wrong = Vec::new();
     for (case, fragment) in common::crafted::symmetry_cases() {
-        let p = dir.path().join(format!("{}.sbt", case.name));
-        std::fs::write(&p, &case.bytes).unwrap();
+        let p = common::crafted::written(dir.path(), &case);
         // The rules of a symmetric axis read word for word as the Rust reader's (which adds
         // the JSON position).
         let rule = match Table::open(&p) {
