@@ -1,6 +1,7 @@
 /*
- * example.c: open a scatterbake table from C, print its axes and channels, and look up a
- * value. Build (after `cargo build -p scatterbake-capi --release`):
+ * example.c: open a scatterbake table from C, print its axes (name, unit, length, first and
+ * last coordinate, period of an even-periodic axis or 0) and channels, and look up a value.
+ * Build (after `cargo build -p scatterbake-capi --release`):
  *     cc -std=c99 -Wall -I c c/example.c -L target/release -lscatterbake_table \
  *        -Wl,-rpath,$PWD/target/release -o sbt-example
  * Run:

@@ -75,6 +75,9 @@ class Axis:
     coords: np.ndarray
     #: None, or ``{"kind": "even-periodic", "period": P}`` (format 3.0): the axis stores 0 … P/2.
     symmetry: dict = None
+    #: ``(start, step, count)`` of a uniform axis (its lookups locate ``x`` as the Rust reader
+    #: does, from ``(x - start) / step``), None for explicit coordinates.
+    uniform: tuple = None
 
     def fold(self, x: float) -> float:
         """The coordinate a lookup uses for ``x``: on an even-periodic axis of period P,
@@ -135,7 +138,13 @@ class Table:
                 x = a.fold(x)
             g = a.coords
             n = len(g)
-            if n < 2 or x <= g[0]:
+            if n >= 2 and a.uniform is not None:
+                # As the Rust reader: u = (x - start) / step clamped to [0, n - 1].
+                start, step, _ = a.uniform
+                u = min(max((x - start) / step, 0.0), float(n - 1))
+                i = min(int(math.floor(u)), n - 2)
+                cells.append((i, u - i))
+            elif n < 2 or x <= g[0]:
                 cells.append((0, 0.0))
             elif x >= g[-1]:
                 cells.append((n - 2, 1.0))
@@ -790,7 +799,8 @@ def _read_table(f, name: str, file_len, max_payload_bytes: int, entry=None) -> T
         i, code = check.bad
         raise TableError(f"{name}: payload is not valid: stored value {i} decodes to code {code:#06x}, which is not a finite value (all exponent bits set)")
     try:
-        axes = [Axis(an, unit, _axis_coords(an, kind, pts), sym) for (an, unit, kind, pts), sym in zip(axes, symmetries)]
+        axes = [Axis(an, unit, _axis_coords(an, kind, pts), sym, pts if kind == "uniform" else None)
+                for (an, unit, kind, pts), sym in zip(axes, symmetries)]
     except _Bad as e:
         raise TableError(f"{name}: header is not valid: {e}") from None
     if entry is not None:
@@ -1070,7 +1080,7 @@ def _reconstruct(t: Table, max_payload_bytes: int) -> Table:
                 _check_coords(an, c)
         except _Bad as e:
             raise _Bad(f"source axis: {e}") from None
-        coords.append(Axis(an, unit, c))
+        coords.append(Axis(an, unit, c, None, pts if kind == "uniform" else None))
     axes = coords
     ch = _obj(at.get("source_channel"), "attribute `source_channel`")
     channel = Channel(_str(ch, "name", "source_channel"), _str(ch, "unit", "source_channel"), _str(ch, "meaning", "source_channel"))

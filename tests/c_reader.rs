@@ -48,6 +48,25 @@ fn printed_samples(stdout: &str) -> Vec<f64> {
         .collect()
 }
 
+/// `c/example.c` on `table` with `mode` (`--reconstruct`, `--entry I,J`, or nothing), dumping
+/// the samples to `dump` and looking up `coords` (printed as decimal text).
+fn run_dump(
+    exe: &Path,
+    table: &Path,
+    mode: &[&str],
+    dump: &Path,
+    coords: &[f64],
+) -> std::process::Output {
+    Command::new(exe)
+        .arg(table)
+        .args(mode)
+        .arg("--dump")
+        .arg(dump)
+        .args(coords.iter().map(|c| format!("{c:e}")))
+        .output()
+        .unwrap()
+}
+
 /// Run `c/example.c` on `table` with `mode` (`--reconstruct`, `--entry I,J`, or nothing),
 /// dumping the samples and looking up `coords`; checks that it succeeds and dumps exactly
 /// `want`'s samples, and returns the printed lookup with the coordinates parsed back from the
@@ -60,14 +79,7 @@ fn run_checked(
     want: &Table,
 ) -> (Vec<f64>, Vec<f64>) {
     let dump = table.with_extension("dump.bin");
-    let out = Command::new(exe)
-        .arg(table)
-        .args(mode)
-        .arg("--dump")
-        .arg(&dump)
-        .args(coords.iter().map(|c| format!("{c:e}")))
-        .output()
-        .unwrap();
+    let out = run_dump(exe, table, mode, &dump, coords);
     let what = format!("{} {mode:?}", table.display());
     assert!(
         out.status.success(),
@@ -118,13 +130,7 @@ fn c_reader_is_bit_exact_and_verifies() {
         let t = Table::open(&p).unwrap();
         let coords = interior_point(&t);
         let dump = dir.path().join("dump.bin");
-        let out = Command::new(&exe)
-            .arg(&p)
-            .arg("--dump")
-            .arg(&dump)
-            .args(coords.iter().map(|c| format!("{c:e}")))
-            .output()
-            .unwrap();
+        let out = run_dump(&exe, &p, &[], &dump, &coords);
         assert!(
             out.status.success(),
             "{}: {}",
@@ -193,13 +199,7 @@ fn c_reader_reads_newer_minor_and_refuses_newer_major() {
         common::newer_minor_copy(p, &newer);
         let coords = interior_point(&t);
         let dump = dir.path().join("dump.bin");
-        let out = Command::new(&exe)
-            .arg(&newer)
-            .arg("--dump")
-            .arg(&dump)
-            .args(coords.iter().map(|c| format!("{c:e}")))
-            .output()
-            .unwrap();
+        let out = run_dump(&exe, &newer, &[], &dump, &coords);
         assert!(
             out.status.success(),
             "{} as 1.1: {}",
@@ -360,17 +360,10 @@ fn c_reader_symmetry_corpus() {
     let exe = common::c::example_exe(dir.path());
     let mut wrong = Vec::new();
     for (case, fragment) in common::crafted::symmetry_cases() {
-        let p = dir.path().join(format!("{}.sbt", case.name));
-        std::fs::write(&p, &case.bytes).unwrap();
+        let p = common::crafted::written(dir.path(), &case);
         let dump = dir.path().join("dump.bin");
         let coords = [450.0, 270.0];
-        let out = Command::new(&exe)
-            .arg(&p)
-            .arg("--dump")
-            .arg(&dump)
-            .args(coords.iter().map(|c| format!("{c:e}")))
-            .output()
-            .unwrap();
+        let out = run_dump(&exe, &p, &[], &dump, &coords);
         let accepted = || {
             let t = Table::open(&p).unwrap();
             let text = String::from_utf8_lossy(&out.stdout);

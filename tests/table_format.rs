@@ -359,38 +359,60 @@ fn crafted_corpus_through_the_entry_reader() {
 /// values as the whole table.
 #[test]
 fn top16_corpus_rust_reader() {
-    use scatterbake::table::{ReadLimits, verify_file};
     let dir = tempfile::tempdir().unwrap();
     let want = common::crafted::top16_table().data;
     let mut wrong = Vec::new();
     for (case, fragment) in common::crafted::top16_cases() {
-        let p = dir.path().join(format!("{}.sbt", case.name));
-        std::fs::write(&p, &case.bytes).unwrap();
-        let limits = ReadLimits::default();
-        let reads = [
-            Table::open(&p).map(|t| t.data),
-            Table::open_slice(&p, &[1], &limits).map(|t| t.data),
-            verify_file(&p, &limits).map(|_| Vec::new()),
-        ];
-        for (k, r) in reads.into_iter().enumerate() {
-            match (r, case.valid) {
-                (Ok(data), true) => {
-                    let expect: &[f32] = [&want[..], &want[want.len() / 2..], &[]][k];
-                    if data != expect {
-                        wrong.push(format!("{} (read {k}): values differ", case.name));
-                    }
-                }
-                (Err(e), false) => {
-                    let msg = e.to_string();
-                    if !(msg.contains(case.name) && msg.contains(fragment)) {
-                        wrong.push(format!("{} (read {k}): {msg}", case.name));
-                    }
-                }
-                (r, _) => wrong.push(format!("{} (read {k}): {:?}", case.name, r.map(|_| ()))),
-            }
-        }
+        wrong.extend(misreads(dir.path(), &case, fragment, &want, false).1);
     }
     assert!(wrong.is_empty(), "{}", wrong.join("\n"));
+}
+
+/// The crafted `case` written into `dir`, and what the reads of it did wrong: the whole table,
+/// entry 1, verification and (with `header_only`) `read_header_only`. A valid case must read
+/// `want`, its entry the second half of it; an invalid one must be refused with an error
+/// naming the file and holding `fragment`.
+fn misreads(
+    dir: &Path,
+    case: &common::crafted::Case,
+    fragment: &str,
+    want: &[f32],
+    header_only: bool,
+) -> (std::path::PathBuf, Vec<String>) {
+    use scatterbake::table::{ReadLimits, read_header_only, verify_file};
+    let p = common::crafted::written(dir, case);
+    let limits = ReadLimits::default();
+    let mut reads = vec![
+        Table::open(&p).map(|t| t.data),
+        Table::open_slice(&p, &[1], &limits).map(|t| t.data),
+        verify_file(&p, &limits).map(|_| Vec::new()),
+    ];
+    if header_only {
+        reads.push(read_header_only(&p).map(|_| Vec::new()));
+    }
+    let mut wrong = Vec::new();
+    for (k, r) in reads.into_iter().enumerate() {
+        match (r, case.valid) {
+            (Ok(data), true) => {
+                let expect: &[f32] = match k {
+                    0 => want,
+                    1 => &want[want.len() / 2..],
+                    _ => &[],
+                };
+                if data != expect {
+                    wrong.push(format!("{} (read {k}): values differ", case.name));
+                }
+            }
+            (Err(e), false) => {
+                let msg = e.to_string();
+                if !(msg.contains(case.name) && msg.contains(fragment)) {
+                    wrong.push(format!("{} (read {k}): {msg}", case.name));
+                }
+            }
+            (r, _) => wrong.push(format!("{} (read {k}): {:?}", case.name, r.map(|_| ()))),
+        }
+    }
+    (p, wrong)
 }
 
 /// Format 3.0 (even-periodic axes): each crafted file is accepted or refused as marked by every
@@ -400,37 +422,12 @@ fn top16_corpus_rust_reader() {
 /// whatever it holds): a lookup at 270° then folds to 90°, else clamps to 180°.
 #[test]
 fn symmetry_corpus_rust_reader() {
-    use scatterbake::table::{ReadLimits, read_header_only, verify_file};
     let dir = tempfile::tempdir().unwrap();
     let want = common::crafted::symmetry_table().data;
     let mut wrong = Vec::new();
     for (case, fragment) in common::crafted::symmetry_cases() {
-        let p = dir.path().join(format!("{}.sbt", case.name));
-        std::fs::write(&p, &case.bytes).unwrap();
-        let limits = ReadLimits::default();
-        let reads = [
-            Table::open(&p).map(|t| t.data),
-            Table::open_slice(&p, &[1], &limits).map(|t| t.data),
-            verify_file(&p, &limits).map(|_| Vec::new()),
-            read_header_only(&p).map(|_| Vec::new()),
-        ];
-        for (k, r) in reads.into_iter().enumerate() {
-            match (r, case.valid) {
-                (Ok(data), true) => {
-                    let expect: &[f32] = [&want[..], &want[want.len() / 2..], &[], &[]][k];
-                    if data != expect {
-                        wrong.push(format!("{} (read {k}): values differ", case.name));
-                    }
-                }
-                (Err(e), false) => {
-                    let msg = e.to_string();
-                    if !(msg.contains(case.name) && msg.contains(fragment)) {
-                        wrong.push(format!("{} (read {k}): {msg}", case.name));
-                    }
-                }
-                (r, _) => wrong.push(format!("{} (read {k}): {:?}", case.name, r.map(|_| ()))),
-            }
-        }
+        let (p, found) = misreads(dir.path(), &case, fragment, &want, true);
+        wrong.extend(found);
         if !case.valid {
             continue;
         }

@@ -248,6 +248,15 @@ class Axis:
     name: str
     unit: str
     coords: npt.NDArray[np.float64]
+    @property
+    def symmetry(self) -> Optional[dict[str, Any]]:
+        """``None``, or the axis's symmetry as the header states it (format 3.0), e.g.
+        ``{"kind": "even-periodic", "period": 360.0}``: the axis stores 0 … period/2 and
+        ``Table.sample`` folds its coordinate (``fold``)."""
+    def fold(self, x: float) -> float:
+        """The coordinate a lookup uses for ``x``: on an even-periodic axis of period P,
+        ``r = fmod(|x|, P)``, then ``P − r`` when ``r > P/2`` (the same bits in every reader;
+        NaN for an infinite ``x``); ``x`` itself on any other axis."""
 
 class Channel:
     name: str
@@ -282,7 +291,8 @@ class Table:
         """One channel, float32, shape (axis lengths...)."""
     def sample(self, coords: Sequence[float]) -> npt.NDArray[np.float64]:
         """Multilinear interpolation of every channel at ``coords`` (one per axis, in axis units),
-        clamped at the axis ends; one value per channel."""
+        folded on an even-periodic axis (``Axis.fold``; ValueError for an infinite coordinate
+        there) and clamped at the axis ends; one value per channel."""
     def sample_channel(self, name: str, coords: Sequence[float]) -> float:
         """Interpolated value of one channel at ``coords``."""
 

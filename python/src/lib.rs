@@ -566,16 +566,48 @@ fn mie_distribution(
     })
 }
 
-/// An axis of a table: name, unit and coordinates.
-#[pyclass(frozen, get_all, module = "scatterbake._scatterbake")]
+/// An axis of a table: name, unit, coordinates and symmetry.
+#[pyclass(frozen, module = "scatterbake._scatterbake")]
 pub struct Axis {
+    #[pyo3(get)]
     name: String,
+    #[pyo3(get)]
     unit: String,
+    #[pyo3(get)]
     coords: Py<PyArray1<f64>>,
+    sym: Option<scatterbake::table::Symmetry>,
+}
+
+impl Axis {
+    fn of(py: Python<'_>, a: &scatterbake::table::Axis) -> Self {
+        Axis {
+            name: a.name.clone(),
+            unit: a.unit.clone(),
+            coords: f1(py, a.coords()),
+            sym: a.symmetry,
+        }
+    }
 }
 
 #[pymethods]
 impl Axis {
+    /// `None`, or the axis's symmetry as the header states it, e.g. `{"kind": "even-periodic",
+    /// "period": 360.0}` (format 3.0).
+    #[getter]
+    fn symmetry<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
+        let Some(s) = self.sym else { return Ok(None) };
+        let d = PyDict::new(py);
+        d.set_item("kind", scatterbake::table::EVEN_PERIODIC)?;
+        d.set_item("period", s.period())?;
+        Ok(Some(d))
+    }
+
+    /// The coordinate a lookup uses for `x`: folded into 0 … period/2 on an even-periodic axis
+    /// (`r = fmod(|x|, P)`, then `P − r` when `r > P/2`), `x` itself on any other.
+    fn fold(&self, x: f64) -> f64 {
+        self.sym.map_or(x, |s| s.fold(x))
+    }
+
     fn __repr__(&self) -> String {
         format!("Axis(name={:?}, unit={:?})", self.name, self.unit)
     }
@@ -635,11 +667,7 @@ impl Table {
             .header
             .axes
             .iter()
-            .map(|a| Axis {
-                name: a.name.clone(),
-                unit: a.unit.clone(),
-                coords: f1(py, a.coords()),
-            })
+            .map(|a| Axis::of(py, a))
             .collect();
         PyList::new(py, v)
     }
@@ -684,12 +712,7 @@ impl Table {
             .inner
             .axis_index(name)
             .map_err(|e| PyKeyError::new_err(e.to_string()))?;
-        let a = &self.inner.header.axes[i];
-        Ok(Axis {
-            name: a.name.clone(),
-            unit: a.unit.clone(),
-            coords: f1(py, a.coords()),
-        })
+        Ok(Axis::of(py, &self.inner.header.axes[i]))
     }
 
     /// Position of the channel called `name` (KeyError if none).
@@ -715,7 +738,8 @@ impl Table {
     }
 
     /// Multilinear interpolation of every channel at `coords` (one per axis, axis units),
-    /// clamped at the axis ends (float64 array, one value per channel).
+    /// folded on an even-periodic axis ([`Axis::fold`]) and clamped at the axis ends (float64
+    /// array, one value per channel).
     fn sample<'py>(
         &self,
         py: Python<'py>,

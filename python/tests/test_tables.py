@@ -176,8 +176,9 @@ def test_crafted_tensor_train_is_refused_with_a_clear_error(tmp_path, pure_reade
     assert sb.open_table(bad, reconstruct=False).schema == "fur-medulla-tt/1"
 
 
-def _rewrite(header: dict, raw: bytes) -> bytes:
-    """A table file with this header and raw f32 payload, every checksum recomputed."""
+def _rewrite(header: dict, raw: bytes, version=(1, 0)) -> bytes:
+    """A table file of format ``version`` with this header and raw f32 payload, every checksum
+    recomputed."""
     import hashlib
     import struct
 
@@ -193,8 +194,60 @@ def _rewrite(header: dict, raw: bytes) -> bytes:
         "sha256_uncompressed": hashlib.sha256(raw).hexdigest(),
     }
     hb = json.dumps(header).encode()
-    pre = b"SBTABLE\0" + struct.pack("<HHIQ", 1, 0, 0, len(hb))
+    pre = b"SBTABLE\0" + struct.pack("<HHIQ", version[0], version[1], 0, len(hb))
     return pre + hashlib.sha256(pre + hb).digest() + hb + comp
+
+
+def _bits(v) -> list:
+    """The IEEE-754 bit patterns of float64 values."""
+    return np.asarray(v, dtype=np.float64).view(np.uint64).tolist()
+
+
+def test_even_periodic_axis_folds_like_the_pure_reader(built, tmp_path, pure_reader):
+    """A format 3.0 table whose azimuth is even and periodic (period 360°, stored 0 … 180°):
+    both readers report the symmetry and fold every coordinate to the same bits, so the lookups
+    at x, −x, 360° − x and x + 360° are one lookup, the same bits in both readers; a stored
+    azimuth returns the stored value from either side; an infinite azimuth is refused; an entry
+    that fixes the axis drops its symmetry; the same header in a 2.0 file, where `symmetry` is
+    not a field, reads without it (lookups clamp at 180°)."""
+    d, _ = built
+    header = dict(pure_reader.open_table(d / "tables" / "py-mie.sbt").header)
+    header["axes"] = [
+        {"name": "wavelength", "unit": "nm", "points": {"values": [450.0, 650.0]}},
+        {"name": "outgoing_azimuth", "unit": "deg",
+         "points": {"uniform": {"start": 0.0, "step": 22.5, "count": 9}},
+         "symmetry": {"kind": "even-periodic", "period": 360}},
+    ]
+    header["channels"] = [{"name": "phase", "unit": "1/sr", "meaning": "test"}]
+    header["layout"] = {"order": "row-major", "axis_order": ["wavelength", "outgoing_azimuth", "channel"],
+                        "dtype": "f32le", "shape": [2, 9, 1]}
+    values = (1.0 + np.arange(18) ** 1.5).astype("<f4")
+    path = tmp_path / "even.sbt"
+    path.write_bytes(_rewrite(header, values.tobytes(), version=(3, 0)))
+    t, p = sb.open_table(path), pure_reader.open_table(path)
+    assert t.axes[1].symmetry == p.axes[1].symmetry == {"kind": "even-periodic", "period": 360.0}
+    assert t.axes[0].symmetry is None and p.axes[0].symmetry is None
+    for x in [0.1, -0.1, 359.9, 1e-17, -1e-300, 397.25, 1e300, -1e16, 180.0, 540.0]:
+        assert _bits(t.axes[1].fold(x)) == _bits(p.axes[1].fold(x)), x
+    assert _bits(t.axes[1].fold(-0.1)) == _bits(0.1) and t.axes[0].fold(-0.1) == -0.1
+    for x in [0.0, 10.0, 37.25, 100.125, 180.0]:
+        at = _bits(t.sample([500.0, x]))
+        for y in [x, -x, 360.0 - x, x + 360.0]:
+            assert _bits(t.sample([500.0, y])) == at == _bits(p.sample([500.0, y])), (x, y)
+    for k in range(9):
+        for y in (22.5 * k, -22.5 * k, 360.0 - 22.5 * k):
+            assert t.sample_channel("phase", [650.0, y]) == values[9 + k], y
+    for reader in (t, p):
+        with pytest.raises(ValueError, match="outgoing_azimuth"):
+            reader.sample([500.0, float("inf")])
+    for e in (sb.open_table(path, entry=[1]), pure_reader.open_table(path, entry=[1])):
+        assert e.axes[1].symmetry is not None and e.axes[0].symmetry is None
+    for e in (sb.open_table(path, entry=[1, 3]), pure_reader.open_table(path, entry=[1, 3])):
+        assert e.axes[1].symmetry is None and _bits(e.sample([0.0, 1e9])) == _bits(t.sample([650.0, 67.5]))
+    path.write_bytes(_rewrite(header, values.tobytes(), version=(2, 0)))
+    t, p = sb.open_table(path), pure_reader.open_table(path)
+    assert t.axes[1].symmetry is None and p.axes[1].symmetry is None
+    assert _bits(t.sample([500.0, 270.0])) == _bits(t.sample([500.0, 180.0])) == _bits(p.sample([500.0, 270.0]))
 
 
 def test_one_entry_equals_the_pure_reader_and_the_whole_table(built, pure_reader):

@@ -40,6 +40,13 @@ pub fn misread(
     })
 }
 
+/// `case` written into `dir` as `NAME.sbt`.
+pub fn written(dir: &std::path::Path, case: &Case) -> std::path::PathBuf {
+    let p = dir.join(format!("{}.sbt", case.name));
+    std::fs::write(&p, &case.bytes).unwrap();
+    p
+}
+
 fn sha_hex(b: &[u8]) -> String {
     hex::encode(Sha256::digest(b))
 }
