@@ -171,6 +171,7 @@ class TableData:
         coords = [np.asarray(a.coords, dtype=float) for a in table.axes]
         phase = np.asarray(table.channel("phase"), dtype=np.float64)
         phase = self._select_entry(phase, names, coords, iw, entry or {})
+        coords[-1], phase = self._unfold_azimuth(getattr(table.axes[-1], "symmetry", None), coords[-1], phase)
         self.elevations_deg = coords[-3]
         self.polar_deg = coords[-2]
         self.azimuth_deg = coords[-1]
@@ -221,6 +222,21 @@ class TableData:
         dphi = np.radians(np.diff(np.append(self.azimuth_deg, 360.0)))
         wa = 0.5 * (dphi + np.roll(dphi, 1))
         return wp[:, None] * wa[None, :]
+
+    @staticmethod
+    def _unfold_azimuth(symmetry, azimuth_deg, phase):
+        """An even-periodic azimuth axis (table format 3.0: 0°–180° stored, the value at
+        360° − φ that at φ) onto the full circle: the stored nodes, then the mirror images of
+        those strictly between 0° and 180°; any other axis as it is."""
+        if symmetry is None:
+            return azimuth_deg, phase
+        period = float(symmetry["period"])
+        if symmetry.get("kind") != "even-periodic" or period != 360.0:
+            raise ValueError(f"outgoing_azimuth has symmetry {symmetry}; a phase function's azimuth is even-periodic with period 360 deg")
+        n = len(azimuth_deg)
+        mirrored = np.arange(n - 2, 0, -1)
+        index = np.concatenate([np.arange(n), mirrored])
+        return np.concatenate([azimuth_deg, period - azimuth_deg[mirrored]]), phase[..., index]
 
     @staticmethod
     def _select_entry(phase, names, coords, iw, entry):

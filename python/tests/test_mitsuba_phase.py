@@ -143,6 +143,39 @@ def test_eval_is_the_table_lookup_with_the_sun_on_the_light_side(table):
     np.testing.assert_allclose(got[keep], ref[keep], rtol=2e-3, atol=1e-6 * ref.max())
 
 
+def test_compact_tables_are_read_on_the_full_circle(table):
+    """A compact table stores 0°–180° of azimuth on an even-periodic axis (format 3.0): the
+    plugin unfolds it onto the full circle, and its value at every direction, beyond 180° and
+    between the last mirrored node and 360° included, is the reader's folded lookup."""
+    mi.set_variant("llvm_ad_rgb")
+    path = table.parent / "bc-0.5mm-small-compact.sbt"
+    t = scatterbake_table.open_table(path)
+    az_axis = t.axis("outgoing_azimuth")
+    assert az_axis.symmetry == {"kind": "even-periodic", "period": 360.0}
+    stored = az_axis.coords
+    assert stored[-1] == 180.0
+    data = mitsuba_phase.TableData(t, "mono", wavelength_nm=540.0, normalise=False)
+    np.testing.assert_array_equal(data.azimuth_deg, np.concatenate([stored, 360.0 - stored[-2:0:-1]]))
+    rng = np.random.default_rng(5)
+    n = 300
+    az_sun = rng.uniform(0, 2 * np.pi, n)
+    light = np.stack([np.cos(az_sun), np.sin(az_sun), np.zeros(n)], -1)
+    view = directions(n, rng)
+    polar, az = table_angles(-light, view)
+    assert np.any(az > 180.0) and np.any(az > 360.0 - stored[1])
+    ic = t.channel_index("phase")
+    ref = np.array([t.sample([500.0, 540.0, 0.0, p, a])[ic] for p, a in zip(polar, az)])
+    mono = load(path, wavelength_nm=540.0, normalise=False)
+    got = np.array(mono.eval_pdf(mi.PhaseFunctionContext(), interaction(view), vec(light))[0]).T
+    np.testing.assert_allclose(got[:, 0], ref, rtol=2e-3, atol=1e-6 * ref.max())
+    # The whole table, as the dense one would be read: every stored node and its mirror image.
+    k = int(np.argmin(np.abs(t.axis("wavelength").coords - 540.0)))
+    full = data.values[..., 0]
+    half = np.asarray(t.channel("phase"))[0, k]
+    np.testing.assert_array_equal(full[..., : len(stored)], half)
+    np.testing.assert_array_equal(full[..., len(stored):], half[..., -2:0:-1])
+
+
 def test_scalar_variant_agrees_with_llvm(table):
     rng = np.random.default_rng(5)
     light = np.array([[1.0, 0.0, 0.0]] * 8)

@@ -89,31 +89,36 @@ pub const STORED_FRACTION_RAYTRACE_2D_DIAGNOSTIC: f64 = 0.32;
 /// `raytrace` 2-D shapes, the four contract channels only.
 pub const STORED_FRACTION_RAYTRACE_2D: f64 = 0.66;
 /// `raytrace` compact 2-D tables (`compression`, tolerance 0.01, thesis grid), stored bytes
-/// over the dense grid's payload (the plan's upper bound), for Beard–Chuang drops, which most
-/// entries of a database are (docs/raytrace.md, "Compact tables"): `norm = "max"` 0.24–0.34
-/// (1 mm, 600 nm, sun 10°; 1.5 mm, 550 nm, sun 30°); spheres (≤ 0.4 mm) store 0.001–0.002.
-pub const STORED_FRACTION_RAYTRACE_2D_COMPACT_MAX: f64 = 0.34;
-/// As [`STORED_FRACTION_RAYTRACE_2D_COMPACT_MAX`] for `norm = "rms"`: 0.059–0.075.
-pub const STORED_FRACTION_RAYTRACE_2D_COMPACT_RMS: f64 = 0.073;
-/// Compact 2-D tables of spheres (Beard–Chuang drops ≤ 0.4 mm): `norm = "max"` 0.0009–0.0020
-/// (0.4 mm, 650 nm, sun 0°; 0.3 mm, 450 nm, sun 20°), `rms` 0.0001 (0.4 mm); the larger.
+/// over the dense grid's payload (the plan's upper bound, 414.7 MB for the four f32 channels
+/// of 14401 × 1800 directions), for Beard–Chuang drops, which most entries of a database are
+/// (docs/raytrace.md, "Compact tables"; mirror symmetric entries store 0°–180° of azimuth):
+/// `norm = "max"` 0.144–0.156 (1.25 mm, 520 nm, sun 0°; 2 mm, 420 nm, sun 20°; 3000² rays).
+pub const STORED_FRACTION_RAYTRACE_2D_COMPACT_MAX: f64 = 0.15;
+/// As [`STORED_FRACTION_RAYTRACE_2D_COMPACT_MAX`] for `norm = "rms"`: 0.0386–0.0428.
+pub const STORED_FRACTION_RAYTRACE_2D_COMPACT_RMS: f64 = 0.041;
+/// Compact 2-D tables of spheres (Beard–Chuang drops ≤ 0.4 mm), f32: measured on full-circle
+/// entries, `norm = "max"` 0.0009–0.0020 (0.4 mm, 650 nm, sun 0°; 0.3 mm, 450 nm, sun 20°),
+/// `rms` 0.0001 (0.4 mm); the larger (the half circle stores less: an upper bound).
 pub const STORED_FRACTION_RAYTRACE_2D_COMPACT_SPHERE: f64 = 0.002;
 /// Compact 2-D tables of drops with `values = "top16"` (i_perp and i_par as 16-bit codes,
-/// phase and dolp derived), `norm = "rms"`, tolerance 0.01, thesis grid, 3000² rays: 0.0043–0.0076
-/// on the four held-out drops of the rainbow database (0.75 mm 480 nm sun 40°, 1.25 mm 520 nm
-/// sun 0°, 2 mm 420 nm sun 20°, 3 mm 700 nm sun 60°: 1.79, 3.17, 2.72, 1.90 MB of payload), whose
-/// f32 tables stored 0.053–0.086; the value whose estimates add up to the four files' 9.94 MB
-/// (each entry's estimate then within −24 % to +33 % of its file).
-pub const STORED_FRACTION_RAYTRACE_2D_COMPACT_TOP16: f64 = 0.0057;
-/// As [`STORED_FRACTION_RAYTRACE_2D_COMPACT_TOP16`] for spheres (drops ≤ 0.4 mm): the f32
-/// fraction [`STORED_FRACTION_RAYTRACE_2D_COMPACT_SPHERE`] times the top16/f32 payload ratio of
-/// the held-out 0.25 mm, 380 nm, sun 50° entry (4295 against 43648 bytes, `rms`: 0.098), rounded
-/// up; that entry's payload is 0.00001 of its dense grid, its 48 KB header the rest of the file.
+/// phase and dolp derived) and all 8 mantissa bits, `norm = "rms"`, tolerance 0.01, thesis
+/// grid, 3000² rays: 0.00168–0.00293 on the four held-out drops of the rainbow database
+/// (0.75 mm 480 nm sun 40°, 1.25 mm 520 nm sun 0°, 2 mm 420 nm sun 20°, 3 mm 700 nm sun 60°:
+/// 0.698, 1.216, 1.034, 0.723 MB of payload); their mean.
+pub const STORED_FRACTION_RAYTRACE_2D_COMPACT_TOP16: f64 = 0.0022;
+/// The payload of a `top16` table with one mantissa bit fewer, over that with all 8: 0.838
+/// for 7 bits on the same four drops (0.551, 1.012, 0.884, 0.628 MB, i.e. 0.00133–0.00244 of
+/// the dense grid); fewer bits are estimated with this factor per bit (not measured).
+pub const STORED_RATIO_TOP16_PER_MANTISSA_BIT: f64 = 0.84;
+/// As [`STORED_FRACTION_RAYTRACE_2D_COMPACT_TOP16`] for spheres (drops ≤ 0.4 mm): the held-out
+/// 0.25 mm, 380 nm, sun 50° entry stored 3016 bytes (8 bits; 2843 with 7) of payload, 0.00001 of
+/// its dense grid; its 36 KB header is the rest of the file. The f32 sphere fraction times the
+/// top16/f32 payload ratio measured on full-circle tables (0.098), rounded up.
 pub const STORED_FRACTION_RAYTRACE_2D_COMPACT_SPHERE_TOP16: f64 = 0.0002;
 /// `top16` with `norm = "max"` (not measured): the f32 `max` fraction scaled by the top16/f32
 /// ratio measured with `rms`.
-pub const STORED_FRACTION_RAYTRACE_2D_COMPACT_MAX_TOP16: f64 =
-    STORED_FRACTION_RAYTRACE_2D_COMPACT_MAX * STORED_FRACTION_RAYTRACE_2D_COMPACT_TOP16
-        / STORED_FRACTION_RAYTRACE_2D_COMPACT_RMS;
+pub const STORED_FRACTION_RAYTRACE_2D_COMPACT_MAX_TOP16: f64 = STORED_FRACTION_RAYTRACE_2D_COMPACT_MAX
+    * STORED_FRACTION_RAYTRACE_2D_COMPACT_TOP16
+    / STORED_FRACTION_RAYTRACE_2D_COMPACT_RMS;
 /// `water-index`: 0.756.
 pub const STORED_FRACTION_WATER_INDEX: f64 = 0.76;

@@ -152,7 +152,10 @@ impl StageSpec for RaytraceStage {
     /// 12: the Debye surface coefficients of the grazing waves and of the added orders are
     /// regular where sin(mx) vanishes (they were wrong by orders of magnitude there, e.g. at
     /// 0.4 and 1 mm, 500 nm, Table 3.2 index); entries integrating far from 1 are refused.
-    const VERSION: u32 = 12;
+    /// 13: compact tables: the polar knots take what the azimuth knots' measured error leaves
+    /// of the tolerance; mirror symmetric entries store 0°–180° of azimuth on an even-periodic
+    /// axis (table format 3.0; decision RT-42).
+    const VERSION: u32 = 13;
     const SUMMARY: &'static str =
         "wave-optics patch ray tracer: phase functions of spherical and Beard–Chuang raindrops";
     type Params = RaytraceParams;

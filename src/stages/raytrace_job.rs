@@ -60,7 +60,9 @@ impl Job for RaytraceJob {
         if let Some(spec) = self.table.compact_spec() {
             use compact::{ErrorNorm, StoredValues};
             let sphere = matches!(self.table.spec.shape, Some(DropShape::Sphere { .. }));
-            return match (sphere, spec.values, spec.norm) {
+            let fewer_bits = compact::TOP16_MANTISSA_BITS.saturating_sub(spec.mantissa_bits);
+            let bits = STORED_RATIO_TOP16_PER_MANTISSA_BIT.powi(fewer_bits as i32);
+            return bits * match (sphere, spec.values, spec.norm) {
                 (true, StoredValues::F32, _) => STORED_FRACTION_RAYTRACE_2D_COMPACT_SPHERE,
                 (true, StoredValues::Top16, _) => STORED_FRACTION_RAYTRACE_2D_COMPACT_SPHERE_TOP16,
                 (false, StoredValues::F32, ErrorNorm::Max) => {
