@@ -952,3 +952,39 @@ fn raytrace_options_outside_the_tracers_domain_are_refused() {
         assert_clean_failure(&run(&args, d.path()), &[expected]);
     }
 }
+
+/// A compact table of mirror symmetric entries stores 0°–180° of azimuth (table format 3.0):
+/// `inspect` says the axis is even-periodic, `verify` accepts it, and `plot-raytrace` reads
+/// it on the full circle (the bows at 180°, the mirror image of no stored knot beyond it).
+#[test]
+fn compact_symmetric_tables_inspect_verify_and_plot() {
+    let d = tempfile::tempdir().unwrap();
+    let m = d.path().join("compact.toml");
+    std::fs::write(
+        &m,
+        "[[table]]\nname = \"c\"\nstage = \"raytrace\"\n[table.params]\nshape = \"beard-chuang\"\nradii_um = [1500.0]\nwavelengths_nm = [550.0]\nsun_elevation_deg = [30.0]\nrays = 60\npolar_step_deg = 0.25\nazimuth_step_deg = 10.0\ndiagnostic_channels = false\ncompression = { kind = \"sun-disc-resampled\", tolerance = 0.05, norm = \"rms\", values = \"top16\", mantissa_bits = 7 }\n",
+    )
+    .unwrap();
+    let o = run(
+        &["build", m.to_str().unwrap(), "--out", "tables", "-q", "--no-previews"],
+        d.path(),
+    );
+    assert!(o.status.success(), "{}", text(&o));
+    let table = d.path().join("tables/c.sbt");
+    assert_eq!(&std::fs::read(&table).unwrap()[8..12], &[3, 0, 0, 0]);
+    let o = run(&["verify", table.to_str().unwrap()], d.path());
+    assert!(o.status.success(), "{}", text(&o));
+    let o = run(&["inspect", table.to_str().unwrap()], d.path());
+    let out = text(&o);
+    let azimuth = out.lines().find(|l| l.contains("outgoing_azimuth")).unwrap();
+    assert!(
+        azimuth.contains("… 180") && azimuth.contains("even-periodic, period 360"),
+        "{azimuth}"
+    );
+    let png = d.path().join("bows.png");
+    let o = run(
+        &["plot-raytrace", table.to_str().unwrap(), "--out", png.to_str().unwrap()],
+        d.path(),
+    );
+    assert!(o.status.success() && png.is_file(), "{}", text(&o));
+}

@@ -108,7 +108,20 @@ fn print_summary(file: &std::path::Path, t: &Table) -> Result<()> {
             AxisPoints::Values(v) if v.len() <= 8 => format!("{v:?}"),
             AxisPoints::Values(v) => format!("{} values {} … {}", v.len(), v[0], v[v.len() - 1]),
         };
-        println!("  {:<20} [{}] {}", esc(&a.name), esc(&a.unit), desc);
+        // A symmetric axis stores half its period; lookups fold onto it (table format 3.0).
+        let symmetry = a.symmetry.map_or(String::new(), |s| {
+            format!(
+                "; even-periodic, period {}: the value at x is the value at −x and x + period",
+                s.period()
+            )
+        });
+        println!(
+            "  {:<20} [{}] {}{}",
+            esc(&a.name),
+            esc(&a.unit),
+            desc,
+            symmetry
+        );
     }
     println!("channels:");
     for c in &h.channels {
