@@ -1,5 +1,5 @@
-//! The reader conformance suite: every crafted file (`tests/common/crafted.rs`, grown with
-//! tables whose samples are NaN or infinite) and every synthetic table of a real layout goes
+//! The reader conformance suite: every crafted file (`tests/common/crafted.rs`, the format 3.0
+//! files of `symmetry_cases` among them, grown with tables whose samples are NaN or infinite) and every synthetic table of a real layout goes
 //! through every reader and every command of the command line that reads a table, each run as
 //! its own process under a 3 GiB address-space limit and a 20 s timeout:
 //!
@@ -155,8 +155,12 @@ fn checksum_cases() -> Vec<(String, Vec<u8>, bool)> {
 
 /// Every file of the suite, written into `dir`.
 fn subjects(dir: &Path) -> Vec<Subject> {
+    let symmetry = common::crafted::symmetry_cases()
+        .into_iter()
+        .map(|(c, _)| c);
     let mut files: Vec<(String, Vec<u8>, bool)> = common::crafted::cases()
         .into_iter()
+        .chain(symmetry)
         .map(|Case { name, bytes, .. }| (name.to_string(), bytes, false))
         .collect();
     files.extend(

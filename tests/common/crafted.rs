@@ -1260,6 +1260,9 @@ fn symmetry_rule_edits() -> Vec<SymmetryEdit> {
         ("sym_array", false, "must be an object", |_, h, _| {
             *azimuth_symmetry(h) = json!(["even-periodic", 360.0]);
         }),
+        ("sym_string", false, "expected", |_, h, _| {
+            *azimuth_symmetry(h) = json!("even-periodic");
+        }),
         ("sym_one_sample", false, "at least 2 samples", |_, h, v| {
             azimuth_points(h, v, json!({"values": [0.0]}));
         }),
