@@ -410,8 +410,10 @@ def _symmetry(sym, axis, i: int):
     if sym is None:
         return None
     what = f"axes[{i}].symmetry"
-    if not isinstance(sym, dict):
-        raise _Bad(f"{what} must be an object")
+    if isinstance(sym, list):
+        # As the Rust reader's first pass over the JSON words it.
+        raise _Bad("JSON: axes[].symmetry must be an object, not an array")
+    _obj(sym, what)
     kind = _str(sym, "kind", what)
     period = _float(_field(sym, "period", what), f"{what}.period")
     name, _, kind_pts, pts = axis

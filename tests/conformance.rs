@@ -1,5 +1,5 @@
-//! The reader conformance suite: every crafted file (`tests/common/crafted.rs`, grown with
-//! tables whose samples are NaN or infinite) and every synthetic table of a real layout goes
+//! The reader conformance suite: every crafted file (`tests/common/crafted.rs`, the format 3.0
+//! files of `symmetry_cases` among them, grown with tables whose samples are NaN or infinite) and every synthetic table of a real layout goes
 //! through every reader and every command of the command line that reads a table, each run as
 //! its own process under a 3 GiB address-space limit and a 20 s timeout:
 //!
@@ -155,8 +155,12 @@ fn checksum_cases() -> Vec<(String, Vec<u8>, bool)> {
 
 /// Every file of the suite, written into `dir`.
 fn subjects(dir: &Path) -> Vec<Subject> {
+    let symmetry = common::crafted::symmetry_cases()
+        .into_iter()
+        .map(|(c, _)| c);
     let mut files: Vec<(String, Vec<u8>, bool)> = common::crafted::cases()
         .into_iter()
+        .chain(symmetry)
         .map(|Case { name, bytes, .. }| (name.to_string(), bytes, false))
         .collect();
     files.extend(
@@ -601,7 +605,8 @@ fn edited(
     h
 }
 
-/// Header mutants of a plain table, a tensor-train table and a phase-function table:
+/// Header mutants of a plain table, a tensor-train table, a phase-function table and a format
+/// 3.0 table with an even-periodic axis:
 /// every field replaced by each of `replacement_values` or removed, the header re-sealed
 /// (payload and its checksums unchanged), so each mutant is refused by a rule past the
 /// checksums or read.
@@ -611,11 +616,13 @@ fn header_mutants(dir: &Path) -> Vec<Subject> {
     let phase = henyey_greenstein_table(&[450.0, 650.0], &[10.0, 20.0], |_, _| 0.6, 19, 0.5)
         .to_bytes()
         .unwrap();
+    let symmetric = common::crafted::symmetry_table().to_bytes().unwrap();
     let mut out = Vec::new();
-    for (base_name, bytes, is_tt) in [
-        ("plain", plain, false),
-        ("tt", tensor_train, true),
-        ("phase", phase, false),
+    for (base_name, bytes, is_tt, (major, minor)) in [
+        ("plain", plain, false, (1, 0)),
+        ("tt", tensor_train, true, (1, 0)),
+        ("phase", phase, false, (1, 0)),
+        ("symmetric", symmetric, false, (3, 0)),
     ] {
         let h_len = u64::from_le_bytes(bytes[16..24].try_into().unwrap()) as usize;
         let header: serde_json::Value = serde_json::from_slice(&bytes[56..56 + h_len]).unwrap();
@@ -627,7 +634,8 @@ fn header_mutants(dir: &Path) -> Vec<Subject> {
                 let h = serde_json::to_vec(&edited(&header, p, v)).unwrap();
                 let name = format!("mutant_{base_name}_{i}_{j}");
                 let path = dir.join(format!("{name}.sbt"));
-                std::fs::write(&path, common::crafted::assemble(1, 0, 0, &h, payload)).unwrap();
+                let file = common::crafted::assemble(major, minor, 0, &h, payload);
+                std::fs::write(&path, file).unwrap();
                 out.push(Subject {
                     file_verdict: rust_verdict(&path, false),
                     verdict: rust_verdict(&path, is_tt),

@@ -746,6 +746,13 @@ fn tt_layout_edits() -> Vec<TtEdit> {
             *o.last_mut().unwrap() -= 1;
             set_attr(t, "core_offsets", json!(o));
         }),
+        ("tt_source_axis_symmetry_ignored", true, "", |t| {
+            // Not part of a source axis (the layout predates format 3.0): ignored, whatever
+            // it holds.
+            let mut a = t.header.attributes["source_axes"].clone();
+            a[0]["symmetry"] = json!({"kind": "odd-periodic", "period": -1.0});
+            set_attr(t, "source_axes", a);
+        }),
         ("tt_source_axes_short", false, "source axes", |t| {
             let mut a = t.header.attributes["source_axes"]
                 .as_array()
@@ -1259,6 +1266,9 @@ fn symmetry_rule_edits() -> Vec<SymmetryEdit> {
         ),
         ("sym_array", false, "must be an object", |_, h, _| {
             *azimuth_symmetry(h) = json!(["even-periodic", 360.0]);
+        }),
+        ("sym_string", false, "expected", |_, h, _| {
+            *azimuth_symmetry(h) = json!("even-periodic");
         }),
         ("sym_one_sample", false, "at least 2 samples", |_, h, v| {
             azimuth_points(h, v, json!({"values": [0.0]}));
