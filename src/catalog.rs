@@ -133,7 +133,7 @@ impl FreshTable {
 
 /// The format line of the catalogs this build writes.
 fn catalog_format() -> String {
-    format!("scatterbake-catalog/1 (tables in formats 1.0 and {FORMAT_MAJOR}.{FORMAT_MINOR})")
+    format!("scatterbake-catalog/1 (tables in formats 1.0 to {FORMAT_MAJOR}.{FORMAT_MINOR})")
 }
 
 /// Beside `index.json`: the stamp (size, modification time, device, inode) and whole-file
