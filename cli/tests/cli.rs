@@ -966,7 +966,14 @@ fn compact_symmetric_tables_inspect_verify_and_plot() {
     )
     .unwrap();
     let o = run(
-        &["build", m.to_str().unwrap(), "--out", "tables", "-q", "--no-previews"],
+        &[
+            "build",
+            m.to_str().unwrap(),
+            "--out",
+            "tables",
+            "-q",
+            "--no-previews",
+        ],
         d.path(),
     );
     assert!(o.status.success(), "{}", text(&o));
@@ -985,7 +992,12 @@ fn compact_symmetric_tables_inspect_verify_and_plot() {
     );
     let png = d.path().join("bows.png");
     let o = run(
-        &["plot-raytrace", table.to_str().unwrap(), "--out", png.to_str().unwrap()],
+        &[
+            "plot-raytrace",
+            table.to_str().unwrap(),
+            "--out",
+            png.to_str().unwrap(),
+        ],
         d.path(),
     );
     assert!(o.status.success() && png.is_file(), "{}", text(&o));

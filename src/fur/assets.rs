@@ -11,8 +11,8 @@
 
 use super::FurError;
 use super::tt::{channel_index, channel_values, compress_table, compress_table_log};
-use crate::table::{Header, Provenance, Table, TableContent};
 use crate::table::codec::round_mantissa;
+use crate::table::{Header, Provenance, Table, TableContent};
 use serde_json::json;
 
 /// The azimuthal asset as committed (`assets/fur-medulla/fur-medulla-azimuthal.sbt`).

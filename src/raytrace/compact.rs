@@ -514,7 +514,13 @@ fn azimuth_error(c: &Components, azimuth: &[usize], norm: ErrorNorm) -> f64 {
             }
             a
         });
-    let rms = |s: &[f64; 3]| if s[2] > 0.0 { (s[1] / s[2]).sqrt() } else { 0.0 };
+    let rms = |s: &[f64; 3]| {
+        if s[2] > 0.0 {
+            (s[1] / s[2]).sqrt()
+        } else {
+            0.0
+        }
+    };
     match norm {
         ErrorNorm::Max => sums.iter().map(|s| s[0]).fold(0.0, f64::max),
         ErrorNorm::Rms => sums.iter().map(rms).fold(0.0, f64::max),
@@ -838,6 +844,32 @@ mod tests {
         }
     }
 
+    /// i_perp = `f(θ°, φ°)` at every direction of `g`, and i_par = `ratio` × i_perp.
+    fn polarised(g: DirectionGrid, ratio: f64, f: impl Fn(f64, f64) -> f64) -> [Vec<f64>; 2] {
+        let (dth, dph) = (180.0 / (g.n_polar - 1) as f64, 360.0 / g.n_azimuth as f64);
+        let p: Vec<f64> = (0..g.n_polar * g.n_azimuth)
+            .map(|i| {
+                f(
+                    dth * (i / g.n_azimuth) as f64,
+                    dph * (i % g.n_azimuth) as f64,
+                )
+            })
+            .collect();
+        let q = p.iter().map(|x| ratio * x).collect();
+        [p, q]
+    }
+
+    /// The compression with `tolerance` in `norm`, 0.5° sun, f32 values.
+    fn spec(tolerance: f64, norm: ErrorNorm) -> SunDiscResampled {
+        SunDiscResampled {
+            tolerance,
+            sun_diameter_deg: 0.5,
+            norm,
+            values: StoredValues::F32,
+            mantissa_bits: TOP16_MANTISSA_BITS,
+        }
+    }
+
     /// The filter keeps a constant, keeps the mean of each row's azimuth profile (wrapped), and
     /// at the poles averages the whole row.
     #[test]
@@ -966,34 +998,18 @@ mod tests {
     fn compact_entries_meet_their_tolerance_and_merge() {
         let g = grid(1801, 72);
         let (np, na) = (g.n_polar, g.n_azimuth);
-        let make = |shift: f64| -> (Vec<f64>, Vec<f64>) {
-            let p: Vec<f64> = (0..np * na)
-                .map(|i| {
-                    let th = 0.1 * (i / na) as f64;
-                    let ph = 5f64 * (i % na) as f64;
-                    1.0 + (-((th - 138.0 - shift - 0.1 * ph.to_radians().cos()) / 0.5).powi(2))
-                        .exp()
-                })
-                .collect();
-            let q = p.iter().map(|x| 0.3 * x).collect();
-            (p, q)
-        };
         let mut entries = vec![];
         for shift in [0.0, 1.5] {
-            let (p, q) = make(shift);
+            let [p, q] = polarised(g, 0.3, |th, ph| {
+                1.0 + (-((th - 138.0 - shift - 0.1 * ph.to_radians().cos()) / 0.5).powi(2)).exp()
+            });
             let c = Components {
                 grid: g,
                 i_perp: &p,
                 i_par: &q,
                 mirror: false,
             };
-            let spec = SunDiscResampled {
-                tolerance: 0.01,
-                sun_diameter_deg: 0.5,
-                norm: ErrorNorm::Max,
-                values: StoredValues::F32,
-                mantissa_bits: TOP16_MANTISSA_BITS,
-            };
+            let spec = spec(0.01, ErrorNorm::Max);
             let e = compact_entry(&c, &spec);
             assert!(
                 entry_error(&e.errors, ErrorNorm::Max) <= 0.01,
@@ -1067,7 +1083,12 @@ mod tests {
             serde_json::json!({"kind": "sun-disc-resampled", "tolerance": 0.02, "values": "top16"});
         let c = Compression::from_value(top16).unwrap();
         assert_eq!(serde_json::to_value(c).unwrap()["values"], "top16");
-        assert!(serde_json::to_value(c).unwrap().get("mantissa_bits").is_none());
+        assert!(
+            serde_json::to_value(c)
+                .unwrap()
+                .get("mantissa_bits")
+                .is_none()
+        );
         let seven = serde_json::json!({"kind": "sun-disc-resampled", "tolerance": 0.02, "values": "top16", "mantissa_bits": 7});
         let c = Compression::from_value(seven).unwrap();
         assert_eq!(serde_json::to_value(c).unwrap()["mantissa_bits"], 7);
@@ -1099,27 +1120,20 @@ mod tests {
     #[test]
     fn polar_knots_take_what_the_azimuth_knots_leave() {
         let g = grid(3601, 36);
-        let (np, na) = (g.n_polar, g.n_azimuth);
-        let p: Vec<f64> = (0..np * na)
-            .map(|i| {
-                let th = 0.05 * (i / na) as f64;
-                1.0 + 0.5 * (th / 3.0).sin() + (-((th - 138.0) / 0.7).powi(2)).exp()
-            })
-            .collect();
-        let q: Vec<f64> = p.iter().map(|x| 0.4 * x).collect();
+        let [p, q] = polarised(g, 0.4, |th, _| {
+            1.0 + 0.5 * (th / 3.0).sin() + (-((th - 138.0) / 0.7).powi(2)).exp()
+        });
         let c = Components {
             grid: g,
             i_perp: &p,
             i_par: &q,
             mirror: false,
         };
+        let na = g.n_azimuth;
         for values in [StoredValues::F32, StoredValues::Top16] {
             let spec = SunDiscResampled {
-                tolerance: 0.01,
-                sun_diameter_deg: 0.5,
-                norm: ErrorNorm::Rms,
                 values,
-                mantissa_bits: TOP16_MANTISSA_BITS,
+                ..spec(0.01, ErrorNorm::Rms)
             };
             let e = compact_entry(&c, &spec);
             let err = entry_error(&e.errors, ErrorNorm::Rms);
@@ -1134,11 +1148,7 @@ mod tests {
     fn fewer_mantissa_bits_store_coarser_codes_within_the_tolerance() {
         use crate::table::codec::top16_code;
         let g = grid(1801, 8);
-        let (np, na) = (g.n_polar, g.n_azimuth);
-        let p: Vec<f64> = (0..np * na)
-            .map(|i| 2.0 + (0.1 * (i / na) as f64 / 7.0).cos())
-            .collect();
-        let q: Vec<f64> = p.iter().map(|x| 0.7 * x).collect();
+        let [p, q] = polarised(g, 0.7, |th, _| 2.0 + (th / 7.0).cos());
         let c = Components {
             grid: g,
             i_perp: &p,
@@ -1146,11 +1156,9 @@ mod tests {
             mirror: false,
         };
         let spec = SunDiscResampled {
-            tolerance: 0.015,
-            sun_diameter_deg: 0.5,
-            norm: ErrorNorm::Rms,
             values: StoredValues::Top16,
             mantissa_bits: 6,
+            ..spec(0.015, ErrorNorm::Rms)
         };
         assert_eq!(spec.rounding_margin(), 1.0 / 64.0);
         assert!(spec.check().is_err(), "2^-6 exceeds the tolerance 0.015");
@@ -1160,7 +1168,11 @@ mod tests {
         };
         spec.check().unwrap();
         let e = compact_entry(&c, &spec);
-        assert!(entry_error(&e.errors, ErrorNorm::Rms) <= 0.03, "{:?}", e.errors);
+        assert!(
+            entry_error(&e.errors, ErrorNorm::Rms) <= 0.03,
+            "{:?}",
+            e.errors
+        );
         for v in e.values.chunks(4) {
             for x in [v[1], v[2]] {
                 assert_eq!(top16_code(x).unwrap() % 4, 0, "{x}: 6 of 8 mantissa bits");
@@ -1175,20 +1187,11 @@ mod tests {
     fn mirror_symmetric_entries_store_half_the_circle() {
         let g = grid(1801, 72);
         let (np, na) = (g.n_polar, g.n_azimuth);
-        let p: Vec<f64> = (0..np * na)
-            .map(|i| {
-                let (th, ph) = (0.1 * (i / na) as f64, (5.0 * (i % na) as f64).to_radians());
-                1.5 + ph.cos() + 0.3 * (2.0 * ph).cos() + (-((th - 138.0) / 0.5).powi(2)).exp()
-            })
-            .collect();
-        let q: Vec<f64> = p.iter().map(|x| 0.3 * x).collect();
-        let spec = SunDiscResampled {
-            tolerance: 0.01,
-            sun_diameter_deg: 0.5,
-            norm: ErrorNorm::Max,
-            values: StoredValues::F32,
-            mantissa_bits: TOP16_MANTISSA_BITS,
-        };
+        let [p, q] = polarised(g, 0.3, |th, ph| {
+            let ph = ph.to_radians();
+            1.5 + ph.cos() + 0.3 * (2.0 * ph).cos() + (-((th - 138.0) / 0.5).powi(2)).exp()
+        });
+        let spec = spec(0.01, ErrorNorm::Max);
         let half = Components {
             grid: g,
             i_perp: &p,

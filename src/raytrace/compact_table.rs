@@ -6,9 +6,7 @@
 use super::compact::{self, CompactEntry, Components, StoredValues, SunDiscResampled};
 use super::phase_table::PhaseTable;
 use crate::table::codec::{MEAN, NORMALIZED_DIFFERENCE, TOP16_MAX_RELATIVE_ERROR};
-use crate::table::{
-    Axis, AxisPoints, Derived, PreviousRow, Symmetry, TableContent, ValueEncoding,
-};
+use crate::table::{Axis, AxisPoints, Derived, PreviousRow, Symmetry, TableContent, ValueEncoding};
 use serde_json::{Map, Value, json};
 
 /// One compact entry with its dense entry's bin-sum and the airy-local transfer weights of its
@@ -62,7 +60,7 @@ impl PhaseTable {
         let s = &self.spec;
         self.two_d()
             && (s.mirror_half || s.mirror_symmetrise)
-            && self.direction_grid().n_azimuth % 2 == 0
+            && self.direction_grid().n_azimuth.is_multiple_of(2)
     }
 
     /// The compact table from its entries in table order, on top of the phase-table

@@ -62,22 +62,25 @@ impl Job for RaytraceJob {
             let sphere = matches!(self.table.spec.shape, Some(DropShape::Sphere { .. }));
             let fewer_bits = compact::TOP16_MANTISSA_BITS.saturating_sub(spec.mantissa_bits);
             let bits = STORED_RATIO_TOP16_PER_MANTISSA_BIT.powi(fewer_bits as i32);
-            return bits * match (sphere, spec.values, spec.norm) {
-                (true, StoredValues::F32, _) => STORED_FRACTION_RAYTRACE_2D_COMPACT_SPHERE,
-                (true, StoredValues::Top16, _) => STORED_FRACTION_RAYTRACE_2D_COMPACT_SPHERE_TOP16,
-                (false, StoredValues::F32, ErrorNorm::Max) => {
-                    STORED_FRACTION_RAYTRACE_2D_COMPACT_MAX
-                }
-                (false, StoredValues::F32, ErrorNorm::Rms) => {
-                    STORED_FRACTION_RAYTRACE_2D_COMPACT_RMS
-                }
-                (false, StoredValues::Top16, ErrorNorm::Max) => {
-                    STORED_FRACTION_RAYTRACE_2D_COMPACT_MAX_TOP16
-                }
-                (false, StoredValues::Top16, ErrorNorm::Rms) => {
-                    STORED_FRACTION_RAYTRACE_2D_COMPACT_TOP16
-                }
-            };
+            return bits
+                * match (sphere, spec.values, spec.norm) {
+                    (true, StoredValues::F32, _) => STORED_FRACTION_RAYTRACE_2D_COMPACT_SPHERE,
+                    (true, StoredValues::Top16, _) => {
+                        STORED_FRACTION_RAYTRACE_2D_COMPACT_SPHERE_TOP16
+                    }
+                    (false, StoredValues::F32, ErrorNorm::Max) => {
+                        STORED_FRACTION_RAYTRACE_2D_COMPACT_MAX
+                    }
+                    (false, StoredValues::F32, ErrorNorm::Rms) => {
+                        STORED_FRACTION_RAYTRACE_2D_COMPACT_RMS
+                    }
+                    (false, StoredValues::Top16, ErrorNorm::Max) => {
+                        STORED_FRACTION_RAYTRACE_2D_COMPACT_MAX_TOP16
+                    }
+                    (false, StoredValues::Top16, ErrorNorm::Rms) => {
+                        STORED_FRACTION_RAYTRACE_2D_COMPACT_TOP16
+                    }
+                };
         }
         match (self.table.two_d(), self.p.diagnostic_channels) {
             (false, _) => STORED_FRACTION_RAYTRACE_SPHERE,
@@ -258,7 +261,9 @@ impl RaytraceJob {
             let (Some(&integral), Some(rest)) = (c.scalars.first(), c.scalars.get(1..)) else {
                 return Err(bad(n));
             };
-            let Some((entry, rest)) = CompactEntry::from_parts(rest, c.values, grid, table.compact_mirror()) else {
+            let Some((entry, rest)) =
+                CompactEntry::from_parts(rest, c.values, grid, table.compact_mirror())
+            else {
                 return Err(bad(n));
             };
             if rest.len() != domain {

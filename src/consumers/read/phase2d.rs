@@ -567,10 +567,10 @@ mod tests {
                 },
             ]
         };
-        let half = Phase2dTable::new(table_2d(2, axes(half_az.clone(), true), grid(&half_az)))
-            .unwrap();
-        let full = Phase2dTable::new(table_2d(2, axes(full_az.clone(), false), grid(&full_az)))
-            .unwrap();
+        let half =
+            Phase2dTable::new(table_2d(2, axes(half_az.clone(), true), grid(&half_az))).unwrap();
+        let full =
+            Phase2dTable::new(table_2d(2, axes(full_az.clone(), false), grid(&full_az))).unwrap();
         for elevation in [20.0, 0.0] {
             let (h, f) = (
                 half.slice(elevation, &[], "phase").unwrap(),
