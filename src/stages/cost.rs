@@ -27,6 +27,11 @@ pub const SPHERE_CPU_S_PER_RADIUS_OVER_WAVELENGTH: f64 = 0.29;
 /// rays, 0.0125°–0.1° × 0.2°–10° grids, 0.4–3 mm, 1–18 tasks), which it reproduces to within
 /// a factor 0.71–1.29.
 pub const RAYTRACE_2D_COST: [f64; 4] = [0.50, 0.47, 1.73e-6, 5.4e-7];
+/// Compact 2-D tables: the trace's estimate times this for the sun's disc, the knot search and
+/// the measured errors. The rainbow database's stratified sample (77 one-entry tables, 3000²
+/// rays, thesis grid, `rms`, top16 with 7 mantissa bits) took 2157 s of CPU (user and system,
+/// two shards of one core) against 1835 s estimated for the traces alone: 1.18.
+pub const RAYTRACE_2D_COMPACT_CPU_FACTOR: f64 = 1.18;
 /// Analog medulla Monte Carlo: one photon history at σ = 0 (× (1 + σ)); azimuthal 2.7e-5 and
 /// longitudinal 4.3e-5 measured.
 pub const MEDULLA_PHOTON_CPU_S: f64 = 3.3e-5;
@@ -102,10 +107,14 @@ pub const STORED_FRACTION_RAYTRACE_2D_COMPACT_RMS: f64 = 0.041;
 pub const STORED_FRACTION_RAYTRACE_2D_COMPACT_SPHERE: f64 = 0.002;
 /// Compact 2-D tables of drops with `values = "top16"` (i_perp and i_par as 16-bit codes,
 /// phase and dolp derived) and all 8 mantissa bits, `norm = "rms"`, tolerance 0.01, thesis
-/// grid, 3000² rays: 0.00168–0.00293 on the four held-out drops of the rainbow database
-/// (0.75 mm 480 nm sun 40°, 1.25 mm 520 nm sun 0°, 2 mm 420 nm sun 20°, 3 mm 700 nm sun 60°:
-/// 0.698, 1.216, 1.034, 0.723 MB of payload); their mean.
-pub const STORED_FRACTION_RAYTRACE_2D_COMPACT_TOP16: f64 = 0.0022;
+/// grid, 3000² rays, calibrated on the 70 drops of the rainbow database's stratified sample
+/// (`manifests/full/rainbow-database-sample.toml`, 7 mantissa bits: 47.77 MB written, with the
+/// plan's header estimate), divided by [`STORED_RATIO_TOP16_PER_MANTISSA_BIT`]. Calibrated on
+/// the sample's radii 0.5, 1, 1.5, 2, 2.5 mm it predicts the other five within 7 %; on the four
+/// held-out drops (0.75 mm 480 nm sun 40°, 1.25 mm 520 nm sun 0°, 2 mm 420 nm sun 20°, 3 mm
+/// 700 nm sun 60°; 3.31 MB) it estimates 19 % less. With 8 bits those four stored 0.00168–0.00293
+/// of their dense grid (0.698, 1.216, 1.034, 0.723 MB of payload).
+pub const STORED_FRACTION_RAYTRACE_2D_COMPACT_TOP16: f64 = 0.0016;
 /// The payload of a `top16` table with one mantissa bit fewer, over that with all 8: 0.838
 /// for 7 bits on the same four drops (0.551, 1.012, 0.884, 0.628 MB, i.e. 0.00133–0.00244 of
 /// the dense grid); fewer bits are estimated with this factor per bit (not measured).

@@ -8,7 +8,9 @@ use crate::raytrace::compact::{self, CompactEntry, SunDiscResampled};
 use crate::raytrace::compact_table::CompactPart;
 use crate::raytrace::phase_table::PhaseTable;
 use crate::raytrace::shape::DropShape;
-use crate::stages::cost::{RAYTRACE_2D_COST, SPHERE_CPU_S_PER_RADIUS_OVER_WAVELENGTH};
+use crate::stages::cost::{
+    RAYTRACE_2D_COMPACT_CPU_FACTOR, RAYTRACE_2D_COST, SPHERE_CPU_S_PER_RADIUS_OVER_WAVELENGTH,
+};
 use crate::stages::phase_contract;
 use crate::stages::{
     Chunk, ChunkPart, Job, JobError, PlannedShape, TaskSpec, check_chunk, check_chunks,
@@ -52,7 +54,12 @@ impl Job for RaytraceJob {
                 per_size * radius_mm * 550.0 / l_nm + per_ray * rays + per_direction * directions
             })
             .sum();
-        table + per_task
+        let compact = if self.table.compact_spec().is_some() {
+            RAYTRACE_2D_COMPACT_CPU_FACTOR
+        } else {
+            1.0
+        };
+        compact * (table + per_task)
     }
     /// Compact tables: of the dense grid's payload (the plan's upper bound).
     fn estimated_stored_fraction(&self) -> f64 {
