@@ -293,15 +293,23 @@ compression = { kind = "sun-disc-resampled", tolerance = 0.02, norm = "rms", val
 
 
 def test_16_bit_compact_table_reads_like_the_pure_reader(tmp_path, pure_reader):
-    """A compact ray-traced table stored as 16-bit values (format 2.0, derived phase and dolp)
+    """A compact ray-traced table stored as 16-bit values (derived phase and dolp; format 3.0,
+    since its mirror symmetric entries store 0°–180° of azimuth on an even-periodic axis)
     through the package's reader (the Rust one) and the pure-Python reader: the same decoded
-    values bit for bit, whole and per entry, and the derived channels by their definition."""
+    values bit for bit, whole and per entry, the same folded lookups beyond 180°, and the
+    derived channels by their definition."""
     (tmp_path / "c.toml").write_text(COMPACT_TOP16)
     sb.build(tmp_path / "c.toml", tmp_path / "tables", jobs=1)
     path = tmp_path / "tables" / "py-compact-top16.sbt"
     t = sb.open_table(path)
     p = pure_reader.open_table(path)
-    assert p.format_version == (2, 0)
+    assert p.format_version == (3, 0)
+    azimuth = t.axes[-1]
+    assert azimuth.symmetry == {"kind": "even-periodic", "period": 360.0} and azimuth.coords[-1] == 180.0
+    for phi in (200.0, 287.5, 359.0):
+        coords = [400.0, 650.0, 30.0, 137.3, phi]
+        assert np.array_equal(t.sample(coords), t.sample(coords[:-1] + [360.0 - phi]))
+        assert np.array_equal(t.sample(coords), p.sample(coords))
     assert t.header == p.header and t.header["layout"]["dtype"] == "f32-top16le"
     assert np.array_equal(t.data.view(np.uint32), p.data.view(np.uint32))
     ip, iq = (t.channel(c).astype(np.float64) for c in ("i_perp", "i_par"))
