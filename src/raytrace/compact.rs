@@ -13,12 +13,16 @@
 //!   poles onto the opposite azimuth.
 //! - Knots: azimuth first (every polar row checked), then polar (every kept azimuth column
 //!   checked), each the greedy furthest knot whose linear interpolation keeps i_perp and i_par
-//!   within `tolerance/2 − …` of the filtered values, relative to the filtered phase at each
-//!   direction; the bilinear interpolant on both then stays within the tolerance (the bound is
-//!   re-measured on every dense direction, with the values as stored).
+//!   within a share of the tolerance of the filtered values, relative to the filtered phase at
+//!   each direction: the azimuth knots a first share, the polar knots what the azimuth knots'
+//!   measured error leaves ([`compact_entry`]); the bilinear interpolant is then re-measured on
+//!   every dense direction, with the values as stored (decision RT-42).
+//! - A mirror symmetric entry (its value at φ that at 360° − φ) keeps knots over 0°–180° only;
+//!   its table's azimuth axis is even-periodic (table format 3.0) and every lookup folds onto it.
 //! - Values (`values`): the four channels as f32, or (`top16`) i_perp and i_par as 16-bit codes
-//!   (table format 2.0, `f32-top16le`: relative rounding ≤ 2^−9) with phase and dolp derived
-//!   from them by every reader; the knots then keep a margin for the rounding (decision RT-41).
+//!   (table format 2.0, `f32-top16le`: relative rounding ≤ 2^−9, or 2^−(m+1) with
+//!   `mantissa_bits` m) with phase and dolp derived from them by every reader; the knots then
+//!   keep a margin for the rounding (decision RT-41).
 
 use crate::raytrace::tracer::DirectionGrid;
 use crate::table::codec::{DerivedOp, round_mantissa, top16_round};
