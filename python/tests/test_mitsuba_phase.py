@@ -323,12 +323,18 @@ def parse_render_rainbow(text):
     return out
 
 
-def test_mitsuba_bows_match_render_rainbow(table, tmp_path):
+@pytest.mark.parametrize("name, sun_diameter_deg", [("bc-0.5mm-small", "0"),
+                                                    ("bc-0.5mm-small-compact", "0.5")])
+def test_mitsuba_bows_match_render_rainbow(table, tmp_path, name, sun_diameter_deg):
     """A camera inside a homogeneous rain volume lit by a directional sun on the horizon:
     the bows' radii at the top of the arch and their colour order as `render rainbow` of the
-    same table (point sun in both)."""
+    same table: the dense table with a point sun in both; the compact table (the form of the
+    rainbow database: format 3.0, 0°–180° of azimuth stored, the sun's 0.5° disc already
+    applied) with the directional sun in Mitsuba and its own 0.5° disc in `render rainbow`,
+    which then convolves nothing more."""
+    table = table.parent / f"{name}.sbt"
     ref = subprocess.run(
-        [str(cli_path()), "render", "rainbow", "--table", str(table), "--sun-diameter-deg", "0",
+        [str(cli_path()), "render", "rainbow", "--table", str(table), "--sun-diameter-deg", sun_diameter_deg,
          "--fov-deg", "60", "--width", "320", "--height", "320", "--view-elevation-deg", "45",
          "--out", str(tmp_path / "reference.png")],
         check=True, capture_output=True, text=True,
