@@ -465,7 +465,8 @@ fn windows_of(theta_deg: f64) -> u8 {
 
 /// The azimuth knots of a filtered entry, from the first to the last column of the dense grid
 /// (as in the dense table, the azimuth axis stops one step short of 360°; at 180° for a mirror
-/// symmetric entry): every polar row checked, within `tol` in `norm` (for [`ErrorNorm::Rms`] within each window of rows).
+/// symmetric entry): every polar row checked, within `tol` in `norm` (for [`ErrorNorm::Rms`]
+/// within each window of rows).
 fn azimuth_knots(c: &Components, tol: f64, norm: ErrorNorm) -> Vec<usize> {
     let (np, na) = (c.grid.n_polar, c.grid.n_azimuth);
     let at = |j: usize, k: usize| (c.i_perp[j * na + k], c.i_par[j * na + k]);
@@ -645,10 +646,10 @@ fn measure(c: &Components, polar: &[usize], azimuth: &[usize], values: &[f32]) -
 /// error leaves of it, the stored values and the measured errors.
 ///
 /// The tolerance the knots share is the entry's less the rounding of the stored values
-/// ([`SunDiscResampled::rounding_margin`] δ, 0 for f32; each share is then taken at 99 %): for `max`,
-/// (T − δ)/(1 + δ), since (1 + fit)(1 + δ) − 1 ≤ T; for `rms`, √(T² − δ²/3), the root mean
-/// square of a rounding spread evenly up to δ added in quadrature (it is uncorrelated with the
-/// interpolation error). The azimuth knots take the first share: `max` √(1 + t) − 1, `rms` t/2.
+/// ([`SunDiscResampled::rounding_margin`] δ, 0 for f32; each share is then taken at 99 %):
+/// for `max`, (T − δ)/(1 + δ), since (1 + fit)(1 + δ) − 1 ≤ T; for `rms`, √(T² − δ²/3), the
+/// root mean square of a rounding spread evenly up to δ added in quadrature (it is uncorrelated
+/// with the interpolation error). The azimuth knots take the first share: `max` √(1 + t) − 1, `rms` t/2.
 /// Their error is then measured on the dense grid (a), and the polar knots take the rest:
 /// `max` (1 + t)/(1 + a) − 1, `rms` √(t² − a²) (the two interpolation errors add in
 /// quadrature where they are independent). Where every azimuth column stays a knot (a = 0, the
