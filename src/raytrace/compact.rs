@@ -649,12 +649,12 @@ fn measure(c: &Components, polar: &[usize], azimuth: &[usize], values: &[f32]) -
 /// ([`SunDiscResampled::rounding_margin`] δ, 0 for f32; each share is then taken at 99 %):
 /// for `max`, (T − δ)/(1 + δ), since (1 + fit)(1 + δ) − 1 ≤ T; for `rms`, √(T² − δ²/3), the
 /// root mean square of a rounding spread evenly up to δ added in quadrature (it is uncorrelated
-/// with the interpolation error). The azimuth knots take the first share: `max` √(1 + t) − 1, `rms` t/2.
-/// Their error is then measured on the dense grid (a), and the polar knots take the rest:
-/// `max` (1 + t)/(1 + a) − 1, `rms` √(t² − a²) (the two interpolation errors add in
-/// quadrature where they are independent). Where every azimuth column stays a knot (a = 0, the
-/// Beard–Chuang drops) the polar knots get the whole tolerance. The windows are measured with
-/// the stored values; an entry over its tolerance is retried with both shares × 0.7.
+/// with the interpolation error). The azimuth knots take the first share: `max` √(1 + t) − 1, `rms`
+/// t/2. Their error is then measured on the dense grid (a), and the polar knots take the rest:
+/// `max` (1 + t)/(1 + a) − 1, `rms` √(t² − a²) (the two interpolation errors add in quadrature
+/// where they are independent). Where every azimuth column stays a knot (a = 0, the Beard–Chuang
+/// drops) the polar knots get the whole tolerance. The windows are measured with the stored values;
+/// an entry over its tolerance is retried with both shares × 0.7.
 pub fn compact_entry(c: &Components, spec: &SunDiscResampled) -> CompactEntry {
     let (norm, margin) = (spec.norm, spec.rounding_margin());
     let tol = match (spec.values, norm) {
