@@ -490,46 +490,56 @@ fn polar_knots(c: &Components, azimuth: &[usize], tol: f64, norm: ErrorNorm) -> 
 }
 
 /// The error of interpolating linearly in azimuth only, between the `azimuth` knots on every
-/// polar row of the dense grid, in `norm`: the largest relative error, or the largest root
-/// mean square (solid-angle weighted, every dense direction counted) over the windows.
+/// polar row of the dense grid, in `norm` ([`entry_error`] of its windows, every stored
+/// direction counted).
 fn azimuth_error(c: &Components, azimuth: &[usize], norm: ErrorNorm) -> f64 {
-    let (np, na, n_stored) = (c.grid.n_polar, c.grid.n_azimuth, c.stored_azimuths());
+    let (na, n_stored) = (c.grid.n_azimuth, c.stored_azimuths());
+    let errors = window_errors(c, |j| {
+        let row = |k: usize| (c.i_perp[j * na + k], c.i_par[j * na + k]);
+        let [max, sq] = (azimuth.windows(2)).fold([0.0f64; 2], |e, s| {
+            let [max, sq, _] = segment_error(s[0], s[1], row);
+            [e[0].max(max), e[1] + sq]
+        });
+        [max, sq, n_stored as f64]
+    });
+    entry_error(&errors, norm)
+}
+
+/// Per [`ERROR_WINDOWS`], from each polar row's relative errors `row(j)` = [largest, sum of
+/// squares, count]: the largest, and the root mean square weighted by solid angle (sin θ of
+/// the row).
+fn window_errors(c: &Components, row: impl Fn(usize) -> [f64; 3] + Sync) -> Vec<WindowError> {
     let dth = c.grid.polar_step().to_degrees();
-    let zero = || [[0.0f64; 3]; ERROR_WINDOWS.len()];
-    let sums = (0..np)
+    let zero = || vec![[0.0; 3]; ERROR_WINDOWS.len()];
+    let sums = (0..c.grid.n_polar)
         .into_par_iter()
-        .fold(zero, |mut acc, j| {
-            let row = |k: usize| (c.i_perp[j * na + k], c.i_par[j * na + k]);
+        .fold(zero, |mut acc: Vec<Sums>, j| {
             let theta = dth * j as f64;
             let w = theta.to_radians().sin();
-            let e = (azimuth.windows(2)).fold([0.0f64; 2], |e, s| {
-                let [max, sq, _] = segment_error(s[0], s[1], row);
-                [e[0].max(max), e[1] + sq]
-            });
+            let [max, sq, n] = row(j);
             for (a, &(_, lo, hi)) in acc.iter_mut().zip(&ERROR_WINDOWS) {
                 if (lo..=hi).contains(&theta) {
-                    *a = [a[0].max(e[0]), a[1] + w * e[1], a[2] + w * n_stored as f64];
+                    *a = [a[0] + w * sq, a[1] + w * n, a[2].max(max)];
                 }
             }
             acc
         })
         .reduce(zero, |mut a, b| {
             for (x, y) in a.iter_mut().zip(b) {
-                *x = [x[0].max(y[0]), x[1] + y[1], x[2] + y[2]];
+                *x = [x[0] + y[0], x[1] + y[1], x[2].max(y[2])];
             }
             a
         });
-    let rms = |s: &[f64; 3]| {
-        if s[2] > 0.0 {
-            (s[1] / s[2]).sqrt()
-        } else {
-            0.0
-        }
-    };
-    match norm {
-        ErrorNorm::Max => sums.iter().map(|s| s[0]).fold(0.0, f64::max),
-        ErrorNorm::Rms => sums.iter().map(rms).fold(0.0, f64::max),
-    }
+    sums.iter()
+        .map(|s| WindowError {
+            rms_relative: if s[1] > 0.0 {
+                (s[0] / s[1]).sqrt()
+            } else {
+                0.0
+            },
+            max_relative: s[2],
+        })
+        .collect()
 }
 
 /// The error of phase, i_perp and i_par relative to the phase over one window: root mean
@@ -592,53 +602,26 @@ fn measure(c: &Components, polar: &[usize], azimuth: &[usize], values: &[f32]) -
     // mirror image as every reader folds them.
     let cols = segments(azimuth, (0..na).map(|k| c.folded(k)));
     let rows = segments(polar, 0..np);
-    let dth = c.grid.polar_step().to_degrees();
-    let zero = || vec![[0.0; 3]; ERROR_WINDOWS.len()];
-    let sums = (0..np)
-        .into_par_iter()
-        .fold(zero, |mut acc: Vec<Sums>, j| {
-            let (s, u) = rows[j];
-            let theta = dth * j as f64;
-            let w = theta.to_radians().sin();
-            let v = |jk: usize, kk: usize, ch: usize| values[(jk * nk + kk) * 4 + ch] as f64;
-            for (k, &(m, t)) in cols.iter().enumerate() {
-                let interp = |ch: usize| {
-                    let lo = (1.0 - t) * v(s, m, ch) + t * v(s, m + 1, ch);
-                    let hi = (1.0 - t) * v(s + 1, m, ch) + t * v(s + 1, m + 1, ch);
-                    (1.0 - u) * lo + u * hi
-                };
-                let (p, q) = (c.i_perp[j * na + k], c.i_par[j * na + k]);
-                let phase = 0.5 * (p + q);
-                let rel = [interp(0) - phase, interp(1) - p, interp(2) - q]
-                    .iter()
-                    .map(|d| d.abs() / phase.max(f64::MIN_POSITIVE))
-                    .fold(0.0, f64::max);
-                for (a, &(_, lo, hi)) in acc.iter_mut().zip(&ERROR_WINDOWS) {
-                    if (lo..=hi).contains(&theta) {
-                        a[0] += w * rel * rel;
-                        a[1] += w;
-                        a[2] = a[2].max(rel);
-                    }
-                }
-            }
-            acc
-        })
-        .reduce(zero, |mut a, b| {
-            for (x, y) in a.iter_mut().zip(b) {
-                *x = [x[0] + y[0], x[1] + y[1], x[2].max(y[2])];
-            }
-            a
-        });
-    sums.iter()
-        .map(|s| WindowError {
-            rms_relative: if s[1] > 0.0 {
-                (s[0] / s[1]).sqrt()
-            } else {
-                0.0
-            },
-            max_relative: s[2],
-        })
-        .collect()
+    window_errors(c, |j| {
+        let (s, u) = rows[j];
+        let v = |jk: usize, kk: usize, ch: usize| values[(jk * nk + kk) * 4 + ch] as f64;
+        let mut e = [0.0, 0.0, na as f64];
+        for (k, &(m, t)) in cols.iter().enumerate() {
+            let interp = |ch: usize| {
+                let lo = (1.0 - t) * v(s, m, ch) + t * v(s, m + 1, ch);
+                let hi = (1.0 - t) * v(s + 1, m, ch) + t * v(s + 1, m + 1, ch);
+                (1.0 - u) * lo + u * hi
+            };
+            let (p, q) = (c.i_perp[j * na + k], c.i_par[j * na + k]);
+            let phase = 0.5 * (p + q);
+            let rel = [interp(0) - phase, interp(1) - p, interp(2) - q]
+                .iter()
+                .map(|d| d.abs() / phase.max(f64::MIN_POSITIVE))
+                .fold(0.0, f64::max);
+            e = [e[0].max(rel), e[1] + rel * rel, e[2]];
+        }
+        e
+    })
 }
 
 /// The compact form of one entry from its dense, disc-filtered components: azimuth knots
