@@ -1,7 +1,13 @@
 //! Generic exporters for any table: CSV, JSON and OpenEXR.
 //!
 //! - **CSV**: a header line `axis1 [unit],…,channel1 [unit],…`, then one row per grid point in
-//!   storage order (row-major, last axis fastest). Values printed with full f32 precision.
+//!   storage order (row-major, last axis fastest). Values printed with full f32 precision. CSV
+//!   has nowhere to state an axis' symmetry, so an even-periodic axis (format 3.0, e.g. the
+//!   `outgoing_azimuth` of a compact ray-traced table, stored over 0°–180°) is written unfolded
+//!   over one whole period: its stored points, then the mirrors `P − x` of those strictly
+//!   between 0 and `P/2`, ascending ([`csv_axis_rows`]; decision EXP-3). The rows then cover
+//!   the directions a dense table of the same entry covers, with the values every reader's
+//!   lookup returns there.
 //! - **JSON**: `{"header": <the table header>, "rows": [{"<axis>": x, …, "<channel>": v, …}, …]}`,
 //!   one row per grid point in storage order.
 //! - **EXR**: one scanline image, f32 channels named after the table channels. The LAST table
@@ -20,8 +26,8 @@
 
 use crate::consumers::ConsumerError;
 use crate::error::IoError;
-use crate::table::Table;
 use crate::table::format::write_atomic_streamed;
+use crate::table::{Axis, Table};
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -33,8 +39,12 @@ pub enum GenericFormat {
     Exr,
 }
 
-fn grid_points(table: &Table) -> impl Iterator<Item = Vec<usize>> + '_ {
-    let shape = table.grid_shape();
+fn grid_points(table: &Table) -> impl Iterator<Item = Vec<usize>> {
+    row_major(table.grid_shape())
+}
+
+/// Every index of a grid of `shape` in row-major order (last axis fastest).
+fn row_major(shape: Vec<usize>) -> impl Iterator<Item = Vec<usize>> {
     let total: usize = shape.iter().product();
     (0..total).map(move |mut flat| {
         let mut idx = vec![0; shape.len()];
@@ -53,7 +63,25 @@ pub fn to_csv(table: &Table) -> String {
     String::from_utf8(out).expect("CSV text is UTF-8")
 }
 
+/// The rows of one axis in the CSV, ascending: `(coordinate, stored index)`. An even-periodic
+/// axis of period `P` (stored over exactly 0 … P/2) is unfolded onto one period: its stored
+/// points, then `P − x` for each stored `x` strictly inside (0, P/2), taking the value stored at
+/// `x`. Any other axis gives its stored points.
+pub fn csv_axis_rows(axis: &Axis) -> Vec<(f64, usize)> {
+    let mut rows: Vec<(f64, usize)> = (0..axis.len()).map(|i| (axis.coord(i), i)).collect();
+    if let Some(symmetry) = axis.symmetry {
+        let period = symmetry.period();
+        let mirrored = (0..axis.len()).rev().filter_map(|i| {
+            let x = axis.coord(i);
+            (x > 0.0 && x < 0.5 * period).then_some((period - x, i))
+        });
+        rows.extend(mirrored.collect::<Vec<_>>());
+    }
+    rows
+}
+
 /// Write the CSV of a table to `w`, a row at a time (memory independent of the table's size).
+/// Even-periodic axes are unfolded over one period ([`csv_axis_rows`]).
 pub fn write_csv(table: &Table, w: &mut dyn std::io::Write) -> std::io::Result<()> {
     let h = &table.header;
     let cols: Vec<String> = h
@@ -68,12 +96,18 @@ pub fn write_csv(table: &Table, w: &mut dyn std::io::Write) -> std::io::Result<(
         .collect();
     writeln!(w, "{}", cols.join(","))?;
     let nc = h.channels.len();
+    let axis_rows: Vec<Vec<(f64, usize)>> = h.axes.iter().map(csv_axis_rows).collect();
+    let row_shape: Vec<usize> = axis_rows.iter().map(Vec::len).collect();
+    let shape = table.grid_shape();
     let mut row = String::new();
-    for (flat, idx) in grid_points(table).enumerate() {
+    for idx in row_major(row_shape) {
         row.clear();
-        for (k, (a, &i)) in h.axes.iter().zip(&idx).enumerate() {
+        let mut flat = 0;
+        for (k, (rows, &i)) in axis_rows.iter().zip(&idx).enumerate() {
+            let (coord, stored) = rows[i];
+            flat = flat * shape[k] + stored;
             let sep = if k == 0 { "" } else { "," };
-            let _ = write!(row, "{sep}{}", a.coord(i));
+            let _ = write!(row, "{sep}{coord}");
         }
         for c in 0..nc {
             let _ = write!(row, ",{:e}", table.data[flat * nc + c]);
@@ -344,5 +378,57 @@ mod tests {
         write_csv(&t, &mut csv).unwrap();
         assert_eq!(String::from_utf8(csv).unwrap(), to_csv(&t));
         assert_eq!(to_csv(&t).lines().count(), 1 + 2 * 7);
+    }
+
+    /// An even-periodic axis is written over its whole period: the stored 0°–180° then the
+    /// mirrors 225°, 270°, 315° with the values stored at 135°, 90°, 45°, which are the values
+    /// the table's own lookup returns there; the other axes and JSON keep the stored grid.
+    #[test]
+    fn csv_unfolds_even_periodic_axes_over_one_period() {
+        use crate::table::{Channel, Provenance, Schema, Symmetry, TableContent};
+        let azimuth = vec![0.0, 45.0, 90.0, 135.0, 180.0];
+        let value = |p: usize, a: f64| (1.0 + p as f64 + a.to_radians().cos() / 4.0) as f32;
+        let data: Vec<f32> = (0..2)
+            .flat_map(|p| azimuth.iter().map(move |&a| value(p, a)))
+            .collect();
+        let content = TableContent {
+            encoding: Default::default(),
+            schema: Schema::new("test-2d", 1),
+            description: "test".into(),
+            axes: vec![
+                Axis::values("outgoing_polar", "deg", vec![10.0, 20.0]),
+                Axis::values("outgoing_azimuth", "deg", azimuth)
+                    .with_symmetry(Symmetry::EvenPeriodic { period: 360.0 }),
+            ],
+            channels: vec![Channel::new("phase", "1/sr", "test")],
+            attributes: Default::default(),
+            data,
+        };
+        let t = Table::from_content(content, Provenance::default()).unwrap();
+        let csv = to_csv(&t);
+        let rows: Vec<(f64, f64, f32)> = csv
+            .lines()
+            .skip(1)
+            .map(|l| {
+                let v: Vec<&str> = l.split(',').collect();
+                (
+                    v[0].parse().unwrap(),
+                    v[1].parse().unwrap(),
+                    v[2].parse().unwrap(),
+                )
+            })
+            .collect();
+        let expected_azimuth = [0.0, 45.0, 90.0, 135.0, 180.0, 225.0, 270.0, 315.0];
+        assert_eq!(rows.len(), 2 * expected_azimuth.len());
+        for (k, &(polar, azimuth, phase)) in rows.iter().enumerate() {
+            assert_eq!(polar, [10.0, 20.0][k / 8]);
+            assert_eq!(azimuth, expected_azimuth[k % 8]);
+            assert_eq!(phase, value(k / 8, azimuth), "{polar} {azimuth}");
+            let looked_up = t.sample_channel("phase", &[polar, azimuth]).unwrap();
+            assert_eq!(f64::from(phase), looked_up, "{polar} {azimuth}");
+        }
+        let json = to_json(&t);
+        assert_eq!(json["rows"].as_array().unwrap().len(), 2 * 5);
+        assert_eq!(json["header"]["axes"][1]["symmetry"]["period"], 360.0);
     }
 }
