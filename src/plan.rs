@@ -57,17 +57,34 @@ pub struct BuildPlan {
 
 /// Estimated header bytes: the parts known at plan time (axes and parameters as JSON, the
 /// provenance, layout and payload records, a channel's name, unit and meaning) at the
-/// writer's pretty-printed size, plus the job's estimate of its attributes.
+/// writer's pretty-printed size, plus the job's estimate of its attributes. Axes the job
+/// estimates itself (samples chosen while it runs, [`crate::stages::Job::estimated_header_axes`])
+/// count at their exact pretty-printed size.
 fn header_bytes(t: &PlannedTable, shape: &crate::stages::PlannedShape) -> u64 {
     /// Pretty-printed over compact JSON size of the known parts.
     const PRETTY: f64 = 1.25;
     /// Schema, description, layout, payload record and provenance other than the parameters.
     const FIXED: u64 = 1000;
     const PER_CHANNEL: u64 = 110;
-    let axes = serde_json::to_vec(&shape.axes).map_or(0, |v| v.len() as u64);
+    let (axes, estimated_axes) = match t.job.estimated_header_axes() {
+        Some(axes) => (0, pretty_header_member_bytes(&axes)),
+        None => (
+            serde_json::to_vec(&shape.axes).map_or(0, |v| v.len() as u64),
+            0,
+        ),
+    };
     let parameters = serde_json::to_vec(&t.job.parameters()).map_or(0, |v| v.len() as u64);
     let known = FIXED + axes + parameters + PER_CHANNEL * shape.channels as u64;
-    (PRETTY * known as f64) as u64 + t.job.estimated_attribute_bytes()
+    (PRETTY * known as f64) as u64 + estimated_axes + t.job.estimated_attribute_bytes()
+}
+
+/// Bytes of `value` pretty-printed as a member of the header object: the writer's
+/// two-space indentation, one level deeper than on its own.
+fn pretty_header_member_bytes(value: &impl serde::Serialize) -> u64 {
+    serde_json::to_vec_pretty(value).map_or(0, |v| {
+        let lines = v.iter().filter(|&&b| b == b'\n').count();
+        (v.len() + 2 * lines) as u64
+    })
 }
 
 /// Plan one table.
@@ -117,4 +134,28 @@ pub fn plan_build(manifests: &[PathBuf]) -> Result<BuildPlan, PipelineError> {
         total_cpu_s: tables.iter().map(|t| t.estimated_cpu_s).sum(),
         tables,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The plan counts an axes list the job estimates at the bytes it takes as a member of
+    /// the pretty-printed header, where it sits one level deep.
+    #[test]
+    fn header_members_count_at_their_nested_pretty_size() {
+        use crate::table::{Axis, Symmetry};
+        let axes = vec![
+            Axis::values("outgoing_polar", "deg", vec![0.0, 0.0125, 90.0, 180.0]),
+            Axis::values("outgoing_azimuth", "deg", vec![0.0, 180.0])
+                .with_symmetry(Symmetry::EvenPeriodic { period: 360.0 }),
+        ];
+        let header = serde_json::json!({ "schema": 1, "axes": axes });
+        let text = serde_json::to_string_pretty(&header).unwrap();
+        let around = "{\n  \"schema\": 1,\n  \"axes\": ".len() + "\n}".len();
+        assert_eq!(
+            pretty_header_member_bytes(&axes),
+            (text.len() - around) as u64
+        );
+    }
 }

@@ -109,25 +109,35 @@ pub const STORED_FRACTION_RAYTRACE_2D_COMPACT_SPHERE: f64 = 0.002;
 /// phase and dolp derived) and all 8 mantissa bits, `norm = "rms"`, tolerance 0.01, thesis
 /// grid, 3000² rays, calibrated on the 70 drops of the rainbow database's stratified sample
 /// (`manifests/full/rainbow-database-sample.toml`, 7 mantissa bits: 47.77 MB written, with the
-/// plan's header estimate), divided by [`STORED_RATIO_TOP16_PER_MANTISSA_BIT`]. Calibrated on
-/// the sample's radii 0.5, 1, 1.5, 2, 2.5 mm it predicts the other five within 7 %; on the four
-/// held-out drops (0.75 mm 480 nm sun 40°, 1.25 mm 520 nm sun 0°, 2 mm 420 nm sun 20°, 3 mm
-/// 700 nm sun 60°; 3.31 MB) it estimates 19 % less. With 8 bits those four stored 0.00168–0.00293
-/// of their dense grid (0.698, 1.216, 1.034, 0.723 MB of payload).
-pub const STORED_FRACTION_RAYTRACE_2D_COMPACT_TOP16: f64 = 0.0016;
+/// plan's header estimate, which lists the knots the header will hold), divided by
+/// [`STORED_RATIO_TOP16_PER_MANTISSA_BIT`]. Checked on 98 drop tables of the database itself
+/// built later (docs/raytrace.md, "Compact tables"). With 8 bits the four held-out drops
+/// (0.75 mm 480 nm sun 40°, 1.25 mm 520 nm sun 0°, 2 mm 420 nm sun 20°, 3 mm 700 nm sun 60°)
+/// stored 0.00168–0.00293 of their dense grid (0.698, 1.216, 1.034, 0.723 MB of payload).
+pub const STORED_FRACTION_RAYTRACE_2D_COMPACT_TOP16: f64 = 0.00179;
 /// The payload of a `top16` table with one mantissa bit fewer, over that with all 8: 0.838
 /// for 7 bits on the same four drops (0.551, 1.012, 0.884, 0.628 MB, i.e. 0.00133–0.00244 of
 /// the dense grid); fewer bits are estimated with this factor per bit (not measured).
 pub const STORED_RATIO_TOP16_PER_MANTISSA_BIT: f64 = 0.84;
-/// As [`STORED_FRACTION_RAYTRACE_2D_COMPACT_TOP16`] for spheres (drops ≤ 0.4 mm): the held-out
-/// 0.25 mm, 380 nm, sun 50° entry stored 3016 bytes (8 bits; 2843 with 7) of payload, 0.00001 of
-/// its dense grid; its 36 KB header is the rest of the file. The f32 sphere fraction times the
-/// top16/f32 payload ratio measured on full-circle tables (0.098), rounded up.
-pub const STORED_FRACTION_RAYTRACE_2D_COMPACT_SPHERE_TOP16: f64 = 0.0002;
+/// As [`STORED_FRACTION_RAYTRACE_2D_COMPACT_TOP16`] for spheres (drops ≤ 0.4 mm), whose
+/// compact tables keep two azimuth knots: calibrated on 152 tables of 0.25 mm spheres of the
+/// rainbow database (7 mantissa bits: 3.37 KB of payload on average, 41.1 KB of header), with
+/// the plan's header estimate, divided by [`STORED_RATIO_TOP16_PER_MANTISSA_BIT`]. The
+/// held-out 0.25 mm, 380 nm, sun 50° entry stored 3016 bytes (8 bits; 2843 with 7).
+pub const STORED_FRACTION_RAYTRACE_2D_COMPACT_SPHERE_TOP16: f64 = 0.0000115;
 /// `top16` with `norm = "max"` (not measured): the f32 `max` fraction scaled by the top16/f32
 /// ratio measured with `rms`.
 pub const STORED_FRACTION_RAYTRACE_2D_COMPACT_MAX_TOP16: f64 =
     STORED_FRACTION_RAYTRACE_2D_COMPACT_MAX * STORED_FRACTION_RAYTRACE_2D_COMPACT_TOP16
         / STORED_FRACTION_RAYTRACE_2D_COMPACT_RMS;
+/// Polar knots of one compact ray-traced entry (tolerance 0.01, `rms`, thesis grid, 3000²
+/// rays), for the plan's estimate of the header that lists them: 1228 on average over 144
+/// tables of 0.25 mm spheres and 1231 over 93 tables of 1.5 mm drops of the rainbow database;
+/// 937–1268 per radius (means) in its stratified sample.
+pub const RAYTRACE_2D_COMPACT_POLAR_KNOTS: usize = 1230;
+/// Header `attributes` of a compact ray-traced table, pretty-printed (they summarise the
+/// transfer weights instead of listing one per azimuth column): 9.25–9.27 KB for those
+/// spheres, 9.70–10.18 KB for those drops.
+pub const RAYTRACE_2D_COMPACT_ATTRIBUTE_BYTES: u64 = 9600;
 /// `water-index`: 0.756.
 pub const STORED_FRACTION_WATER_INDEX: f64 = 0.76;

@@ -1193,6 +1193,40 @@ mod compact_tests {
         assert!(!plan(BASE).shape().adaptive);
     }
 
+    /// A compact plan's header estimate lists the knots the table is expected to hold: polar
+    /// knots spread over the dense grid (at most it), the azimuths 0° and 180° of a sphere or
+    /// a drop's whole stored half circle, on an even-periodic axis.
+    #[test]
+    fn compact_plans_list_the_knots_the_header_will_hold() {
+        use crate::stages::cost::RAYTRACE_2D_COMPACT_POLAR_KNOTS;
+        use crate::table::Symmetry;
+        let plan = |lines: &str| crate::stages::plan_from_lines(&RaytraceStage, lines).unwrap();
+        assert!(plan(BASE).estimated_header_axes().is_none());
+        let sphere = plan(&compact_lines(0.01)).estimated_header_axes().unwrap();
+        let polar = sphere[3].coords();
+        assert_eq!(polar.len(), 2 * RAYTRACE_2D_COMPACT_POLAR_KNOTS);
+        assert_eq!((polar[0], *polar.last().unwrap()), (0.0, 180.0));
+        assert!(polar.windows(2).all(|w| w[0] < w[1]));
+        assert!(
+            polar
+                .iter()
+                .all(|p| (p / 0.05 - (p / 0.05).round()).abs() < 1e-9)
+        );
+        let half = Some(Symmetry::EvenPeriodic { period: 360.0 });
+        assert_eq!(sphere[4].coords(), [0.0, 180.0]);
+        assert_eq!(sphere[4].symmetry, half);
+        let drop = compact_lines(0.01).replace("[400.0]", "[1500.0]");
+        let drop = plan(&drop).estimated_header_axes().unwrap();
+        let azimuth: Vec<f64> = (0..=36).map(|i| 5.0 * i as f64).collect();
+        assert_eq!(drop[4].coords(), azimuth);
+        assert_eq!(drop[4].symmetry, half);
+        let one_entry = compact_lines(0.01).replace("[10.0, 30.0]", "[10.0]");
+        let one_entry = plan(&one_entry).estimated_header_axes().unwrap();
+        assert_eq!(one_entry[3].len(), RAYTRACE_2D_COMPACT_POLAR_KNOTS);
+        let coarse = compact_lines(0.01).replace("polar_step_deg = 0.05", "polar_step_deg = 0.5");
+        assert_eq!(plan(&coarse).estimated_header_axes().unwrap()[3].len(), 361);
+    }
+
     /// `compression = "none"` is the default table, with the same resolved parameters (content
     /// key); a tolerance below the f32 rounding of the stored values is refused at build time;
     /// compression on spheres or with the diagnostic channels is refused at plan time.

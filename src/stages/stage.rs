@@ -253,6 +253,12 @@ pub trait Job: Send + Sync {
     fn estimated_attribute_bytes(&self) -> u64 {
         crate::stages::cost::ATTRIBUTE_BYTES
     }
+    /// Estimated axes as the written header will list them, when they differ from the planned
+    /// grid's: a job that chooses samples while it runs (an adaptive [`PlannedShape`]) lists
+    /// those samples, not the grid that bounds them. `None`: the planned axes.
+    fn estimated_header_axes(&self) -> Option<Vec<Axis>> {
+        None
+    }
 }
 
 /// A table's grid as a job plans it: its axes (outermost first) and channel count.
