@@ -53,7 +53,7 @@ const SPACING_GROWTH: f64 = 0.3;
 
 /// Nodes of one half-angle axis on `[−max, max]` (degrees), 0 included: spacing `fine` over
 /// `lobes` (the β range of a family's flat stretches and ramps) growing by
-/// [`SPACING_GROWTH`] per degree away from it, at most `coarse`; the last step on each side is
+/// `SPACING_GROWTH` per degree away from it, at most `coarse`; the last step on each side is
 /// stretched or shrunk to end exactly at `±max`.
 pub fn half_axis(lobes: (f64, f64), fine: f64, coarse: f64, max: f64) -> Vec<f64> {
     let spacing = |b: f64| {

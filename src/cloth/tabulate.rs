@@ -251,7 +251,7 @@ const CENTRE_ERROR: f64 = 3e-5;
 
 /// `K` (RGB) at the centre of every half-vector cell (β_x-major) of the light `wi` whose
 /// bilinear weight `cells` ([`cell_integrals`] without centres) could be wrong by more than
-/// [`CENTRE_ERROR`] of the total, judged from the spread of the luminance of its corner values
+/// `CENTRE_ERROR` of the total, judged from the spread of the luminance of its corner values
 /// `k` ([`light_nodes`]); `None` elsewhere.
 pub fn cell_centres(
     model: &ClothModel,

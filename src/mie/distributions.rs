@@ -199,9 +199,9 @@ const CDF_POINTS: usize = 4096;
 
 /// Inverse-CDF sampler of radii with density `q(r) ∝ n(r) r²` on the (truncated) support.
 ///
-/// The cumulative distribution is tabulated on [`CDF_POINTS`] nodes uniform in `ln r`
+/// The cumulative distribution is tabulated on `CDF_POINTS` nodes uniform in `ln r`
 /// (trapezoid rule) and inverted piecewise linearly, so `q` is piecewise constant in `ln r`;
-/// [`RadiusSampler::weight`] returns `n(r)/q(r)` of exactly this `q`, which keeps the
+/// [`RadiusSampler::sample`] weighs each radius with `n(r)/q(r)` of exactly this `q`, which keeps the
 /// estimator unbiased whatever the table's resolution.
 #[derive(Debug, Clone)]
 pub struct RadiusSampler {

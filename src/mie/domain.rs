@@ -73,7 +73,7 @@ impl ValidatedDomain {
 /// phase function is Rayleigh to 10⁻⁶. `|m − 1| ≥ 10⁻⁵`: the smallest contrast of the
 /// references; at `m = 1` the phase function is 0/0. The algorithm itself (downward `D_n`
 /// from `max(n_stop, |mx|) + 10 M^{1/3} + 100`, the `r_n` numerators of
-/// [`coefficients`]) needs no regime switch inside this domain.
+/// [`MieCoefficients`](crate::mie::coefficients::MieCoefficients)) needs no regime switch inside this domain.
 pub const VALIDATED_DOMAIN: ValidatedDomain = ValidatedDomain {
     x_min: 1e-3,
     x_max: 1e5,

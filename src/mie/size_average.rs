@@ -61,7 +61,7 @@ pub const PANEL_QUANTILES: [f64; 9] = [1e-3, 0.02, 0.1, 0.3, 0.5, 0.7, 0.9, 0.98
 pub const FIRST_INTERVALS: usize = 6;
 /// A panel whose estimate is below this fraction of the tolerance need not be settled.
 pub const NEGLIGIBLE: f64 = 0.01;
-/// Largest observed ratio of two successive estimates used by [`Panel::extrapolation`].
+/// Largest observed ratio of two successive estimates used by `Panel::extrapolation`.
 pub const MAX_RATIO: f64 = 0.9;
 
 /// Smallest ratio of successive halvings credited at a single angle by the maximum estimate.
@@ -70,7 +70,7 @@ pub const MIN_ANGLE_RATIO: f64 = 0.5;
 /// ripple in `x` (period ~1–10) so that two levels agree by coincidence.
 pub const TRUSTED_STEP_X: f64 = 1.0;
 /// How many times the widest absorption-limited resonance width a panel's step in `x` must be
-/// for its errors to count as random hits of unresolved resonances ([`Panel::unresolved`]).
+/// for its errors to count as random hits of unresolved resonances (`Panel::unresolved`).
 pub const UNRESOLVED_STEPS: f64 = 10.0;
 /// Gregory end weights of the first (and, mirrored, last) three nodes.
 const END_WEIGHTS: [f64; 3] = [3.0 / 8.0, 7.0 / 6.0, 23.0 / 24.0];

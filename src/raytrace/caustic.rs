@@ -289,7 +289,7 @@ struct SphereBow {
 ///
 /// δ moves the sphere's fold caustic onto the column's own, both located to a fraction of a row
 /// by fitting the fold shape of the GO intensity of the order `o` past its peak
-/// ([`fold_position`]); the sphere's channels are interpolated linearly at the fractional shift
+/// (`fold_position`); the sphere's channels are interpolated linearly at the fractional shift
 /// (which conserves their sum over rows). `s` scales the correction to the column's caustic
 /// strength (the ratio of the column's order intensity to the shifted sphere's over 0.1°–1.5° on
 /// the bright side). Within `REPLACE_Z` Airy units of the caustic (weight `w`, 1 inside
@@ -440,7 +440,7 @@ impl ColumnFilter {
     }
 
     /// The sub-row caustic positions (fractional rows) of one column's primary and secondary
-    /// ([`fold_position`] past the column's peak row of the order; the peak row when the fit
+    /// (`fold_position` past the column's peak row of the order; the peak row when the fit
     /// fails), with the airy-local transfer; `None` per bow without one. Arguments as
     /// [`ColumnFilter::filter_column`].
     pub fn fold_positions(

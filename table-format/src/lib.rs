@@ -8,7 +8,7 @@
 //! Modules, each importing only those listed before it: [`interp`] (interpolation and grid
 //! location), `model` (the header and table types), [`codec`] (how a payload stores its
 //! values: f32, 16-bit codes, derived channels), `validate` (the axis rules both the writer
-//! and the reader apply), `entry` (the samples and header of one entry), [`format`] (bytes,
+//! and the reader apply), `entry` (the samples and header of one entry), [`format`](mod@format) (bytes,
 //! writing, errors), `frame` (the streaming check of a payload's zstd frame), [`read`] (reading
 //! and verification, of a whole table or one entry), `sample` (lookups), [`tt`] (tensor-train
 //! tables).

@@ -49,7 +49,7 @@ impl TensorTrain {
     /// Dense reconstruction, row-major over `dims`.
     ///
     /// Evaluation order (the specification other readers follow for bit-identical values):
-    /// left to right, M₀ = [1] (1 × 1); M_k[(row, i), :] = Σ_{a = 0 … r_{k−1}−1, in order}
+    /// left to right, M₀ = `[1]` (1 × 1); M_k[(row, i), :] = Σ_{a = 0 … r_{k−1}−1, in order}
     /// M_{k−1}[row, a] · G_k[a, i, :], accumulated in f64 from 0 by separate multiply and add
     /// (no fused multiply-add).
     pub fn reconstruct(&self) -> Vec<f64> {
@@ -222,8 +222,8 @@ pub struct ReconstructionCost {
 }
 
 /// The cost of reconstructing a train of these dims and ranks (which passed rules 1–5) in the
-/// blocks [`TensorTrain::reconstruct_into`] uses: the fewest fixed leading modes whose blocks
-/// keep their intermediates within [`BLOCK_BYTES`] (all but the last mode when none do).
+/// blocks `TensorTrain::reconstruct_into` uses: the fewest fixed leading modes whose blocks
+/// keep their intermediates within `BLOCK_BYTES` (all but the last mode when none do).
 pub fn reconstruction_cost(dims: &[usize], ranks: &[usize]) -> ReconstructionCost {
     let d = dims.len();
     let u = |x: usize| x as u64;

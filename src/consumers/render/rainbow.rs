@@ -28,7 +28,7 @@
 //! (cos β uniform on [cos α, 1], stratified in 16 rings × 16 azimuths with rotated offsets).
 //! For an axisymmetric phase function that average depends on Θ only, so it is computed once per
 //! Θ on a 0.01° grid and looked up per pixel (identical result, much cheaper than per pixel).
-//! Spectral: XYZ = Σ_k W_k L_k with [`SpectralWeights`] under D65 (the sun spectrum), then
+//! Spectral: XYZ = Σ_k W_k L_k with [`SpectralWeights`](crate::optics::colour::SpectralWeights) under D65 (the sun spectrum), then
 //! linear sRGB, exposure, `intensity` and an added `background` sRGB colour (Table 3.4), then the
 //! sRGB transfer curve.
 //!
