@@ -507,6 +507,20 @@ pub(crate) use crate::math::vec3::{add, cross, dot, norm, normalize, scale, sub}
 /// Samples along the bounding sphere's chord `[t0, t1]` of the ray `o + t d`.
 const MARCH_STEPS: usize = 32;
 
+/// The step between the march's samples of the chord `[t0, t1]`.
+fn march_step((t0, t1): (f64, f64)) -> f64 {
+    (t1 - t0) / MARCH_STEPS as f64
+}
+
+/// Sample `k` (1 … [`MARCH_STEPS`]) of the march along the chord `[t0, t1]`; the last is `t1`.
+fn march_sample((t0, t1): (f64, f64), k: usize) -> f64 {
+    if k == MARCH_STEPS {
+        t1
+    } else {
+        t0 + march_step((t0, t1)) * k as f64
+    }
+}
+
 /// The first of [`MARCH_STEPS`] uniform samples of the chord `[t0, t1]` where g changes sign
 /// (from outside, `g ≤ 0`; from the surface inwards, `g ≥ 0`) and the sample before it, as the
 /// bracket `(ta, g(ta), tb, g(tb))`; the first sample of an inward ray counts as
@@ -530,15 +544,10 @@ fn march(
             s.outer.level(p) > 1.0
         }
     };
-    let dt = (t1 - t0) / MARCH_STEPS as f64;
     let mut ta = t0;
-    let mut ga = inside.then_some(-0.01 * dt);
+    let mut ga = inside.then_some(-0.01 * march_step((t0, t1)));
     for k in 1..=MARCH_STEPS {
-        let tb = if k == MARCH_STEPS {
-            t1
-        } else {
-            t0 + dt * k as f64
-        };
+        let tb = march_sample((t0, t1), k);
         if cannot_cross(tb) {
             ta = tb;
             ga = None;
@@ -616,14 +625,14 @@ mod tests {
         (t0, t1): (f64, f64),
     ) -> Option<(f64, f64, f64, f64)> {
         let g_at = |t: f64| s.g(add(o, scale(d, t)));
-        let dt = (t1 - t0) / MARCH_STEPS as f64;
-        let (mut ta, mut ga) = (t0, if inside { -0.01 * dt } else { g_at(t0) });
+        let first = if inside {
+            -0.01 * march_step((t0, t1))
+        } else {
+            g_at(t0)
+        };
+        let (mut ta, mut ga) = (t0, first);
         for k in 1..=MARCH_STEPS {
-            let tb = if k == MARCH_STEPS {
-                t1
-            } else {
-                t0 + dt * k as f64
-            };
+            let tb = march_sample((t0, t1), k);
             let gb = g_at(tb);
             if (inside && gb >= 0.0) || (!inside && gb <= 0.0) {
                 return Some((ta, ga, tb, gb));
