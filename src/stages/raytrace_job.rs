@@ -97,6 +97,10 @@ impl Job for RaytraceJob {
         }
     }
     /// Per task: integrals, and for 2-D shapes the transfer weights of every azimuth column.
+    /// Compact tables: the measured size of their attributes, which summarise the transfer
+    /// weights instead ([`RAYTRACE_2D_COMPACT_ATTRIBUTE_BYTES`]).
+    ///
+    /// [`RAYTRACE_2D_COMPACT_ATTRIBUTE_BYTES`]: crate::stages::cost::RAYTRACE_2D_COMPACT_ATTRIBUTE_BYTES
     fn estimated_attribute_bytes(&self) -> u64 {
         use crate::stages::cost::{
             ATTRIBUTE_BYTES, ATTRIBUTE_BYTES_PER_SCALAR, RAYTRACE_2D_COMPACT_ATTRIBUTE_BYTES,
@@ -136,12 +140,12 @@ impl Job for RaytraceJob {
         } else {
             (0..stored).collect()
         };
-        axes[4] = subset(&axes[4], azimuth);
-        if mirror {
-            axes[4] = axes[4]
-                .clone()
-                .with_symmetry(Symmetry::EvenPeriodic { period: 360.0 });
-        }
+        let azimuth = subset(&axes[4], azimuth);
+        axes[4] = if mirror {
+            azimuth.with_symmetry(Symmetry::EvenPeriodic { period: 360.0 })
+        } else {
+            azimuth
+        };
         Some(axes)
     }
     fn parameters(&self) -> Value {

@@ -75,7 +75,7 @@ pub fn csv_axis_rows(axis: &Axis) -> Vec<(f64, usize)> {
             let x = axis.coord(i);
             (x > 0.0 && x < 0.5 * period).then_some((period - x, i))
         });
-        rows.extend(mirrored.collect::<Vec<_>>());
+        rows.extend(mirrored);
     }
     rows
 }
