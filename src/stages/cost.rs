@@ -110,7 +110,7 @@ pub const STORED_FRACTION_RAYTRACE_2D_COMPACT_SPHERE: f64 = 0.002;
 /// grid, 3000² rays, calibrated on the 70 drops of the rainbow database's stratified sample
 /// (`manifests/full/rainbow-database-sample.toml`, 7 mantissa bits: 47.77 MB written, with the
 /// plan's header estimate, which lists the knots the header will hold), divided by
-/// [`STORED_RATIO_TOP16_PER_MANTISSA_BIT`]. Checked on 98 drop tables of the database itself
+/// [`STORED_RATIO_TOP16_PER_MANTISSA_BIT`]. Checked on 248 drop tables of the database itself
 /// built later (docs/raytrace.md, "Compact tables"). With 8 bits the four held-out drops
 /// (0.75 mm 480 nm sun 40°, 1.25 mm 520 nm sun 0°, 2 mm 420 nm sun 20°, 3 mm 700 nm sun 60°)
 /// stored 0.00168–0.00293 of their dense grid (0.698, 1.216, 1.034, 0.723 MB of payload).
