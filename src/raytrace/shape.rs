@@ -13,10 +13,10 @@
 //! `g(p) = |p| − r(θ(p))` along the chord through the bounding sphere (uniform samples; those
 //! outside a spheroid that holds the drop, or inside one that the drop holds, are decided
 //! without evaluating `g`), then Newton's method on the bracket with the analytic slope of `g`
-//! along the ray, safeguarded by bisection. A ray that starts on the surface and points inwards always
-//! has a bracket (g < 0 inside, g > 0 at the bounding-sphere exit), so every entering ray exits
-//! (no leaks at grazing incidence or at the poles); a grazing chord shorter than the sampling
-//! step degenerates to an exit at the start point.
+//! along the ray, safeguarded by bisection. A ray that starts on the surface and points
+//! inwards always has a bracket (g < 0 inside, g > 0 at the bounding-sphere exit), so every
+//! entering ray exits (no leaks at grazing incidence or at the poles); a grazing chord shorter
+//! than the sampling step degenerates to an exit at the start point.
 
 use std::f64::consts::PI;
 
@@ -131,6 +131,24 @@ impl Spheroid {
         }
     }
 
+    /// A placeholder outer bound that no point is outside (`A = C = ∞`): the march never skips
+    /// a sample for it.
+    pub const fn everything() -> Self {
+        Spheroid {
+            inv_a2: 0.0,
+            inv_c2: 0.0,
+        }
+    }
+
+    /// A placeholder inner bound that no point is inside (`A = C = 0`: its level is ∞ or NaN,
+    /// never below 1): the march never skips a sample for it.
+    pub const fn nothing() -> Self {
+        Spheroid {
+            inv_a2: f64::INFINITY,
+            inv_c2: f64::INFINITY,
+        }
+    }
+
     /// `ρ²/A² + z²/C²` at `p`: below 1 inside, above 1 outside.
     #[inline]
     pub fn level(&self, p: [f64; 3]) -> f64 {
@@ -147,14 +165,13 @@ impl Spheroid {
 impl CosineSeries {
     /// Build a series drop; fails if `r(θ) ≤ 0` somewhere.
     pub fn new(radius_um: f64, coeffs: Vec<f64>) -> Result<Self, String> {
-        let unbounded = Spheroid::new(f64::INFINITY, f64::INFINITY);
         let mut s = CosineSeries {
             radius_um,
             coeffs,
             r_max_um: 0.0,
             r_min_um: 0.0,
-            outer: unbounded,
-            inner: unbounded,
+            outer: Spheroid::everything(),
+            inner: Spheroid::nothing(),
         };
         let profile: Vec<(f64, f64)> = (0..=4096)
             .map(|k| {
@@ -217,8 +234,8 @@ impl CosineSeries {
             },
             r_max_um: 0.0,
             r_min_um: 0.0,
-            outer: Spheroid::new(f64::INFINITY, f64::INFINITY),
-            inner: Spheroid::new(f64::INFINITY, f64::INFINITY),
+            outer: Spheroid::everything(),
+            inner: Spheroid::nothing(),
         };
         let v = unit.volume_um3();
         let a0 = (3.0 * v / (4.0 * PI)).cbrt();
@@ -640,6 +657,21 @@ mod tests {
             (ta, ga) = (tb, gb);
         }
         None
+    }
+
+    /// The placeholder bounds never decide a sample: nothing is outside `everything` or inside
+    /// `nothing`, the centre included.
+    #[test]
+    fn placeholder_spheroids_decide_nothing() {
+        for p in [
+            [0.0; 3],
+            [1.0, 0.0, 0.0],
+            [3.0, -2.0, 5.0],
+            [0.0, 0.0, 1e-300],
+        ] {
+            assert!(Spheroid::everything().level(p) <= 1.0, "{p:?}");
+            assert!(Spheroid::nothing().level(p) >= 1.0 || Spheroid::nothing().level(p).is_nan());
+        }
     }
 
     /// The spheroids bound the drop (checked on 10⁵ profile points, finer than their fit), and
