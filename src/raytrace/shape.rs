@@ -552,28 +552,26 @@ fn march(
     inside: bool,
     (t0, t1): (f64, f64),
 ) -> Option<(f64, f64, f64, f64)> {
-    let g_at = |t: f64| s.g(add(o, scale(d, t)));
-    let cannot_cross = |t: f64| {
-        let p = add(o, scale(d, t));
-        if inside {
-            s.inner.level(p) < 1.0
-        } else {
-            s.outer.level(p) > 1.0
-        }
-    };
+    let at = |t: f64| add(o, scale(d, t));
     let mut ta = t0;
     let mut ga = inside.then_some(-0.01 * march_step((t0, t1)));
     for k in 1..=MARCH_STEPS {
         let tb = march_sample((t0, t1), k);
-        if cannot_cross(tb) {
+        let p = at(tb);
+        let cannot_cross = if inside {
+            s.inner.level(p) < 1.0
+        } else {
+            s.outer.level(p) > 1.0
+        };
+        if cannot_cross {
             ta = tb;
             ga = None;
             continue;
         }
-        let gb = g_at(tb);
+        let gb = s.g(p);
         let crossing = if inside { gb >= 0.0 } else { gb <= 0.0 };
         if crossing {
-            let ga = ga.unwrap_or_else(|| g_at(ta));
+            let ga = ga.unwrap_or_else(|| s.g(at(ta)));
             return Some((ta, ga, tb, gb));
         }
         ta = tb;
