@@ -7,8 +7,8 @@
 /// a step or the bracket is at most `tol(t)` (at most 100 evaluations).
 pub fn newton_bracketed(
     gd: impl Fn(f64) -> (f64, f64),
-    (mut a, mut ga): (f64, f64),
-    (mut b, gb): (f64, f64),
+    (a, ga): (f64, f64),
+    (b, gb): (f64, f64),
     tol: impl Fn(f64) -> f64,
 ) -> f64 {
     if gb == 0.0 {
@@ -17,22 +17,42 @@ pub fn newton_bracketed(
     if ga == 0.0 {
         return a;
     }
-    let mut t = (a * gb - b * ga) / (gb - ga);
-    if !(t.is_finite() && t > a.min(b) && t < a.max(b)) {
-        t = 0.5 * (a + b);
-    }
+    let t = (a * gb - b * ga) / (gb - ga);
+    let t = if t.is_finite() && t > a.min(b) && t < a.max(b) {
+        t
+    } else {
+        0.5 * (a + b)
+    };
+    newton_in_bracket(gd, (a, ga > 0.0), b, t, tol)
+}
+
+/// [`newton_bracketed`] from the first iterate `t` inside the bracket `[a, b]`, where `g` is
+/// known to be positive at `a` if `a_positive` and of the other sign at `b`: for brackets whose
+/// signs are known without evaluating `g` at their ends.
+pub fn newton_in_bracket(
+    gd: impl Fn(f64) -> (f64, f64),
+    (mut a, a_positive): (f64, bool),
+    mut b: f64,
+    mut t: f64,
+    tol: impl Fn(f64) -> f64,
+) -> f64 {
     for _ in 0..100 {
         let (g, slope) = gd(t);
         if g == 0.0 {
             return t;
         }
-        if (g > 0.0) == (ga > 0.0) {
+        if (g > 0.0) == a_positive {
             a = t;
-            ga = g;
         } else {
             b = t;
         }
         let newton = t - g / slope;
+        // A converged step returns even when it rounds onto a bracket end (the root within
+        // rounding of an end that `t` already moved there): bisecting further would spend up
+        // to ~40 evaluations shrinking the bracket around a root already found.
+        if newton.is_finite() && (newton - t).abs() <= tol(t) {
+            return newton.clamp(a.min(b), a.max(b));
+        }
         let next = if newton.is_finite() && newton > a.min(b) && newton < a.max(b) {
             newton
         } else {
@@ -44,4 +64,36 @@ pub fn newton_bracketed(
         t = next;
     }
     t
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::cell::Cell;
+
+    /// A root that no f64 reaches (g changes sign between two neighbouring floats): the
+    /// iteration stops once its step is within the tolerance, also when that step rounds onto
+    /// the bracket end the iterate already moved to, instead of bisecting the bracket down to
+    /// the tolerance (≈ 40 evaluations from a bracket of 20).
+    #[test]
+    fn a_converged_step_onto_a_bracket_end_stops() {
+        let evaluations = Cell::new(0);
+        // g < 0 at `root` and > 0 at the next float up; from afar, every Newton step lands on
+        // `root` exactly (the offset is lost in rounding).
+        let root = 3000.0;
+        let gd = |t: f64| {
+            evaluations.set(evaluations.get() + 1);
+            (t - root - 1e-13, 1.0)
+        };
+        let tol = |t: f64| 1e-13 * (1.0 + t.abs());
+        let (a, b) = (2990.0, 3010.0);
+        let t = newton_bracketed(gd, (a, gd(a).0), (b, gd(b).0), tol);
+        assert!((t - root).abs() < 1e-12, "{t}");
+        assert!(evaluations.get() <= 6, "{} evaluations", evaluations.get());
+        // The same root from a start and the ends' signs alone.
+        evaluations.set(0);
+        let t = newton_in_bracket(gd, (b, true), a, 2995.0, tol);
+        assert!((t - root).abs() < 1e-12, "{t}");
+        assert!(evaluations.get() <= 4, "{} evaluations", evaluations.get());
+    }
 }
