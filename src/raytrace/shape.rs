@@ -183,6 +183,28 @@ impl Spheroid {
     }
 }
 
+/// The profile of a [`CosineSeries`] at a point `p`: `|p|`, `c = −p_z/|p|` (the cosine of the
+/// polar angle from the downward pole), `r(c)` and `r′/sin θ`.
+#[derive(Debug, Clone, Copy)]
+struct AtPoint {
+    p: [f64; 3],
+    len: f64,
+    c: f64,
+    r: f64,
+    rs: f64,
+}
+
+impl AtPoint {
+    /// The outward unit normal of the surface through the point's polar angle, at the point.
+    #[inline]
+    fn normal(&self) -> [f64; 3] {
+        let AtPoint { p, len, c, r, rs } = *self;
+        let radial = r - rs * c;
+        let nz_prime = r * c + rs * (1.0 - c * c);
+        normalize([p[0] / len * radial, p[1] / len * radial, -nz_prime])
+    }
+}
+
 impl CosineSeries {
     /// Build a series drop; fails if `r(θ) ≤ 0` somewhere.
     pub fn new(radius_um: f64, coeffs: Vec<f64>) -> Result<Self, String> {
@@ -303,19 +325,32 @@ impl CosineSeries {
         self.r_and_rs(theta.cos()).0
     }
 
-    /// `g` at `p` and its derivative along the unit direction `d` (µm per µm): with
-    /// `c = −p_z/|p|`, `dg/dt = p·d/|p| − (dr/dc)(dc/dt)` and `dr/dc = −r′/sin θ`.
+    /// The profile at `p`: `|p|`, `c = −p_z/|p|`, and `(r, r′/sin θ)` there (NaN `c` at the
+    /// centre).
     #[inline]
-    fn g_and_slope(&self, p: [f64; 3], d: [f64; 3]) -> (f64, f64) {
+    fn at_point(&self, p: [f64; 3]) -> AtPoint {
         let len = norm(p);
-        if len == 0.0 {
-            return (-self.radius_um, 1.0);
-        }
         let c = -p[2] / len;
         let (r, rs) = self.r_and_rs(c);
-        let radial = dot(p, d) / len;
-        let dc_dt = (-d[2] + p[2] * radial / len) / len;
-        (len - r, radial + rs * dc_dt)
+        AtPoint { p, len, c, r, rs }
+    }
+
+    /// `g` at `p` and its derivative along the unit direction `d` (µm per µm): with
+    /// `c = −p_z/|p|`, `dg/dt = p·d/|p| − (dr/dc)(dc/dt)` and `dr/dc = −r′/sin θ`.
+    #[cfg(test)]
+    fn g_and_slope(&self, p: [f64; 3], d: [f64; 3]) -> (f64, f64) {
+        self.g_and_slope_at(&self.at_point(p), d)
+    }
+
+    /// [`Self::g_and_slope`] from the profile at the point.
+    #[inline]
+    fn g_and_slope_at(&self, q: &AtPoint, d: [f64; 3]) -> (f64, f64) {
+        if q.len == 0.0 {
+            return (-self.radius_um, 1.0);
+        }
+        let radial = dot(q.p, d) / q.len;
+        let dc_dt = (-d[2] + q.p[2] * radial / q.len) / q.len;
+        (q.len - q.r, radial + q.rs * dc_dt)
     }
 
     #[inline]
@@ -329,12 +364,7 @@ impl CosineSeries {
 
     /// Outward unit normal at a surface point.
     pub fn normal(&self, p: [f64; 3]) -> [f64; 3] {
-        let len = norm(p);
-        let c = -p[2] / len;
-        let (r, rs) = self.r_and_rs(c);
-        let radial = r - rs * c;
-        let nz_prime = r * c + rs * (1.0 - c * c);
-        normalize([p[0] / len * radial, p[1] / len * radial, -nz_prime])
+        self.at_point(p).normal()
     }
 
     /// Volume (µm³): (2π/3) ∫ r³ sin θ dθ.
@@ -484,13 +514,25 @@ impl DropShape {
             return miss();
         }
         let sq = disc.sqrt();
-        let g_slope_at = |t: f64| s.g_and_slope(add(o, scale(d, t)), d);
+        // Newton's last evaluation keeps the profile there: the hit's normal is taken from it
+        // (at most the tolerance, 1e-13 of the position, from the root) instead of evaluating
+        // the series once more.
+        let last = Cell::new(None::<AtPoint>);
+        let g_slope_at = |t: f64| {
+            let q = s.at_point(add(o, scale(d, t)));
+            last.set(Some(q));
+            s.g_and_slope_at(&q, d)
+        };
         let hit_at = |t: f64| {
             let p = add(o, scale(d, t));
+            let normal = match last.get() {
+                Some(q) if q.len > 0.0 => q.normal(),
+                _ => s.normal(p),
+            };
             Hit {
                 t,
                 point: p,
-                normal: s.normal(p),
+                normal,
             }
         };
         // Fast path: a chord through the inner spheroid brackets the crossing between the two
@@ -551,6 +593,7 @@ fn newton_tolerance(t: f64) -> f64 {
 
 use crate::math::roots;
 pub(crate) use crate::math::vec3::{add, cross, dot, norm, normalize, scale, sub};
+use std::cell::Cell;
 
 /// Samples along the bounding sphere's chord `[t0, t1]` of the ray `o + t d`.
 const MARCH_STEPS: usize = 32;
@@ -760,8 +803,8 @@ mod tests {
     /// The spheroids' chords cross their level 1 at both ends; on convex drops (Beard–Chuang
     /// 1–3 mm, not a waisted profile) the intersection bracketed between the spheroids is the
     /// one the march finds (the same drop with the fast path turned off), within the Newton
-    /// tolerance, for rays from outside and from surface points inwards; most rays take the
-    /// fast path.
+    /// tolerance, for rays from outside and from surface points inwards, with the hit point's
+    /// normal; most rays take the fast path.
     #[test]
     fn spheroid_brackets_find_the_marched_crossing() {
         let waisted = CosineSeries::new(1000.0, vec![0.0, 0.0, 0.3]).unwrap();
@@ -797,12 +840,17 @@ mod tests {
                 let got = DropShape::Series(s.clone()).intersect(o, d, inside);
                 let want = marched.intersect(o, d, inside);
                 match (got, want) {
-                    (Some(g), Some(w)) => assert!(
-                        (g.t - w.t).abs() <= 1e-11 * s.r_max_um,
-                        "{a} mm, inside {inside}: {} vs {}",
-                        g.t,
-                        w.t
-                    ),
+                    (Some(g), Some(w)) => {
+                        assert!(
+                            (g.t - w.t).abs() <= 1e-11 * s.r_max_um,
+                            "{a} mm, inside {inside}: {} vs {}",
+                            g.t,
+                            w.t
+                        );
+                        // The normal from Newton's last evaluation is the hit point's.
+                        let n = s.normal(g.point);
+                        assert!(norm(sub(g.normal, n)) < 1e-12, "{:?} vs {n:?}", g.normal);
+                    }
                     (None, None) => {}
                     (g, w) => panic!("{a} mm, inside {inside}: {g:?} vs {w:?}"),
                 }

@@ -155,7 +155,7 @@ impl StageSpec for RaytraceStage {
     /// 13: compact tables: the polar knots take what the azimuth knots' measured error leaves
     /// of the tolerance; mirror symmetric entries store 0°–180° of azimuth on an even-periodic
     /// axis (table format 3.0; decision RT-42).
-    const VERSION: u32 = 13;
+    const VERSION: u32 = 14;
     const SUMMARY: &'static str =
         "wave-optics patch ray tracer: phase functions of spherical and Beard–Chuang raindrops";
     type Params = RaytraceParams;
