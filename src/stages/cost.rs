@@ -31,10 +31,10 @@ pub const RAYTRACE_2D_COST: [f64; 4] = [0.50, 0.47, 1.73e-6, 5.4e-7];
 /// the measured errors. The rainbow database's stratified sample (77 one-entry tables, 3000²
 /// rays, thesis grid, `rms`, top16 with 7 mantissa bits) took 2157 s of CPU (user and system,
 /// two shards of one core) against 1835 s estimated for the traces alone: 1.18. Since the
-/// intersections are bracketed by the drop's spheroids (raytrace stage version 14), eleven of
-/// these tables (one per radius) took 270 s against 309 s with the code before, in the same
-/// run: 1.18 × 270/309 = 1.03.
-pub const RAYTRACE_2D_COMPACT_CPU_FACTOR: f64 = 1.03;
+/// cheaper intersections of raytrace stage version 14, eleven of these tables (one per radius)
+/// took 247.8 s against 289.7 s with the code before, one build after the other:
+/// 1.18 × 247.8/289.7 = 1.01.
+pub const RAYTRACE_2D_COMPACT_CPU_FACTOR: f64 = 1.01;
 /// Analog medulla Monte Carlo: one photon history at σ = 0 (× (1 + σ)); azimuthal 2.7e-5 and
 /// longitudinal 4.3e-5 measured.
 pub const MEDULLA_PHOTON_CPU_S: f64 = 3.3e-5;
