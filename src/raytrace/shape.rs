@@ -894,13 +894,8 @@ mod tests {
     fn spheroid_brackets_find_the_marched_crossing() {
         let waisted = CosineSeries::new(1000.0, vec![0.0, 0.0, 0.3]).unwrap();
         assert!(!waisted.convex);
-        let mut state = 0x9e37_79b9_7f4a_7c15_u64;
-        let mut uniform = move || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut rng = crate::math::rng::SplitMix64::new(0x9e37_79b9_7f4a_7c15);
+        let mut uniform = move || rng.next_f64();
         for a in [1.0, 2.0, 3.0] {
             let s = CosineSeries::beard_chuang(a);
             assert!(s.convex, "{a} mm");
