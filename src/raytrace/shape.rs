@@ -506,8 +506,9 @@ impl DropShape {
     }
 
     /// [`Self::intersect`] for a cosine-series surface: bracketed between the inner and outer
-    /// spheroids when the drop is convex and the chord allows, otherwise marched in 32 steps across the bounding
-    /// sphere; the root is refined by Newton's method safeguarded by the bracket.
+    /// spheroids when the drop is convex and the chord allows, otherwise marched in 32 steps
+    /// across the bounding sphere; the root is refined by Newton's method safeguarded by the
+    /// bracket.
     fn series_intersect(
         &self,
         s: &CosineSeries,
