@@ -187,12 +187,13 @@ impl Spheroid {
     }
 }
 
-/// The profile of a [`CosineSeries`] at a point `p`: `|p|`, `c = −p_z/|p|` (the cosine of the
-/// polar angle from the downward pole), `r(c)` and `r′/sin θ`.
+/// The profile of a [`CosineSeries`] at a point `p`: `|p|` and its reciprocal, `c = −p_z/|p|`
+/// (the cosine of the polar angle from the downward pole), `r(c)` and `r′/sin θ`.
 #[derive(Debug, Clone, Copy)]
 struct AtPoint {
     p: [f64; 3],
     len: f64,
+    inv_len: f64,
     c: f64,
     r: f64,
     rs: f64,
@@ -202,10 +203,17 @@ impl AtPoint {
     /// The outward unit normal of the surface through the point's polar angle, at the point.
     #[inline]
     fn normal(&self) -> [f64; 3] {
-        let AtPoint { p, len, c, r, rs } = *self;
+        let AtPoint {
+            p,
+            inv_len,
+            c,
+            r,
+            rs,
+            ..
+        } = *self;
         let radial = r - rs * c;
         let nz_prime = r * c + rs * (1.0 - c * c);
-        normalize([p[0] / len * radial, p[1] / len * radial, -nz_prime])
+        normalize([p[0] * inv_len * radial, p[1] * inv_len * radial, -nz_prime])
     }
 }
 
@@ -345,9 +353,17 @@ impl CosineSeries {
     #[inline]
     fn at_point(&self, p: [f64; 3]) -> AtPoint {
         let len = norm(p);
-        let c = -p[2] / len;
+        let inv_len = 1.0 / len;
+        let c = -p[2] * inv_len;
         let (r, rs) = self.r_and_rs(c);
-        AtPoint { p, len, c, r, rs }
+        AtPoint {
+            p,
+            len,
+            inv_len,
+            c,
+            r,
+            rs,
+        }
     }
 
     /// `g` at `p` and its derivative along the unit direction `d` (µm per µm): with
@@ -363,8 +379,9 @@ impl CosineSeries {
         if q.len == 0.0 {
             return (-self.radius_um, 1.0);
         }
-        let radial = dot(q.p, d) / q.len;
-        let dc_dt = (-d[2] + q.p[2] * radial / q.len) / q.len;
+        // One division per evaluation: the reciprocal of |p| multiplies instead.
+        let radial = dot(q.p, d) * q.inv_len;
+        let dc_dt = (-d[2] + q.p[2] * radial * q.inv_len) * q.inv_len;
         (q.len - q.r, radial + q.rs * dc_dt)
     }
 
