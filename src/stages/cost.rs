@@ -32,9 +32,9 @@ pub const RAYTRACE_2D_COST: [f64; 4] = [0.50, 0.47, 1.73e-6, 5.4e-7];
 /// rays, thesis grid, `rms`, top16 with 7 mantissa bits) took 2157 s of CPU (user and system,
 /// two shards of one core) against 1835 s estimated for the traces alone: 1.18. Since the
 /// cheaper intersections of raytrace stage version 14, eleven of these tables (one per radius)
-/// took 247.8 s against 289.7 s with the code before, one build after the other:
-/// 1.18 × 247.8/289.7 = 1.01.
-pub const RAYTRACE_2D_COMPACT_CPU_FACTOR: f64 = 1.01;
+/// took 229.8 s against 277.7 s with the code before, one build after the other:
+/// 1.18 × 229.8/277.7 = 0.98.
+pub const RAYTRACE_2D_COMPACT_CPU_FACTOR: f64 = 0.98;
 /// Analog medulla Monte Carlo: one photon history at σ = 0 (× (1 + σ)); azimuthal 2.7e-5 and
 /// longitudinal 4.3e-5 measured.
 pub const MEDULLA_PHOTON_CPU_S: f64 = 3.3e-5;
