@@ -105,8 +105,6 @@ pub struct CosineSeries {
     pub coeffs: Vec<f64>,
     /// Bounding-sphere radius (µm), slightly above max r.
     pub r_max_um: f64,
-    /// Inscribed-sphere radius (µm), slightly below min r.
-    pub r_min_um: f64,
     /// Spheroids about the centre that hold the drop (`outer`) and that the drop holds
     /// (`inner`), each 0.1 % clear of the surface: outside `outer` g > 0, inside `inner` g < 0,
     /// so the march of [`DropShape::intersect`] skips evaluating g there.
@@ -224,7 +222,6 @@ impl CosineSeries {
             radius_um,
             coeffs,
             r_max_um: 0.0,
-            r_min_um: 0.0,
             outer: Spheroid::everything(),
             inner: Spheroid::nothing(),
             convex: false,
@@ -241,9 +238,7 @@ impl CosineSeries {
             return Err("profile radius must stay positive".into());
         }
         let rmax = profile.iter().map(|p| p.1).fold(0.0, f64::max);
-        let rmin = profile.iter().map(|p| p.1).fold(f64::MAX, f64::min);
         s.r_max_um = rmax * 1.001 + 1e-9;
-        s.r_min_um = rmin * 0.999;
         (s.outer, s.inner) = bounding_spheroids(&profile);
         s.convex = meridian_is_convex(&profile);
         Ok(s)
@@ -292,7 +287,6 @@ impl CosineSeries {
                 c
             },
             r_max_um: 0.0,
-            r_min_um: 0.0,
             outer: Spheroid::everything(),
             inner: Spheroid::nothing(),
             convex: false,
