@@ -20,7 +20,7 @@ use super::shape::DropShape;
 use super::sphere1d::{DiffractionModel, SphereTableOptions, sphere_table_channels};
 use super::table2d::{
     Table2dOptions, Trace2d, WavelengthCache, WavelengthFields, divide_intensities,
-    entry_integral_2d, trace_table_2d,
+    entry_integral_2d, sphere_table_2d, trace_table_2d,
 };
 use super::tracer::{DirectionGrid, RayGridLayout};
 use crate::table::{Axis, TableContent};
@@ -232,10 +232,14 @@ impl PhaseTable {
     }
 
     /// One (wavelength, sun elevation) entry of a 2-D table with real index `n`
-    /// ([`trace_table_2d`]), the wavelength's fields shared by its sun elevations.
+    /// ([`trace_table_2d`]), the wavelength's fields shared by its sun elevations; a sphere's
+    /// under the airy-local model from the 1-D path ([`sphere_table_2d`]).
     pub fn trace_entry(&self, wavelength_nm: f64, n: f64, elevation_deg: f64) -> Trace2d {
         let shape = self.spec.shape.as_ref().expect("2-D table has a shape");
         let opts = self.table2d_options();
+        if self.sphere_from_1d_path() {
+            return sphere_table_2d(shape.radius_um(), wavelength_nm, n, &opts);
+        }
         // Before the trace: their few allocations do not stack on the accumulators' peak.
         let uses = self.spec.sun_elevation_deg.len();
         let fields = self.per_wavelength.get(wavelength_nm, uses, || {

@@ -6,6 +6,7 @@
 use super::compact::{self, CompactEntry, SunDiscResampled};
 use super::phase_table::PhaseTable;
 use super::post::filter_sigma_deg;
+use super::shape::DropShape;
 use super::sphere1d::{DiffractionModel, SPHERE_MAX_ORDER};
 use super::tracer::RayGridLayout;
 use crate::table::{Axis, Channel, Schema, TableContent};
@@ -175,6 +176,14 @@ impl PhaseTable {
         at.insert("forward_lobe".into(), "Fraunhofer lobe of the equal-projected-area disc (azimuthally symmetric approximation for non-circular silhouettes)".into());
         at.insert("method".into(), "patch-based wave-optics ray tracer (Sadeghi 2012, ch. 3) with 3-D complex field vectors, spherical-triangle patches, coherent sums; see docs/raytrace.md".into());
         at.insert("validated_domain".into(), "validated on spheres (0.4 mm, 650 nm) against the exact 1-D path and Lorenz–Mie; Beard–Chuang results checked for volume, axis ratios, symmetry and energy; accuracy depends on rays_per_side (docs/raytrace.md)".into());
+        if self.sphere_from_1d_path() {
+            at.insert("method".into(), "a sphere: the 1-D path's exact geometric optics plus phase (orders up to 6, uniform caustic approximation at each rainbow, axial focal-line phases, grazing waves, forward lobe; validated against Lorenz–Mie, docs/raytrace.md), the same at every outgoing_azimuth and sun_elevation; rays_per_side and ray_grid are not used (docs/decisions.md RT-44)".into());
+            at.insert(
+                "angular_resampling".into(),
+                "bin averages along the polar angle (1-D path), the same at every azimuth".into(),
+            );
+            at.insert("cross_order_phase".into(), "orders summed coherently with their axial focal-line phases (the Lorenz–Mie cross-order phases, docs/decisions.md RT-38)".into());
+        }
         TableContent {
             encoding: Default::default(),
             schema: Schema::new("raytrace-phase-2d", 2),
@@ -187,6 +196,13 @@ impl PhaseTable {
             attributes: at,
             data,
         }
+    }
+
+    /// Whether the 2-D entries come from the 1-D sphere path ([`super::table2d::sphere_table_2d`]):
+    /// a spherical drop under the airy-local model.
+    pub(crate) fn sphere_from_1d_path(&self) -> bool {
+        matches!(self.spec.shape, Some(DropShape::Sphere { .. }))
+            && self.table2d_options().airy_local()
     }
 
     /// The header's `mirror_symmetrisation` of a 2-D table (decisions RT-24, RT-34).

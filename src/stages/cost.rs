@@ -27,6 +27,12 @@ pub const SPHERE_CPU_S_PER_RADIUS_OVER_WAVELENGTH: f64 = 0.29;
 /// rays, 0.0125°–0.1° × 0.2°–10° grids, 0.4–3 mm, 1–18 tasks), which it reproduces to within
 /// a factor 0.71–1.29.
 pub const RAYTRACE_2D_COST: [f64; 4] = [0.50, 0.47, 1.73e-6, 5.4e-7];
+/// 2-D table of a sphere from the 1-D path (airy-local; decision RT-44), per task: the 1-D
+/// sphere ([`SPHERE_CPU_S_PER_RADIUS_OVER_WAVELENGTH`]) plus this per direction of the dense
+/// grid (spreading it over the azimuths, the bin-sum and, in compact tables, the sun's disc and
+/// the knot search): a one-entry rainbow-database table of a 0.25 mm drop, 3.2 s of CPU over
+/// 14401 × 1800 directions.
+pub const RAYTRACE_2D_SPHERE_CPU_S_PER_DIRECTION: f64 = 1.2e-7;
 /// Compact 2-D tables: the trace's estimate times this for the sun's disc, the knot search and
 /// the measured errors. The rainbow database's stratified sample (77 one-entry tables, 3000²
 /// rays, thesis grid, `rms`, top16 with 7 mantissa bits) took 2157 s of CPU (user and system,

@@ -10,7 +10,7 @@ use crate::raytrace::phase_table::PhaseTable;
 use crate::raytrace::shape::DropShape;
 use crate::stages::cost::{
     RAYTRACE_2D_COMPACT_CPU_FACTOR, RAYTRACE_2D_COMPACT_POLAR_KNOTS, RAYTRACE_2D_COST,
-    SPHERE_CPU_S_PER_RADIUS_OVER_WAVELENGTH,
+    RAYTRACE_2D_SPHERE_CPU_S_PER_DIRECTION, SPHERE_CPU_S_PER_RADIUS_OVER_WAVELENGTH,
 };
 use crate::stages::phase_contract;
 use crate::stages::{
@@ -31,7 +31,8 @@ impl Job for RaytraceJob {
         }
         PlannedShape::new(self.table.axes(), channels)
     }
-    /// Spheres: per task ∝ radius/λ (the internal grid's step is ≤ λ/(10a)). 2-D shapes
+    /// Spheres: per task ∝ radius/λ (the internal grid's step is ≤ λ/(10a)); as a 2-D table
+    /// also per direction of the dense grid. 2-D shapes
     /// (`RAYTRACE_2D_COST`): a set-up, then per task a part growing with the drop's size
     /// parameter, one per ray traced and one per direction computed.
     fn estimated_cpu_seconds(&self) -> f64 {
@@ -41,6 +42,16 @@ impl Job for RaytraceJob {
             return SPHERE_CPU_S_PER_RADIUS_OVER_WAVELENGTH * size;
         }
         let grid = self.table.direction_grid();
+        if self.table.sphere_from_1d_path() {
+            let directions = (grid.n_polar * grid.n_azimuth) as f64;
+            let a_um = self.p.radii_um[0];
+            return (pairs.iter())
+                .map(|&(l_nm, _)| {
+                    SPHERE_CPU_S_PER_RADIUS_OVER_WAVELENGTH * a_um / l_nm
+                        + RAYTRACE_2D_SPHERE_CPU_S_PER_DIRECTION * directions
+                })
+                .sum();
+        }
         let computed_azimuths = if self.p.mirror_half {
             grid.n_azimuth / 2 + 1
         } else {
