@@ -30,6 +30,7 @@ impl PhaseTable {
         let grid = self.direction_grid();
         let nch = self.n_channels();
         self.renormalise_entry(&mut values, integral);
+        let mirror = self.compact_mirror();
         let filtered = |c: usize| {
             let v: Vec<f64> = values
                 .iter()
@@ -37,7 +38,7 @@ impl PhaseTable {
                 .step_by(nch)
                 .map(|&x| x as f64)
                 .collect();
-            compact::disc_filter(&v, grid, spec.sigma_deg())
+            compact::disc_filter_symmetric(&v, grid, spec.sigma_deg(), mirror)
         };
         let (i_perp, i_par) = (filtered(1), filtered(2));
         drop(values);
@@ -45,7 +46,7 @@ impl PhaseTable {
             grid,
             i_perp: &i_perp,
             i_par: &i_par,
-            mirror: self.compact_mirror(),
+            mirror,
         };
         compact::compact_entry(&c, spec)
     }

@@ -19,8 +19,8 @@ use super::post::integral_1d;
 use super::shape::DropShape;
 use super::sphere1d::{DiffractionModel, SphereTableOptions, sphere_table_channels};
 use super::table2d::{
-    Table2dOptions, Trace2d, WavelengthCache, WavelengthFields, divide_intensities,
-    entry_integral_2d, sphere_table_2d, trace_table_2d,
+    Table2dOptions, Trace2d, divide_intensities, entry_integral_2d, shared_wavelength_fields,
+    sphere_table_2d, trace_table_2d,
 };
 use super::tracer::{DirectionGrid, RayGridLayout};
 use crate::table::{Axis, TableContent};
@@ -69,12 +69,9 @@ pub struct PhaseTableSpec {
     pub compression: Compression,
 }
 
-/// A ray-traced phase table: its [`PhaseTableSpec`] and what its 2-D entries of one wavelength
-/// share.
+/// A ray-traced phase table: its [`PhaseTableSpec`].
 pub struct PhaseTable {
     pub spec: PhaseTableSpec,
-    /// What a 2-D entry computes once per wavelength for all its sun elevations.
-    per_wavelength: WavelengthCache,
 }
 
 /// The number of steps of `step` in `total` (2 to 1e7 of them), or `None` when `step` does not
@@ -95,15 +92,7 @@ pub fn steps(total: f64, step: f64) -> Option<usize> {
 impl PhaseTable {
     /// The table of `spec`; its steps must divide the sphere ([`steps`]).
     pub fn new(spec: PhaseTableSpec) -> Self {
-        PhaseTable {
-            spec,
-            per_wavelength: WavelengthCache::default(),
-        }
-    }
-
-    /// Forget the per-wavelength fields computed so far (after a change of refractive index).
-    pub fn clear_wavelength_cache(&mut self) {
-        self.per_wavelength = WavelengthCache::default();
+        PhaseTable { spec }
     }
 
     /// A 2-D table (a non-spherical drop over outgoing directions).
@@ -232,7 +221,8 @@ impl PhaseTable {
     }
 
     /// One (wavelength, sun elevation) entry of a 2-D table with real index `n`
-    /// ([`trace_table_2d`]), the wavelength's fields shared by its sun elevations; a sphere's
+    /// ([`trace_table_2d`]), the fields of its radius and wavelength shared with the other sun
+    /// elevations ([`shared_wavelength_fields`]); a sphere's
     /// under the airy-local model from the 1-D path ([`sphere_table_2d`]).
     pub fn trace_entry(&self, wavelength_nm: f64, n: f64, elevation_deg: f64) -> Trace2d {
         let shape = self.spec.shape.as_ref().expect("2-D table has a shape");
@@ -241,10 +231,7 @@ impl PhaseTable {
             return sphere_table_2d(shape.radius_um(), wavelength_nm, n, &opts);
         }
         // Before the trace: their few allocations do not stack on the accumulators' peak.
-        let uses = self.spec.sun_elevation_deg.len();
-        let fields = self.per_wavelength.get(wavelength_nm, uses, || {
-            WavelengthFields::new(shape.radius_um(), wavelength_nm, n, &opts)
-        });
+        let fields = shared_wavelength_fields(shape.radius_um(), wavelength_nm, n, &opts);
         trace_table_2d(shape, wavelength_nm, n, elevation_deg, &opts, &fields)
     }
 

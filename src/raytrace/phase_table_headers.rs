@@ -177,7 +177,7 @@ impl PhaseTable {
         at.insert("method".into(), "patch-based wave-optics ray tracer (Sadeghi 2012, ch. 3) with 3-D complex field vectors, spherical-triangle patches, coherent sums; see docs/raytrace.md".into());
         at.insert("validated_domain".into(), "validated on spheres (0.4 mm, 650 nm) against the exact 1-D path and Lorenz–Mie; Beard–Chuang results checked for volume, axis ratios, symmetry and energy; accuracy depends on rays_per_side (docs/raytrace.md)".into());
         if self.sphere_from_1d_path() {
-            at.insert("method".into(), "a sphere: the 1-D path's exact geometric optics plus phase (orders up to 6, uniform caustic approximation at each rainbow, axial focal-line phases, grazing waves, forward lobe; validated against Lorenz–Mie, docs/raytrace.md), the same at every outgoing_azimuth and sun_elevation; rays_per_side and ray_grid are not used (docs/decisions.md RT-44)".into());
+            at.insert("method".into(), "a sphere: the 1-D path's exact geometric optics plus phase (orders up to 6, uniform caustic approximation at each rainbow, axial focal-line phases, grazing waves, forward lobe; validated against Lorenz–Mie, docs/raytrace.md), the same at every outgoing_azimuth and sun_elevation; rays_per_side and ray_grid are not used (docs/decisions.md RT-43)".into());
             at.insert(
                 "angular_resampling".into(),
                 "bin averages along the polar angle (1-D path), the same at every azimuth".into(),

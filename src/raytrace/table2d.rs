@@ -22,9 +22,9 @@ use super::tracer::{
 };
 use num_complex::Complex32;
 use rayon::prelude::*;
-use std::collections::HashMap;
+use std::collections::VecDeque;
 use std::f64::consts::PI;
-use std::sync::{Arc, Mutex, OnceLock};
+use std::sync::{Arc, LazyLock, Mutex, OnceLock};
 
 /// How the entries of a 2-D table are traced and turned into table values.
 #[derive(Debug, Clone, Copy)]
@@ -82,46 +82,105 @@ impl WavelengthFields {
     }
 }
 
-/// [`WavelengthFields`] shared by the tasks of one wavelength, so that the sun elevations of a
-/// wavelength compute them once. A slot is computed by the first task that asks for it (the
-/// others wait for it) and dropped from the cache after as many requests as the entry has sun
-/// elevations, so the cache holds only the wavelengths in flight (in a sharded build, a
-/// wavelength whose other elevations run on other shards stays until the job ends: a few MB
-/// each at the seed resolution). A value is the same whether it comes from the cache or not:
-/// the cache saves time, never changes a table.
-#[derive(Default)]
+/// What [`WavelengthFields`] depend on: the equal-volume radius, the wavelength, the index and
+/// the options that shape them (the polar grid, the filter, its model, the traced and added
+/// orders), compared bit for bit.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FieldsKey {
+    a_um: u64,
+    wavelength_nm: u64,
+    n: u64,
+    n_polar: usize,
+    diffraction_filter: bool,
+    model: DiffractionModel,
+    max_order: usize,
+    sphere_higher_orders: bool,
+}
+
+impl FieldsKey {
+    /// The key of [`WavelengthFields::new`]`(a_um, wavelength_nm, n, opts)`.
+    pub fn new(a_um: f64, wavelength_nm: f64, n: f64, opts: &Table2dOptions) -> Self {
+        FieldsKey {
+            a_um: a_um.to_bits(),
+            wavelength_nm: wavelength_nm.to_bits(),
+            n: n.to_bits(),
+            n_polar: opts.grid.n_polar,
+            diffraction_filter: opts.diffraction_filter,
+            model: opts.model,
+            max_order: opts.max_order,
+            sphere_higher_orders: opts.sphere_higher_orders,
+        }
+    }
+}
+
+/// [`WavelengthFields`] shared by the 2-D entries that need the same ones: the sun elevations
+/// of one table, and tables that differ only in the sun elevation (the rainbow database has one
+/// table per radius, sun elevation and wavelength, and computes each radius and wavelength's
+/// fields once instead of once per elevation). A slot is computed by the first task that asks
+/// for it (the others wait for it); the cache keeps the `capacity` most recently requested
+/// slots (each a few hundred KB at the thesis grid: the sphere's transfer on the rows about the
+/// bows and its higher orders on every row). A value is the same whether it comes from the
+/// cache or not: the cache saves time, never changes a table.
 pub struct WavelengthCache {
-    /// Per wavelength (its bits): the requests so far and the slot.
-    slots: Mutex<HashMap<u64, (usize, WavelengthSlot)>>,
+    /// Most recently requested last.
+    slots: Mutex<VecDeque<(FieldsKey, WavelengthSlot)>>,
+    capacity: usize,
 }
 
 /// A wavelength's fields, computed once by whichever task gets there first.
 type WavelengthSlot = Arc<OnceLock<Arc<WavelengthFields>>>;
 
+/// Slots of the process's [`shared_wavelength_fields`]: more than the 33 wavelengths of a
+/// colour table, so that a build that walks the sun elevations in its outer loop still finds
+/// them.
+const WAVELENGTH_CACHE_SLOTS: usize = 48;
+
 impl WavelengthCache {
-    /// The fields of `wavelength_nm`, computed by `compute` unless a task of the same wavelength
-    /// already did; `uses` is the number of requests after which the slot is dropped.
+    /// An empty cache of `capacity` slots (at least one).
+    pub fn new(capacity: usize) -> Self {
+        WavelengthCache {
+            slots: Mutex::new(VecDeque::new()),
+            capacity: capacity.max(1),
+        }
+    }
+
+    /// The fields of `key`, computed by `compute` unless a task already did (or is doing) so
+    /// and the slot is still held.
     pub fn get(
         &self,
-        wavelength_nm: f64,
-        uses: usize,
+        key: FieldsKey,
         compute: impl FnOnce() -> WavelengthFields,
     ) -> Arc<WavelengthFields> {
         let slot = {
             let mut slots = self.slots.lock().unwrap_or_else(|e| e.into_inner());
-            let key = wavelength_nm.to_bits();
-            let entry = slots
-                .entry(key)
-                .or_insert_with(|| (0, Arc::new(OnceLock::new())));
-            entry.0 += 1;
+            let held = slots.iter().position(|(k, _)| *k == key);
+            let entry = match held.and_then(|i| slots.remove(i)) {
+                Some(entry) => entry,
+                None => (key, Arc::new(OnceLock::new())),
+            };
             let slot = Arc::clone(&entry.1);
-            if entry.0 >= uses {
-                slots.remove(&key);
+            slots.push_back(entry);
+            if slots.len() > self.capacity {
+                slots.pop_front();
             }
             slot
         };
         Arc::clone(slot.get_or_init(|| Arc::new(compute())))
     }
+}
+
+/// [`WavelengthFields::new`] through the process's [`WavelengthCache`].
+pub fn shared_wavelength_fields(
+    a_um: f64,
+    wavelength_nm: f64,
+    n: f64,
+    opts: &Table2dOptions,
+) -> Arc<WavelengthFields> {
+    static SHARED: LazyLock<WavelengthCache> =
+        LazyLock::new(|| WavelengthCache::new(WAVELENGTH_CACHE_SLOTS));
+    SHARED.get(FieldsKey::new(a_um, wavelength_nm, n, opts), || {
+        WavelengthFields::new(a_um, wavelength_nm, n, opts)
+    })
 }
 
 /// One traced entry of a 2-D table.
@@ -179,7 +238,7 @@ pub fn trace_table_2d(
     }
 }
 
-/// A sphere's 2-D entry from the 1-D path (decision RT-44): a sphere scatters the same at every
+/// A sphere's 2-D entry from the 1-D path (decision RT-43): a sphere scatters the same at every
 /// azimuth about the incident direction and at every sun elevation, so the entry is the 1-D
 /// sphere table's channels on the polar rows (bin averages of the orders up to
 /// [`SPHERE_MAX_ORDER`] with the uniform caustic approximation, the axial focal-line phases,
@@ -724,10 +783,11 @@ impl SizeMix {
 mod tests {
     use super::*;
 
-    /// A wavelength's fields are computed once for all its requests and dropped after the last.
+    /// Fields are computed once for all the requests of one key (concurrent ones wait), again
+    /// for another wavelength or index, and again once the slot has left the cache.
     #[test]
-    fn wavelength_fields_are_computed_once_per_wavelength() {
-        let cache = WavelengthCache::default();
+    fn wavelength_fields_are_computed_once_per_key() {
+        let cache = WavelengthCache::new(2);
         let computed = std::sync::atomic::AtomicUsize::new(0);
         let fields = || {
             computed.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
@@ -737,18 +797,36 @@ mod tests {
             }
         };
         let count = || computed.load(std::sync::atomic::Ordering::SeqCst);
-        (0..3).into_par_iter().for_each(|_| {
-            cache.get(550.0, 3, fields);
+        let opts = Table2dOptions {
+            rays: 10,
+            ray_grid: RayGridLayout::Silhouette,
+            max_order: 3,
+            grid: DirectionGrid {
+                n_polar: 11,
+                n_azimuth: 4,
+            },
+            diffraction_filter: true,
+            model: DiffractionModel::AiryLocal,
+            sphere_higher_orders: true,
+            diagnostic_channels: false,
+            mirror_symmetrise: true,
+            mirror_half: false,
+        };
+        let key = |lambda: f64, n: f64| FieldsKey::new(1000.0, lambda, n, &opts);
+        (0..4).into_par_iter().for_each(|_| {
+            cache.get(key(550.0, 1.333), fields);
         });
         assert_eq!(count(), 1);
-        assert!(
-            cache.slots.lock().unwrap().is_empty(),
-            "slot kept after its last use"
-        );
-        cache.get(550.0, 3, fields);
-        cache.get(650.0, 3, fields);
+        cache.get(key(550.0, 1.333), fields);
+        assert_eq!(count(), 1, "a held slot is computed again");
+        cache.get(key(550.0, 1.334), fields);
+        cache.get(key(650.0, 1.333), fields);
         assert_eq!(count(), 3);
-        assert_eq!(cache.slots.lock().unwrap().len(), 2);
+        // Two slots: 550 nm at 1.333 was the least recently requested and has left.
+        cache.get(key(550.0, 1.333), fields);
+        assert_eq!(count(), 4);
+        cache.get(key(650.0, 1.333), fields);
+        assert_eq!(count(), 4);
     }
 
     /// The airy-local domain (decision RT-33) on columns whose caustics are known: the

@@ -27,7 +27,7 @@ pub const SPHERE_CPU_S_PER_RADIUS_OVER_WAVELENGTH: f64 = 0.29;
 /// rays, 0.0125°–0.1° × 0.2°–10° grids, 0.4–3 mm, 1–18 tasks), which it reproduces to within
 /// a factor 0.71–1.29.
 pub const RAYTRACE_2D_COST: [f64; 4] = [0.50, 0.47, 1.73e-6, 5.4e-7];
-/// 2-D table of a sphere from the 1-D path (airy-local; decision RT-44), per task: the 1-D
+/// 2-D table of a sphere from the 1-D path (airy-local; decision RT-43), per task: the 1-D
 /// sphere ([`SPHERE_CPU_S_PER_RADIUS_OVER_WAVELENGTH`]) plus this per direction of the dense
 /// grid (spreading it over the azimuths, the bin-sum and, in compact tables, the sun's disc and
 /// the knot search): a one-entry rainbow-database table of a 0.25 mm drop, 3.2 s of CPU over

@@ -298,7 +298,6 @@ impl RaytraceJob {
             ));
         }
         self.fixed_index = Some(n);
-        self.table.clear_wavelength_cache();
         Ok(self)
     }
 
