@@ -74,7 +74,9 @@ impl StageSpec for Mixture2dStage {
     /// 5: `sphere_higher_orders` (decision RT-37): each radius adds its equal-volume sphere's
     /// orders above `max_order`.
     /// 6: those orders' Debye surface coefficients are regular where sin(mx) vanishes.
-    const VERSION: u32 = 7;
+    /// 7: the traced radii's intersections bracketed between their spheroids (last bits).
+    /// 8: spherical radii (up to 0.4 mm) from the 1-D sphere path (decision RT-43).
+    const VERSION: u32 = 8;
     const SUMMARY: &'static str = "drop-size mixtures of ray-traced Beard–Chuang drops (2-D tables over outgoing directions), weighted by number × scattering cross-section";
     type Params = Mixture2dParams;
     fn plan_params(&self, p: Mixture2dParams) -> Result<Box<dyn Job>, PlanError> {

@@ -155,7 +155,10 @@ impl StageSpec for RaytraceStage {
     /// 13: compact tables: the polar knots take what the azimuth knots' measured error leaves
     /// of the tolerance; mirror symmetric entries store 0°–180° of azimuth on an even-periodic
     /// axis (table format 3.0; decision RT-42).
-    const VERSION: u32 = 14;
+    /// 14: intersections with convex drops bracketed between their spheroids (last bits).
+    /// 15: 2-D tables of spherical drops (Beard–Chuang up to 0.4 mm) under airy-local are the
+    /// 1-D sphere path's, the same at every azimuth (decision RT-43).
+    const VERSION: u32 = 15;
     const SUMMARY: &'static str =
         "wave-optics patch ray tracer: phase functions of spherical and Beard–Chuang raindrops";
     type Params = RaytraceParams;

@@ -125,9 +125,10 @@ impl Job for RaytraceJob {
     }
     /// Compact tables list their knots: [`RAYTRACE_2D_COMPACT_POLAR_KNOTS`] per entry (at
     /// most the dense grid) spread over the dense polar grid, and the azimuth knots: 0° and
-    /// 180° for a sphere, whose traced azimuth is flat within the tolerance at 3000² rays (2–3
-    /// knots in the rainbow database's 0.25 mm tables; a sphere traced with few rays keeps
-    /// more), and the whole stored half circle (or circle) for a drop (855–897 of 901 there).
+    /// 180° for a sphere, whose entry is the same at every azimuth (the 1-D path, decision
+    /// RT-43; a sphere traced under the Gaussian model is flat within the tolerance at 3000²
+    /// rays, 2–3 knots, and keeps more with few rays), and the whole stored half circle (or
+    /// circle) for a drop (855–897 of 901 in the rainbow database).
     fn estimated_header_axes(&self) -> Option<Vec<crate::table::Axis>> {
         use crate::table::{Axis, Symmetry};
         self.table.compact_spec()?;
