@@ -222,8 +222,8 @@ impl PhaseTable {
 
     /// One (wavelength, sun elevation) entry of a 2-D table with real index `n`
     /// ([`trace_table_2d`]), the fields of its radius and wavelength shared with the other sun
-    /// elevations ([`shared_wavelength_fields`]); a sphere's
-    /// under the airy-local model from the 1-D path ([`sphere_table_2d`]).
+    /// elevations ([`shared_wavelength_fields`]); under the airy-local model a sphere's entry
+    /// comes from the 1-D path ([`sphere_table_2d`]).
     pub fn trace_entry(&self, wavelength_nm: f64, n: f64, elevation_deg: f64) -> Trace2d {
         let shape = self.spec.shape.as_ref().expect("2-D table has a shape");
         let opts = self.table2d_options();
