@@ -212,6 +212,13 @@ impl PhaseTable {
         }
     }
 
+    /// Whether the 2-D entries come from the 1-D sphere path ([`sphere_table_2d`]): a
+    /// spherical drop under the airy-local model.
+    pub(crate) fn sphere_from_1d_path(&self) -> bool {
+        matches!(self.spec.shape, Some(DropShape::Sphere { .. }))
+            && self.table2d_options().airy_local()
+    }
+
     /// The compact form's parameters, for 2-D tables that ask for it.
     pub fn compact_spec(&self) -> Option<SunDiscResampled> {
         match self.spec.compression {

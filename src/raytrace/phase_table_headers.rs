@@ -6,7 +6,6 @@
 use super::compact::{self, CompactEntry, SunDiscResampled};
 use super::phase_table::PhaseTable;
 use super::post::filter_sigma_deg;
-use super::shape::DropShape;
 use super::sphere1d::{DiffractionModel, SPHERE_MAX_ORDER};
 use super::tracer::RayGridLayout;
 use crate::table::{Axis, Channel, Schema, TableContent};
@@ -196,13 +195,6 @@ impl PhaseTable {
             attributes: at,
             data,
         }
-    }
-
-    /// Whether the 2-D entries come from the 1-D sphere path ([`super::table2d::sphere_table_2d`]):
-    /// a spherical drop under the airy-local model.
-    pub(crate) fn sphere_from_1d_path(&self) -> bool {
-        matches!(self.spec.shape, Some(DropShape::Sphere { .. }))
-            && self.table2d_options().airy_local()
     }
 
     /// The header's `mirror_symmetrisation` of a 2-D table (decisions RT-24, RT-34).

@@ -1084,10 +1084,20 @@ pub fn sphere_table_channels(
     n: f64,
     opts: &SphereTableOptions,
 ) -> Vec<Vec<f64>> {
+    sphere_table_channels_and_cross_section(radius_um, wavelength_nm, n, opts).0
+}
+
+/// [`sphere_table_channels`] and the scattering cross-section σ (µm²) they are normalised by.
+pub fn sphere_table_channels_and_cross_section(
+    radius_um: f64,
+    wavelength_nm: f64,
+    n: f64,
+    opts: &SphereTableOptions,
+) -> (Vec<Vec<f64>>, f64) {
     let go = SphereGo::new(radius_um, wavelength_nm, n, opts.max_order)
         .with_axial_phases(opts.model == DiffractionModel::AiryUniform);
     let angles: Vec<f64> = (0..opts.angles).map(|j| opts.step_deg * j as f64).collect();
-    let (ch, _) = sphere_phase_1d(
+    sphere_phase_1d(
         &go,
         &angles,
         Phase1dOptions {
@@ -1095,8 +1105,7 @@ pub fn sphere_table_channels(
             model: opts.model,
             ..Default::default()
         },
-    );
-    ch
+    )
 }
 
 /// The phase function of a sphere at the angles `j · step_deg` over [0°, 180°] (`step_deg`

@@ -13,8 +13,8 @@ use super::caustic::{
 use super::post::{bin_edges, filter_sigma_deg, fraunhofer_bin_average};
 use super::shape::DropShape;
 use super::sphere1d::{
-    DiffractionModel, Phase1dOptions, SPHERE_MAX_ORDER, SphereGo, sphere_order_intensities_1d,
-    sphere_phase_1d,
+    DiffractionModel, Phase1dOptions, SPHERE_MAX_ORDER, SphereGo, SphereTableOptions,
+    sphere_order_intensities_1d, sphere_phase_1d, sphere_table_channels_and_cross_section,
 };
 use super::tracer::{
     DirectionGrid, FieldGrid, RayGridLayout, TraceConfig, pixel_intensities, trace_fields,
@@ -261,17 +261,17 @@ pub fn sphere_table_2d(
     } else {
         opts.max_order
     };
-    let go = SphereGo::new(radius_um, wavelength_nm, n, max_order).with_axial_phases(true);
     let grid = opts.grid;
-    let step_deg = grid.polar_step().to_degrees();
-    let angles: Vec<f64> = (0..grid.n_polar).map(|j| step_deg * j as f64).collect();
-    let (ch, sigma_total) = sphere_phase_1d(
-        &go,
-        &angles,
-        Phase1dOptions {
+    let (ch, sigma_total) = sphere_table_channels_and_cross_section(
+        radius_um,
+        wavelength_nm,
+        n,
+        &SphereTableOptions {
+            max_order,
+            step_deg: grid.polar_step().to_degrees(),
+            angles: grid.n_polar,
             diffraction_filter: opts.diffraction_filter,
             model: DiffractionModel::AiryUniform,
-            ..Phase1dOptions::default()
         },
     );
     // 1-D layout: phase, i_perp, i_par, dolp, p0 … p_max, then the three unfiltered channels.
