@@ -31,27 +31,68 @@ pub fn newton_bracketed(
 /// signs are known without evaluating `g` at their ends.
 pub fn newton_in_bracket(
     gd: impl Fn(f64) -> (f64, f64),
-    (mut a, a_positive): (f64, bool),
-    mut b: f64,
-    mut t: f64,
+    bracket_end: (f64, bool),
+    b: f64,
+    t: f64,
     tol: impl Fn(f64) -> f64,
 ) -> f64 {
-    for _ in 0..100 {
-        let (g, slope) = gd(t);
+    let mut state = BracketedNewton::new(bracket_end, b, t);
+    loop {
+        let (g, slope) = gd(state.t);
+        if let Some(root) = state.step(g, slope, &tol) {
+            return root;
+        }
+    }
+}
+
+/// The iteration of [`newton_in_bracket`] one evaluation at a time, for callers that advance
+/// several independent roots in turn (their evaluations overlap in the processor instead of
+/// waiting on each other): evaluate `g` and its derivative at [`Self::t`], pass them to
+/// [`Self::step`], until it returns the root. The iterates and the root are those of
+/// [`newton_in_bracket`], bit for bit.
+#[derive(Debug, Clone, Copy)]
+pub struct BracketedNewton {
+    a: f64,
+    a_positive: bool,
+    b: f64,
+    /// The next point at which to evaluate `g`.
+    pub t: f64,
+    evaluations: u32,
+}
+
+impl BracketedNewton {
+    /// From the first iterate `t` in the bracket `[a, b]`, `g` positive at `a` if `a_positive`
+    /// and of the other sign at `b`.
+    pub fn new((a, a_positive): (f64, bool), b: f64, t: f64) -> Self {
+        BracketedNewton {
+            a,
+            a_positive,
+            b,
+            t,
+            evaluations: 0,
+        }
+    }
+
+    /// Takes `g` and its derivative at [`Self::t`]: the root when the iteration ends, else
+    /// `None` with the next point in [`Self::t`] (at most 100 evaluations).
+    #[inline]
+    pub fn step(&mut self, g: f64, slope: f64, tol: impl Fn(f64) -> f64) -> Option<f64> {
+        let t = self.t;
         if g == 0.0 {
-            return t;
+            return Some(t);
         }
-        if (g > 0.0) == a_positive {
-            a = t;
+        if (g > 0.0) == self.a_positive {
+            self.a = t;
         } else {
-            b = t;
+            self.b = t;
         }
+        let (a, b) = (self.a, self.b);
         let newton = t - g / slope;
         // A converged step returns even when it rounds onto a bracket end (the root within
         // rounding of an end that `t` already moved there): bisecting further would spend up
         // to ~40 evaluations shrinking the bracket around a root already found.
         if newton.is_finite() && (newton - t).abs() <= tol(t) {
-            return newton.clamp(a.min(b), a.max(b));
+            return Some(newton.clamp(a.min(b), a.max(b)));
         }
         let next = if newton.is_finite() && newton > a.min(b) && newton < a.max(b) {
             newton
@@ -59,11 +100,15 @@ pub fn newton_in_bracket(
             0.5 * (a + b)
         };
         if (next - t).abs() <= tol(t) || (b - a).abs() <= tol(t) {
-            return next;
+            return Some(next);
         }
-        t = next;
+        self.evaluations += 1;
+        if self.evaluations >= 100 {
+            return Some(next);
+        }
+        self.t = next;
+        None
     }
-    t
 }
 
 #[cfg(test)]

@@ -87,6 +87,22 @@ pub struct Hit {
     pub normal: [f64; 3],
 }
 
+/// Rays intersected together by [`DropShape::intersect_lanes`].
+pub const LANES: usize = 8;
+
+/// A ray `(o, d)`: origin and unit direction.
+pub type Ray = ([f64; 3], [f64; 3]);
+
+/// Where a ray may cross a cosine-series surface ([`CosineSeries::crossing`]).
+enum Crossing {
+    /// It misses the bounding sphere.
+    None,
+    /// Between the spheroids, the iteration ready to start.
+    Bracketed(BracketedNewton),
+    /// Somewhere on the bounding sphere's chord `[t0, t1]`.
+    Chord(f64, f64),
+}
+
 /// A drop shape (radius in µm).
 #[derive(Debug, Clone)]
 pub enum DropShape {
@@ -342,6 +358,64 @@ impl CosineSeries {
         self.r_and_rs(theta.cos()).0
     }
 
+    /// Where the ray `o + t d` (unit `d`) may cross the surface (from outside, or from a
+    /// surface point inwards when `inside`): nowhere when it misses the bounding sphere; between
+    /// the spheroids when the drop is convex and the ray's chords through both allow (g's signs
+    /// at the ends are the spheroids', so g is not evaluated there, and Newton starts from the
+    /// middle of a bracket ≈ 0.2 % of the radius wide); otherwise somewhere on the bounding
+    /// sphere's chord `[t0, t1]`, to be marched.
+    fn crossing(&self, o: [f64; 3], d: [f64; 3], inside: bool) -> Crossing {
+        let rb = self.r_max_um;
+        let b = dot(o, d);
+        let disc = b * b - (dot(o, o) - rb * rb);
+        if disc <= 0.0 {
+            return Crossing::None;
+        }
+        let sq = disc.sqrt();
+        // On a convex drop the ray stays on one side of the surface until it reaches the
+        // spheroids: g > 0 outside the outer one, g < 0 inside the inner one.
+        let chords = self
+            .convex
+            .then(|| self.outer.chord(o, d).zip(self.inner.chord(o, d)));
+        if let Some(((oi, oo), (ii, io))) = chords.flatten() {
+            let (ta, tb) = if inside { (io, oo) } else { (oi, ii) };
+            if tb > ta && ta >= 0.0 {
+                return Crossing::Bracketed(BracketedNewton::new(
+                    (ta, !inside),
+                    tb,
+                    0.5 * (ta + tb),
+                ));
+            }
+        }
+        let (t0, t1) = if inside {
+            (0.0, -b + sq)
+        } else {
+            (-b - sq, -b + sq)
+        };
+        if t1 <= t0 {
+            Crossing::None
+        } else {
+            Crossing::Chord(t0, t1)
+        }
+    }
+
+    /// The hit at `t` on the ray `o + t d`, its normal from Newton's last evaluation `last`
+    /// (at most the tolerance, 1e-13 of the position, from the root), which spares evaluating
+    /// the series once more.
+    #[inline]
+    fn hit_at(&self, o: [f64; 3], d: [f64; 3], t: f64, last: Option<AtPoint>) -> Hit {
+        let p = add(o, scale(d, t));
+        let normal = match last {
+            Some(q) if q.len > 0.0 => q.normal(),
+            _ => self.normal(p),
+        };
+        Hit {
+            t,
+            point: p,
+            normal,
+        }
+    }
+
     /// The profile at `p`: `|p|`, `c = −p_z/|p|`, and `(r, r′/sin θ)` there (NaN `c` at the
     /// centre).
     #[inline]
@@ -527,74 +601,80 @@ impl DropShape {
         d: [f64; 3],
         inside: bool,
     ) -> Option<Hit> {
-        let miss = || {
-            if inside {
-                Some(self.degenerate_exit(s, o))
-            } else {
-                None
-            }
-        };
-        let rb = s.r_max_um;
-        let b = dot(o, d);
-        let disc = b * b - (dot(o, o) - rb * rb);
-        if disc <= 0.0 {
-            return miss();
-        }
-        let sq = disc.sqrt();
-        // Newton's last evaluation keeps the profile there: the hit's normal is taken from it
-        // (at most the tolerance, 1e-13 of the position, from the root) instead of evaluating
-        // the series once more.
-        let last = Cell::new(None::<AtPoint>);
-        let g_slope_at = |t: f64| {
-            let q = s.at_point(add(o, scale(d, t)));
-            last.set(Some(q));
-            s.g_and_slope_at(&q, d)
-        };
-        let hit_at = |t: f64| {
-            let p = add(o, scale(d, t));
-            let normal = match last.get() {
-                Some(q) if q.len > 0.0 => q.normal(),
-                _ => s.normal(p),
-            };
-            Hit {
-                t,
-                point: p,
-                normal,
-            }
-        };
-        // Fast path: a chord through the inner spheroid brackets the crossing between the two
-        // spheroids (g > 0 outside the outer one, g < 0 inside the inner one; on a convex
-        // drop the ray stays on one side of the surface until it reaches them).
-        let chords = s
-            .convex
-            .then(|| s.outer.chord(o, d).zip(s.inner.chord(o, d)));
-        if let Some(((oi, oo), (ii, io))) = chords.flatten() {
-            let (ta, tb) = if inside { (io, oo) } else { (oi, ii) };
-            if tb > ta && ta >= 0.0 {
-                // g's signs at the ends are those of the spheroids, so g is not evaluated
-                // there; Newton starts from the middle of a bracket ≈ 0.2 % of the radius wide.
-                let t = roots::newton_in_bracket(
-                    g_slope_at,
-                    (ta, !inside),
-                    tb,
-                    0.5 * (ta + tb),
-                    newton_tolerance,
-                );
-                return Some(hit_at(t));
+        match s.crossing(o, d, inside) {
+            Crossing::None => self.miss(s, o, inside),
+            Crossing::Bracketed(mut newton) => loop {
+                let q = s.at_point(add(o, scale(d, newton.t)));
+                let (g, slope) = s.g_and_slope_at(&q, d);
+                if let Some(t) = newton.step(g, slope, newton_tolerance) {
+                    return Some(s.hit_at(o, d, t, Some(q)));
+                }
+            },
+            Crossing::Chord(t0, t1) => {
+                let last = Cell::new(None::<AtPoint>);
+                let g_slope_at = |t: f64| {
+                    let q = s.at_point(add(o, scale(d, t)));
+                    last.set(Some(q));
+                    s.g_and_slope_at(&q, d)
+                };
+                match march(s, o, d, inside, (t0, t1)) {
+                    Some((ta, ga, tb, gb)) => {
+                        let t = newton_bracketed(g_slope_at, ta, ga, tb, gb);
+                        Some(s.hit_at(o, d, t, last.get()))
+                    }
+                    None => self.miss(s, o, inside),
+                }
             }
         }
-        let (t0, t1) = if inside {
-            (0.0, -b + sq)
-        } else {
-            (-b - sq, -b + sq)
+    }
+
+    /// [`Self::intersect`] of the rays `(o, d)` of `rays` (`None` lanes are skipped), with the
+    /// same hits bit for bit: the Newton iterations of the rays whose crossing the spheroids
+    /// bracket advance in turn, one evaluation per ray, so that the processor overlaps the
+    /// evaluations of different rays instead of waiting on each one's chain of dependent
+    /// operations (the iteration is latency-bound).
+    pub fn intersect_lanes(
+        &self,
+        rays: [Option<Ray>; LANES],
+        inside: bool,
+    ) -> [Option<Hit>; LANES] {
+        let DropShape::Series(s) = self else {
+            return rays.map(|ray| ray.and_then(|(o, d)| self.intersect(o, d, inside)));
         };
-        if t1 <= t0 {
-            return miss();
+        let mut hits = [None; LANES];
+        let mut pending: [Option<(BracketedNewton, Ray)>; LANES] = [None; LANES];
+        for ((hit, slot), ray) in hits.iter_mut().zip(&mut pending).zip(rays) {
+            let Some((o, d)) = ray else { continue };
+            match s.crossing(o, d, inside) {
+                Crossing::Bracketed(newton) => *slot = Some((newton, (o, d))),
+                _ => *hit = self.series_intersect(s, o, d, inside),
+            }
         }
-        match march(s, o, d, inside, (t0, t1)) {
-            Some((ta, ga, tb, gb)) => Some(hit_at(newton_bracketed(g_slope_at, ta, ga, tb, gb))),
-            None => miss(),
+        loop {
+            let mut running = false;
+            for (hit, slot) in hits.iter_mut().zip(&mut pending) {
+                let Some((newton, (o, d))) = slot else {
+                    continue;
+                };
+                let q = s.at_point(add(*o, scale(*d, newton.t)));
+                let (g, slope) = s.g_and_slope_at(&q, *d);
+                match newton.step(g, slope, newton_tolerance) {
+                    Some(t) => {
+                        *hit = Some(s.hit_at(*o, *d, t, Some(q)));
+                        *slot = None;
+                    }
+                    None => running = true,
+                }
+            }
+            if !running {
+                return hits;
+            }
         }
+    }
+
+    /// No crossing: none from outside, the degenerate exit at `o` from inside.
+    fn miss(&self, s: &CosineSeries, o: [f64; 3], inside: bool) -> Option<Hit> {
+        inside.then(|| self.degenerate_exit(s, o))
     }
 
     fn degenerate_exit(&self, s: &CosineSeries, o: [f64; 3]) -> Hit {
@@ -618,7 +698,7 @@ fn newton_tolerance(t: f64) -> f64 {
     1e-13 * (1.0 + t.abs())
 }
 
-use crate::math::roots;
+use crate::math::roots::{self, BracketedNewton};
 pub(crate) use crate::math::vec3::{add, cross, dot, norm, normalize, scale, sub};
 use std::cell::Cell;
 
@@ -872,6 +952,70 @@ mod tests {
             );
             Some((o, d))
         }
+    }
+
+    /// Rays intersected together give each ray's hit of [`DropShape::intersect`] bit for bit:
+    /// Beard–Chuang drops (spheroid brackets, with the march for the chords they do not
+    /// bracket), a waisted drop (marched throughout) and a sphere, with lanes left empty and
+    /// rays that miss.
+    #[test]
+    fn intersections_in_lanes_are_those_of_single_rays() {
+        let mut rng = crate::math::rng::SplitMix64::new(0x51ed_270b_27a1_bd4d);
+        let mut uniform = move || rng.next_f64();
+        let waisted = CosineSeries::new(1000.0, vec![0.0, 0.0, 0.3]).unwrap();
+        let mut shapes: Vec<(DropShape, CosineSeries)> = [1.0, 2.0, 3.0]
+            .map(|a| {
+                let s = CosineSeries::beard_chuang(a);
+                (DropShape::Series(s.clone()), s)
+            })
+            .into();
+        shapes.push((DropShape::Series(waisted.clone()), waisted));
+        let sphere = CosineSeries::new(1000.0, vec![0.0]).unwrap();
+        shapes.push((DropShape::Sphere { radius_um: 1000.0 }, sphere));
+        let (mut hits, mut misses) = (0, 0);
+        for (shape, s) in &shapes {
+            for round in 0..300 {
+                let inside = round % 2 == 1;
+                let mut rays = [None; LANES];
+                for lane in rays.iter_mut() {
+                    // about one lane in eight empty, and some rays far off the drop
+                    if uniform() < 0.125 {
+                        continue;
+                    }
+                    *lane = random_ray(s, &mut uniform, inside).map(|(o, d)| {
+                        if !inside && uniform() < 0.2 {
+                            (add(o, scale([d[1], -d[0], 0.0], 2.0 * s.r_max_um)), d)
+                        } else {
+                            (o, d)
+                        }
+                    });
+                }
+                let together = shape.intersect_lanes(rays, inside);
+                for (ray, got) in rays.iter().zip(together) {
+                    let alone = ray.and_then(|(o, d)| shape.intersect(o, d, inside));
+                    match (got, alone) {
+                        (Some(g), Some(a)) => {
+                            assert_eq!(
+                                (
+                                    g.t.to_bits(),
+                                    g.point.map(f64::to_bits),
+                                    g.normal.map(f64::to_bits)
+                                ),
+                                (
+                                    a.t.to_bits(),
+                                    a.point.map(f64::to_bits),
+                                    a.normal.map(f64::to_bits)
+                                )
+                            );
+                            hits += 1;
+                        }
+                        (None, None) => misses += usize::from(ray.is_some()),
+                        (g, a) => panic!("{ray:?}: {g:?} against {a:?}"),
+                    }
+                }
+            }
+        }
+        assert!(hits > 5000 && misses > 300, "{hits} hits, {misses} misses");
     }
 
     /// The Estrin-evaluated monomials of a Beard–Chuang series give the recurrences' `r` and

@@ -38,7 +38,7 @@
 //! table.
 
 use super::ray_density::{RadialProfile, RingTable};
-use super::shape::{DropShape, add, cross, dot, normalize, scale, sub};
+use super::shape::{DropShape, LANES, add, cross, dot, normalize, scale, sub};
 use crate::optics::fresnel::{fresnel_amplitudes_real, fresnel_power_consistent_real};
 use crate::table::interp::interp1_uniform;
 use num_complex::{Complex32, Complex64};
@@ -457,45 +457,85 @@ fn trace_ray(
     (u, v): (f64, f64),
     out: &mut [RayOut],
 ) -> bool {
-    let (fr, dist, max_order) = (&g.fr, g.dist, g.orders - 1);
-    for o in out.iter_mut() {
-        *o = INVALID;
-    }
-    let origin = add(add(scale(fr.e1, u), scale(fr.e2, v)), scale(fr.d, -dist));
-    let Some(h) = shape.intersect(origin, fr.d, false) else {
-        return false;
-    };
+    let mut lanes = [None; LANES];
+    lanes[0] = Some((u, v));
+    trace_rays(g, shape, n, lanes, out)[0]
+}
+
+/// A ray inside the drop between two crossings of its surface.
+#[derive(Clone, Copy)]
+struct InsideRay {
+    pos: [f64; 3],
+    dir: [f64; 3],
+    fa: CVec,
+    fb: CVec,
+    /// Optical path so far (µm).
+    l: f64,
+}
+
+/// [`trace_ray`] of the rays at the emitting-plane coordinates of `uv` (`None` lanes absent)
+/// at once, each ray bit for bit as alone: `out` holds `g.orders` slots per present lane, in
+/// order. Their crossings of the surface are found together ([`DropShape::intersect_lanes`]),
+/// one order after the other.
+fn trace_rays(
+    g: &RayGrid,
+    shape: &DropShape,
+    n: f64,
+    uv: [Option<(f64, f64)>; LANES],
+    out: &mut [RayOut],
+) -> [bool; LANES] {
+    let (fr, dist, orders) = (&g.fr, g.dist, g.orders);
+    out.fill(INVALID);
+    let entering = uv.map(|p| {
+        p.map(|(u, v)| {
+            let origin = add(add(scale(fr.e1, u), scale(fr.e2, v)), scale(fr.d, -dist));
+            (origin, fr.d)
+        })
+    });
     let one = Complex64::new(1.0, 0.0);
     let ea: CVec = [one * fr.e1[0], one * fr.e1[1], one * fr.e1[2]];
     let eb: CVec = [one * fr.e2[0], one * fr.e2[1], one * fr.e2[2]];
-    let mut l = h.t;
-    let sp = interact(fr.d, h.normal, 1.0, n, &ea, &eb);
-    out[0] = RayOut::new(
-        fr,
-        sp.refl_dir,
-        sp.refl.0,
-        sp.refl.1,
-        l + dist - dot(h.point, sp.refl_dir),
-    );
-    let Some((mut dir, mut fa, mut fb)) = sp.trans else {
-        return true;
-    };
-    let mut pos = h.point;
-    for slot in out.iter_mut().take(max_order + 1).skip(1) {
-        let Some(hh) = shape.intersect(pos, dir, true) else {
-            break;
-        };
-        l += n * hh.t;
-        pos = hh.point;
-        let sp = interact(dir, hh.normal, n, 1.0, &fa, &fb);
-        if let Some((td, ta, tb)) = sp.trans {
-            *slot = RayOut::new(fr, td, ta, tb, l + dist - dot(pos, td));
-        }
-        dir = sp.refl_dir;
-        fa = sp.refl.0;
-        fb = sp.refl.1;
+    let mut inside: [Option<InsideRay>; LANES] = [None; LANES];
+    let hits = shape.intersect_lanes(entering, false);
+    for ((slots, hit), ray) in out.chunks_mut(orders).zip(hits).zip(&mut inside) {
+        let Some(h) = hit else { continue };
+        let sp = interact(fr.d, h.normal, 1.0, n, &ea, &eb);
+        let l = h.t;
+        slots[0] = RayOut::new(
+            fr,
+            sp.refl_dir,
+            sp.refl.0,
+            sp.refl.1,
+            l + dist - dot(h.point, sp.refl_dir),
+        );
+        *ray = sp.trans.map(|(dir, fa, fb)| InsideRay {
+            pos: h.point,
+            dir,
+            fa,
+            fb,
+            l,
+        });
     }
-    true
+    for order in 1..orders {
+        let hits = shape.intersect_lanes(inside.map(|r| r.map(|r| (r.pos, r.dir))), true);
+        for ((slots, hit), ray) in out.chunks_mut(orders).zip(hits).zip(&mut inside) {
+            let Some(r) = ray else { continue };
+            let Some(hh) = hit else {
+                *ray = None;
+                continue;
+            };
+            r.l += n * hh.t;
+            r.pos = hh.point;
+            let sp = interact(r.dir, hh.normal, n, 1.0, &r.fa, &r.fb);
+            if let Some((td, ta, tb)) = sp.trans {
+                slots[order] = RayOut::new(fr, td, ta, tb, r.l + dist - dot(r.pos, td));
+            }
+            r.dir = sp.refl_dir;
+            r.fa = sp.refl.0;
+            r.fb = sp.refl.1;
+        }
+    }
+    hits.map(|h| h.is_some())
 }
 
 /// A triangle ready for rasterisation.
@@ -807,12 +847,18 @@ fn trace_band(
             }
             let i = row0 + ri;
             *hit = 0;
-            for (j, (slot, pt)) in row.chunks_mut(g.orders).zip(points.iter_mut()).enumerate() {
-                *pt = g.point_and_weight(i, j);
-                let (u, v, _) = *pt;
-                if trace_ray(g, shape, cfg.n, (u, v), slot) {
-                    *hit += 1;
+            let lanes = row
+                .chunks_mut(g.orders * LANES)
+                .zip(points.chunks_mut(LANES))
+                .enumerate();
+            for (c, (slots, pts)) in lanes {
+                let mut uv = [None; LANES];
+                for (k, (pt, lane)) in pts.iter_mut().zip(&mut uv).enumerate() {
+                    *pt = g.point_and_weight(i, c * LANES + k);
+                    *lane = Some((pt.0, pt.1));
                 }
+                let traced = trace_rays(g, shape, cfg.n, uv, slots);
+                *hit += traced.iter().filter(|&&t| t).count();
             }
         });
 }
