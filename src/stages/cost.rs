@@ -39,8 +39,10 @@ pub const RAYTRACE_2D_SPHERE_CPU_S_PER_DIRECTION: f64 = 1.2e-7;
 /// two shards of one core) against 1835 s estimated for the traces alone: 1.18. Since the
 /// cheaper intersections of raytrace stage version 14, eleven of these tables (one per radius)
 /// took 229.8 s against 277.7 s with the code before, one build after the other:
-/// 1.18 × 229.8/277.7 = 0.98.
-pub const RAYTRACE_2D_COMPACT_CPU_FACTOR: f64 = 0.98;
+/// 1.18 × 229.8/277.7 = 0.98. Since the rays are traced eight at a time (raytrace stage
+/// version 15, same payloads), the same eleven tables took 193.7 and 211.6 s against 220.9 and
+/// 239.6 s in two pairs alternating the order: 0.98 × 405.3/460.5 = 0.86.
+pub const RAYTRACE_2D_COMPACT_CPU_FACTOR: f64 = 0.86;
 /// Analog medulla Monte Carlo: one photon history at σ = 0 (× (1 + σ)); azimuthal 2.7e-5 and
 /// longitudinal 4.3e-5 measured.
 pub const MEDULLA_PHOTON_CPU_S: f64 = 3.3e-5;
