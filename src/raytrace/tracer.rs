@@ -1376,6 +1376,39 @@ pub fn outgoing_directions(
     psi: f64,
     b: &[f64],
 ) -> Vec<Vec<Option<(f64, f64)>>> {
+    outgoing_rays(shape, cfg, psi, b)
+        .into_iter()
+        .map(|orders| {
+            (orders.into_iter())
+                .map(|r| r.map(|r| (r.polar_rad, r.azimuth_rad)))
+                .collect()
+        })
+        .collect()
+}
+
+/// One outgoing ray of [`outgoing_rays`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct OutgoingRay {
+    /// Polar angle from the incident direction (radians, table frame).
+    pub polar_rad: f64,
+    /// Azimuth from e1 towards e2 (radians, table frame).
+    pub azimuth_rad: f64,
+    /// Optical path (µm) from the emitting plane to the plane through the drop's centre normal
+    /// to the outgoing direction, plus the emitting plane's distance from the centre (the same
+    /// for every ray of a drop and sun): 2π/λ times its differences are the rays' phase
+    /// differences.
+    pub path_um: f64,
+    /// Mean of the two incident polarisations' outgoing |E|² (unit incident fields).
+    pub flux: f64,
+}
+
+/// [`outgoing_directions`] with each ray's optical path and flux.
+pub fn outgoing_rays(
+    shape: &DropShape,
+    cfg: &TraceConfig,
+    psi: f64,
+    b: &[f64],
+) -> Vec<Vec<Option<OutgoingRay>>> {
     let cfg = TraceConfig {
         rays: 2,
         ray_grid: RayGridLayout::Silhouette,
@@ -1389,7 +1422,16 @@ pub fn outgoing_directions(
         .map(|&b| {
             let rho = b * edge;
             trace_ray(&g, shape, cfg.n, (rho * cp, rho * sp), &mut out);
-            out.iter().map(|r| r.valid.then_some(r.pa)).collect()
+            (out.iter())
+                .map(|r| {
+                    r.valid.then_some(OutgoingRay {
+                        polar_rad: r.pa.0,
+                        azimuth_rad: r.pa.1,
+                        path_um: r.l,
+                        flux: r.flux,
+                    })
+                })
+                .collect()
         })
         .collect()
 }
@@ -1715,6 +1757,57 @@ mod tests {
                 "order {o}: L2 {w} (warped) and {c} (silhouette, same rays) against the finer grid"
             );
         }
+    }
+
+    /// On a sphere the outgoing rays of `outgoing_rays` leave at Descartes' deviations
+    /// `D_p = 2(i − r) + (p − 1)(π − 2r)` (sin i = b, sin r = b/n), in the plane of incidence
+    /// (azimuth ψ or ψ + π), and the central ray's paths differ by the chords: 2na between
+    /// p = 1 and p = 0, 2na again between p = 2 and p = 1.
+    #[test]
+    fn outgoing_rays_of_a_sphere_leave_at_descartes_deviations() {
+        let (a, n) = (500.0, 1.333);
+        let shape = DropShape::Sphere { radius_um: a };
+        let cfg = TraceConfig {
+            rays: 2,
+            max_order: 3,
+            sun_elevation_rad: 0.3,
+            wavelength_nm: 550.0,
+            n,
+            ray_grid: RayGridLayout::Silhouette,
+        };
+        let psi = 0.7;
+        let bs = [0.0, 0.3, 0.6, 0.86, 0.95];
+        let rays = outgoing_rays(&shape, &cfg, psi, &bs);
+        for (b, orders) in bs.iter().zip(&rays) {
+            let (i, r) = (f64::asin(*b), f64::asin(b / n));
+            for (p, ray) in orders.iter().enumerate() {
+                let ray = ray.expect("every order leaves a sphere");
+                let d = 2.0 * (i - r) + (p as f64 - 1.0) * (PI - 2.0 * r);
+                let polar = d.cos().acos();
+                let (got, want) = (ray.polar_rad.cos(), d.cos());
+                assert!(
+                    (got - want).abs() < 1e-12,
+                    "b {b}, p {p}: cos {got} against {want}"
+                );
+                if *b > 0.0 && polar > 1e-6 && polar < PI - 1e-6 {
+                    let off = (ray.azimuth_rad - psi).rem_euclid(PI);
+                    assert!(
+                        off < 1e-9 || PI - off < 1e-9,
+                        "b {b}, p {p}: azimuth {}",
+                        ray.azimuth_rad
+                    );
+                }
+                assert!(
+                    ray.flux > 0.0 && ray.flux < 1.0,
+                    "b {b}, p {p}: flux {}",
+                    ray.flux
+                );
+            }
+        }
+        let central = &rays[0];
+        let path = |p: usize| central[p].unwrap().path_um;
+        assert!((path(1) - path(0) - 2.0 * n * a).abs() < 1e-9 * a);
+        assert!((path(2) - path(1) - 2.0 * n * a).abs() < 1e-9 * a);
     }
 
     /// The concentric map is onto the disc ring by ring: ring s lands on radius s (the outer
