@@ -5,8 +5,8 @@
 //!
 //! `cargo run --release --example wavelength_interpolation -- RADIUS_MM SUN_DEG [NODES]` traces
 //! rays at 2000 impact parameters along 24 directions ψ on the silhouette (`outgoing_rays`) at
-//! the 33 wavelengths 380–700 nm (Table 3.2 indices), and interpolates each ray's polar angle,
-//! azimuth and optical path in the index through `NODES` (default 3) wavelengths spread evenly
+//! the 33 wavelengths 380–700 nm (Table 3.2 indices), and interpolates each ray's direction
+//! and optical path in the index through `NODES` (default 3) wavelengths spread evenly
 //! over the range (Lagrange). Printed per order p = 0…3, over the wavelengths not among the
 //! nodes: the rays whose outgoing order exists at some wavelengths and not at others, and of
 //! the rest the 99th percentile and the largest error of the direction (degrees of arc) and of
@@ -32,17 +32,20 @@ fn lagrange(xs: &[f64], x: f64) -> Vec<f64> {
         .collect()
 }
 
-/// Angle between the directions (polar, azimuth) `a` and `b` (radians).
-fn arc(a: (f64, f64), b: (f64, f64)) -> f64 {
-    let v = |(t, p): (f64, f64)| [t.sin() * p.cos(), t.sin() * p.sin(), t.cos()];
-    let (x, y) = (v(a), v(b));
+/// The unit vector at polar angle `t` and azimuth `p` (radians).
+fn unit(t: f64, p: f64) -> [f64; 3] {
+    [t.sin() * p.cos(), t.sin() * p.sin(), t.cos()]
+}
+
+/// Angle between the direction `a` (any length) and the unit vector `b` (radians).
+fn arc(a: [f64; 3], b: [f64; 3]) -> f64 {
     let c = [
-        x[1] * y[2] - x[2] * y[1],
-        x[2] * y[0] - x[0] * y[2],
-        x[0] * y[1] - x[1] * y[0],
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
     ];
     let s = (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt();
-    s.atan2(x[0] * y[0] + x[1] * y[1] + x[2] * y[2])
+    s.atan2(a[0] * b[0] + a[1] * b[1] + a[2] * b[2])
 }
 
 /// The value at the 99th percentile and the largest of `v`.
@@ -118,16 +121,11 @@ fn main() -> Res<()> {
                         .map(|(&k, wk)| wk * f(at(k)))
                         .sum::<f64>()
                 };
-                // Azimuth unwrapped about the first node's.
-                let phi0 = at(node_idx[0]).azimuth_rad;
-                let unwrap = |r: OutgoingRay| {
-                    let d = r.azimuth_rad - phi0;
-                    phi0 + (d + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU)
-                        - std::f64::consts::PI
-                };
-                let guess = (mix(&|r| r.polar_rad), mix(&unwrap));
+                // The direction as a unit vector (the azimuth is undefined at the poles).
+                let v = |r: OutgoingRay, c: usize| unit(r.polar_rad, r.azimuth_rad)[c];
+                let guess = [0, 1, 2].map(|c| mix(&|r| v(r, c)));
                 let truth = at(i);
-                dir_err.push(arc(guess, (truth.polar_rad, truth.azimuth_rad)).to_degrees());
+                dir_err.push(arc(guess, unit(truth.polar_rad, truth.azimuth_rad)).to_degrees());
                 let k = std::f64::consts::TAU / (wavelengths[i] * 1e-3);
                 phase_err.push(k * (mix(&|r| r.path_um) - truth.path_um).abs());
             }
