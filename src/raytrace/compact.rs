@@ -307,8 +307,10 @@ pub fn disc_filter(values: &[f64], grid: DirectionGrid, sigma_deg: f64) -> Vec<f
 
 /// [`disc_filter`]; with `mirror`, `values` must be mirror symmetric (the value at azimuth
 /// column `k` equal to the one at `n_azimuth − k`, an even azimuth count), and both passes
-/// compute the columns 0°–180° only and copy their mirror images: the same sums in the same
-/// order, so the result is bit for bit [`disc_filter`]'s, in half the work.
+/// compute the columns 0°–180° only, with the same sums in the same order as
+/// [`disc_filter`] (bit for bit its values there), and copy their mirror images beyond, in
+/// half the work. The result is exactly mirror symmetric; [`disc_filter`]'s own columns
+/// beyond 180° can differ from their mirror images in the last bits (≈ 1e-9 near the poles).
 pub fn disc_filter_symmetric(
     values: &[f64],
     grid: DirectionGrid,
