@@ -12,6 +12,7 @@
 //! the rest the 99th percentile and the largest error of the direction (degrees of arc) and of
 //! the phase (2π/λ times the path's error, radians).
 
+use scatterbake::math::vec3::{cross, dot, norm};
 use scatterbake::optics::water::WaterIndexModel;
 use scatterbake::raytrace::shape::DropShape;
 use scatterbake::raytrace::tracer::{OutgoingRay, RayGridLayout, TraceConfig, outgoing_rays};
@@ -39,13 +40,7 @@ fn unit(t: f64, p: f64) -> [f64; 3] {
 
 /// Angle between the direction `a` (any length) and the unit vector `b` (radians).
 fn arc(a: [f64; 3], b: [f64; 3]) -> f64 {
-    let c = [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ];
-    let s = (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt();
-    s.atan2(a[0] * b[0] + a[1] * b[1] + a[2] * b[2])
+    norm(cross(a, b)).atan2(dot(a, b))
 }
 
 /// The value at the 99th percentile and the largest of `v`.

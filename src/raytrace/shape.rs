@@ -601,7 +601,18 @@ impl DropShape {
         d: [f64; 3],
         inside: bool,
     ) -> Option<Hit> {
-        match s.crossing(o, d, inside) {
+        self.hit_of_crossing(s, (o, d), inside, s.crossing(o, d, inside))
+    }
+
+    /// [`Self::series_intersect`] from the ray's [`CosineSeries::crossing`].
+    fn hit_of_crossing(
+        &self,
+        s: &CosineSeries,
+        (o, d): Ray,
+        inside: bool,
+        crossing: Crossing,
+    ) -> Option<Hit> {
+        match crossing {
             Crossing::None => self.miss(s, o, inside),
             Crossing::Bracketed(mut newton) => loop {
                 let q = s.at_point(add(o, scale(d, newton.t)));
@@ -647,7 +658,7 @@ impl DropShape {
             let Some((o, d)) = ray else { continue };
             match s.crossing(o, d, inside) {
                 Crossing::Bracketed(newton) => *slot = Some((newton, (o, d))),
-                _ => *hit = self.series_intersect(s, o, d, inside),
+                other => *hit = self.hit_of_crossing(s, (o, d), inside, other),
             }
         }
         loop {
